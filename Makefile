@@ -1,0 +1,42 @@
+# roe: convenience targets. `make demo` and `make test` each work as the only command on a fresh
+# Debian bookworm machine (they install dependencies first).
+BUILD ?= build
+JOBS ?= $(shell nproc)
+CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
+ROE := $(BUILD)/roe
+
+.PHONY: all deps configure build test demo sample bench format clean
+
+all: build
+
+deps:
+	scripts/install-deps.sh
+
+$(BUILD)/CMakeCache.txt:
+	cmake -S . -B $(BUILD) $(CMAKE_FLAGS)
+
+configure: $(BUILD)/CMakeCache.txt
+
+build: configure
+	cmake --build $(BUILD) -j $(JOBS)
+
+test: deps
+	$(MAKE) build
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+
+demo: deps
+	$(MAKE) build
+	scripts/demo.sh $(ROE)
+
+# Regenerates the embedded default dataset datasets/sample.
+sample: build
+	scripts/make-sample.sh $(ROE)
+
+bench: build
+	scripts/bench.sh $(BUILD)
+
+format:
+	clang-format -i $$(git ls-files '*.cpp' '*.hpp')
+
+clean:
+	rm -rf $(BUILD)

@@ -1,0 +1,24 @@
+#pragma once
+/// @file
+/// ZYX Euler angles, used in reports only (DESIGN §2): R = Rz(yaw) Ry(pitch) Rx(roll).
+
+#include "roe/math/so3.hpp"
+
+namespace roe::math {
+
+/// (roll, pitch, yaw) in radians of R = Rz(yaw) Ry(pitch) Rx(roll):
+/// roll = atan2(R21, R22), pitch = asin(−R20) (clamped), yaw = atan2(R10, R00).
+/// roll and yaw are in [-π, π], pitch in [-π/2, π/2].
+Vector3d euler_zyx(const Matrix3d& R);
+/// The rotation of (roll, pitch, yaw) radians.
+Matrix3d from_euler_zyx(const Vector3d& rpy);
+/// Wraps an angle (rad) into [-π, π).
+double wrap_pi(double angle);
+/// Wraps an angle (deg) into [-180, 180).
+double wrap_180(double angle_deg);
+
+inline constexpr double kPi = 3.14159265358979323846;
+inline constexpr double kDegPerRad = 180.0 / kPi;
+inline constexpr double kRadPerDeg = kPi / 180.0;
+
+}  // namespace roe::math

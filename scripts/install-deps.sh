@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs exactly the Debian (bookworm) packages roe's build and tests need. Idempotent: a no-op
+# when everything is present; runs `apt-get update` only when something is missing.
+#   scripts/install-deps.sh          build + test dependencies (what CI needs)
+#   scripts/install-deps.sh --dev    also the developer tools (formatter, fuzzer, fixture generators)
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config
+  libeigen3-dev libfmt-dev nlohmann-json3-dev libcli11-dev catch2   # core, CLI, tests
+  liblz4-dev libbz2-dev libyaml-cpp-dev libssl-dev                  # ROS bags, Kalibr YAML, sha256
+  libopencv-dev libtorch-dev                                        # images, detector, PoET head
+  python3 python3-numpy python3-matplotlib                          # plots (roe eval --plot)
+)
+if [[ "${1:-}" == "--dev" ]]; then
+  packages+=(clang clang-format libclang-rt-14-dev python3-torch)
+fi
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+if [[ ${#missing[@]} -eq 0 ]]; then
+  exit 0
+fi
+
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then
+  if command -v sudo >/dev/null; then SUDO=sudo; else
+    echo "install-deps: missing packages (${missing[*]}) and not root; install them or run as root" >&2
+    exit 1
+  fi
+fi
+echo "install-deps: installing ${missing[*]}" >&2
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

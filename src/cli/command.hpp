@@ -1,0 +1,58 @@
+#pragma once
+/// @file
+/// The thin CLI layer's shared pieces: global options, self-registering subcommands, output of the
+/// command summary (human text or --json), and a TTY progress bar. Internal to src/cli.
+
+#include <CLI/CLI.hpp>
+#include <cstddef>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace roe::cli {
+
+/// Options shared by every command (DESIGN §1). Filled by main before the command runs.
+struct GlobalOptions {
+  bool quiet = false;   ///< -q: no progress, no human summary, warnings still on stderr
+  int verbose = 0;      ///< -v (repeatable): info / debug logging
+  bool json = false;    ///< --json: one JSON document on stdout, nothing else on stdout
+  bool force = false;   ///< --force: allow replacing existing outputs
+};
+const GlobalOptions& globals();
+
+/// A command's run function: returns the process exit code (0 ok, 1 check/data failure).
+/// Errors are thrown as roe::Error and mapped to exit codes by main.
+using RunFn = std::function<int()>;
+/// Binds a command's options on its CLI11 subcommand and returns the function that runs it.
+using SetupFn = RunFn (*)(CLI::App& sub);
+
+/// Registers a subcommand at static-initialisation time. `parent` is "" for a top-level command or
+/// the name of a command group (only "import" exists). `order` sorts the help listing.
+struct Registrar {
+  Registrar(const char* parent, const char* name, const char* description, int order, SetupFn setup);
+};
+
+/// Prints the command's result: `summary` as one JSON document with --json, otherwise `human`
+/// (unless --quiet). Always to stdout.
+void emit(const nlohmann::json& summary, const std::string& human);
+
+/// A progress bar on stderr, drawn only when stderr is a TTY and --quiet is off.
+class Progress {
+ public:
+  Progress(std::string label, std::size_t total);
+  ~Progress();
+  void update(std::size_t done);
+  void finish();
+  /// A callback suitable for library functions taking roe::ProgressCallback.
+  std::function<void(std::size_t, std::size_t)> callback();
+
+ private:
+  std::string label_;
+  std::size_t total_;
+  bool enabled_;
+  bool finished_ = false;
+  double start_s_;
+  double last_draw_s_ = -1.0;
+};
+
+}  // namespace roe::cli

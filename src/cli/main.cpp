@@ -1,0 +1,112 @@
+// roe: command-line entry point. Builds the CLI11 tree from the self-registered commands, parses,
+// runs the selected command and maps errors to the exit codes of DESIGN §1.
+#include <algorithm>
+#include <cstdio>
+#include <exception>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "command.hpp"
+#include "roe/core/error.hpp"
+#include "roe/core/log.hpp"
+#include "roe/version.hpp"
+
+namespace roe::cli {
+namespace {
+
+struct Entry {
+  std::string parent, name, description;
+  int order;
+  SetupFn setup;
+};
+
+std::vector<Entry>& registry() {
+  static std::vector<Entry> entries;
+  return entries;
+}
+
+GlobalOptions g_globals;
+
+}  // namespace
+
+const GlobalOptions& globals() { return g_globals; }
+
+Registrar::Registrar(const char* parent, const char* name, const char* description, int order,
+                     SetupFn setup) {
+  registry().push_back({parent, name, description, order, setup});
+}
+
+}  // namespace roe::cli
+
+int main(int argc, char** argv) {
+  using namespace roe::cli;
+  CLI::App app{"roe: AI-based, object-relative visual-inertial state estimation (offline toolkit)",
+               "roe"};
+  app.require_subcommand(1);
+  app.fallthrough();  // global flags may follow the subcommand
+  app.set_version_flag("--version", std::string("roe ") + roe::kVersion);
+  app.add_flag("-q,--quiet", g_globals.quiet, "No progress bars and no human summary on stdout");
+  app.add_flag("-v,--verbose", g_globals.verbose, "More logging on stderr (repeat for debug)");
+  app.add_flag("--json", g_globals.json, "Print one JSON document with the command's summary on stdout");
+  app.add_flag("--force", g_globals.force, "Allow replacing an existing, non-empty output");
+
+  auto& entries = registry();
+  std::stable_sort(entries.begin(), entries.end(),
+                   [](const Entry& a, const Entry& b) { return a.order < b.order; });
+  std::map<CLI::App*, RunFn> runs;
+  std::map<std::string, CLI::App*> groups;
+  for (const auto& e : entries) {
+    CLI::App* parent = &app;
+    if (!e.parent.empty()) {
+      auto it = groups.find(e.parent);
+      if (it == groups.end()) {
+        CLI::App* g = app.add_subcommand(e.parent, "Import recordings, calibrations and detections into a dataset folder");
+        g->require_subcommand(1);
+        g->fallthrough();
+        it = groups.emplace(e.parent, g).first;
+      }
+      parent = it->second;
+    }
+    CLI::App* sub = parent->add_subcommand(e.name, e.description);
+    sub->fallthrough();
+    runs[sub] = e.setup(*sub);
+  }
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;  // DESIGN §1: bad usage is exit code 2
+  }
+
+  roe::log::set_level(g_globals.quiet          ? roe::log::Level::kWarn
+                      : g_globals.verbose >= 2 ? roe::log::Level::kDebug
+                      : g_globals.verbose == 1 ? roe::log::Level::kInfo
+                                               : roe::log::Level::kWarn);
+
+  // Find the selected leaf command.
+  CLI::App* leaf = &app;
+  while (!leaf->get_subcommands().empty()) leaf = leaf->get_subcommands().front();
+  auto it = runs.find(leaf);
+  if (it == runs.end()) {
+    std::cerr << "roe: no command given (see roe --help)\n";
+    return 2;
+  }
+  try {
+    return it->second();
+  } catch (const roe::InputError& e) {
+    std::cerr << "roe: error: " << e.what() << "\n";
+    return 2;
+  } catch (const roe::DataError& e) {
+    std::cerr << "roe: error: " << e.what() << "\n";
+    return 1;
+  } catch (const roe::Error& e) {
+    std::cerr << "roe: internal error: " << e.what() << "\n";
+    return 3;
+  } catch (const std::exception& e) {
+    std::cerr << "roe: internal error: " << e.what() << "\n";
+    return 3;
+  }
+}

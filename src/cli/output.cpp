@@ -1,0 +1,63 @@
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+
+#include "command.hpp"
+
+namespace roe::cli {
+namespace {
+double now_s() {
+  using namespace std::chrono;
+  return duration<double>(steady_clock::now().time_since_epoch()).count();
+}
+}  // namespace
+
+void emit(const nlohmann::json& summary, const std::string& human) {
+  if (globals().json) {
+    std::cout << summary.dump(2) << "\n";
+  } else if (!globals().quiet && !human.empty()) {
+    std::cout << human;
+    if (human.back() != '\n') std::cout << "\n";
+  }
+  std::cout.flush();
+}
+
+Progress::Progress(std::string label, std::size_t total)
+    : label_(std::move(label)),
+      total_(total),
+      enabled_(!globals().quiet && isatty(STDERR_FILENO) != 0),
+      start_s_(now_s()) {}
+
+Progress::~Progress() { finish(); }
+
+void Progress::update(std::size_t done) {
+  if (!enabled_ || finished_) return;
+  const double t = now_s();
+  if (done < total_ && t - last_draw_s_ < 0.1) return;
+  last_draw_s_ = t;
+  const double frac = total_ ? static_cast<double>(done) / static_cast<double>(total_) : 1.0;
+  const int width = 30;
+  const int filled = static_cast<int>(frac * width);
+  const double elapsed = t - start_s_;
+  const double eta = frac > 1e-6 ? elapsed * (1.0 - frac) / frac : 0.0;
+  std::fprintf(stderr, "\r%s [%.*s%*s] %zu/%zu ETA %.0fs ", label_.c_str(), filled,
+               "##############################", width - filled, "", done, total_, eta);
+  std::fflush(stderr);
+}
+
+void Progress::finish() {
+  if (!enabled_ || finished_) return;
+  finished_ = true;
+  if (last_draw_s_ >= 0.0) std::fprintf(stderr, "\n");
+}
+
+std::function<void(std::size_t, std::size_t)> Progress::callback() {
+  return [this](std::size_t done, std::size_t total) {
+    total_ = total;
+    update(done);
+  };
+}
+
+}  // namespace roe::cli

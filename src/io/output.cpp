@@ -1,0 +1,160 @@
+#include "roe/io/output.hpp"
+
+#include <openssl/evp.h>
+#include <unistd.h>
+
+#include <array>
+#include <atomic>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "roe/core/error.hpp"
+
+namespace roe::io {
+namespace {
+
+std::string unique_suffix() {
+  static std::atomic<unsigned> counter{0};
+  std::random_device rd;
+  char buf[64];
+  std::snprintf(buf, sizeof buf, ".tmp-%d-%u-%08x", static_cast<int>(getpid()), counter++, rd());
+  return buf;
+}
+
+std::string to_hex(const unsigned char* d, unsigned n) {
+  static const char* k = "0123456789abcdef";
+  std::string s(2 * n, '0');
+  for (unsigned i = 0; i < n; ++i) {
+    s[2 * i] = k[d[i] >> 4];
+    s[2 * i + 1] = k[d[i] & 15];
+  }
+  return s;
+}
+
+class Sha256 {
+ public:
+  Sha256() : ctx_(EVP_MD_CTX_new()) {
+    if (!ctx_ || EVP_DigestInit_ex(ctx_, EVP_sha256(), nullptr) != 1)
+      throw InternalError("OpenSSL SHA-256 initialisation failed");
+  }
+  ~Sha256() { EVP_MD_CTX_free(ctx_); }
+  void update(const void* p, std::size_t n) { EVP_DigestUpdate(ctx_, p, n); }
+  std::string hex() {
+    unsigned char d[EVP_MAX_MD_SIZE];
+    unsigned n = 0;
+    EVP_DigestFinal_ex(ctx_, d, &n);
+    return to_hex(d, n);
+  }
+
+ private:
+  EVP_MD_CTX* ctx_;
+};
+
+}  // namespace
+
+OutputDir::OutputDir(fs::path final_dir, bool force) : final_(std::move(final_dir)), force_(force) {
+  std::error_code ec;
+  if (fs::exists(final_, ec)) {
+    if (!fs::is_directory(final_, ec))
+      throw InputError("output exists and is not a folder", {final_.string()});
+    if (!fs::is_empty(final_, ec) && !force_)
+      throw InputError("output folder exists and is not empty (use --force to replace it)",
+                       {final_.string()});
+  }
+  fs::path parent = final_.has_parent_path() ? final_.parent_path() : fs::path(".");
+  fs::create_directories(parent, ec);
+  if (ec) throw InputError("cannot create folder: " + ec.message(), {parent.string()});
+  const std::string base = final_.filename().empty() ? final_.parent_path().filename().string()
+                                                     : final_.filename().string();
+  tmp_ = parent / ("." + base + unique_suffix());
+  fs::create_directories(tmp_, ec);
+  if (ec) throw InputError("cannot create temporary output folder: " + ec.message(), {tmp_.string()});
+}
+
+OutputDir::~OutputDir() {
+  if (!committed_) {
+    std::error_code ec;
+    fs::remove_all(tmp_, ec);
+  }
+}
+
+fs::path OutputDir::file(const fs::path& rel) const {
+  fs::path p = tmp_ / rel;
+  std::error_code ec;
+  fs::create_directories(p.parent_path(), ec);
+  if (ec) throw InputError("cannot create folder: " + ec.message(), {p.parent_path().string()});
+  return p;
+}
+
+void OutputDir::commit() {
+  if (committed_) return;
+  std::error_code ec;
+  fs::path old;
+  if (fs::exists(final_, ec)) {
+    if (!fs::is_empty(final_, ec) && !force_)
+      throw InputError("output folder appeared while writing; not replacing it", {final_.string()});
+    old = final_.parent_path() / ("." + final_.filename().string() + unique_suffix() + ".old");
+    fs::rename(final_, old, ec);
+    if (ec) throw InputError("cannot move the old output folder aside: " + ec.message(), {final_.string()});
+  }
+  fs::rename(tmp_, final_, ec);
+  if (ec) {
+    if (!old.empty()) fs::rename(old, final_);
+    throw InputError("cannot move the output folder into place: " + ec.message(), {final_.string()});
+  }
+  committed_ = true;
+  if (!old.empty()) fs::remove_all(old, ec);
+}
+
+void write_file_atomic(const fs::path& path, std::string_view content, bool overwrite) {
+  std::error_code ec;
+  if (!overwrite && fs::exists(path, ec))
+    throw InputError("file exists (use --force to replace it)", {path.string()});
+  if (path.has_parent_path()) fs::create_directories(path.parent_path(), ec);
+  const fs::path tmp = path.parent_path() / ("." + path.filename().string() + unique_suffix());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw InputError("cannot write file", {tmp.string()});
+    out.write(content.data(), static_cast<std::streamsize>(content.size()));
+    out.flush();
+    if (!out) {
+      fs::remove(tmp, ec);
+      throw InputError("write failed (disk full?)", {tmp.string()});
+    }
+  }
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw InputError("cannot rename temporary file into place", {path.string()});
+  }
+}
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError("cannot open file", {path.string()});
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::string sha256_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError("cannot open file", {path.string()});
+  Sha256 h;
+  std::array<char, 1 << 16> buf;
+  while (in) {
+    in.read(buf.data(), buf.size());
+    h.update(buf.data(), static_cast<std::size_t>(in.gcount()));
+  }
+  return h.hex();
+}
+
+std::string sha256_hex(std::string_view bytes) {
+  Sha256 h;
+  h.update(bytes.data(), bytes.size());
+  return h.hex();
+}
+
+}  // namespace roe::io
