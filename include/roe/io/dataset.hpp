@@ -1,0 +1,68 @@
+#pragma once
+/// @file
+/// The dataset folder of DESIGN §3: roe.json (strict schema) and the EuRoC-style CSV streams.
+/// Readers validate strictly (header, column count, numbers, finite values, strictly increasing
+/// stamps) and report file:line:column. Writers go through temporary files + rename.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "roe/core/dataset.hpp"
+#include "roe/io/json.hpp"
+
+namespace roe::io {
+
+namespace fs = std::filesystem;
+
+/// Which parts of a dataset folder read_dataset loads. Absent optional streams load as empty.
+struct DatasetParts {
+  bool imu = true;
+  bool frames = true;
+  bool mocap = true;
+  bool groundtruth = true;
+  bool detections = true;
+  /// Detection sets to load; empty = every folder under detections/.
+  std::vector<std::string> detection_names;
+};
+
+// Paths inside a dataset folder.
+fs::path manifest_path(const fs::path& dataset);     ///< roe.json
+fs::path imu_csv_path(const fs::path& dataset);      ///< mav0/imu0/data.csv
+fs::path cam_csv_path(const fs::path& dataset);      ///< mav0/cam0/data.csv
+fs::path cam_image_dir(const fs::path& dataset);     ///< mav0/cam0/data
+fs::path mocap_csv_path(const fs::path& dataset);    ///< mav0/mocap0/data.csv
+fs::path groundtruth_csv_path(const fs::path& dataset);  ///< mav0/state_groundtruth_estimate0/data.csv
+fs::path detections_dir(const fs::path& dataset, const std::string& name);  ///< detections/<name>
+
+// roe.json
+json manifest_to_json(const DatasetManifest& m);
+/// Validates the schema: unknown keys, wrong types, non-unit quaternions → ConfigError with the key.
+DatasetManifest manifest_from_json(const json& j, const std::string& source);
+DatasetManifest read_manifest(const fs::path& dataset);
+void write_manifest(const DatasetManifest& m, const fs::path& file);
+
+/// Reads a whole dataset folder (roe.json must exist).
+Dataset read_dataset(const fs::path& dataset, const DatasetParts& parts = {});
+/// Writes every non-empty stream and roe.json into `root` (an existing folder, e.g. OutputDir::tmp()).
+void write_dataset_files(const Dataset& d, const fs::path& root);
+/// Writes a new dataset folder atomically (OutputDir; refuses a non-empty folder unless force).
+void write_dataset(const Dataset& d, const fs::path& dataset, bool force);
+
+// Streams (EuRoC column layouts of DESIGN §3).
+std::vector<ImuSample> read_imu_csv(const fs::path& file);
+void write_imu_csv(const fs::path& file, const std::vector<ImuSample>& imu);
+std::vector<CameraFrame> read_cam_csv(const fs::path& file);
+void write_cam_csv(const fs::path& file, const std::vector<CameraFrame>& frames);
+/// mocap0: T_M_B poses (EuRoC vicon0 layout, q w first).
+std::vector<StampedPose> read_mocap_csv(const fs::path& file);
+void write_mocap_csv(const fs::path& file, const std::vector<StampedPose>& poses);
+/// state_groundtruth_estimate0: 17 EuRoC columns.
+std::vector<ImuState> read_groundtruth_csv(const fs::path& file);
+void write_groundtruth_csv(const fs::path& file, const std::vector<ImuState>& states);
+/// detections/<name>/detections.csv (with or without the six sigma columns). Rows are sorted by
+/// time; several rows may share a stamp (one per object); a duplicate (stamp, object) is an error.
+std::vector<Detection> read_detections_csv(const fs::path& file);
+void write_detections_csv(const fs::path& file, const std::vector<Detection>& detections);
+
+}  // namespace roe::io

@@ -1,0 +1,87 @@
+#pragma once
+/// @file
+/// Strict JSON reading for configuration and manifests: parse errors carry line and column, unknown
+/// keys are errors (ConfigError naming the file and the key path), types are checked.
+///
+/// Typical use for an options struct:
+///   roe::io::JsonObject r(j, "configs/default.json", "filter");
+///   r.get("chi2_confidence", opt.chi2_confidence);   // optional: keeps the inline default
+///   r.require("name", opt.name);                      // required
+///   auto n = r.child("noise"); n.get(...); n.finish();
+///   r.finish();                                       // throws on any key not read
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "roe/core/error.hpp"
+
+namespace roe::io {
+
+using json = nlohmann::json;
+
+/// Parses a JSON file; roe::InputError with line:column on a syntax error.
+json parse_json_file(const std::filesystem::path& path);
+/// Parses JSON text; `source` names it in errors.
+json parse_json_text(const std::string& text, const std::string& source);
+
+class JsonObject {
+ public:
+  /// `source` is the file name, `path` the key path of this object ("" for the root).
+  JsonObject(const json& j, std::string source, std::string path = "");
+
+  bool has(const char* key) const;
+  /// Reads an optional key into `out` (left unchanged when absent). Type errors throw ConfigError.
+  template <typename T>
+  void get(const char* key, T& out) {
+    mark(key);
+    auto it = j_->find(key);
+    if (it == j_->end() || it->is_null()) return;
+    convert(*it, key, out);
+  }
+  /// Reads a required key; ConfigError when absent.
+  template <typename T>
+  void require(const char* key, T& out) {
+    if (!has(key)) throw ConfigError("missing required key", {source_, 0, 0, key_path(key)});
+    get(key, out);
+  }
+  /// A nested object (ConfigError if the value is not an object). Absent → an empty object.
+  JsonObject child(const char* key);
+  /// The raw value of a key (marks it as read); nullptr when absent.
+  const json* raw(const char* key);
+  /// Throws ConfigError naming the first key that was never read.
+  void finish() const;
+
+  const std::string& source() const { return source_; }
+  std::string key_path(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+
+ private:
+  void mark(const char* key);
+  template <typename T>
+  void convert(const json& v, const char* key, T& out) const {
+    try {
+      if constexpr (std::is_same_v<T, double> || std::is_same_v<T, float>) {
+        if (!v.is_number()) throw ConfigError("expected a number", {source_, 0, 0, key_path(key)});
+      } else if constexpr (std::is_same_v<T, bool>) {
+        if (!v.is_boolean()) throw ConfigError("expected true or false", {source_, 0, 0, key_path(key)});
+      } else if constexpr (std::is_integral_v<T>) {
+        if (!v.is_number_integer())
+          throw ConfigError("expected an integer", {source_, 0, 0, key_path(key)});
+      } else if constexpr (std::is_same_v<T, std::string>) {
+        if (!v.is_string()) throw ConfigError("expected a string", {source_, 0, 0, key_path(key)});
+      }
+      out = v.get<T>();
+    } catch (const json::exception& e) {
+      throw ConfigError(std::string("wrong type: ") + e.what(), {source_, 0, 0, key_path(key)});
+    }
+  }
+
+  const json* j_;
+  std::string source_;
+  std::string path_;
+  std::vector<std::string> read_;
+  json empty_;
+};
+
+}  // namespace roe::io
