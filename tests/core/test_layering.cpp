@@ -1,0 +1,53 @@
+// Architecture rules of DESIGN §5, checked on the sources: the estimator, math and the other
+// I/O-free areas include no I/O, JSON, OpenCV or CLI headers; eval does not depend on ekf.
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+std::vector<std::string> violations(const std::vector<std::string>& areas,
+                                    const std::vector<std::string>& forbidden) {
+  std::vector<std::string> out;
+  const std::regex inc(R"(^\s*#\s*include\s*[<"]([^>"]+)[>"])");
+  for (const auto& area : areas) {
+    for (const char* root : {"include/roe/", "src/"}) {
+      const fs::path dir = fs::path(ROE_SOURCE_DIR) / (std::string(root) + area);
+      if (!fs::exists(dir)) continue;
+      for (const auto& e : fs::recursive_directory_iterator(dir)) {
+        if (!e.is_regular_file()) continue;
+        std::ifstream in(e.path());
+        std::string line;
+        int n = 0;
+        while (std::getline(in, line)) {
+          ++n;
+          std::smatch m;
+          if (!std::regex_search(line, m, inc)) continue;
+          for (const auto& f : forbidden) {
+            if (m[1].str().rfind(f, 0) == 0)
+              out.push_back(e.path().string() + ":" + std::to_string(n) + ": " + m[1].str());
+          }
+        }
+      }
+    }
+  }
+  return out;
+}
+}  // namespace
+
+TEST_CASE("I/O-free areas include no I/O, JSON, OpenCV or CLI headers", "[layering]") {
+  const auto v = violations({"core", "math", "ekf", "sim", "eval", "calib"},
+                            {"roe/io/", "roe/infer/", "roe/image/", "roe/app/", "opencv", "nlohmann",
+                             "CLI/", "yaml-cpp", "torch", "fstream", "iostream", "cstdio"});
+  for (const auto& s : v) UNSCOPED_INFO(s);
+  CHECK(v.empty());
+}
+
+TEST_CASE("eval does not depend on ekf; math does not depend on higher areas", "[layering]") {
+  CHECK(violations({"eval"}, {"roe/ekf/", "roe/sim/"}).empty());
+  CHECK(violations({"math"}, {"roe/ekf/", "roe/sim/", "roe/eval/", "roe/calib/"}).empty());
+}
