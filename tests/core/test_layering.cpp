@@ -40,7 +40,11 @@ std::vector<std::string> violations(const std::vector<std::string>& areas,
 }  // namespace
 
 TEST_CASE("I/O-free areas include no I/O, JSON, OpenCV or CLI headers", "[layering]") {
-  const auto v = violations({"core", "math", "ekf", "sim", "eval", "calib"},
+  // core is included in the header checks but may write its log lines to stderr (log.cpp).
+  CHECK(violations({"core"}, {"roe/io/", "roe/infer/", "roe/image/", "roe/app/", "opencv", "nlohmann",
+                              "CLI/", "yaml-cpp", "torch"})
+            .empty());
+  const auto v = violations({"math", "ekf", "sim", "eval", "calib"},
                             {"roe/io/", "roe/infer/", "roe/image/", "roe/app/", "opencv", "nlohmann",
                              "CLI/", "yaml-cpp", "torch", "fstream", "iostream", "cstdio"});
   for (const auto& s : v) UNSCOPED_INFO(s);
