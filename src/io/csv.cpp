@@ -1,0 +1,403 @@
+#include "roe/io/csv.hpp"
+
+#include <fmt/format.h>
+
+#include <charconv>
+#include <climits>
+#include <cmath>
+#include <limits>
+
+#include "roe/io/output.hpp"
+
+namespace roe::io {
+namespace {
+
+bool is_space(char c) { return c == ' ' || c == '\t'; }
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && is_space(s.front())) s.remove_prefix(1);
+  while (!s.empty() && is_space(s.back())) s.remove_suffix(1);
+  return s;
+}
+
+// Quotes a field for display in an error message, shortened when long.
+std::string shown(std::string_view s) {
+  if (s.size() > 40) return "'" + std::string(s.substr(0, 37)) + "...'";
+  return "'" + std::string(s) + "'";
+}
+
+// Splits "a|b|c" into its alternatives.
+std::vector<std::string_view> alternatives(std::string_view spec) {
+  std::vector<std::string_view> out;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t bar = spec.find('|', start);
+    out.push_back(spec.substr(start, bar == std::string_view::npos ? std::string_view::npos : bar - start));
+    if (bar == std::string_view::npos) break;
+    start = bar + 1;
+  }
+  return out;
+}
+
+}  // namespace
+
+// -------------------------------------------------------------------------------------------------
+// CsvReader
+// -------------------------------------------------------------------------------------------------
+
+CsvReader::CsvReader(const fs::path& path, CsvOptions options)
+    : CsvReader(read_file(path), path.string(), std::move(options), 0) {}
+
+CsvReader CsvReader::from_text(std::string text, std::string source, CsvOptions options) {
+  return CsvReader(std::move(text), std::move(source), std::move(options), 0);
+}
+
+CsvReader::CsvReader(std::string text, std::string source, CsvOptions options, int)
+    : text_(std::move(text)), source_(std::move(source)), opt_(std::move(options)) {
+  // UTF-8 byte order mark (spreadsheet exports).
+  if (text_.size() >= 3 && static_cast<unsigned char>(text_[0]) == 0xEF &&
+      static_cast<unsigned char>(text_[1]) == 0xBB && static_cast<unsigned char>(text_[2]) == 0xBF)
+    pos_ = 3;
+  if (!opt_.whitespace_delimited && (opt_.delimiter == '\n' || opt_.delimiter == '\r' ||
+                                     opt_.delimiter == '"'))
+    throw InternalError("CsvReader: invalid delimiter");
+  columns_ = opt_.columns;
+  if (opt_.header == CsvHeader::kFirstLine) read_header();
+}
+
+bool CsvReader::next_line(std::string_view& line) {
+  if (pos_ >= text_.size()) return false;
+  const std::size_t nl = text_.find('\n', pos_);
+  const std::size_t end = nl == std::string::npos ? text_.size() : nl;
+  line = std::string_view(text_).substr(pos_, end - pos_);
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  pos_ = nl == std::string::npos ? text_.size() : nl + 1;
+  line_ = next_line_no_++;
+  return true;
+}
+
+bool CsvReader::is_blank_or_comment(std::string_view line) const {
+  std::string_view t = trim(line);
+  if (t.empty()) return true;
+  return !opt_.comment_prefix.empty() && t.substr(0, opt_.comment_prefix.size()) == opt_.comment_prefix;
+}
+
+void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<std::string_view>& out) {
+  out.clear();
+  if (opt_.whitespace_delimited) {
+    std::size_t i = 0;
+    while (i < line.size()) {
+      while (i < line.size() && is_space(line[i])) ++i;
+      if (i >= line.size()) break;
+      const std::size_t start = i;
+      while (i < line.size() && !is_space(line[i])) ++i;
+      out.push_back(line.substr(start, i - start));
+    }
+    return;
+  }
+  const char d = opt_.delimiter;
+  std::size_t i = 0;
+  while (true) {
+    // One field starting at i.
+    std::size_t j = i;
+    if (opt_.trim || opt_.quotes) {
+      std::size_t k = i;
+      while (k < line.size() && is_space(line[k]) && line[k] != d) ++k;
+      if (opt_.quotes && k < line.size() && line[k] == '"') j = k;
+    }
+    if (opt_.quotes && j < line.size() && line[j] == '"') {
+      std::string value;
+      std::size_t k = j + 1;
+      bool closed = false;
+      while (k < line.size()) {
+        if (line[k] == '"') {
+          if (k + 1 < line.size() && line[k + 1] == '"') {
+            value += '"';
+            k += 2;
+            continue;
+          }
+          closed = true;
+          ++k;
+          break;
+        }
+        value += line[k++];
+      }
+      if (!closed)
+        throw InputError("unterminated quoted field", {source_, line_no, static_cast<std::int64_t>(out.size() + 1)});
+      while (k < line.size() && is_space(line[k]) && line[k] != d) ++k;
+      if (k < line.size() && line[k] != d)
+        throw InputError("unexpected character after a closing quote",
+                         {source_, line_no, static_cast<std::int64_t>(out.size() + 1)});
+      unquoted_.push_back(std::move(value));
+      out.push_back(unquoted_.back());
+      if (k >= line.size()) return;
+      i = k + 1;
+      continue;
+    }
+    const std::size_t end = line.find(d, i);
+    std::string_view f = line.substr(i, end == std::string_view::npos ? std::string_view::npos : end - i);
+    out.push_back(opt_.trim ? trim(f) : f);
+    if (end == std::string_view::npos) return;
+    i = end + 1;
+  }
+}
+
+void CsvReader::read_header() {
+  std::string_view line;
+  while (next_line(line)) {
+    if (trim(line).empty()) continue;
+    std::string_view t = line;
+    while (!t.empty() && is_space(t.front())) t.remove_prefix(1);
+    if (!opt_.comment_prefix.empty() && t.substr(0, opt_.comment_prefix.size()) == opt_.comment_prefix)
+      t.remove_prefix(opt_.comment_prefix.size());
+    header_line_ = line_;
+    std::vector<std::string_view> names;
+    unquoted_.clear();
+    split(t, line_, names);
+    header_.assign(names.begin(), names.end());
+    break;
+  }
+  if (header_line_ == 0) throw InputError("empty file: missing header line", {source_, 1, 0});
+  if (!opt_.expected_header.empty()) {
+    const auto& exp = opt_.expected_header;
+    const std::size_t n = std::min(exp.size(), header_.size());
+    for (std::size_t c = 0; c < n; ++c) {
+      bool ok = false;
+      for (auto alt : alternatives(exp[c])) ok = ok || alt == header_[c];
+      if (!ok) {
+        std::string want;
+        for (auto alt : alternatives(exp[c])) want += (want.empty() ? "" : " or ") + shown(alt);
+        throw InputError("unexpected header: column is " + shown(header_[c]) + ", expected " + want,
+                         {source_, header_line_, static_cast<std::int64_t>(c + 1)});
+      }
+    }
+    if (header_.size() != exp.size()) {
+      const std::size_t c = n;  // first missing or first extra column
+      throw InputError(fmt::format("unexpected header: {} columns, expected {}{}", header_.size(), exp.size(),
+                                   header_.size() < exp.size() ? " (missing " + shown(alternatives(exp[c])[0]) + ")"
+                                                               : " (extra " + shown(header_[c]) + ")"),
+                       {source_, header_line_, static_cast<std::int64_t>(c + 1)});
+    }
+  }
+  for (std::size_t a = 0; a < header_.size(); ++a)
+    for (std::size_t b = a + 1; b < header_.size(); ++b)
+      if (!header_[a].empty() && header_[a] == header_[b] && opt_.expected_header.empty() && !opt_.ragged)
+        throw InputError("duplicate column name " + shown(header_[b]),
+                         {source_, header_line_, static_cast<std::int64_t>(b + 1)});
+  if (columns_ == 0) columns_ = header_.size();
+  else if (!opt_.ragged && header_.size() != columns_)
+    throw InputError(fmt::format("header has {} columns, expected {}", header_.size(), columns_),
+                     {source_, header_line_, 0});
+}
+
+std::optional<std::size_t> CsvReader::find_column(std::string_view name) const {
+  for (std::size_t c = 0; c < header_.size(); ++c)
+    if (header_[c] == name) return c;
+  return std::nullopt;
+}
+
+std::size_t CsvReader::column(std::string_view name) const {
+  if (auto c = find_column(name)) return *c;
+  throw InputError("missing column " + shown(name) + " in the header", {source_, header_line_, 0});
+}
+
+bool CsvReader::next() {
+  std::string_view line;
+  while (next_line(line)) {
+    if (is_blank_or_comment(line)) continue;
+    unquoted_.clear();
+    split(line, line_, fields_);
+    if (columns_ == 0) columns_ = fields_.size();
+    if (!opt_.ragged && fields_.size() != columns_) {
+      const std::size_t col = std::min(fields_.size(), columns_) + 1;
+      throw InputError(fmt::format("expected {} columns, found {}", columns_, fields_.size()),
+                       {source_, line_, static_cast<std::int64_t>(col)});
+    }
+    ++rows_;
+    if (opt_.stamp_column >= 0 && opt_.stamp_order != StampOrder::kAny) {
+      const auto c = static_cast<std::size_t>(opt_.stamp_column);
+      const bool strict = opt_.stamp_order == StampOrder::kStrictlyIncreasing;
+      bool ok = true;
+      std::string now, before;
+      if (opt_.stamp_kind == StampKind::kNanoseconds) {
+        const std::int64_t t = get_int64(c);
+        if (have_prev_stamp_) ok = strict ? t > prev_ns_ : t >= prev_ns_;
+        now = std::to_string(t);
+        before = std::to_string(prev_ns_);
+        prev_ns_ = t;
+      } else {
+        const double t = parse_double(c, false);
+        if (have_prev_stamp_) ok = strict ? t > prev_s_ : t >= prev_s_;
+        now = format_double(t);
+        before = format_double(prev_s_);
+        prev_s_ = t;
+      }
+      if (!ok)
+        throw error(c, fmt::format("timestamp {} is {} the previous one ({} at line {}); rows must be {}", now,
+                                   strict ? "not after" : "before", before, prev_stamp_line_,
+                                   strict ? "strictly increasing in time" : "sorted by time"));
+      have_prev_stamp_ = true;
+      prev_stamp_line_ = line_;
+    }
+    return true;
+  }
+  return false;
+}
+
+InputError CsvReader::error(std::size_t i, const std::string& message) const {
+  const std::string key = i < header_.size() ? header_[i] : std::string();
+  return InputError(message, {source_, line_, static_cast<std::int64_t>(i + 1), key});
+}
+
+InputError CsvReader::row_error(const std::string& message) const {
+  return InputError(message, {source_, line_, 0});
+}
+
+std::string_view CsvReader::field(std::size_t i) const {
+  if (i >= fields_.size())
+    throw error(i, fmt::format("missing field (the row has {} fields)", fields_.size()));
+  return fields_[i];
+}
+
+double CsvReader::parse_double(std::size_t i, bool allow_nonfinite) const {
+  std::string_view f = field(i);
+  if (f.empty()) throw error(i, "empty field, expected a number");
+  std::string_view s = f;
+  if (s.front() == '+') s.remove_prefix(1);
+  if (s.empty() || s.front() == '+') throw error(i, "not a number: " + shown(f));
+  double v = 0.0;
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v, std::chars_format::general);
+  if (r.ec == std::errc::invalid_argument) throw error(i, "not a number: " + shown(f));
+  if (r.ec == std::errc::result_out_of_range) throw error(i, "number out of range: " + shown(f));
+  if (r.ptr != s.data() + s.size()) throw error(i, "trailing characters after the number: " + shown(f));
+  if (!allow_nonfinite && !std::isfinite(v)) throw error(i, "non-finite value " + shown(f) + " not allowed");
+  return v;
+}
+
+double CsvReader::get_double(std::size_t i) const { return parse_double(i, opt_.allow_nonfinite); }
+double CsvReader::get_double_nonfinite(std::size_t i) const { return parse_double(i, true); }
+double CsvReader::get_double_or_nan(std::size_t i) const {
+  if (field(i).empty()) return std::numeric_limits<double>::quiet_NaN();
+  return parse_double(i, opt_.allow_nonfinite);
+}
+
+std::int64_t CsvReader::get_int64(std::size_t i) const {
+  std::string_view f = field(i);
+  if (f.empty()) throw error(i, "empty field, expected an integer");
+  std::string_view s = f;
+  if (s.front() == '+') s.remove_prefix(1);
+  if (s.empty() || s.front() == '+') throw error(i, "not an integer: " + shown(f));
+  std::int64_t v = 0;
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v, 10);
+  if (r.ec == std::errc::invalid_argument) throw error(i, "not an integer: " + shown(f));
+  if (r.ec == std::errc::result_out_of_range) throw error(i, "integer out of range: " + shown(f));
+  if (r.ptr != s.data() + s.size()) throw error(i, "not an integer (trailing characters): " + shown(f));
+  return v;
+}
+
+int CsvReader::get_int(std::size_t i) const {
+  const std::int64_t v = get_int64(i);
+  if (v < INT_MIN || v > INT_MAX) throw error(i, "integer out of range: " + shown(field(i)));
+  return static_cast<int>(v);
+}
+
+// -------------------------------------------------------------------------------------------------
+// CsvWriter
+// -------------------------------------------------------------------------------------------------
+
+std::string format_double(double v) {
+  if (std::isnan(v)) return "nan";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  return fmt::format("{}", v);
+}
+
+CsvWriter::CsvWriter(char delimiter) : delim_(delimiter) {}
+
+CsvWriter& CsvWriter::comment(std::string_view text, std::string_view prefix) {
+  ROE_CHECK(row_fields_ == 0, "comment inside a row");
+  out_.append(prefix).append(text).push_back('\n');
+  return *this;
+}
+
+CsvWriter& CsvWriter::header(const std::vector<std::string>& names, std::string_view prefix) {
+  ROE_CHECK(row_fields_ == 0 && rows_ == 0, "header after rows");
+  out_.append(prefix);
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (i) out_.push_back(delim_);
+    out_.append(names[i]);
+  }
+  out_.push_back('\n');
+  header_cols_ = names.size();
+  return *this;
+}
+
+void CsvWriter::sep() {
+  if (row_fields_++) out_.push_back(delim_);
+}
+
+CsvWriter& CsvWriter::add(double v) {
+  sep();
+  out_.append(format_double(v));
+  return *this;
+}
+
+CsvWriter& CsvWriter::add(std::int64_t v) {
+  sep();
+  char buf[24];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  out_.append(buf, r.ptr);
+  return *this;
+}
+
+CsvWriter& CsvWriter::add(int v) { return add(static_cast<std::int64_t>(v)); }
+
+CsvWriter& CsvWriter::add(std::string_view s) {
+  sep();
+  const bool needs_quotes =
+      s.find_first_of(std::string("\"\n\r") + delim_) != std::string_view::npos ||
+      (!s.empty() && (is_space(s.front()) || is_space(s.back())));
+  if (!needs_quotes) {
+    out_.append(s);
+    return *this;
+  }
+  ROE_CHECK(delim_ != ' ' && delim_ != '\t' && s.find_first_of("\n\r") == std::string_view::npos,
+            "field cannot be written in this table: " + std::string(s));
+  out_.push_back('"');
+  for (char c : s) {
+    if (c == '"') out_.push_back('"');
+    out_.push_back(c);
+  }
+  out_.push_back('"');
+  return *this;
+}
+
+CsvWriter& CsvWriter::add_fixed(double v, int decimals) {
+  sep();
+  if (!std::isfinite(v)) {
+    out_.append(format_double(v));
+  } else {
+    out_.append(fmt::format("{:.{}f}", v, decimals));
+  }
+  return *this;
+}
+
+CsvWriter& CsvWriter::add_empty() {
+  sep();
+  return *this;
+}
+
+CsvWriter& CsvWriter::end_row() {
+  ROE_CHECK(header_cols_ == 0 || row_fields_ == header_cols_,
+            fmt::format("row has {} fields, header has {}", row_fields_, header_cols_));
+  out_.push_back('\n');
+  row_fields_ = 0;
+  ++rows_;
+  return *this;
+}
+
+void CsvWriter::write(const fs::path& file, bool overwrite) const {
+  ROE_CHECK(row_fields_ == 0, "unfinished row");
+  write_file_atomic(file, out_, overwrite);
+}
+
+}  // namespace roe::io

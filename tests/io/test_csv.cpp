@@ -1,0 +1,331 @@
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <unistd.h>
+
+#include "roe/io/csv.hpp"
+#include "roe/io/output.hpp"
+
+namespace fs = std::filesystem;
+using roe::InputError;
+using roe::io::CsvHeader;
+using roe::io::CsvOptions;
+using roe::io::CsvReader;
+using roe::io::CsvWriter;
+using roe::io::StampKind;
+using roe::io::StampOrder;
+
+namespace {
+
+// Runs `fn` and returns the InputError it throws (fails the test when it throws nothing).
+template <typename Fn>
+InputError expect_input_error(Fn&& fn) {
+  try {
+    fn();
+  } catch (const InputError& e) {
+    return e;
+  }
+  FAIL("expected roe::InputError");
+  throw std::logic_error("unreachable");
+}
+
+// Reads every row of `text` (forcing a parse of each field as double except column 0 as int64).
+void read_all(const std::string& text, CsvOptions o) {
+  auto r = CsvReader::from_text(text, "t.csv", o);
+  while (r.next()) {
+    (void)r.get_int64(0);
+    for (std::size_t c = 1; c < r.size(); ++c) (void)r.get_double(c);
+  }
+}
+
+CsvOptions imu_like() {
+  CsvOptions o;
+  o.expected_header = {"timestamp [ns]", "x", "y"};
+  o.stamp_column = 0;
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("csv: reads a EuRoC-style table with comment header, CRLF and blank lines", "[csv]") {
+  const std::string text = "#timestamp [ns],x,y\r\n10,1.5,-2\r\n\r\n# a comment\r\n20,1e-3,+4\r\n   \n30,0,7";
+  auto r = CsvReader::from_text(text, "t.csv", imu_like());
+  REQUIRE(r.header() == std::vector<std::string>{"timestamp [ns]", "x", "y"});
+  REQUIRE(r.header_line() == 1);
+  REQUIRE(r.next());
+  CHECK(r.line() == 2);
+  CHECK(r.get_int64(0) == 10);
+  CHECK(r.get_double(1) == 1.5);
+  CHECK(r.get_double(2) == -2.0);
+  REQUIRE(r.next());
+  CHECK(r.line() == 5);
+  CHECK(r.get_double(1) == 1e-3);
+  CHECK(r.get_double(2) == 4.0);
+  REQUIRE(r.next());
+  CHECK(r.line() == 7);
+  CHECK(r.get_int64(0) == 30);
+  CHECK_FALSE(r.next());
+  CHECK(r.rows() == 3);
+}
+
+TEST_CASE("csv: header names are trimmed and alternatives accepted", "[csv]") {
+  CsvOptions o;
+  o.expected_header = {"timestamp [ns]|timestamp", "p [m]"};
+  auto r = CsvReader::from_text("#timestamp, p [m]\n1, 2\n", "t.csv", o);
+  REQUIRE(r.next());
+  CHECK(r.get_double(1) == 2.0);
+  auto r2 = CsvReader::from_text("\xEF\xBB\xBF#timestamp [ns],p [m]\n1,2\n", "t.csv", o);  // BOM
+  REQUIRE(r2.next());
+}
+
+TEST_CASE("csv: bad header reports the header line and the column", "[csv]") {
+  auto e = expect_input_error([] { read_all("#timestamp [ns],x,z\n1,2,3\n", imu_like()); });
+  CHECK(e.context().file == "t.csv");
+  CHECK(e.context().line == 1);
+  CHECK(e.context().column == 3);
+  CHECK(std::string(e.what()).find("'z'") != std::string::npos);
+
+  e = expect_input_error([] { read_all("\n\n#timestamp [ns],x\n1,2\n", imu_like()); });
+  CHECK(e.context().line == 3);
+  CHECK(e.context().column == 3);  // the missing column
+
+  e = expect_input_error([] { read_all("#timestamp [ns],x,y,w\n1,2,3,4\n", imu_like()); });
+  CHECK(e.context().line == 1);
+  CHECK(e.context().column == 4);  // the extra column
+
+  e = expect_input_error([] { read_all("", imu_like()); });
+  CHECK(e.context().line == 1);
+  CHECK(std::string(e.what()).find("missing header") != std::string::npos);
+}
+
+TEST_CASE("csv: wrong column counts report line and column", "[csv]") {
+  auto e = expect_input_error([] { read_all("#timestamp [ns],x,y\n1,2,3\n2,3\n", imu_like()); });
+  CHECK(e.context().line == 3);
+  CHECK(e.context().column == 3);  // first missing field
+  CHECK(std::string(e.what()).find("expected 3 columns, found 2") != std::string::npos);
+  CHECK(std::string(e.what()).find("t.csv:3:3") == 0);
+
+  e = expect_input_error([] { read_all("#timestamp [ns],x,y\r\n1,2,3\r\n\r\n2,3,4,5\r\n", imu_like()); });
+  CHECK(e.context().line == 4);
+  CHECK(e.context().column == 4);  // first extra field
+
+  // A trailing delimiter is an extra (empty) field.
+  e = expect_input_error([] { read_all("#timestamp [ns],x,y\n1,2,3,\n", imu_like()); });
+  CHECK(e.context().line == 2);
+  CHECK(e.context().column == 4);
+
+  // Without a header the first row fixes the count.
+  CsvOptions o;
+  o.header = CsvHeader::kNone;
+  e = expect_input_error([&] { read_all("1,2,3\n2,3,4\n3,4\n", o); });
+  CHECK(e.context().line == 3);
+  CHECK(e.context().column == 3);
+}
+
+TEST_CASE("csv: non-numbers and trailing garbage report line and column", "[csv]") {
+  struct Case {
+    std::string row;
+    std::int64_t column;
+    std::string what;
+  };
+  const std::vector<Case> cases = {
+      {"10,abc,1", 2, "not a number"},
+      {"10,1.5x,1", 2, "trailing characters"},
+      {"10,1.5,1 2", 3, "trailing characters"},
+      {"10,,1", 2, "empty field"},
+      {"10,1,1e999", 3, "out of range"},
+      {"10,1,++1", 3, "not a number"},
+      {"10,1,0x10", 3, "trailing characters"},
+      {"1.5,1,1", 1, "not an integer"},
+      {"1e9,1,1", 1, "not an integer"},
+      {"abc,1,1", 1, "not an integer"},
+      {"99999999999999999999,1,1", 1, "out of range"},
+  };
+  for (const auto& c : cases) {
+    CAPTURE(c.row);
+    auto e = expect_input_error([&] { read_all("#timestamp [ns],x,y\n5,0,0\n" + c.row + "\n", imu_like()); });
+    CHECK(e.context().line == 3);
+    CHECK(e.context().column == c.column);
+    CHECK(std::string(e.what()).find(c.what) != std::string::npos);
+  }
+}
+
+TEST_CASE("csv: NaN and inf are rejected unless allowed", "[csv]") {
+  for (const std::string v : {"nan", "NaN", "inf", "-inf", "Infinity"}) {
+    CAPTURE(v);
+    auto e = expect_input_error([&] { read_all("#timestamp [ns],x,y\n1,0," + v + "\n", imu_like()); });
+    CHECK(e.context().line == 2);
+    CHECK(e.context().column == 3);
+    CHECK(e.context().key == "y");
+    CHECK(std::string(e.what()).find("non-finite") != std::string::npos);
+  }
+  CsvOptions o = imu_like();
+  o.allow_nonfinite = true;
+  auto r = CsvReader::from_text("#timestamp [ns],x,y\n1,nan,-inf\n", "t.csv", o);
+  REQUIRE(r.next());
+  CHECK(std::isnan(r.get_double(1)));
+  CHECK(std::isinf(r.get_double(2)));
+  // Per-call opt-in, and empty → NaN.
+  auto r2 = CsvReader::from_text("#timestamp [ns],x,y\n1,nan,\n", "t.csv", imu_like());
+  REQUIRE(r2.next());
+  CHECK(std::isnan(r2.get_double_nonfinite(1)));
+  CHECK(std::isnan(r2.get_double_or_nan(2)));
+  CHECK_THROWS_AS(r2.get_double(1), InputError);
+}
+
+TEST_CASE("csv: unsorted stamps report the row and the stamp column", "[csv]") {
+  auto e = expect_input_error([] { read_all("#timestamp [ns],x,y\n10,0,0\n20,0,0\n20,0,0\n", imu_like()); });
+  CHECK(e.context().line == 4);
+  CHECK(e.context().column == 1);
+  CHECK(std::string(e.what()).find("not after the previous one (20 at line 3)") != std::string::npos);
+
+  e = expect_input_error([] { read_all("#timestamp [ns],x,y\n10,0,0\n# c\n9,0,0\n", imu_like()); });
+  CHECK(e.context().line == 4);
+
+  // Non-decreasing allows equal stamps but not going back.
+  CsvOptions o = imu_like();
+  o.stamp_order = StampOrder::kNonDecreasing;
+  CHECK_NOTHROW(read_all("#timestamp [ns],x,y\n10,0,0\n10,1,1\n11,0,0\n", o));
+  e = expect_input_error([&] { read_all("#timestamp [ns],x,y\n10,0,0\n10,1,1\n9,0,0\n", o); });
+  CHECK(e.context().line == 4);
+  CHECK(e.context().column == 1);
+
+  // Seconds as doubles in a whitespace-separated table, stamp in column 0.
+  CsvOptions tum;
+  tum.whitespace_delimited = true;
+  tum.header = CsvHeader::kNone;
+  tum.stamp_column = 0;
+  tum.stamp_kind = StampKind::kSeconds;
+  auto count_rows = [&](const std::string& text) {
+    auto r = CsvReader::from_text(text, "t.txt", tum);
+    std::size_t n = 0;
+    while (r.next()) {
+      for (std::size_t c = 0; c < r.size(); ++c) (void)r.get_double(c);
+      ++n;
+    }
+    return n;
+  };
+  CHECK(count_rows("# timestamp tx ty\n1.5 0 0\n\t1.6   0  0  \r\n# end\n") == 2);
+  e = expect_input_error([&] { count_rows("1.5 0 0\n1.6 0 0\n1.55 0 0\n"); });
+  CHECK(e.context().file == "t.txt");
+  CHECK(e.context().line == 3);
+  CHECK(e.context().column == 1);
+  e = expect_input_error([&] { count_rows("1.5 0 0\n1.6 0\n"); });
+  CHECK(e.context().line == 2);
+  CHECK(e.context().column == 3);
+}
+
+TEST_CASE("csv: columns by name in any order", "[csv]") {
+  CsvOptions o;
+  auto r = CsvReader::from_text("qw,t,tx\n1,0.5,2\n", "t.csv", o);
+  const std::size_t c_t = r.column("t"), c_tx = r.column("tx"), c_qw = r.column("qw");
+  CHECK(c_t == 1);
+  CHECK_FALSE(r.find_column("ty").has_value());
+  auto e = expect_input_error([&] { (void)r.column("ty"); });
+  CHECK(e.context().line == 1);
+  CHECK(std::string(e.what()).find("'ty'") != std::string::npos);
+  REQUIRE(r.next());
+  CHECK(r.get_double(c_t) == 0.5);
+  CHECK(r.get_double(c_tx) == 2.0);
+  CHECK(r.get_double(c_qw) == 1.0);
+
+  e = expect_input_error([] { auto r2 = CsvReader::from_text("a,b,a\n", "t.csv"); });
+  CHECK(e.context().column == 3);
+  CHECK(std::string(e.what()).find("duplicate") != std::string::npos);
+}
+
+TEST_CASE("csv: quoted fields, ragged rows and caller errors", "[csv]") {
+  CsvOptions o;
+  o.header = CsvHeader::kNone;
+  o.ragged = true;
+  auto r = CsvReader::from_text("a,\"b,c\", \"say \"\"hi\"\"\" ,\n1\n", "m.csv", o);
+  REQUIRE(r.next());
+  REQUIRE(r.size() == 4);
+  CHECK(r.field(1) == "b,c");
+  CHECK(r.field(2) == "say \"hi\"");
+  CHECK(r.is_empty(3));
+  REQUIRE(r.next());
+  CHECK(r.size() == 1);
+  auto e = expect_input_error([&] { (void)r.get_double(2); });
+  CHECK(e.context().line == 2);
+  CHECK(e.context().column == 3);
+  e = r.error(0, "custom");
+  CHECK(std::string(e.what()) == "m.csv:2:1: custom");
+  CHECK(std::string(r.row_error("bad row").what()) == "m.csv:2: bad row");
+
+  e = expect_input_error([&] {
+    auto q = CsvReader::from_text("x\n\"open\n", "q.csv");
+    q.next();
+  });
+  CHECK(e.context().line == 2);
+  CHECK(e.context().column == 1);
+  e = expect_input_error([&] {
+    auto q = CsvReader::from_text("x,y\n1,\"a\"b\n", "q.csv");
+    q.next();
+  });
+  CHECK(e.context().line == 2);
+  CHECK(e.context().column == 2);
+}
+
+TEST_CASE("csv: int range and file errors", "[csv]") {
+  CsvOptions o;
+  o.header = CsvHeader::kNone;
+  auto r = CsvReader::from_text("3000000000,-5,+7\n", "t.csv", o);
+  REQUIRE(r.next());
+  CHECK(r.get_int64(0) == 3000000000LL);
+  CHECK_THROWS_AS(r.get_int(0), InputError);
+  CHECK(r.get_int(1) == -5);
+  CHECK(r.get_int(2) == 7);
+  auto e = expect_input_error([] { CsvReader q("/nonexistent/roe/file.csv"); });
+  CHECK(e.context().file == "/nonexistent/roe/file.csv");
+}
+
+TEST_CASE("csv: writer round-trips doubles exactly and is deterministic", "[csv]") {
+  const std::vector<double> values = {0.1,      1.0 / 3.0, -2.5e-300, 1e300, 6.02214076e23, -0.0, 0.0,
+                                      9.81,     1403715523.912140000, std::nextafter(1.0, 2.0),
+                                      std::numeric_limits<double>::denorm_min(),
+                                      std::numeric_limits<double>::max()};
+  CsvWriter w;
+  w.header({"timestamp [ns]", "v", "name"}, "#");
+  std::int64_t t = 1403715523912140000LL;
+  for (double v : values) w.add(t++).add(v).add("a,\"b\"").end_row();
+  CHECK(w.rows() == values.size());
+  const fs::path dir = fs::temp_directory_path() / ("roe_test_csv_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path file = dir / "v.csv";
+  w.write(file);
+  CsvOptions o;
+  o.expected_header = {"timestamp [ns]", "v", "name"};
+  o.stamp_column = 0;
+  CsvReader r(file, o);
+  std::size_t i = 0;
+  while (r.next()) {
+    REQUIRE(i < values.size());
+    CHECK(r.get_int64(0) == 1403715523912140000LL + static_cast<std::int64_t>(i));
+    const double back = r.get_double(1);
+    CHECK(back == values[i]);
+    CHECK(std::signbit(back) == std::signbit(values[i]));
+    CHECK(r.field(2) == "a,\"b\"");
+    ++i;
+  }
+  CHECK(i == values.size());
+  // Same content twice → same bytes.
+  CsvWriter w2;
+  w2.header({"timestamp [ns]", "v", "name"}, "#");
+  t = 1403715523912140000LL;
+  for (double v : values) w2.add(t++).add(v).add("a,\"b\"").end_row();
+  CHECK(w2.str() == roe::io::read_file(file));
+  fs::remove_all(dir);
+
+  CHECK(roe::io::format_double(0.1) == "0.1");
+  CHECK(roe::io::format_double(std::nan("")) == "nan");
+  CsvWriter f(' ');
+  f.add_fixed(1403715523.9121399, 9).add(1.0).add_empty().end_row();
+  CHECK(f.str() == "1403715523.912139893 1 \n");
+  CsvWriter bad;
+  bad.header({"a", "b"});
+  bad.add(1.0);
+  CHECK_THROWS_AS(bad.end_row(), roe::InternalError);
+}
