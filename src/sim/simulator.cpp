@@ -1,0 +1,566 @@
+#include "roe/sim/simulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+
+#include "roe/core/error.hpp"
+#include "roe/math/so3.hpp"
+
+namespace roe::sim {
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;
+const Eigen::Vector3d kGravity_W(0.0, 0.0, 9.81);
+
+[[noreturn]] void bad(const std::string& key, const std::string& what) {
+  throw ConfigError(what, ErrorContext{"", 0, 0, key});
+}
+void require_positive(double v, const std::string& key) {
+  if (!(std::isfinite(v) && v > 0.0)) bad(key, "must be a positive number");
+}
+void require_nonneg(double v, const std::string& key) {
+  if (!(std::isfinite(v) && v >= 0.0)) bad(key, "must be a finite number >= 0");
+}
+void require_prob(double v, const std::string& key) {
+  if (!(std::isfinite(v) && v >= 0.0 && v <= 1.0)) bad(key, "must be a probability in [0, 1]");
+}
+void require_finite_signal(const SmoothSignal& s, const std::string& key) {
+  if (!std::isfinite(s.offset) || !std::isfinite(s.rate)) bad(key, "must be finite");
+  for (const auto& t : s.terms) {
+    if (!std::isfinite(t.amplitude) || !std::isfinite(t.phase_rad)) bad(key, "must be finite");
+    require_nonneg(t.frequency_hz, key + ".frequency_hz");
+  }
+}
+
+// Stamps t0 + round(k · 1e9 / rate) for k = 0.. while <= t_end.
+std::vector<Timestamp> stamps(Timestamp t0, Timestamp t_end, double rate_hz) {
+  std::vector<Timestamp> out;
+  for (std::int64_t k = 0;; ++k) {
+    const Timestamp t = t0 + static_cast<Timestamp>(std::llround(static_cast<double>(k) * 1e9 / rate_hz));
+    if (t > t_end) break;
+    out.push_back(t);
+  }
+  return out;
+}
+
+void vary(SmoothSignal& s, const VariationConfig& v, Rng& rng) {
+  for (auto& term : s.terms) {
+    term.amplitude *= rng.uniform(1.0 - v.amplitude_rel, 1.0 + v.amplitude_rel);
+    term.frequency_hz *= rng.uniform(1.0 - v.frequency_rel, 1.0 + v.frequency_rel);
+    term.phase_rad += rng.uniform(-v.phase_rad, v.phase_rad);
+  }
+}
+
+std::map<int, Symmetry> symmetry_map(const std::vector<int>& ids, const std::vector<int>& symmetric_ids) {
+  std::map<int, Symmetry> m;
+  for (int id : ids) {
+    if (std::find(symmetric_ids.begin(), symmetric_ids.end(), id) == symmetric_ids.end()) continue;
+    const Symmetry s = ycbv_symmetry(id);
+    m[id] = s == Symmetry::kNone ? Symmetry::kDiscrete2 : s;  // non-YCB-V ids listed: two-fold
+  }
+  return m;
+}
+
+std::map<std::string, double> noise_map(const DetectionNoiseConfig& d, const VisibilityConfig& v) {
+  return {{"lateral_sigma_m", d.lateral_sigma_m},
+          {"lateral_sigma_per_depth", d.lateral_sigma_per_depth},
+          {"along_ray_sigma_m", d.along_ray_sigma_m},
+          {"along_ray_sigma_per_depth", d.along_ray_sigma_per_depth},
+          {"rotation_sigma_deg", d.rotation_sigma_deg},
+          {"translation_frame_is_ray", d.translation_frame == "ray" ? 1.0 : 0.0},
+          {"correlation_time_s", d.correlation_time_s},
+          {"outlier_prob", d.outlier_prob},
+          {"outlier_translation_max_m", d.outlier_translation_max_m},
+          {"symmetric_flip_prob", d.symmetric_flip_prob},
+          {"blur_rate_threshold_deg_s", d.blur_rate_threshold_deg_s},
+          {"blur_frame_prob", d.blur_frame_prob},
+          {"visibility_margin_px", v.margin_px},
+          {"visibility_min_depth_m", v.min_depth_m},
+          {"visibility_max_depth_m", v.max_depth_m},
+          {"visibility_miss_prob", v.miss_prob},
+          {"visibility_border_miss_prob", v.border_miss_prob},
+          {"visibility_border_band_px", v.border_band_px}};
+}
+
+CameraInfo camera_info(const PinholeCamera& k, const Pose& T_I_C_prior) {
+  CameraInfo c;
+  c.width = k.width;
+  c.height = k.height;
+  c.fx = k.fx;
+  c.fy = k.fy;
+  c.cx = k.cx;
+  c.cy = k.cy;
+  c.distortion_model = "none";
+  c.T_I_C = T_I_C_prior;
+  c.time_offset_s = 0.0;
+  return c;
+}
+
+void validate_detection(const DetectionNoiseConfig& d, const VisibilityConfig& v, const PinholeCamera& k,
+                        const std::string& det, const std::string& vis, const std::string& cam) {
+  require_nonneg(d.lateral_sigma_m, det + ".lateral_sigma_m");
+  require_nonneg(d.lateral_sigma_per_depth, det + ".lateral_sigma_per_depth");
+  require_nonneg(d.along_ray_sigma_m, det + ".along_ray_sigma_m");
+  require_nonneg(d.along_ray_sigma_per_depth, det + ".along_ray_sigma_per_depth");
+  require_nonneg(d.rotation_sigma_deg, det + ".rotation_sigma_deg");
+  if (d.translation_frame != "ray" && d.translation_frame != "camera")
+    bad(det + ".translation_frame", "must be \"ray\" or \"camera\"");
+  require_nonneg(d.correlation_time_s, det + ".correlation_time_s");
+  require_prob(d.outlier_prob, det + ".outlier_prob");
+  require_nonneg(d.outlier_translation_max_m, det + ".outlier_translation_max_m");
+  require_prob(d.symmetric_flip_prob, det + ".symmetric_flip_prob");
+  if (!std::isfinite(d.blur_rate_threshold_deg_s)) bad(det + ".blur_rate_threshold_deg_s", "must be finite");
+  require_prob(d.blur_frame_prob, det + ".blur_frame_prob");
+  require_nonneg(v.margin_px, vis + ".margin_px");
+  require_positive(v.min_depth_m, vis + ".min_depth_m");
+  require_positive(v.max_depth_m, vis + ".max_depth_m");
+  if (v.max_depth_m <= v.min_depth_m) bad(vis + ".max_depth_m", "must be greater than min_depth_m");
+  require_prob(v.miss_prob, vis + ".miss_prob");
+  require_prob(v.border_miss_prob, vis + ".border_miss_prob");
+  require_nonneg(v.border_band_px, vis + ".border_band_px");
+  if (k.width <= 0) bad(cam + ".width", "must be a positive integer");
+  if (k.height <= 0) bad(cam + ".height", "must be a positive integer");
+  require_positive(k.fx, cam + ".fx");
+  require_positive(k.fy, cam + ".fy");
+  if (!std::isfinite(k.cx)) bad(cam + ".cx", "must be finite");
+  if (!std::isfinite(k.cy)) bad(cam + ".cy", "must be finite");
+  if (2.0 * v.margin_px >= std::min(k.width, k.height)) bad(vis + ".margin_px", "leaves no image area");
+}
+
+std::vector<int> ids_of(const std::vector<TruthObject>& objects) {
+  std::vector<int> ids;
+  for (const auto& o : objects) ids.push_back(o.id);
+  return ids;
+}
+
+void validate_ids(const std::vector<int>& ids, const std::string& key) {
+  std::set<int> seen;
+  for (int id : ids) {
+    if (id <= 0) bad(key, "object ids must be positive integers (YCB-V classes 1..21)");
+    if (!seen.insert(id).second) bad(key, "object id " + std::to_string(id) + " appears twice");
+  }
+}
+}  // namespace
+
+void validate(const SimConfig& c) {
+  require_positive(c.duration_s, "duration_s");
+  if (c.duration_s > 24 * 3600.0) bad("duration_s", "must be at most one day");
+  if (c.start_time_ns < 0) bad("start_time_ns", "must be >= 0");
+  const auto& t = c.trajectory;
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(t.center(i))) bad("trajectory.center", "must be finite");
+  require_finite_signal(t.azimuth_rad, "trajectory.azimuth_rad");
+  require_finite_signal(t.radius_m, "trajectory.radius_m");
+  require_finite_signal(t.height_m, "trajectory.height_m");
+  require_finite_signal(t.target_x_m, "trajectory.target_x_m");
+  require_finite_signal(t.target_y_m, "trajectory.target_y_m");
+  require_finite_signal(t.target_z_m, "trajectory.target_z_m");
+  require_finite_signal(t.roll_rad, "trajectory.roll_rad");
+  require_finite_signal(t.shake_x_m, "trajectory.shake_x_m");
+  require_finite_signal(t.shake_y_m, "trajectory.shake_y_m");
+  require_finite_signal(t.shake_z_m, "trajectory.shake_z_m");
+  require_positive(t.radius_m.offset, "trajectory.radius_m.offset");
+  const auto& v = c.variation;
+  require_prob(v.amplitude_rel, "variation.amplitude_rel");
+  require_prob(v.frequency_rel, "variation.frequency_rel");
+  require_nonneg(v.phase_rad, "variation.phase_rad");
+  require_prob(v.offset_rel, "variation.offset_rel");
+  require_nonneg(v.azimuth_start_rad, "variation.azimuth_start_rad");
+  const auto& o = c.objects;
+  if (o.objects.empty()) bad("objects.objects", "at least one object is needed");
+  std::vector<int> ids;
+  for (const auto& s : o.objects) ids.push_back(s.id);
+  validate_ids(ids, "objects.objects");
+  require_positive(o.area_size_m, "objects.area_size_m");
+  require_nonneg(o.min_separation_m, "objects.min_separation_m");
+  require_nonneg(o.height_jitter_m, "objects.height_jitter_m");
+  require_prob(o.lying_prob, "objects.lying_prob");
+  const auto& imu = c.imu;
+  require_positive(imu.rate_hz, "imu.rate_hz");
+  if (imu.rate_hz > 10000.0) bad("imu.rate_hz", "must be at most 10000");
+  require_nonneg(imu.gyro_noise_density, "imu.gyro_noise_density");
+  require_nonneg(imu.gyro_random_walk, "imu.gyro_random_walk");
+  require_nonneg(imu.accel_noise_density, "imu.accel_noise_density");
+  require_nonneg(imu.accel_random_walk, "imu.accel_random_walk");
+  require_nonneg(imu.gyro_bias_sigma, "imu.gyro_bias_sigma");
+  require_nonneg(imu.accel_bias_sigma, "imu.accel_bias_sigma");
+  require_positive(c.camera.rate_hz, "camera.rate_hz");
+  if (c.camera.rate_hz > imu.rate_hz) bad("camera.rate_hz", "must not exceed imu.rate_hz");
+  validate_detection(c.detection, c.visibility, c.camera.intrinsics, "detection", "visibility", "camera");
+  require_positive(c.mocap.rate_hz, "mocap.rate_hz");
+  require_nonneg(c.mocap.position_sigma_m, "mocap.position_sigma_m");
+  require_nonneg(c.mocap.rotation_sigma_deg, "mocap.rotation_sigma_deg");
+}
+
+TrajectoryConfig vary_trajectory(const TrajectoryConfig& nominal, const VariationConfig& v, std::uint64_t seed) {
+  TrajectoryConfig t = nominal;
+  Rng rng = Rng::stream(seed, "trajectory");
+  t.azimuth_rad.offset += rng.uniform(-v.azimuth_start_rad, v.azimuth_start_rad);
+  t.radius_m.offset *= rng.uniform(1.0 - v.offset_rel, 1.0 + v.offset_rel);
+  t.height_m.offset *= rng.uniform(1.0 - v.offset_rel, 1.0 + v.offset_rel);
+  for (SmoothSignal* s : {&t.azimuth_rad, &t.radius_m, &t.height_m, &t.target_x_m, &t.target_y_m, &t.target_z_m,
+                          &t.roll_rad, &t.shake_x_m, &t.shake_y_m, &t.shake_z_m})
+    vary(*s, v, rng);
+  return t;
+}
+
+std::vector<TruthObject> place_objects(const ObjectsConfig& o) {
+  Rng rng = Rng::stream(o.layout_seed, "objects");
+  std::vector<TruthObject> out;
+  // Explicit poses first, so drawn objects keep their distance from them.
+  for (const auto& s : o.objects)
+    if (s.has_pose) out.push_back({s.id, s.T_M_O});
+  for (const auto& s : o.objects) {
+    if (s.has_pose) continue;
+    bool placed = false;
+    for (int attempt = 0; attempt < 10000 && !placed; ++attempt) {
+      const double x = o.area_center.x() + rng.uniform(-0.5, 0.5) * o.area_size_m;
+      const double y = o.area_center.y() + rng.uniform(-0.5, 0.5) * o.area_size_m;
+      const double z = o.area_center.z() + rng.uniform(0.0, 1.0) * o.height_jitter_m;
+      const double yaw = rng.uniform(-kPi, kPi);
+      const bool lying = rng.uniform() < o.lying_prob;
+      const Eigen::Vector3d p(x, y, z);
+      bool ok = true;
+      for (const auto& other : out)
+        if ((other.T_W_O.p.head<2>() - p.head<2>()).norm() < o.min_separation_m) ok = false;
+      if (!ok) continue;
+      Eigen::Matrix3d R = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      if (lying) R = R * Eigen::AngleAxisd(0.5 * kPi, Eigen::Vector3d::UnitX()).toRotationMatrix();
+      out.push_back({s.id, Pose(R, p)});
+      placed = true;
+    }
+    if (!placed)
+      bad("objects.min_separation_m", "cannot place object " + std::to_string(s.id) +
+                                          ": the area is too small for the minimum separation");
+  }
+  // Keep the configured order (by position in the objects list).
+  std::vector<TruthObject> ordered;
+  for (const auto& s : o.objects)
+    for (const auto& p : out)
+      if (p.id == s.id) ordered.push_back(p);
+  return ordered;
+}
+
+Dataset simulate(const SimConfig& config, std::uint64_t seed) { return simulate_run(config, seed).dataset; }
+
+SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
+  validate(config);
+  const InspectionTrajectory traj(vary_trajectory(config.trajectory, config.variation, seed));
+  const std::vector<TruthObject> objects_M = place_objects(config.objects);
+  const Pose T_C_I = config.camera.T_I_C.inverse();
+  const Timestamp t0 = config.start_time_ns;
+  const Timestamp t_end = t0 + from_seconds(config.duration_s);
+  auto rel = [t0](Timestamp t) { return dt_seconds(t0, t); };
+
+  SimRun run;
+  Dataset& ds = run.dataset;
+  SimStats& st = run.stats;
+
+  // W: gravity-aligned, parallel to M, origin at the IMU's initial position.
+  const Kinematics k0 = traj.attached(0.0, T_C_I);
+  const Pose T_M_W(Eigen::Quaterniond::Identity(), k0.T_M_X.p);
+  const Pose T_W_M = T_M_W.inverse();
+
+  // IMU and ground truth.
+  {
+    Rng rng = Rng::stream(seed, "imu");
+    const auto& ic = config.imu;
+    Eigen::Vector3d b_g = ic.gyro_bias_sigma * rng.normal3();
+    Eigen::Vector3d b_a = ic.accel_bias_sigma * rng.normal3();
+    const double sd_g = ic.gyro_noise_density * std::sqrt(ic.rate_hz);
+    const double sd_a = ic.accel_noise_density * std::sqrt(ic.rate_hz);
+    const std::vector<Timestamp> ts = stamps(t0, t_end, ic.rate_hz);
+    ds.imu.reserve(ts.size());
+    ds.groundtruth.reserve(ts.size());
+    for (std::size_t k = 0; k < ts.size(); ++k) {
+      const Kinematics ki = traj.attached(rel(ts[k]), T_C_I);
+      const Eigen::Matrix3d R_W_I = ki.T_M_X.R();  // W is parallel to M
+      ImuSample s;
+      s.t_ns = ts[k];
+      const Eigen::Vector3d n_g = sd_g * rng.normal3();
+      const Eigen::Vector3d n_a = sd_a * rng.normal3();
+      s.gyro = ki.omega_X + b_g + n_g;
+      s.accel = R_W_I.transpose() * (ki.a_M + kGravity_W) + b_a + n_a;
+      ds.imu.push_back(s);
+      ImuState g;
+      g.t_ns = ts[k];
+      g.T_W_I = T_W_M * ki.T_M_X;
+      g.v_W_I = ki.v_M;
+      g.b_g = b_g;
+      g.b_a = b_a;
+      ds.groundtruth.push_back(g);
+      st.max_speed_m_s = std::max(st.max_speed_m_s, ki.v_M.norm());
+      st.max_rate_deg_s = std::max(st.max_rate_deg_s, ki.omega_X.norm() / kDeg);
+      if (k + 1 < ts.size()) {
+        const double dt = dt_seconds(ts[k], ts[k + 1]);
+        b_g += ic.gyro_random_walk * std::sqrt(dt) * rng.normal3();
+        b_a += ic.accel_random_walk * std::sqrt(dt) * rng.normal3();
+      }
+    }
+    st.imu_samples = ds.imu.size();
+  }
+
+  // Camera frames and detections.
+  {
+    PoetErrorModel model(config.detection, symmetry_map(ids_of(objects_M), config.objects.symmetric_ids));
+    Rng rng_vis = Rng::stream(seed, "visibility");
+    Rng rng_blur = Rng::stream(seed, "blur");
+    Rng rng_det = Rng::stream(seed, "detections");
+    auto& dets = ds.detections["sim"];
+    st.min_distance_m = std::numeric_limits<double>::infinity();
+    for (Timestamp t : stamps(t0, t_end, config.camera.rate_hz)) {
+      ds.frames.push_back({t, std::to_string(t) + ".png"});
+      const Kinematics kc = traj.camera(rel(t));
+      const double dist = (kc.T_M_X.p - config.trajectory.center).norm();
+      st.min_distance_m = std::min(st.min_distance_m, dist);
+      st.max_distance_m = std::max(st.max_distance_m, dist);
+      const bool blurred = model.frame_blurred(kc.omega_X.norm(), rng_blur);
+      if (blurred) ++st.blurred_frames;
+      const Pose T_C_M = kc.T_M_X.inverse();
+      bool any = false;
+      for (const auto& o : objects_M) {
+        const Pose T_C_O = T_C_M * o.T_W_O;  // T_W_O holds T_M_O here
+        if (!object_in_view(T_C_O, config.camera.intrinsics, config.visibility)) continue;
+        if (!object_visible(T_C_O, config.camera.intrinsics, config.visibility, rng_vis)) {
+          ++st.missed;
+          continue;
+        }
+        DetectionLabel label;
+        dets.push_back(model.measure(t, o.id, T_C_O, blurred, rng_det, &label));
+        run.labels.push_back(label);
+        any = true;
+        ++st.detections;
+        ++st.detections_per_object[o.id];
+        if (label.outlier) ++st.outliers;
+        if (label.flipped) ++st.flips;
+        if (label.blurred) ++st.blurred_detections;
+      }
+      if (any) ++st.frames_with_detections;
+    }
+    st.frames = ds.frames.size();
+    if (ds.frames.empty()) st.min_distance_m = 0.0;
+  }
+
+  // Motion capture of the body B.
+  if (config.mocap.enabled) {
+    Rng rng = Rng::stream(seed, "mocap");
+    const Pose T_I_B = config.mocap.T_B_I.inverse();
+    for (Timestamp t : stamps(t0, t_end, config.mocap.rate_hz)) {
+      const Pose T_M_B = traj.attached(rel(t), T_C_I).T_M_X * T_I_B;
+      const Eigen::Vector3d dp = config.mocap.position_sigma_m * rng.normal3();
+      const Eigen::Vector3d dth = config.mocap.rotation_sigma_deg * kDeg * rng.normal3();
+      ds.mocap.push_back({t, Pose(math::canonical(T_M_B.q * math::exp_quat(dth)), T_M_B.p + dp)});
+    }
+  }
+
+  // Manifest.
+  DatasetManifest& m = ds.manifest;
+  m.name = config.name;
+  m.imu = ImuInfo{config.imu.rate_hz,
+                  ImuNoise{config.imu.gyro_noise_density, config.imu.gyro_random_walk,
+                           config.imu.accel_noise_density, config.imu.accel_random_walk}};
+  m.camera = camera_info(config.camera.intrinsics, config.camera.T_I_C * config.camera.prior_error);
+  if (config.mocap.enabled) m.mocap = MocapInfo{config.mocap.body, config.mocap.T_B_I, 0.0};
+  const auto syms = symmetry_map(ids_of(objects_M), config.objects.symmetric_ids);
+  Truth truth;
+  truth.T_I_C = config.camera.T_I_C;
+  for (const auto& o : objects_M) {
+    m.objects.push_back({o.id, ycbv_name(o.id), syms.count(o.id) > 0});
+    truth.objects.push_back({o.id, T_W_M * o.T_W_O});
+  }
+  truth.imu_noise = m.imu->noise;
+  truth.detection_noise = noise_map(config.detection, config.visibility);
+  m.truth = truth;
+  return run;
+}
+
+// ---------------------------------------------------------------------------------------------
+// --from-groundtruth
+// ---------------------------------------------------------------------------------------------
+
+Pose FromGroundtruthConfig::euroc_T_I_C() {
+  // EuRoC MAV mav0/cam0/sensor.yaml, T_BS (body = IMU, sensor = cam0), row-major.
+  Eigen::Matrix3d R;
+  R << 0.0148655429818, -0.999880929698, 0.00414029679422,  //
+      0.999557249008, 0.0149672133247, 0.025715529948,       //
+      -0.0257744366974, 0.00375618835797, 0.999660727178;
+  return Pose(math::orthonormalize(R), Eigen::Vector3d(-0.0216401454975, -0.064676986768, 0.00981073058949));
+}
+
+namespace {
+// T_W_I at time t by interpolation of the (sorted) ground truth; t must lie within it.
+Pose gt_pose_at(const std::vector<ImuState>& gt, Timestamp t) {
+  auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const ImuState& s, Timestamp x) { return s.t_ns < x; });
+  if (it == gt.end()) return gt.back().T_W_I;
+  if (it->t_ns == t || it == gt.begin()) return it->T_W_I;
+  const auto& a = *(it - 1);
+  const auto& b = *it;
+  return math::interpolate(a.T_W_I, b.T_W_I, dt_seconds(a.t_ns, t) / dt_seconds(a.t_ns, b.t_ns));
+}
+
+// |ω| of the IMU sample nearest to t.
+double rate_at(const std::vector<ImuSample>& imu, Timestamp t) {
+  auto it = std::lower_bound(imu.begin(), imu.end(), t, [](const ImuSample& s, Timestamp x) { return s.t_ns < x; });
+  if (it == imu.end()) return imu.back().gyro.norm();
+  if (it != imu.begin() && (t - (it - 1)->t_ns) < (it->t_ns - t)) --it;
+  return it->gyro.norm();
+}
+
+std::size_t frames_seeing(const std::vector<Pose>& T_C_W, const Eigen::Vector3d& p_W, const PinholeCamera& cam,
+                          const VisibilityConfig& vis) {
+  std::size_t n = 0;
+  for (const auto& T : T_C_W)
+    if (object_in_view(Pose(Eigen::Quaterniond::Identity(), T.act(p_W)), cam, vis)) ++n;
+  return n;
+}
+}  // namespace
+
+SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::vector<ImuState>& gt,
+                                 const FromGroundtruthConfig& config, std::uint64_t seed) {
+  const std::string cfg = "from_groundtruth";
+  if (config.num_objects < 1) bad("objects", "--objects must be at least 1");
+  if (static_cast<std::size_t>(config.num_objects) > config.object_ids.size())
+    bad("objects", "at most " + std::to_string(config.object_ids.size()) + " objects are available");
+  require_positive(config.camera_rate_hz, cfg + ".camera_rate_hz");
+  require_positive(config.place_min_depth_m, cfg + ".place_min_depth_m");
+  if (config.place_max_depth_m <= config.place_min_depth_m)
+    bad(cfg + ".place_max_depth_m", "must be greater than place_min_depth_m");
+  if (!(config.place_inner_fraction > 0.0 && config.place_inner_fraction <= 1.0))
+    bad(cfg + ".place_inner_fraction", "must be in (0, 1]");
+  validate_detection(config.detection, config.visibility, config.intrinsics, cfg + ".detection",
+                     cfg + ".visibility", cfg + ".intrinsics");
+  const std::vector<int> ids(config.object_ids.begin(), config.object_ids.begin() + config.num_objects);
+  validate_ids(ids, "objects");
+  if (imu.size() < 2) throw DataError("the IMU stream has fewer than 2 samples");
+  if (gt.size() < 2) throw DataError("the ground truth has fewer than 2 poses");
+
+  const Timestamp t_begin = std::max(imu.front().t_ns, gt.front().t_ns);
+  const Timestamp t_end = std::min(imu.back().t_ns, gt.back().t_ns);
+  if (t_end - t_begin < kNsPerSecond)
+    throw DataError("the IMU and the ground truth overlap for less than one second");
+
+  SimRun run;
+  Dataset& ds = run.dataset;
+  SimStats& st = run.stats;
+  ds.imu = imu;
+  ds.groundtruth = gt;
+  st.imu_samples = imu.size();
+
+  // Camera poses at the frame stamps inside the overlap.
+  const std::vector<Timestamp> ts = stamps(t_begin, t_end, config.camera_rate_hz);
+  std::vector<Pose> T_W_C, T_C_W;
+  for (Timestamp t : ts) {
+    ds.frames.push_back({t, std::to_string(t) + ".png"});
+    T_W_C.push_back(gt_pose_at(gt, t) * config.T_I_C);
+    T_C_W.push_back(T_W_C.back().inverse());
+  }
+  st.frames = ts.size();
+
+  // Placement: the group centre is the candidate point (random frame, pixel in the central part of
+  // the image, depth in range) seen in the most frames; the objects are then drawn around it, each
+  // seen in at least min_frames_visible frames.
+  Rng rng = Rng::stream(seed, "placement");
+  const auto& K = config.intrinsics;
+  auto candidate = [&](const Pose& T_W_Ck) {
+    const double f = config.place_inner_fraction;
+    const double u = K.cx + rng.uniform(-0.5, 0.5) * f * K.width;
+    const double v = K.cy + rng.uniform(-0.5, 0.5) * f * K.height;
+    const double z = rng.uniform(config.place_min_depth_m, config.place_max_depth_m);
+    return T_W_Ck.act(Eigen::Vector3d((u - K.cx) / K.fx * z, (v - K.cy) / K.fy * z, z));
+  };
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  std::size_t best = 0;
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d p = candidate(T_W_C[rng.uniform_int(T_W_C.size())]);
+    const std::size_t n = frames_seeing(T_C_W, p, K, config.visibility);
+    if (n > best) {
+      best = n;
+      center = p;
+    }
+  }
+  if (best < config.min_frames_visible)
+    throw DataError("no point along the trajectory is seen in " + std::to_string(config.min_frames_visible) +
+                    " frames; cannot place objects");
+  std::vector<TruthObject> objects_W;
+  for (int id : ids) {
+    bool placed = false;
+    for (int attempt = 0; attempt < 2000 && !placed; ++attempt) {
+      const Eigen::Vector3d p = center + Eigen::Vector3d(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5),
+                                                         rng.uniform(-0.15, 0.15));
+      const Eigen::Quaterniond q = rng.rotation();
+      bool ok = true;
+      for (const auto& o : objects_W)
+        if ((o.T_W_O.p - p).norm() < config.min_separation_m) ok = false;
+      if (!ok || frames_seeing(T_C_W, p, K, config.visibility) < config.min_frames_visible) continue;
+      objects_W.push_back({id, Pose(q, p)});
+      placed = true;
+    }
+    if (!placed)
+      throw DataError("cannot place object " + std::to_string(id) + " where the camera sees it in " +
+                      std::to_string(config.min_frames_visible) + " frames");
+  }
+
+  // Detections.
+  const auto syms = symmetry_map(ids, config.symmetric_ids);
+  PoetErrorModel model(config.detection, syms);
+  Rng rng_vis = Rng::stream(seed, "visibility");
+  Rng rng_blur = Rng::stream(seed, "blur");
+  Rng rng_det = Rng::stream(seed, "detections");
+  auto& dets = ds.detections["sim"];
+  for (std::size_t k = 0; k < ts.size(); ++k) {
+    const bool blurred = model.frame_blurred(rate_at(imu, ts[k]), rng_blur);
+    if (blurred) ++st.blurred_frames;
+    bool any = false;
+    for (const auto& o : objects_W) {
+      const Pose T_C_O = T_C_W[k] * o.T_W_O;
+      if (!object_in_view(T_C_O, K, config.visibility)) continue;
+      if (!object_visible(T_C_O, K, config.visibility, rng_vis)) {
+        ++st.missed;
+        continue;
+      }
+      DetectionLabel label;
+      dets.push_back(model.measure(ts[k], o.id, T_C_O, blurred, rng_det, &label));
+      run.labels.push_back(label);
+      any = true;
+      ++st.detections;
+      ++st.detections_per_object[o.id];
+      if (label.outlier) ++st.outliers;
+      if (label.flipped) ++st.flips;
+      if (label.blurred) ++st.blurred_detections;
+    }
+    if (any) ++st.frames_with_detections;
+  }
+  for (std::size_t k = 0; k < gt.size(); ++k) {
+    st.max_speed_m_s = std::max(st.max_speed_m_s, gt[k].v_W_I.norm());
+  }
+  for (const auto& s : imu) st.max_rate_deg_s = std::max(st.max_rate_deg_s, s.gyro.norm() / kDeg);
+  st.min_distance_m = st.max_distance_m = 0.0;
+
+  // The ground-truth poses double as the mocap stream (body = IMU, M = W), unchanged.
+  for (const auto& g : gt) ds.mocap.push_back({g.t_ns, g.T_W_I});
+
+  DatasetManifest& m = ds.manifest;
+  m.name = "from-groundtruth";
+  // Rate from the median sample interval of the real IMU.
+  std::vector<Timestamp> dts;
+  for (std::size_t k = 1; k < imu.size(); ++k) dts.push_back(imu[k].t_ns - imu[k - 1].t_ns);
+  std::nth_element(dts.begin(), dts.begin() + dts.size() / 2, dts.end());
+  const double rate = 1e9 / static_cast<double>(dts[dts.size() / 2]);
+  m.imu = ImuInfo{rate, config.imu_noise};
+  m.camera = camera_info(K, config.T_I_C);
+  m.mocap = MocapInfo{"groundtruth", Pose(), 0.0};
+  Truth truth;
+  truth.T_I_C = config.T_I_C;
+  for (const auto& o : objects_W) {
+    m.objects.push_back({o.id, ycbv_name(o.id), syms.count(o.id) > 0});
+    truth.objects.push_back(o);
+  }
+  truth.imu_noise = config.imu_noise;
+  truth.detection_noise = noise_map(config.detection, config.visibility);
+  m.truth = truth;
+  return run;
+}
+
+}  // namespace roe::sim
