@@ -1,0 +1,693 @@
+#include "roe/io/dataset.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+
+#include "roe/io/csv.hpp"
+#include "roe/io/output.hpp"
+
+namespace roe::io {
+namespace {
+
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+
+// ---------------------------------------------------------------------------------------------
+// Shared helpers
+// ---------------------------------------------------------------------------------------------
+
+// Tolerance on |‖q‖ − 1| in roe.json (DESIGN §3: unit quaternions).
+constexpr double kManifestQuatTol = 1e-6;
+// Tolerance on |‖q‖ − 1| in CSV streams: EuRoC writes 6 decimals, network outputs may be loosely
+// normalised; anything further off is a wrong column or a corrupt row, not rounding.
+constexpr double kCsvQuatTol = 1e-3;
+
+// Normalises q unless it is already unit to rounding, so that a written quaternion reads back
+// bit-identical (normalising a unit quaternion again can change its last bits).
+Quaterniond unit(const Quaterniond& q) {
+  if (std::abs(q.squaredNorm() - 1.0) <= 4.0 * std::numeric_limits<double>::epsilon()) return q;
+  return q.normalized();
+}
+
+Pose make_pose(const Quaterniond& q, const Vector3d& p) {
+  Pose T;
+  T.q = unit(q);
+  T.p = p;
+  return T;
+}
+
+// Reads a quaternion from columns (in the given order of x,y,z,w file columns) and checks its norm.
+Quaterniond read_quat(const CsvReader& r, std::size_t cx, std::size_t cy, std::size_t cz, std::size_t cw) {
+  const Quaterniond q(r.get_double(cw), r.get_double(cx), r.get_double(cy), r.get_double(cz));
+  const double n = q.norm();
+  if (!(std::abs(n - 1.0) <= kCsvQuatTol))
+    throw r.error(std::min({cx, cy, cz, cw}),
+                  fmt::format("quaternion is not unit norm (|q| = {:.9g}); check the column order", n));
+  return q;
+}
+
+Vector3d read_vec3(const CsvReader& r, std::size_t c0) {
+  return Vector3d(r.get_double(c0), r.get_double(c0 + 1), r.get_double(c0 + 2));
+}
+
+// Every stream file starts its header with the stamp column; EuRoC spells it two ways.
+constexpr const char* kStampNs = "timestamp [ns]|timestamp";
+
+CsvOptions stream_options(std::vector<std::string> header, StampOrder order = StampOrder::kStrictlyIncreasing) {
+  CsvOptions o;
+  o.expected_header = std::move(header);
+  o.stamp_column = 0;
+  o.stamp_kind = StampKind::kNanoseconds;
+  o.stamp_order = order;
+  return o;
+}
+
+void check_finite(const Vector3d& v, const char* what) {
+  ROE_CHECK(v.allFinite(), std::string("non-finite ") + what + " cannot be written");
+}
+
+// Writers refuse unsorted or non-finite data: the readers would reject the file, so writing it
+// is a bug in the producer.
+template <typename T>
+void check_sorted(const std::vector<T>& v, const fs::path& file, bool strict) {
+  for (std::size_t i = 1; i < v.size(); ++i) {
+    const bool ok = strict ? v[i].t_ns > v[i - 1].t_ns : v[i].t_ns >= v[i - 1].t_ns;
+    ROE_CHECK(ok, fmt::format("{}: stamps not {} at element {}", file.string(),
+                              strict ? "strictly increasing" : "sorted", i));
+  }
+}
+
+void add_quat_wxyz(CsvWriter& w, const Quaterniond& q) { w.add(q.w()).add(q.x()).add(q.y()).add(q.z()); }
+void add_vec3(CsvWriter& w, const Vector3d& v) { w.add(v.x()).add(v.y()).add(v.z()); }
+
+// ---------------------------------------------------------------------------------------------
+// roe.json
+// ---------------------------------------------------------------------------------------------
+
+json pose_to_json(const Pose& T) {
+  return json{{"p", {T.p.x(), T.p.y(), T.p.z()}}, {"q", {T.q.x(), T.q.y(), T.q.z(), T.q.w()}}};
+}
+
+// A fixed-length array of numbers at `key` of `o` (required).
+std::vector<double> number_array(JsonObject& o, const char* key, std::size_t n) {
+  const json* v = o.raw(key);
+  const std::string path = o.key_path(key);
+  if (!v || v->is_null()) throw ConfigError("missing required key", {o.source(), 0, 0, path});
+  if (!v->is_array() || v->size() != n)
+    throw ConfigError(fmt::format("expected an array of {} numbers", n), {o.source(), 0, 0, path});
+  std::vector<double> out;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!(*v)[i].is_number())
+      throw ConfigError("expected a number", {o.source(), 0, 0, fmt::format("{}[{}]", path, i)});
+    out.push_back((*v)[i].get<double>());
+  }
+  return out;
+}
+
+Pose pose_from_json(const json& j, const std::string& source, const std::string& path) {
+  JsonObject o(j, source, path);
+  const auto p = number_array(o, "p", 3);
+  const auto qv = number_array(o, "q", 4);
+  o.finish();
+  const Quaterniond q(qv[3], qv[0], qv[1], qv[2]);
+  const double n = q.norm();
+  if (!(std::abs(n - 1.0) <= kManifestQuatTol))
+    throw ConfigError(fmt::format("quaternion [qx, qy, qz, qw] is not unit norm (|q| = {:.12g}, tolerance {:g})",
+                                  n, kManifestQuatTol),
+                      {source, 0, 0, o.key_path("q")});
+  return make_pose(q, Vector3d(p[0], p[1], p[2]));
+}
+
+Pose required_pose(JsonObject& o, const char* key) {
+  const json* v = o.raw(key);
+  if (!v || v->is_null()) throw ConfigError("missing required key", {o.source(), 0, 0, o.key_path(key)});
+  return pose_from_json(*v, o.source(), o.key_path(key));
+}
+
+Pose optional_pose(JsonObject& o, const char* key) {
+  const json* v = o.raw(key);
+  if (!v || v->is_null()) return Pose::identity();
+  return pose_from_json(*v, o.source(), o.key_path(key));
+}
+
+// Calls fn(element JsonObject-able json, path "key[i]") for each element of an optional array.
+template <typename Fn>
+void for_each_element(JsonObject& o, const char* key, Fn&& fn) {
+  const json* v = o.raw(key);
+  if (!v || v->is_null()) return;
+  if (!v->is_array()) throw ConfigError("expected an array", {o.source(), 0, 0, o.key_path(key)});
+  for (std::size_t i = 0; i < v->size(); ++i) fn((*v)[i], fmt::format("{}[{}]", o.key_path(key), i));
+}
+
+void require_finite_nonneg(double v, const JsonObject& o, const char* key) {
+  if (!(std::isfinite(v) && v >= 0.0)) throw ConfigError("must be >= 0", {o.source(), 0, 0, o.key_path(key)});
+}
+
+json noise_to_json(const ImuNoise& n) {
+  return json{{"gyro_noise_density", n.gyro_noise_density},
+              {"gyro_random_walk", n.gyro_random_walk},
+              {"accel_noise_density", n.accel_noise_density},
+              {"accel_random_walk", n.accel_random_walk}};
+}
+
+// Reads the four noise keys of `o` (each optional, default 0 = unknown).
+void read_noise(JsonObject& o, ImuNoise& n) {
+  o.get("gyro_noise_density", n.gyro_noise_density);
+  o.get("gyro_random_walk", n.gyro_random_walk);
+  o.get("accel_noise_density", n.accel_noise_density);
+  o.get("accel_random_walk", n.accel_random_walk);
+  require_finite_nonneg(n.gyro_noise_density, o, "gyro_noise_density");
+  require_finite_nonneg(n.gyro_random_walk, o, "gyro_random_walk");
+  require_finite_nonneg(n.accel_noise_density, o, "accel_noise_density");
+  require_finite_nonneg(n.accel_random_walk, o, "accel_random_walk");
+}
+
+// The stamp-ordered loaders share "absent file → empty stream".
+bool present(const fs::path& file) {
+  std::error_code ec;
+  return fs::is_regular_file(file, ec);
+}
+
+const std::vector<std::string>& imu_header() {
+  static const std::vector<std::string> h = {"timestamp [ns]",      "w_RS_S_x [rad s^-1]", "w_RS_S_y [rad s^-1]",
+                                             "w_RS_S_z [rad s^-1]", "a_RS_S_x [m s^-2]",   "a_RS_S_y [m s^-2]",
+                                             "a_RS_S_z [m s^-2]"};
+  return h;
+}
+const std::vector<std::string>& mocap_header() {
+  static const std::vector<std::string> h = {"timestamp [ns]", "p_RS_R_x [m]", "p_RS_R_y [m]", "p_RS_R_z [m]",
+                                             "q_RS_w []",      "q_RS_x []",    "q_RS_y []",    "q_RS_z []"};
+  return h;
+}
+// Exactly the EuRoC ground-truth header (state_groundtruth_estimate0), including its "#timestamp"
+// without unit; written with ", " separators like the original files.
+const std::vector<std::string>& groundtruth_header() {
+  static const std::vector<std::string> h = {
+      "timestamp",           "p_RS_R_x [m]",        "p_RS_R_y [m]",        "p_RS_R_z [m]",
+      "q_RS_w []",           "q_RS_x []",           "q_RS_y []",           "q_RS_z []",
+      "v_RS_R_x [m s^-1]",   "v_RS_R_y [m s^-1]",   "v_RS_R_z [m s^-1]",   "b_w_RS_S_x [rad s^-1]",
+      "b_w_RS_S_y [rad s^-1]", "b_w_RS_S_z [rad s^-1]", "b_a_RS_S_x [m s^-2]", "b_a_RS_S_y [m s^-2]",
+      "b_a_RS_S_z [m s^-2]"};
+  return h;
+}
+const std::vector<std::string>& detections_header(bool with_sigma) {
+  static const std::vector<std::string> base = {"timestamp_ns", "object_id", "tx", "ty", "tz",
+                                                "qx",           "qy",        "qz", "qw", "score"};
+  static const std::vector<std::string> full = [] {
+    auto h = base;
+    for (const char* s : {"sigma_tx", "sigma_ty", "sigma_tz", "sigma_rx", "sigma_ry", "sigma_rz"}) h.push_back(s);
+    return h;
+  }();
+  return with_sigma ? full : base;
+}
+
+// Header with the first column's accepted spellings.
+std::vector<std::string> with_stamp_alternatives(std::vector<std::string> h) {
+  h[0] = kStampNs;
+  return h;
+}
+
+}  // namespace
+
+// -------------------------------------------------------------------------------------------------
+// Paths
+// -------------------------------------------------------------------------------------------------
+
+fs::path manifest_path(const fs::path& d) { return d / "roe.json"; }
+fs::path imu_csv_path(const fs::path& d) { return d / "mav0" / "imu0" / "data.csv"; }
+fs::path cam_csv_path(const fs::path& d) { return d / "mav0" / "cam0" / "data.csv"; }
+fs::path cam_image_dir(const fs::path& d) { return d / "mav0" / "cam0" / "data"; }
+fs::path mocap_csv_path(const fs::path& d) { return d / "mav0" / "mocap0" / "data.csv"; }
+fs::path groundtruth_csv_path(const fs::path& d) { return d / "mav0" / "state_groundtruth_estimate0" / "data.csv"; }
+fs::path detections_dir(const fs::path& d, const std::string& name) { return d / "detections" / name; }
+
+// -------------------------------------------------------------------------------------------------
+// roe.json
+// -------------------------------------------------------------------------------------------------
+
+json manifest_to_json(const DatasetManifest& m) {
+  json j = json::object();
+  j["schema"] = m.schema;
+  j["name"] = m.name;
+  json sources = json::array();
+  for (const auto& s : m.sources) {
+    json o = {{"kind", s.kind}, {"path", s.path}, {"sha256", s.sha256}, {"options", json::object()}};
+    for (const auto& [k, v] : s.options) o["options"][k] = v;
+    sources.push_back(std::move(o));
+  }
+  j["sources"] = std::move(sources);
+  if (m.imu) {
+    json imu = noise_to_json(m.imu->noise);
+    imu["rate_hz"] = m.imu->rate_hz;
+    j["imu"] = std::move(imu);
+  }
+  if (m.camera) {
+    const auto& c = *m.camera;
+    j["camera"] = {{"width", c.width},
+                   {"height", c.height},
+                   {"fx", c.fx},
+                   {"fy", c.fy},
+                   {"cx", c.cx},
+                   {"cy", c.cy},
+                   {"distortion_model", c.distortion_model},
+                   {"distortion", c.distortion},
+                   {"T_I_C", pose_to_json(c.T_I_C)},
+                   {"time_offset_s", c.time_offset_s}};
+  }
+  if (m.mocap) {
+    j["mocap"] = {{"body", m.mocap->body},
+                  {"T_B_I", pose_to_json(m.mocap->T_B_I)},
+                  {"time_offset_s", m.mocap->time_offset_s}};
+  }
+  json objects = json::array();
+  for (const auto& o : m.objects) objects.push_back({{"id", o.id}, {"name", o.name}, {"symmetric", o.symmetric}});
+  j["objects"] = std::move(objects);
+  if (m.truth) {
+    const auto& t = *m.truth;
+    json tj = {{"T_I_C", pose_to_json(t.T_I_C)}, {"objects", json::array()}};
+    for (const auto& o : t.objects) tj["objects"].push_back({{"id", o.id}, {"T_W_O", pose_to_json(o.T_W_O)}});
+    if (t.imu_noise) tj["imu_noise"] = noise_to_json(*t.imu_noise);
+    tj["detection_noise"] = json::object();
+    for (const auto& [k, v] : t.detection_noise) tj["detection_noise"][k] = v;
+    j["truth"] = std::move(tj);
+  }
+  return j;
+}
+
+DatasetManifest manifest_from_json(const json& j, const std::string& source) {
+  DatasetManifest m;
+  JsonObject r(j, source);
+  std::string schema;
+  r.require("schema", schema);
+  if (schema != kDatasetSchema)
+    throw ConfigError(fmt::format("unsupported schema '{}' (expected '{}')", schema, kDatasetSchema),
+                      {source, 0, 0, "schema"});
+  m.schema = schema;
+  r.get("name", m.name);
+
+  for_each_element(r, "sources", [&](const json& e, const std::string& path) {
+    JsonObject s(e, source, path);
+    SourceRecord rec;
+    s.require("kind", rec.kind);
+    s.get("path", rec.path);
+    s.get("sha256", rec.sha256);
+    JsonObject opts = s.child("options");
+    if (const json* ov = s.raw("options"); ov && ov->is_object()) {
+      for (auto it = ov->begin(); it != ov->end(); ++it) {
+        std::string v;
+        opts.get(it.key().c_str(), v);
+        rec.options[it.key()] = v;
+      }
+    }
+    opts.finish();
+    s.finish();
+    m.sources.push_back(std::move(rec));
+  });
+
+  if (r.has("imu")) {
+    JsonObject o = r.child("imu");
+    ImuInfo imu;
+    o.require("rate_hz", imu.rate_hz);
+    if (!(std::isfinite(imu.rate_hz) && imu.rate_hz > 0.0))
+      throw ConfigError("must be > 0", {source, 0, 0, o.key_path("rate_hz")});
+    read_noise(o, imu.noise);
+    o.finish();
+    m.imu = imu;
+  } else {
+    (void)r.raw("imu");  // an explicit null counts as absent (not as an unknown key)
+  }
+
+  if (r.has("camera")) {
+    JsonObject o = r.child("camera");
+    CameraInfo c;
+    o.require("width", c.width);
+    o.require("height", c.height);
+    o.require("fx", c.fx);
+    o.require("fy", c.fy);
+    o.require("cx", c.cx);
+    o.require("cy", c.cy);
+    if (c.width <= 0) throw ConfigError("must be > 0", {source, 0, 0, o.key_path("width")});
+    if (c.height <= 0) throw ConfigError("must be > 0", {source, 0, 0, o.key_path("height")});
+    if (!(c.fx > 0.0)) throw ConfigError("must be > 0", {source, 0, 0, o.key_path("fx")});
+    if (!(c.fy > 0.0)) throw ConfigError("must be > 0", {source, 0, 0, o.key_path("fy")});
+    o.get("distortion_model", c.distortion_model);
+    o.get("distortion", c.distortion);
+    if (c.distortion_model == "none" && !c.distortion.empty())
+      throw ConfigError("distortion coefficients given for distortion_model 'none'",
+                        {source, 0, 0, o.key_path("distortion")});
+    c.T_I_C = optional_pose(o, "T_I_C");
+    o.get("time_offset_s", c.time_offset_s);
+    o.finish();
+    m.camera = c;
+  } else {
+    (void)r.raw("camera");
+  }
+
+  if (r.has("mocap")) {
+    JsonObject o = r.child("mocap");
+    MocapInfo mc;
+    o.get("body", mc.body);
+    mc.T_B_I = optional_pose(o, "T_B_I");
+    o.get("time_offset_s", mc.time_offset_s);
+    o.finish();
+    m.mocap = mc;
+  } else {
+    (void)r.raw("mocap");
+  }
+
+  std::set<int> ids;
+  for_each_element(r, "objects", [&](const json& e, const std::string& path) {
+    JsonObject o(e, source, path);
+    ObjectInfo obj;
+    o.require("id", obj.id);
+    o.get("name", obj.name);
+    o.get("symmetric", obj.symmetric);
+    o.finish();
+    if (!ids.insert(obj.id).second)
+      throw ConfigError(fmt::format("duplicate object id {}", obj.id), {source, 0, 0, o.key_path("id")});
+    m.objects.push_back(std::move(obj));
+  });
+
+  if (r.has("truth")) {
+    JsonObject o = r.child("truth");
+    Truth t;
+    t.T_I_C = required_pose(o, "T_I_C");
+    std::set<int> tids;
+    for_each_element(o, "objects", [&](const json& e, const std::string& path) {
+      JsonObject to(e, source, path);
+      TruthObject obj;
+      to.require("id", obj.id);
+      obj.T_W_O = required_pose(to, "T_W_O");
+      to.finish();
+      if (!tids.insert(obj.id).second)
+        throw ConfigError(fmt::format("duplicate object id {}", obj.id), {source, 0, 0, to.key_path("id")});
+      t.objects.push_back(obj);
+    });
+    if (o.has("imu_noise")) {
+      JsonObject n = o.child("imu_noise");
+      ImuNoise noise;
+      read_noise(n, noise);
+      n.finish();
+      t.imu_noise = noise;
+    } else {
+      (void)o.raw("imu_noise");
+    }
+    JsonObject dn = o.child("detection_noise");
+    if (const json* dv = o.raw("detection_noise"); dv && dv->is_object()) {
+      for (auto it = dv->begin(); it != dv->end(); ++it) {
+        double v = 0.0;
+        dn.get(it.key().c_str(), v);
+        t.detection_noise[it.key()] = v;
+      }
+    }
+    dn.finish();
+    o.finish();
+    m.truth = std::move(t);
+  } else {
+    (void)r.raw("truth");
+  }
+  r.finish();
+  return m;
+}
+
+DatasetManifest read_manifest(const fs::path& dataset) {
+  const fs::path file = manifest_path(dataset);
+  if (!present(file))
+    throw InputError("not a roe dataset folder (no roe.json; create one with roe import or roe simulate)",
+                     {file.string()});
+  return manifest_from_json(parse_json_file(file), file.string());
+}
+
+void write_manifest(const DatasetManifest& m, const fs::path& file) {
+  write_file_atomic(file, manifest_to_json(m).dump(2) + "\n");
+}
+
+// -------------------------------------------------------------------------------------------------
+// Streams
+// -------------------------------------------------------------------------------------------------
+
+std::vector<ImuSample> read_imu_csv(const fs::path& file) {
+  CsvReader r(file, stream_options(with_stamp_alternatives(imu_header())));
+  std::vector<ImuSample> out;
+  while (r.next()) {
+    ImuSample s;
+    s.t_ns = r.get_int64(0);
+    s.gyro = read_vec3(r, 1);
+    s.accel = read_vec3(r, 4);
+    out.push_back(s);
+  }
+  return out;
+}
+
+void write_imu_csv(const fs::path& file, const std::vector<ImuSample>& imu) {
+  check_sorted(imu, file, true);
+  CsvWriter w;
+  w.header(imu_header(), "#");
+  for (const auto& s : imu) {
+    check_finite(s.gyro, "gyro");
+    check_finite(s.accel, "accel");
+    w.add(s.t_ns);
+    add_vec3(w, s.gyro);
+    add_vec3(w, s.accel);
+    w.end_row();
+  }
+  w.write(file);
+}
+
+std::vector<CameraFrame> read_cam_csv(const fs::path& file) {
+  CsvReader r(file, stream_options({kStampNs, "filename"}));
+  std::vector<CameraFrame> out;
+  while (r.next()) {
+    CameraFrame f;
+    f.t_ns = r.get_int64(0);
+    f.filename = r.get_string(1);
+    if (f.filename.find('/') != std::string::npos || f.filename == "..")
+      throw r.error(1, "filename must be a plain name inside cam0/data/: '" + f.filename + "'");
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+void write_cam_csv(const fs::path& file, const std::vector<CameraFrame>& frames) {
+  check_sorted(frames, file, true);
+  CsvWriter w;
+  w.header({"timestamp [ns]", "filename"}, "#");
+  for (const auto& f : frames) w.add(f.t_ns).add(f.filename).end_row();
+  w.write(file);
+}
+
+std::vector<StampedPose> read_mocap_csv(const fs::path& file) {
+  CsvReader r(file, stream_options(with_stamp_alternatives(mocap_header())));
+  std::vector<StampedPose> out;
+  while (r.next()) {
+    StampedPose s;
+    s.t_ns = r.get_int64(0);
+    s.T = make_pose(read_quat(r, 5, 6, 7, 4), read_vec3(r, 1));
+    out.push_back(s);
+  }
+  return out;
+}
+
+void write_mocap_csv(const fs::path& file, const std::vector<StampedPose>& poses) {
+  check_sorted(poses, file, true);
+  CsvWriter w;
+  w.header(mocap_header(), "#");
+  for (const auto& s : poses) {
+    check_finite(s.T.p, "position");
+    w.add(s.t_ns);
+    add_vec3(w, s.T.p);
+    add_quat_wxyz(w, s.T.q);
+    w.end_row();
+  }
+  w.write(file);
+}
+
+std::vector<ImuState> read_groundtruth_csv(const fs::path& file) {
+  CsvReader r(file, stream_options(with_stamp_alternatives(groundtruth_header())));
+  std::vector<ImuState> out;
+  while (r.next()) {
+    ImuState s;
+    s.t_ns = r.get_int64(0);
+    s.T_W_I = make_pose(read_quat(r, 5, 6, 7, 4), read_vec3(r, 1));
+    s.v_W_I = read_vec3(r, 8);
+    s.b_g = read_vec3(r, 11);
+    s.b_a = read_vec3(r, 14);
+    out.push_back(s);
+  }
+  return out;
+}
+
+void write_groundtruth_csv(const fs::path& file, const std::vector<ImuState>& states) {
+  check_sorted(states, file, true);
+  // The EuRoC spelling: "#timestamp, p_RS_R_x [m], ..." (", " between names).
+  CsvWriter w;
+  const auto& h = groundtruth_header();
+  std::vector<std::string> spaced = h;
+  for (std::size_t i = 1; i < spaced.size(); ++i) spaced[i] = " " + spaced[i];
+  w.header(spaced, "#");
+  for (const auto& s : states) {
+    check_finite(s.T_W_I.p, "position");
+    check_finite(s.v_W_I, "velocity");
+    check_finite(s.b_g, "gyro bias");
+    check_finite(s.b_a, "accel bias");
+    w.add(s.t_ns);
+    add_vec3(w, s.T_W_I.p);
+    add_quat_wxyz(w, s.T_W_I.q);
+    add_vec3(w, s.v_W_I);
+    add_vec3(w, s.b_g);
+    add_vec3(w, s.b_a);
+    w.end_row();
+  }
+  w.write(file);
+}
+
+std::vector<Detection> read_detections_csv(const fs::path& file) {
+  // The header decides whether the six sigma columns are present.
+  CsvOptions o;
+  o.stamp_column = 0;
+  o.stamp_order = StampOrder::kNonDecreasing;
+  CsvReader r(file, o);
+  const bool with_sigma = r.header().size() == detections_header(true).size();
+  const auto& expected = detections_header(with_sigma);
+  for (std::size_t c = 0; c < std::min(expected.size(), r.header().size()); ++c) {
+    if (r.header()[c] != expected[c])
+      throw InputError(fmt::format("unexpected header: column is '{}', expected '{}'", r.header()[c], expected[c]),
+                       {file.string(), r.header_line(), static_cast<std::int64_t>(c + 1)});
+  }
+  if (r.header().size() != expected.size())
+    throw InputError(fmt::format("unexpected header: {} columns, expected {} (or {} with the six sigma columns)",
+                                 r.header().size(), detections_header(false).size(),
+                                 detections_header(true).size()),
+                     {file.string(), r.header_line(),
+                      static_cast<std::int64_t>(std::min(r.header().size(), expected.size()) + 1)});
+
+  std::vector<Detection> out;
+  std::set<int> ids_at_stamp;
+  Timestamp stamp = 0;
+  while (r.next()) {
+    Detection d;
+    d.t_ns = r.get_int64(0);
+    d.object_id = r.get_int(1);
+    if (d.object_id < 0) throw r.error(1, "object_id must be >= 0");
+    if (out.empty() || d.t_ns != stamp) {
+      ids_at_stamp.clear();
+      stamp = d.t_ns;
+    }
+    if (!ids_at_stamp.insert(d.object_id).second)
+      throw r.error(1, fmt::format("duplicate detection of object {} at timestamp {}", d.object_id, d.t_ns));
+    d.T_C_O = make_pose(read_quat(r, 5, 6, 7, 8), read_vec3(r, 2));
+    d.score = r.get_double_or_nan(9);
+    if (with_sigma) {
+      std::size_t empty = 0;
+      for (std::size_t c = 10; c < 16; ++c) empty += r.is_empty(c) ? 1 : 0;
+      if (empty != 0 && empty != 6)
+        throw r.row_error("sigma columns must be all empty or all given");
+      if (empty == 0) {
+        Vector6d s;
+        for (int k = 0; k < 6; ++k) {
+          s[k] = r.get_double(10 + k);
+          if (!(s[k] > 0.0)) throw r.error(10 + k, "sigma must be > 0");
+        }
+        d.sigma = s;
+      }
+    }
+    out.push_back(d);
+  }
+  return out;
+}
+
+void write_detections_csv(const fs::path& file, const std::vector<Detection>& detections) {
+  check_sorted(detections, file, false);
+  const bool with_sigma =
+      std::any_of(detections.begin(), detections.end(), [](const Detection& d) { return d.sigma.has_value(); });
+  CsvWriter w;
+  w.header(detections_header(with_sigma));
+  for (std::size_t i = 0; i < detections.size(); ++i) {
+    const auto& d = detections[i];
+    for (std::size_t k = 0; k < i && detections[i - 1 - k].t_ns == d.t_ns; ++k)
+      ROE_CHECK(detections[i - 1 - k].object_id != d.object_id,
+                fmt::format("{}: duplicate detection of object {} at {}", file.string(), d.object_id, d.t_ns));
+    check_finite(d.T_C_O.p, "translation");
+    ROE_CHECK(!std::isinf(d.score), "infinite detection score");
+    w.add(d.t_ns).add(d.object_id);
+    add_vec3(w, d.T_C_O.p);
+    w.add(d.T_C_O.q.x()).add(d.T_C_O.q.y()).add(d.T_C_O.q.z()).add(d.T_C_O.q.w());
+    if (std::isnan(d.score)) w.add_empty();
+    else w.add(d.score);
+    if (with_sigma) {
+      for (int k = 0; k < 6; ++k) {
+        if (d.sigma) {
+          ROE_CHECK(std::isfinite((*d.sigma)[k]) && (*d.sigma)[k] > 0.0, "sigma must be finite and > 0");
+          w.add((*d.sigma)[k]);
+        } else {
+          w.add_empty();
+        }
+      }
+    }
+    w.end_row();
+  }
+  w.write(file);
+}
+
+// -------------------------------------------------------------------------------------------------
+// Whole folder
+// -------------------------------------------------------------------------------------------------
+
+Dataset read_dataset(const fs::path& dataset, const DatasetParts& parts) {
+  std::error_code ec;
+  if (!fs::is_directory(dataset, ec)) throw InputError("dataset folder not found", {dataset.string()});
+  Dataset d;
+  d.manifest = read_manifest(dataset);
+  if (parts.imu && present(imu_csv_path(dataset))) d.imu = read_imu_csv(imu_csv_path(dataset));
+  if (parts.frames && present(cam_csv_path(dataset))) d.frames = read_cam_csv(cam_csv_path(dataset));
+  if (parts.mocap && present(mocap_csv_path(dataset))) d.mocap = read_mocap_csv(mocap_csv_path(dataset));
+  if (parts.groundtruth && present(groundtruth_csv_path(dataset)))
+    d.groundtruth = read_groundtruth_csv(groundtruth_csv_path(dataset));
+  if (parts.detections) {
+    std::vector<std::string> available;
+    const fs::path root = dataset / "detections";
+    if (fs::is_directory(root, ec)) {
+      for (const auto& e : fs::directory_iterator(root, ec))
+        if (e.is_directory() && present(e.path() / "detections.csv")) available.push_back(e.path().filename().string());
+    }
+    std::sort(available.begin(), available.end());  // deterministic order
+    std::vector<std::string> names = parts.detection_names.empty() ? available : parts.detection_names;
+    for (const auto& n : names) {
+      if (std::find(available.begin(), available.end(), n) == available.end()) {
+        std::string list;
+        for (const auto& a : available) list += (list.empty() ? "" : ", ") + a;
+        throw InputError(fmt::format("no detections named '{}' in this dataset (available: {})", n,
+                                     list.empty() ? "none" : list),
+                         {detections_dir(dataset, n).string()});
+      }
+      d.detections[n] = read_detections_csv(detections_dir(dataset, n) / "detections.csv");
+    }
+  }
+  return d;
+}
+
+void write_dataset_files(const Dataset& d, const fs::path& root) {
+  if (!d.imu.empty()) write_imu_csv(imu_csv_path(root), d.imu);
+  if (!d.frames.empty()) write_cam_csv(cam_csv_path(root), d.frames);
+  if (!d.mocap.empty()) write_mocap_csv(mocap_csv_path(root), d.mocap);
+  if (!d.groundtruth.empty()) write_groundtruth_csv(groundtruth_csv_path(root), d.groundtruth);
+  for (const auto& [name, dets] : d.detections) {
+    ROE_CHECK(!name.empty() && name.find('/') == std::string::npos && name != "." && name != "..",
+              "invalid detection set name '" + name + "'");
+    // An empty set is still written (header only): "ran, found nothing" differs from "not run".
+    write_detections_csv(detections_dir(root, name) / "detections.csv", dets);
+  }
+  write_manifest(d.manifest, manifest_path(root));
+}
+
+void write_dataset(const Dataset& d, const fs::path& dataset, bool force) {
+  OutputDir out(dataset, force);
+  write_dataset_files(d, out.tmp());
+  out.commit();
+}
+
+}  // namespace roe::io
