@@ -6,8 +6,17 @@
 namespace roe::math {
 
 Vector3d euler_zyx(const Matrix3d& R) {
+  // cos(pitch) from the first column (hypot keeps it accurate), pitch by atan2 (asin loses
+  // precision near ±90°).
+  const double cos_pitch = std::hypot(R(0, 0), R(1, 0));
+  const double pitch = std::atan2(-R(2, 0), cos_pitch);
+  if (cos_pitch < kGimbalLockCos) {
+    // Gimbal lock: only yaw − roll (pitch = +90°) or yaw + roll (pitch = −90°) is defined, and the
+    // generic atan2s below would divide rounding noise by cos(pitch). Take roll = 0; then
+    // R01 = −sin(yaw), R11 = cos(yaw) for either sign of pitch.
+    return {0.0, pitch, std::atan2(-R(0, 1), R(1, 1))};
+  }
   const double roll = std::atan2(R(2, 1), R(2, 2));
-  const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
   const double yaw = std::atan2(R(1, 0), R(0, 0));
   return {roll, pitch, yaw};
 }

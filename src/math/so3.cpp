@@ -4,6 +4,14 @@
 #include <cmath>
 
 namespace roe::math {
+namespace {
+// 1 − cos θ without cancellation: 1 − cos θ loses all but ~4 digits just above kSmallAngle
+// (cos θ ≈ 1 − 6e-13 at θ = 1.1e-6), which made Jr's first-order term wrong by ~1e-10.
+double one_minus_cos(double theta) {
+  const double s = std::sin(0.5 * theta);
+  return 2.0 * s * s;
+}
+}  // namespace
 
 Matrix3d skew(const Vector3d& v) {
   Matrix3d m;
@@ -22,7 +30,7 @@ Matrix3d exp_so3(const Vector3d& phi) {
     return Matrix3d::Identity() + K + 0.5 * K * K;
   }
   const double a = std::sin(theta) / theta;
-  const double b = (1.0 - std::cos(theta)) / (theta * theta);
+  const double b = one_minus_cos(theta) / (theta * theta);
   return Matrix3d::Identity() + a * K + b * K * K;
 }
 
@@ -61,7 +69,7 @@ Matrix3d right_jacobian(const Vector3d& phi) {
     return Matrix3d::Identity() - 0.5 * K + (1.0 / 6.0) * K * K;
   }
   const double t2 = theta * theta;
-  return Matrix3d::Identity() - ((1.0 - std::cos(theta)) / t2) * K +
+  return Matrix3d::Identity() - (one_minus_cos(theta) / t2) * K +
          ((theta - std::sin(theta)) / (t2 * theta)) * K * K;
 }
 

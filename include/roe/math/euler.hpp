@@ -6,8 +6,13 @@
 
 namespace roe::math {
 
+/// Below this |cos(pitch)| euler_zyx treats the rotation as gimbal-locked (roll := 0). Chosen near
+/// √ε so that both the generic and the locked formulas reproduce R to about 1e-8.
+inline constexpr double kGimbalLockCos = 1e-8;
+
 /// (roll, pitch, yaw) in radians of R = Rz(yaw) Ry(pitch) Rx(roll):
-/// roll = atan2(R21, R22), pitch = asin(−R20) (clamped), yaw = atan2(R10, R00).
+/// roll = atan2(R21, R22), pitch = atan2(−R20, hypot(R00, R10)), yaw = atan2(R10, R00);
+/// at gimbal lock (|cos pitch| < kGimbalLockCos) roll = 0 and yaw = atan2(−R01, R11).
 /// roll and yaw are in [-π, π], pitch in [-π/2, π/2].
 Vector3d euler_zyx(const Matrix3d& R);
 /// The rotation of (roll, pitch, yaw) radians.
