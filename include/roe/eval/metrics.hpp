@@ -1,0 +1,82 @@
+#pragma once
+/// @file
+/// Absolute pose error (APE) metrics of matched, aligned pose pairs (notes/eval.md §1, §5, §7).
+///
+/// Per pair i (estimate already aligned):
+///   translation error  e_p = p_est − p_gt  (evo trans_part; norm = APE translation),
+///   rotation error     R_e = R_estᵀ · R_gt (evo's E_i = P_est⁻¹ P_ref, cnspy type5),
+///   angle              |Log(R_e)| in degrees (evo rotation_angle_deg),
+///   Euler              ZYX of R_e: R_e = Rz(yaw) Ry(pitch) Rx(roll), each wrapped to [-180°, 180°).
+/// Statistics use evo's keys and definitions: rmse = √(Σe²/n), mean, median (average of the two
+/// middle values for even n), std = population standard deviation (ddof 0), min, max, sse = Σe².
+/// ARMSE_p / ARMSE_R are cnspy's report values: the MEAN of the per-pair norms (not an RMSE).
+
+#include <Eigen/Core>
+#include <optional>
+#include <vector>
+
+#include "roe/core/types.hpp"
+
+namespace roe::eval {
+
+struct Stats {
+  double rmse = 0.0, mean = 0.0, median = 0.0, std = 0.0, min = 0.0, max = 0.0, sse = 0.0;
+  std::size_t n = 0;
+};
+
+/// Statistics of `values` (copied: the median sorts). All zero for an empty input.
+Stats compute_stats(std::vector<double> values);
+
+/// Per-column RMSE √(Σ v_i² / n) of 3-vectors.
+Eigen::Vector3d rmse_per_axis(const std::vector<Eigen::Vector3d>& v);
+
+/// The errors of one pair.
+struct PoseError {
+  Eigen::Vector3d dp = Eigen::Vector3d::Zero();               ///< p_est − p_gt (m)
+  Eigen::Quaterniond q_err = Eigen::Quaterniond::Identity();  ///< R_estᵀ R_gt, w ≥ 0
+  Eigen::Vector3d rpy_deg = Eigen::Vector3d::Zero();          ///< ZYX Euler of q_err, each in [-180, 180)
+  double angle_deg = 0.0;                                     ///< |Log(R_estᵀ R_gt)| (deg)
+};
+
+PoseError pose_error(const Pose& est, const Pose& gt);
+
+/// Position and orientation covariance of an estimate pose. Position: in the estimate's world
+/// frame; orientation: of the local (right) error δθ with R_true = R_est · Exp(δθ) (roe's error
+/// state), in radians².
+struct PoseCovariance {
+  Eigen::Matrix3d P_p = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d P_theta = Eigen::Matrix3d::Zero();
+};
+
+/// NEES of one pair: position e_pᵀ P_p⁻¹ e_p and orientation δθᵀ P_θ⁻¹ δθ with δθ = Log(R_estᵀ R_gt).
+/// NaN when the covariance block is not positive definite.
+struct Nees {
+  double pos = 0.0;
+  double rot = 0.0;
+};
+Nees pose_nees(const Pose& est, const Pose& gt, const PoseCovariance& cov);
+
+/// Everything roe eval reports for one set of matched, aligned pairs.
+struct ApeResult {
+  std::vector<PoseError> errors;                           ///< one per pair
+  Stats trans_m;                                           ///< of |e_p|
+  Stats rot_deg;                                           ///< of the rotation angle
+  Eigen::Vector3d pos_rmse_m = Eigen::Vector3d::Zero();    ///< per-axis RMSE of e_p
+  Eigen::Vector3d rpy_rmse_deg = Eigen::Vector3d::Zero();  ///< per-axis RMSE of the wrapped Euler
+  Eigen::Vector3d pos_mean_m = Eigen::Vector3d::Zero();    ///< per-axis mean of e_p (≈0 after Umeyama)
+  double armse_p_m = 0.0;                                  ///< cnspy ARMSE_p = mean |e_p|
+  double armse_r_deg = 0.0;                                ///< cnspy ARMSE_R = mean angle
+  /// Per-pair NEES and their means (ANEES) when covariances were given.
+  std::vector<Nees> nees;
+  std::optional<double> anees_p, anees_r;
+};
+
+/// APE of aligned estimate poses against ground truth (same size; InputError otherwise).
+/// `cov` (empty, or one per pair, already rotated into the aligned frame) adds NEES.
+ApeResult compute_ape(const std::vector<Pose>& est_aligned, const std::vector<Pose>& gt,
+                      const std::vector<PoseCovariance>& cov = {});
+
+/// Rotates a covariance into the aligned frame: P_p' = s² R P_p Rᵀ; P_θ is local and unchanged.
+PoseCovariance align_covariance(const PoseCovariance& c, const Eigen::Matrix3d& R, double s);
+
+}  // namespace roe::eval

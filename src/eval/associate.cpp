@@ -1,0 +1,211 @@
+#include "roe/eval/associate.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "roe/core/error.hpp"
+
+namespace roe::eval {
+
+std::string to_string(AssocPolicy p) { return p == AssocPolicy::kUnique ? "unique" : "nearest"; }
+
+AssocPolicy parse_assoc_policy(const std::string& name) {
+  if (name == "nearest") return AssocPolicy::kNearest;
+  if (name == "unique") return AssocPolicy::kUnique;
+  throw InputError(fmt::format("unknown association policy '{}' (expected nearest or unique)", name),
+                   {"", 0, 0, "assoc"});
+}
+
+namespace {
+
+void check_sorted(const std::vector<Timestamp>& t, const char* which) {
+  for (std::size_t i = 1; i < t.size(); ++i) {
+    if (t[i] < t[i - 1]) {
+      throw InputError(
+          fmt::format("{} stamps decrease at pose {} ({:.9f} s after {:.9f} s); sort the file first", which,
+                      i + 1, to_seconds(t[i]), to_seconds(t[i - 1])));
+    }
+  }
+}
+
+Timestamp seconds_to_ns_checked(double s, const char* what) {
+  if (!std::isfinite(s) || std::abs(s) > 9.0e9) {
+    throw InputError(fmt::format("{} = {} s is not a usable time", what, s), {"", 0, 0, what});
+  }
+  return from_seconds(s);
+}
+
+/// Index of the element of sorted `s` (+ shift) nearest to `t`; on equal distance the earlier one,
+/// and for a run of equal stamps its first element (numpy argmin semantics).
+std::size_t nearest(const std::vector<Timestamp>& s, Timestamp shift, Timestamp t) {
+  // lower_bound on s[i] + shift >= t  <=>  s[i] >= t - shift
+  const Timestamp key = t - shift;
+  auto it = std::lower_bound(s.begin(), s.end(), key);
+  std::size_t j = static_cast<std::size_t>(it - s.begin());
+  if (j == s.size()) {
+    j = s.size() - 1;
+  } else if (j > 0) {
+    const Timestamp d_next = s[j] - key;
+    const Timestamp d_prev = key - s[j - 1];
+    if (d_prev <= d_next) j = j - 1;
+  }
+  const Timestamp v = s[j];
+  while (j > 0 && s[j - 1] == v) --j;
+  return j;
+}
+
+std::size_t count_duplicates(const std::vector<Timestamp>& t) {
+  std::size_t n = 0;
+  for (std::size_t i = 1; i < t.size(); ++i) n += (t[i] == t[i - 1]);
+  return n;
+}
+
+/// first index of the run of equal stamps each index belongs to
+std::vector<std::size_t> run_ids(const std::vector<Timestamp>& t) {
+  std::vector<std::size_t> r(t.size());
+  for (std::size_t i = 0; i < t.size(); ++i) r[i] = (i > 0 && t[i] == t[i - 1]) ? r[i - 1] : i;
+  return r;
+}
+
+}  // namespace
+
+Association associate(const std::vector<Timestamp>& t_est, const std::vector<Timestamp>& t_gt,
+                      const AssociationOptions& options) {
+  if (!std::isfinite(options.max_dt_s) || options.max_dt_s < 0.0) {
+    throw InputError(fmt::format("max_dt must be a finite value ≥ 0, got {}", options.max_dt_s),
+                     {"", 0, 0, "max_dt"});
+  }
+  check_sorted(t_est, "estimate");
+  check_sorted(t_gt, "ground-truth");
+  const Timestamp max_dt = seconds_to_ns_checked(options.max_dt_s, "max_dt");
+  const Timestamp offset = seconds_to_ns_checked(options.offset_s, "t_offset");
+
+  Association a;
+  a.n_duplicate_est = count_duplicates(t_est);
+  a.n_duplicate_gt = count_duplicates(t_gt);
+  if (t_est.empty() || t_gt.empty()) return a;
+
+  // evo: iterate over the shorter trajectory (the estimate when both have the same length).
+  const bool est_short = t_est.size() <= t_gt.size();
+  const std::size_t n_short = est_short ? t_est.size() : t_gt.size();
+  a.est_index.reserve(n_short);
+  a.gt_index.reserve(n_short);
+  a.dt_ns.reserve(n_short);
+  for (std::size_t k = 0; k < n_short; ++k) {
+    std::size_t ie, ig;
+    if (est_short) {
+      ie = k;
+      ig = nearest(t_gt, 0, t_est[k] + offset);
+    } else {
+      ig = k;
+      ie = nearest(t_est, offset, t_gt[k]);
+    }
+    const Timestamp dt = t_gt[ig] - (t_est[ie] + offset);
+    if (std::abs(dt) <= max_dt) {
+      a.est_index.push_back(ie);
+      a.gt_index.push_back(ig);
+      a.dt_ns.push_back(dt);
+    }
+  }
+
+  if (options.policy == AssocPolicy::kUnique && !a.est_index.empty()) {
+    const std::size_t n = a.est_index.size();
+    std::vector<std::size_t> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+      return std::abs(a.dt_ns[x]) < std::abs(a.dt_ns[y]);
+    });
+    const auto est_run = run_ids(t_est);
+    const auto gt_run = run_ids(t_gt);
+    std::vector<char> used_est(t_est.size(), 0), used_gt(t_gt.size(), 0), keep(n, 0);
+    for (std::size_t k : order) {
+      const std::size_t re = est_run[a.est_index[k]], rg = gt_run[a.gt_index[k]];
+      if (used_est[re] || used_gt[rg]) continue;
+      used_est[re] = used_gt[rg] = 1;
+      keep[k] = 1;
+    }
+    Association u;
+    u.n_duplicate_est = a.n_duplicate_est;
+    u.n_duplicate_gt = a.n_duplicate_gt;
+    for (std::size_t k = 0; k < n; ++k) {
+      if (!keep[k]) continue;
+      u.est_index.push_back(a.est_index[k]);
+      u.gt_index.push_back(a.gt_index[k]);
+      u.dt_ns.push_back(a.dt_ns[k]);
+    }
+    u.n_dropped_unique = n - u.size();
+    return u;
+  }
+  return a;
+}
+
+std::string explain_no_match(const std::vector<Timestamp>& t_est, const std::vector<Timestamp>& t_gt,
+                             const AssociationOptions& options) {
+  if (t_est.empty()) return "the estimate has no poses";
+  if (t_gt.empty()) return "the ground truth has no poses";
+  const Timestamp offset = seconds_to_ns_checked(options.offset_s, "t_offset");
+  const auto [emin, emax] = std::minmax_element(t_est.begin(), t_est.end());
+  const auto [gmin, gmax] = std::minmax_element(t_gt.begin(), t_gt.end());
+  const double e0 = to_seconds(*emin + offset), e1 = to_seconds(*emax + offset);
+  const double g0 = to_seconds(*gmin), g1 = to_seconds(*gmax);
+  // Closest distance over all estimate stamps (gt sorted: binary search).
+  std::vector<Timestamp> gs(t_gt);
+  std::sort(gs.begin(), gs.end());
+  Timestamp best = std::numeric_limits<Timestamp>::max();
+  for (Timestamp te : t_est) {
+    const std::size_t j = nearest(gs, 0, te + offset);
+    best = std::min(best, static_cast<Timestamp>(std::abs(gs[j] - (te + offset))));
+  }
+  std::string msg = fmt::format(
+      "no estimate stamp is within max_dt = {} s of a ground-truth stamp (t_offset = {} s). "
+      "Estimate stamps (with offset) span [{:.6f}, {:.6f}] s ({} poses), ground truth [{:.6f}, {:.6f}] s "
+      "({} poses); the closest pair is {:.6g} s apart.",
+      options.max_dt_s, options.offset_s, e0, e1, t_est.size(), g0, g1, t_gt.size(), to_seconds(best));
+  // Likely causes.
+  const double me = std::max(std::abs(e0), std::abs(e1)), mg = std::max(std::abs(g0), std::abs(g1));
+  // A unit mix-up shows as ranges that line up once one of them is scaled by 1e3, 1e6 or 1e9.
+  if (me > 0.0 && mg > 0.0) {
+    for (int p : {3, 6, 9}) {
+      for (int sign : {1, -1}) {
+        const double f = std::pow(10.0, sign * p);
+        const double s0 = e0 * f, s1 = e1 * f;
+        const double tol = 0.01 * std::max(std::abs(g0), std::abs(s0)) + (g1 - g0);
+        if (std::abs(s0 - g0) <= tol || (s0 <= g1 && g0 <= s1 && std::abs(s0 - g0) <= 0.5 * std::abs(g0))) {
+          const char* unit = p == 9 ? "nanoseconds" : p == 6 ? "microseconds" : "milliseconds";
+          msg += fmt::format(
+              " The {} stamps line up with the {} stamps only when scaled by 1e{}: one file probably "
+              "stores {} where seconds are expected (ns vs s mix-up); convert it or pass the right "
+              "--est-format/--gt-format.",
+              sign > 0 ? "estimate" : "ground-truth", sign > 0 ? "ground-truth" : "estimate", p, unit);
+          return msg;
+        }
+      }
+    }
+  }
+  const bool overlap = e0 <= g1 && g0 <= e1;
+  if (!overlap) {
+    const bool e_rel = me < 1e6, g_rel = mg < 1e6;
+    if (e_rel != g_rel) {
+      msg += fmt::format(
+          " The time ranges do not overlap and the {} starts near 0: it probably uses time since start "
+          "while the other uses absolute (epoch) time; try --t-offset {:.9f}.",
+          e_rel ? "estimate" : "ground truth", g0 - e0 + options.offset_s);
+    } else {
+      msg += fmt::format(
+          " The time ranges do not overlap (different clocks or recordings?); if the clocks differ by a "
+          "constant, pass it as --t-offset (e.g. {:.9f} aligns the starts).",
+          g0 - e0 + options.offset_s);
+    }
+  } else {
+    msg +=
+        " The ranges overlap, so the stamps are sparser than max_dt or offset by a constant: increase "
+        "--max-dt or set --t-offset.";
+  }
+  return msg;
+}
+
+}  // namespace roe::eval

@@ -1,0 +1,142 @@
+// Association edge cases: evo's nearest-neighbour rule, offsets, gaps, duplicates, the unique
+// policy, and the no-match diagnosis (ns vs s, relative vs absolute time).
+#include <catch2/catch.hpp>
+
+#include "roe/core/error.hpp"
+#include "roe/eval/associate.hpp"
+
+using namespace roe;
+using namespace roe::eval;
+
+namespace {
+std::vector<Timestamp> seq(Timestamp t0, Timestamp step, int n) {
+  std::vector<Timestamp> t;
+  for (int i = 0; i < n; ++i) t.push_back(t0 + step * i);
+  return t;
+}
+constexpr Timestamp ms = 1'000'000;
+}  // namespace
+
+TEST_CASE("associate: exact and jittered stamps", "[eval][assoc]") {
+  const auto gt = seq(1000 * ms, 10 * ms, 100);  // 100 Hz
+  std::vector<Timestamp> est;
+  for (int i = 0; i < 20; ++i) est.push_back(gt[5 * i] + ((i % 3) - 1) * 2 * ms);  // ±2 ms jitter
+  const Association a = associate(est, gt);
+  REQUIRE(a.size() == 20);
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    CHECK(a.est_index[k] == k);
+    CHECK(a.gt_index[k] == 5 * k);
+    CHECK(a.dt_ns[k] == gt[5 * k] - est[k]);
+  }
+}
+
+TEST_CASE("associate: |dt| == max_dt is accepted (evo), just above is not", "[eval][assoc]") {
+  const std::vector<Timestamp> gt{0, 100 * ms};
+  const std::vector<Timestamp> est{10 * ms, 100 * ms + 10 * ms + 1};
+  const Association a = associate(est, gt, {0.01, 0.0, AssocPolicy::kNearest});
+  REQUIRE(a.size() == 1);
+  CHECK(a.est_index[0] == 0);
+  CHECK(a.dt_ns[0] == -10 * ms);
+}
+
+TEST_CASE("associate: offset is added to the estimate stamps", "[eval][assoc]") {
+  const auto gt = seq(5000 * ms, 10 * ms, 50);
+  std::vector<Timestamp> est;
+  for (Timestamp t : seq(5000 * ms, 20 * ms, 10)) est.push_back(t - 250 * ms);  // estimate clock 0.25 s early
+  CHECK(associate(est, gt).size() == 0);
+  const Association a = associate(est, gt, {0.001, 0.25, AssocPolicy::kNearest});
+  REQUIRE(a.size() == 10);
+  for (std::size_t k = 0; k < 10; ++k) {
+    CHECK(a.gt_index[k] == 2 * k);
+    CHECK(a.dt_ns[k] == 0);
+  }
+}
+
+TEST_CASE("associate: gaps drop pairs, the longer list is searched", "[eval][assoc]") {
+  // ground truth with a hole between 1 s and 2 s
+  std::vector<Timestamp> gt = seq(0, 10 * ms, 101);
+  for (Timestamp t : seq(2000 * ms, 10 * ms, 101)) gt.push_back(t);
+  const auto est = seq(0, 100 * ms, 31);  // 0 .. 3 s at 10 Hz
+  const Association a = associate(est, gt);
+  // stamps 1.1 .. 1.9 s fall in the hole; 1.0 and 2.0 s still match
+  CHECK(a.size() == 31 - 9);
+  for (std::size_t k = 0; k < a.size(); ++k) CHECK(a.dt_ns[k] == 0);
+
+  // Estimate longer than GT: iterate over GT, estimate poses may repeat.
+  const auto dense = seq(0, 1 * ms, 1001);
+  const std::vector<Timestamp> sparse{0, 500 * ms, 1000 * ms};
+  const Association b = associate(dense, sparse);
+  REQUIRE(b.size() == 3);
+  CHECK(b.est_index == std::vector<std::size_t>{0, 500, 1000});
+  CHECK(b.gt_index == std::vector<std::size_t>{0, 1, 2});
+}
+
+TEST_CASE("associate: ties pick the earlier stamp (numpy argmin)", "[eval][assoc]") {
+  const std::vector<Timestamp> gt{0, 10 * ms, 20 * ms, 30 * ms};
+  const std::vector<Timestamp> est{5 * ms};
+  const Association a = associate(est, gt);
+  REQUIRE(a.size() == 1);
+  CHECK(a.gt_index[0] == 0);
+}
+
+TEST_CASE("associate: duplicated stamps, nearest vs unique", "[eval][assoc]") {
+  const auto gt = seq(0, 5 * ms, 400);
+  // estimate with two duplicated stamps carrying different poses (evo's V1_02 test estimate has 4)
+  std::vector<Timestamp> est{100 * ms, 200 * ms, 200 * ms, 300 * ms, 400 * ms, 400 * ms, 500 * ms};
+  const Association near = associate(est, gt);
+  CHECK(near.size() == 7);  // evo keeps both poses of each duplicate
+  CHECK(near.n_duplicate_est == 2);
+  CHECK(near.gt_index[1] == near.gt_index[2]);
+  const Association uniq = associate(est, gt, {0.01, 0.0, AssocPolicy::kUnique});
+  CHECK(uniq.size() == 5);  // cnspy keeps the first pose of each duplicate
+  CHECK(uniq.n_dropped_unique == 2);
+  CHECK(uniq.est_index == std::vector<std::size_t>{0, 1, 3, 4, 6});
+
+  // unique: two estimate stamps competing for one GT pose → the closer one wins
+  const std::vector<Timestamp> g2{0, 100 * ms, 200 * ms};
+  const std::vector<Timestamp> e2{96 * ms, 99 * ms};
+  const Association u2 = associate(e2, g2, {0.01, 0.0, AssocPolicy::kUnique});
+  REQUIRE(u2.size() == 1);
+  CHECK(u2.est_index[0] == 1);
+  CHECK(associate(e2, g2).size() == 2);
+
+  // duplicates in the longer list: the first of the run is used
+  const std::vector<Timestamp> g3{0, 10 * ms, 10 * ms, 20 * ms};
+  const Association a3 = associate({10 * ms}, g3);
+  REQUIRE(a3.size() == 1);
+  CHECK(a3.gt_index[0] == 1);
+  CHECK(a3.n_duplicate_gt == 1);
+}
+
+TEST_CASE("associate: refuses decreasing stamps and bad options", "[eval][assoc]") {
+  CHECK_THROWS_AS(associate({0, 20 * ms, 10 * ms}, {0, 10 * ms}), InputError);
+  CHECK_THROWS_AS(associate({0}, {0}, {-1.0, 0.0, AssocPolicy::kNearest}), InputError);
+  CHECK(associate({}, {0}).size() == 0);
+  CHECK(parse_assoc_policy("unique") == AssocPolicy::kUnique);
+  CHECK_THROWS_AS(parse_assoc_policy("greedy"), InputError);
+}
+
+TEST_CASE("explain_no_match: ranges and likely causes", "[eval][assoc]") {
+  const auto gt = seq(1'403'715'524'000 * ms, 5 * ms, 1000);
+  SECTION("nanosecond stamps read as seconds somewhere (factor 1e9)") {
+    std::vector<Timestamp> est;
+    for (Timestamp t : seq(1'403'715'524, 1, 10)) est.push_back(t);  // 'seconds' that were ns / 1e9
+    const std::string m = explain_no_match(est, gt, {});
+    CHECK(m.find("span") != std::string::npos);
+    CHECK(m.find("1e9") != std::string::npos);
+    CHECK(m.find("ns vs s") != std::string::npos);
+  }
+  SECTION("relative time vs epoch") {
+    const auto est = seq(0, 100 * ms, 20);
+    const std::string m = explain_no_match(est, gt, {});
+    CHECK(m.find("time since start") != std::string::npos);
+    CHECK(m.find("--t-offset 1403715524.000000000") != std::string::npos);
+  }
+  SECTION("overlapping but sparse") {
+    std::vector<Timestamp> est;
+    for (Timestamp t : seq(gt.front() + 2 * ms, 100 * ms, 20)) est.push_back(t);
+    const std::string m = explain_no_match(est, gt, {0.001, 0.0, AssocPolicy::kNearest});
+    CHECK(m.find("--max-dt") != std::string::npos);
+    CHECK(m.find("0.002 s apart") != std::string::npos);
+  }
+}

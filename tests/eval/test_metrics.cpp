@@ -1,0 +1,95 @@
+// APE statistics (evo definitions), per-axis RMSE, Euler wrap at ±180°, NEES.
+#include <catch2/catch.hpp>
+#include <random>
+
+#include "roe/core/error.hpp"
+#include "roe/eval/metrics.hpp"
+#include "roe/math/euler.hpp"
+
+using namespace roe;
+using namespace roe::eval;
+using Eigen::Vector3d;
+
+TEST_CASE("compute_stats matches numpy/evo definitions", "[eval][metrics]") {
+  const Stats s = compute_stats({3.0, 1.0, 4.0, 1.0, 5.0, 9.0});
+  CHECK(s.n == 6);
+  CHECK(s.mean == Approx(23.0 / 6.0));
+  CHECK(s.median == Approx(3.5));  // mean of the two middle values
+  CHECK(s.min == 1.0);
+  CHECK(s.max == 9.0);
+  CHECK(s.sse == Approx(9 + 1 + 16 + 1 + 25 + 81));
+  CHECK(s.rmse == Approx(std::sqrt(133.0 / 6.0)));
+  // population std (ddof 0)
+  double var = 0;
+  for (double x : {3.0, 1.0, 4.0, 1.0, 5.0, 9.0}) var += (x - 23.0 / 6.0) * (x - 23.0 / 6.0);
+  CHECK(s.std == Approx(std::sqrt(var / 6.0)));
+  CHECK(compute_stats({2.0, 7.0, 1.0}).median == 2.0);
+  CHECK(compute_stats({}).n == 0);
+}
+
+TEST_CASE("pose_error: rotation error R_est^T R_gt in ZYX, wrapped at ±180", "[eval][metrics]") {
+  const Pose gt(Eigen::Quaterniond(math::from_euler_zyx(Vector3d(0.1, -0.2, 0.3))), Vector3d(1, 2, 3));
+  SECTION("a pure local yaw error") {
+    // R_gt = R_est · Rz(10°)  ⇒  yaw error +10°
+    const Pose est(Eigen::Quaterniond(gt.R() * math::from_euler_zyx(Vector3d(0, 0, -10 * math::kRadPerDeg))),
+                   Vector3d(1.5, 2, 2));
+    const PoseError e = pose_error(est, gt);
+    CHECK(e.dp.isApprox(Vector3d(0.5, 0, -1)));
+    CHECK(e.rpy_deg.x() == Approx(0).margin(1e-9));
+    CHECK(e.rpy_deg.y() == Approx(0).margin(1e-9));
+    CHECK(e.rpy_deg.z() == Approx(10.0).epsilon(1e-12));
+    CHECK(e.angle_deg == Approx(10.0).epsilon(1e-12));
+  }
+  SECTION("yaw error of ±179.9° stays near ±180, 180° maps to -180") {
+    for (double yaw : {179.9, -179.9, 180.0}) {
+      const Pose est(
+          Eigen::Quaterniond(gt.R() * math::from_euler_zyx(Vector3d(0, 0, -yaw * math::kRadPerDeg))), gt.p);
+      const PoseError e = pose_error(est, gt);
+      const double expect = yaw == 180.0 ? -180.0 : yaw;
+      CHECK(e.rpy_deg.z() == Approx(expect).epsilon(1e-9));
+      CHECK(e.rpy_deg.z() >= -180.0);
+      CHECK(e.rpy_deg.z() < 180.0);
+      CHECK(e.angle_deg == Approx(std::abs(yaw)).epsilon(1e-9));
+    }
+  }
+  SECTION("roll error near ±180 as well") {
+    const Pose est(
+        Eigen::Quaterniond(gt.R() * math::from_euler_zyx(Vector3d(-179.5 * math::kRadPerDeg, 0, 0))), gt.p);
+    CHECK(pose_error(est, gt).rpy_deg.x() == Approx(179.5).epsilon(1e-9));
+  }
+}
+
+TEST_CASE("compute_ape: per-axis RMSE, cnspy ARMSE, NEES", "[eval][metrics]") {
+  std::vector<Pose> gt, est;
+  for (int i = 0; i < 4; ++i) {
+    gt.push_back(Pose(Eigen::Quaterniond::Identity(), Vector3d(i, 0, 0)));
+    const double s = (i % 2 == 0) ? 1.0 : -1.0;
+    est.push_back(Pose(Eigen::Quaterniond(Eigen::AngleAxisd(s * 2 * math::kRadPerDeg, Vector3d::UnitX())),
+                       Vector3d(i + s * 0.1, 0.2, 0)));
+  }
+  const ApeResult r = compute_ape(est, gt);
+  CHECK(r.pos_rmse_m.x() == Approx(0.1));
+  CHECK(r.pos_rmse_m.y() == Approx(0.2));
+  CHECK(r.pos_rmse_m.z() == 0.0);
+  CHECK(r.rpy_rmse_deg.x() == Approx(2.0));
+  CHECK(r.trans_m.rmse == Approx(std::sqrt(0.05)));
+  CHECK(r.armse_p_m == Approx(r.trans_m.mean));
+  CHECK(r.rot_deg.max == Approx(2.0));
+  CHECK(r.pos_mean_m.x() == Approx(0.0).margin(1e-15));
+  CHECK_FALSE(r.anees_p.has_value());
+
+  PoseCovariance c;
+  c.P_p = Eigen::Matrix3d::Identity() * 0.01;
+  c.P_theta = Eigen::Matrix3d::Identity() * std::pow(2 * math::kRadPerDeg, 2);
+  const ApeResult rn = compute_ape(est, gt, std::vector<PoseCovariance>(4, c));
+  REQUIRE(rn.anees_p.has_value());
+  CHECK(*rn.anees_p == Approx((0.01 + 0.04) / 0.01));
+  CHECK(*rn.anees_r == Approx(1.0));
+  // Rotated covariance: s² R P Rᵀ
+  c.P_p = Vector3d(1, 2, 3).asDiagonal();
+  const Eigen::Matrix3d R = math::from_euler_zyx(Vector3d(0, 0, math::kPi / 2));
+  const PoseCovariance ca = align_covariance(c, R, 2.0);
+  CHECK(ca.P_p(0, 0) == Approx(8.0));
+  CHECK(ca.P_p(1, 1) == Approx(4.0));
+  CHECK_THROWS_AS(compute_ape(est, {gt[0]}), InputError);
+}
