@@ -301,6 +301,81 @@ int CsvReader::get_int(std::size_t i) const {
   return static_cast<int>(v);
 }
 
+std::int64_t CsvReader::get_seconds_ns(std::size_t i) const {
+  const std::string_view f = field(i);
+  if (f.empty()) throw error(i, "empty field, expected a time in seconds");
+  if (auto ns = parse_seconds_ns(f)) return *ns;
+  (void)parse_double(i, false);  // reports what is wrong with the number, if anything
+  throw error(i, "time in seconds out of range: " + shown(f));
+}
+
+std::optional<std::int64_t> parse_seconds_ns(std::string_view s) {
+  // value = ±digits × 10^exp10, with the digits kept as text so nothing is rounded early.
+  bool negative = false;
+  if (!s.empty() && (s.front() == '+' || s.front() == '-')) {
+    negative = s.front() == '-';
+    s.remove_prefix(1);
+  }
+  std::string digits;
+  int exp10 = 0;
+  std::size_t k = 0;
+  bool any_digit = false;
+  for (; k < s.size() && s[k] >= '0' && s[k] <= '9'; ++k, any_digit = true) digits += s[k];
+  if (k < s.size() && s[k] == '.') {
+    for (++k; k < s.size() && s[k] >= '0' && s[k] <= '9'; ++k, any_digit = true) {
+      digits += s[k];
+      --exp10;
+    }
+  }
+  if (!any_digit) return std::nullopt;
+  if (k < s.size() && (s[k] == 'e' || s[k] == 'E')) {
+    ++k;
+    int e = 0;
+    const char* b = s.data() + k;
+    if (k < s.size() && s[k] == '+') ++b;
+    const auto r = std::from_chars(b, s.data() + s.size(), e);
+    if (r.ec != std::errc() || r.ptr != s.data() + s.size() || b == s.data() + s.size()) return std::nullopt;
+    if (e > 400 || e < -400) return std::nullopt;
+    exp10 += e;
+    k = s.size();
+  }
+  if (k != s.size()) return std::nullopt;
+  // Scale to nanoseconds: shift by 9 decimal places.
+  exp10 += 9;
+  bool round_up = false;
+  if (exp10 < 0) {
+    const std::size_t drop = static_cast<std::size_t>(-exp10);
+    if (drop > digits.size()) {
+      digits.clear();  // |value| < 0.1 ns·10^-x: rounds to zero
+    } else {
+      round_up = digits[digits.size() - drop] >= '5';  // half away from zero
+      digits.resize(digits.size() - drop);
+    }
+    exp10 = 0;
+  }
+  const std::size_t first = digits.find_first_not_of('0');
+  digits = first == std::string::npos ? std::string() : digits.substr(first);
+  if (!digits.empty()) digits.append(static_cast<std::size_t>(exp10), '0');
+  if (digits.size() > 19) return std::nullopt;
+  std::uint64_t mag = 0;
+  for (char c : digits) {
+    const std::uint64_t d = static_cast<std::uint64_t>(c - '0');
+    if (mag > (std::numeric_limits<std::uint64_t>::max() - d) / 10) return std::nullopt;
+    mag = mag * 10 + d;
+  }
+  if (round_up) ++mag;
+  if (mag > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) return std::nullopt;
+  const auto v = static_cast<std::int64_t>(mag);
+  return negative ? -v : v;
+}
+
+std::string format_seconds_ns(std::int64_t t_ns) {
+  // Split on the magnitude so INT64_MIN and negative stamps keep their sign once.
+  const bool negative = t_ns < 0;
+  const std::uint64_t mag = negative ? 0 - static_cast<std::uint64_t>(t_ns) : static_cast<std::uint64_t>(t_ns);
+  return fmt::format("{}{}.{:09d}", negative ? "-" : "", mag / 1'000'000'000ULL, mag % 1'000'000'000ULL);
+}
+
 // -------------------------------------------------------------------------------------------------
 // CsvWriter
 // -------------------------------------------------------------------------------------------------
@@ -378,6 +453,12 @@ CsvWriter& CsvWriter::add_fixed(double v, int decimals) {
   } else {
     out_.append(fmt::format("{:.{}f}", v, decimals));
   }
+  return *this;
+}
+
+CsvWriter& CsvWriter::add_seconds(std::int64_t t_ns) {
+  sep();
+  out_.append(format_seconds_ns(t_ns));
   return *this;
 }
 

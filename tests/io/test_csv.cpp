@@ -329,3 +329,55 @@ TEST_CASE("csv: writer round-trips doubles exactly and is deterministic", "[csv]
   bad.add(1.0);
   CHECK_THROWS_AS(bad.end_row(), roe::InternalError);
 }
+
+TEST_CASE("csv: decimal seconds to integer nanoseconds, exactly", "[csv][time]") {
+  using roe::io::format_seconds_ns;
+  using roe::io::parse_seconds_ns;
+  CHECK(parse_seconds_ns("1305031102.160407") == 1305031102160407000LL);
+  CHECK(parse_seconds_ns("1.403715529112143517e+09") == 1403715529112143517LL);
+  CHECK(parse_seconds_ns("1403715523.912140000") == 1403715523912140000LL);
+  CHECK(parse_seconds_ns("0.005") == 5'000'000LL);
+  CHECK(parse_seconds_ns("+2") == 2'000'000'000LL);
+  CHECK(parse_seconds_ns("-0.5") == -500'000'000LL);
+  CHECK(parse_seconds_ns(".25") == 250'000'000LL);
+  CHECK(parse_seconds_ns("3.") == 3'000'000'000LL);
+  CHECK(parse_seconds_ns("5E-3") == 5'000'000LL);
+  CHECK(parse_seconds_ns("0") == 0);
+  // Beyond nanoseconds: rounded half away from zero.
+  CHECK(parse_seconds_ns("0.0000000015") == 2);
+  CHECK(parse_seconds_ns("0.0000000014999") == 1);
+  CHECK(parse_seconds_ns("-0.0000000015") == -2);
+  CHECK(parse_seconds_ns("9e-10") == 1);
+  CHECK(parse_seconds_ns("4e-11") == 0);
+  CHECK(parse_seconds_ns("1.9999999999") == 2'000'000'000LL);
+  // Not numbers / out of range.
+  for (const char* bad : {"", "-", ".", "abc", "1.5x", "1e", "1e+", "nan", "inf", "1..2", "1e5.5", "9.3e9", "--1"})
+    CHECK_FALSE(parse_seconds_ns(bad).has_value());
+  CHECK(parse_seconds_ns("9.2e9") == 9'200'000'000'000'000'000LL);
+
+  CHECK(format_seconds_ns(1403715523912140000LL) == "1403715523.912140000");
+  CHECK(format_seconds_ns(5) == "0.000000005");
+  CHECK(format_seconds_ns(-500'000'000LL) == "-0.500000000");
+  CHECK(format_seconds_ns(std::numeric_limits<std::int64_t>::min()) == "-9223372036.854775808");
+  for (std::int64_t t : {0LL, 1LL, 999'999'999LL, 1'000'000'000LL, 1403715523912140001LL, -7LL})
+    CHECK(parse_seconds_ns(format_seconds_ns(t)) == t);
+
+  // Reader and writer.
+  CsvWriter w(' ');
+  w.add_seconds(1403715523912140000LL).add(1.0).end_row();
+  CHECK(w.str() == "1403715523.912140000 1\n");
+  CsvOptions o;
+  o.whitespace_delimited = true;
+  o.header = CsvHeader::kNone;
+  auto r = CsvReader::from_text("1.403715529112143517e+09 0\nx 0\n1e30 0\n", "t.txt", o);
+  REQUIRE(r.next());
+  CHECK(r.get_seconds_ns(0) == 1403715529112143517LL);
+  REQUIRE(r.next());
+  auto e = expect_input_error([&] { (void)r.get_seconds_ns(0); });
+  CHECK(e.context().line == 2);
+  CHECK(e.context().column == 1);
+  CHECK(std::string(e.what()).find("not a number") != std::string::npos);
+  REQUIRE(r.next());
+  e = expect_input_error([&] { (void)r.get_seconds_ns(0); });
+  CHECK(std::string(e.what()).find("out of range") != std::string::npos);
+}

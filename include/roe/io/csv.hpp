@@ -135,6 +135,10 @@ class CsvReader {
   std::int64_t get_int64(std::size_t i) const;
   /// A base-10 int that fits in int.
   int get_int(std::size_t i) const;
+  /// Seconds written in decimal ("1305031102.160407", "1.403715529112143517e+09") converted to
+  /// integer nanoseconds exactly from the digits (no double rounding; beyond 9 decimals rounded
+  /// half away from zero). For the stamps of TUM / cnspy files.
+  std::int64_t get_seconds_ns(std::size_t i) const;
 
   /// An InputError located at the current row and 0-based field `i` (reported 1-based); for
   /// callers' own checks, e.g. `throw r.error(3, "quaternion is not unit norm")`.
@@ -186,8 +190,11 @@ class CsvWriter {
   CsvWriter& add(std::string_view s);  ///< quoted when it contains the delimiter, a quote or a newline
   CsvWriter& add(const char* s) { return add(std::string_view(s)); }
   CsvWriter& add(const std::string& s) { return add(std::string_view(s)); }
-  /// Fixed notation with `decimals` digits after the point (e.g. seconds with 9 decimals).
+  /// Fixed notation with `decimals` digits after the point.
   CsvWriter& add_fixed(double v, int decimals);
+  /// A nanosecond stamp as seconds with exactly 9 decimals, from the integer ("1403715523.912140000"):
+  /// exact, unlike add_fixed(to_seconds(t), 9) whose double cannot hold epoch nanoseconds.
+  CsvWriter& add_seconds(std::int64_t t_ns);
   CsvWriter& add_empty();
   /// Ends the row; InternalError if the field count differs from the header's.
   CsvWriter& end_row();
@@ -208,5 +215,10 @@ class CsvWriter {
 
 /// Shortest round-trip text of a double (as CsvWriter writes it).
 std::string format_double(double v);
+/// Decimal seconds text → integer nanoseconds, exactly (see CsvReader::get_seconds_ns); nullopt when
+/// the text is not a finite decimal number or the result does not fit in int64.
+std::optional<std::int64_t> parse_seconds_ns(std::string_view text);
+/// Integer nanoseconds → "S.NNNNNNNNN" (exact; "-0.500000000" for −5e8).
+std::string format_seconds_ns(std::int64_t t_ns);
 
 }  // namespace roe::io
