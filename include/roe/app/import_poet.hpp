@@ -1,0 +1,60 @@
+#pragma once
+/// @file
+/// `roe import poet RESULTS_JSON --into DATASET [--name poet]`: detections from PoET's own Python
+/// inference (its results.json, notes/poet.md §2) → DATASET/detections/<name>/{detections.csv,
+/// meta.json}, plus a source record in roe.json.
+///
+/// Image ids → frames (cam0/data.csv): an id matches a frame when it equals PoET's id of the frame's
+/// file name (text between the first '_' and the last '.'), the file's stem, or the frame's ns
+/// timestamp. An id matching two frames, or two ids matching one frame, is an InputError (PoET
+/// overwrites colliding ids, so which image the entry belongs to is unknown). Ids matching no frame
+/// are skipped with a warning (InputError when none matches). Without cam0/data.csv, ids must be ns
+/// timestamps.
+///
+/// Classes → object ids: --class-map FILE ({"<poet class>": <object id>}) when given; otherwise by
+/// name (PoET class names from --classes FILE, default YCB-V) against roe.json's objects, ignoring
+/// case and a leading "NNN_" number; with no objects in roe.json, object id = PoET class.
+///
+/// Per frame, detections keep PoET's order (detector score). Dropped with a count: non-finite t/rot
+/// (bare NaN tokens), classes with no object, and repeated objects in one frame (the first = highest
+/// detector score is kept: detections.csv holds one row per (frame, object)). The score column is
+/// left empty: PoET's results.json has no score.
+
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace roe::app {
+
+struct ImportPoetOptions {
+  std::string name = "poet";      ///< detections/<name>
+  std::string rotation = "auto";  ///< auto | matrix | quat_wxyz
+  std::string classes_file;       ///< PoET class-info JSON ({"1": "002_master_chef_can", ...})
+  std::string class_map_file;     ///< explicit {"<poet class>": <object id>}
+  bool force = false;             ///< replace an existing detections/<name>
+};
+
+struct ImportPoetSummary {
+  std::filesystem::path output_dir;
+  std::size_t images_in_file = 0;
+  std::size_t images_matched = 0;
+  std::size_t images_unknown = 0;       ///< ids matching no frame (skipped)
+  std::size_t empty_images = 0;         ///< matched frames with no detection
+  std::size_t detections_in_file = 0;
+  std::size_t detections_written = 0;
+  std::size_t dropped_non_finite = 0;
+  std::size_t dropped_unmapped_class = 0;
+  std::size_t dropped_duplicate = 0;
+  std::size_t quaternion_rotations = 0;
+  std::map<int, int> class_map;         ///< PoET class → object id actually used
+  std::vector<std::string> unknown_ids; ///< first few unmatched ids
+  std::vector<std::string> warnings;
+  nlohmann::json to_json() const;
+};
+
+ImportPoetSummary import_poet(const std::filesystem::path& results_json, const std::filesystem::path& dataset,
+                              const ImportPoetOptions& options);
+
+}  // namespace roe::app

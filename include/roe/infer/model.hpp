@@ -1,0 +1,107 @@
+#pragma once
+/// @file
+/// A loaded PoET model (bundle + OpenCV Darknet detector + LibTorch pose head) and the per-frame
+/// pipeline of `roe infer`:
+///   decode image → optional virtual-camera warp to the training intrinsics → detector → NMS with
+///   PoET's rules (score kept) → top num_queries boxes → pose head → T_C_O per detection.
+///
+/// Virtual-camera warp: PoET learns its training camera's intrinsics (aau-cns/poet issue #8), so a
+/// frame from another pinhole camera is resampled with the homography H = K_train · K_cam⁻¹ into the
+/// training image size. H changes only the intrinsics (same optical centre and axes), so the
+/// predicted T_C_O is valid in the real camera frame. Pixels outside the source image are black.
+/// This is roe's own, documented approximation; it does not recreate lens effects or the blur of
+/// a different sensor.
+
+#include <Eigen/Core>
+#include <array>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "roe/core/types.hpp"
+#include "roe/infer/bundle.hpp"
+#include "roe/infer/nms.hpp"
+#include "roe/infer/tensor.hpp"
+
+namespace roe::infer {
+
+struct ModelOptions {
+  std::string warp = "auto";   ///< auto (warp when the camera differs), on, off
+  std::string device = "auto"; ///< LibTorch device: auto, cpu, cuda
+  bool selftest = true;        ///< check the bundle's self-test vectors on load
+};
+
+/// One detection of a frame: PoET class, pose, detector score and box (dataset image pixels).
+struct PoseDetection {
+  int class_id = 0;
+  Pose T_C_O;
+  double score = std::numeric_limits<double>::quiet_NaN();
+  std::array<double, 4> box{0, 0, 0, 0};  ///< x1, y1, x2, y2 in the dataset image
+  std::optional<Vector6d> sigma;          ///< from aleatoric heads: tx,ty,tz (m), rx,ry,rz (rad)
+};
+
+struct FrameTimings {
+  double decode_ms = 0, warp_ms = 0, detector_ms = 0, pose_ms = 0, total_ms = 0;
+};
+
+struct FrameResult {
+  std::vector<PoseDetection> detections;  ///< in detector-score order
+  std::size_t boxes_after_nms = 0;        ///< before the cut to num_queries
+  std::size_t dropped_invalid = 0;        ///< degenerate rotation or non-finite t
+  FrameTimings timings;
+};
+
+/// Self-test results (max |difference| against the bundle's reference outputs).
+struct SelfTestReport {
+  std::vector<std::pair<std::string, double>> detector;  ///< per checked layer
+  std::vector<std::pair<std::string, double>> pose;      ///< per output
+  double detector_atol = 0, pose_atol = 0;
+  nlohmann::json to_json() const;
+};
+
+class PoetModel {
+ public:
+  /// Loads the detector and the pose head; runs the self-test unless disabled (roe::InputError when
+  /// a reference output is not reproduced within its tolerance).
+  PoetModel(PoetBundle bundle, ModelOptions options = {});
+  ~PoetModel();
+  PoetModel(const PoetModel&) = delete;
+  PoetModel& operator=(const PoetModel&) = delete;
+
+  const PoetBundle& bundle() const;
+  const SelfTestReport& selftest_report() const;
+  /// Runs the self-test again and returns its report (no tolerance check).
+  SelfTestReport run_selftest();
+
+  /// Sets the dataset camera (the processed image's size and intrinsics, when known) and decides
+  /// the warp. roe::InputError when the image size differs from the bundle's and no warp is
+  /// possible (warp off or unknown intrinsics).
+  void set_camera(int width, int height, const std::optional<Intrinsics>& K);
+  bool warping() const;
+  /// The warp decision and homography, for meta.json and the config hash.
+  nlohmann::json camera_json() const;
+
+  /// One frame from the encoded image bytes (PNG/JPEG). `external_boxes` (dataset image pixels,
+  /// 1-based classes, best first) replace the detector when given. roe::InputError when the image
+  /// cannot be decoded or has the wrong size.
+  FrameResult infer(const std::string& encoded_image, const std::vector<BoxDetection>* external_boxes = nullptr,
+                    const std::string& source = "");
+
+  /// The pose head on explicit inputs (tests, benchmark).
+  std::vector<HostTensor> run_pose_head(const std::vector<HostTensor>& inputs);
+  /// The detector on a normalised NCHW blob: NMS'd boxes (network pixels) and the tapped features.
+  std::pair<std::vector<BoxDetection>, std::vector<HostTensor>> run_detector(const HostTensor& blob);
+  /// The normalised NCHW network input of an encoded image already at the training size.
+  HostTensor preprocess(const std::string& encoded_image, const std::string& source = "");
+  /// Pose-head outputs → detections (boxes in network pixels, best first; first n valid rows).
+  std::vector<PoseDetection> decode_outputs(const std::vector<HostTensor>& outputs, const std::vector<BoxDetection>& boxes,
+                                            std::size_t* dropped = nullptr) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace roe::infer

@@ -1,0 +1,77 @@
+#pragma once
+/// @file
+/// PoET's own inference output, `results.json` (aau-cns/poet `inference_tools/inference_engine.py`),
+/// read as it really is (notes/poet.md §2):
+///   {"<img_id>": {"0": {"t": [x,y,z], "rot": [[..],[..],[..]] | [w,x,y,z], "box": [cx,cy,w,h],
+///                       "class": 5}, "1": {...}}, "<img_id2>": {}}
+///  - img_id is cut from the image file name (see poet_image_id),
+///  - detection keys are strings "0", "1", ... in detector-score order,
+///  - t is in metres, rot maps object → camera (x_C = R x_O + t), a 4-list is a w-first quaternion,
+///  - box is normalised cx, cy, w, h; class is 1-based (YCB-V 1..21),
+///  - Python's json.dump may write the bare tokens NaN, Infinity and -Infinity, which strict JSON
+///    parsers (nlohmann) reject: this reader has its own tokenizer that accepts them.
+/// There is no score, no time and no model information in the file.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace roe::io {
+
+/// How `rot` is written: decided per entry from its shape (kAuto), or required to be one form.
+enum class PoetRotationFormat { kAuto, kMatrix, kQuatWxyz };
+
+/// Parses "auto", "matrix" or "quat_wxyz" (roe::InputError otherwise, naming `what`).
+PoetRotationFormat parse_poet_rotation_format(const std::string& s, const std::string& what);
+
+/// One entry "<index>": {...} of one image.
+struct PoetRawDetection {
+  int index = 0;                                       ///< the string key as an integer (score rank)
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();         ///< metres; may hold NaN/Inf as written
+  Eigen::Matrix3d R_C_O = Eigen::Matrix3d::Identity(); ///< orthonormalised when finite
+  bool rot_was_quaternion = false;
+  bool finite = true;                                  ///< false if t or rot held NaN/Inf
+  Eigen::Vector4d box = Eigen::Vector4d::Constant(std::numeric_limits<double>::quiet_NaN());
+  int class_id = 0;                                    ///< 1-based PoET class
+  std::optional<double> score;                         ///< only if a fork wrote "score"
+  std::int64_t line = 0, column = 0;                   ///< where the entry starts in the file
+};
+
+/// One top-level key.
+struct PoetImageResult {
+  std::string id;
+  std::vector<PoetRawDetection> detections;  ///< sorted by index
+  std::int64_t line = 0, column = 0;
+};
+
+struct PoetResults {
+  std::vector<PoetImageResult> images;  ///< in file order
+};
+
+/// Parses the text of a results.json. `source` names it in errors (roe::InputError with line and
+/// column): syntax errors, wrong shapes, non-integer indices or classes, class < 1, duplicate keys
+/// (top-level duplicates are colliding image ids, which Python would have silently overwritten),
+/// unknown keys, finite rotations that are not rotations (|RᵀR − I| > 1e-3 or det < 0), quaternions
+/// far from unit norm (|‖q‖ − 1| > 1e-3).
+PoetResults parse_poet_results(const std::string& text, const std::string& source,
+                               PoetRotationFormat format = PoetRotationFormat::kAuto);
+PoetResults read_poet_results(const std::filesystem::path& file,
+                              PoetRotationFormat format = PoetRotationFormat::kAuto);
+
+/// PoET's image id of a file name: the text between the first '_' and the last '.'; without an
+/// underscore, the stem. "1662634121000000000.png" → "1662634121000000000", "rgb_000123.png" →
+/// "000123", "cam_rgb_17.png" → "rgb_17".
+std::string poet_image_id(const std::string& filename);
+
+/// YCB-V class names, index = 1-based PoET class id (index 0 = "background"); 22 entries.
+const std::vector<std::string>& ycbv_class_names();
+
+/// Reads a PoET class-info JSON ({"1": "002_master_chef_can", ...}): index = class id, "" where
+/// a class id is not listed. Errors name the file and key.
+std::vector<std::string> read_poet_class_names(const std::filesystem::path& file);
+
+}  // namespace roe::io

@@ -1,0 +1,263 @@
+#include "roe/app/import_poet.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <set>
+
+#include "roe/core/error.hpp"
+#include "roe/core/log.hpp"
+#include "roe/io/dataset.hpp"
+#include "roe/io/json.hpp"
+#include "roe/io/output.hpp"
+#include "roe/io/poet_results.hpp"
+#include "roe/version.hpp"
+
+namespace roe::app {
+namespace fs = std::filesystem;
+namespace {
+
+// "002_Master_Chef_Can" and "master_chef_can" compare equal: lower case, leading "NNN_" removed.
+std::string normalize_name(const std::string& s) {
+  std::size_t i = 0;
+  while (i < s.size() && std::isdigit(static_cast<unsigned char>(s[i]))) ++i;
+  std::string out = (i > 0 && i < s.size() && s[i] == '_') ? s.substr(i + 1) : s;
+  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
+bool all_digits(const std::string& s) {
+  return !s.empty() && s.size() <= 19 && std::all_of(s.begin(), s.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); });
+}
+
+std::map<int, int> read_class_map(const fs::path& file) {
+  const io::json j = io::parse_json_file(file);
+  if (!j.is_object()) throw ConfigError("a class map must be an object {\"<poet class>\": <object id>}", {file.string()});
+  std::map<int, int> m;
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    const std::string& k = it.key();
+    if (!all_digits(k) || k.size() > 6) throw ConfigError("class-map keys must be PoET class ids (\"5\")", {file.string(), 0, 0, k});
+    if (!it->is_number_integer()) throw ConfigError("class-map values must be integer object ids", {file.string(), 0, 0, k});
+    m[std::stoi(k)] = it->get<int>();
+  }
+  return m;
+}
+
+}  // namespace
+
+nlohmann::json ImportPoetSummary::to_json() const {
+  nlohmann::json cm = nlohmann::json::object();
+  for (const auto& [c, o] : class_map) cm[std::to_string(c)] = o;
+  return {{"output", output_dir.string()},
+          {"images_in_file", images_in_file},
+          {"images_matched", images_matched},
+          {"images_unknown", images_unknown},
+          {"unknown_ids", unknown_ids},
+          {"empty_images", empty_images},
+          {"detections_in_file", detections_in_file},
+          {"detections_written", detections_written},
+          {"dropped_non_finite", dropped_non_finite},
+          {"dropped_unmapped_class", dropped_unmapped_class},
+          {"dropped_duplicate_object", dropped_duplicate},
+          {"quaternion_rotations", quaternion_rotations},
+          {"class_map", cm},
+          {"warnings", warnings}};
+}
+
+ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& dataset, const ImportPoetOptions& opt) {
+  if (opt.name.empty() || opt.name.find('/') != std::string::npos || opt.name == "." || opt.name == "..")
+    throw InputError("--name must be a plain folder name, got \"" + opt.name + "\"");
+  const auto rot_format = io::parse_poet_rotation_format(opt.rotation, "--rotation");
+  DatasetManifest manifest = io::read_manifest(dataset);
+  const io::PoetResults results = io::read_poet_results(results_json, rot_format);
+
+  ImportPoetSummary s;
+  auto warn = [&s](const std::string& w) {
+    log::warn("{}", w);
+    s.warnings.push_back(w);
+  };
+
+  // ---- image ids → frames -----------------------------------------------------------------
+  const fs::path cam_csv = io::cam_csv_path(dataset);
+  const bool have_frames = fs::exists(cam_csv);
+  std::vector<CameraFrame> frames;
+  if (have_frames) frames = io::read_cam_csv(cam_csv);
+  // key → frame indices it may denote (a set: one frame may offer the same key by several rules).
+  std::map<std::string, std::set<std::size_t>> by_key;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    by_key[std::to_string(frames[i].t_ns)].insert(i);
+    if (!frames[i].filename.empty()) {
+      by_key[io::poet_image_id(frames[i].filename)].insert(i);
+      by_key[fs::path(frames[i].filename).stem().string()].insert(i);
+    }
+  }
+  if (!have_frames) warn(cam_csv.string() + " does not exist: image ids are taken as ns timestamps");
+
+  std::map<Timestamp, std::pair<std::string, std::int64_t>> used;  // frame stamp → (id, line)
+  std::vector<std::pair<Timestamp, const io::PoetImageResult*>> matched;
+  s.images_in_file = results.images.size();
+  for (const auto& img : results.images) {
+    Timestamp t_ns = 0;
+    bool found = false;
+    if (have_frames) {
+      auto it = by_key.find(img.id);
+      if (it != by_key.end()) {
+        if (it->second.size() > 1) {
+          std::string names;
+          for (std::size_t i : it->second) names += (names.empty() ? "" : ", ") + frames[i].filename;
+          throw InputError("image id \"" + img.id + "\" matches several frames of " + cam_csv.string() + " (" + names +
+                               "); PoET overwrites colliding ids, so the frame of this entry is unknown",
+                           {results_json.string(), img.line, img.column, img.id});
+        }
+        t_ns = frames[*it->second.begin()].t_ns;
+        found = true;
+      }
+    } else if (all_digits(img.id)) {
+      try {
+        t_ns = std::stoll(img.id);
+        found = true;
+      } catch (const std::out_of_range&) {
+      }
+    }
+    if (!found) {
+      ++s.images_unknown;
+      if (s.unknown_ids.size() < 10) s.unknown_ids.push_back(img.id);
+      continue;
+    }
+    auto [uit, inserted] = used.emplace(t_ns, std::make_pair(img.id, img.line));
+    if (!inserted)
+      throw InputError("image ids \"" + uit->second.first + "\" (line " + std::to_string(uit->second.second) +
+                           ") and \"" + img.id + "\" denote the same frame " + std::to_string(t_ns),
+                       {results_json.string(), img.line, img.column, img.id});
+    matched.emplace_back(t_ns, &img);
+  }
+  s.images_matched = matched.size();
+  if (s.images_unknown > 0) {
+    std::string ids;
+    for (const auto& u : s.unknown_ids) ids += (ids.empty() ? "" : ", ") + u;
+    warn(std::to_string(s.images_unknown) + " image id(s) of " + results_json.string() + " match no frame and were skipped (" +
+         ids + (s.images_unknown > s.unknown_ids.size() ? ", ..." : "") + ")");
+  }
+  if (!results.images.empty() && matched.empty())
+    throw InputError("none of the " + std::to_string(results.images.size()) + " image ids matches a frame of " +
+                         (have_frames ? cam_csv.string() : std::string("the dataset (ids must be ns timestamps)")) +
+                         " (first: \"" + results.images.front().id + "\")",
+                     {results_json.string()});
+
+  // ---- classes → object ids ---------------------------------------------------------------
+  std::vector<std::string> class_names =
+      opt.classes_file.empty() ? io::ycbv_class_names() : io::read_poet_class_names(opt.classes_file);
+  std::map<int, int> explicit_map;
+  if (!opt.class_map_file.empty()) explicit_map = read_class_map(opt.class_map_file);
+  const bool by_name = opt.class_map_file.empty() && !manifest.objects.empty();
+  std::map<int, std::optional<int>> resolved;
+  auto object_of = [&](int cls) -> std::optional<int> {
+    auto it = resolved.find(cls);
+    if (it != resolved.end()) return it->second;
+    std::optional<int> id;
+    if (!opt.class_map_file.empty()) {
+      auto e = explicit_map.find(cls);
+      if (e != explicit_map.end()) id = e->second;
+    } else if (by_name) {
+      const std::string cname = static_cast<std::size_t>(cls) < class_names.size() ? class_names[cls] : "";
+      if (!cname.empty()) {
+        for (const auto& o : manifest.objects) {
+          if (!o.name.empty() && normalize_name(o.name) == normalize_name(cname)) {
+            if (id)
+              throw InputError("PoET class " + std::to_string(cls) + " (" + cname + ") matches several objects of roe.json by name; pass --class-map",
+                               {io::manifest_path(dataset).string()});
+            id = o.id;
+          }
+        }
+      }
+    } else {
+      id = cls;
+    }
+    resolved[cls] = id;
+    if (id) s.class_map[cls] = *id;
+    return id;
+  };
+  if (manifest.objects.empty() && opt.class_map_file.empty())
+    warn("roe.json lists no objects: object ids are PoET's class ids");
+
+  // ---- detections ----------------------------------------------------------------------------
+  std::sort(matched.begin(), matched.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Detection> out;
+  std::map<int, std::size_t> unmapped_count;
+  for (const auto& [t_ns, img] : matched) {
+    if (img->detections.empty()) ++s.empty_images;
+    std::set<int> seen;
+    for (const auto& d : img->detections) {
+      ++s.detections_in_file;
+      if (d.rot_was_quaternion) ++s.quaternion_rotations;
+      if (!d.finite) {
+        ++s.dropped_non_finite;
+        continue;
+      }
+      const auto obj = object_of(d.class_id);
+      if (!obj) {
+        ++s.dropped_unmapped_class;
+        ++unmapped_count[d.class_id];
+        continue;
+      }
+      if (!seen.insert(*obj).second) {
+        ++s.dropped_duplicate;
+        continue;
+      }
+      Detection det;
+      det.t_ns = t_ns;
+      det.object_id = *obj;
+      det.T_C_O = Pose(Eigen::Matrix3d(d.R_C_O), d.t);
+      if (d.score) det.score = *d.score;
+      out.push_back(det);
+    }
+  }
+  if (by_name && s.class_map.empty() && s.dropped_unmapped_class > 0)
+    throw InputError("no PoET class matches an object of roe.json by name (objects: " +
+                         std::to_string(manifest.objects.size()) + "); pass --class-map FILE or --classes FILE",
+                     {io::manifest_path(dataset).string()});
+  if (s.dropped_non_finite) warn(std::to_string(s.dropped_non_finite) + " detection(s) with non-finite t or rot (NaN/Infinity) dropped");
+  for (const auto& [c, n] : unmapped_count)
+    warn(std::to_string(n) + " detection(s) of PoET class " + std::to_string(c) + " map to no object and were dropped");
+  if (s.dropped_duplicate)
+    warn(std::to_string(s.dropped_duplicate) + " repeated detection(s) of an object in one frame dropped (the first, highest detector score, is kept)");
+  s.detections_written = out.size();
+
+  // ---- write --------------------------------------------------------------------------------
+  const std::string sha = io::sha256_file(results_json);
+  io::OutputDir dir(io::detections_dir(dataset, opt.name), opt.force);
+  io::write_detections_csv(dir.file("detections.csv"), out);
+  nlohmann::json meta = {
+      {"producer", "roe import poet"},
+      {"roe_version", kVersion},
+      {"source", {{"path", results_json.string()}, {"sha256", sha}, {"format", "poet results.json"}}},
+      {"options",
+       {{"name", opt.name}, {"rotation", opt.rotation}, {"classes", opt.classes_file}, {"class_map", opt.class_map_file}}},
+      {"score", "empty: PoET's results.json has no detection score"},
+      {"frames_processed", s.images_matched},
+      {"summary", s.to_json()}};
+  meta["summary"].erase("output");
+  io::write_file_atomic(dir.file("meta.json"), meta.dump(2) + "\n");
+  dir.commit();
+  s.output_dir = dir.final_dir();
+
+  // Record the import in roe.json (replacing an earlier import into the same detections name).
+  SourceRecord rec;
+  rec.kind = "poet";
+  rec.path = results_json.string();
+  rec.sha256 = sha;
+  rec.options = {{"name", opt.name}, {"rotation", opt.rotation}};
+  if (!opt.classes_file.empty()) rec.options["classes"] = opt.classes_file;
+  if (!opt.class_map_file.empty()) rec.options["class_map"] = opt.class_map_file;
+  auto& src = manifest.sources;
+  src.erase(std::remove_if(src.begin(), src.end(),
+                           [&](const SourceRecord& r) {
+                             auto it = r.options.find("name");
+                             return r.kind == "poet" && it != r.options.end() && it->second == opt.name;
+                           }),
+            src.end());
+  src.push_back(rec);
+  io::write_manifest(manifest, io::manifest_path(dataset));
+  return s;
+}
+
+}  // namespace roe::app

@@ -1,0 +1,516 @@
+#include "roe/io/poet_results.hpp"
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <set>
+
+#include "roe/core/error.hpp"
+#include "roe/io/output.hpp"
+#include "roe/math/so3.hpp"
+
+namespace roe::io {
+namespace {
+
+// ------------------------------------------------------------------------------------------------
+// A small JSON reader that keeps the line/column of every value and accepts the three non-standard
+// number tokens Python's json.dump writes for non-finite floats (NaN, Infinity, -Infinity).
+// Rewriting those tokens in the text before handing it to nlohmann would be fragile (they may also
+// appear inside strings, e.g. an image called "NaN_1.png"), so the tokenizer handles them itself.
+// ------------------------------------------------------------------------------------------------
+struct Node {
+  enum Kind { kNull, kBool, kNumber, kString, kArray, kObject } kind = kNull;
+  bool boolean = false;
+  double number = 0.0;
+  bool integral = false;  // written without fraction/exponent and fits int64
+  std::int64_t integer = 0;
+  std::string str;
+  std::vector<Node> items;
+  std::vector<std::pair<std::string, Node>> members;
+  std::vector<std::int64_t> member_lines, member_cols;  // where each member's key starts
+  std::int64_t line = 0, col = 0;
+};
+
+class LenientParser {
+ public:
+  LenientParser(const std::string& text, std::string source) : s_(text), source_(std::move(source)) {}
+
+  Node parse_document() {
+    skip_ws();
+    Node n = value(0);
+    skip_ws();
+    if (pos_ != s_.size()) fail("unexpected text after the JSON document");
+    return n;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& msg) const { throw InputError(msg, {source_, line_, col_}); }
+
+  char peek() const { return pos_ < s_.size() ? s_[pos_] : '\0'; }
+  void advance() {
+    if (pos_ >= s_.size()) return;
+    if (s_[pos_] == '\n') {
+      ++line_;
+      col_ = 1;
+    } else if ((static_cast<unsigned char>(s_[pos_]) & 0xC0) != 0x80) {
+      ++col_;  // count UTF-8 code points, not bytes
+    }
+    ++pos_;
+  }
+  void skip_ws() {
+    while (pos_ < s_.size() && (s_[pos_] == ' ' || s_[pos_] == '\t' || s_[pos_] == '\n' || s_[pos_] == '\r'))
+      advance();
+  }
+  bool match_word(const char* w) {
+    const std::size_t n = std::char_traits<char>::length(w);
+    if (s_.compare(pos_, n, w) != 0) return false;
+    // The word must not run on into an identifier ("NaNx").
+    if (pos_ + n < s_.size() && (std::isalnum(static_cast<unsigned char>(s_[pos_ + n])) || s_[pos_ + n] == '_'))
+      return false;
+    for (std::size_t i = 0; i < n; ++i) advance();
+    return true;
+  }
+
+  Node value(int depth) {
+    if (depth > 64) fail("JSON nested too deeply");
+    Node n;
+    n.line = line_;
+    n.col = col_;
+    const char c = peek();
+    if (c == '{') {
+      object(n, depth);
+    } else if (c == '[') {
+      array(n, depth);
+    } else if (c == '"') {
+      n.kind = Node::kString;
+      n.str = string_token();
+    } else if (match_word("true")) {
+      n.kind = Node::kBool;
+      n.boolean = true;
+    } else if (match_word("false")) {
+      n.kind = Node::kBool;
+    } else if (match_word("null")) {
+      n.kind = Node::kNull;
+    } else if (match_word("NaN")) {
+      n.kind = Node::kNumber;
+      n.number = std::numeric_limits<double>::quiet_NaN();
+    } else if (match_word("Infinity")) {
+      n.kind = Node::kNumber;
+      n.number = std::numeric_limits<double>::infinity();
+    } else if (c == '-' && s_.compare(pos_, 9, "-Infinity") == 0) {
+      advance();
+      match_word("Infinity");
+      n.kind = Node::kNumber;
+      n.number = -std::numeric_limits<double>::infinity();
+    } else if (c == '-' || std::isdigit(static_cast<unsigned char>(c))) {
+      number(n);
+    } else if (c == '\0') {
+      fail("unexpected end of file");
+    } else {
+      fail(std::string("unexpected character '") + c + "'");
+    }
+    return n;
+  }
+
+  void object(Node& n, int depth) {
+    n.kind = Node::kObject;
+    advance();  // {
+    skip_ws();
+    if (peek() == '}') {
+      advance();
+      return;
+    }
+    std::map<std::string, std::pair<std::int64_t, std::int64_t>> seen;
+    while (true) {
+      skip_ws();
+      if (peek() != '"') fail("expected a string key");
+      const std::int64_t kl = line_, kc = col_;
+      std::string key = string_token();
+      auto it = seen.find(key);
+      if (it != seen.end()) {
+        throw InputError("duplicate key \"" + key + "\" (first at line " + std::to_string(it->second.first) +
+                             "); in a PoET results.json this means two images with the same id",
+                         {source_, kl, kc, key});
+      }
+      seen.emplace(key, std::make_pair(kl, kc));
+      skip_ws();
+      if (peek() != ':') fail("expected ':' after a key");
+      advance();
+      skip_ws();
+      n.members.emplace_back(std::move(key), value(depth + 1));
+      n.member_lines.push_back(kl);
+      n.member_cols.push_back(kc);
+      skip_ws();
+      if (peek() == ',') {
+        advance();
+        continue;
+      }
+      if (peek() == '}') {
+        advance();
+        return;
+      }
+      fail("expected ',' or '}' in an object");
+    }
+  }
+
+  void array(Node& n, int depth) {
+    n.kind = Node::kArray;
+    advance();  // [
+    skip_ws();
+    if (peek() == ']') {
+      advance();
+      return;
+    }
+    while (true) {
+      skip_ws();
+      n.items.push_back(value(depth + 1));
+      skip_ws();
+      if (peek() == ',') {
+        advance();
+        continue;
+      }
+      if (peek() == ']') {
+        advance();
+        return;
+      }
+      fail("expected ',' or ']' in an array");
+    }
+  }
+
+  std::string string_token() {
+    advance();  // opening quote
+    std::string out;
+    while (true) {
+      if (pos_ >= s_.size()) fail("unterminated string");
+      const char c = s_[pos_];
+      if (c == '"') {
+        advance();
+        return out;
+      }
+      if (static_cast<unsigned char>(c) < 0x20) fail("control character in a string");
+      if (c != '\\') {
+        out.push_back(c);
+        advance();
+        continue;
+      }
+      advance();
+      const char e = peek();
+      switch (e) {
+        case '"': out.push_back('"'); break;
+        case '\\': out.push_back('\\'); break;
+        case '/': out.push_back('/'); break;
+        case 'b': out.push_back('\b'); break;
+        case 'f': out.push_back('\f'); break;
+        case 'n': out.push_back('\n'); break;
+        case 'r': out.push_back('\r'); break;
+        case 't': out.push_back('\t'); break;
+        case 'u': {
+          advance();
+          unsigned cp = hex4();
+          if (cp >= 0xD800 && cp < 0xDC00) {  // surrogate pair
+            if (peek() != '\\') fail("unpaired UTF-16 surrogate in a string");
+            advance();
+            if (peek() != 'u') fail("unpaired UTF-16 surrogate in a string");
+            advance();
+            const unsigned lo = hex4();
+            if (lo < 0xDC00 || lo > 0xDFFF) fail("invalid UTF-16 surrogate pair in a string");
+            cp = 0x10000 + ((cp - 0xD800) << 10) + (lo - 0xDC00);
+          }
+          append_utf8(out, cp);
+          continue;  // hex4 already advanced past the digits
+        }
+        default: fail("invalid escape in a string");
+      }
+      advance();
+    }
+  }
+
+  unsigned hex4() {
+    unsigned v = 0;
+    for (int i = 0; i < 4; ++i) {
+      const char h = peek();
+      v <<= 4;
+      if (h >= '0' && h <= '9') v |= static_cast<unsigned>(h - '0');
+      else if (h >= 'a' && h <= 'f') v |= static_cast<unsigned>(h - 'a' + 10);
+      else if (h >= 'A' && h <= 'F') v |= static_cast<unsigned>(h - 'A' + 10);
+      else fail("invalid \\u escape in a string");
+      advance();
+    }
+    return v;
+  }
+
+  static void append_utf8(std::string& out, unsigned cp) {
+    if (cp < 0x80) {
+      out.push_back(static_cast<char>(cp));
+    } else if (cp < 0x800) {
+      out.push_back(static_cast<char>(0xC0 | (cp >> 6)));
+      out.push_back(static_cast<char>(0x80 | (cp & 0x3F)));
+    } else if (cp < 0x10000) {
+      out.push_back(static_cast<char>(0xE0 | (cp >> 12)));
+      out.push_back(static_cast<char>(0x80 | ((cp >> 6) & 0x3F)));
+      out.push_back(static_cast<char>(0x80 | (cp & 0x3F)));
+    } else {
+      out.push_back(static_cast<char>(0xF0 | (cp >> 18)));
+      out.push_back(static_cast<char>(0x80 | ((cp >> 12) & 0x3F)));
+      out.push_back(static_cast<char>(0x80 | ((cp >> 6) & 0x3F)));
+      out.push_back(static_cast<char>(0x80 | (cp & 0x3F)));
+    }
+  }
+
+  void number(Node& n) {
+    const std::size_t start = pos_;
+    bool integral = true;
+    if (peek() == '-') advance();
+    if (!std::isdigit(static_cast<unsigned char>(peek()))) fail("invalid number");
+    if (peek() == '0') {
+      advance();
+    } else {
+      while (std::isdigit(static_cast<unsigned char>(peek()))) advance();
+    }
+    if (peek() == '.') {
+      integral = false;
+      advance();
+      if (!std::isdigit(static_cast<unsigned char>(peek()))) fail("invalid number");
+      while (std::isdigit(static_cast<unsigned char>(peek()))) advance();
+    }
+    if (peek() == 'e' || peek() == 'E') {
+      integral = false;
+      advance();
+      if (peek() == '+' || peek() == '-') advance();
+      if (!std::isdigit(static_cast<unsigned char>(peek()))) fail("invalid number");
+      while (std::isdigit(static_cast<unsigned char>(peek()))) advance();
+    }
+    const std::string tok = s_.substr(start, pos_ - start);
+    n.kind = Node::kNumber;
+    n.number = std::strtod(tok.c_str(), nullptr);
+    if (integral) {
+      errno = 0;
+      const long long v = std::strtoll(tok.c_str(), nullptr, 10);
+      if (errno == 0) {
+        n.integral = true;
+        n.integer = v;
+      }
+    }
+  }
+
+  const std::string& s_;
+  std::string source_;
+  std::size_t pos_ = 0;
+  std::int64_t line_ = 1, col_ = 1;
+};
+
+const char* kind_name(Node::Kind k) {
+  switch (k) {
+    case Node::kNull: return "null";
+    case Node::kBool: return "a boolean";
+    case Node::kNumber: return "a number";
+    case Node::kString: return "a string";
+    case Node::kArray: return "an array";
+    case Node::kObject: return "an object";
+  }
+  return "?";
+}
+
+// Strict non-negative decimal integer without sign or leading zeros ("0", "17"), as PoET writes.
+bool parse_index(const std::string& s, int& out) {
+  if (s.empty() || s.size() > 9) return false;
+  if (s.size() > 1 && s[0] == '0') return false;
+  for (char c : s)
+    if (!std::isdigit(static_cast<unsigned char>(c))) return false;
+  out = std::stoi(s);
+  return true;
+}
+
+class ResultsBuilder {
+ public:
+  ResultsBuilder(std::string source, PoetRotationFormat fmt) : source_(std::move(source)), fmt_(fmt) {}
+
+  [[noreturn]] void fail(const Node& n, const std::string& msg, const std::string& key) const {
+    throw InputError(msg, {source_, n.line, n.col, key});
+  }
+
+  double num(const Node& n, const std::string& key) const {
+    if (n.kind != Node::kNumber) fail(n, std::string("expected a number, found ") + kind_name(n.kind), key);
+    return n.number;
+  }
+
+  PoetResults build(const Node& root) {
+    if (root.kind != Node::kObject)
+      fail(root, std::string("a PoET results.json must be an object of image ids, found ") + kind_name(root.kind), "");
+    PoetResults out;
+    for (std::size_t i = 0; i < root.members.size(); ++i) {
+      const auto& [id, img] = root.members[i];
+      PoetImageResult r;
+      r.id = id;
+      r.line = root.member_lines[i];
+      r.column = root.member_cols[i];
+      if (img.kind != Node::kObject)
+        fail(img, std::string("expected an object of detections, found ") + kind_name(img.kind), id);
+      for (std::size_t k = 0; k < img.members.size(); ++k) {
+        const auto& [idx_key, det] = img.members[k];
+        const std::string key = id + "." + idx_key;
+        PoetRawDetection d;
+        if (!parse_index(idx_key, d.index))
+          throw InputError("detection keys must be \"0\", \"1\", ... (PoET's score order), found \"" + idx_key + "\"",
+                           {source_, img.member_lines[k], img.member_cols[k], key});
+        d.line = img.member_lines[k];
+        d.column = img.member_cols[k];
+        detection(det, key, d);
+        r.detections.push_back(std::move(d));
+      }
+      std::sort(r.detections.begin(), r.detections.end(),
+                [](const PoetRawDetection& a, const PoetRawDetection& b) { return a.index < b.index; });
+      out.images.push_back(std::move(r));
+    }
+    return out;
+  }
+
+ private:
+  void detection(const Node& det, const std::string& key, PoetRawDetection& d) const {
+    if (det.kind != Node::kObject) fail(det, std::string("expected a detection object, found ") + kind_name(det.kind), key);
+    bool has_t = false, has_rot = false, has_class = false;
+    for (const auto& [k, v] : det.members) {
+      const std::string kk = key + "." + k;
+      if (k == "t") {
+        has_t = true;
+        if (v.kind != Node::kArray || v.items.size() != 3) fail(v, "\"t\" must be [x, y, z] (metres)", kk);
+        for (int i = 0; i < 3; ++i) d.t[i] = num(v.items[i], kk);
+      } else if (k == "rot") {
+        has_rot = true;
+        rotation(v, kk, d);
+      } else if (k == "box") {
+        if (v.kind != Node::kArray || v.items.size() != 4) fail(v, "\"box\" must be [cx, cy, w, h]", kk);
+        for (int i = 0; i < 4; ++i) d.box[i] = num(v.items[i], kk);
+      } else if (k == "class") {
+        has_class = true;
+        if (v.kind != Node::kNumber || !std::isfinite(v.number) || v.number != std::floor(v.number))
+          fail(v, "\"class\" must be an integer class id", kk);
+        if (v.number < 1 || v.number > 1e6)
+          fail(v, "\"class\" must be a 1-based class id (0 is PoET's background, -1 its padding)", kk);
+        d.class_id = static_cast<int>(v.number);
+      } else if (k == "score") {
+        const double s = num(v, kk);
+        if (std::isfinite(s)) d.score = s;
+      } else {
+        fail(v, "unknown key \"" + k + "\" in a PoET detection (expected t, rot, box, class)", kk);
+      }
+    }
+    if (!has_t) fail(det, "detection without \"t\"", key);
+    if (!has_rot) fail(det, "detection without \"rot\"", key);
+    if (!has_class) fail(det, "detection without \"class\"", key);
+    d.finite = d.t.allFinite() && d.R_C_O.allFinite();
+  }
+
+  void rotation(const Node& v, const std::string& kk, PoetRawDetection& d) const {
+    if (v.kind != Node::kArray) fail(v, "\"rot\" must be a 3x3 list of rows or a [w, x, y, z] quaternion", kk);
+    const bool is_matrix = v.items.size() == 3;
+    const bool is_quat = v.items.size() == 4;
+    if (!is_matrix && !is_quat)
+      fail(v, "\"rot\" must be a 3x3 list of rows or a [w, x, y, z] quaternion (found " +
+                  std::to_string(v.items.size()) + " elements)", kk);
+    if (fmt_ == PoetRotationFormat::kMatrix && !is_matrix)
+      fail(v, "\"rot\" is a 4-vector but --rotation matrix was given", kk);
+    if (fmt_ == PoetRotationFormat::kQuatWxyz && !is_quat)
+      fail(v, "\"rot\" is not a 4-vector but --rotation quat_wxyz was given", kk);
+    if (is_matrix) {
+      Eigen::Matrix3d R;
+      for (int r = 0; r < 3; ++r) {
+        const Node& row = v.items[r];
+        if (row.kind != Node::kArray || row.items.size() != 3) fail(row, "each row of \"rot\" must have 3 numbers", kk);
+        for (int c = 0; c < 3; ++c) R(r, c) = num(row.items[c], kk);
+      }
+      if (R.allFinite()) {
+        const double orth = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+        if (orth > 1e-3 || R.determinant() < 0.0)
+          fail(v, "\"rot\" is not a rotation matrix (max |RᵀR − I| = " + std::to_string(orth) +
+                      ", det = " + std::to_string(R.determinant()) + ")", kk);
+        R = math::orthonormalize(R);  // float32 output printed as float64: remove the rounding
+      }
+      d.R_C_O = R;
+    } else {
+      Eigen::Vector4d q;
+      for (int i = 0; i < 4; ++i) q[i] = num(v.items[i], kk);
+      d.rot_was_quaternion = true;
+      if (q.allFinite()) {
+        const double n = q.norm();
+        if (std::abs(n - 1.0) > 1e-3)
+          fail(v, "\"rot\" quaternion [w, x, y, z] is not unit norm (norm " + std::to_string(n) + ")", kk);
+        d.R_C_O = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
+      } else {
+        d.R_C_O.setConstant(std::numeric_limits<double>::quiet_NaN());
+      }
+    }
+  }
+
+  std::string source_;
+  PoetRotationFormat fmt_;
+};
+
+}  // namespace
+
+PoetRotationFormat parse_poet_rotation_format(const std::string& s, const std::string& what) {
+  if (s == "auto") return PoetRotationFormat::kAuto;
+  if (s == "matrix") return PoetRotationFormat::kMatrix;
+  if (s == "quat_wxyz") return PoetRotationFormat::kQuatWxyz;
+  throw InputError("unknown rotation format \"" + s + "\" (expected auto, matrix or quat_wxyz)", {what});
+}
+
+PoetResults parse_poet_results(const std::string& text, const std::string& source, PoetRotationFormat format) {
+  LenientParser p(text, source);
+  const Node root = p.parse_document();
+  return ResultsBuilder(source, format).build(root);
+}
+
+PoetResults read_poet_results(const std::filesystem::path& file, PoetRotationFormat format) {
+  return parse_poet_results(read_file(file), file.string(), format);
+}
+
+std::string poet_image_id(const std::string& filename) {
+  const std::string name = std::filesystem::path(filename).filename().string();
+  const auto dot = name.rfind('.');
+  const std::string stem = dot == std::string::npos ? name : name.substr(0, dot);
+  const auto us = name.find('_');
+  if (us == std::string::npos) return stem;
+  // Python's name[name.find('_') + 1 : name.rfind('.')]: empty when the underscore is after the dot.
+  if (dot == std::string::npos) return name.substr(us + 1, name.size() - 1 - (us + 1));
+  if (dot <= us) return "";
+  return name.substr(us + 1, dot - us - 1);
+}
+
+const std::vector<std::string>& ycbv_class_names() {
+  // aau-cns/poet dataset_files/ycbv_classes.json (= BOP YCB-V object ids 1..21).
+  static const std::vector<std::string> names = {
+      "background",          "002_master_chef_can", "003_cracker_box",   "004_sugar_box",
+      "005_tomato_soup_can", "006_mustard_bottle",  "007_tuna_fish_can", "008_pudding_box",
+      "009_gelatin_box",     "010_potted_meat_can", "011_banana",        "019_pitcher_base",
+      "021_bleach_cleanser", "024_bowl",            "025_mug",           "035_power_drill",
+      "036_wood_block",      "037_scissors",        "040_large_marker",  "051_large_clamp",
+      "052_extra_large_clamp", "061_foam_brick"};
+  return names;
+}
+
+std::vector<std::string> read_poet_class_names(const std::filesystem::path& file) {
+  const std::string text = read_file(file);
+  LenientParser p(text, file.string());
+  const Node root = p.parse_document();
+  if (root.kind != Node::kObject)
+    throw InputError("a class-info file must be an object {\"1\": \"name\", ...}", {file.string(), root.line, root.col});
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < root.members.size(); ++i) {
+    const auto& [k, v] = root.members[i];
+    int id = 0;
+    if (!parse_index(k, id))
+      throw InputError("class ids must be non-negative integers written as strings", {file.string(), root.member_lines[i], root.member_cols[i], k});
+    if (v.kind != Node::kString)
+      throw InputError("class names must be strings", {file.string(), v.line, v.col, k});
+    if (static_cast<std::size_t>(id) >= names.size()) names.resize(static_cast<std::size_t>(id) + 1);
+    names[static_cast<std::size_t>(id)] = v.str;
+  }
+  return names;
+}
+
+}  // namespace roe::io
