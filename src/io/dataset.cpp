@@ -211,6 +211,62 @@ std::vector<std::string> with_stamp_alternatives(std::vector<std::string> h) {
   return h;
 }
 
+// roe.json layout: keys in a fixed, readable order (then alphabetical), arrays of numbers on one
+// line, two-space indent. Deterministic, so the same manifest always gives the same bytes.
+int key_rank(const std::string& k) {
+  static const char* order[] = {"schema", "id", "name", "kind", "path", "sha256", "options", "symmetric",
+                                "sources", "imu", "camera", "mocap", "objects", "truth", "rate_hz",
+                                "gyro_noise_density", "gyro_random_walk", "accel_noise_density",
+                                "accel_random_walk", "width", "height", "fx", "fy", "cx", "cy",
+                                "distortion_model", "distortion", "body", "T_I_C", "T_B_I", "T_W_O",
+                                "time_offset_s", "imu_noise", "detection_noise", "p", "q"};
+  for (std::size_t i = 0; i < sizeof(order) / sizeof(order[0]); ++i)
+    if (k == order[i]) return static_cast<int>(i);
+  return 1000;
+}
+
+void print_json(const json& j, int indent, std::string& out) {
+  const std::string pad(static_cast<std::size_t>(indent) + 2, ' ');
+  if (j.is_object()) {
+    if (j.empty()) {
+      out += "{}";
+      return;
+    }
+    std::vector<std::string> keys;
+    for (auto it = j.begin(); it != j.end(); ++it) keys.push_back(it.key());
+    std::stable_sort(keys.begin(), keys.end(),
+                     [](const std::string& a, const std::string& b) { return key_rank(a) < key_rank(b); });
+    out += "{\n";
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      out += pad + json(keys[i]).dump() + ": ";
+      print_json(j.at(keys[i]), indent + 2, out);
+      out += i + 1 < keys.size() ? ",\n" : "\n";
+    }
+    out += std::string(static_cast<std::size_t>(indent), ' ') + "}";
+  } else if (j.is_array()) {
+    if (j.empty()) {
+      out += "[]";
+      return;
+    }
+    const bool flat = std::none_of(j.begin(), j.end(), [](const json& e) { return e.is_structured(); });
+    if (flat) {
+      out += "[";
+      for (std::size_t i = 0; i < j.size(); ++i) out += (i ? ", " : "") + j[i].dump();
+      out += "]";
+      return;
+    }
+    out += "[\n";
+    for (std::size_t i = 0; i < j.size(); ++i) {
+      out += pad;
+      print_json(j[i], indent + 2, out);
+      out += i + 1 < j.size() ? ",\n" : "\n";
+    }
+    out += std::string(static_cast<std::size_t>(indent), ' ') + "]";
+  } else {
+    out += j.dump();
+  }
+}
+
 }  // namespace
 
 // -------------------------------------------------------------------------------------------------
@@ -423,7 +479,9 @@ DatasetManifest read_manifest(const fs::path& dataset) {
 }
 
 void write_manifest(const DatasetManifest& m, const fs::path& file) {
-  write_file_atomic(file, manifest_to_json(m).dump(2) + "\n");
+  std::string text;
+  print_json(manifest_to_json(m), 0, text);
+  write_file_atomic(file, text + "\n");
 }
 
 // -------------------------------------------------------------------------------------------------
