@@ -523,7 +523,7 @@ std::vector<CameraFrame> read_cam_csv(const fs::path& file) {
     CameraFrame f;
     f.t_ns = r.get_int64(0);
     f.filename = r.get_string(1);
-    if (f.filename.find('/') != std::string::npos || f.filename == "..")
+    if (f.filename.find('/') != std::string::npos || f.filename == "." || f.filename == "..")
       throw r.error(1, "filename must be a plain name inside cam0/data/: '" + f.filename + "'");
     out.push_back(std::move(f));
   }

@@ -381,3 +381,75 @@ TEST_CASE("csv: decimal seconds to integer nanoseconds, exactly", "[csv][time]")
   e = expect_input_error([&] { (void)r.get_seconds_ns(0); });
   CHECK(std::string(e.what()).find("out of range") != std::string::npos);
 }
+
+TEST_CASE("csv: random malformed input only ever raises InputError", "[csv][fuzz]") {
+  // Text from an alphabet rich in separators, quotes, signs and number parts: every outcome must
+  // be rows or a located InputError, never a crash, a hang or another exception type.
+  std::mt19937 rng(2024);
+  const std::string alphabet = "0123456789,,,..--+e\"\"\n\n\r# \tnaif";
+  std::uniform_int_distribution<std::size_t> pick(0, alphabet.size() - 1), len(0, 120);
+  std::size_t errors = 0, tables = 0;
+  for (int i = 0; i < 3000; ++i) {
+    std::string text;
+    const std::size_t n = len(rng);
+    for (std::size_t k = 0; k < n; ++k) text += alphabet[pick(rng)];
+    CsvOptions o;
+    o.header = i % 2 ? CsvHeader::kNone : CsvHeader::kFirstLine;
+    o.whitespace_delimited = i % 5 == 0;
+    o.stamp_column = i % 3 == 0 ? 0 : -1;
+    o.stamp_kind = i % 7 == 0 ? StampKind::kSeconds : StampKind::kNanoseconds;
+    o.ragged = i % 11 == 0;
+    try {
+      auto r = CsvReader::from_text(text, "fuzz.csv", o);
+      while (r.next()) {
+        for (std::size_t c = 0; c < r.size() + 1; ++c) {
+          try {
+            (void)r.get_double(c);
+          } catch (const InputError& e) {
+            REQUIRE(e.context().line == r.line());
+            REQUIRE(e.context().column == static_cast<std::int64_t>(c + 1));
+          }
+          try {
+            (void)r.get_seconds_ns(c);
+          } catch (const InputError&) {
+          }
+        }
+      }
+      ++tables;
+    } catch (const InputError& e) {
+      REQUIRE(e.context().file == "fuzz.csv");
+      REQUIRE(e.context().line >= 1);
+      ++errors;
+    }
+  }
+  CHECK(errors > 100);
+  CHECK(tables > 100);
+}
+
+TEST_CASE("csv: writer/reader round trip of arbitrary text fields", "[csv]") {
+  std::mt19937 rng(77);
+  const std::string alphabet = "ab,\" \t;x'";
+  std::uniform_int_distribution<std::size_t> pick(0, alphabet.size() - 1), len(0, 12);
+  CsvWriter w;
+  w.header({"i", "s"});
+  std::vector<std::string> values;
+  for (int i = 0; i < 500; ++i) {
+    std::string s;
+    const std::size_t n = len(rng);
+    for (std::size_t k = 0; k < n; ++k) s += alphabet[pick(rng)];
+    if (!s.empty() && s[0] == '#') s[0] = 'x';
+    values.push_back(s);
+    w.add(i).add(s).end_row();
+  }
+  CsvOptions o;
+  o.expected_header = {"i", "s"};
+  auto r = CsvReader::from_text(w.str(), "w.csv", o);
+  int i = 0;
+  while (r.next()) {
+    REQUIRE(i < 500);
+    CHECK(r.get_int(0) == i);
+    CHECK(r.field(1) == values[static_cast<std::size_t>(i)]);
+    ++i;
+  }
+  CHECK(i == 500);
+}
