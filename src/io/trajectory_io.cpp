@@ -1,0 +1,402 @@
+#include "roe/io/trajectory_io.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <optional>
+#include <set>
+
+#include "roe/core/error.hpp"
+#include "roe/io/csv.hpp"
+#include "roe/io/output.hpp"
+
+namespace roe::io {
+
+std::string to_string(TrajectoryFormat f) {
+  switch (f) {
+    case TrajectoryFormat::kAuto:
+      return "auto";
+    case TrajectoryFormat::kTum:
+      return "tum";
+    case TrajectoryFormat::kEuroc:
+      return "euroc";
+    case TrajectoryFormat::kCsv:
+      return "csv";
+    case TrajectoryFormat::kCsvNs:
+      return "csv-ns";
+  }
+  return "auto";
+}
+
+TrajectoryFormat parse_trajectory_format(const std::string& name) {
+  if (name == "auto") return TrajectoryFormat::kAuto;
+  if (name == "tum") return TrajectoryFormat::kTum;
+  if (name == "euroc" || name == "asl") return TrajectoryFormat::kEuroc;
+  if (name == "csv" || name == "cnspy") return TrajectoryFormat::kCsv;
+  if (name == "csv-ns" || name == "roe") return TrajectoryFormat::kCsvNs;
+  throw InputError(fmt::format("unknown trajectory format '{}' (expected auto, tum, euroc, csv (= cnspy) or "
+                               "csv-ns (= roe))",
+                               name),
+                   {"", 0, 0, "format"});
+}
+
+std::size_t Trajectory::count_duplicate_stamps() const {
+  std::size_t n = 0;
+  for (std::size_t i = 1; i < t_ns.size(); ++i) n += (t_ns[i] == t_ns[i - 1]);
+  return n;
+}
+
+// -------------------------------------------------------------------------------------------------
+// Detection
+// -------------------------------------------------------------------------------------------------
+
+namespace {
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
+std::vector<std::string> split_names(std::string_view line, char delim) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t d = line.find(delim, start);
+    out.emplace_back(
+        trim(line.substr(start, d == std::string_view::npos ? std::string_view::npos : d - start)));
+    if (d == std::string_view::npos) break;
+    start = d + 1;
+  }
+  return out;
+}
+
+// Name without a unit suffix: "p_RS_R_x [m]" -> "p_RS_R_x".
+std::string base_name(const std::string& n) {
+  const std::size_t b = n.find(" [");
+  return std::string(trim(b == std::string::npos ? std::string_view(n) : std::string_view(n).substr(0, b)));
+}
+
+bool looks_numeric(std::string_view f) {
+  f = trim(f);
+  if (f.empty()) return false;
+  const char c = f.front();
+  return (c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.';
+}
+
+bool is_euroc_header(const std::vector<std::string>& names) {
+  static const std::array<const char*, 8> want = {"timestamp", "p_RS_R_x", "p_RS_R_y", "p_RS_R_z",
+                                                  "q_RS_w",    "q_RS_x",   "q_RS_y",   "q_RS_z"};
+  if (names.size() < 8) return false;
+  for (std::size_t k = 0; k < 8; ++k)
+    if (base_name(names[k]) != want[k]) return false;
+  return true;
+}
+
+const std::vector<std::string> kPoseCols = {"tx", "ty", "tz", "qx", "qy", "qz", "qw"};
+const std::vector<std::string> kPosOrientCov = {"pxx", "pxy", "pxz", "pyy", "pyz", "pzz",
+                                                "qrr", "qrp", "qry", "qpp", "qpy", "qyy"};
+const std::vector<std::string> kPoseCov = {"Txx", "Txy", "Txz", "Txa", "Txb", "Txc", "Tyy",
+                                           "Tyz", "Tya", "Tyb", "Tyc", "Tzz", "Tza", "Tzb",
+                                           "Tzc", "Taa", "Tab", "Tac", "Tbb", "Tbc", "Tcc"};
+
+}  // namespace
+
+TrajectoryFormat detect_trajectory_format(std::string_view text, const std::string& source) {
+  std::size_t pos = 0;
+  std::int64_t line_no = 0;
+  if (text.size() >= 3 && static_cast<unsigned char>(text[0]) == 0xEF) pos = 3;  // BOM
+  while (pos < text.size()) {
+    const std::size_t nl = text.find('\n', pos);
+    std::string_view line =
+        trim(text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos));
+    pos = nl == std::string_view::npos ? text.size() : nl + 1;
+    ++line_no;
+    if (line.empty()) continue;
+    const bool comment = line.front() == '#';
+    std::string_view body = comment ? trim(line.substr(1)) : line;
+    if (body.find(',') != std::string_view::npos) {
+      if (looks_numeric(body)) {
+        throw InputError(
+            "comma-separated rows without a header line: cannot tell the columns apart; add a header "
+            "(e.g. t,tx,ty,tz,qx,qy,qz,qw) or pass the format (--est-format/--gt-format euroc)",
+            {source, line_no, 1});
+      }
+      const auto names = split_names(body, ',');
+      if (is_euroc_header(names)) return TrajectoryFormat::kEuroc;
+      if (std::find(names.begin(), names.end(), "timestamp_ns") != names.end())
+        return TrajectoryFormat::kCsvNs;
+      if (std::find(names.begin(), names.end(), "t") != names.end()) return TrajectoryFormat::kCsv;
+      throw InputError(fmt::format("unrecognised trajectory header '{}' (expected a TUM file, an EuRoC csv "
+                                   "with p_RS_R_x..q_RS_z, or a CSV with columns t,tx,ty,tz,qx,qy,qz,qw)",
+                                   std::string(line.substr(0, 120))),
+                       {source, line_no, 1});
+    }
+    if (comment) continue;  // a TUM comment (e.g. "# timestamp tx ty tz qx qy qz qw")
+    if (looks_numeric(body)) return TrajectoryFormat::kTum;
+    throw InputError(fmt::format("unrecognised trajectory line '{}' (expected a TUM row 't tx ty tz qx qy qz "
+                                 "qw' or a CSV header)",
+                                 std::string(line.substr(0, 120))),
+                     {source, line_no, 1});
+  }
+  throw InputError("the trajectory file has no data rows", {source});
+}
+
+// -------------------------------------------------------------------------------------------------
+// Reading
+// -------------------------------------------------------------------------------------------------
+
+namespace {
+
+Timestamp read_seconds(const CsvReader& r, std::size_t col) {
+  const std::string_view f = r.field(col);
+  const std::optional<Timestamp> parsed = parse_seconds_ns(f);
+  if (!parsed) {
+    bool digits_only =
+        !f.empty() && std::all_of(f.begin(), f.end(), [](char c) { return c >= '0' && c <= '9'; });
+    if (digits_only && f.size() >= 15) {
+      throw r.error(col, fmt::format("time stamp '{}' is too large for seconds: it looks like nanoseconds "
+                                     "(this format stores seconds; use the EuRoC or csv-ns format)",
+                                     std::string(f)));
+    }
+    throw r.error(col,
+                  fmt::format("expected a time stamp in seconds, got '{}'", std::string(f.substr(0, 40))));
+  }
+  return *parsed;
+}
+
+Pose read_pose(const CsvReader& r, const std::array<std::size_t, 3>& p,
+               const std::array<std::size_t, 4>& q_xyzw) {
+  const Eigen::Vector3d pos(r.get_double(p[0]), r.get_double(p[1]), r.get_double(p[2]));
+  const Eigen::Quaterniond q(r.get_double(q_xyzw[3]), r.get_double(q_xyzw[0]), r.get_double(q_xyzw[1]),
+                             r.get_double(q_xyzw[2]));
+  const double n = q.norm();
+  if (!(std::abs(n - 1.0) <= 0.05)) {
+    throw r.error(q_xyzw[3],
+                  fmt::format("quaternion norm {:.6g} is not 1 (expected a unit quaternion; is the "
+                              "column order right?)",
+                              n));
+  }
+  return Pose(q, pos);  // normalises
+}
+
+void append(Trajectory& tr, const CsvReader& r, std::size_t t_col, Timestamp t, Pose pose) {
+  if (!tr.t_ns.empty() && t < tr.t_ns.back()) {
+    throw r.error(
+        t_col, fmt::format("time stamps must not decrease: {} s follows {} s (line {})", format_seconds_ns(t),
+                           format_seconds_ns(tr.t_ns.back()), tr.lines.back()));
+  }
+  tr.t_ns.push_back(t);
+  tr.poses.push_back(std::move(pose));
+  tr.lines.push_back(r.line());
+}
+
+void read_tum(CsvReader& r, Trajectory& tr) {
+  while (r.next()) {
+    const Timestamp t = read_seconds(r, 0);
+    append(tr, r, 0, t, read_pose(r, {1, 2, 3}, {4, 5, 6, 7}));
+  }
+}
+
+void read_euroc(CsvReader& r, Trajectory& tr) {
+  if (!is_euroc_header(r.header())) {
+    throw InputError(
+        "not an EuRoC trajectory header: expected #timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],"
+        "p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z [](,...)",
+        {r.source(), r.header_line(), 1});
+  }
+  while (r.next()) {
+    const Timestamp t = r.get_int64(0);
+    append(tr, r, 0, t, read_pose(r, {1, 2, 3}, {5, 6, 7, 4}));
+  }
+}
+
+void read_csv(CsvReader& r, Trajectory& tr, bool ns) {
+  const auto& header = r.header();
+  const std::string t_name = ns ? "timestamp_ns" : "t";
+  std::set<std::string> names;
+  names.insert(header.begin(), header.end());  // CsvReader already refuses duplicate names
+  // The set must be the base columns plus one of the known optional groups (cnspy CSVSpatialFormatType).
+  std::set<std::string> base{t_name};
+  base.insert(kPoseCols.begin(), kPoseCols.end());
+  for (const auto& b : base) {
+    if (!names.count(b)) {
+      throw InputError(
+          fmt::format("the header has no column '{}' (a {} trajectory needs {},tx,ty,tz,qx,qy,qz,qw in "
+                      "any order)",
+                      b, ns ? "csv-ns" : "CSV", t_name),
+          {r.source(), r.header_line(), 0, b});
+    }
+  }
+  std::set<std::string> extra;
+  for (const auto& n : names)
+    if (!base.count(n)) extra.insert(n);
+  const auto has_all = [&](const std::vector<std::string>& g) {
+    return std::all_of(g.begin(), g.end(), [&](const std::string& c) { return extra.count(c) > 0; });
+  };
+  const auto remove = [&](const std::vector<std::string>& g) {
+    for (const auto& c : g) extra.erase(c);
+  };
+  int cov_kind = 0;  // 0 none, 1 PosOrientWithCov, 2 PoseWithCov
+  if (has_all(kPosOrientCov)) {
+    cov_kind = 1;
+    remove(kPosOrientCov);
+  } else if (has_all(kPoseCov)) {
+    cov_kind = 2;
+    remove(kPoseCov);
+  }
+  bool typed = false, scaled = false;
+  if (cov_kind != 0 && extra.count("est_err_type") && extra.count("err_representation")) {
+    typed = true;
+    remove({"est_err_type", "err_representation"});
+  } else if (cov_kind == 0 && extra.count("scale") && extra.count("est_err_type")) {
+    scaled = true;  // cnspy PoseTypedStamped
+    remove({"scale", "est_err_type"});
+  }
+  if (!extra.empty()) {
+    throw InputError(
+        fmt::format("unexpected column '{}' (known CSV layouts: t,tx,ty,tz,qx,qy,qz,qw optionally "
+                    "with the cnspy covariance columns pxx..qyy or Txx..Tcc [+ est_err_type, "
+                    "err_representation], or + scale, est_err_type)",
+                    *extra.begin()),
+        {r.source(), r.header_line(), 0, *extra.begin()});
+  }
+  (void)scaled;
+  const std::size_t ct = r.column(t_name);
+  const std::array<std::size_t, 3> cp{r.column("tx"), r.column("ty"), r.column("tz")};
+  const std::array<std::size_t, 4> cq{r.column("qx"), r.column("qy"), r.column("qz"), r.column("qw")};
+  std::vector<std::size_t> ccov;
+  for (const auto& c : cov_kind == 1 ? kPosOrientCov : cov_kind == 2 ? kPoseCov : std::vector<std::string>{})
+    ccov.push_back(r.column(c));
+  const std::size_t c_type = typed ? r.column("est_err_type") : 0;
+  bool first = true;
+  while (r.next()) {
+    const Timestamp t = ns ? r.get_int64(ct) : read_seconds(r, ct);
+    append(tr, r, ct, t, read_pose(r, cp, cq));
+    if (cov_kind == 0) continue;
+    Eigen::Matrix<double, 6, 6> C = Eigen::Matrix<double, 6, 6>::Zero();
+    if (cov_kind == 1) {
+      // position block (0..5) and orientation block (6..11), upper triangles row-major
+      const int idx[6][2] = {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}};
+      for (int k = 0; k < 6; ++k) {
+        C(idx[k][0], idx[k][1]) = C(idx[k][1], idx[k][0]) = r.get_double(ccov[k]);
+        C(3 + idx[k][0], 3 + idx[k][1]) = C(3 + idx[k][1], 3 + idx[k][0]) = r.get_double(ccov[6 + k]);
+      }
+    } else {
+      int k = 0;
+      for (int a = 0; a < 6; ++a)
+        for (int b = a; b < 6; ++b, ++k) C(a, b) = C(b, a) = r.get_double(ccov[k]);
+    }
+    tr.cov.push_back(C);
+    if (typed && first) tr.cov_position_local = (r.field(c_type) == "type1");
+    first = false;
+  }
+}
+
+}  // namespace
+
+Trajectory parse_trajectory(std::string text, const std::string& source, TrajectoryFormat format) {
+  if (format == TrajectoryFormat::kAuto) format = detect_trajectory_format(text, source);
+  Trajectory tr;
+  tr.format = format;
+  tr.source = source;
+  CsvOptions o;
+  o.comment_prefix = "#";
+  switch (format) {
+    case TrajectoryFormat::kTum: {
+      o.whitespace_delimited = true;
+      o.header = CsvHeader::kNone;
+      o.columns = 8;
+      CsvReader r = CsvReader::from_text(std::move(text), source, o);
+      read_tum(r, tr);
+      break;
+    }
+    case TrajectoryFormat::kEuroc: {
+      o.header = CsvHeader::kFirstLine;
+      CsvReader r = CsvReader::from_text(std::move(text), source, o);
+      read_euroc(r, tr);
+      break;
+    }
+    case TrajectoryFormat::kCsv:
+    case TrajectoryFormat::kCsvNs: {
+      o.header = CsvHeader::kFirstLine;
+      CsvReader r = CsvReader::from_text(std::move(text), source, o);
+      read_csv(r, tr, format == TrajectoryFormat::kCsvNs);
+      break;
+    }
+    case TrajectoryFormat::kAuto:
+      break;
+  }
+  if (tr.empty()) throw InputError("the trajectory file has no poses", {source});
+  return tr;
+}
+
+Trajectory read_trajectory(const fs::path& file, TrajectoryFormat format) {
+  return parse_trajectory(read_file(file), file.string(), format);
+}
+
+// -------------------------------------------------------------------------------------------------
+// Writing
+// -------------------------------------------------------------------------------------------------
+
+std::string format_trajectory(const std::vector<Timestamp>& t_ns, const std::vector<Pose>& poses,
+                              TrajectoryFormat format) {
+  ROE_CHECK(t_ns.size() == poses.size(), "one stamp per pose");
+  if (format == TrajectoryFormat::kAuto) format = TrajectoryFormat::kCsv;
+  const char delim = format == TrajectoryFormat::kTum ? ' ' : ',';
+  CsvWriter w(delim);
+  switch (format) {
+    case TrajectoryFormat::kTum:
+      w.header({"timestamp", "tx", "ty", "tz", "qx", "qy", "qz", "qw"}, "# ");
+      break;
+    case TrajectoryFormat::kEuroc:
+      w.header({"timestamp [ns]", "p_RS_R_x [m]", "p_RS_R_y [m]", "p_RS_R_z [m]", "q_RS_w []", "q_RS_x []",
+                "q_RS_y []", "q_RS_z []"},
+               "#");
+      break;
+    case TrajectoryFormat::kCsvNs:
+      w.header({"timestamp_ns", "tx", "ty", "tz", "qx", "qy", "qz", "qw"});
+      break;
+    default:
+      w.header({"t", "tx", "ty", "tz", "qx", "qy", "qz", "qw"});
+      break;
+  }
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const Pose& T = poses[i];
+    if (format == TrajectoryFormat::kEuroc || format == TrajectoryFormat::kCsvNs) {
+      w.add(static_cast<std::int64_t>(t_ns[i]));
+    } else {
+      w.add(std::string_view(format_seconds_ns(t_ns[i])));
+    }
+    w.add(T.p.x()).add(T.p.y()).add(T.p.z());
+    if (format == TrajectoryFormat::kEuroc) {
+      w.add(T.q.w()).add(T.q.x()).add(T.q.y()).add(T.q.z());
+    } else {
+      w.add(T.q.x()).add(T.q.y()).add(T.q.z()).add(T.q.w());
+    }
+    w.end_row();
+  }
+  return w.str();
+}
+
+void write_trajectory(const fs::path& file, const std::vector<Timestamp>& t_ns,
+                      const std::vector<Pose>& poses, TrajectoryFormat format) {
+  write_file_atomic(file, format_trajectory(t_ns, poses, format));
+}
+
+void write_trajectory(const fs::path& file, const std::vector<StampedPose>& poses, TrajectoryFormat format) {
+  std::vector<Timestamp> t;
+  std::vector<Pose> p;
+  t.reserve(poses.size());
+  p.reserve(poses.size());
+  for (const auto& sp : poses) {
+    t.push_back(sp.t_ns);
+    p.push_back(sp.T);
+  }
+  write_trajectory(file, t, p, format);
+}
+
+}  // namespace roe::io

@@ -1,0 +1,239 @@
+// Trajectory readers/writers: TUM, EuRoC, cnspy CSV (set-matched header, covariance columns), roe
+// csv-ns; format detection; exact seconds<->ns; malformed input with line and column.
+#include <catch2/catch.hpp>
+#include <filesystem>
+
+#include "roe/core/error.hpp"
+#include "roe/io/trajectory_io.hpp"
+
+using namespace roe;
+using namespace roe::io;
+
+namespace {
+
+/// Runs `f` and checks it throws an InputError located at `line`:`col` whose message has `needle`.
+template <typename F>
+void check_error_at(F&& f, std::int64_t line, std::int64_t col, const std::string& needle) {
+  try {
+    f();
+    FAIL("no error thrown; expected one at line " << line << " column " << col);
+  } catch (const InputError& e) {
+    INFO(e.what());
+    CHECK(e.context().line == line);
+    CHECK(e.context().column == col);
+    CHECK(std::string(e.what()).find(needle) != std::string::npos);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("trajectory stamps: seconds text to exact ns", "[io][trajectory]") {
+  // The V1_02 estimate writes stamps as 1.403715529112143517e+09: parsed without double rounding.
+  const Trajectory t =
+      parse_trajectory("1.403715529112143517e+09 0 0 0 0 0 0 1\n1403715529.2 0 0 0 0 0 0 1\n", "s");
+  CHECK(t.t_ns[0] == 1403715529112143517LL);
+  CHECK(t.t_ns[1] == 1403715529200000000LL);
+}
+
+TEST_CASE("format detection from the header", "[io][trajectory]") {
+  CHECK(detect_trajectory_format("# comment\n1.0 0 0 0 0 0 0 1\n", "x") == TrajectoryFormat::kTum);
+  CHECK(detect_trajectory_format("# timestamp tx ty tz qx qy qz qw\n1 0 0 0 0 0 0 1\n", "x") ==
+        TrajectoryFormat::kTum);
+  CHECK(detect_trajectory_format("#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],"
+                                 "q_RS_y [],q_RS_z []\n",
+                                 "x") == TrajectoryFormat::kEuroc);
+  CHECK(
+      detect_trajectory_format("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], "
+                               "q_RS_y [], q_RS_z [], v_RS_R_x [m s^-1]\n",
+                               "x") == TrajectoryFormat::kEuroc);
+  CHECK(detect_trajectory_format("t,tx,ty,tz,qx,qy,qz,qw\n", "x") == TrajectoryFormat::kCsv);
+  CHECK(detect_trajectory_format("#t,tx,ty,tz,qx,qy,qz,qw\n", "x") == TrajectoryFormat::kCsv);
+  CHECK(detect_trajectory_format("\n\nqw,qx,t,tx,ty,tz,qy,qz\n", "x") == TrajectoryFormat::kCsv);
+  CHECK(detect_trajectory_format("timestamp_ns,tx,ty,tz,qx,qy,qz,qw\n", "x") == TrajectoryFormat::kCsvNs);
+  check_error_at([] { detect_trajectory_format("\n1,2,3,4,5,6,7,8\n", "f.csv"); }, 2, 1, "without a header");
+  check_error_at([] { detect_trajectory_format("a,b,c\n", "f.csv"); }, 1, 1,
+                 "unrecognised trajectory header");
+  check_error_at([] { detect_trajectory_format("hello world\n", "f.txt"); }, 1, 1, "unrecognised");
+  CHECK_THROWS_AS(detect_trajectory_format("# only comments\n", "f.txt"), InputError);
+  CHECK(parse_trajectory_format("cnspy") == TrajectoryFormat::kCsv);
+  CHECK(parse_trajectory_format("roe") == TrajectoryFormat::kCsvNs);
+  CHECK_THROWS_AS(parse_trajectory_format("kitti"), InputError);
+}
+
+TEST_CASE("TUM reader", "[io][trajectory]") {
+  const Trajectory t = parse_trajectory(
+      "# TF frame\n1305031102.160407 1.344379 0.627206 1.661754 0.658249 0.611043 -0.294444 -0.326553\n"
+      "1305031102.194330 1 2 3 0 0 0 1\n",
+      "tum.txt");
+  REQUIRE(t.size() == 2);
+  CHECK(t.format == TrajectoryFormat::kTum);
+  CHECK(t.t_ns[0] == 1305031102160407000LL);
+  CHECK(t.lines[1] == 3);
+  CHECK(t.poses[0].p.x() == 1.344379);
+  CHECK(t.poses[0].q.w() == Approx(-0.326553).epsilon(1e-5));
+  CHECK(t.poses[1].p.z() == 3.0);
+  CHECK(t.cov.empty());
+  // duplicates accepted and counted
+  const Trajectory d = parse_trajectory("1 0 0 0 0 0 0 1\n1 1 0 0 0 0 0 1\n2 0 0 0 0 0 0 1\n", "d");
+  CHECK(d.count_duplicate_stamps() == 1);
+}
+
+TEST_CASE("TUM reader: malformed input names line and column", "[io][trajectory]") {
+  check_error_at([] { parse_trajectory("1 0 0 0 0 0 0 1\n2 0 0 0 0 0 1\n", "f", TrajectoryFormat::kTum); }, 2,
+                 8,
+                 "expected 8 columns");  // the first missing field
+  check_error_at([] { parse_trajectory("1 0 0 0 0 0 0 1\n2 0 x 0 0 0 0 1\n", "f"); }, 2, 3, "");
+  check_error_at([] { parse_trajectory("1 0 0 0 0 0 0 1\n2 0 nan 0 0 0 0 1\n", "f"); }, 2, 3, "");
+  check_error_at([] { parse_trajectory("1 0 0 0 0 0 0 1\n0.5 0 0 0 0 0 0 1\n", "f"); }, 2, 1,
+                 "must not decrease");
+  check_error_at([] { parse_trajectory("1 0 0 0 0 0 0 2\n", "f"); }, 1, 8, "quaternion norm");
+  check_error_at([] { parse_trajectory("1 0 0 0 0 0 0 0\n", "f"); }, 1, 8, "quaternion norm");
+  check_error_at([] { parse_trajectory("1403715524907143168 0 0 0 0 0 0 1\n", "f"); }, 1, 1,
+                 "looks like nanoseconds");
+  check_error_at([] { parse_trajectory("1,5 0 0 0 0 0 0 1\n", "f", TrajectoryFormat::kTum); }, 1, 1,
+                 "seconds");
+}
+
+TEST_CASE("EuRoC reader: ns, w first, 8 or 17 columns", "[io][trajectory]") {
+  const std::string h8 =
+      "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n";
+  const Trajectory t = parse_trajectory(h8 + "1403715524907143168,1,2,3,0,1,0,0\n", "gt.csv");
+  REQUIRE(t.size() == 1);
+  CHECK(t.format == TrajectoryFormat::kEuroc);
+  CHECK(t.t_ns[0] == 1403715524907143168LL);
+  CHECK(t.poses[0].q.x() == 1.0);
+  CHECK(t.poses[0].q.w() == 0.0);
+  check_error_at([&] { parse_trajectory(h8 + "1,1,2,3,1,0,0,0\n1.5,1,2,3,1,0,0,0\n", "gt.csv"); }, 3, 1, "");
+  check_error_at([&] { parse_trajectory(h8 + "1,1,2,3,1,0,0,0\n2,1,2,3,1,0,0\n", "gt.csv"); }, 3, 8,
+                 "columns");
+  check_error_at([&] { parse_trajectory(h8 + "1,1,2,3,1,0,0,0,9\n", "gt.csv"); }, 2, 9, "columns");
+  check_error_at(
+      [] {
+        parse_trajectory("#timestamp,a,b,c,d,e,f,g\n1,1,2,3,1,0,0,0\n", "gt.csv", TrajectoryFormat::kEuroc);
+      },
+      1, 1, "not an EuRoC");
+}
+
+TEST_CASE("CSV reader: any column order, covariance columns", "[io][trajectory]") {
+  SECTION("PoseStamped in a shuffled order") {
+    const Trajectory t = parse_trajectory("qw,tz,t,qx,ty,qy,tx,qz\n1,3,0.5,0,2,0,1,0\n", "x.csv");
+    REQUIRE(t.size() == 1);
+    CHECK(t.t_ns[0] == 500000000);
+    CHECK(t.poses[0].p == Eigen::Vector3d(1, 2, 3));
+    CHECK(t.poses[0].q.w() == 1.0);
+  }
+  SECTION("cnspy TUM header #t") {
+    CHECK(parse_trajectory("#t,tx,ty,tz,qx,qy,qz,qw\n1,0,0,0,0,0,0,1\n", "x.csv").size() == 1);
+  }
+  SECTION("PosOrientWithCov (+ typed), columns as in cnspy's OpenVINS sample (cov first)") {
+    const Trajectory t = parse_trajectory(
+        "qrr,qrp,qry,qpp,qpy,qyy,pxx,pxy,pxz,pyy,pyz,pzz,t,tx,ty,tz,qx,qy,qz,qw,est_err_type,err_"
+        "representation\n"
+        "0.1,0,0,0.2,0,0.3,1,0.5,0,2,0,3,10,0,0,0,0,0,0,1,type1,theta_R\n",
+        "x.csv");
+    REQUIRE(t.cov.size() == 1);
+    CHECK(t.cov_position_local);
+    CHECK(t.cov[0](0, 0) == 1.0);
+    CHECK(t.cov[0](0, 1) == 0.5);
+    CHECK(t.cov[0](1, 0) == 0.5);
+    CHECK(t.cov[0](2, 2) == 3.0);
+    CHECK(t.cov[0](3, 3) == 0.1);
+    CHECK(t.cov[0](5, 5) == 0.3);
+    CHECK(t.cov[0](0, 3) == 0.0);
+  }
+  SECTION("PoseWithCov 21 entries") {
+    std::string h =
+        "t,tx,ty,tz,qx,qy,qz,qw,Txx,Txy,Txz,Txa,Txb,Txc,Tyy,Tyz,Tya,Tyb,Tyc,Tzz,Tza,Tzb,Tzc,Taa,Tab,Tac,Tbb,"
+        "Tbc,Tcc\n";
+    std::string row = "1,0,0,0,0,0,0,1";
+    for (int k = 1; k <= 21; ++k) row += "," + std::to_string(k);
+    const Trajectory t = parse_trajectory(h + row + "\n", "x.csv");
+    REQUIRE(t.cov.size() == 1);
+    CHECK(t.cov[0](0, 0) == 1);
+    CHECK(t.cov[0](0, 5) == 6);
+    CHECK(t.cov[0](5, 0) == 6);
+    CHECK(t.cov[0](1, 1) == 7);
+    CHECK(t.cov[0](5, 5) == 21);
+    CHECK_FALSE(t.cov_position_local);
+  }
+  SECTION("PoseTypedStamped (an err_matched_aligned.csv)") {
+    const Trajectory t =
+        parse_trajectory("t,tx,ty,tz,qx,qy,qz,qw,scale,est_err_type\n1,0,0,0,0,0,0,1,1.0,type5\n", "e.csv");
+    CHECK(t.size() == 1);
+    CHECK(t.cov.empty());
+  }
+  SECTION("errors") {
+    check_error_at(
+        [] { parse_trajectory("t,tx,ty,tz,qx,qy,qz\n1,0,0,0,0,0,0\n", "x.csv", TrajectoryFormat::kCsv); }, 1,
+        0, "no column 'qw'");
+    check_error_at([] { parse_trajectory("t,tx,ty,tz,qx,qy,qz,qw,foo\n1,0,0,0,0,0,0,1,2\n", "x.csv"); }, 1, 0,
+                   "unexpected column 'foo'");
+    check_error_at([] { parse_trajectory("t,tx,ty,tz,qx,qy,qz,qw,pxx\n1,0,0,0,0,0,0,1,2\n", "x.csv"); }, 1, 0,
+                   "unexpected column 'pxx'");
+    check_error_at([] { parse_trajectory("t,tx,tx,tz,qx,qy,qz,qw\n1,0,0,0,0,0,0,1\n", "x.csv"); }, 1, 3,
+                   "duplicate column");
+    check_error_at(
+        [] { parse_trajectory("qw,t,tx,ty,tz,qx,qy,qz\n1,2,0,0,0,0,0,0\n1,1,0,0,0,0,0,0\n", "x.csv"); }, 3, 2,
+        "must not decrease");
+    check_error_at(
+        [] { parse_trajectory("t,tx,ty,tz,qx,qy,qz,qw\n1,0,0,0,0,0,0,1\n2,0,,0,0,0,0,1\n", "x.csv"); }, 3, 3,
+        "");
+    CHECK_THROWS_AS(parse_trajectory("t,tx,ty,tz,qx,qy,qz,qw\n", "x.csv"), InputError);  // no poses
+  }
+}
+
+TEST_CASE("csv-ns reader and writers round-trip exactly", "[io][trajectory]") {
+  std::vector<Timestamp> t{1403715529112143517LL, 1403715529212143517LL, 1403715529212143517LL};
+  std::vector<Pose> p;
+  for (int i = 0; i < 3; ++i)
+    p.push_back(Pose(Eigen::Quaterniond(Eigen::AngleAxisd(0.1 + i, Eigen::Vector3d(1, 2, 3).normalized())),
+                     Eigen::Vector3d(0.1 * i, -1.0 / 3.0, 1e-7 * i)));
+  for (auto f :
+       {TrajectoryFormat::kTum, TrajectoryFormat::kEuroc, TrajectoryFormat::kCsv, TrajectoryFormat::kCsvNs}) {
+    INFO(to_string(f));
+    const std::string text = format_trajectory(t, p, f);
+    const Trajectory back = parse_trajectory(text, "rt");  // auto-detected
+    CHECK(back.format == f);
+    REQUIRE(back.size() == 3);
+    CHECK(back.t_ns == t);
+    for (int i = 0; i < 3; ++i) {
+      CHECK(back.poses[i].p == p[i].p);
+      CHECK(back.poses[i].q.coeffs().isApprox(p[i].q.coeffs(), 1e-15));
+    }
+  }
+  CHECK(format_trajectory({0}, {Pose()}, TrajectoryFormat::kTum)
+            .rfind("# timestamp tx ty tz qx qy qz qw\n", 0) == 0);
+  CHECK(format_trajectory({0}, {Pose()}, TrajectoryFormat::kCsv) ==
+        "t,tx,ty,tz,qx,qy,qz,qw\n0.000000000,0,0,0,0,0,0,1\n");
+  // files
+  const auto dir = std::filesystem::temp_directory_path() / "roe_test_trajectory_io";
+  std::filesystem::create_directories(dir);
+  write_trajectory(dir / "a.tum", t, p, TrajectoryFormat::kTum);
+  CHECK(read_trajectory(dir / "a.tum").t_ns == t);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("real files in ../shared/data", "[io][trajectory][real]") {
+  const std::filesystem::path d = ROE_SHARED_DATA_DIR;
+  if (!std::filesystem::exists(d / "eval")) {
+    WARN("skipped: ../shared/data/eval is absent");
+    return;
+  }
+  const Trajectory tum = read_trajectory(d / "eval/freiburg1_xyz-groundtruth.txt");
+  CHECK(tum.format == TrajectoryFormat::kTum);
+  CHECK(tum.size() == 3000);
+  const Trajectory est = read_trajectory(d / "eval/V102.txt");
+  CHECK(est.size() == 807);
+  CHECK(est.count_duplicate_stamps() == 4);
+  const Trajectory gt = read_trajectory(d / "eval/V102_groundtruth.csv");
+  CHECK(gt.format == TrajectoryFormat::kEuroc);
+  CHECK(gt.size() == 16702);
+  const Trajectory cn = read_trajectory(d / "cnspy/ID1-pose-gt.csv");
+  CHECK(cn.format == TrajectoryFormat::kCsv);
+  CHECK(cn.size() > 0);
+  const Trajectory cov = read_trajectory(d / "cnspy/ID1-pose-est-posorient-cov-type1-thetaR.csv");
+  CHECK(cov.cov.size() == cov.size());
+  CHECK(cov.cov_position_local);
+  const Trajectory tumvi = read_trajectory(d / "tumvi/dataset-room1_512_16_gt.csv");
+  CHECK(tumvi.format == TrajectoryFormat::kEuroc);
+}
