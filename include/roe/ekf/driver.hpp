@@ -1,0 +1,46 @@
+#pragma once
+/// @file
+/// Runs the filter over a time-sorted IMU stream and a time-sorted list of images (the detections of
+/// each image already grouped), in the IMU clock. I/O-free: results go to an observer.
+///
+/// Timeline: the filter starts at the first IMU sample (roll/pitch from the accelerometer mean over
+/// FilterOptions::init_window_s). Between samples k−1 and k an image at t_f is handled by propagating
+/// to t_f with the IMU measurement linearly interpolated at t_f, updating, and then propagating on to
+/// sample k. Images before the first or after the last IMU sample are reported as rejected_no_imu.
+
+#include <string>
+#include <vector>
+
+#include "roe/core/types.hpp"
+#include "roe/ekf/filter.hpp"
+
+namespace roe::ekf {
+
+/// The detections of one image (time in the IMU clock).
+struct ImageDetections {
+  Timestamp t_ns = 0;
+  std::vector<Detection> detections;
+};
+
+class FilterObserver {
+ public:
+  virtual ~FilterObserver() = default;
+  /// After initialisation and after every IMU propagation step (the IMU-rate trajectory).
+  virtual void on_imu(const Filter& /*filter*/) {}
+  /// After each image.
+  virtual void on_image(Filter& /*filter*/, const FrameResult& /*result*/) {}
+};
+
+struct FilterRunSummary {
+  std::size_t imu_samples = 0;
+  std::size_t images = 0;
+  std::size_t updates = 0;
+};
+
+/// Runs the whole stream. Throws roe::DataError when the IMU stream is too short or not strictly
+/// increasing, or the images are not sorted; roe::NumericError when the filter diverges.
+FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,
+                            const FilterOptions& options, const ImuNoiseParams& noise, const Pose& T_I_C_prior,
+                            FilterObserver& observer);
+
+}  // namespace roe::ekf

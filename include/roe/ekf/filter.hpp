@@ -1,0 +1,158 @@
+#pragma once
+/// @file
+/// The self-calibrating multi-object error-state EKF of the paper (§III), DESIGN §6.
+///
+/// Error state (this order, one dense covariance P owned by this class — the only code that
+/// propagates, updates, augments and symmetrises it):
+///   [δp_W_I, δv_W_I, δθ_W_I, δb_g, δb_a | δp_I_C, δθ_I_C | per object: δp_O_W, δθ_O_W]
+/// - the extrinsics block is present only with FilterOptions::estimate_extrinsics;
+/// - objects are appended on first sight (augmentation with J_x P J_xᵀ + J_z R J_zᵀ and cross terms
+///   J_x P, measurement.hpp);
+/// - the anchor (main object) is KEPT OUT of the error state for AnchorGauge::kPose (the paper zeroes
+///   its H blocks, which is equivalent) and has only its two tilt components (δθ_x, δθ_y of R_O_W)
+///   for kPositionYaw. On its first sight the gauge of W is fixed by an exact linear change of
+///   variables (docs/filter.md §4): the world is re-defined so that the fixed components of the anchor
+///   are exactly their initial estimate, and the uncertainty that was in the anchor moves into the
+///   IMU pose, velocity and the other object-worlds (δx' = δx + G Γ δa, P' = M P_aug Mᵀ).
+///
+/// Propagation is block-sparse: only the 15 core rows/columns change. P_cc is propagated every IMU
+/// sample (F applied as 8 small 3x3 products); the core/rest cross-covariance is updated lazily with
+/// the accumulated transition Φ = F_k⋯F_1 the next time it is needed (update, augmentation,
+/// covariance()). No heap allocation per IMU sample.
+///
+/// Update per image: residual and H per detection of an initialised object, a χ² test per object on
+/// its own 6x6 S_k = H_k P H_kᵀ + R_k, all inliers stacked into one update; K from an LDLT of S (no
+/// explicit inverse); Joseph form written as P + E Kᵀ + K Eᵀ with E = ½ K S − P Hᵀ (equal to
+/// (I−KH)P(I−KH)ᵀ + K R Kᵀ, only the lower triangle evaluated), then
+/// symmetrised. Guard rails throw roe::NumericError naming the time and what broke.
+
+#include <Eigen/Core>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "roe/core/types.hpp"
+#include "roe/ekf/imu.hpp"
+#include "roe/ekf/measurement.hpp"
+#include "roe/ekf/options.hpp"
+
+namespace roe::ekf {
+
+/// What happened to one detection (reprojection.csv `status`).
+enum class DetectionStatus {
+  kAccepted,         ///< used in the update (passed the χ² gate)
+  kInitialized,      ///< first sight: its object-world was initialised from it (anchor: gauge fixed)
+  kRejectedChi2,     ///< failed the χ² gate
+  kRejectedNoMain,   ///< frame without the anchor (require_anchor)
+  kRejectedScore,    ///< score below min_score
+  kRejectedNoImu,    ///< frame outside the IMU stream (before the first / after the last sample)
+};
+std::string to_string(DetectionStatus s);
+
+struct DetectionOutcome {
+  int object_id = 0;
+  DetectionStatus status = DetectionStatus::kAccepted;
+  double nis = std::numeric_limits<double>::quiet_NaN();  ///< rᵀ S⁻¹ r before the update (6 dof)
+  bool has_T_W_I = false;  ///< false while the object has no object-world yet
+  /// IMU pose implied by the raw detection and the current object-world estimate:
+  /// T_W_I = T_O_W⁻¹ · T_O_C · T_I_C⁻¹ (paper Fig. 3, "obj").
+  Pose T_W_I;
+};
+
+struct FrameResult {
+  Timestamp t_ns = 0;
+  std::vector<DetectionOutcome> detections;  ///< in the order given to update()
+  int n_inliers = 0;                         ///< detections used in the stacked update
+};
+
+struct ObjectEntry {
+  int id = 0;
+  Pose T_O_W;          ///< the paper's (p_O_W, q_O_W)
+  bool anchor = false;
+  int offset = -1;     ///< first error-state column (−1 when dim == 0)
+  int dim = 0;         ///< 6; anchor: 0 (kPose) or 2 (kPositionYaw, δθ_x δθ_y)
+  Timestamp t_init_ns = 0;
+};
+
+class Filter {
+ public:
+  Filter(const FilterOptions& options, const ImuNoiseParams& noise, const Pose& T_I_C_prior);
+
+  /// Starts the filter at t0 with the IMU at the origin of W, v = 0, yaw 0 and roll/pitch from
+  /// `mean_accel` (the accelerometer mean over the init window, minus the configured bias); gyro0 and
+  /// accel0 are the IMU measurement at t0 (start of the first integration interval).
+  void initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, const Vec3& mean_accel);
+  bool initialized() const { return initialized_; }
+
+  /// Propagates to t (> time()) with the IMU measurement at t (midpoint integrator, imu.hpp).
+  void propagate(Timestamp t, const Vec3& gyro, const Vec3& accel);
+  /// One image at time(): gate, stacked update, first-sight initialisations.
+  FrameResult update(const std::vector<Detection>& detections);
+
+  Timestamp time() const { return t_ns_; }
+  const CoreState& core() const { return x_; }
+  const Pose& T_I_C() const { return T_I_C_; }
+  const std::vector<ObjectEntry>& objects() const { return objects_; }
+  /// nullptr when the object has no object-world yet.
+  const ObjectEntry* object(int id) const;
+  int anchor_id() const { return anchor_id_; }
+  int dim() const { return n_; }
+  int extrinsics_offset() const { return extr_offset_; }
+  /// Diagonal entry of P (always current, also between updates).
+  double variance(int i) const { return P_(i, i); }
+  /// The full covariance, brought up to date (applies the pending cross-covariance transition).
+  const Eigen::MatrixXd& covariance();
+  const FilterOptions& options() const { return opt_; }
+  std::size_t n_updates() const { return n_updates_; }
+
+  // --- Lower-level access (tests, diagnostics) ---
+  /// x ← x ⊞ δx with the error-state definition above (the correction step of update()).
+  void boxplus(const Eigen::VectorXd& dx);
+  /// Predicted T_O_C of an initialised object.
+  Pose predict(int object_id) const;
+  /// Residual and the full 6 x dim() Jacobian H of one detection of an initialised object.
+  void measurement_jacobian(int object_id, const Pose& T_O_C_meas, Vec6& r, Eigen::MatrixXd& H) const;
+  /// The generator of an infinitesimal change of W (γ = [t; φ]: x_W = Exp(φ) x_W' + t) acting on the
+  /// current error state: δx' = δx + G γ (dim() x 6).
+  Eigen::MatrixXd gauge_generator() const;
+
+ private:
+  struct MeasBlock {
+    int det = 0;      // index into the detection vector
+    int obj = 0;      // index into objects_
+    Vec6 r;
+    Mat6 R;
+    Eigen::Matrix<double, 6, 18> H;  // compact columns
+    int idx[18];
+    int nc = 0;
+  };
+
+  void sync_cross_covariance();
+  void build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) const;
+  Mat6 measurement_covariance(const Detection& d, const Pose& z) const;
+  void initialize_object(int id, const Pose& z, const Mat6& R, bool anchor);
+  void check_state(const char* where) const;
+  void check_covariance(bool full, const char* where);
+  std::string when() const;
+
+  FilterOptions opt_;
+  ImuNoiseParams noise_;
+  bool initialized_ = false;
+  Timestamp t_ns_ = 0;
+  Vec3 gyro_ = Vec3::Zero(), accel_ = Vec3::Zero();
+  CoreState x_;
+  Pose T_I_C_;
+  std::vector<ObjectEntry> objects_;
+  int anchor_id_ = -1;
+  int extr_offset_ = -1;
+  int n_ = kCore;
+  Eigen::MatrixXd P_;
+  Mat15 Phi_ = Mat15::Identity();
+  bool phi_pending_ = false;
+  Eigen::MatrixXd tmp_cross_;
+  std::vector<MeasBlock> blocks_;
+  double gate_ = 0.0;
+  std::size_t n_updates_ = 0;
+};
+
+}  // namespace roe::ekf

@@ -1,0 +1,63 @@
+#pragma once
+/// @file
+/// The object pose sensor of the paper (§III-C): measurement model, residual, H blocks, object-world
+/// initialisation with its Jacobians, and the mapping of per-detection sigmas. Pure functions of the
+/// nominal state; the filter (filter.hpp) places the blocks into its error-state columns.
+///
+/// Measurement: the detected T_C_O is inverted to z = T_O_C (paper). Prediction
+///   ẑ_p = p_O_W + R_O_W (p_W_I + R_W_I p_I_C),   ẑ_q = q_O_W ⊗ q_W_I ⊗ q_I_C.
+/// Residual (paper eq. res_object): r = [z_p − ẑ_p ; 2 δq_v/δq_w],  δq = ẑ_q⁻¹ ⊗ z_q.
+/// H = ∂ẑ/∂δx with the error state of DESIGN §2 (additive positions, R = R̂ Exp(δθ)); with
+/// p_W_C = p_W_I + R_W_I p_I_C:
+///   position rows:    δp_W_I → R_O_W            δθ_W_I → −R_O_W R_W_I [p_I_C]×
+///                     δp_I_C → R_O_W R_W_I      δθ_I_C → 0
+///                     δp_O_W → I                δθ_O_W → −R_O_W [p_W_C]×
+///   orientation rows: δθ_W_I → R_I_Cᵀ          δθ_I_C → I        δθ_O_W → R_I_Cᵀ R_W_Iᵀ
+/// (paper eqs. for H_p and H_R; −R_O_W[p_W_I]× − R_O_W[R_W_I p_I_C]× = −R_O_W[p_W_C]×). All other
+/// blocks (v, biases, other objects) are zero.
+///
+/// First sight (paper): R_O_W = R_O_C R_I_Cᵀ R_W_Iᵀ,  p_O_W = p_O_C − R_O_W (R_W_I p_I_C + p_W_I),
+/// i.e. T_O_W = z · (T_W_I T_I_C)⁻¹. Its Jacobians (right error of R_O_W, R_O_C):
+///   δθ_O_W = R_W_C δz_θ − R_W_C δθ_I_C − R_W_I δθ_W_I
+///   δp_O_W = δz_p + R_O_W [p_W_C]× δθ_O_W − R_O_W (δp_W_I + R_W_I δp_I_C − R_W_I [p_I_C]× δθ_W_I)
+
+#include <Eigen/Core>
+
+#include "roe/core/types.hpp"
+#include "roe/ekf/imu.hpp"
+
+namespace roe::ekf {
+
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Mat63 = Eigen::Matrix<double, 6, 3>;
+
+/// Predicted measurement and its Jacobian blocks (6x3 each, rows [position; orientation]).
+struct ObjectPrediction {
+  Pose T_O_C_hat;
+  Mat63 H_p_WI, H_theta_WI, H_p_IC, H_theta_IC, H_p_OW, H_theta_OW;
+};
+
+/// ẑ = T_O_W T_W_I T_I_C and the H blocks above.
+ObjectPrediction predict_object(const CoreState& x, const Pose& T_I_C, const Pose& T_O_W);
+
+/// Paper residual r = [z_p − ẑ_p ; 2 δq_v/δq_w] of a measurement z = T_O_C.
+Vec6 object_residual(const Pose& T_O_C_hat, const Pose& T_O_C_meas);
+
+/// First-sight object-world T_O_W from z = T_O_C, and its Jacobians (6x3 blocks, rows [δp_O_W; δθ_O_W])
+/// with respect to δp_W_I, δθ_W_I, δp_I_C, δθ_I_C and the measurement z (6x6, [δz_p; δz_θ]).
+struct ObjectInit {
+  Pose T_O_W;
+  Mat63 J_p_WI, J_theta_WI, J_p_IC, J_theta_IC;
+  Mat6 J_z;
+};
+ObjectInit init_object(const CoreState& x, const Pose& T_I_C, const Pose& T_O_C_meas);
+
+/// Covariance of the residual-frame measurement error of z = T_O_C given the camera-frame σ of the
+/// detected T_C_O = (R, t): σ = (tx, ty, tz, rx, ry, rz), with the convention
+///   t_meas = t + n_t,  R_meas = Exp(n_r) R   (rotation noise about the camera axes).
+/// Inversion: p_O_C = −Rᵀt, R_O_C = Rᵀ, so δp_O_C = −R_O_C n_t − R_O_C [t]× n_r and
+/// δθ_O_C = −n_r:  Σ = J diag(σ²) Jᵀ with J = [[−R_O_C, −R_O_C [t]×], [0, −I]].
+Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Vec6& sigma_C);
+
+}  // namespace roe::ekf

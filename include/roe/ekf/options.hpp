@@ -1,0 +1,82 @@
+#pragma once
+/// @file
+/// Options of the multi-object error-state EKF (DESIGN §6). A plain struct with inline defaults; the
+/// app layer loads it strictly from JSON (`"filter": {...}` in configs/*.json, unknown keys are errors)
+/// and echoes it into run.json. Defaults are roe's recommended settings; configs/paper.json sets the
+/// paper's choices (docs/filter.md lists where they differ and why).
+
+#include <Eigen/Core>
+#include <string>
+
+namespace roe::ekf {
+
+/// How the main (anchor) object fixes the gauge of the world frame W.
+enum class AnchorGauge {
+  /// The paper: the anchor's object-world pose T_O_W is held fixed in all 6 dof (it is kept out of the
+  /// state; the paper zeroes its H blocks, which is the same). Roll and pitch of W then come from a
+  /// single noisy detection and can disagree with gravity.
+  kPose,
+  /// roe's default: only the unobservable directions are fixed — the anchor's position and its
+  /// rotation about W's z axis (gravity). Its roll/pitch (δθ_x, δθ_y of R_O_W) stay in the state, so
+  /// gravity and the detections are fused consistently (4-dof gauge of visual-inertial estimation).
+  kPositionYaw,
+};
+
+/// "pose" / "position_yaw".
+std::string to_string(AnchorGauge g);
+/// Parses to_string's names; returns false for anything else.
+bool parse_anchor_gauge(const std::string& s, AnchorGauge& out);
+
+struct FilterOptions {
+  // --- Measurement model (per detection, in the residual frame T_O_C) ---
+  double meas_sigma_p_m = 0.10;       ///< position σ per axis (paper: 10 cm)
+  double meas_sigma_rot_deg = 20.0;   ///< orientation σ per axis (paper: 20°)
+  /// Use the per-detection sigma columns of detections.csv (camera-frame σ of T_C_O, mapped into the
+  /// T_O_C residual frame) where present; the fixed σ above otherwise.
+  bool use_detection_sigmas = false;
+  /// Detections with a finite score below this are ignored (status rejected_score). 0 keeps all.
+  double min_score = 0.0;
+
+  // --- Outlier gate: χ² test per object on its 6-dof residual with its own S ---
+  bool chi2_gate = true;
+  double chi2_confidence = 0.95;  ///< gate = χ²₆ quantile at this probability
+
+  // --- Anchor (main object) ---
+  int anchor_id = -1;  ///< object id of the anchor; −1 = the first object detected
+  AnchorGauge anchor_gauge = AnchorGauge::kPositionYaw;
+  /// true (paper): frames in which the anchor is not detected are rejected (status rejected_no_main);
+  /// false: updates (and first-sight initialisations) from other objects are used as well.
+  bool require_anchor = true;
+
+  // --- Camera-IMU extrinsics T_I_C (self-calibration) ---
+  bool estimate_extrinsics = true;       ///< false: held fixed at the dataset prior (not in the state)
+  double extrinsics_sigma_p_m = 0.02;    ///< prior σ of p_I_C per axis
+  double extrinsics_sigma_rot_deg = 2.0; ///< prior σ of δθ_I_C per axis
+
+  // --- IMU noise (continuous time). Negative = take the dataset's roe.json imu values ---
+  double gyro_noise_density = -1.0;   ///< rad/s/√Hz
+  double gyro_random_walk = -1.0;     ///< rad/s²/√Hz
+  double accel_noise_density = -1.0;  ///< m/s²/√Hz
+  double accel_random_walk = -1.0;    ///< m/s³/√Hz
+  double imu_noise_scale = 1.0;       ///< multiplies all four densities (inflation for real IMUs)
+
+  // --- Initialisation: IMU at the origin of W, v = 0, yaw 0, roll/pitch from the mean accelerometer ---
+  double init_window_s = 0.2;  ///< accelerometer averaging window from the first IMU sample
+  Eigen::Vector3d init_gyro_bias = Eigen::Vector3d::Zero();   ///< rad/s
+  Eigen::Vector3d init_accel_bias = Eigen::Vector3d::Zero();  ///< m/s²
+  double init_sigma_p_m = 0.01;
+  double init_sigma_v_mps = 0.5;
+  double init_sigma_roll_pitch_deg = 3.0;
+  double init_sigma_yaw_deg = 5.0;
+  double init_sigma_gyro_bias = 0.01;  ///< rad/s
+  double init_sigma_accel_bias = 0.1;  ///< m/s²
+
+  // --- Guard rails (NumericError beyond these) ---
+  double max_position_m = 1.0e3;
+  double max_velocity_mps = 50.0;
+  double max_gyro_bias = 1.0;   ///< rad/s
+  double max_accel_bias = 5.0;  ///< m/s²
+  int pd_check_every = 30;      ///< full Cholesky test of P every N updates (and after init/augment)
+};
+
+}  // namespace roe::ekf

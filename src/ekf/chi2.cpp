@@ -1,0 +1,117 @@
+#include "roe/ekf/chi2.hpp"
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "roe/core/error.hpp"
+
+namespace roe::ekf {
+namespace {
+
+// Series P(a, x) = e^{-x} x^a / Γ(a+1) Σ x^n / ((a+1)...(a+n)); converges quickly for x < a + 1.
+double gamma_p_series(double a, double x) {
+  double term = 1.0 / a;
+  double sum = term;
+  for (int n = 1; n < 10000; ++n) {
+    term *= x / (a + n);
+    sum += term;
+    if (std::abs(term) < std::abs(sum) * 1e-16) break;
+  }
+  return sum * std::exp(-x + a * std::log(x) - std::lgamma(a));
+}
+
+// Upper tail Q(a, x) by the continued fraction of Γ(a, x) (modified Lentz), for x >= a + 1.
+double gamma_q_cf(double a, double x) {
+  constexpr double tiny = 1e-300;
+  double b = x + 1.0 - a;
+  double c = 1.0 / tiny;
+  double d = 1.0 / b;
+  double h = d;
+  for (int i = 1; i < 10000; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::abs(d) < tiny) d = tiny;
+    c = b + an / c;
+    if (std::abs(c) < tiny) c = tiny;
+    d = 1.0 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::abs(delta - 1.0) < 1e-16) break;
+  }
+  return std::exp(-x + a * std::log(x) - std::lgamma(a)) * h;
+}
+
+}  // namespace
+
+double gamma_p(double a, double x) {
+  ROE_CHECK(a > 0.0 && x >= 0.0, "gamma_p needs a > 0 and x >= 0");
+  if (x == 0.0) return 0.0;
+  if (x < a + 1.0) return gamma_p_series(a, x);
+  return 1.0 - gamma_q_cf(a, x);
+}
+
+double chi2_cdf(double x, double k) {
+  if (x <= 0.0) return 0.0;
+  return gamma_p(0.5 * k, 0.5 * x);
+}
+
+double normal_quantile(double p) {
+  ROE_CHECK(p > 0.0 && p < 1.0, "normal_quantile needs 0 < p < 1");
+  // Acklam's coefficients (rational approximations on a central and two tail regions).
+  static const double a[] = {-3.969683028665376e+01, 2.209460984245205e+02, -2.759285104469687e+02,
+                             1.383577518672690e+02,  -3.066479806614716e+01, 2.506628277459239e+00};
+  static const double b[] = {-5.447609879822406e+01, 1.615858368580409e+02, -1.556989798598866e+02,
+                             6.680131188771972e+01,  -1.328068155288572e+01};
+  static const double c[] = {-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e+00,
+                             -2.549732539343734e+00, 4.374664141464968e+00,  2.938163982698783e+00};
+  static const double d[] = {7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e+00,
+                             3.754408661907416e+00};
+  const double plow = 0.02425;
+  double x;
+  if (p < plow) {
+    const double q = std::sqrt(-2.0 * std::log(p));
+    x = (((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) /
+        ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
+  } else if (p <= 1.0 - plow) {
+    const double q = p - 0.5;
+    const double r = q * q;
+    x = (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q /
+        (((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1.0);
+  } else {
+    const double q = std::sqrt(-2.0 * std::log(1.0 - p));
+    x = -(((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) /
+        ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
+  }
+  // One Halley step on Φ(x) − p with Φ from erfc: brings the error to ~1e-15.
+  const double e = 0.5 * std::erfc(-x / std::sqrt(2.0)) - p;
+  const double u = e * std::sqrt(2.0 * M_PI) * std::exp(0.5 * x * x);
+  return x - u / (1.0 + 0.5 * x * u);
+}
+
+double chi2_quantile(double p, double k) {
+  ROE_CHECK(p > 0.0 && p < 1.0, "chi2_quantile needs 0 < p < 1, got " + std::to_string(p));
+  ROE_CHECK(k > 0.0, "chi2_quantile needs k > 0");
+  // Wilson–Hilferty start.
+  const double z = normal_quantile(p);
+  const double h = 2.0 / (9.0 * k);
+  double x = k * std::pow(std::max(1.0 - h + z * std::sqrt(h), 0.05), 3.0);
+  // Newton on F(x) − p with the χ² density f(x) = x^{k/2−1} e^{−x/2} / (2^{k/2} Γ(k/2)); the iterate
+  // is kept positive by halving towards 0 when a step would cross it.
+  for (int it = 0; it < 100; ++it) {
+    const double F = chi2_cdf(x, k);
+    const double logf = (0.5 * k - 1.0) * std::log(x) - 0.5 * x - 0.5 * k * std::log(2.0) - std::lgamma(0.5 * k);
+    const double f = std::exp(logf);
+    if (!(f > 0.0)) break;
+    double step = (F - p) / f;
+    double xn = x - step;
+    if (xn <= 0.0) xn = 0.5 * x;
+    const bool done = std::abs(xn - x) <= 1e-14 * x || std::abs(F - p) < 1e-15;
+    x = xn;
+    if (done) break;
+  }
+  return x;
+}
+
+}  // namespace roe::ekf

@@ -1,0 +1,538 @@
+#include "roe/ekf/filter.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+
+#include "roe/core/error.hpp"
+#include "roe/ekf/chi2.hpp"
+#include "roe/math/euler.hpp"
+#include "roe/math/so3.hpp"
+
+namespace roe::ekf {
+
+using math::exp_quat;
+using math::skew;
+
+std::string to_string(AnchorGauge g) { return g == AnchorGauge::kPose ? "pose" : "position_yaw"; }
+
+bool parse_anchor_gauge(const std::string& s, AnchorGauge& out) {
+  if (s == "pose") {
+    out = AnchorGauge::kPose;
+    return true;
+  }
+  if (s == "position_yaw") {
+    out = AnchorGauge::kPositionYaw;
+    return true;
+  }
+  return false;
+}
+
+std::string to_string(DetectionStatus s) {
+  switch (s) {
+    case DetectionStatus::kAccepted: return "accepted";
+    case DetectionStatus::kInitialized: return "initialized";
+    case DetectionStatus::kRejectedChi2: return "rejected_chi2";
+    case DetectionStatus::kRejectedNoMain: return "rejected_no_main";
+    case DetectionStatus::kRejectedScore: return "rejected_score";
+    case DetectionStatus::kRejectedNoImu: return "rejected_no_imu";
+  }
+  return "unknown";
+}
+
+Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const Pose& T_I_C_prior)
+    : opt_(options), noise_(noise), T_I_C_(T_I_C_prior) {
+  ROE_CHECK(opt_.chi2_confidence > 0.0 && opt_.chi2_confidence < 1.0, "chi2_confidence must be in (0, 1)");
+  gate_ = chi2_quantile(opt_.chi2_confidence, 6.0);
+  if (opt_.estimate_extrinsics) {
+    extr_offset_ = kCore;
+    n_ = kCore + 6;
+  }
+  P_ = Eigen::MatrixXd::Zero(n_, n_);
+  blocks_.reserve(16);
+}
+
+std::string Filter::when() const { return fmt::format("t = {:.9f} s", to_seconds(t_ns_)); }
+
+void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, const Vec3& mean_accel) {
+  const Vec3 f = mean_accel - opt_.init_accel_bias;
+  if (!f.allFinite() || f.norm() < 1e-6)
+    throw NumericError(fmt::format("cannot initialise roll/pitch at t = {:.9f} s: mean accelerometer is zero "
+                                   "or not finite",
+                                   to_seconds(t0)));
+  // R_W_I = Ry(pitch) Rx(roll) (yaw 0) with R_W_Iᵀ e_z ∥ f: roll = atan2(f_y, f_z), pitch = atan2(−f_x, |f_yz|).
+  const double roll = std::atan2(f.y(), f.z());
+  const double pitch = std::atan2(-f.x(), std::hypot(f.y(), f.z()));
+  x_ = CoreState();
+  x_.q_W_I = Eigen::Quaterniond(math::from_euler_zyx(Vec3(roll, pitch, 0.0))).normalized();
+  x_.b_g = opt_.init_gyro_bias;
+  x_.b_a = opt_.init_accel_bias;
+  t_ns_ = t0;
+  gyro_ = gyro0;
+  accel_ = accel0;
+
+  P_.setZero();
+  const auto sq = [](double s) { return s * s; };
+  const double d2r = math::kRadPerDeg;
+  for (int i = 0; i < 3; ++i) {
+    P_(kP + i, kP + i) = sq(opt_.init_sigma_p_m);
+    P_(kV + i, kV + i) = sq(opt_.init_sigma_v_mps);
+    P_(kBg + i, kBg + i) = sq(opt_.init_sigma_gyro_bias);
+    P_(kBa + i, kBa + i) = sq(opt_.init_sigma_accel_bias);
+  }
+  // Attitude: roll/pitch and yaw σ are given about W's axes (tilt about x, y; yaw about z) and mapped
+  // into the local error: δθ_local = R_W_Iᵀ δθ_W.
+  const Mat3 R = x_.q_W_I.toRotationMatrix();
+  const Vec3 var_W(sq(opt_.init_sigma_roll_pitch_deg * d2r), sq(opt_.init_sigma_roll_pitch_deg * d2r),
+                   sq(opt_.init_sigma_yaw_deg * d2r));
+  P_.block<3, 3>(kTheta, kTheta) = R.transpose() * var_W.asDiagonal() * R;
+  if (extr_offset_ >= 0) {
+    for (int i = 0; i < 3; ++i) {
+      P_(extr_offset_ + i, extr_offset_ + i) = sq(opt_.extrinsics_sigma_p_m);
+      P_(extr_offset_ + 3 + i, extr_offset_ + 3 + i) = sq(opt_.extrinsics_sigma_rot_deg * d2r);
+    }
+  }
+  Phi_.setIdentity();
+  phi_pending_ = false;
+  initialized_ = true;
+  check_covariance(true, "initialisation");
+}
+
+const ObjectEntry* Filter::object(int id) const {
+  for (const auto& o : objects_)
+    if (o.id == id) return &o;
+  return nullptr;
+}
+
+void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
+  ROE_CHECK(initialized_, "propagate before initialize");
+  ROE_CHECK(t >= t_ns_, "propagation backwards in time");
+  if (t == t_ns_) {
+    gyro_ = gyro;
+    accel_ = accel;
+    return;
+  }
+  const double dt = dt_seconds(t_ns_, t);
+  CoreTransition F;
+  x_ = integrate(x_, gyro_, accel_, gyro, accel, dt, &F);
+  t_ns_ = t;
+  gyro_ = gyro;
+  accel_ = accel;
+
+  // P_cc ← F P_cc Fᵀ + Q:  A = F P_cc;  F Aᵀ = F P_cc Fᵀ (P_cc symmetric).
+  Mat15 A = P_.topLeftCorner<15, 15>();
+  F.apply_left(A);
+  A.transposeInPlace();
+  F.apply_left(A);
+  add_process_noise(noise_, dt, A);
+  P_.topLeftCorner<15, 15>() = 0.5 * (A + A.transpose());
+  if (n_ > kCore) {
+    F.apply_left(Phi_);
+    phi_pending_ = true;
+  }
+  // Cheap guard rails every sample: core state and core variances.
+  bool ok = x_.p_W_I.allFinite() && x_.v_W_I.allFinite() && x_.q_W_I.coeffs().allFinite();
+  for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(P_(i, i)) && P_(i, i) > 0.0;
+  if (!ok) check_covariance(false, "propagation");
+  check_state("propagation");
+}
+
+void Filter::sync_cross_covariance() {
+  if (!phi_pending_) return;
+  const int r = n_ - kCore;
+  if (r > 0) {
+    tmp_cross_.resize(kCore, r);
+    tmp_cross_.noalias() = Phi_ * P_.topRightCorner(kCore, r);
+    P_.topRightCorner(kCore, r) = tmp_cross_;
+    P_.bottomLeftCorner(r, kCore) = tmp_cross_.transpose();
+  }
+  Phi_.setIdentity();
+  phi_pending_ = false;
+}
+
+const Eigen::MatrixXd& Filter::covariance() {
+  sync_cross_covariance();
+  return P_;
+}
+
+void Filter::boxplus(const Eigen::VectorXd& dx) {
+  ROE_CHECK(dx.size() == n_, "boxplus: wrong size");
+  x_.p_W_I += dx.segment<3>(kP);
+  x_.v_W_I += dx.segment<3>(kV);
+  x_.q_W_I = (x_.q_W_I * exp_quat(dx.segment<3>(kTheta))).normalized();
+  x_.b_g += dx.segment<3>(kBg);
+  x_.b_a += dx.segment<3>(kBa);
+  if (extr_offset_ >= 0) {
+    T_I_C_.p += dx.segment<3>(extr_offset_);
+    T_I_C_.q = (T_I_C_.q * exp_quat(dx.segment<3>(extr_offset_ + 3))).normalized();
+  }
+  for (auto& o : objects_) {
+    if (o.dim == 6) {
+      o.T_O_W.p += dx.segment<3>(o.offset);
+      o.T_O_W.q = (o.T_O_W.q * exp_quat(dx.segment<3>(o.offset + 3))).normalized();
+    } else if (o.dim == 2) {
+      o.T_O_W.q = (o.T_O_W.q * exp_quat(Vec3(dx(o.offset), dx(o.offset + 1), 0.0))).normalized();
+    }
+  }
+}
+
+Pose Filter::predict(int object_id) const {
+  const ObjectEntry* o = object(object_id);
+  ROE_CHECK(o != nullptr, "predict: object not initialised");
+  return predict_object(x_, T_I_C_, o->T_O_W).T_O_C_hat;
+}
+
+void Filter::build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) const {
+  const ObjectPrediction pr = predict_object(x_, T_I_C_, o.T_O_W);
+  b.r = object_residual(pr.T_O_C_hat, z);
+  int c = 0;
+  auto put3 = [&](int off, const Mat63& blk) {
+    for (int j = 0; j < 3; ++j) {
+      b.H.col(c) = blk.col(j);
+      b.idx[c++] = off + j;
+    }
+  };
+  put3(kP, pr.H_p_WI);
+  put3(kTheta, pr.H_theta_WI);
+  if (extr_offset_ >= 0) {
+    put3(extr_offset_, pr.H_p_IC);
+    put3(extr_offset_ + 3, pr.H_theta_IC);
+  }
+  if (o.dim == 6) {
+    put3(o.offset, pr.H_p_OW);
+    put3(o.offset + 3, pr.H_theta_OW);
+  } else if (o.dim == 2) {
+    for (int j = 0; j < 2; ++j) {
+      b.H.col(c) = pr.H_theta_OW.col(j);
+      b.idx[c++] = o.offset + j;
+    }
+  }
+  b.nc = c;
+}
+
+void Filter::measurement_jacobian(int object_id, const Pose& z, Vec6& r, Eigen::MatrixXd& H) const {
+  const ObjectEntry* o = object(object_id);
+  ROE_CHECK(o != nullptr, "measurement_jacobian: object not initialised");
+  MeasBlock b;
+  build_block(*o, z, b);
+  r = b.r;
+  H = Eigen::MatrixXd::Zero(6, n_);
+  for (int j = 0; j < b.nc; ++j) H.col(b.idx[j]) += b.H.col(j);
+}
+
+Mat6 Filter::measurement_covariance(const Detection& d, const Pose& z) const {
+  (void)z;
+  if (opt_.use_detection_sigmas && d.sigma.has_value())
+    return detection_covariance_in_residual_frame(d.T_C_O, *d.sigma);
+  Mat6 R = Mat6::Zero();
+  const double sp = opt_.meas_sigma_p_m, sr = opt_.meas_sigma_rot_deg * math::kRadPerDeg;
+  R.diagonal() << sp * sp, sp * sp, sp * sp, sr * sr, sr * sr, sr * sr;
+  return R;
+}
+
+Eigen::MatrixXd Filter::gauge_generator() const {
+  // x_W = Exp(φ) x_W' + t, i.e. T_W_W' = (Exp(φ), t). To first order:
+  //   p' = Exp(−φ)(p − t):  δp' = δp − t + [p]× φ      v' = Exp(−φ) v:  δv' = δv + [v]× φ
+  //   R' = Exp(−φ) R:       δθ' = δθ − Rᵀ φ
+  //   T_O_W' = T_O_W T_W_W':  δp_O' = δp_O + R_O_W t,  δθ_O' = δθ_O + φ
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n_, 6);
+  G.block<3, 3>(kP, 0) = -Mat3::Identity();
+  G.block<3, 3>(kP, 3) = skew(x_.p_W_I);
+  G.block<3, 3>(kV, 3) = skew(x_.v_W_I);
+  G.block<3, 3>(kTheta, 3) = -x_.q_W_I.toRotationMatrix().transpose();
+  for (const auto& o : objects_) {
+    if (o.dim == 6) {
+      G.block<3, 3>(o.offset, 0) = o.T_O_W.R();
+      G.block<3, 3>(o.offset + 3, 3) = Mat3::Identity();
+    } else if (o.dim == 2) {
+      G.block<2, 2>(o.offset, 3) = Eigen::Matrix2d::Identity();
+    }
+  }
+  return G;
+}
+
+void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor) {
+  sync_cross_covariance();
+  const ObjectInit in = init_object(x_, T_I_C_, z);
+  // Compact J_x (6 x nc) over the columns it touches.
+  Eigen::Matrix<double, 6, 12> Jx;
+  int idx[12];
+  int nc = 0;
+  auto put3 = [&](int off, const Mat63& blk) {
+    for (int j = 0; j < 3; ++j) {
+      Jx.col(nc) = blk.col(j);
+      idx[nc++] = off + j;
+    }
+  };
+  put3(kP, in.J_p_WI);
+  put3(kTheta, in.J_theta_WI);
+  if (extr_offset_ >= 0) {
+    put3(extr_offset_, in.J_p_IC);
+    put3(extr_offset_ + 3, in.J_theta_IC);
+  }
+  // P_xa = P J_xᵀ (n x 6);  P_aa = J_x P J_xᵀ + J_z R J_zᵀ.
+  Eigen::MatrixXd P_xa = Eigen::MatrixXd::Zero(n_, 6);
+  for (int j = 0; j < nc; ++j) P_xa.noalias() += P_.col(idx[j]) * Jx.col(j).transpose();
+  Mat6 P_aa = in.J_z * R * in.J_z.transpose();
+  for (int j = 0; j < nc; ++j) P_aa.noalias() += Jx.col(j) * P_xa.row(idx[j]);
+  P_aa = 0.5 * (P_aa + P_aa.transpose()).eval();
+
+  ObjectEntry o;
+  o.id = id;
+  o.T_O_W = in.T_O_W;
+  o.anchor = anchor;
+  o.t_init_ns = t_ns_;
+
+  if (!anchor) {
+    // Plain augmentation.
+    Eigen::MatrixXd P_new(n_ + 6, n_ + 6);
+    P_new.topLeftCorner(n_, n_) = P_;
+    P_new.topRightCorner(n_, 6) = P_xa;
+    P_new.bottomLeftCorner(6, n_) = P_xa.transpose();
+    P_new.bottomRightCorner<6, 6>() = P_aa;
+    o.offset = n_;
+    o.dim = 6;
+    P_.swap(P_new);
+    n_ += 6;
+    objects_.push_back(o);
+    check_covariance(true, "object initialisation");
+    return;
+  }
+
+  // Anchor: augment, then fix the gauge by re-defining W (docs/filter.md §4). With δa = [δp_a; δθ_a]
+  // the anchor's error, choose γ = [t; φ] so that the fixed components vanish:
+  //   t = −R_O_Wᵀ δp_a,  φ = −δθ_a (kPose)  or  φ = (0, 0, −δθ_a,z) (kPositionYaw),
+  // then δx' = δx + G Γ δa, and the anchor keeps only δθ_a,xy (kPositionYaw) or nothing (kPose).
+  const bool tilt = opt_.anchor_gauge == AnchorGauge::kPositionYaw;
+  Eigen::Matrix<double, 6, 6> Gamma = Eigen::Matrix<double, 6, 6>::Zero();
+  Gamma.block<3, 3>(0, 0) = -in.T_O_W.R().transpose();
+  if (tilt)
+    Gamma(5, 5) = -1.0;
+  else
+    Gamma.block<3, 3>(3, 3) = -Mat3::Identity();
+  const Eigen::MatrixXd G = gauge_generator();  // objects_ does not contain the anchor yet
+  const int keep = tilt ? 2 : 0;
+  const int n_aug = n_ + 6;
+  Eigen::MatrixXd P_aug(n_aug, n_aug);
+  P_aug.topLeftCorner(n_, n_) = P_;
+  P_aug.topRightCorner(n_, 6) = P_xa;
+  P_aug.bottomLeftCorner(6, n_) = P_xa.transpose();
+  P_aug.bottomRightCorner<6, 6>() = P_aa;
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n_ + keep, n_aug);
+  M.topLeftCorner(n_, n_).setIdentity();
+  M.topRightCorner(n_, 6) = G * Gamma;
+  if (tilt) {
+    M(n_, n_ + 3) = 1.0;
+    M(n_ + 1, n_ + 4) = 1.0;
+  }
+  Eigen::MatrixXd P_new = M * P_aug * M.transpose();
+  P_new = 0.5 * (P_new + P_new.transpose()).eval();
+  o.offset = keep > 0 ? n_ : -1;
+  o.dim = keep;
+  P_.swap(P_new);
+  n_ += keep;
+  objects_.push_back(o);
+  check_covariance(true, "anchor initialisation");
+}
+
+FrameResult Filter::update(const std::vector<Detection>& dets) {
+  ROE_CHECK(initialized_, "update before initialize");
+  FrameResult res;
+  res.t_ns = t_ns_;
+  res.detections.resize(dets.size());
+  std::vector<bool> usable(dets.size(), true);
+  for (std::size_t i = 0; i < dets.size(); ++i) {
+    res.detections[i].object_id = dets[i].object_id;
+    if (std::isfinite(dets[i].score) && dets[i].score < opt_.min_score) {
+      res.detections[i].status = DetectionStatus::kRejectedScore;
+      usable[i] = false;
+    }
+  }
+  // Anchor choice: the configured id, or the lowest id among the first frame's usable detections.
+  if (anchor_id_ < 0) {
+    if (opt_.anchor_id >= 0) {
+      anchor_id_ = opt_.anchor_id;
+    } else {
+      for (std::size_t i = 0; i < dets.size(); ++i)
+        if (usable[i] && (anchor_id_ < 0 || dets[i].object_id < anchor_id_)) anchor_id_ = dets[i].object_id;
+    }
+  }
+  int anchor_det = -1;
+  for (std::size_t i = 0; i < dets.size(); ++i)
+    if (usable[i] && dets[i].object_id == anchor_id_) anchor_det = static_cast<int>(i);
+
+  std::vector<Pose> z(dets.size());
+  for (std::size_t i = 0; i < dets.size(); ++i) z[i] = dets[i].T_C_O.inverse();
+
+  const auto implied = [&]() {
+    for (std::size_t i = 0; i < dets.size(); ++i) {
+      const ObjectEntry* o = object(dets[i].object_id);
+      if (o == nullptr) continue;
+      res.detections[i].has_T_W_I = true;
+      res.detections[i].T_W_I = o->T_O_W.inverse() * z[i] * T_I_C_.inverse();
+    }
+  };
+
+  if (anchor_det < 0 && opt_.require_anchor) {
+    for (std::size_t i = 0; i < dets.size(); ++i)
+      if (usable[i]) res.detections[i].status = DetectionStatus::kRejectedNoMain;
+    implied();
+    return res;
+  }
+
+  // The anchor's first sight fixes the gauge before anything else uses this frame.
+  if (anchor_det >= 0 && object(anchor_id_) == nullptr) {
+    const Detection& d = dets[anchor_det];
+    initialize_object(d.object_id, z[anchor_det], measurement_covariance(d, z[anchor_det]), true);
+    res.detections[anchor_det].status = DetectionStatus::kInitialized;
+    usable[anchor_det] = false;
+  }
+
+  // Residuals, H and the per-object gate.
+  sync_cross_covariance();
+  blocks_.clear();
+  std::vector<int> new_objects;
+  for (std::size_t i = 0; i < dets.size(); ++i) {
+    if (!usable[i]) continue;
+    const ObjectEntry* o = object(dets[i].object_id);
+    if (o == nullptr) {
+      new_objects.push_back(static_cast<int>(i));
+      continue;
+    }
+    MeasBlock b;
+    b.det = static_cast<int>(i);
+    b.obj = static_cast<int>(o - objects_.data());
+    build_block(*o, z[i], b);
+    b.R = measurement_covariance(dets[i], z[i]);
+    blocks_.push_back(b);
+  }
+
+  const int nb = static_cast<int>(blocks_.size());
+  if (nb > 0) {
+    // P Hᵀ per block (n x 6) and the block S_k.
+    Eigen::MatrixXd PHt_all = Eigen::MatrixXd::Zero(n_, 6 * nb);
+    std::vector<int> inliers;
+    inliers.reserve(nb);
+    for (int k = 0; k < nb; ++k) {
+      MeasBlock& b = blocks_[k];
+      auto PHt = PHt_all.middleCols<6>(6 * k);
+      for (int j = 0; j < b.nc; ++j) PHt.noalias() += P_.col(b.idx[j]) * b.H.col(j).transpose();
+      Mat6 S = b.R;
+      for (int j = 0; j < b.nc; ++j) S.noalias() += b.H.col(j) * PHt.row(b.idx[j]);
+      S = 0.5 * (S + S.transpose()).eval();
+      Eigen::LDLT<Mat6> ldlt(S);
+      if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all())
+        throw NumericError(fmt::format("filter failed at {}: innovation covariance of object {} is not "
+                                       "positive definite",
+                                       when(), dets[b.det].object_id));
+      const double nis = b.r.dot(ldlt.solve(b.r));
+      if (!std::isfinite(nis))
+        throw NumericError(fmt::format("filter failed at {}: non-finite NIS for object {}", when(),
+                                       dets[b.det].object_id));
+      res.detections[b.det].nis = nis;
+      if (opt_.chi2_gate && nis > gate_) {
+        res.detections[b.det].status = DetectionStatus::kRejectedChi2;
+      } else {
+        res.detections[b.det].status = DetectionStatus::kAccepted;
+        inliers.push_back(k);
+      }
+    }
+
+    const int ni = static_cast<int>(inliers.size());
+    if (ni > 0) {
+      const int m = 6 * ni;
+      Eigen::MatrixXd PHt(n_, m);
+      Eigen::VectorXd r(m);
+      for (int a = 0; a < ni; ++a) {
+        PHt.middleCols<6>(6 * a) = PHt_all.middleCols<6>(6 * inliers[a]);
+        r.segment<6>(6 * a) = blocks_[inliers[a]].r;
+      }
+      // S = H P Hᵀ + R, block (a, c) = H_a (P H_cᵀ)[idx_a rows].
+      Eigen::MatrixXd S = Eigen::MatrixXd::Zero(m, m);
+      for (int a = 0; a < ni; ++a) {
+        const MeasBlock& b = blocks_[inliers[a]];
+        for (int c = 0; c < ni; ++c) {
+          auto Sac = S.block<6, 6>(6 * a, 6 * c);
+          for (int j = 0; j < b.nc; ++j) Sac.noalias() += b.H.col(j) * PHt.block<1, 6>(b.idx[j], 6 * c);
+        }
+        S.block<6, 6>(6 * a, 6 * a) += b.R;
+      }
+      S = 0.5 * (S + S.transpose()).eval();
+      Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
+      if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all())
+        throw NumericError(fmt::format("filter failed at {}: stacked innovation covariance is not positive "
+                                       "definite",
+                                       when()));
+      // K = P Hᵀ S⁻¹ (Kᵀ = S⁻¹ (P Hᵀ)ᵀ, by the LDLT solve).
+      const Eigen::MatrixXd K = ldlt.solve(PHt.transpose()).transpose();
+      const Eigen::VectorXd dx = K * r;
+      // Joseph form: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + KSKᵀ = P + E Kᵀ + K Eᵀ,
+      // E = ½ K S − P Hᵀ; only the lower triangle is computed, then mirrored.
+      const Eigen::MatrixXd E = 0.5 * (K * S) - PHt;
+      // (assigning a product to a triangular view evaluates only that triangle: n²m multiply-adds)
+      P_.triangularView<Eigen::Lower>() += E * K.transpose();
+      P_.triangularView<Eigen::Lower>() += K * E.transpose();
+      P_.triangularView<Eigen::StrictlyUpper>() = P_.transpose();
+      boxplus(dx);
+      res.n_inliers = ni;
+      ++n_updates_;
+      check_state("update");
+      check_covariance(opt_.pd_check_every > 0 && n_updates_ % opt_.pd_check_every == 0, "update");
+    }
+  }
+
+  // First sight of the other objects, from the posterior.
+  for (int i : new_objects) {
+    const Detection& d = dets[i];
+    initialize_object(d.object_id, z[i], measurement_covariance(d, z[i]), false);
+    res.detections[i].status = DetectionStatus::kInitialized;
+  }
+  implied();
+  return res;
+}
+
+void Filter::check_state(const char* where) const {
+  const auto fail = [&](const std::string& what) {
+    throw NumericError(fmt::format("filter diverged at {} ({}): {}", when(), where, what));
+  };
+  if (!x_.p_W_I.allFinite() || !x_.v_W_I.allFinite() || !x_.q_W_I.coeffs().allFinite() ||
+      !x_.b_g.allFinite() || !x_.b_a.allFinite())
+    fail("non-finite core state");
+  if (x_.p_W_I.norm() > opt_.max_position_m)
+    fail(fmt::format("|p_W_I| = {:.4g} m exceeds max_position_m = {:.4g}", x_.p_W_I.norm(), opt_.max_position_m));
+  if (x_.v_W_I.norm() > opt_.max_velocity_mps)
+    fail(fmt::format("|v_W_I| = {:.4g} m/s exceeds max_velocity_mps = {:.4g}", x_.v_W_I.norm(),
+                     opt_.max_velocity_mps));
+  if (x_.b_g.norm() > opt_.max_gyro_bias)
+    fail(fmt::format("|b_g| = {:.4g} rad/s exceeds max_gyro_bias = {:.4g}", x_.b_g.norm(), opt_.max_gyro_bias));
+  if (x_.b_a.norm() > opt_.max_accel_bias)
+    fail(fmt::format("|b_a| = {:.4g} m/s² exceeds max_accel_bias = {:.4g}", x_.b_a.norm(), opt_.max_accel_bias));
+  if (!T_I_C_.p.allFinite() || !T_I_C_.q.coeffs().allFinite()) fail("non-finite extrinsics");
+  for (const auto& o : objects_)
+    if (!o.T_O_W.p.allFinite() || !o.T_O_W.q.coeffs().allFinite() || o.T_O_W.p.norm() > opt_.max_position_m)
+      fail(fmt::format("object-world of object {} is non-finite or out of bounds", o.id));
+}
+
+void Filter::check_covariance(bool full, const char* where) {
+  static const char* names[] = {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a"};
+  for (int i = 0; i < n_; ++i) {
+    const double d = P_(i, i);
+    if (!std::isfinite(d) || d <= 0.0) {
+      std::string comp = i < kCore ? std::string(names[i / 3]) + "[" + std::to_string(i % 3) + "]"
+                                   : "error-state index " + std::to_string(i);
+      throw NumericError(fmt::format("filter diverged at {} ({}): covariance diagonal of {} is {} ", when(),
+                                     where, comp, std::isfinite(d) ? "not positive" : "not finite"));
+    }
+  }
+  if (!full) return;
+  sync_cross_covariance();
+  if (!P_.allFinite())
+    throw NumericError(fmt::format("filter diverged at {} ({}): covariance is not finite", when(), where));
+  Eigen::LLT<Eigen::MatrixXd> llt(P_);
+  if (llt.info() != Eigen::Success)
+    throw NumericError(
+        fmt::format("filter diverged at {} ({}): covariance is not positive definite", when(), where));
+}
+
+}  // namespace roe::ekf

@@ -1,0 +1,70 @@
+#include "roe/ekf/measurement.hpp"
+
+#include "roe/math/so3.hpp"
+
+namespace roe::ekf {
+
+using math::skew;
+
+ObjectPrediction predict_object(const CoreState& x, const Pose& T_I_C, const Pose& T_O_W) {
+  const Mat3 R_W_I = x.q_W_I.toRotationMatrix();
+  const Mat3 R_O_W = T_O_W.R();
+  const Mat3 R_I_C = T_I_C.R();
+  const Vec3 p_W_C = x.p_W_I + R_W_I * T_I_C.p;
+
+  ObjectPrediction out;
+  out.T_O_C_hat = Pose(T_O_W.q * x.q_W_I * T_I_C.q, T_O_W.p + R_O_W * p_W_C);
+  const Mat3 R_O_I = R_O_W * R_W_I;
+  out.H_p_WI << R_O_W, Mat3::Zero();
+  out.H_theta_WI << -R_O_I * skew(T_I_C.p), R_I_C.transpose();
+  out.H_p_IC << R_O_I, Mat3::Zero();
+  out.H_theta_IC << Mat3::Zero(), Mat3::Identity();
+  out.H_p_OW << Mat3::Identity(), Mat3::Zero();
+  out.H_theta_OW << -R_O_W * skew(p_W_C), R_I_C.transpose() * R_W_I.transpose();
+  return out;
+}
+
+Vec6 object_residual(const Pose& T_O_C_hat, const Pose& T_O_C_meas) {
+  Vec6 r;
+  r.head<3>() = T_O_C_meas.p - T_O_C_hat.p;
+  r.tail<3>() = math::quat_residual(T_O_C_hat.q, T_O_C_meas.q);
+  return r;
+}
+
+ObjectInit init_object(const CoreState& x, const Pose& T_I_C, const Pose& z) {
+  const Mat3 R_W_I = x.q_W_I.toRotationMatrix();
+  const Mat3 R_W_C = R_W_I * T_I_C.R();
+  const Vec3 p_W_C = x.p_W_I + R_W_I * T_I_C.p;
+  ObjectInit out;
+  const Eigen::Quaterniond q_O_W = (z.q * (x.q_W_I * T_I_C.q).conjugate()).normalized();
+  const Mat3 R_O_W = q_O_W.toRotationMatrix();
+  out.T_O_W = Pose(q_O_W, z.p - R_O_W * p_W_C);
+
+  // Rotation rows.
+  const Mat3 Jt_theta_WI = -R_W_I;
+  const Mat3 Jt_theta_IC = -R_W_C;
+  const Mat3 Jt_z = R_W_C;
+  // Position rows: δp_O_W = δz_p + A δθ_O_W − R_O_W (δp_W_I + R_W_I δp_I_C − R_W_I [p_I_C]× δθ_W_I).
+  const Mat3 A = R_O_W * skew(p_W_C);
+  out.J_p_WI << -R_O_W, Mat3::Zero();
+  out.J_theta_WI << A * Jt_theta_WI + R_O_W * R_W_I * skew(T_I_C.p), Jt_theta_WI;
+  out.J_p_IC << -R_O_W * R_W_I, Mat3::Zero();
+  out.J_theta_IC << A * Jt_theta_IC, Jt_theta_IC;
+  out.J_z.setZero();
+  out.J_z.block<3, 3>(0, 0) = Mat3::Identity();
+  out.J_z.block<3, 3>(0, 3) = A * Jt_z;
+  out.J_z.block<3, 3>(3, 3) = Jt_z;
+  return out;
+}
+
+Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Vec6& sigma_C) {
+  const Mat3 R_O_C = T_C_O.R().transpose();
+  Mat6 J = Mat6::Zero();
+  J.block<3, 3>(0, 0) = -R_O_C;
+  J.block<3, 3>(0, 3) = -R_O_C * skew(T_C_O.p);
+  J.block<3, 3>(3, 3) = -Mat3::Identity();
+  const Vec6 var = sigma_C.cwiseProduct(sigma_C);
+  return J * var.asDiagonal() * J.transpose();
+}
+
+}  // namespace roe::ekf

@@ -1,0 +1,41 @@
+// χ² quantile/CDF without Boost, against reference values (scipy.stats.chi2.ppf 1.10, 6 significant
+// digits; k = 2 against the closed form −2 ln(1 − p)).
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "roe/ekf/chi2.hpp"
+
+using roe::ekf::chi2_cdf;
+using roe::ekf::chi2_quantile;
+using roe::ekf::normal_quantile;
+
+TEST_CASE("chi2 quantile matches table values", "[ekf][chi2]") {
+  struct Row {
+    double p, k, q;
+  };
+  const Row rows[] = {
+      {0.95, 1, 3.841459}, {0.95, 2, 5.991465},  {0.95, 3, 7.814728},   {0.95, 6, 12.591587},
+      {0.99, 6, 16.811894}, {0.997, 6, 19.804652}, {0.05, 6, 1.635383},  {0.025, 120, 91.572642},
+      {0.975, 120, 152.211403}, {0.5, 10, 9.341818}, {0.999, 1, 10.827566}, {0.01, 2, 0.0201006717},
+  };
+  for (const auto& r : rows) {
+    INFO("p = " << r.p << " k = " << r.k);
+    CHECK(chi2_quantile(r.p, r.k) == Approx(r.q).epsilon(2e-7));
+  }
+}
+
+TEST_CASE("chi2 cdf inverts the quantile", "[ekf][chi2]") {
+  for (double k : {1.0, 2.0, 6.0, 12.0, 60.0, 600.0, 6000.0})
+    for (double p : {1e-6, 0.01, 0.025, 0.5, 0.95, 0.975, 0.999999}) {
+      INFO("p = " << p << " k = " << k);
+      CHECK(chi2_cdf(chi2_quantile(p, k), k) == Approx(p).epsilon(1e-9));
+    }
+  // Closed form for k = 2: F(x) = 1 − exp(−x/2).
+  for (double x : {0.1, 1.0, 5.0, 20.0}) CHECK(chi2_cdf(x, 2.0) == Approx(1.0 - std::exp(-0.5 * x)).epsilon(1e-13));
+}
+
+TEST_CASE("normal quantile", "[ekf][chi2]") {
+  CHECK(normal_quantile(0.975) == Approx(1.959963985).epsilon(1e-9));
+  CHECK(normal_quantile(0.5) == Approx(0.0).margin(1e-12));
+  CHECK(normal_quantile(1e-5) == Approx(-4.264890794).epsilon(1e-8));
+}
