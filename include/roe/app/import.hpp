@@ -1,0 +1,192 @@
+#pragma once
+/// @file
+/// `roe import realsense|mocap|kalibr` (DESIGN §1, §3; formats in notes/formats.md; user guide in
+/// docs/import.md). Each function reads its inputs, writes the dataset folder and returns a summary
+/// the CLI prints. Every import records its input files with sha256 in roe.json (`sources`) and
+/// refuses to replace existing outputs unless `force`.
+
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "roe/core/dataset.hpp"
+#include "roe/core/types.hpp"
+
+namespace roe::app {
+
+namespace fs = std::filesystem;
+
+// ---------------------------------------------------------------------------------------------
+// realsense
+// ---------------------------------------------------------------------------------------------
+
+/// Options of `roe import realsense BAG --out DATASET`.
+struct ImportRealsenseOptions {
+  int crop_width = 640, crop_height = 480;  ///< centred crop of the undistorted colour image
+  int out_width = 0, out_height = 0;        ///< 0 = crop size (no resize)
+  bool undistort = true;
+  int png_compression = 3;
+  std::string color_topic;                  ///< "" = find the colour stream automatically
+  std::size_t max_frames = 0;               ///< 0 = all
+  bool images = true;                       ///< false: IMU and calibration only (no PNGs)
+  std::string name;                         ///< dataset name (default: the bag's stem)
+  bool force = false;
+};
+
+struct ImportRealsenseSummary {
+  fs::path dataset;
+  std::string layout;                       ///< "recorder" or "realsense-ros"
+  std::string color_topic, accel_topic, gyro_topic, imu_topic;
+  std::size_t frames = 0;                   ///< PNGs written
+  std::size_t accel_samples = 0, gyro_samples = 0;
+  std::size_t imu_samples = 0;              ///< merged samples in imu0
+  std::size_t gyro_outside_accel = 0;       ///< gyro samples dropped: no accel sample on both sides
+  double accel_rate_hz = 0, gyro_rate_hz = 0;
+  std::string timestamp_domain;             ///< per-frame metadata (recorder bags), "" if unknown
+  std::string source_distortion;            ///< device model name
+  std::vector<double> source_coeffs;
+  double source_fx = 0, source_fy = 0, source_cx = 0, source_cy = 0;
+  int source_width = 0, source_height = 0;
+  CameraInfo camera;                        ///< the processed camera as written to roe.json
+  std::map<std::string, Pose> extrinsics;   ///< stream → T_stream_ref (tf/0: ref = the group's pin stream)
+  bool have_T_I_C = false;                  ///< T_I_C derived from the Color and Accel extrinsics
+  std::vector<std::string> warnings;
+  nlohmann::json to_json() const;
+};
+
+ImportRealsenseSummary import_realsense(const fs::path& bag, const fs::path& dataset,
+                                        const ImportRealsenseOptions& options,
+                                        const ProgressCallback& progress = {});
+
+/// Merges separate accel and gyro streams at the gyro stamps: the accelerometer is linearly
+/// interpolated between its two neighbouring samples; gyro samples before the first or after the
+/// last accel sample are dropped (counted in `dropped`). Both inputs must be time-sorted.
+std::vector<ImuSample> merge_accel_gyro(const std::vector<std::pair<Timestamp, Eigen::Vector3d>>& accel,
+                                        const std::vector<std::pair<Timestamp, Eigen::Vector3d>>& gyro,
+                                        std::size_t* dropped = nullptr);
+
+// ---------------------------------------------------------------------------------------------
+// mocap
+// ---------------------------------------------------------------------------------------------
+
+/// Options of `roe import mocap FILE --into DATASET`.
+struct ImportMocapOptions {
+  std::string format = "auto";  ///< auto | motive | vicon | euroc | tum | csv (cnspy) | rosbag
+  std::string body;             ///< rigid body (Motive/Vicon) ; "" = the only one
+  std::string topic;            ///< rosbag: the pose topic
+  std::string up = "auto";      ///< world up axis of the file: auto (y for Motive, z otherwise) | y | z
+  std::optional<double> time_offset_s;  ///< t_imu = t_mocap + offset (applied to the written stamps)
+  bool estimate_offset = false;         ///< estimate the offset against DATASET/mav0/imu0 gyro
+  double max_offset_s = 2.0;            ///< search range of the estimate
+  std::string mocap_name = "mocap0";    ///< folder under mav0/
+  bool force = false;
+};
+
+struct OffsetEstimate {
+  double offset_s = 0.0;      ///< t_imu = t_mocap + offset_s
+  double correlation = 0.0;   ///< normalised cross-correlation at the peak (quality, 1 = perfect)
+  double peak_ratio = 0.0;    ///< peak / best value outside ±0.25 s of the peak (>1: distinct)
+  std::size_t samples = 0;    ///< overlapping grid samples used at the peak
+  double grid_dt_s = 0.0;
+};
+
+struct ImportMocapSummary {
+  fs::path dataset;
+  fs::path csv;
+  std::string format, body, topic, up;
+  std::size_t rows = 0;           ///< frames/rows/messages read
+  std::size_t poses = 0;          ///< poses written
+  std::size_t occluded = 0;       ///< frames skipped because the body was not tracked
+  double rate_hz = 0.0;           ///< from the file header when it has one, else median
+  double time_offset_s = 0.0;     ///< applied
+  std::optional<OffsetEstimate> estimate;
+  std::string length_unit, rotation_type;
+  bool created_manifest = false;
+  std::vector<std::string> warnings;
+  nlohmann::json to_json() const;
+};
+
+/// The poses and metadata of a mocap file, before conversion to the dataset (exposed for tests).
+struct MocapTrack {
+  std::string format, body, topic;
+  std::vector<StampedPose> poses;  ///< T_M_B in the file's world, metres, stamps in ns (file clock)
+  std::size_t rows = 0, occluded = 0;
+  double rate_hz = 0.0;
+  bool y_up = false;               ///< the file's world is Y-up (Motive default)
+  std::string length_unit, rotation_type;
+  std::vector<std::string> warnings;
+};
+
+/// Reads any supported mocap/trajectory file (format "auto" detects from the content).
+MocapTrack read_mocap(const fs::path& file, const ImportMocapOptions& options);
+
+ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, const ImportMocapOptions& options);
+
+/// Estimates the clock offset between an IMU and a mocap track by correlating the gyro's
+/// angular-rate magnitude with the magnitude of the mocap's body angular rate
+/// (|Log(R_k^T R_{k+1})| / dt), both resampled on a common grid of `grid_dt_s` (0 = the mocap's
+/// median period, at most 1/200 s). The coarse peak over [-max, max] is refined by a parabola
+/// through the three best lags. Result: t_imu = t_mocap + offset. DataError when the overlap is too
+/// short or the motion has no rotation.
+OffsetEstimate estimate_time_offset(const std::vector<ImuSample>& imu, const std::vector<StampedPose>& mocap,
+                                    double max_offset_s, double grid_dt_s = 0.0);
+
+// ---------------------------------------------------------------------------------------------
+// kalibr
+// ---------------------------------------------------------------------------------------------
+
+struct ImportKalibrOptions {
+  std::string camera = "cam0";  ///< which camera of the camchain
+  bool force = false;
+};
+
+struct ImportKalibrSummary {
+  fs::path dataset;
+  std::string camera;
+  Pose T_cam_imu;                 ///< as in the file (x_C = T_cam_imu x_I)
+  Pose T_I_C;                     ///< written prior = inverse(T_cam_imu)
+  double timeshift_cam_imu = 0.0; ///< t_imu = t_cam + shift
+  std::string camera_model, distortion_model;
+  std::vector<double> intrinsics, distortion_coeffs;
+  int width = 0, height = 0;
+  bool intrinsics_written = false;  ///< false when the processed image size differs (kept the manifest's)
+  std::optional<ImuNoise> imu_noise;
+  double imu_rate_hz = 0.0;
+  bool created_manifest = false;
+  std::vector<std::string> warnings;
+  nlohmann::json to_json() const;
+};
+
+/// Parsed Kalibr files (exposed for tests).
+struct KalibrCamchain {
+  std::string camera_model, distortion_model, rostopic;
+  std::vector<double> intrinsics, distortion_coeffs;
+  int width = 0, height = 0;
+  Eigen::Matrix4d T_cam_imu = Eigen::Matrix4d::Identity();
+  double timeshift_cam_imu = 0.0;
+};
+struct KalibrImu {
+  ImuNoise noise;
+  double update_rate = 0.0;
+  std::string rostopic;
+};
+/// InputError naming file and key: missing keys, wrong shapes, a non-orthonormal rotation or a
+/// bottom row other than [0 0 0 1], non-positive intrinsics, negative/zero noise.
+KalibrCamchain read_kalibr_camchain(const fs::path& file, const std::string& camera = "cam0");
+KalibrImu read_kalibr_imu(const fs::path& file);
+
+ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<fs::path>& imu_yaml,
+                                  const fs::path& dataset, const ImportKalibrOptions& options);
+
+// ---------------------------------------------------------------------------------------------
+// shared
+// ---------------------------------------------------------------------------------------------
+
+/// Reads DATASET/roe.json, or — when the folder has none — returns a minimal manifest (schema and
+/// name = the folder's name) and sets `created`. The folder is created when absent.
+DatasetManifest open_or_create_manifest(const fs::path& dataset, bool& created);
+
+}  // namespace roe::app
