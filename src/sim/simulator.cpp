@@ -265,7 +265,7 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
 
   // IMU and ground truth.
   {
-    Rng rng = Rng::stream(seed, "imu");
+    Rng rng = Rng::stream(seed, config.name + "/imu");
     const auto& ic = config.imu;
     Eigen::Vector3d b_g = ic.gyro_bias_sigma * rng.normal3();
     Eigen::Vector3d b_a = ic.accel_bias_sigma * rng.normal3();
@@ -305,9 +305,9 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
   // Camera frames and detections.
   {
     PoetErrorModel model(config.detection, symmetry_map(ids_of(objects_M), config.objects.symmetric_ids));
-    Rng rng_vis = Rng::stream(seed, "visibility");
-    Rng rng_blur = Rng::stream(seed, "blur");
-    Rng rng_det = Rng::stream(seed, "detections");
+    Rng rng_vis = Rng::stream(seed, config.name + "/visibility");
+    Rng rng_blur = Rng::stream(seed, config.name + "/blur");
+    Rng rng_det = Rng::stream(seed, config.name + "/detections");
     auto& dets = ds.detections["sim"];
     st.min_distance_m = std::numeric_limits<double>::infinity();
     for (Timestamp t : stamps(t0, t_end, config.camera.rate_hz)) {
@@ -345,7 +345,7 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
 
   // Motion capture of the body B.
   if (config.mocap.enabled) {
-    Rng rng = Rng::stream(seed, "mocap");
+    Rng rng = Rng::stream(seed, config.name + "/mocap");
     const Pose T_I_B = config.mocap.T_B_I.inverse();
     for (Timestamp t : stamps(t0, t_end, config.mocap.rate_hz)) {
       const Pose T_M_B = traj.attached(rel(t), T_C_I).T_M_X * T_I_B;
@@ -505,9 +505,9 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
   // Detections.
   const auto syms = symmetry_map(ids, config.symmetric_ids);
   PoetErrorModel model(config.detection, syms);
-  Rng rng_vis = Rng::stream(seed, "visibility");
-  Rng rng_blur = Rng::stream(seed, "blur");
-  Rng rng_det = Rng::stream(seed, "detections");
+  Rng rng_vis = Rng::stream(seed, "from-groundtruth/visibility");
+  Rng rng_blur = Rng::stream(seed, "from-groundtruth/blur");
+  Rng rng_det = Rng::stream(seed, "from-groundtruth/detections");
   auto& dets = ds.detections["sim"];
   for (std::size_t k = 0; k < ts.size(); ++k) {
     const bool blurred = model.frame_blurred(rate_at(imu, ts[k]), rng_blur);
