@@ -100,6 +100,8 @@ class Filter {
   int extrinsics_offset() const { return extr_offset_; }
   /// Diagonal entry of P (always current, also between updates).
   double variance(int i) const { return P_(i, i); }
+  /// Entry (i, j) of the core 15x15 block of P (always current).
+  double core_covariance(int i, int j) const { return P_(i, j); }
   /// The full covariance, brought up to date (applies the pending cross-covariance transition).
   const Eigen::MatrixXd& covariance();
   const FilterOptions& options() const { return opt_; }

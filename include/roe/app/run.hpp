@@ -1,0 +1,111 @@
+#pragma once
+/// @file
+/// `roe run DATASET [--config FILE] [--detections NAME] --out RUN_DIR`: reads a dataset folder, builds
+/// the measurement stream (detections grouped per image, shifted into the IMU clock by
+/// camera.time_offset_s), runs the multi-object EKF (roe::ekf) and writes RUN_DIR (DESIGN §4):
+///   trajectory.csv   t,tx,ty,tz,qx,qy,qz,qw (seconds, 9 decimals): T_W_I
+///   trajectory.tum   the same in TUM format
+///   states.csv       timestamp_ns, p_W_I, v_W_I, q_W_I, b_g, b_a, p_I_C, q_I_C, then one σ per
+///                    error-state component of the core and the extrinsics (sigma_*; rad for angles)
+///   objects.csv      timestamp_ns,object_id,anchor, T_O_W (p, q xyzw), six σ, after each image
+///   reprojection.csv timestamp_ns,object_id, T_W_I implied by the raw detection, status, nis
+///   run.json         effective configuration, input hashes, counts, NIS statistics, timings, warnings
+///
+/// Config file (configs/default.json, configs/paper.json): {"filter": {FilterOptions keys},
+/// "output": {"rate": "imu" | "images"}}; every key optional, unknown keys are errors.
+
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "roe/core/dataset.hpp"
+#include "roe/ekf/driver.hpp"
+#include "roe/ekf/options.hpp"
+
+namespace roe::app {
+
+struct RunConfig {
+  ekf::FilterOptions filter;
+  /// Rows of trajectory.csv/.tum and states.csv: "imu" (every IMU sample) or "images" (after each
+  /// image update).
+  std::string output_rate = "imu";
+  std::string description;  ///< free text (configs/*.json say what they are for)
+};
+
+/// Strict loader (ConfigError naming the file and key) and its inverse (what run.json echoes).
+RunConfig run_config_from_json(const nlohmann::json& j, const std::string& source);
+RunConfig run_config_from_file(const std::filesystem::path& file);
+nlohmann::json run_config_to_json(const RunConfig& c);
+
+/// One output row of the state (trajectory.csv / states.csv).
+struct StateRow {
+  Timestamp t_ns = 0;
+  ekf::CoreState x;
+  Pose T_I_C;
+  /// σ of [δp, δv, δθ, δb_g, δb_a, δp_I_C, δθ_I_C] (0 for the extrinsics when they are held fixed).
+  Eigen::Matrix<double, 21, 1> sigma;
+  /// Covariance of the IMU pose error [δp_W_I; δθ_W_I] (consistency tests, eval's NEES).
+  Eigen::Matrix<double, 6, 6> pose_cov;
+};
+
+struct ObjectRow {
+  Timestamp t_ns = 0;
+  int object_id = 0;
+  bool anchor = false;
+  Pose T_O_W;
+  Eigen::Matrix<double, 6, 1> sigma;  ///< [δp_O_W; δθ_O_W]; 0 for components held fixed (anchor)
+};
+
+struct ReprojectionRow {
+  Timestamp t_ns = 0;
+  int object_id = 0;
+  ekf::DetectionOutcome outcome;
+};
+
+struct ObjectCounts {
+  std::size_t detections = 0, accepted = 0, initialized = 0, rejected_chi2 = 0, rejected_no_main = 0,
+              rejected_score = 0, rejected_no_imu = 0;
+};
+
+/// The result of a run in memory (what the files hold).
+struct RunOutput {
+  std::vector<StateRow> states;
+  std::vector<ObjectRow> objects;
+  std::vector<ReprojectionRow> reprojection;
+  std::map<int, ObjectCounts> counts;
+  ekf::FilterRunSummary summary;
+  int anchor_id = -1;
+  Pose final_T_I_C;
+  std::map<int, Pose> final_T_O_W;
+  std::vector<std::string> warnings;
+  double filter_wall_s = 0.0;
+  /// NIS of every gated detection (6 dof), and the gate.
+  std::vector<double> nis;
+  double gate = 0.0;
+};
+
+/// Runs the filter on a dataset in memory with the detection set `detections_name` (empty: the only
+/// one). Validates the inputs (InputError: no IMU, unknown object ids, bad options; DataError: no
+/// detections, configured anchor never detected) and throws NumericError when the filter diverges.
+RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name, const RunConfig& config);
+
+struct RunOptions {
+  std::string config_file;  ///< empty: built-in defaults (= configs/default.json)
+  std::string detections;   ///< --detections NAME; empty: the only set in the dataset
+  bool force = false;
+};
+
+struct RunResult {
+  std::filesystem::path out;
+  RunOutput output;
+  nlohmann::json report;  ///< run.json
+  nlohmann::json to_json() const;
+  std::string to_text() const;
+};
+
+/// `roe run`: reads DATASET, runs, writes RUN_DIR atomically (OutputDir).
+RunResult run(const std::filesystem::path& dataset, const std::filesystem::path& out, const RunOptions& options);
+
+}  // namespace roe::app

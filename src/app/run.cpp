@@ -1,0 +1,462 @@
+// roe run: dataset → measurement stream → multi-object EKF → RUN_DIR (DESIGN §4).
+#include "roe/app/run.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <set>
+
+#include "roe/core/error.hpp"
+#include "roe/core/log.hpp"
+#include "roe/ekf/chi2.hpp"
+#include "roe/io/csv.hpp"
+#include "roe/io/dataset.hpp"
+#include "roe/io/output.hpp"
+#include "roe/io/trajectory_io.hpp"
+#include "roe/version.hpp"
+
+namespace roe::app {
+namespace {
+
+using io::json;
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Collects the filter's outputs in memory.
+class Recorder : public ekf::FilterObserver {
+ public:
+  Recorder(RunOutput& out, bool imu_rate) : out_(out), imu_rate_(imu_rate) {}
+
+  void on_imu(const ekf::Filter& f) override {
+    if (imu_rate_) record_state(f);
+  }
+
+  void on_image(ekf::Filter& f, const ekf::FrameResult& r) override {
+    if (!imu_rate_) record_state(f);
+    for (const auto& d : r.detections) {
+      out_.reprojection.push_back({r.t_ns, d.object_id, d});
+      ObjectCounts& c = out_.counts[d.object_id];
+      ++c.detections;
+      switch (d.status) {
+        case ekf::DetectionStatus::kAccepted: ++c.accepted; break;
+        case ekf::DetectionStatus::kInitialized: ++c.initialized; break;
+        case ekf::DetectionStatus::kRejectedChi2: ++c.rejected_chi2; break;
+        case ekf::DetectionStatus::kRejectedNoMain: ++c.rejected_no_main; break;
+        case ekf::DetectionStatus::kRejectedScore: ++c.rejected_score; break;
+        case ekf::DetectionStatus::kRejectedNoImu: ++c.rejected_no_imu; break;
+      }
+      if (std::isfinite(d.nis)) out_.nis.push_back(d.nis);
+    }
+    if (r.detections.empty() || r.detections.front().status == ekf::DetectionStatus::kRejectedNoImu) return;
+    for (const auto& o : f.objects()) {
+      ObjectRow row;
+      row.t_ns = r.t_ns;
+      row.object_id = o.id;
+      row.anchor = o.anchor;
+      row.T_O_W = o.T_O_W;
+      row.sigma.setZero();
+      if (o.dim == 6) {
+        for (int i = 0; i < 6; ++i) row.sigma(i) = std::sqrt(f.variance(o.offset + i));
+      } else if (o.dim == 2) {
+        row.sigma(3) = std::sqrt(f.variance(o.offset));
+        row.sigma(4) = std::sqrt(f.variance(o.offset + 1));
+      }
+      out_.objects.push_back(row);
+    }
+  }
+
+ private:
+  void record_state(const ekf::Filter& f) {
+    StateRow s;
+    s.t_ns = f.time();
+    s.x = f.core();
+    s.T_I_C = f.T_I_C();
+    for (int i = 0; i < 15; ++i) s.sigma(i) = std::sqrt(f.variance(i));
+    const int e = f.extrinsics_offset();
+    for (int i = 0; i < 6; ++i) s.sigma(15 + i) = e >= 0 ? std::sqrt(f.variance(e + i)) : 0.0;
+    // Pose covariance [δp; δθ]: the core block of P is always current (no sync needed).
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b)
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            s.pose_cov(3 * a + i, 3 * b + j) = f.core_covariance(a == 0 ? ekf::kP + i : ekf::kTheta + i,
+                                                                 b == 0 ? ekf::kP + j : ekf::kTheta + j);
+    out_.states.push_back(s);
+  }
+
+  RunOutput& out_;
+  bool imu_rate_;
+};
+
+std::string choose_detections(const Dataset& d, const std::string& name) {
+  std::vector<std::string> names;
+  for (const auto& kv : d.detections) names.push_back(kv.first);
+  const std::string list = names.empty() ? "none" : fmt::format("{}", fmt::join(names, ", "));
+  if (!name.empty()) {
+    if (!d.detections.count(name))
+      throw InputError(fmt::format("no detection set '{}' in the dataset (available: {})", name, list),
+                       {"detections/" + name});
+    return name;
+  }
+  if (names.size() == 1) return names.front();
+  if (names.empty())
+    throw InputError("the dataset has no detections (detections/<name>/detections.csv); run `roe infer` or "
+                     "`roe import poet` first",
+                     {"detections/"});
+  throw InputError(fmt::format("the dataset has several detection sets ({}); choose one with --detections", list),
+                   {"detections/"});
+}
+
+ekf::ImuNoiseParams imu_noise(const Dataset& d, const ekf::FilterOptions& o) {
+  ekf::ImuNoiseParams n;
+  const ImuNoise* ds = d.manifest.imu ? &d.manifest.imu->noise : nullptr;
+  const auto pick = [&](double opt, double ImuNoise::*field, const char* key) {
+    if (opt >= 0.0) return opt;
+    if (ds == nullptr || !(ds->*field > 0.0))
+      throw ConfigError(fmt::format("IMU noise unknown: roe.json has no imu.{0}; set filter.{0} in the config", key),
+                        {"roe.json", 0, 0, std::string("imu.") + key});
+    return ds->*field;
+  };
+  n.gyro_noise_density = pick(o.gyro_noise_density, &ImuNoise::gyro_noise_density, "gyro_noise_density");
+  n.gyro_random_walk = pick(o.gyro_random_walk, &ImuNoise::gyro_random_walk, "gyro_random_walk");
+  n.accel_noise_density = pick(o.accel_noise_density, &ImuNoise::accel_noise_density, "accel_noise_density");
+  n.accel_random_walk = pick(o.accel_random_walk, &ImuNoise::accel_random_walk, "accel_random_walk");
+  n.gyro_noise_density *= o.imu_noise_scale;
+  n.gyro_random_walk *= o.imu_noise_scale;
+  n.accel_noise_density *= o.imu_noise_scale;
+  n.accel_random_walk *= o.imu_noise_scale;
+  return n;
+}
+
+}  // namespace
+
+RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name, const RunConfig& config) {
+  RunOutput out;
+  const ekf::FilterOptions& opt = config.filter;
+  if (dataset.imu.size() < 2)
+    throw InputError(fmt::format("the dataset has no usable IMU stream ({} samples in mav0/imu0/data.csv; "
+                                 "at least 2 needed)",
+                                 dataset.imu.size()),
+                     {"mav0/imu0/data.csv"});
+  const std::string set = choose_detections(dataset, detections_name);
+  const std::vector<Detection>& dets = dataset.detections.at(set);
+  const std::string det_file = "detections/" + set + "/detections.csv";
+  if (dets.empty())
+    throw DataError(fmt::format("{} has no detections: nothing to fuse with the IMU", det_file), {det_file});
+
+  // Object ids must be declared in roe.json.
+  std::set<int> known;
+  for (const auto& o : dataset.manifest.objects) known.insert(o.id);
+  for (std::size_t i = 0; i < dets.size(); ++i) {
+    if (!known.count(dets[i].object_id))
+      throw InputError(fmt::format("detection of unknown object id {} (roe.json objects: {}); data row {}",
+                                   dets[i].object_id, fmt::join(known, ", "), i + 1),
+                       {det_file, static_cast<std::int64_t>(i + 2), 2, "object_id"});
+  }
+  if (opt.anchor_id >= 0) {
+    if (!known.count(opt.anchor_id))
+      throw ConfigError(fmt::format("anchor_id {} is not an object of this dataset (roe.json objects: {})",
+                                    opt.anchor_id, fmt::join(known, ", ")),
+                        {"config", 0, 0, "filter.anchor_id"});
+    const bool seen = std::any_of(dets.begin(), dets.end(), [&](const Detection& d) { return d.object_id == opt.anchor_id; });
+    if (!seen)
+      throw DataError(fmt::format("the anchor object {} is never detected in {}: no update could be made "
+                                  "(choose another filter.anchor_id, or -1 for the first object seen)",
+                                  opt.anchor_id, det_file),
+                      {det_file});
+  } else {
+    out.warnings.push_back("anchor chosen automatically: the lowest object id of the first image with detections");
+  }
+  if (opt.use_detection_sigmas && std::none_of(dets.begin(), dets.end(), [](const Detection& d) { return d.sigma.has_value(); }))
+    out.warnings.push_back(det_file + " has no sigma columns: use_detection_sigmas falls back to the fixed σ");
+
+  // Extrinsics prior.
+  Pose T_I_C;
+  if (dataset.manifest.camera) {
+    T_I_C = dataset.manifest.camera->T_I_C;
+  } else {
+    out.warnings.push_back("roe.json has no camera: T_I_C prior = identity");
+  }
+  const Timestamp offset_ns = dataset.manifest.camera ? from_seconds(dataset.manifest.camera->time_offset_s) : 0;
+
+  // Group detections per image (IMU clock).
+  std::vector<ekf::ImageDetections> images;
+  for (const auto& d : dets) {
+    const Timestamp t = d.t_ns + offset_ns;
+    if (images.empty() || images.back().t_ns != t) images.push_back({t, {}});
+    images.back().detections.push_back(d);
+    images.back().detections.back().t_ns = t;
+  }
+
+  const ekf::ImuNoiseParams noise = imu_noise(dataset, opt);
+  out.gate = ekf::chi2_quantile(opt.chi2_confidence, 6.0);
+  out.states.reserve(config.output_rate == "imu" ? dataset.imu.size() : images.size());
+  out.reprojection.reserve(dets.size());
+  Recorder rec(out, config.output_rate == "imu");
+  const auto t0 = Clock::now();
+  // The run is replayed into a filter we keep, to report its final state.
+  struct Final : ekf::FilterObserver {
+    Recorder* rec;
+    RunOutput* out;
+    void on_imu(const ekf::Filter& f) override {
+      rec->on_imu(f);
+      last(f);
+    }
+    void on_image(ekf::Filter& f, const ekf::FrameResult& r) override {
+      rec->on_image(f, r);
+      last(f);
+    }
+    void last(const ekf::Filter& f) {
+      out->anchor_id = f.anchor_id();
+      out->final_T_I_C = f.T_I_C();
+      for (const auto& o : f.objects()) out->final_T_O_W[o.id] = o.T_O_W;
+    }
+  } fin;
+  fin.rec = &rec;
+  fin.out = &out;
+  out.summary = ekf::run_filter(dataset.imu, images, opt, noise, T_I_C, fin);
+  out.filter_wall_s = seconds_since(t0);
+
+  // Warnings about what the data allowed.
+  std::size_t no_imu = 0;
+  for (const auto& kv : out.counts) {
+    no_imu += kv.second.rejected_no_imu;
+    if (kv.second.initialized == 0 && kv.second.detections > 0)
+      out.warnings.push_back(fmt::format("object {} was detected {} times but never initialised (all its frames "
+                                         "lacked the anchor or the IMU)",
+                                         kv.first, kv.second.detections));
+  }
+  if (no_imu > 0)
+    out.warnings.push_back(fmt::format("{} detections lie outside the IMU stream and were skipped", no_imu));
+  if (out.summary.updates == 0) out.warnings.push_back("no update was made: the trajectory is IMU dead reckoning");
+  return out;
+}
+
+namespace {
+
+void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
+  std::vector<Timestamp> t;
+  std::vector<Pose> poses;
+  t.reserve(r.states.size());
+  poses.reserve(r.states.size());
+  for (const auto& s : r.states) {
+    t.push_back(s.t_ns);
+    poses.push_back(Pose(s.x.q_W_I, s.x.p_W_I));
+  }
+  io::write_trajectory(dir.file("trajectory.csv"), t, poses, io::TrajectoryFormat::kCsv);
+  io::write_trajectory(dir.file("trajectory.tum"), t, poses, io::TrajectoryFormat::kTum);
+
+  {
+    io::CsvWriter w;
+    std::vector<std::string> h = {"timestamp_ns", "p_W_I_x", "p_W_I_y", "p_W_I_z", "v_W_I_x", "v_W_I_y", "v_W_I_z",
+                                  "q_W_I_x", "q_W_I_y", "q_W_I_z", "q_W_I_w", "b_g_x", "b_g_y", "b_g_z", "b_a_x",
+                                  "b_a_y", "b_a_z", "p_I_C_x", "p_I_C_y", "p_I_C_z", "q_I_C_x", "q_I_C_y", "q_I_C_z",
+                                  "q_I_C_w"};
+    for (const char* g : {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a", "p_I_C", "theta_I_C"})
+      for (const char* a : {"x", "y", "z"}) h.push_back(fmt::format("sigma_{}_{}", g, a));
+    w.header(h);
+    for (const auto& s : r.states) {
+      w.add(s.t_ns);
+      for (int i = 0; i < 3; ++i) w.add(s.x.p_W_I(i));
+      for (int i = 0; i < 3; ++i) w.add(s.x.v_W_I(i));
+      const Eigen::Quaterniond q = math::canonical(s.x.q_W_I);
+      w.add(q.x()).add(q.y()).add(q.z()).add(q.w());
+      for (int i = 0; i < 3; ++i) w.add(s.x.b_g(i));
+      for (int i = 0; i < 3; ++i) w.add(s.x.b_a(i));
+      for (int i = 0; i < 3; ++i) w.add(s.T_I_C.p(i));
+      const Eigen::Quaterniond qc = math::canonical(s.T_I_C.q);
+      w.add(qc.x()).add(qc.y()).add(qc.z()).add(qc.w());
+      for (int i = 0; i < 21; ++i) w.add(s.sigma(i));
+      w.end_row();
+    }
+    w.write(dir.file("states.csv"));
+  }
+  {
+    io::CsvWriter w;
+    w.header({"timestamp_ns", "object_id", "anchor", "p_O_W_x", "p_O_W_y", "p_O_W_z", "q_O_W_x", "q_O_W_y", "q_O_W_z",
+              "q_O_W_w", "sigma_p_x", "sigma_p_y", "sigma_p_z", "sigma_theta_x", "sigma_theta_y", "sigma_theta_z"});
+    for (const auto& o : r.objects) {
+      const Eigen::Quaterniond q = math::canonical(o.T_O_W.q);
+      w.add(o.t_ns).add(o.object_id).add(o.anchor ? 1 : 0);
+      for (int i = 0; i < 3; ++i) w.add(o.T_O_W.p(i));
+      w.add(q.x()).add(q.y()).add(q.z()).add(q.w());
+      for (int i = 0; i < 6; ++i) w.add(o.sigma(i));
+      w.end_row();
+    }
+    w.write(dir.file("objects.csv"));
+  }
+  {
+    io::CsvWriter w;
+    w.header({"timestamp_ns", "object_id", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "status", "nis"});
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    for (const auto& p : r.reprojection) {
+      w.add(p.t_ns).add(p.object_id);
+      if (p.outcome.has_T_W_I) {
+        const Eigen::Quaterniond q = math::canonical(p.outcome.T_W_I.q);
+        w.add(p.outcome.T_W_I.p.x()).add(p.outcome.T_W_I.p.y()).add(p.outcome.T_W_I.p.z());
+        w.add(q.x()).add(q.y()).add(q.z()).add(q.w());
+      } else {
+        for (int i = 0; i < 7; ++i) w.add(nan);
+      }
+      w.add(ekf::to_string(p.outcome.status)).add(p.outcome.nis);
+      w.end_row();
+    }
+    w.write(dir.file("reprojection.csv"));
+  }
+}
+
+json counts_json(const RunOutput& r) {
+  json per = json::object();
+  ObjectCounts total;
+  for (const auto& kv : r.counts) {
+    const ObjectCounts& c = kv.second;
+    per[std::to_string(kv.first)] = {{"detections", c.detections},         {"accepted", c.accepted},
+                                     {"initialized", c.initialized},       {"rejected_chi2", c.rejected_chi2},
+                                     {"rejected_no_main", c.rejected_no_main}, {"rejected_score", c.rejected_score},
+                                     {"rejected_no_imu", c.rejected_no_imu}};
+    total.detections += c.detections;
+    total.accepted += c.accepted;
+    total.initialized += c.initialized;
+    total.rejected_chi2 += c.rejected_chi2;
+    total.rejected_no_main += c.rejected_no_main;
+  }
+  return {{"per_object", per},
+          {"detections", total.detections},
+          {"accepted", total.accepted},
+          {"initialized", total.initialized},
+          {"rejected_chi2", total.rejected_chi2},
+          {"rejected_no_main", total.rejected_no_main}};
+}
+
+json nis_json(const RunOutput& r) {
+  if (r.nis.empty()) return {{"count", 0}};
+  std::vector<double> v = r.nis;
+  std::sort(v.begin(), v.end());
+  double sum = 0.0;
+  std::size_t above = 0;
+  for (double x : v) {
+    sum += x;
+    if (x > r.gate) ++above;
+  }
+  return {{"count", v.size()},
+          {"dof", 6},
+          {"mean", sum / v.size()},
+          {"median", v[v.size() / 2]},
+          {"p95", v[std::min(v.size() - 1, static_cast<std::size_t>(0.95 * v.size()))]},
+          {"gate", r.gate},
+          {"fraction_above_gate", static_cast<double>(above) / v.size()}};
+}
+
+}  // namespace
+
+RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::path& out_dir,
+              const RunOptions& options) {
+  const auto t_start = Clock::now();
+  RunConfig config;
+  if (!options.config_file.empty()) config = run_config_from_file(options.config_file);
+  io::OutputDir dir(out_dir, options.force);  // refuses a non-empty RUN_DIR before any work
+
+  io::DatasetParts parts;
+  parts.mocap = false;
+  parts.groundtruth = false;
+  if (!options.detections.empty()) parts.detection_names = {options.detections};
+  const Dataset dataset = io::read_dataset(dataset_dir, parts);
+  const double read_s = seconds_since(t_start);
+
+  RunResult res;
+  res.out = out_dir;
+  res.output = run_dataset(dataset, options.detections, config);
+  const RunOutput& r = res.output;
+  for (const auto& w : r.warnings) log::warn("{}", w);
+
+  const auto t_write = Clock::now();
+  write_outputs(r, dir);
+  const std::string set = choose_detections(dataset, options.detections);
+
+  json inputs = {{"dataset", dataset_dir.string()},
+                 {"detections", set},
+                 {"sha256",
+                  {{"roe.json", io::sha256_file(io::manifest_path(dataset_dir))},
+                   {"mav0/imu0/data.csv", io::sha256_file(io::imu_csv_path(dataset_dir))},
+                   {"detections/" + set + "/detections.csv",
+                    io::sha256_file(io::detections_dir(dataset_dir, set) / "detections.csv")}}}};
+  if (!options.config_file.empty()) inputs["config"] = options.config_file;
+  std::size_t images = 0;
+  {
+    Timestamp last = std::numeric_limits<Timestamp>::min();
+    for (const auto& p : r.reprojection)
+      if (p.t_ns != last) {
+        ++images;
+        last = p.t_ns;
+      }
+  }
+  json report = {{"roe_version", kVersion},
+                 {"command", "run"},
+                 {"config", run_config_to_json(config)},
+                 {"inputs", inputs},
+                 {"anchor_id", r.anchor_id},
+                 {"counts",
+                  {{"imu_samples", dataset.imu.size()},
+                   {"camera_frames", dataset.frames.size()},
+                   {"images_with_detections", images},
+                   {"updates", r.summary.updates},
+                   {"trajectory_rows", r.states.size()},
+                   {"detections", counts_json(r)}}},
+                 {"nis", nis_json(r)},
+                 {"final",
+                  {{"T_I_C",
+                    {{"p", {r.final_T_I_C.p.x(), r.final_T_I_C.p.y(), r.final_T_I_C.p.z()}},
+                     {"q", {r.final_T_I_C.q.x(), r.final_T_I_C.q.y(), r.final_T_I_C.q.z(), r.final_T_I_C.q.w()}}}}}},
+                 {"warnings", r.warnings}};
+  json objs = json::array();
+  for (const auto& kv : r.final_T_O_W)
+    objs.push_back({{"id", kv.first},
+                    {"anchor", kv.first == r.anchor_id},
+                    {"T_O_W",
+                     {{"p", {kv.second.p.x(), kv.second.p.y(), kv.second.p.z()}},
+                      {"q", {kv.second.q.x(), kv.second.q.y(), kv.second.q.z(), kv.second.q.w()}}}}});
+  report["final"]["objects"] = objs;
+  report["timing_s"] = {{"read", read_s}, {"filter", r.filter_wall_s}, {"write", seconds_since(t_write)},
+                        {"total", seconds_since(t_start)}};
+  io::write_file_atomic(dir.file("run.json"), report.dump(2) + "\n");
+  dir.commit();
+  res.report = report;
+  return res;
+}
+
+json RunResult::to_json() const {
+  return {{"out", out.string()},
+          {"anchor_id", output.anchor_id},
+          {"updates", output.summary.updates},
+          {"counts", report.at("counts")},
+          {"nis", report.at("nis")},
+          {"timing_s", report.at("timing_s")},
+          {"warnings", output.warnings}};
+}
+
+std::string RunResult::to_text() const {
+  const json& c = report.at("counts");
+  const json& d = c.at("detections");
+  std::string s = fmt::format("roe run → {}\n", out.string());
+  s += fmt::format("  IMU samples {}, images with detections {}, updates {}, anchor object {}\n",
+                   c.at("imu_samples").get<std::size_t>(), c.at("images_with_detections").get<std::size_t>(),
+                   output.summary.updates, output.anchor_id);
+  s += fmt::format("  detections {}: accepted {}, initialised {}, rejected χ² {}, rejected without anchor {}\n",
+                   d.at("detections").get<std::size_t>(), d.at("accepted").get<std::size_t>(),
+                   d.at("initialized").get<std::size_t>(), d.at("rejected_chi2").get<std::size_t>(),
+                   d.at("rejected_no_main").get<std::size_t>());
+  const json& n = report.at("nis");
+  if (n.at("count").get<std::size_t>() > 0)
+    s += fmt::format("  NIS (6 dof): mean {:.2f}, median {:.2f}, {:.1f} % above the gate {:.2f}\n",
+                     n.at("mean").get<double>(), n.at("median").get<double>(),
+                     100.0 * n.at("fraction_above_gate").get<double>(), n.at("gate").get<double>());
+  s += fmt::format("  filter {:.3f} s, total {:.3f} s\n", report.at("timing_s").at("filter").get<double>(),
+                   report.at("timing_s").at("total").get<double>());
+  return s;
+}
+
+}  // namespace roe::app

@@ -1,0 +1,36 @@
+// roe run DATASET [--config FILE] [--detections NAME] --out RUN_DIR
+#include <memory>
+
+#include "command.hpp"
+#include "roe/app/run.hpp"
+#include "roe/core/error.hpp"
+
+namespace roe::cli {
+namespace {
+
+struct Args {
+  std::string dataset;
+  std::string out;
+  app::RunOptions opt;
+};
+
+RunFn setup(CLI::App& sub) {
+  auto a = std::make_shared<Args>();
+  sub.add_option("DATASET", a->dataset, "Dataset folder (roe.json, mav0/imu0, detections/<name>/)")->required();
+  sub.add_option("--config", a->opt.config_file,
+                 "Run config JSON: {\"filter\": {...}, \"output\": {...}} (configs/default.json, configs/paper.json)");
+  sub.add_option("--detections", a->opt.detections, "Detection set detections/NAME (default: the only one)");
+  sub.add_option("--out", a->out, "Output run folder (must not exist or be empty, unless --force)");
+  return [a]() {
+    if (a->out.empty()) throw InputError("--out RUN_DIR is required", {"roe run"});
+    a->opt.force = globals().force;
+    const auto r = app::run(a->dataset, a->out, a->opt);
+    emit(r.to_json(), r.to_text());
+    return 0;
+  };
+}
+
+const Registrar reg("", "run", "Run the self-calibrating multi-object EKF on a dataset", 40, &setup);
+
+}  // namespace
+}  // namespace roe::cli
