@@ -549,7 +549,8 @@ bool Reader::load_chunk(const ChunkInfo& c, std::string& out) {
     return true;
   }
   // Guard against absurd sizes from corrupt headers before allocating.
-  if (c.uncompressed_size > (1u << 31)) {
+  const std::uint64_t ratio_cap = std::max<std::uint64_t>(64ull << 20, 4096ull * c.data_size);
+  if (c.uncompressed_size > options_.max_chunk_bytes || c.uncompressed_size > ratio_cap) {
     warn(c.offset, "chunk claims an uncompressed size of " + std::to_string(c.uncompressed_size) +
                        " bytes; chunk skipped");
     return false;

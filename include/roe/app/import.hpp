@@ -14,6 +14,7 @@
 
 #include "roe/core/dataset.hpp"
 #include "roe/core/types.hpp"
+#include "roe/io/mocap_formats.hpp"
 
 namespace roe::app {
 
@@ -109,19 +110,9 @@ struct ImportMocapSummary {
   nlohmann::json to_json() const;
 };
 
-/// The poses and metadata of a mocap file, before conversion to the dataset (exposed for tests).
-struct MocapTrack {
-  std::string format, body, topic;
-  std::vector<StampedPose> poses;  ///< T_M_B in the file's world, metres, stamps in ns (file clock)
-  std::size_t rows = 0, occluded = 0;
-  double rate_hz = 0.0;
-  bool y_up = false;               ///< the file's world is Y-up (Motive default)
-  std::string length_unit, rotation_type;
-  std::vector<std::string> warnings;
-};
-
-/// Reads any supported mocap/trajectory file (format "auto" detects from the content).
-MocapTrack read_mocap(const fs::path& file, const ImportMocapOptions& options);
+/// Reads any supported mocap/trajectory file (format "auto" detects from the content): T_M_B in the
+/// file's world and clock (TUM/EuRoC/cnspy through io/trajectory_io.hpp).
+io::MocapData read_mocap(const fs::path& file, const ImportMocapOptions& options);
 
 ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, const ImportMocapOptions& options);
 

@@ -86,6 +86,9 @@ struct ReaderOptions {
   /// Ignore the index section even when present and scan every record (for tests and for bags whose
   /// index is suspected to be wrong).
   bool force_scan = false;
+  /// Largest uncompressed chunk accepted (a corrupt size field must not trigger a huge allocation).
+  /// A compressed chunk may also claim at most max(64 MiB, 4096 x its compressed size).
+  std::uint64_t max_chunk_bytes = 1ull << 30;
 };
 
 class Reader {

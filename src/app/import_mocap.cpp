@@ -1,0 +1,331 @@
+// roe import mocap: Motive / Vicon / EuRoC / TUM / cnspy / ROS bag poses → DATASET/mav0/mocap0.
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "roe/app/import.hpp"
+#include "roe/core/error.hpp"
+#include "roe/core/log.hpp"
+#include "roe/io/csv.hpp"
+#include "roe/io/dataset.hpp"
+#include "roe/io/mocap_formats.hpp"
+#include "roe/io/output.hpp"
+#include "roe/io/trajectory_io.hpp"
+#include "roe/math/so3.hpp"
+
+namespace roe::app {
+namespace {
+
+std::string first_line(const fs::path& file) {
+  std::ifstream f(file, std::ios::binary);
+  if (!f) throw InputError("cannot open file", {file.string()});
+  std::string line;
+  std::getline(f, line);
+  if (line.size() >= 3 && static_cast<unsigned char>(line[0]) == 0xEF) line = line.substr(3);  // UTF-8 BOM
+  return line;
+}
+
+std::string detect_format(const fs::path& file) {
+  const std::string l = first_line(file);
+  if (l.rfind("#ROSBAG", 0) == 0) return "rosbag";
+  if (l.rfind("Format Version", 0) == 0) return "motive";
+  const std::string cell0 = l.substr(0, l.find(','));
+  auto trimmed = cell0;
+  while (!trimmed.empty() && (trimmed.back() == '\r' || trimmed.back() == ' ')) trimmed.pop_back();
+  if (trimmed == "Objects" || trimmed == "Segments" || trimmed == "Trajectories" || trimmed == "Devices" ||
+      trimmed == "Joints" || trimmed == "Model Outputs")
+    return "vicon";
+  return "auto-trajectory";
+}
+
+double median_rate(const std::vector<StampedPose>& p) {
+  if (p.size() < 2) return 0.0;
+  std::vector<Timestamp> d;
+  for (std::size_t i = 1; i < p.size(); ++i) d.push_back(p[i].t_ns - p[i - 1].t_ns);
+  std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
+  return d[d.size() / 2] > 0 ? 1e9 / static_cast<double>(d[d.size() / 2]) : 0.0;
+}
+
+std::string source_kind(const std::string& format) {
+  if (format == "motive") return "motive-csv";
+  if (format == "vicon") return "vicon-csv";
+  if (format == "rosbag") return "ros1-bag";
+  if (format == "euroc") return "euroc-csv";
+  if (format == "tum") return "tum";
+  return "cnspy-csv";
+}
+
+}  // namespace
+
+DatasetManifest open_or_create_manifest(const fs::path& dataset, bool& created) {
+  created = false;
+  std::error_code ec;
+  if (fs::exists(io::manifest_path(dataset), ec)) return io::read_manifest(dataset);
+  if (fs::exists(dataset, ec) && !fs::is_directory(dataset, ec))
+    throw InputError("dataset path exists and is not a folder", {dataset.string()});
+  fs::create_directories(dataset, ec);
+  if (ec) throw InputError("cannot create the dataset folder: " + ec.message(), {dataset.string()});
+  DatasetManifest m;
+  m.name = fs::absolute(dataset).lexically_normal().filename().string();
+  if (m.name.empty()) m.name = fs::absolute(dataset).lexically_normal().parent_path().filename().string();
+  created = true;
+  return m;
+}
+
+io::MocapData read_mocap(const fs::path& file, const ImportMocapOptions& opt) {
+  std::string format = opt.format;
+  if (format == "auto") format = detect_format(file);
+  io::MocapData d;
+  if (format == "motive") {
+    d = io::read_motive_csv(file, opt.body);
+  } else if (format == "vicon") {
+    d = io::read_vicon_csv(file, opt.body);
+  } else if (format == "rosbag") {
+    d = io::read_bag_poses(file, opt.topic, opt.body);  // an empty topic throws, listing the pose topics
+  } else if (format == "tum" || format == "euroc" || format == "csv" || format == "cnspy" || format == "auto-trajectory") {
+    const io::TrajectoryFormat tf = format == "auto-trajectory" ? io::TrajectoryFormat::kAuto
+                                                                : io::parse_trajectory_format(format);
+    io::Trajectory t = io::read_trajectory(file, tf);
+    d.format = io::to_string(t.format);
+    if (d.format == "csv-ns") d.format = "csv";
+    d.rows = t.size();
+    d.length_unit = "m";
+    d.rotation_type = "Quaternion";
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      if (!d.poses.empty() && t.t_ns[i] == d.poses.back().t_ns) {
+        ++d.occluded;  // a repeated stamp: keep the first pose
+        continue;
+      }
+      d.poses.push_back({t.t_ns[i], t.poses[i]});
+    }
+    if (d.occluded) d.warnings.push_back(fmt::format("{} pose(s) with a repeated stamp dropped", d.occluded));
+  } else {
+    throw InputError("unknown mocap format \"" + opt.format + "\" (auto, motive, vicon, euroc, tum, csv, rosbag)");
+  }
+  if (d.rate_hz <= 0) d.rate_hz = median_rate(d.poses);
+  return d;
+}
+
+OffsetEstimate estimate_time_offset(const std::vector<ImuSample>& imu, const std::vector<StampedPose>& mocap,
+                                    double max_offset_s, double grid_dt_s) {
+  if (imu.size() < 10 || mocap.size() < 10)
+    throw DataError("time-offset estimate needs at least 10 IMU samples and 10 mocap poses");
+  // Mocap angular-rate magnitude at mid-points of consecutive poses (gaps over 3 periods skipped).
+  const double mocap_rate = median_rate(mocap);
+  const double period = mocap_rate > 0 ? 1.0 / mocap_rate : 0.01;
+  if (grid_dt_s <= 0) grid_dt_s = std::min(period, 0.005);
+  std::vector<std::pair<double, double>> mrate;  // (t_mocap s relative, |w|)
+  const Timestamp m0 = mocap.front().t_ns;
+  for (std::size_t k = 0; k + 1 < mocap.size(); ++k) {
+    const double dt = dt_seconds(mocap[k].t_ns, mocap[k + 1].t_ns);
+    if (!(dt > 0) || dt > 3.0 * period) continue;
+    const double w = math::log_quat(mocap[k].T.q.conjugate() * mocap[k + 1].T.q).norm() / dt;
+    mrate.emplace_back(dt_seconds(m0, mocap[k].t_ns) + 0.5 * dt, w);
+  }
+  // Gyro magnitude binned on the grid (IMU clock, relative to the first IMU sample).
+  const Timestamp g0 = imu.front().t_ns;
+  const double g_len = dt_seconds(g0, imu.back().t_ns);
+  const auto ng = static_cast<std::size_t>(g_len / grid_dt_s) + 1;
+  std::vector<double> G(ng, 0.0), Gn(ng, 0.0);
+  for (const auto& s : imu) {
+    const auto i = static_cast<std::size_t>(std::floor(dt_seconds(g0, s.t_ns) / grid_dt_s + 0.5));
+    if (i < ng) {
+      G[i] += s.gyro.norm();
+      Gn[i] += 1.0;
+    }
+  }
+  for (std::size_t i = 0; i < ng; ++i) G[i] = Gn[i] > 0 ? G[i] / Gn[i] : std::numeric_limits<double>::quiet_NaN();
+  // Mocap rate linearly interpolated at mocap-clock time tm (relative to m0); NaN outside/gaps.
+  auto m_at = [&](double tm) {
+    auto it = std::lower_bound(mrate.begin(), mrate.end(), tm,
+                               [](const std::pair<double, double>& a, double t) { return a.first < t; });
+    if (it == mrate.begin() || it == mrate.end()) return std::numeric_limits<double>::quiet_NaN();
+    const auto& b = *it;
+    const auto& a = *(it - 1);
+    if (b.first - a.first > 3.0 * period) return std::numeric_limits<double>::quiet_NaN();
+    const double u = (tm - a.first) / (b.first - a.first);
+    return (1.0 - u) * a.second + u * b.second;
+  };
+  // Search centre: 0 when the clocks overlap, otherwise align the starts.
+  const double clock_gap = dt_seconds(m0, g0);  // t_imu_start − t_mocap_start (s)
+  const double m_len = dt_seconds(m0, mocap.back().t_ns);
+  const bool overlap = clock_gap < m_len && -clock_gap < g_len;
+  const double centre = overlap ? 0.0 : clock_gap;
+  const auto nlag = static_cast<int>(std::ceil(max_offset_s / grid_dt_s));
+  std::vector<double> corr(2 * nlag + 1, std::numeric_limits<double>::quiet_NaN());
+  std::vector<std::size_t> used(2 * nlag + 1, 0);
+  // Mocap samples on the grid for offset o: M_o[i] = m(t_imu_i − o) with t_imu_i = g0 + i·dt.
+  for (int L = -nlag; L <= nlag; ++L) {
+    const double o = centre + L * grid_dt_s;
+    double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < ng; ++i) {
+      if (std::isnan(G[i])) continue;
+      const double tm = clock_gap + static_cast<double>(i) * grid_dt_s - o;  // mocap time rel. m0
+      const double m = m_at(tm);
+      if (std::isnan(m)) continue;
+      sx += G[i];
+      sy += m;
+      sxx += G[i] * G[i];
+      syy += m * m;
+      sxy += G[i] * m;
+      ++n;
+    }
+    if (n < 20) continue;
+    const double cov = sxy - sx * sy / n, vx = sxx - sx * sx / n, vy = syy - sy * sy / n;
+    if (vx <= 1e-12 || vy <= 1e-12) continue;
+    corr[L + nlag] = cov / std::sqrt(vx * vy);
+    used[L + nlag] = n;
+  }
+  int best = -1;
+  for (int k = 0; k < static_cast<int>(corr.size()); ++k)
+    if (!std::isnan(corr[k]) && (best < 0 || corr[k] > corr[best])) best = k;
+  if (best < 0)
+    throw DataError("time-offset estimate failed: the IMU and mocap signals never overlap with rotation within ±" +
+                    fmt::format("{}", max_offset_s) + " s of the search centre");
+  double delta = 0.0;
+  if (best > 0 && best + 1 < static_cast<int>(corr.size()) && !std::isnan(corr[best - 1]) && !std::isnan(corr[best + 1])) {
+    const double a = corr[best - 1], b = corr[best], c = corr[best + 1];
+    const double den = a - 2 * b + c;
+    if (den < 0) delta = std::clamp(0.5 * (a - c) / den, -0.5, 0.5);
+  }
+  OffsetEstimate e;
+  e.offset_s = centre + (best - nlag + delta) * grid_dt_s;
+  e.correlation = corr[best];
+  e.samples = used[best];
+  e.grid_dt_s = grid_dt_s;
+  double second = -1.0;
+  const int excl = static_cast<int>(std::ceil(0.25 / grid_dt_s));
+  for (int k = 0; k < static_cast<int>(corr.size()); ++k)
+    if (std::abs(k - best) > excl && !std::isnan(corr[k])) second = std::max(second, corr[k]);
+  e.peak_ratio = second > 0 ? corr[best] / second : std::numeric_limits<double>::infinity();
+  if (best == 0 || best + 1 == static_cast<int>(corr.size()))
+    log::warn("time-offset estimate: the peak is at the edge of the ±{} s search range; widen --max-offset", max_offset_s);
+  return e;
+}
+
+nlohmann::json ImportMocapSummary::to_json() const {
+  nlohmann::json j = {{"command", "import mocap"},
+                      {"dataset", dataset.string()},
+                      {"csv", csv.string()},
+                      {"format", format},
+                      {"body", body},
+                      {"topic", topic},
+                      {"up", up},
+                      {"rows", rows},
+                      {"poses", poses},
+                      {"occluded", occluded},
+                      {"rate_hz", rate_hz},
+                      {"length_unit", length_unit},
+                      {"rotation_type", rotation_type},
+                      {"time_offset_s", time_offset_s},
+                      {"created_manifest", created_manifest},
+                      {"warnings", warnings}};
+  if (estimate)
+    j["offset_estimate"] = {{"offset_s", estimate->offset_s},
+                            {"correlation", estimate->correlation},
+                            {"peak_ratio", std::isfinite(estimate->peak_ratio) ? nlohmann::json(estimate->peak_ratio)
+                                                                               : nlohmann::json(nullptr)},
+                            {"samples", estimate->samples},
+                            {"grid_dt_s", estimate->grid_dt_s}};
+  return j;
+}
+
+ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, const ImportMocapOptions& opt) {
+  ImportMocapSummary S;
+  S.dataset = dataset;
+  if (opt.mocap_name.empty() || opt.mocap_name.find('/') != std::string::npos || opt.mocap_name == "." ||
+      opt.mocap_name == "..")
+    throw InputError("invalid mocap folder name \"" + opt.mocap_name + "\"");
+  if (opt.up != "auto" && opt.up != "y" && opt.up != "z") throw InputError("--up must be auto, y or z");
+  if (!fs::exists(file)) throw InputError("no such file", {file.string()});
+  S.csv = dataset / "mav0" / opt.mocap_name / "data.csv";
+  if (fs::exists(S.csv) && !opt.force)
+    throw InputError("the dataset already has mocap data (use --force to replace it)", {S.csv.string()});
+  io::MocapData d = read_mocap(file, opt);
+  S.format = d.format;
+  S.body = d.body;
+  S.topic = opt.topic;
+  S.rows = d.rows;
+  S.occluded = d.occluded;
+  S.rate_hz = d.rate_hz;
+  S.length_unit = d.length_unit;
+  S.rotation_type = d.rotation_type;
+  S.warnings = d.warnings;
+  if (d.poses.empty())
+    throw InputError(fmt::format("no pose to import: all {} frame(s) occluded or empty", d.rows), {file.string()});
+  const bool y_up = opt.up == "y" || (opt.up == "auto" && d.y_up);
+  S.up = y_up ? "y" : "z";
+  if (y_up) {
+    // Y-up world (Motive) → Z-up: x stays, y_Z = −z_Y, z_Z = y_Y (a +90° rotation about x).
+    Eigen::Matrix3d R_Z_Y;
+    R_Z_Y << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+    const Pose T_Z_Y(R_Z_Y, Eigen::Vector3d::Zero());
+    for (auto& p : d.poses) p.T = T_Z_Y * p.T;
+  }
+  bool created = false;
+  DatasetManifest m = open_or_create_manifest(dataset, created);
+  S.created_manifest = created;
+  double offset = opt.time_offset_s.value_or(0.0);
+  if (opt.estimate_offset) {
+    const fs::path imu_csv = io::imu_csv_path(dataset);
+    if (!fs::exists(imu_csv))
+      throw InputError("--estimate-offset needs the IMU of the dataset (import the recording first)", {imu_csv.string()});
+    const auto imu = io::read_imu_csv(imu_csv);
+    std::vector<StampedPose> shifted = d.poses;
+    // With --time-offset given too, it is the centre of the search.
+    if (opt.time_offset_s)
+      for (auto& p : shifted) p.t_ns += from_seconds(*opt.time_offset_s);
+    OffsetEstimate e = estimate_time_offset(imu, shifted, opt.max_offset_s);
+    e.offset_s += opt.time_offset_s.value_or(0.0);
+    S.estimate = e;
+    offset = e.offset_s;
+    if (e.correlation < 0.5)
+      S.warnings.push_back(fmt::format("time-offset estimate is weak (correlation {:.3f}): check it", e.correlation));
+  }
+  S.time_offset_s = offset;
+  S.poses = d.poses.size();
+
+  // Write the poses (file clock; the offset goes into roe.json) and the manifest.
+  fs::create_directories(S.csv.parent_path());
+  io::write_mocap_csv(S.csv, d.poses);
+  SourceRecord src;
+  src.kind = source_kind(d.format);
+  src.path = file.string();
+  src.sha256 = io::sha256_file(file);
+  src.options["format"] = d.format;
+  src.options["folder"] = "mav0/" + opt.mocap_name;
+  if (!d.body.empty()) src.options["body"] = d.body;
+  if (!opt.topic.empty()) src.options["topic"] = opt.topic;
+  src.options["up"] = S.up;
+  if (y_up) src.options["axis_conversion"] = "Y-up to Z-up: x_Z = x_Y, y_Z = -z_Y, z_Z = y_Y";
+  src.options["time_offset_s"] = io::format_double(offset);
+  src.options["time_offset_source"] = S.estimate ? "estimated" : opt.time_offset_s ? "given" : "none";
+  if (S.estimate) src.options["offset_correlation"] = io::format_double(S.estimate->correlation);
+  src.options["rows"] = std::to_string(d.rows);
+  src.options["occluded"] = std::to_string(d.occluded);
+  if (!d.length_unit.empty()) src.options["length_unit"] = d.length_unit;
+  if (!d.rotation_type.empty()) src.options["rotation_type"] = d.rotation_type;
+  // A forced re-import replaces the record of the same folder.
+  m.sources.erase(std::remove_if(m.sources.begin(), m.sources.end(),
+                                 [&](const SourceRecord& r) {
+                                   auto it = r.options.find("folder");
+                                   return it != r.options.end() && it->second == "mav0/" + opt.mocap_name;
+                                 }),
+                  m.sources.end());
+  m.sources.push_back(src);
+  if (opt.mocap_name == "mocap0") {
+    MocapInfo mi = m.mocap.value_or(MocapInfo{});
+    mi.body = d.body;
+    mi.time_offset_s = offset;
+    m.mocap = mi;
+  }
+  io::write_manifest(m, io::manifest_path(dataset));
+  for (const auto& w : S.warnings) log::warn("{}", w);
+  return S;
+}
+
+}  // namespace roe::app

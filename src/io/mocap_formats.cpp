@@ -1,0 +1,404 @@
+// Motion-capture exports: Motive CSV, Vicon CSV, pose topics of ROS bags.
+#include "roe/io/mocap_formats.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <optional>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "roe/core/error.hpp"
+#include "roe/io/csv.hpp"
+#include "roe/io/ros_msgs.hpp"
+#include "roe/io/rosbag.hpp"
+#include "roe/math/so3.hpp"
+
+namespace roe::io {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+std::string lower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::vector<std::string> row_strings(const CsvReader& r) {
+  std::vector<std::string> v;
+  for (std::size_t i = 0; i < r.size(); ++i) v.emplace_back(r.field(i));
+  return v;
+}
+
+bool cell_empty(const CsvReader& r, std::size_t i) { return i >= r.size() || r.field(i).empty(); }
+
+/// Checks and normalises a quaternion read at the current row; `col` is the first of its columns.
+Eigen::Quaterniond checked_unit(const CsvReader& r, const Eigen::Quaterniond& q, std::size_t col) {
+  const double n = q.norm();
+  if (!(std::abs(n - 1.0) <= kMocapUnitQuatTolerance))
+    throw r.error(col, fmt::format("quaternion is not unit norm (|q| = {:.6g}, tolerance {})", n,
+                                   kMocapUnitQuatTolerance));
+  return q.normalized();
+}
+
+Eigen::Matrix3d axis_rotation(char axis, double angle) {
+  const Eigen::Vector3d a = axis == 'X' ? Eigen::Vector3d::UnitX()
+                            : axis == 'Y' ? Eigen::Vector3d::UnitY()
+                                          : Eigen::Vector3d::UnitZ();
+  return Eigen::AngleAxisd(angle, a).toRotationMatrix();
+}
+
+double length_scale(const std::string& unit, const std::string& file, std::vector<std::string>& warnings) {
+  const std::string u = lower(unit);
+  if (u.empty()) {
+    warnings.push_back("no length unit in the file: assuming metres");
+    return 1.0;
+  }
+  if (u == "meters" || u == "metres" || u == "m") return 1.0;
+  if (u == "centimeters" || u == "centimetres" || u == "cm") return 0.01;
+  if (u == "millimeters" || u == "millimetres" || u == "mm") return 0.001;
+  throw InputError("unknown length unit \"" + unit + "\" (Meters, Centimeters, Millimeters, m, cm, mm)", {file});
+}
+
+void check_time(const CsvReader& r, std::size_t col, Timestamp t, bool have_prev, Timestamp prev) {
+  if (have_prev && t <= prev)
+    throw r.error(col, fmt::format("time does not increase ({} ns after {} ns)", t, prev));
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Motive
+// ---------------------------------------------------------------------------------------------
+MocapData read_motive_csv(const fs::path& file, const std::string& body) {
+  MocapData out;
+  out.format = "motive";
+  out.y_up = true;
+  CsvOptions o;
+  o.header = CsvHeader::kNone;
+  o.ragged = true;
+  o.comment_prefix = "";
+  CsvReader r(file, o);
+  const std::string src = file.string();
+  if (!r.next()) throw InputError("empty file", {src});
+  // Line 1: key,value pairs.
+  std::map<std::string, std::string> info;
+  for (std::size_t i = 0; i + 1 < r.size(); i += 2) info[std::string(r.field(i))] = std::string(r.field(i + 1));
+  if (!info.count("Format Version"))
+    throw InputError("not a Motive CSV export: line 1 has no \"Format Version\"", {src, r.line()});
+  // Header rows up to the axis row ("Frame", ...).
+  std::vector<std::vector<std::string>> hdr;
+  std::int64_t axis_line = 0;
+  while (r.next()) {
+    hdr.push_back(row_strings(r));
+    if (!hdr.back().empty() && hdr.back()[0] == "Frame") {
+      axis_line = r.line();
+      break;
+    }
+    if (hdr.size() > 12) break;
+  }
+  if (!axis_line || hdr.size() < 5)
+    throw InputError("Motive header rows not found (expected Type/Name/ID/property rows and a row starting "
+                     "with \"Frame\")",
+                     {src, r.line()});
+  const auto& axis = hdr[hdr.size() - 1];
+  const auto& prop = hdr[hdr.size() - 2];
+  const auto& name = hdr[hdr.size() - 4];
+  const auto& type = hdr[hdr.size() - 5];
+  auto cell = [](const std::vector<std::string>& row, std::size_t i) { return i < row.size() ? row[i] : std::string(); };
+  std::size_t time_col = 1;
+  for (std::size_t i = 1; i < axis.size(); ++i)
+    if (axis[i].rfind("Time", 0) == 0 && axis[i] != "TimeCode") {
+      time_col = i;
+      break;
+    }
+  // Rigid bodies.
+  std::set<std::string> seen;
+  for (std::size_t i = 0; i < type.size(); ++i)
+    if (type[i] == "Rigid Body" && !cell(name, i).empty() && seen.insert(name[i]).second) out.bodies.push_back(name[i]);
+  if (out.bodies.empty()) throw InputError("the Motive file has no rigid body (only markers?)", {src, axis_line - 4});
+  std::string chosen = body;
+  if (chosen.empty()) {
+    if (out.bodies.size() > 1) {
+      std::string list;
+      for (const auto& b : out.bodies) list += " \"" + b + "\"";
+      throw InputError("several rigid bodies in the file; choose one with --body:" + list, {src});
+    }
+    chosen = out.bodies.front();
+  } else if (!seen.count(chosen)) {
+    std::string list;
+    for (const auto& b : out.bodies) list += " \"" + b + "\"";
+    throw InputError("rigid body \"" + chosen + "\" is not in the file; it has:" + list, {src});
+  }
+  out.body = chosen;
+  // Rotation and position columns of the body.
+  out.rotation_type = info.count("Rotation Type") ? info["Rotation Type"] : "Quaternion";
+  const bool quat = lower(out.rotation_type) == "quaternion";
+  std::string euler_order;
+  if (!quat) {
+    euler_order = out.rotation_type;
+    for (auto& c : euler_order) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    std::string sorted = euler_order;
+    std::sort(sorted.begin(), sorted.end());
+    if (sorted != "XYZ")
+      throw InputError("unknown Rotation Type \"" + out.rotation_type + "\" (Quaternion or an Euler order such as XYZ)",
+                       {src, 1});
+  }
+  std::map<std::string, std::size_t> rot_cols, pos_cols;
+  for (std::size_t i = 0; i < type.size(); ++i) {
+    if (type[i] != "Rigid Body" || cell(name, i) != chosen) continue;
+    if (cell(prop, i) == "Rotation") rot_cols[cell(axis, i)] = i;
+    if (cell(prop, i) == "Position") pos_cols[cell(axis, i)] = i;
+  }
+  const std::vector<std::string> rot_axes = quat ? std::vector<std::string>{"X", "Y", "Z", "W"}
+                                                 : std::vector<std::string>{"X", "Y", "Z"};
+  for (const auto& a : rot_axes)
+    if (!rot_cols.count(a))
+      throw InputError("rigid body \"" + chosen + "\" has no Rotation " + a + " column", {src, axis_line});
+  for (const auto& a : {"X", "Y", "Z"})
+    if (!pos_cols.count(a))
+      throw InputError("rigid body \"" + chosen + "\" has no Position " + std::string(a) + " column", {src, axis_line});
+  out.length_unit = info.count("Length Units") ? info["Length Units"] : "";
+  const double scale = length_scale(out.length_unit, src, out.warnings);
+  const std::string rate_key = info.count("Export Frame Rate") ? "Export Frame Rate" : "Capture Frame Rate";
+  if (info.count(rate_key)) {
+    const auto v = parse_seconds_ns(info[rate_key]);  // a decimal number; reuse the exact parser
+    if (v) out.rate_hz = static_cast<double>(*v) * 1e-9;
+  }
+  // Data rows.
+  bool have_prev = false;
+  Timestamp prev = 0;
+  while (r.next()) {
+    if (r.size() == 0) continue;
+    ++out.rows;
+    (void)r.get_int64(0);  // the frame number must be an integer
+    if (cell_empty(r, time_col)) throw r.error(time_col, "empty time cell");
+    const auto t = parse_seconds_ns(r.field(time_col));
+    if (!t) throw r.error(time_col, "time is not a number: \"" + std::string(r.field(time_col)) + "\"");
+    check_time(r, time_col, *t, have_prev, prev);
+    have_prev = true;
+    prev = *t;
+    bool missing = false;
+    for (const auto& [a, c] : rot_cols) missing = missing || cell_empty(r, c);
+    for (const auto& [a, c] : pos_cols) missing = missing || cell_empty(r, c);
+    if (missing) {
+      ++out.occluded;
+      continue;
+    }
+    Eigen::Quaterniond q;
+    if (quat) {
+      q = checked_unit(r,
+                       Eigen::Quaterniond(r.get_double(rot_cols["W"]), r.get_double(rot_cols["X"]),
+                                          r.get_double(rot_cols["Y"]), r.get_double(rot_cols["Z"])),
+                       rot_cols["X"]);
+    } else {
+      Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+      for (char a : euler_order) R = R * axis_rotation(a, r.get_double(rot_cols[std::string(1, a)]) * kDeg);
+      q = Eigen::Quaterniond(R);
+    }
+    const Eigen::Vector3d p(r.get_double(pos_cols["X"]), r.get_double(pos_cols["Y"]), r.get_double(pos_cols["Z"]));
+    out.poses.push_back({*t, Pose(q, p * scale)});
+  }
+  if (out.rows == 0) throw InputError("the Motive file has no data rows", {src});
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Vicon
+// ---------------------------------------------------------------------------------------------
+MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
+  MocapData out;
+  out.format = "vicon";
+  out.rotation_type = "helical";
+  CsvOptions o;
+  o.header = CsvHeader::kNone;
+  o.ragged = true;
+  o.comment_prefix = "";
+  CsvReader r(file, o);
+  const std::string src = file.string();
+  static const std::set<std::string> kSections = {"Objects", "Segments", "Trajectories", "Devices", "Joints",
+                                                  "Model Outputs"};
+  // Find the first Objects/Segments section.
+  bool found = false;
+  while (r.next()) {
+    if (r.size() >= 1 && (r.field(0) == "Objects" || r.field(0) == "Segments")) {
+      found = true;
+      break;
+    }
+  }
+  if (!found)
+    throw InputError("no \"Objects\" (Tracker) or \"Segments\" (Nexus) section with rigid-body poses", {src});
+  if (!r.next()) throw InputError("truncated Vicon section (no rate row)", {src, r.line()});
+  out.rate_hz = r.get_double(0);
+  if (!(out.rate_hz > 0)) throw r.error(0, "frame rate must be > 0");
+  if (!r.next()) throw InputError("truncated Vicon section (no names row)", {src, r.line()});
+  const auto names = row_strings(r);
+  if (!r.next()) throw InputError("truncated Vicon section (no column row)", {src, r.line()});
+  const auto cols = row_strings(r);
+  const std::int64_t cols_line = r.line();
+  if (cols.empty() || cols[0] != "Frame") throw r.error(0, "expected the column row \"Frame,Sub Frame,RX,...\"");
+  if (!r.next()) throw InputError("truncated Vicon section (no units row)", {src, r.line()});
+  const auto units = row_strings(r);
+  // Groups of RX RY RZ TX TY TZ.
+  struct Group {
+    std::string name;
+    std::size_t c0;
+  };
+  std::vector<Group> groups;
+  for (std::size_t i = 0; i + 5 < cols.size(); ++i)
+    if (cols[i] == "RX" && cols[i + 1] == "RY" && cols[i + 2] == "RZ" && cols[i + 3] == "TX" && cols[i + 4] == "TY" &&
+        cols[i + 5] == "TZ") {
+      std::string n = i < names.size() ? names[i] : "";
+      // "Global Angle obj:obj" (Tracker) or "Subject:Segment" (Nexus): keep the part after ':' when
+      // both halves are equal, else the whole label without the "Global Angle " prefix.
+      if (n.rfind("Global Angle ", 0) == 0) n = n.substr(13);
+      const std::size_t colon = n.find(':');
+      if (colon != std::string::npos && n.substr(0, colon) == n.substr(colon + 1)) n = n.substr(0, colon);
+      groups.push_back({n, i});
+      out.bodies.push_back(n);
+    }
+  if (groups.empty()) throw InputError("no RX,RY,RZ,TX,TY,TZ column group in the Vicon section", {src, cols_line});
+  const Group* g = nullptr;
+  if (body.empty()) {
+    if (groups.size() > 1) {
+      std::string list;
+      for (const auto& b : out.bodies) list += " \"" + b + "\"";
+      throw InputError("several objects in the file; choose one with --body:" + list, {src});
+    }
+    g = &groups.front();
+  } else {
+    for (const auto& gr : groups)
+      if (gr.name == body || (gr.name.size() > body.size() && gr.name.compare(gr.name.size() - body.size() - 1,
+                                                                              std::string::npos, ":" + body) == 0))
+        g = &gr;
+    if (!g) {
+      std::string list;
+      for (const auto& b : out.bodies) list += " \"" + b + "\"";
+      throw InputError("object \"" + body + "\" is not in the file; it has:" + list, {src});
+    }
+  }
+  out.body = g->name;
+  auto unit_at = [&](std::size_t i) { return i < units.size() ? lower(units[i]) : std::string(); };
+  const std::string ru = unit_at(g->c0);
+  const double rot_scale = ru == "rad" ? 1.0 : ru == "deg" || ru.empty() ? kDeg : -1.0;
+  if (rot_scale < 0) throw InputError("unknown rotation unit \"" + ru + "\" (deg or rad)", {src, r.line()});
+  if (ru.empty()) out.warnings.push_back("no rotation unit: assuming degrees");
+  out.length_unit = unit_at(g->c0 + 3).empty() ? "mm" : unit_at(g->c0 + 3);
+  const double len_scale = length_scale(out.length_unit, src, out.warnings);
+  bool have_first = false, have_prev = false;
+  std::int64_t first_frame = 0;
+  Timestamp prev = 0;
+  while (r.next()) {
+    if (r.size() == 0) continue;
+    if (kSections.count(std::string(r.field(0)))) break;  // next section
+    ++out.rows;
+    const std::int64_t frame = r.get_int64(0);
+    if (!have_first) {
+      first_frame = frame;
+      have_first = true;
+    }
+    const Timestamp t = from_seconds(static_cast<double>(frame - first_frame) / out.rate_hz);
+    check_time(r, 0, t, have_prev, prev);
+    have_prev = true;
+    prev = t;
+    bool missing = false;
+    for (std::size_t k = 0; k < 6; ++k) missing = missing || cell_empty(r, g->c0 + k);
+    if (missing) {
+      ++out.occluded;
+      continue;
+    }
+    const Eigen::Vector3d rv(r.get_double(g->c0), r.get_double(g->c0 + 1), r.get_double(g->c0 + 2));
+    const Eigen::Vector3d p(r.get_double(g->c0 + 3), r.get_double(g->c0 + 4), r.get_double(g->c0 + 5));
+    out.poses.push_back({t, Pose(math::exp_quat(rv * rot_scale), p * len_scale)});
+  }
+  if (out.rows == 0) throw InputError("the Vicon section has no data rows", {src});
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// ROS bag topics
+// ---------------------------------------------------------------------------------------------
+MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, const std::string& child_frame) {
+  MocapData out;
+  out.format = "rosbag";
+  out.length_unit = "m";
+  out.rotation_type = "Quaternion";
+  bag::Reader reader(bag_file);
+  const std::string type = reader.topic_type(topic);
+  if (topic.empty() || type.empty()) {
+    std::string list;
+    for (const auto& c : reader.connections())
+      if (c.type == "geometry_msgs/PoseStamped" || c.type == "geometry_msgs/TransformStamped" ||
+          c.type == "nav_msgs/Odometry" || c.type == "tf2_msgs/TFMessage" ||
+          c.type == "geometry_msgs/PoseWithCovarianceStamped")
+        list += "\n  " + c.topic + " [" + c.type + "]";
+    throw InputError((topic.empty() ? std::string("choose a pose topic with --topic") : "topic \"" + topic + "\" is not in the bag") +
+                         "; pose topics in the bag:" + (list.empty() ? std::string(" none") : list),
+                     {reader.name()});
+  }
+  static const std::set<std::string> kTypes = {"geometry_msgs/PoseStamped", "geometry_msgs/TransformStamped",
+                                               "nav_msgs/Odometry", "tf2_msgs/TFMessage",
+                                               "geometry_msgs/PoseWithCovarianceStamped"};
+  if (!kTypes.count(type))
+    throw InputError("topic " + topic + " has type " + type +
+                         " (supported: PoseStamped, TransformStamped, PoseWithCovarianceStamped, Odometry, TFMessage)",
+                     {reader.name()});
+  out.body = topic;
+  std::set<std::string> children;
+  std::vector<std::pair<Timestamp, ros::StampedTransform>> msgs;
+  reader.for_each_topic({topic}, [&](const bag::MessageView& m) {
+    const std::string w = fmt::format("{}: {} (chunk at byte {})", reader.name(), topic, m.chunk_offset);
+    ++out.rows;
+    if (type == "tf2_msgs/TFMessage") {
+      for (auto& tr : ros::decode_tf_message(m.data, w)) {
+        children.insert(tr.child_frame_id);
+        if (child_frame.empty() || tr.child_frame_id == child_frame) msgs.emplace_back(m.record_time_ns, tr);
+      }
+      return true;
+    }
+    ros::StampedTransform st = type == "geometry_msgs/PoseStamped"        ? ros::decode_pose_stamped(m.data, w)
+                               : type == "geometry_msgs/TransformStamped" ? ros::decode_transform_stamped(m.data, w)
+                               : type == "nav_msgs/Odometry"              ? ros::decode_odometry(m.data, w)
+                                                                          : ros::decode_pose_with_covariance_stamped(m.data, w);
+    msgs.emplace_back(m.record_time_ns, st);
+    return true;
+  });
+  if (type == "tf2_msgs/TFMessage") {
+    if (child_frame.empty() && children.size() > 1) {
+      std::string list;
+      for (const auto& c : children) list += " \"" + c + "\"";
+      throw InputError("topic " + topic + " carries several child frames; choose one with --body:" + list,
+                       {reader.name()});
+    }
+    if (!child_frame.empty() && !children.count(child_frame))
+      throw InputError("child frame \"" + child_frame + "\" is not on " + topic, {reader.name()});
+    out.body = child_frame.empty() && !children.empty() ? *children.begin() : child_frame;
+  }
+  bool zero_stamps = false;
+  std::size_t index = 0;
+  for (const auto& [rec, st] : msgs) {
+    ++index;
+    const Timestamp t = st.header.stamp_ns != 0 ? st.header.stamp_ns : rec;
+    zero_stamps = zero_stamps || st.header.stamp_ns == 0;
+    const auto& q = st.transform.q;
+    const double n = q.norm();
+    if (!(std::abs(n - 1.0) <= kMocapUnitQuatTolerance) || !st.transform.t.allFinite())
+      throw InputError(fmt::format("{}: message {} (stamp {} ns): {}", topic, index, t,
+                                   st.transform.t.allFinite() ? fmt::format("quaternion is not unit norm (|q| = {:.6g})", n)
+                                                              : std::string("non-finite position")),
+                       {reader.name()});
+    out.poses.push_back({t, Pose(q.normalized(), st.transform.t)});
+  }
+  if (zero_stamps) out.warnings.push_back("messages with header.stamp = 0 use the bag record time");
+  std::stable_sort(out.poses.begin(), out.poses.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
+  const std::size_t n = out.poses.size();
+  out.poses.erase(std::unique(out.poses.begin(), out.poses.end(), [](const auto& a, const auto& b) { return a.t_ns == b.t_ns; }),
+                  out.poses.end());
+  if (n != out.poses.size()) out.warnings.push_back(fmt::format("{} poses with a repeated stamp dropped", n - out.poses.size()));
+  for (const auto& w : reader.warnings())
+    out.warnings.push_back(fmt::format("{}: byte {}: {}", reader.name(), w.offset, w.message));
+  return out;
+}
+
+}  // namespace roe::io
