@@ -84,7 +84,7 @@ io::MocapData read_mocap(const fs::path& file, const ImportMocapOptions& opt) {
   } else if (format == "vicon") {
     d = io::read_vicon_csv(file, opt.body);
   } else if (format == "rosbag") {
-    d = io::read_bag_poses(file, opt.topic, opt.body);  // an empty topic throws, listing the pose topics
+    d = io::read_bag_poses(file, opt.topic, opt.body, opt.salvage);  // an empty topic throws, listing the pose topics
   } else if (format == "tum" || format == "euroc" || format == "csv" || format == "cnspy" || format == "auto-trajectory") {
     const io::TrajectoryFormat tf = format == "auto-trajectory" ? io::TrajectoryFormat::kAuto
                                                                 : io::parse_trajectory_format(format);

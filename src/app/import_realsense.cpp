@@ -452,6 +452,12 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
     if (dup_frames) S.warnings.push_back(fmt::format("{} colour frames with a repeated header.stamp skipped", dup_frames));
   }
   S.frames = frames.size();
+  if (reader.damaged() && !opt.salvage)
+    throw InputError("the bag is damaged (" + reader.first_damage() + "; " +
+                         std::to_string(std::count_if(reader.warnings().begin(), reader.warnings().end(),
+                                                      [](const bag::Warning& w) { return w.damage; })) +
+                         " problem(s)); use --salvage to import the part that is intact",
+                     {reader.name()});
   for (const auto& w : reader.warnings())
     S.warnings.push_back(fmt::format("{}: byte {}: {}", reader.name(), w.offset, w.message));
   if (S.frames == 0 && imu.empty())

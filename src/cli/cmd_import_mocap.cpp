@@ -35,6 +35,7 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("--max-offset", a->opt.max_offset_s, "Search range of --estimate-offset in s")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  sub.add_flag("--salvage", a->opt.salvage, "ROS bag: import the intact part of a truncated/corrupt bag");
   sub.add_option("--name", a->opt.mocap_name, "Folder under mav0/ (mocap0 = the camera body)")->capture_default_str();
   return [a]() {
     a->opt.force = globals().force;

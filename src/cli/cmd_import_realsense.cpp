@@ -29,6 +29,7 @@ RunFn setup(CLI::App& sub) {
       ->capture_default_str()->check(CLI::NonNegativeNumber);
   sub.add_flag("--no-undistort", a->no_undistort, "Keep the lens distortion (crop/resize only)");
   sub.add_flag("--no-images", a->no_images, "Import IMU and calibration only");
+  sub.add_flag("--salvage", a->opt.salvage, "Import the intact part of a truncated/corrupt bag (else exit 2)");
   sub.add_option("--color-topic", a->opt.color_topic, "Colour image topic (default: found automatically)");
   sub.add_option("--max-frames", a->opt.max_frames, "Import at most N frames (0 = all)")->capture_default_str();
   sub.add_option("--png-compression", a->opt.png_compression, "PNG compression level 0-9")

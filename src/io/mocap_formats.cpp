@@ -319,7 +319,8 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
 // ---------------------------------------------------------------------------------------------
 // ROS bag topics
 // ---------------------------------------------------------------------------------------------
-MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, const std::string& child_frame) {
+MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, const std::string& child_frame,
+                         bool salvage) {
   MocapData out;
   out.format = "rosbag";
   out.length_unit = "m";
@@ -364,6 +365,10 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
     msgs.emplace_back(m.record_time_ns, st);
     return true;
   });
+  if (reader.damaged() && !salvage)
+    throw InputError("the bag is damaged (" + reader.first_damage() +
+                         "); use --salvage to import the poses that are intact",
+                     {reader.name()});
   if (type == "tf2_msgs/TFMessage") {
     if (child_frame.empty() && children.size() > 1) {
       std::string list;

@@ -285,9 +285,21 @@ Reader& Reader::operator=(Reader&&) noexcept = default;
 
 std::uint64_t Reader::file_size() const { return src_->size(); }
 
-void Reader::warn(std::uint64_t offset, std::string message) {
+void Reader::warn(std::uint64_t offset, std::string message, bool damage) {
   log::debug("{}: byte {}: {}", name_, offset, message);
-  warnings_.push_back({offset, std::move(message)});
+  warnings_.push_back({offset, std::move(message), damage});
+}
+
+bool Reader::damaged() const {
+  for (const auto& w : warnings_)
+    if (w.damage) return true;
+  return false;
+}
+
+std::string Reader::first_damage() const {
+  for (const auto& w : warnings_)
+    if (w.damage) return "byte " + std::to_string(w.offset) + ": " + w.message;
+  return {};
 }
 
 void Reader::add_connection(Connection c) {
@@ -349,7 +361,7 @@ void Reader::open() {
   }
   if (!options_.force_scan) {
     if (index_pos == 0)
-      warn(kMagicLen, "bag is not indexed (index_pos = 0); scanning the records sequentially");
+      warn(kMagicLen, "bag is not indexed (index_pos = 0); scanning the records sequentially", false);
     else if (index_pos >= src_->size())
       warn(kMagicLen, "index position " + std::to_string(index_pos) +
                           " is past the end of the file (truncated bag?); scanning the records sequentially");

@@ -34,6 +34,9 @@ struct ImportRealsenseOptions {
   std::size_t max_frames = 0;               ///< 0 = all
   bool images = true;                       ///< false: IMU and calibration only (no PNGs)
   std::string name;                         ///< dataset name (default: the bag's stem)
+  /// A damaged bag (truncated, corrupt chunk) is an InputError unless salvage is set; then what is
+  /// intact is imported and the damage is listed in the warnings.
+  bool salvage = false;
   bool force = false;
 };
 
@@ -83,6 +86,7 @@ struct ImportMocapOptions {
   bool estimate_offset = false;         ///< estimate the offset against DATASET/mav0/imu0 gyro
   double max_offset_s = 2.0;            ///< search range of the estimate
   std::string mocap_name = "mocap0";    ///< folder under mav0/
+  bool salvage = false;                 ///< rosbag: import the intact part of a damaged bag
   bool force = false;
 };
 

@@ -56,7 +56,9 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body = "");
 
 /// Pose messages of one topic in a ROS bag, stamped with header.stamp (record time when the stamp
 /// is zero). For tf2_msgs/TFMessage topics (/tf), `child_frame` selects the transform (required when
-/// the topic carries several child frames).
-MocapData read_bag_poses(const fs::path& bag, const std::string& topic, const std::string& child_frame = "");
+/// the topic carries several child frames). A damaged bag (truncated, corrupt chunk) is an
+/// InputError naming the byte offset unless `salvage`, which keeps what is intact (with warnings).
+MocapData read_bag_poses(const fs::path& bag, const std::string& topic, const std::string& child_frame = "",
+                         bool salvage = false);
 
 }  // namespace roe::io

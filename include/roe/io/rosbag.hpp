@@ -59,6 +59,7 @@ struct MessageView {
 struct Warning {
   std::uint64_t offset = 0;
   std::string message;
+  bool damage = true;  ///< false for notes that do not mean lost data (e.g. "bag is not indexed")
 };
 
 /// Summary of one chunk (from the index, or from the sequential scan).
@@ -117,6 +118,10 @@ class Reader {
   std::size_t message_count() const;
   /// Problems skipped while opening and reading (grows while iterating).
   const std::vector<Warning>& warnings() const { return warnings_; }
+  /// Whether any warning reports damage (data that could not be read).
+  bool damaged() const;
+  /// "byte N: message" of the first damage warning (empty when none).
+  std::string first_damage() const;
 
   /// Calls `fn` for every message whose topic passes `select`, in record-time order (ties keep
   /// file order). `fn` may return false to stop early. Damaged chunks are skipped with a warning.
@@ -131,7 +136,7 @@ class Reader {
   void open();
   bool read_index(std::uint64_t index_pos, std::int32_t chunk_count);
   void scan();
-  void warn(std::uint64_t offset, std::string message);
+  void warn(std::uint64_t offset, std::string message, bool damage = true);
   /// Decompressed chunk bytes; empty + warning on failure.
   bool load_chunk(const ChunkInfo& c, std::string& out);
   void add_connection(Connection c);
