@@ -479,8 +479,16 @@ DatasetManifest read_manifest(const fs::path& dataset) {
 }
 
 void write_manifest(const DatasetManifest& m, const fs::path& file) {
+  const json j = manifest_to_json(m);
+  // Never write a manifest the reader would refuse (duplicate ids, wrong schema, bad intrinsics...):
+  // that is a bug in the producer, reported as such.
+  try {
+    (void)manifest_from_json(j, file.string());
+  } catch (const ConfigError& e) {
+    throw InternalError(std::string("refusing to write an invalid manifest: ") + e.what());
+  }
   std::string text;
-  print_json(manifest_to_json(m), 0, text);
+  print_json(j, 0, text);
   write_file_atomic(file, text + "\n");
 }
 

@@ -457,7 +457,7 @@ TEST_CASE("dataset: detections.csv rules", "[dataset][detections]") {
   CHECK(e.context().column == 2);
 }
 
-TEST_CASE("dataset: writers refuse unsorted streams", "[dataset]") {
+TEST_CASE("dataset: writers refuse unsorted streams and invalid manifests", "[dataset]") {
   TempDir tmp("unsorted");
   std::vector<ImuSample> imu(2);
   imu[0].t_ns = 2;
@@ -469,6 +469,13 @@ TEST_CASE("dataset: writers refuse unsorted streams", "[dataset]") {
   dets[1].object_id = 3;
   CHECK_NOTHROW(io::write_detections_csv(tmp.path / "d.csv", dets));
   CHECK_FALSE(fs::exists(tmp.path / "imu.csv"));
+  DatasetManifest m;
+  m.objects = {{3, "a", false}, {3, "b", true}};
+  CHECK_THROWS_AS(io::write_manifest(m, tmp.path / "roe.json"), InternalError);
+  m.objects.pop_back();
+  m.schema = "other";
+  CHECK_THROWS_AS(io::write_manifest(m, tmp.path / "roe.json"), InternalError);
+  CHECK_FALSE(fs::exists(tmp.path / "roe.json"));
 }
 
 TEST_CASE("dataset: reads the real EuRoC V1_02 snippet (imu0, ground truth)", "[dataset][real]") {
