@@ -218,18 +218,22 @@ bool CsvReader::next() {
       const auto c = static_cast<std::size_t>(opt_.stamp_column);
       const bool strict = opt_.stamp_order == StampOrder::kStrictlyIncreasing;
       bool ok = true;
-      std::string now, before;
+      std::string now, before;  // formatted only for the error message
       if (opt_.stamp_kind == StampKind::kNanoseconds) {
         const std::int64_t t = get_int64(c);
         if (have_prev_stamp_) ok = strict ? t > prev_ns_ : t >= prev_ns_;
-        now = std::to_string(t);
-        before = std::to_string(prev_ns_);
+        if (!ok) {
+          now = std::to_string(t);
+          before = std::to_string(prev_ns_);
+        }
         prev_ns_ = t;
       } else {
         const double t = parse_double(c, false);
         if (have_prev_stamp_) ok = strict ? t > prev_s_ : t >= prev_s_;
-        now = format_double(t);
-        before = format_double(prev_s_);
+        if (!ok) {
+          now = format_double(t);
+          before = format_double(prev_s_);
+        }
         prev_s_ = t;
       }
       if (!ok)
