@@ -44,6 +44,48 @@ std::map<int, int> read_class_map(const fs::path& file) {
 
 }  // namespace
 
+bool same_object_name(const std::string& a, const std::string& b) { return normalize_name(a) == normalize_name(b); }
+
+ClassMapper::ClassMapper(const DatasetManifest& manifest, std::vector<std::string> class_names, const std::string& class_map_file,
+                         std::string manifest_file)
+    : manifest_(manifest), names_(std::move(class_names)), manifest_file_(std::move(manifest_file)) {
+  if (!class_map_file.empty()) {
+    explicit_ = true;
+    explicit_map_ = read_class_map(class_map_file);
+  } else if (!manifest.objects.empty()) {
+    by_name_ = true;
+  } else {
+    identity_ = true;
+  }
+}
+
+std::optional<int> ClassMapper::object_of(int cls) {
+  auto it = resolved_.find(cls);
+  if (it != resolved_.end()) return it->second;
+  std::optional<int> id;
+  if (explicit_) {
+    auto e = explicit_map_.find(cls);
+    if (e != explicit_map_.end()) id = e->second;
+  } else if (by_name_) {
+    const std::string cname = cls >= 0 && static_cast<std::size_t>(cls) < names_.size() ? names_[static_cast<std::size_t>(cls)] : "";
+    if (!cname.empty()) {
+      for (const auto& o : manifest_.objects) {
+        if (!o.name.empty() && same_object_name(o.name, cname)) {
+          if (id)
+            throw InputError("class " + std::to_string(cls) + " (" + cname + ") matches several objects of roe.json by name; pass --class-map",
+                             {manifest_file_});
+          id = o.id;
+        }
+      }
+    }
+  } else {
+    id = cls;
+  }
+  resolved_[cls] = id;
+  if (id) used_[cls] = *id;
+  return id;
+}
+
 nlohmann::json ImportPoetSummary::to_json() const {
   nlohmann::json cm = nlohmann::json::object();
   for (const auto& [c, o] : class_map) cm[std::to_string(c)] = o;
@@ -144,40 +186,10 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
                      {results_json.string()});
 
   // ---- classes → object ids ---------------------------------------------------------------
-  std::vector<std::string> class_names =
-      opt.classes_file.empty() ? io::ycbv_class_names() : io::read_poet_class_names(opt.classes_file);
-  std::map<int, int> explicit_map;
-  if (!opt.class_map_file.empty()) explicit_map = read_class_map(opt.class_map_file);
-  const bool by_name = opt.class_map_file.empty() && !manifest.objects.empty();
-  std::map<int, std::optional<int>> resolved;
-  auto object_of = [&](int cls) -> std::optional<int> {
-    auto it = resolved.find(cls);
-    if (it != resolved.end()) return it->second;
-    std::optional<int> id;
-    if (!opt.class_map_file.empty()) {
-      auto e = explicit_map.find(cls);
-      if (e != explicit_map.end()) id = e->second;
-    } else if (by_name) {
-      const std::string cname = static_cast<std::size_t>(cls) < class_names.size() ? class_names[cls] : "";
-      if (!cname.empty()) {
-        for (const auto& o : manifest.objects) {
-          if (!o.name.empty() && normalize_name(o.name) == normalize_name(cname)) {
-            if (id)
-              throw InputError("PoET class " + std::to_string(cls) + " (" + cname + ") matches several objects of roe.json by name; pass --class-map",
-                               {io::manifest_path(dataset).string()});
-            id = o.id;
-          }
-        }
-      }
-    } else {
-      id = cls;
-    }
-    resolved[cls] = id;
-    if (id) s.class_map[cls] = *id;
-    return id;
-  };
-  if (manifest.objects.empty() && opt.class_map_file.empty())
-    warn("roe.json lists no objects: object ids are PoET's class ids");
+  ClassMapper mapper(manifest, opt.classes_file.empty() ? io::ycbv_class_names() : io::read_poet_class_names(opt.classes_file),
+                     opt.class_map_file, io::manifest_path(dataset).string());
+  if (mapper.identity()) warn("roe.json lists no objects: object ids are PoET's class ids");
+  auto object_of = [&](int cls) { return mapper.object_of(cls); };
 
   // ---- detections ----------------------------------------------------------------------------
   std::sort(matched.begin(), matched.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
@@ -211,7 +223,8 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
       out.push_back(det);
     }
   }
-  if (by_name && s.class_map.empty() && s.dropped_unmapped_class > 0)
+  s.class_map = mapper.used();
+  if (mapper.by_name() && s.class_map.empty() && s.dropped_unmapped_class > 0)
     throw InputError("no PoET class matches an object of roe.json by name (objects: " +
                          std::to_string(manifest.objects.size()) + "); pass --class-map FILE or --classes FILE",
                      {io::manifest_path(dataset).string()});

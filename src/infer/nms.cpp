@@ -20,9 +20,11 @@ std::vector<BoxDetection> yolo_candidates(const float* rows, std::size_t n, std:
   std::vector<BoxDetection> out;
   if (cols < 6) return out;
   const std::size_t classes = cols - 5;
+  // Compared in float32, as PyTorch compares a float32 tensor with a Python float threshold.
+  const float conf = static_cast<float>(opt.conf_thresh);
   for (std::size_t r = 0; r < n; ++r) {
     const float* row = rows + r * cols;
-    if (!(row[4] > opt.conf_thresh)) continue;  // objectness (NaN never passes)
+    if (!(row[4] > conf)) continue;  // objectness (NaN never passes)
     BoxDetection b;
     const double cx = row[0] * width, cy = row[1] * height, w = row[2] * width, h = row[3] * height;
     b.x1 = cx - w / 2;
@@ -31,7 +33,7 @@ std::vector<BoxDetection> yolo_candidates(const float* rows, std::size_t n, std:
     b.y2 = cy + h / 2;
     if (opt.multi_label) {
       for (std::size_t c = 0; c < classes; ++c) {
-        if (row[5 + c] > opt.conf_thresh) {
+        if (row[5 + c] > conf) {
           b.score = row[5 + c];
           b.class_id = static_cast<int>(c);
           out.push_back(b);
@@ -41,7 +43,7 @@ std::vector<BoxDetection> yolo_candidates(const float* rows, std::size_t n, std:
       std::size_t best = 0;
       for (std::size_t c = 1; c < classes; ++c)
         if (row[5 + c] > row[5 + best]) best = c;
-      if (row[5 + best] > opt.conf_thresh) {
+      if (row[5 + best] > conf) {
         b.score = row[5 + best];
         b.class_id = static_cast<int>(best);
         out.push_back(b);

@@ -22,11 +22,43 @@
 
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "roe/core/dataset.hpp"
+
 namespace roe::app {
+
+/// PoET class id → dataset object id, shared by `roe import poet` and `roe infer`:
+/// an explicit map file ({"<poet class>": <object id>}) when given; otherwise by name against the
+/// manifest's objects (case-insensitive, a leading "NNN_" ignored); with no objects in the
+/// manifest, the class id itself.
+class ClassMapper {
+ public:
+  /// `class_names[c]` = name of PoET class c ("" unknown). `manifest_file` names roe.json in errors.
+  ClassMapper(const DatasetManifest& manifest, std::vector<std::string> class_names, const std::string& class_map_file,
+              std::string manifest_file);
+  /// nullopt when the class maps to no object. InputError when a name matches several objects.
+  std::optional<int> object_of(int poet_class);
+  /// The mapping actually used so far.
+  const std::map<int, int>& used() const { return used_; }
+  bool by_name() const { return by_name_; }
+  bool identity() const { return identity_; }
+
+ private:
+  const DatasetManifest& manifest_;
+  std::vector<std::string> names_;
+  std::string manifest_file_;
+  bool explicit_ = false, by_name_ = false, identity_ = false;
+  std::map<int, int> explicit_map_;
+  std::map<int, std::optional<int>> resolved_;
+  std::map<int, int> used_;
+};
+
+/// Case-insensitive name match ignoring a leading "NNN_" ("002_master_chef_can" = "Master_Chef_Can").
+bool same_object_name(const std::string& a, const std::string& b);
 
 struct ImportPoetOptions {
   std::string name = "poet";      ///< detections/<name>

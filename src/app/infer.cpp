@@ -1,0 +1,294 @@
+#include "roe/app/infer.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "roe/app/import_poet.hpp"
+#include "roe/core/error.hpp"
+#include "roe/core/log.hpp"
+#include "roe/infer/bundle.hpp"
+#include "roe/infer/cache.hpp"
+#include "roe/infer/model.hpp"
+#include "roe/infer/pose_head.hpp"
+#include "roe/io/csv.hpp"
+#include "roe/io/dataset.hpp"
+#include "roe/io/output.hpp"
+#include "roe/version.hpp"
+
+namespace roe::app {
+namespace fs = std::filesystem;
+namespace {
+
+// External boxes: timestamp_ns,class,x1,y1,x2,y2,score (pixels of the dataset image; score may be empty).
+std::map<Timestamp, std::vector<infer::BoxDetection>> read_boxes_csv(const fs::path& file) {
+  io::CsvOptions o;
+  o.expected_header = {"timestamp_ns|timestamp [ns]|timestamp", "class", "x1", "y1", "x2", "y2", "score"};
+  o.stamp_column = 0;
+  o.stamp_order = io::StampOrder::kNonDecreasing;
+  io::CsvReader r(file, o);
+  std::map<Timestamp, std::vector<infer::BoxDetection>> out;
+  while (r.next()) {
+    infer::BoxDetection b;
+    const Timestamp t = r.get_int64(0);
+    b.class_id = r.get_int(1);
+    if (b.class_id < 1) throw r.error(1, "class must be a 1-based PoET class id");
+    b.x1 = r.get_double(2);
+    b.y1 = r.get_double(3);
+    b.x2 = r.get_double(4);
+    b.y2 = r.get_double(5);
+    if (!(b.x2 > b.x1)) throw r.error(4, "x2 must be greater than x1");
+    if (!(b.y2 > b.y1)) throw r.error(5, "y2 must be greater than y1");
+    b.score = r.get_double_or_nan(6);
+    out[t].push_back(b);
+  }
+  return out;
+}
+
+std::string boxes_key(const std::vector<infer::BoxDetection>& boxes) {
+  std::string s;
+  for (const auto& b : boxes)
+    s += fmt::format("{},{},{},{},{},{};", b.class_id, b.x1, b.y1, b.x2, b.y2, b.score);
+  return s;
+}
+
+}  // namespace
+
+std::pair<std::size_t, std::size_t> parse_frame_range(const std::string& spec, std::size_t n) {
+  if (spec.empty()) return {0, n};
+  auto num = [&](const std::string& s) -> std::size_t {
+    if (s.empty() || s.size() > 12 || s.find_first_not_of("0123456789") != std::string::npos)
+      throw InputError("--frames must be A:B with 0-based frame indices (B exclusive), A:, :B or A; got \"" + spec + "\"");
+    return static_cast<std::size_t>(std::stoull(s));
+  };
+  std::size_t a = 0, b = n;
+  const auto colon = spec.find(':');
+  if (colon == std::string::npos) {
+    a = num(spec);
+    b = a + 1;
+  } else {
+    if (colon > 0) a = num(spec.substr(0, colon));
+    if (colon + 1 < spec.size()) b = num(spec.substr(colon + 1));
+  }
+  b = std::min(b, n);
+  if (a >= b) throw InputError("--frames " + spec + " selects no frame (the dataset has " + std::to_string(n) + ")");
+  return {a, b};
+}
+
+nlohmann::json InferSummary::to_json() const {
+  return {{"output", output_dir.string()},
+          {"cache", cache_file.string()},
+          {"model_id", model_id},
+          {"config_hash", config_hash},
+          {"device", device},
+          {"warp", warp},
+          {"frames_in_dataset", frames_in_dataset},
+          {"frames_selected", frames_selected},
+          {"frames_computed", frames_computed},
+          {"frames_reused", frames_reused},
+          {"detections_written", detections_written},
+          {"dropped_unmapped_class", dropped_unmapped_class},
+          {"dropped_duplicate_object", dropped_duplicate},
+          {"dropped_invalid_pose", dropped_invalid},
+          {"mean_ms_computed", mean_ms_computed},
+          {"selftest", selftest},
+          {"warnings", warnings}};
+}
+
+InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const ProgressCallback& progress) {
+  InferSummary s;
+  auto warn = [&s](const std::string& w) {
+    log::warn("{}", w);
+    s.warnings.push_back(w);
+  };
+  if (opt.every < 1) throw InputError("--every must be at least 1");
+  if (opt.model_dir.empty()) throw InputError("--model BUNDLE_DIR is required");
+  DatasetManifest manifest = io::read_manifest(dataset);
+  const fs::path cam_csv = io::cam_csv_path(dataset);
+  if (!fs::exists(cam_csv)) throw InputError("the dataset has no frames (missing " + cam_csv.string() + ")", {dataset.string()});
+  const std::vector<CameraFrame> frames = io::read_cam_csv(cam_csv);
+  s.frames_in_dataset = frames.size();
+  if (frames.empty()) throw InputError("the dataset has no frames", {cam_csv.string()});
+
+  infer::PoetBundle bundle = infer::read_bundle(opt.model_dir);
+  const std::string name = opt.name.empty() ? bundle.model_id : opt.name;
+  if (name.find('/') != std::string::npos || name == "." || name == "..")
+    throw InputError("--name must be a plain folder name, got \"" + name + "\"");
+  if (!infer::PoseHead::available())
+    throw InputError("this roe was built without LibTorch, so `roe infer` cannot run PoET; rebuild with libtorch-dev "
+                     "(cmake -DROE_WITH_TORCH=ON), or run PoET's own inference and `roe import poet`");
+  if (bundle.detector == infer::DetectorKind::kExternal && opt.boxes_file.empty())
+    throw InputError("model " + bundle.model_id + " has an external detector: give the boxes with --boxes FILE");
+  std::map<Timestamp, std::vector<infer::BoxDetection>> ext;
+  if (!opt.boxes_file.empty()) ext = read_boxes_csv(opt.boxes_file);
+
+  infer::ModelOptions mo;
+  mo.warp = opt.warp;
+  mo.device = opt.device;
+  infer::PoetModel model(bundle, mo);
+  s.model_id = bundle.model_id;
+  s.selftest = model.selftest_report().to_json();
+
+  // Selection.
+  const auto [first, last] = parse_frame_range(opt.frames, frames.size());
+  std::vector<std::size_t> sel;
+  for (std::size_t i = first; i < last; i += static_cast<std::size_t>(opt.every)) sel.push_back(i);
+  s.frames_selected = sel.size();
+  for (std::size_t i : sel)
+    if (frames[i].filename.empty())
+      throw InputError("frame " + std::to_string(frames[i].t_ns) + " has no image file (a dataset without images cannot be inferred)",
+                       {cam_csv.string()});
+
+  // Camera → warp decision.
+  const fs::path img_dir = io::cam_image_dir(dataset);
+  if (manifest.camera && manifest.camera->width > 0) {
+    const auto& c = *manifest.camera;
+    if (c.distortion_model != "none" && !c.distortion.empty() &&
+        std::any_of(c.distortion.begin(), c.distortion.end(), [](double d) { return d != 0.0; }))
+      warn("roe.json's camera has distortion " + c.distortion_model + "; roe infer assumes undistorted (processed) images");
+    model.set_camera(c.width, c.height, infer::Intrinsics{c.fx, c.fy, c.cx, c.cy});
+  } else {
+    // No camera in roe.json: take the size from the first image; no warp is possible.
+    const std::string bytes = io::read_file(img_dir / frames[sel.front()].filename);
+    const infer::HostTensor probe = [&] {
+      try {
+        return model.preprocess(bytes, (img_dir / frames[sel.front()].filename).string());
+      } catch (const InputError&) {
+        throw InputError("roe.json has no camera and the images are not at the model's size; add the camera intrinsics so "
+                         "that roe can warp them", {io::manifest_path(dataset).string()});
+      }
+    }();
+    model.set_camera(static_cast<int>(probe.shape[3]), static_cast<int>(probe.shape[2]), std::nullopt);
+    warn("roe.json has no camera: the images are used as they are (no virtual-camera warp)");
+  }
+  s.warp = model.warping();
+
+  // Config hash: every file of the bundle that shapes the output, the camera/warp and the device.
+  nlohmann::json cfg = {{"bundle_manifest_sha256", io::sha256_hex(bundle.manifest.dump())},
+                        {"pose_head_sha256", io::sha256_file(bundle.pose.file)},
+                        {"camera", model.camera_json()},
+                        {"device", opt.device == "auto" ? std::string("auto") : opt.device},
+                        {"external_boxes", !opt.boxes_file.empty()},
+                        {"cache_schema", infer::kCacheSchema}};
+  if (bundle.detector == infer::DetectorKind::kDarknet) {
+    cfg["detector_cfg_sha256"] = io::sha256_file(bundle.darknet.cfg);
+    cfg["detector_weights_sha256"] = io::sha256_file(bundle.darknet.weights);
+  }
+  s.config_hash = io::sha256_hex(cfg.dump()).substr(0, 16);
+  infer::DetectionCache cache(dataset / "cache" / "infer" / bundle.model_id / s.config_hash / "frames.jsonl", bundle.model_id,
+                              s.config_hash);
+  s.cache_file = cache.file();
+
+  // Class names by PoET id for the mapping to dataset objects.
+  std::vector<std::string> class_names;
+  for (const auto& c : bundle.classes) {
+    if (static_cast<std::size_t>(c.id) >= class_names.size()) class_names.resize(static_cast<std::size_t>(c.id) + 1);
+    class_names[static_cast<std::size_t>(c.id)] = c.name;
+  }
+  ClassMapper mapper(manifest, class_names, opt.class_map_file, io::manifest_path(dataset).string());
+  if (mapper.identity()) warn("roe.json lists no objects: object ids are the model's class ids");
+
+  std::vector<Detection> out;
+  nlohmann::json per_frame = nlohmann::json::array();
+  std::vector<double> computed_ms;
+  std::map<int, std::size_t> unmapped;
+  if (progress) progress(0, sel.size());
+  for (std::size_t k = 0; k < sel.size(); ++k) {
+    const CameraFrame& f = frames[sel[k]];
+    const fs::path img = img_dir / f.filename;
+    const std::string bytes = io::read_file(img);
+    std::string key = io::sha256_hex(bytes);
+    const std::vector<infer::BoxDetection>* boxes = nullptr;
+    static const std::vector<infer::BoxDetection> kNone;
+    if (!opt.boxes_file.empty()) {
+      auto it = ext.find(f.t_ns);
+      boxes = it == ext.end() ? &kNone : &it->second;
+      key = io::sha256_hex(key + "|" + boxes_key(*boxes));
+    }
+    infer::CachedFrame cf;
+    const infer::CachedFrame* hit = opt.use_cache ? cache.find(key) : nullptr;
+    bool reused = false;
+    if (hit) {
+      cf = *hit;
+      reused = true;
+      ++s.frames_reused;
+    } else {
+      const auto r = model.infer(bytes, boxes, img.string());
+      cf.key = key;
+      cf.t_ns = f.t_ns;
+      cf.ms = r.timings.total_ms;
+      cf.detections = r.detections;
+      s.dropped_invalid += r.dropped_invalid;
+      cache.append(cf);
+      computed_ms.push_back(cf.ms);
+      ++s.frames_computed;
+    }
+    std::set<int> seen;
+    for (const auto& d : cf.detections) {
+      const auto obj = mapper.object_of(d.class_id);
+      if (!obj) {
+        ++s.dropped_unmapped_class;
+        ++unmapped[d.class_id];
+        continue;
+      }
+      if (!seen.insert(*obj).second) {
+        ++s.dropped_duplicate;
+        continue;
+      }
+      Detection det;
+      det.t_ns = f.t_ns;
+      det.object_id = *obj;
+      det.T_C_O = d.T_C_O;
+      det.score = d.score;
+      det.sigma = d.sigma;
+      out.push_back(det);
+    }
+    per_frame.push_back({{"t_ns", f.t_ns}, {"ms", cf.ms}, {"cached", reused}, {"detections", cf.detections.size()}});
+    if (progress) progress(k + 1, sel.size());
+  }
+  for (const auto& [c, n] : unmapped)
+    warn(std::to_string(n) + " detection(s) of class " + std::to_string(c) + " (" + bundle.class_name(c) +
+         ") map to no object of roe.json and were dropped");
+  if (s.dropped_duplicate)
+    warn(std::to_string(s.dropped_duplicate) + " repeated detection(s) of an object in one frame dropped (the highest score is kept)");
+  s.detections_written = out.size();
+  double sum = 0;
+  for (double v : computed_ms) sum += v;
+  s.mean_ms_computed = computed_ms.empty() ? 0.0 : sum / static_cast<double>(computed_ms.size());
+
+  io::OutputDir dir(io::detections_dir(dataset, name), opt.force);
+  io::write_detections_csv(dir.file("detections.csv"), out);
+  nlohmann::json class_map = nlohmann::json::object();
+  for (const auto& [c, o] : mapper.used()) class_map[std::to_string(c)] = o;
+  nlohmann::json meta = {
+      {"producer", "roe infer"},
+      {"roe_version", kVersion},
+      {"model",
+       {{"model_id", bundle.model_id},
+        {"bundle", fs::absolute(opt.model_dir).lexically_normal().string()},
+        {"provenance", bundle.provenance},
+        {"libtorch", infer::PoseHead::runtime_version()},
+        {"device", opt.device}}},
+      {"config_hash", s.config_hash},
+      {"config", cfg},
+      {"options",
+       {{"frames", opt.frames}, {"every", opt.every}, {"warp", opt.warp}, {"boxes", opt.boxes_file}, {"class_map", opt.class_map_file},
+        {"use_cache", opt.use_cache}}},
+      {"class_map", class_map},
+      {"selftest", s.selftest},
+      {"frames_processed", sel.size()},
+      {"frames_computed", s.frames_computed},
+      {"frames_reused", s.frames_reused},
+      {"mean_ms_computed", s.mean_ms_computed},
+      {"score", "detector confidence (objectness x class probability) of the box the pose belongs to"},
+      {"per_frame", per_frame},
+      {"warnings", s.warnings}};
+  io::write_file_atomic(dir.file("meta.json"), meta.dump(2) + "\n");
+  dir.commit();
+  s.output_dir = dir.final_dir();
+  return s;
+}
+
+}  // namespace roe::app
