@@ -61,9 +61,8 @@ class Recorder : public ekf::FilterObserver {
       row.sigma.setZero();
       if (o.dim == 6) {
         for (int i = 0; i < 6; ++i) row.sigma(i) = std::sqrt(f.variance(o.offset + i));
-      } else if (o.dim == 2) {
-        row.sigma(3) = std::sqrt(f.variance(o.offset));
-        row.sigma(4) = std::sqrt(f.variance(o.offset + 1));
+      } else {
+        for (int i = 0; i < o.dim; ++i) row.sigma(3 + i) = std::sqrt(f.variance(o.offset + i));
       }
       out_.objects.push_back(row);
     }
@@ -116,7 +115,7 @@ ekf::ImuNoiseParams imu_noise(const Dataset& d, const ekf::FilterOptions& o) {
   const ImuNoise* ds = d.manifest.imu ? &d.manifest.imu->noise : nullptr;
   const auto pick = [&](double opt, double ImuNoise::*field, const char* key) {
     if (opt >= 0.0) return opt;
-    if (ds == nullptr || !(ds->*field > 0.0))
+    if (ds == nullptr || !(ds->*field >= 0.0))
       throw ConfigError(fmt::format("IMU noise unknown: roe.json has no imu.{0}; set filter.{0} in the config", key),
                         {"roe.json", 0, 0, std::string("imu.") + key});
     return ds->*field;
@@ -168,8 +167,6 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
                                   "(choose another filter.anchor_id, or -1 for the first object seen)",
                                   opt.anchor_id, det_file),
                       {det_file});
-  } else {
-    out.warnings.push_back("anchor chosen automatically: the lowest object id of the first image with detections");
   }
   if (opt.use_detection_sigmas && std::none_of(dets.begin(), dets.end(), [](const Detection& d) { return d.sigma.has_value(); }))
     out.warnings.push_back(det_file + " has no sigma columns: use_detection_sigmas falls back to the fixed σ");
@@ -192,6 +189,30 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
     images.back().detections.back().t_ns = t;
   }
 
+  // The anchor "first seen": the objects of the first image with a usable detection (in the IMU
+  // time range); ties broken offline by the number of images an object is detected in (the anchor
+  // is what every update needs with require_anchor), then by the lowest id.
+  ekf::FilterOptions fopt = opt;
+  if (fopt.anchor_id < 0) {
+    std::map<int, std::size_t> seen;
+    for (const auto& d : dets) ++seen[d.object_id];
+    const Timestamp t_first_imu = dataset.imu.front().t_ns, t_last_imu = dataset.imu.back().t_ns;
+    for (const auto& im : images) {
+      if (im.t_ns < t_first_imu || im.t_ns > t_last_imu) continue;
+      int best = -1;
+      for (const auto& d : im.detections) {
+        if (std::isfinite(d.score) && d.score < opt.min_score) continue;
+        if (best < 0 || seen[d.object_id] > seen[best] || (seen[d.object_id] == seen[best] && d.object_id < best))
+          best = d.object_id;
+      }
+      if (best >= 0) {
+        fopt.anchor_id = best;
+        break;
+      }
+    }
+    out.warnings.push_back(fmt::format("anchor chosen automatically: object {} (first seen{}, detected in {} images)",
+                                       fopt.anchor_id, "", seen[fopt.anchor_id]));
+  }
   const ekf::ImuNoiseParams noise = imu_noise(dataset, opt);
   out.gate = ekf::chi2_quantile(opt.chi2_confidence, 6.0);
   out.states.reserve(config.output_rate == "imu" ? dataset.imu.size() : images.size());
@@ -218,7 +239,7 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   } fin;
   fin.rec = &rec;
   fin.out = &out;
-  out.summary = ekf::run_filter(dataset.imu, images, opt, noise, T_I_C, fin);
+  out.summary = ekf::run_filter(dataset.imu, images, fopt, noise, T_I_C, fin);
   out.filter_wall_s = seconds_since(t0);
 
   // Warnings about what the data allowed.

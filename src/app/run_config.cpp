@@ -62,7 +62,7 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
     std::string gauge = ekf::to_string(o.anchor_gauge);
     f.get("anchor_gauge", gauge);
     if (!ekf::parse_anchor_gauge(gauge, o.anchor_gauge))
-      fail(f, "anchor_gauge", "must be \"pose\" (paper: anchor fixed in 6 dof) or \"position_yaw\"");
+      fail(f, "anchor_gauge", "must be \"position\" (paper), \"position_yaw\" or \"pose\"");
     f.get("require_anchor", o.require_anchor);
     f.get("estimate_extrinsics", o.estimate_extrinsics);
     positive(f, "extrinsics_sigma_p_m", o.extrinsics_sigma_p_m);

@@ -15,11 +15,22 @@ namespace roe::ekf {
 using math::exp_quat;
 using math::skew;
 
-std::string to_string(AnchorGauge g) { return g == AnchorGauge::kPose ? "pose" : "position_yaw"; }
+std::string to_string(AnchorGauge g) {
+  switch (g) {
+    case AnchorGauge::kPose: return "pose";
+    case AnchorGauge::kPosition: return "position";
+    case AnchorGauge::kPositionYaw: return "position_yaw";
+  }
+  return "unknown";
+}
 
 bool parse_anchor_gauge(const std::string& s, AnchorGauge& out) {
   if (s == "pose") {
     out = AnchorGauge::kPose;
+    return true;
+  }
+  if (s == "position") {
+    out = AnchorGauge::kPosition;
     return true;
   }
   if (s == "position_yaw") {
@@ -171,8 +182,10 @@ void Filter::boxplus(const Eigen::VectorXd& dx) {
     if (o.dim == 6) {
       o.T_O_W.p += dx.segment<3>(o.offset);
       o.T_O_W.q = (o.T_O_W.q * exp_quat(dx.segment<3>(o.offset + 3))).normalized();
-    } else if (o.dim == 2) {
-      o.T_O_W.q = (o.T_O_W.q * exp_quat(Vec3(dx(o.offset), dx(o.offset + 1), 0.0))).normalized();
+    } else if (o.dim > 0) {  // anchor: the first o.dim components of δθ_O_W
+      Vec3 dth = Vec3::Zero();
+      dth.head(o.dim) = dx.segment(o.offset, o.dim);
+      o.T_O_W.q = (o.T_O_W.q * exp_quat(dth)).normalized();
     }
   }
 }
@@ -202,8 +215,8 @@ void Filter::build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) cons
   if (o.dim == 6) {
     put3(o.offset, pr.H_p_OW);
     put3(o.offset + 3, pr.H_theta_OW);
-  } else if (o.dim == 2) {
-    for (int j = 0; j < 2; ++j) {
+  } else if (o.dim > 0) {
+    for (int j = 0; j < o.dim; ++j) {
       b.H.col(c) = pr.H_theta_OW.col(j);
       b.idx[c++] = o.offset + j;
     }
@@ -245,8 +258,8 @@ Eigen::MatrixXd Filter::gauge_generator() const {
     if (o.dim == 6) {
       G.block<3, 3>(o.offset, 0) = o.T_O_W.R();
       G.block<3, 3>(o.offset + 3, 3) = Mat3::Identity();
-    } else if (o.dim == 2) {
-      G.block<2, 2>(o.offset, 3) = Eigen::Matrix2d::Identity();
+    } else if (o.dim > 0) {
+      G.block(o.offset, 3, o.dim, o.dim).setIdentity();
     }
   }
   return G;
@@ -303,16 +316,17 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   // Anchor: augment, then fix the gauge by re-defining W (docs/filter.md §4). With δa = [δp_a; δθ_a]
   // the anchor's error, choose γ = [t; φ] so that the fixed components vanish:
   //   t = −R_O_Wᵀ δp_a,  φ = −δθ_a (kPose)  or  φ = (0, 0, −δθ_a,z) (kPositionYaw),
-  // then δx' = δx + G Γ δa, and the anchor keeps only δθ_a,xy (kPositionYaw) or nothing (kPose).
-  const bool tilt = opt_.anchor_gauge == AnchorGauge::kPositionYaw;
+  // φ = 0 (kPosition), then δx' = δx + G Γ δa; the anchor keeps δθ_a (kPosition), δθ_a,xy
+  // (kPositionYaw) or nothing (kPose).
   Eigen::Matrix<double, 6, 6> Gamma = Eigen::Matrix<double, 6, 6>::Zero();
   Gamma.block<3, 3>(0, 0) = -in.T_O_W.R().transpose();
-  if (tilt)
-    Gamma(5, 5) = -1.0;
-  else
-    Gamma.block<3, 3>(3, 3) = -Mat3::Identity();
+  int keep = 0;
+  switch (opt_.anchor_gauge) {
+    case AnchorGauge::kPose: Gamma.block<3, 3>(3, 3) = -Mat3::Identity(); keep = 0; break;
+    case AnchorGauge::kPosition: keep = 3; break;
+    case AnchorGauge::kPositionYaw: Gamma(5, 5) = -1.0; keep = 2; break;
+  }
   const Eigen::MatrixXd G = gauge_generator();  // objects_ does not contain the anchor yet
-  const int keep = tilt ? 2 : 0;
   const int n_aug = n_ + 6;
   Eigen::MatrixXd P_aug(n_aug, n_aug);
   P_aug.topLeftCorner(n_, n_) = P_;
@@ -322,10 +336,7 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n_ + keep, n_aug);
   M.topLeftCorner(n_, n_).setIdentity();
   M.topRightCorner(n_, 6) = G * Gamma;
-  if (tilt) {
-    M(n_, n_ + 3) = 1.0;
-    M(n_ + 1, n_ + 4) = 1.0;
-  }
+  for (int k = 0; k < keep; ++k) M(n_ + k, n_ + 3 + k) = 1.0;
   Eigen::MatrixXd P_new = M * P_aug * M.transpose();
   P_new = 0.5 * (P_new + P_new.transpose()).eval();
   o.offset = keep > 0 ? n_ : -1;

@@ -8,9 +8,9 @@
 /// - the extrinsics block is present only with FilterOptions::estimate_extrinsics;
 /// - objects are appended on first sight (augmentation with J_x P J_xᵀ + J_z R J_zᵀ and cross terms
 ///   J_x P, measurement.hpp);
-/// - the anchor (main object) is KEPT OUT of the error state for AnchorGauge::kPose (the paper zeroes
-///   its H blocks, which is equivalent) and has only its two tilt components (δθ_x, δθ_y of R_O_W)
-///   for kPositionYaw. On its first sight the gauge of W is fixed by an exact linear change of
+/// - the anchor (main object) has no position error state (the paper zeroes H_{p,p_OmW}, which is
+///   equivalent); of its rotation it keeps δθ_O_W (kPosition, the paper), only the tilt δθ_x, δθ_y
+///   (kPositionYaw, roe's default) or nothing (kPose). On its first sight the gauge of W is fixed by an exact linear change of
 ///   variables (docs/filter.md §4): the world is re-defined so that the fixed components of the anchor
 ///   are exactly their initial estimate, and the uncertainty that was in the anchor moves into the
 ///   IMU pose, velocity and the other object-worlds (δx' = δx + G Γ δa, P' = M P_aug Mᵀ).
@@ -70,7 +70,7 @@ struct ObjectEntry {
   Pose T_O_W;          ///< the paper's (p_O_W, q_O_W)
   bool anchor = false;
   int offset = -1;     ///< first error-state column (−1 when dim == 0)
-  int dim = 0;         ///< 6; anchor: 0 (kPose) or 2 (kPositionYaw, δθ_x δθ_y)
+  int dim = 0;         ///< 6; anchor: 0 (kPose), 3 (kPosition: δθ) or 2 (kPositionYaw: δθ_x, δθ_y)
   Timestamp t_init_ns = 0;
 };
 

@@ -12,17 +12,20 @@ namespace roe::ekf {
 
 /// How the main (anchor) object fixes the gauge of the world frame W.
 enum class AnchorGauge {
-  /// The paper: the anchor's object-world pose T_O_W is held fixed in all 6 dof (it is kept out of the
-  /// state; the paper zeroes its H blocks, which is the same). Roll and pitch of W then come from a
-  /// single noisy detection and can disagree with gravity.
+  /// The anchor's object-world pose T_O_W held fixed in all 6 dof (kept out of the state). Roll and
+  /// pitch of W then come from a single noisy detection and disagree with gravity: not recommended.
   kPose,
+  /// The paper (§III-C): "the position of the main object's frame with respect to the navigation world
+  /// is not changed", i.e. H_{p,p_OmW} = H_{R,p_OmW} = 0; its orientation R_O_W stays estimated
+  /// (δθ_x, δθ_y, δθ_z in the state). Yaw is then a free direction held only by its prior.
+  kPosition,
   /// roe's default: only the unobservable directions are fixed — the anchor's position and its
   /// rotation about W's z axis (gravity). Its roll/pitch (δθ_x, δθ_y of R_O_W) stay in the state, so
   /// gravity and the detections are fused consistently (4-dof gauge of visual-inertial estimation).
   kPositionYaw,
 };
 
-/// "pose" / "position_yaw".
+/// "pose" / "position" / "position_yaw".
 std::string to_string(AnchorGauge g);
 /// Parses to_string's names; returns false for anything else.
 bool parse_anchor_gauge(const std::string& s, AnchorGauge& out);
@@ -42,7 +45,10 @@ struct FilterOptions {
   double chi2_confidence = 0.95;  ///< gate = χ²₆ quantile at this probability
 
   // --- Anchor (main object) ---
-  int anchor_id = -1;  ///< object id of the anchor; −1 = the first object detected
+  /// Object id of the anchor; −1 = the first object detected (the filter takes the lowest id of the
+  /// first image; `roe run` breaks ties among the first image's objects offline by the number of
+  /// images each is detected in, and passes the id explicitly).
+  int anchor_id = -1;
   AnchorGauge anchor_gauge = AnchorGauge::kPositionYaw;
   /// true (paper): frames in which the anchor is not detected are rejected (status rejected_no_main);
   /// false: updates (and first-sight initialisations) from other objects are used as well.
