@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <charconv>
+#include <iterator>
 #include <climits>
 #include <cmath>
 #include <limits>
@@ -416,7 +417,8 @@ void CsvWriter::sep() {
 
 CsvWriter& CsvWriter::add(double v) {
   sep();
-  out_.append(format_double(v));
+  if (std::isfinite(v)) fmt::format_to(std::back_inserter(out_), "{}", v);  // no temporary string
+  else out_.append(format_double(v));
   return *this;
 }
 
