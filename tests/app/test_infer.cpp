@@ -1,0 +1,222 @@
+// roe infer end to end on synthetic frames rendered for the committed tiny bundle: detections are
+// written, a second run reuses every frame from the cache, subsampling and the virtual-camera warp.
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <unistd.h>
+
+#include "roe/app/infer.hpp"
+#include "roe/core/error.hpp"
+#include "roe/io/dataset.hpp"
+#include "roe/io/json.hpp"
+#include "roe/io/output.hpp"
+
+namespace fs = std::filesystem;
+using namespace roe;
+
+namespace {
+
+const fs::path kTiny = fs::path(ROE_SOURCE_DIR) / "tests/models/tiny_poet";
+
+struct TmpDir {
+  fs::path path;
+  explicit TmpDir(const std::string& name)
+      : path(fs::temp_directory_path() / ("roe_infer_" + name + "_" + std::to_string(::getpid()))) {
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TmpDir() { fs::remove_all(path); }
+};
+
+struct Square {
+  int cls;         // 1 red, 2 green, 3 blue (the tiny detector's classes)
+  double cx, cy;   // centre in pixels of a 128x96 image
+};
+
+// Frames of `scale` x (128x96) with squares of 24·scale px; camera = the training camera scaled.
+fs::path make_dataset(const fs::path& root, const std::vector<std::vector<Square>>& frames, int scale = 1) {
+  Dataset d;
+  d.manifest.name = "synthetic";
+  CameraInfo cam;
+  cam.width = 128 * scale;
+  cam.height = 96 * scale;
+  cam.fx = cam.fy = 120.0 * scale;
+  cam.cx = 64.0 * scale;
+  cam.cy = 48.0 * scale;
+  d.manifest.camera = cam;
+  d.manifest.objects = {{11, "red_square", false}, {12, "green_square", false}, {13, "blue_square", true}};
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    const Timestamp t = 1'000'000'000 + static_cast<Timestamp>(k) * 100'000'000;
+    d.frames.push_back({t, std::to_string(t) + ".png"});
+  }
+  const fs::path ds = root / "ds";
+  io::write_dataset(d, ds, false);
+  fs::create_directories(io::cam_image_dir(ds));
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    cv::Mat img(96 * scale, 128 * scale, CV_8UC3, cv::Scalar(128, 128, 128));
+    for (const auto& s : frames[k]) {
+      const cv::Scalar bgr = s.cls == 1 ? cv::Scalar(0, 0, 255) : s.cls == 2 ? cv::Scalar(0, 255, 0) : cv::Scalar(255, 0, 0);
+      const int side = 24 * scale;
+      const int x0 = static_cast<int>(std::lround(s.cx * scale - side / 2.0));
+      const int y0 = static_cast<int>(std::lround(s.cy * scale - side / 2.0));
+      cv::rectangle(img, cv::Rect(x0, y0, side, side), bgr, cv::FILLED);
+    }
+    REQUIRE(cv::imwrite((io::cam_image_dir(ds) / d.frames[k].filename).string(), img));
+  }
+  return ds;
+}
+
+const std::vector<std::vector<Square>> kFrames = {
+    {{1, 30, 30}, {2, 90, 60}},
+    {{1, 34, 33}, {2, 86, 58}, {3, 60, 70}},
+    {{3, 40, 50}},
+    {},
+    {{2, 70, 40}, {3, 100, 70}},
+};
+
+}  // namespace
+
+#ifdef ROE_HAVE_TORCH
+
+TEST_CASE("roe infer writes detections, and a second run reuses the cache", "[infer]") {
+  TmpDir tmp("e2e");
+  const fs::path ds = make_dataset(tmp.path, kFrames);
+  app::InferOptions o;
+  o.model_dir = kTiny.string();
+  std::vector<std::pair<std::size_t, std::size_t>> progress;
+  const auto s = app::run_infer(ds, o, [&](std::size_t done, std::size_t total) { progress.emplace_back(done, total); });
+  CHECK(s.model_id == "tiny-poet");
+  CHECK(s.frames_selected == 5);
+  CHECK(s.frames_computed == 5);
+  CHECK(s.frames_reused == 0);
+  CHECK_FALSE(s.warp);
+  CHECK(s.detections_written == 8);
+  REQUIRE(progress.size() == 6);
+  CHECK(progress.back() == std::make_pair<std::size_t, std::size_t>(5, 5));
+
+  const auto dets = io::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
+  REQUIRE(dets.size() == 8);
+  // Per frame: the right objects (class → object id by name), plausible poses, a detector score.
+  std::map<Timestamp, std::set<int>> objects;
+  for (const auto& d : dets) {
+    objects[d.t_ns].insert(d.object_id);
+    CHECK(d.score > 0.4);
+    CHECK(d.score <= 1.0);
+    CHECK(d.T_C_O.p.z() == Approx(0.3).margin(0.011));
+  }
+  CHECK(objects[1'000'000'000] == std::set<int>{11, 12});
+  CHECK(objects[1'100'000'000] == std::set<int>{11, 12, 13});
+  CHECK(objects[1'200'000'000] == std::set<int>{13});
+  CHECK(objects.count(1'300'000'000) == 0);  // an empty frame has no row
+  CHECK(objects[1'400'000'000] == std::set<int>{12, 13});
+  // x from the pinhole prior: the red square of frame 0 is left of the optical centre.
+  CHECK(dets[0].object_id == 11);
+  CHECK(dets[0].T_C_O.p.x() == Approx((30 - 64) / 120.0 * 0.3).margin(0.02));
+
+  const auto meta = io::parse_json_file(ds / "detections/tiny-poet/meta.json");
+  CHECK(meta.at("model").at("model_id") == "tiny-poet");
+  CHECK(meta.at("config_hash") == s.config_hash);
+  CHECK(meta.at("per_frame").size() == 5);
+  CHECK(meta.at("per_frame")[0].at("ms").get<double>() > 0.0);
+  CHECK(meta.at("selftest").at("pose_max_abs_diff").at("t").get<double>() <= 1e-5);
+
+  // Second run: everything from the cache, identical output; it needs --force to replace the set.
+  CHECK_THROWS_AS(app::run_infer(ds, o), InputError);
+  o.force = true;
+  const auto s2 = app::run_infer(ds, o);
+  CHECK(s2.frames_reused == 5);
+  CHECK(s2.frames_computed == 0);
+  CHECK(s2.config_hash == s.config_hash);
+  const auto dets2 = io::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
+  REQUIRE(dets2.size() == dets.size());
+  for (std::size_t k = 0; k < dets.size(); ++k) {
+    CHECK(dets2[k].t_ns == dets[k].t_ns);
+    CHECK(dets2[k].T_C_O.p == dets[k].T_C_O.p);
+    CHECK(dets2[k].T_C_O.q.coeffs() == dets[k].T_C_O.q.coeffs());
+    CHECK(dets2[k].score == dets[k].score);
+  }
+  const auto meta2 = io::parse_json_file(ds / "detections/tiny-poet/meta.json");
+  CHECK(meta2.at("per_frame")[0].at("cached") == true);
+
+  // A changed image is recomputed, the others are reused.
+  fs::copy_file(io::cam_image_dir(ds) / "1000000000.png", io::cam_image_dir(ds) / "1300000000.png",
+                fs::copy_options::overwrite_existing);
+  const auto s3 = app::run_infer(ds, o);
+  CHECK(s3.frames_reused == 5);  // frame 3 now has frame 0's content, already in the cache
+  CHECK(s3.detections_written == 10);
+  o.use_cache = false;
+  const auto s4 = app::run_infer(ds, o);
+  CHECK(s4.frames_computed == 5);
+}
+
+TEST_CASE("roe infer: --frames, --every, --name", "[infer]") {
+  TmpDir tmp("sel");
+  const fs::path ds = make_dataset(tmp.path, kFrames);
+  app::InferOptions o;
+  o.model_dir = kTiny.string();
+  o.frames = "1:5";
+  o.every = 2;
+  o.name = "sub";
+  const auto s = app::run_infer(ds, o);
+  CHECK(s.frames_selected == 2);  // frames 1 and 3
+  CHECK(s.detections_written == 3);
+  const auto dets = io::read_detections_csv(ds / "detections/sub/detections.csv");
+  for (const auto& d : dets) CHECK(d.t_ns == 1'100'000'000);
+  CHECK(app::parse_frame_range("2", 5) == std::make_pair<std::size_t, std::size_t>(2, 3));
+  CHECK(app::parse_frame_range(":2", 5) == std::make_pair<std::size_t, std::size_t>(0, 2));
+  CHECK(app::parse_frame_range("3:", 5) == std::make_pair<std::size_t, std::size_t>(3, 5));
+  CHECK(app::parse_frame_range("3:99", 5) == std::make_pair<std::size_t, std::size_t>(3, 5));
+  CHECK_THROWS_AS(app::parse_frame_range("4:2", 5), InputError);
+  CHECK_THROWS_AS(app::parse_frame_range("a:b", 5), InputError);
+  CHECK_THROWS_AS(app::parse_frame_range("7:", 5), InputError);
+}
+
+TEST_CASE("roe infer warps another camera to the training intrinsics", "[infer]") {
+  TmpDir tmp("warp");
+  // The same scenes at twice the resolution and focal length: H = diag(0.5, 0.5, 1).
+  const fs::path ds = make_dataset(tmp.path, kFrames, 2);
+  app::InferOptions o;
+  o.model_dir = kTiny.string();
+  const auto s = app::run_infer(ds, o);
+  CHECK(s.warp);
+  CHECK(s.detections_written == 8);
+  const auto dets = io::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
+  REQUIRE(dets.size() == 8);
+  for (const auto& d : dets) CHECK(d.T_C_O.p.z() == Approx(0.3).margin(0.011));
+  // Without the warp the 256x192 images do not fit the model.
+  o.warp = "off";
+  o.force = true;
+  CHECK_THROWS_AS(app::run_infer(ds, o), InputError);
+}
+
+TEST_CASE("roe infer input errors", "[infer]") {
+  TmpDir tmp("err");
+  const fs::path ds = make_dataset(tmp.path, kFrames);
+  app::InferOptions o;
+  o.model_dir = (tmp.path / "nope").string();
+  CHECK_THROWS_AS(app::run_infer(ds, o), InputError);
+  o.model_dir = kTiny.string();
+  o.every = 0;
+  CHECK_THROWS_AS(app::run_infer(ds, o), InputError);
+  o.every = 1;
+  fs::remove(io::cam_image_dir(ds) / "1200000000.png");
+  CHECK_THROWS_AS(app::run_infer(ds, o), InputError);
+}
+
+#else
+
+TEST_CASE("roe infer without LibTorch says so", "[infer]") {
+  TmpDir tmp("notorch");
+  const fs::path ds = make_dataset(tmp.path, kFrames);
+  app::InferOptions o;
+  o.model_dir = kTiny.string();
+  try {
+    app::run_infer(ds, o);
+    FAIL("no error");
+  } catch (const InputError& e) {
+    CHECK(std::string(e.what()).find("without LibTorch") != std::string::npos);
+  }
+}
+
+#endif
