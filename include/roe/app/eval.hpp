@@ -1,0 +1,116 @@
+#pragma once
+/// @file
+/// `roe eval`: evaluates an estimate against ground truth (DESIGN §4, notes/eval.md §7).
+///
+///   roe eval RUN_DIR|EST_FILE --gt DATASET|GT_FILE [--align se3|sim3|posyaw|origin|none] [--n-align N]
+///            [--max-dt S] [--t-offset S] [--assoc nearest|unique] [--out DIR] [--plot]
+///   roe eval --summary REPORT_JSON... [--out FILE]
+///
+/// Estimate: a run folder (trajectory.csv, optional reprojection.csv and states.csv written by
+/// `roe run`) or a trajectory file (TUM, EuRoC, cnspy CSV, csv-ns; io/trajectory_io.hpp).
+/// Ground truth: a dataset folder (state_groundtruth_estimate0 = the IMU pose, or mocap0 with
+/// roe.json's mocap T_B_I and time offset: T_M_I = T_M_B · T_B_I at t_mocap + time_offset_s), a plain
+/// EuRoC mav0 folder, or a trajectory file. The pipeline is association (eval/associate.hpp) →
+/// alignment (eval/align.hpp) → APE metrics (eval/metrics.hpp); for a run folder also the per-object
+/// reprojection traces (each raw detection's implied IMU pose, aligned with the same transform).
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "roe/core/types.hpp"
+#include "roe/eval/align.hpp"
+#include "roe/eval/associate.hpp"
+#include "roe/eval/metrics.hpp"
+#include "roe/io/trajectory_io.hpp"
+
+namespace roe::app {
+
+struct EvalOptions {
+  std::string est;                  ///< RUN_DIR or EST_FILE
+  std::string gt;                   ///< DATASET (or EuRoC mav0 folder) or GT_FILE
+  std::string est_format = "auto";  ///< --est-format (for a file)
+  std::string gt_format = "auto";   ///< --gt-format (for a file)
+  std::string gt_source = "auto";   ///< --gt-source for a dataset: auto | groundtruth | mocap
+  std::string align = "se3";        ///< --align
+  int n_align = -1;                 ///< --n-align: first N pairs (-1 = all)
+  double max_dt_s = 0.01;           ///< --max-dt
+  double t_offset_s = 0.0;          ///< --t-offset (added to estimate stamps)
+  std::string assoc = "nearest";    ///< --assoc nearest | unique
+  std::string out;                  ///< --out DIR; default RUN_DIR/eval for a run folder, none for a file
+  bool no_out = false;              ///< --no-out: write nothing (even for a run folder)
+  std::string label;                ///< --label (default: the run folder's or file's name)
+  bool plot = false;                ///< --plot
+  bool force = false;               ///< --force
+};
+
+/// One row of a run folder's reprojection.csv: the IMU pose T_W_I implied by one raw detection.
+struct ReprojectionRow {
+  Timestamp t_ns = 0;
+  int object_id = 0;
+  Pose T_W_I;
+  std::string status;
+  double nis = 0.0;
+};
+
+/// reprojection.csv: `timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis` (columns matched by
+/// name, any order; nis may be empty or nan). Rows sorted by time (non-decreasing).
+std::vector<ReprojectionRow> read_reprojection_csv(const std::filesystem::path& file);
+
+/// Per-pose diagonal covariance from a run folder's states.csv, matched to `t_ns` by stamp.
+/// Columns are found by name: `timestamp_ns`, and one standard deviation per axis of the IMU position
+/// and orientation: names containing "std" or "sigma", "p_W_I" resp. "theta_W_I"/"q_W_I"/"th_W_I",
+/// and ending in x/y/z (case-insensitive; "deg" in the name means degrees, otherwise radians).
+/// Returns an empty vector (and a reason in *why) when the columns are not there.
+std::vector<std::optional<eval::PoseCovariance>> read_states_covariance(const std::filesystem::path& file,
+                                                                        const std::vector<Timestamp>& t_ns,
+                                                                        std::string* why);
+
+/// The estimate / ground truth as loaded, with a description of where they came from.
+struct EvalInput {
+  io::Trajectory traj;
+  std::string kind;         ///< "run", "file", "dataset"
+  std::string description;  ///< e.g. "dataset mav0/mocap0 with T_B_I, offset 0 s"
+  std::filesystem::path path;
+};
+EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warnings);
+
+struct EvalResult {
+  nlohmann::json report;      ///< the report.json content
+  std::filesystem::path out;  ///< output folder, empty when nothing was written
+  std::string plot_status;    ///< what happened to --plot
+  std::string to_text() const;
+};
+
+/// Runs the evaluation and writes the output folder (atomically). InputError for bad options/files,
+/// or when no pair matches (with explain_no_match's diagnosis); DataError when the alignment is
+/// degenerate.
+EvalResult run_eval(const EvalOptions& options);
+
+struct EvalSummaryOptions {
+  std::vector<std::string> reports;  ///< report.json files (or folders containing one)
+  std::string out;                   ///< FILE: writes FILE's stem + .csv, .json and .md; empty = stdout only
+  bool force = false;
+};
+
+struct EvalSummaryResult {
+  nlohmann::json summary;
+  std::string markdown;
+  std::vector<std::filesystem::path> written;
+  std::string to_text() const;
+};
+
+/// One row per run and mean and population-std rows (the paper's Tables I–III, which use the
+/// population std), as CSV, JSON and Markdown.
+EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& options);
+
+/// The plotting script (scripts/plot_eval.py, embedded at build time).
+const std::string& plot_eval_script();
+/// Renders the PNGs of an eval output folder into DIR/plots with /usr/bin/python3 (or $ROE_PYTHON)
+/// and matplotlib. Returns a status line; `ok` false when python or matplotlib is missing or the
+/// script failed (never throws for that).
+std::string render_eval_plots(const std::filesystem::path& eval_dir, bool& ok);
+
+}  // namespace roe::app

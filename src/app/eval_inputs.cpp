@@ -1,0 +1,198 @@
+// roe eval: loading the estimate (run folder or file) and the ground truth (dataset folder or file).
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+#include "roe/app/eval.hpp"
+#include "roe/core/error.hpp"
+#include "roe/io/csv.hpp"
+#include "roe/io/dataset.hpp"
+
+namespace roe::app {
+
+namespace fs = std::filesystem;
+
+std::vector<ReprojectionRow> read_reprojection_csv(const fs::path& file) {
+  io::CsvOptions o;
+  o.header = io::CsvHeader::kFirstLine;
+  io::CsvReader r(file, o);
+  const std::size_t ct = r.column("timestamp_ns"), cid = r.column("object_id");
+  const std::size_t cp[3] = {r.column("tx"), r.column("ty"), r.column("tz")};
+  const std::size_t cq[4] = {r.column("qx"), r.column("qy"), r.column("qz"), r.column("qw")};
+  const std::size_t cs = r.column("status");
+  const auto cn = r.find_column("nis");
+  std::vector<ReprojectionRow> rows;
+  while (r.next()) {
+    ReprojectionRow row;
+    row.t_ns = r.get_int64(ct);
+    if (!rows.empty() && row.t_ns < rows.back().t_ns)
+      throw r.error(ct,
+                    fmt::format("time stamps must not decrease ({} after {})", row.t_ns, rows.back().t_ns));
+    row.object_id = r.get_int(cid);
+    row.status = r.get_string(cs);
+    row.nis = cn ? (r.is_empty(*cn) ? std::nan("") : r.get_double_nonfinite(*cn)) : std::nan("");
+    // A detection that could not be turned into a pose may carry empty/NaN pose fields: keep the row
+    // for the status counts, with a NaN position.
+    bool valid = true;
+    Eigen::Vector3d p;
+    Eigen::Quaterniond q;
+    for (int k = 0; k < 3; ++k) p(k) = r.is_empty(cp[k]) ? std::nan("") : r.get_double_nonfinite(cp[k]);
+    double qc[4];
+    for (int k = 0; k < 4; ++k) qc[k] = r.is_empty(cq[k]) ? std::nan("") : r.get_double_nonfinite(cq[k]);
+    q = Eigen::Quaterniond(qc[3], qc[0], qc[1], qc[2]);
+    valid = p.allFinite() && q.coeffs().allFinite();
+    if (valid) {
+      const double n = q.norm();
+      if (std::abs(n - 1.0) > 0.05) throw r.error(cq[3], fmt::format("quaternion norm {:.6g} is not 1", n));
+      row.T_W_I = Pose(q, p);
+    } else {
+      row.T_W_I.p = Eigen::Vector3d::Constant(std::nan(""));
+    }
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+namespace {
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+bool contains(const std::string& s, const char* needle) { return s.find(needle) != std::string::npos; }
+
+}  // namespace
+
+std::vector<std::optional<eval::PoseCovariance>> read_states_covariance(const fs::path& file,
+                                                                        const std::vector<Timestamp>& t_ns,
+                                                                        std::string* why) {
+  io::CsvOptions o;
+  o.header = io::CsvHeader::kFirstLine;
+  io::CsvReader r(file, o);
+  const auto ct = r.find_column("timestamp_ns");
+  if (!ct) {
+    if (why) *why = "states.csv has no timestamp_ns column";
+    return {};
+  }
+  // Find the six standard-deviation columns.
+  int pos_col[3] = {-1, -1, -1}, rot_col[3] = {-1, -1, -1};
+  bool rot_deg = false;
+  const auto& h = r.header();
+  for (std::size_t i = 0; i < h.size(); ++i) {
+    const std::string n = lower(h[i]);
+    if (!(contains(n, "std") || contains(n, "sigma"))) continue;
+    const char axis = n.empty() ? ' ' : n.back();
+    const int k = axis == 'x' ? 0 : axis == 'y' ? 1 : axis == 'z' ? 2 : -1;
+    if (k < 0) continue;
+    if (contains(n, "p_w_i")) {
+      if (pos_col[k] < 0) pos_col[k] = static_cast<int>(i);
+    } else if (contains(n, "theta_w_i") || contains(n, "q_w_i") || contains(n, "th_w_i") ||
+               contains(n, "r_w_i")) {
+      if (rot_col[k] < 0) {
+        rot_col[k] = static_cast<int>(i);
+        rot_deg = rot_deg || contains(n, "deg");
+      }
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    if (pos_col[k] < 0 || rot_col[k] < 0) {
+      if (why) *why = "states.csv has no standard-deviation columns for p_W_I and theta_W_I (x, y, z)";
+      return {};
+    }
+  }
+  std::vector<Timestamp> st;
+  std::vector<eval::PoseCovariance> sc;
+  const double rs = rot_deg ? M_PI / 180.0 : 1.0;
+  while (r.next()) {
+    st.push_back(r.get_int64(*ct));
+    eval::PoseCovariance c;
+    for (int k = 0; k < 3; ++k) {
+      const double sp = r.get_double_nonfinite(static_cast<std::size_t>(pos_col[k]));
+      const double sr = r.get_double_nonfinite(static_cast<std::size_t>(rot_col[k])) * rs;
+      c.P_p(k, k) = sp * sp;
+      c.P_theta(k, k) = sr * sr;
+    }
+    sc.push_back(c);
+  }
+  std::vector<std::optional<eval::PoseCovariance>> out(t_ns.size());
+  std::size_t found = 0;
+  // Stamps are matched within 1 µs: trajectory.csv stores seconds with 9 decimals, states.csv ns.
+  for (std::size_t i = 0; i < t_ns.size(); ++i) {
+    auto it = std::lower_bound(st.begin(), st.end(), t_ns[i] - 1000);
+    if (it != st.end() && std::llabs(*it - t_ns[i]) <= 1000) {
+      out[i] = sc[static_cast<std::size_t>(it - st.begin())];
+      ++found;
+    }
+  }
+  if (found == 0) {
+    if (why) *why = "no states.csv stamp matches a trajectory.csv stamp";
+    return {};
+  }
+  return out;
+}
+
+EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warnings) {
+  EvalInput in;
+  in.path = o.gt;
+  if (o.gt.empty()) throw InputError("--gt DATASET|GT_FILE is required", {"roe eval"});
+  if (!fs::exists(in.path)) throw InputError("ground truth not found", {o.gt});
+  if (!fs::is_directory(in.path)) {
+    in.kind = "file";
+    in.traj = io::read_trajectory(in.path, io::parse_trajectory_format(o.gt_format));
+    in.description = fmt::format("{} ({})", in.path.string(), io::to_string(in.traj.format));
+    return in;
+  }
+  if (o.gt_source != "auto" && o.gt_source != "groundtruth" && o.gt_source != "mocap") {
+    throw InputError(
+        fmt::format("unknown --gt-source '{}' (expected auto, groundtruth or mocap)", o.gt_source),
+        {"", 0, 0, "gt-source"});
+  }
+  in.kind = "dataset";
+  // A roe dataset (roe.json + mav0/...), an EuRoC sequence folder (mav0/...) or a mav0 folder itself.
+  const bool has_manifest = fs::exists(io::manifest_path(in.path));
+  fs::path mav0 = in.path / "mav0";
+  if (!fs::is_directory(mav0) && fs::exists(in.path / "state_groundtruth_estimate0")) mav0 = in.path;
+  const fs::path gt_csv = mav0 / "state_groundtruth_estimate0" / "data.csv";
+  const fs::path mocap_csv = mav0 / "mocap0" / "data.csv";
+  const bool want_gt = o.gt_source != "mocap", want_mocap = o.gt_source != "groundtruth";
+  if (want_gt && fs::exists(gt_csv)) {
+    in.traj = io::read_trajectory(gt_csv, io::TrajectoryFormat::kEuroc);
+    in.description = fmt::format("{} (true IMU pose T_W_I)", gt_csv.string());
+    return in;
+  }
+  if (want_mocap && fs::exists(mocap_csv)) {
+    io::Trajectory m = io::read_trajectory(mocap_csv, io::TrajectoryFormat::kEuroc);
+    Pose T_B_I;
+    double offset_s = 0.0;
+    if (has_manifest) {
+      const DatasetManifest man = io::read_manifest(in.path);
+      if (man.mocap) {
+        T_B_I = man.mocap->T_B_I;
+        offset_s = man.mocap->time_offset_s;
+      } else {
+        warnings.push_back("roe.json has no mocap section: using T_B_I = identity and no time offset");
+      }
+    } else {
+      warnings.push_back(
+          "no roe.json: mocap0 poses are used as the IMU pose (T_B_I = identity, no time offset)");
+    }
+    const Timestamp off = from_seconds(offset_s);
+    for (std::size_t i = 0; i < m.size(); ++i) {
+      m.poses[i] = m.poses[i] * T_B_I;  // T_M_I = T_M_B · T_B_I
+      m.t_ns[i] += off;                 // t_imu = t_mocap + time_offset_s
+    }
+    in.traj = std::move(m);
+    in.description = fmt::format("{} with T_B_I (p = [{:.4f}, {:.4f}, {:.4f}]) and time offset {} s",
+                                 mocap_csv.string(), T_B_I.p.x(), T_B_I.p.y(), T_B_I.p.z(), offset_s);
+    return in;
+  }
+  throw InputError(fmt::format("no ground truth in this folder: expected {}{}{}",
+                               want_gt ? gt_csv.string() : std::string(), want_gt && want_mocap ? " or " : "",
+                               want_mocap ? mocap_csv.string() : std::string()),
+                   {o.gt});
+}
+
+}  // namespace roe::app

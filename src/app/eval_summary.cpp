@@ -1,0 +1,147 @@
+// roe eval --summary: one row per run + mean and population std, in the paper's table layout.
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "roe/app/eval.hpp"
+#include "roe/core/error.hpp"
+#include "roe/io/csv.hpp"
+#include "roe/io/json.hpp"
+#include "roe/io/output.hpp"
+
+namespace roe::app {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr const char* kCols[] = {"rmse_x_m",       "rmse_y_m",     "rmse_z_m",   "rmse_roll_deg",
+                                 "rmse_pitch_deg", "rmse_yaw_deg", "ate_rmse_m", "rot_rmse_deg"};
+constexpr int kNumCols = 8;
+
+double num(const json& j, const std::string& file, const char* a, const char* b) {
+  if (!j.contains(a) || !j[a].contains(b) || !j[a][b].is_number())
+    throw InputError(fmt::format("not a roe eval report: missing number {}.{}", a, b),
+                     {file, 0, 0, std::string(a) + "." + b});
+  return j[a][b].get<double>();
+}
+
+std::string vec3(const std::vector<double>& v, int first, int decimals) {
+  return fmt::format("[{:.{}f}, {:.{}f}, {:.{}f}]", v[first], decimals, v[first + 1], decimals, v[first + 2],
+                     decimals);
+}
+
+}  // namespace
+
+EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
+  if (o.reports.empty()) throw InputError("--summary needs at least one report.json", {"roe eval"});
+  struct Row {
+    std::string label, file;
+    std::size_t n_objects = 0, n_matched = 0;
+    std::vector<double> v;
+  };
+  std::vector<Row> rows;
+  for (const auto& r : o.reports) {
+    fs::path f = r;
+    if (fs::is_directory(f))
+      f = fs::exists(f / "report.json") ? f / "report.json" : f / "eval" / "report.json";
+    const json j = io::parse_json_file(f);
+    Row row;
+    row.file = f.string();
+    row.label = j.contains("info") && j["info"].contains("label") ? j["info"]["label"].get<std::string>()
+                                                                  : f.parent_path().filename().string();
+    row.n_objects = j.contains("per_object") ? j["per_object"].size() : 0;
+    row.n_matched = j.contains("association") ? j["association"].value("n_matched", std::size_t{0}) : 0;
+    if (!j.contains("per_axis") || !j["per_axis"].contains("pos_rmse_m") ||
+        !j["per_axis"].contains("rpy_rmse_deg"))
+      throw InputError("not a roe eval report: per_axis.pos_rmse_m / rpy_rmse_deg missing", {row.file});
+    const auto& pa = j["per_axis"];
+    if (!pa["pos_rmse_m"].is_object() || !pa["rpy_rmse_deg"].is_object())
+      throw InputError("not a roe eval report: per_axis.pos_rmse_m / rpy_rmse_deg missing", {row.file});
+    row.v = {pa["pos_rmse_m"]["x"].get<double>(),       pa["pos_rmse_m"]["y"].get<double>(),
+             pa["pos_rmse_m"]["z"].get<double>(),       pa["rpy_rmse_deg"]["roll"].get<double>(),
+             pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>(),
+             num(j, row.file, "ape_trans_m", "rmse"),   num(j, row.file, "ape_rot_deg", "rmse")};
+    rows.push_back(std::move(row));
+  }
+  std::vector<double> mean(kNumCols, 0.0), sd(kNumCols, 0.0);
+  const double n = static_cast<double>(rows.size());
+  for (const auto& r : rows)
+    for (int k = 0; k < kNumCols; ++k) mean[k] += r.v[k] / n;
+  for (const auto& r : rows)
+    for (int k = 0; k < kNumCols; ++k) sd[k] += (r.v[k] - mean[k]) * (r.v[k] - mean[k]) / n;
+  for (double& s : sd) s = std::sqrt(s);  // population std, as in the paper's tables
+
+  EvalSummaryResult res;
+  json runs = json::array();
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    json jr = {{"run", i + 1},
+               {"label", rows[i].label},
+               {"report", rows[i].file},
+               {"n_objects", rows[i].n_objects},
+               {"n_matched", rows[i].n_matched}};
+    for (int k = 0; k < kNumCols; ++k) jr[kCols[k]] = rows[i].v[k];
+    runs.push_back(jr);
+  }
+  json jm, js;
+  for (int k = 0; k < kNumCols; ++k) {
+    jm[kCols[k]] = mean[k];
+    js[kCols[k]] = sd[k];
+  }
+  res.summary = {{"runs", runs},
+                 {"mean", jm},
+                 {"std", js},
+                 {"n_runs", rows.size()},
+                 {"std_definition", "population (ddof 0)"}};
+
+  // Markdown in the layout of the paper's Table I.
+  std::string md =
+      "| Run | Label | #objects | (x, y, z) [m] | (roll, pitch, yaw) [deg] |\n|---|---|---|---|---|\n";
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    md += fmt::format("| {} | {} | {} | {} | {} |\n", i + 1, rows[i].label, rows[i].n_objects,
+                      vec3(rows[i].v, 0, 3), vec3(rows[i].v, 3, 2));
+  md += fmt::format("| mean | | - | {} | {} |\n", vec3(mean, 0, 3), vec3(mean, 3, 2));
+  md += fmt::format("| ± std | | | ± {} | ± {} |\n", vec3(sd, 0, 3), vec3(sd, 3, 2));
+  res.markdown = md;
+
+  if (!o.out.empty()) {
+    fs::path base = o.out;
+    const std::string ext = base.extension().string();
+    if (ext == ".csv" || ext == ".json" || ext == ".md") base.replace_extension();
+    io::CsvWriter w;
+    std::vector<std::string> h = {"run", "label", "report", "n_objects", "n_matched"};
+    for (const char* c : kCols) h.push_back(c);
+    w.header(h);
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      w.add(std::to_string(i + 1)).add(rows[i].label).add(rows[i].file);
+      w.add(static_cast<std::int64_t>(rows[i].n_objects)).add(static_cast<std::int64_t>(rows[i].n_matched));
+      for (double v : rows[i].v) w.add(v);
+      w.end_row();
+    }
+    for (const auto& [name, vals] : {std::pair{"mean", &mean}, std::pair{"std", &sd}}) {
+      w.add(name).add_empty().add_empty().add_empty().add_empty();
+      for (double v : *vals) w.add(v);
+      w.end_row();
+    }
+    const fs::path csv = base.string() + ".csv", js_path = base.string() + ".json",
+                   md_path = base.string() + ".md";
+    for (const auto& p : {csv, js_path, md_path}) {
+      if (fs::exists(p) && !o.force)
+        throw InputError("output file exists (use --force to replace it)", {p.string()});
+    }
+    io::write_file_atomic(csv, w.str());
+    io::write_file_atomic(js_path, res.summary.dump(2) + "\n");
+    io::write_file_atomic(md_path, md);
+    res.written = {csv, js_path, md_path};
+  }
+  return res;
+}
+
+std::string EvalSummaryResult::to_text() const {
+  std::string s = markdown;
+  for (const auto& p : written) s += "wrote " + p.string() + "\n";
+  return s;
+}
+
+}  // namespace roe::app

@@ -1,0 +1,76 @@
+// roe eval RUN_DIR|EST_FILE --gt DATASET|GT_FILE [--align ...] [--max-dt S] [--t-offset S] [--out DIR]
+// [--plot] roe eval --summary REPORT_JSON... [--out FILE]
+#include <memory>
+
+#include "command.hpp"
+#include "roe/app/eval.hpp"
+#include "roe/core/error.hpp"
+
+namespace roe::cli {
+namespace {
+
+struct Args {
+  app::EvalOptions opt;
+  std::vector<std::string> summary;
+};
+
+RunFn setup(CLI::App& sub) {
+  auto a = std::make_shared<Args>();
+  sub.add_option("estimate", a->opt.est,
+                 "Run folder (trajectory.csv [+ reprojection.csv, states.csv]) or trajectory file");
+  sub.add_option("--gt", a->opt.gt,
+                 "Ground truth: dataset folder (state_groundtruth_estimate0 or mocap0) or trajectory file");
+  sub.add_option("--align", a->opt.align, "Alignment: se3, sim3, posyaw, origin or none")
+      ->capture_default_str();
+  sub.add_option("--n-align", a->opt.n_align, "Align on the first N matched pairs (-1: all)")
+      ->capture_default_str();
+  sub.add_option("--max-dt", a->opt.max_dt_s, "Max |dt| in seconds for a match (evo --t_max_diff)")
+      ->capture_default_str();
+  sub.add_option("--t-offset", a->opt.t_offset_s, "Seconds added to the estimate stamps (evo --t_offset)")
+      ->capture_default_str();
+  sub.add_option("--assoc", a->opt.assoc, "Association: nearest (evo) or unique (one-to-one, cnspy-like)")
+      ->capture_default_str();
+  sub.add_option("--est-format", a->opt.est_format,
+                 "Estimate file format: auto, tum, euroc, csv (cnspy), csv-ns (roe)")
+      ->capture_default_str();
+  sub.add_option("--gt-format", a->opt.gt_format, "Ground-truth file format: auto, tum, euroc, csv, csv-ns")
+      ->capture_default_str();
+  sub.add_option("--gt-source", a->opt.gt_source, "For a dataset: auto, groundtruth or mocap")
+      ->capture_default_str();
+  sub.add_option("--out", a->opt.out,
+                 "Output folder (default RUN_DIR/eval for a run folder); with --summary: FILE[.csv]");
+  sub.add_flag("--no-out", a->opt.no_out, "Write no files, only print the result");
+  sub.add_option("--label", a->opt.label, "Name of this run in reports and summaries");
+  sub.add_flag("--plot", a->opt.plot,
+               "Render PNG plots with /usr/bin/python3 + matplotlib (scripts/plot_eval.py)");
+  sub.add_option("--summary", a->summary,
+                 "Summarise report.json files: mean and std over runs (paper table layout)")
+      ->expected(1, -1);
+  return [a]() {
+    if (!a->summary.empty()) {
+      if (!a->opt.est.empty()) a->summary.insert(a->summary.begin(), a->opt.est);
+      app::EvalSummaryOptions so;
+      so.reports = a->summary;
+      so.out = a->opt.out;
+      so.force = globals().force;
+      const auto r = app::summarize_eval_reports(so);
+      emit(r.summary, r.to_text());
+      return 0;
+    }
+    if (a->opt.est.empty())
+      throw InputError("an estimate is required: roe eval RUN_DIR|EST_FILE --gt DATASET|GT_FILE",
+                       {"roe eval"});
+    if (a->opt.gt.empty()) throw InputError("--gt DATASET|GT_FILE is required", {"roe eval"});
+    a->opt.force = globals().force;
+    const auto r = app::run_eval(a->opt);
+    emit(r.report, r.to_text());
+    return 0;
+  };
+}
+
+const Registrar reg("", "eval",
+                    "Evaluate an estimate against ground truth (evo-compatible APE, per-axis RMSE)", 60,
+                    &setup);
+
+}  // namespace
+}  // namespace roe::cli
