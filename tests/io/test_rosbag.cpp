@@ -1,0 +1,263 @@
+// ROS bag v2.0 reader: round trips through the test-only writer (none/lz4/bz2, indexed and not),
+// time ordering across chunks, damaged bags, message decoders, and the real files in ../shared/data.
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <fstream>
+
+#include "fixtures/gen_d435i_bag.hpp"
+#include "roe/io/ros_msgs.hpp"
+#include "roe/io/rosbag.hpp"
+
+namespace fs = std::filesystem;
+using namespace roe;
+namespace bag = roe::io::bag;
+namespace ros = roe::io::ros;
+
+namespace {
+
+std::string small_bag(const std::string& compression, bool indexed = true, std::size_t chunk = 4096) {
+  testing::BagWriter w(compression, chunk, indexed);
+  for (int k = 0; k < 300; ++k) {
+    ros::Imu m;
+    m.header.stamp_ns = 1'000'000'000LL + k * 5'000'000LL;
+    m.header.seq = static_cast<std::uint32_t>(k);
+    m.angular_velocity = Eigen::Vector3d(k, -k, 0.5 * k);
+    w.write("/imu", "sensor_msgs/Imu", m.header.stamp_ns, ros::encode_imu(m));
+    if (k % 10 == 0) {
+      ros::StampedTransform p;
+      p.header.stamp_ns = m.header.stamp_ns;
+      p.transform.t = Eigen::Vector3d(k * 0.01, 0, 1);
+      w.write("/pose", "geometry_msgs/PoseStamped", m.header.stamp_ns, ros::encode_pose_stamped(p));
+    }
+  }
+  return w.finish();
+}
+
+std::vector<Timestamp> imu_stamps(bag::Reader& r) {
+  std::vector<Timestamp> t;
+  r.for_each_topic({"/imu"}, [&](const bag::MessageView& m) {
+    const auto imu = ros::decode_imu(m.data, "test");
+    CHECK(imu.angular_velocity.x() == static_cast<double>(imu.header.seq));
+    t.push_back(imu.header.stamp_ns);
+    return true;
+  });
+  return t;
+}
+
+std::string shared(const char* rel) { return std::string(ROE_SHARED_DATA_DIR) + "/" + rel; }
+
+}  // namespace
+
+TEST_CASE("rosbag: round trip for every compression, indexed and unindexed", "[io][rosbag]") {
+  for (const char* comp : {"none", "lz4", "bz2"}) {
+    for (bool indexed : {true, false}) {
+      INFO(comp << (indexed ? " indexed" : " unindexed"));
+      bag::Reader r(small_bag(comp, indexed), "mem.bag");
+      CHECK(r.indexed() == indexed);
+      CHECK_FALSE(r.damaged());
+      CHECK(r.chunks().size() > 5);
+      for (const auto& c : r.chunks()) CHECK(c.compression == comp);
+      CHECK(r.topics() == std::vector<std::string>{"/imu", "/pose"});
+      CHECK(r.topic_type("/pose") == "geometry_msgs/PoseStamped");
+      CHECK(r.message_count("/imu") == 300);
+      CHECK(r.message_count("/pose") == 30);
+      const auto t = imu_stamps(r);
+      REQUIRE(t.size() == 300);
+      CHECK(std::is_sorted(t.begin(), t.end()));
+      CHECK(t.front() == 1'000'000'000LL);
+      std::size_t poses = 0;
+      r.for_each_topic({"/pose"}, [&](const bag::MessageView& m) {
+        const auto p = ros::decode_pose_stamped(m.data, "t");
+        CHECK(p.transform.t.x() == Approx(poses * 0.1));
+        ++poses;
+        return true;
+      });
+      CHECK(poses == 30);
+    }
+  }
+}
+
+TEST_CASE("rosbag: force_scan gives the same content as the index", "[io][rosbag]") {
+  const std::string b = small_bag("lz4");
+  bag::ReaderOptions o;
+  o.force_scan = true;
+  bag::Reader a(b, "a"), s(b, "s", o);
+  CHECK_FALSE(s.indexed());
+  CHECK(a.message_count() == s.message_count());
+  CHECK(imu_stamps(a) == imu_stamps(s));
+}
+
+TEST_CASE("rosbag: iteration is in record-time order across chunks that overlap", "[io][rosbag]") {
+  testing::BagWriter w("none", 200);
+  // Written out of order: chunk times overlap.
+  const std::vector<Timestamp> ts = {50, 10, 40, 20, 30, 60, 5, 70, 65, 1};
+  for (std::size_t i = 0; i < ts.size(); ++i) {
+    ros::Imu m;
+    m.header.seq = static_cast<std::uint32_t>(i);
+    w.write("/a", "sensor_msgs/Imu", ts[i] * 1'000'000, ros::encode_imu(m));
+  }
+  bag::Reader r(w.finish(), "mem");
+  std::vector<Timestamp> got;
+  r.for_each_topic({"/a"}, [&](const bag::MessageView& m) {
+    got.push_back(m.record_time_ns / 1'000'000);
+    return true;
+  });
+  auto sorted = ts;
+  std::sort(sorted.begin(), sorted.end());
+  CHECK(got == sorted);
+}
+
+TEST_CASE("rosbag: early stop", "[io][rosbag]") {
+  bag::Reader r(small_bag("none"), "mem");
+  std::size_t n = 0;
+  r.for_each_topic({"/imu"}, [&](const bag::MessageView&) { return ++n < 7; });
+  CHECK(n == 7);
+}
+
+TEST_CASE("rosbag: wrong magic and other versions are InputErrors", "[io][rosbag]") {
+  CHECK_THROWS_AS(bag::Reader(std::string("hello world, not a bag at all"), "x"), InputError);
+  CHECK_THROWS_WITH(bag::Reader(std::string("#ROSBAG V1.2\nxxxxxxxxxxxxxxx"), "x"), Catch::Contains("version"));
+  CHECK_THROWS_WITH(bag::Reader(std::string(""), "x"), Catch::Contains("wrong magic"));
+}
+
+TEST_CASE("rosbag: a truncated bag yields its intact prefix and warns with the byte offset", "[io][rosbag]") {
+  for (const char* comp : {"none", "lz4", "bz2"}) {
+    const std::string full = small_bag(comp);
+    for (double frac : {0.9, 0.5, 0.2, 0.01}) {
+      INFO(comp << " cut at " << frac);
+      const std::size_t cut = static_cast<std::size_t>(full.size() * frac);
+      bag::Reader r(full.substr(0, cut), "cut.bag");
+      CHECK_FALSE(r.indexed());
+      CHECK(r.damaged());
+      bool offset_ok = false;
+      for (const auto& w : r.warnings()) offset_ok = offset_ok || (w.damage && w.offset > 0 && w.offset <= cut);
+      CHECK(offset_ok);
+      CHECK(r.first_damage().find("byte ") == 0);
+      const auto t = imu_stamps(r);
+      // (A cut in the index section at the end loses no message.)
+      if (frac <= 0.5) CHECK(t.size() < 300);
+      // What was read is exactly a prefix of the full stream.
+      for (std::size_t i = 0; i < t.size(); ++i) CHECK(t[i] == 1'000'000'000LL + static_cast<Timestamp>(i) * 5'000'000LL);
+      if (frac >= 0.5) CHECK(t.size() > 50);
+    }
+  }
+}
+
+TEST_CASE("rosbag: a corrupt chunk is skipped with a warning, the others are read", "[io][rosbag]") {
+  for (const char* comp : {"lz4", "bz2"}) {
+    INFO(comp);
+    std::string b = small_bag(comp);
+    bag::Reader clean(b, "clean");
+    REQUIRE(clean.chunks().size() > 3);
+    const auto& c = clean.chunks()[1];
+    for (std::size_t i = 8; i < std::min<std::size_t>(c.data_size, 200); ++i) b[c.data_offset + i] ^= 0x5A;
+    bag::Reader r(b, "bad");
+    const auto t = imu_stamps(r);
+    CHECK(t.size() < 300);
+    CHECK(t.size() > 200);
+    CHECK(r.damaged());
+    bool found = false;
+    for (const auto& w : r.warnings())
+      found = found || (w.offset == c.offset && w.message.find("decompress") != std::string::npos);
+    CHECK(found);
+  }
+}
+
+TEST_CASE("rosbag: unknown compression and absurd sizes are skipped, not trusted", "[io][rosbag]") {
+  std::string b = small_bag("none");
+  bag::Reader clean(b, "clean");
+  const auto& c = clean.chunks()[0];
+  // Rewrite the compression field value "none" → "zstd" in the chunk header.
+  const std::size_t p = b.find("compression=none", c.offset);
+  REQUIRE(p != std::string::npos);
+  b.replace(p + 12, 4, "zstd");
+  bag::Reader r(b, "zstd");
+  CHECK(imu_stamps(r).size() < 300);
+  CHECK(r.first_damage().find("zstd") != std::string::npos);
+}
+
+TEST_CASE("ros_msgs: decoders check bounds and trailing bytes", "[io][rosbag]") {
+  ros::Imu m;
+  m.header.frame_id = "imu";
+  const std::string enc = ros::encode_imu(m);
+  CHECK_NOTHROW(ros::decode_imu(enc, "t"));
+  CHECK_THROWS_WITH(ros::decode_imu(enc.substr(0, enc.size() - 1), "imu.bag: /imu"),
+                    Catch::Contains("imu.bag: /imu") && Catch::Contains("too short"));
+  CHECK_THROWS_WITH(ros::decode_imu(enc + "x", "t"), Catch::Contains("trailing"));
+  ros::Image im;
+  im.width = 4;
+  im.height = 2;
+  im.step = 12;
+  im.encoding = "rgb8";
+  const std::string px(23, '\1');  // one byte short of step x height
+  im.data = px;
+  CHECK_THROWS_AS(ros::decode_image(ros::encode_image(im), "t"), InputError);
+  // A huge length prefix must not allocate or read out of bounds.
+  std::string evil = ros::encode_uint32(0) + ros::encode_uint32(0) + ros::encode_uint32(0) + ros::encode_uint32(0xFFFFFFF0u);
+  CHECK_THROWS_AS(ros::decode_tf_message(ros::encode_uint32(0x7FFFFFFF) + evil, "t"), InputError);
+  CHECK_THROWS_AS(ros::decode_camera_info(evil, "t"), InputError);
+  // Values survive a round trip.
+  ros::CameraInfo ci;
+  ci.width = 640;
+  ci.distortion_model = "Inverse Brown Conrady";
+  ci.D = {0.1, 0.2, 0.3, 0.4, 0.5};
+  ci.K = {1, 0, 2, 0, 3, 4, 0, 0, 1};
+  const auto back = ros::decode_camera_info(ros::encode_camera_info(ci), "t");
+  CHECK(back.D == ci.D);
+  CHECK(back.K == ci.K);
+  CHECK(back.distortion_model == ci.distortion_model);
+}
+
+TEST_CASE("rosbag: the real RealSense recorder bag", "[io][rosbag][shared]") {
+  const std::string f = shared("realsense/single_depth_color_640x480.bag");
+  if (!fs::exists(f)) {
+    WARN("skipped: " << f << " absent");
+    return;
+  }
+  bag::Reader r(f);
+  CHECK(r.indexed());
+  CHECK_FALSE(r.damaged());
+  CHECK(r.connections().size() == 70);
+  REQUIRE(r.chunks().size() == 2);
+  CHECK(r.chunks()[0].compression == "lz4");
+  CHECK(r.message_count("/device_0/sensor_0/Depth_0/image/data") == 2);
+  CHECK(r.message_count("/device_0/sensor_1/Color_0/image/data") == 1);
+  int seen = 0;
+  r.for_each_topic({"/device_0/sensor_1/Color_0/info/camera_info", "/device_0/sensor_1/Color_0/image/data", "/file_version"},
+                   [&](const bag::MessageView& m) {
+                     if (m.connection->topic == "/file_version") {
+                       CHECK(ros::decode_uint32(m.data, "v") == 3);  // file_version 3 (SDK of 2018)
+                     } else if (m.connection->type == "sensor_msgs/CameraInfo") {
+                       const auto ci = ros::decode_camera_info(m.data, "ci");
+                       CHECK(ci.K[0] == Approx(613.204).margin(1e-3));
+                       CHECK(ci.K[4] == Approx(613.419).margin(1e-3));
+                       CHECK(ci.K[2] == Approx(319.939).margin(1e-3));
+                       CHECK(ci.K[5] == Approx(239.183).margin(1e-3));
+                       CHECK(ci.distortion_model == "Brown Conrady");
+                     } else {
+                       const auto im = ros::decode_image(m.data, "im");
+                       CHECK(im.encoding == "rgb8");
+                       CHECK(im.width == 640);
+                       CHECK(im.step == 1920);
+                       CHECK(im.data.size() == 921600);
+                     }
+                     ++seen;
+                     return true;
+                   });
+  CHECK(seen == 3);
+}
+
+TEST_CASE("rosbag: the evo example bag (uncompressed, PoseStamped)", "[io][rosbag][shared]") {
+  const std::string f = shared("rosbag/evo_ROS_example.bag");
+  if (!fs::exists(f)) {
+    WARN("skipped: " << f << " absent");
+    return;
+  }
+  bag::Reader r(f);
+  CHECK(r.indexed());
+  CHECK(r.message_count("groundtruth") == 12765);
+  CHECK(r.message_count("ORB-SLAM") == 8362);
+  CHECK(r.message_count("S-PTAM") == 5439);
+  for (const auto& c : r.chunks()) CHECK(c.compression == "none");
+}
