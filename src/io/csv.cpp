@@ -3,9 +3,9 @@
 #include <fmt/format.h>
 
 #include <charconv>
-#include <iterator>
 #include <climits>
 #include <cmath>
+#include <iterator>
 #include <limits>
 
 #include "roe/io/output.hpp"
@@ -59,8 +59,8 @@ CsvReader::CsvReader(std::string text, std::string source, CsvOptions options, i
   if (text_.size() >= 3 && static_cast<unsigned char>(text_[0]) == 0xEF &&
       static_cast<unsigned char>(text_[1]) == 0xBB && static_cast<unsigned char>(text_[2]) == 0xBF)
     pos_ = 3;
-  if (!opt_.whitespace_delimited && (opt_.delimiter == '\n' || opt_.delimiter == '\r' ||
-                                     opt_.delimiter == '"'))
+  if (!opt_.whitespace_delimited &&
+      (opt_.delimiter == '\n' || opt_.delimiter == '\r' || opt_.delimiter == '"'))
     throw InternalError("CsvReader: invalid delimiter");
   columns_ = opt_.columns;
   if (opt_.header == CsvHeader::kFirstLine) read_header();
@@ -124,7 +124,8 @@ void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<s
         value += line[k++];
       }
       if (!closed)
-        throw InputError("unterminated quoted field", {source_, line_no, static_cast<std::int64_t>(out.size() + 1)});
+        throw InputError("unterminated quoted field",
+                         {source_, line_no, static_cast<std::int64_t>(out.size() + 1)});
       while (k < line.size() && is_space(line[k]) && line[k] != d) ++k;
       if (k < line.size() && line[k] != d)
         throw InputError("unexpected character after a closing quote",
@@ -174,10 +175,11 @@ void CsvReader::read_header() {
     }
     if (header_.size() != exp.size()) {
       const std::size_t c = n;  // first missing or first extra column
-      throw InputError(fmt::format("unexpected header: {} columns, expected {}{}", header_.size(), exp.size(),
-                                   header_.size() < exp.size() ? " (missing " + shown(alternatives(exp[c])[0]) + ")"
-                                                               : " (extra " + shown(header_[c]) + ")"),
-                       {source_, header_line_, static_cast<std::int64_t>(c + 1)});
+      throw InputError(
+          fmt::format("unexpected header: {} columns, expected {}{}", header_.size(), exp.size(),
+                      header_.size() < exp.size() ? " (missing " + shown(alternatives(exp[c])[0]) + ")"
+                                                  : " (extra " + shown(header_[c]) + ")"),
+          {source_, header_line_, static_cast<std::int64_t>(c + 1)});
     }
   }
   for (std::size_t a = 0; a < header_.size(); ++a)
@@ -185,7 +187,8 @@ void CsvReader::read_header() {
       if (!header_[a].empty() && header_[a] == header_[b] && opt_.expected_header.empty() && !opt_.ragged)
         throw InputError("duplicate column name " + shown(header_[b]),
                          {source_, header_line_, static_cast<std::int64_t>(b + 1)});
-  if (columns_ == 0) columns_ = header_.size();
+  if (columns_ == 0)
+    columns_ = header_.size();
   else if (!opt_.ragged && header_.size() != columns_)
     throw InputError(fmt::format("header has {} columns, expected {}", header_.size(), columns_),
                      {source_, header_line_, 0});
@@ -238,8 +241,8 @@ bool CsvReader::next() {
         prev_s_ = t;
       }
       if (!ok)
-        throw error(c, fmt::format("timestamp {} is {} the previous one ({} at line {}); rows must be {}", now,
-                                   strict ? "not after" : "before", before, prev_stamp_line_,
+        throw error(c, fmt::format("timestamp {} is {} the previous one ({} at line {}); rows must be {}",
+                                   now, strict ? "not after" : "before", before, prev_stamp_line_,
                                    strict ? "strictly increasing in time" : "sorted by time"));
       have_prev_stamp_ = true;
       prev_stamp_line_ = line_;
@@ -377,7 +380,8 @@ std::optional<std::int64_t> parse_seconds_ns(std::string_view s) {
 std::string format_seconds_ns(std::int64_t t_ns) {
   // Split on the magnitude so INT64_MIN and negative stamps keep their sign once.
   const bool negative = t_ns < 0;
-  const std::uint64_t mag = negative ? 0 - static_cast<std::uint64_t>(t_ns) : static_cast<std::uint64_t>(t_ns);
+  const std::uint64_t mag =
+      negative ? 0 - static_cast<std::uint64_t>(t_ns) : static_cast<std::uint64_t>(t_ns);
   return fmt::format("{}{}.{:09d}", negative ? "-" : "", mag / 1'000'000'000ULL, mag % 1'000'000'000ULL);
 }
 
@@ -417,8 +421,10 @@ void CsvWriter::sep() {
 
 CsvWriter& CsvWriter::add(double v) {
   sep();
-  if (std::isfinite(v)) fmt::format_to(std::back_inserter(out_), "{}", v);  // no temporary string
-  else out_.append(format_double(v));
+  if (std::isfinite(v))
+    fmt::format_to(std::back_inserter(out_), "{}", v);  // no temporary string
+  else
+    out_.append(format_double(v));
   return *this;
 }
 
@@ -434,9 +440,8 @@ CsvWriter& CsvWriter::add(int v) { return add(static_cast<std::int64_t>(v)); }
 
 CsvWriter& CsvWriter::add(std::string_view s) {
   sep();
-  const bool needs_quotes =
-      s.find_first_of(std::string("\"\n\r") + delim_) != std::string_view::npos ||
-      (!s.empty() && (is_space(s.front()) || is_space(s.back())));
+  const bool needs_quotes = s.find_first_of(std::string("\"\n\r") + delim_) != std::string_view::npos ||
+                            (!s.empty() && (is_space(s.front()) || is_space(s.back())));
   if (!needs_quotes) {
     out_.append(s);
     return *this;

@@ -57,7 +57,8 @@ Vector3d read_vec3(const CsvReader& r, std::size_t c0) {
 // Every stream file starts its header with the stamp column; EuRoC spells it two ways.
 constexpr const char* kStampNs = "timestamp [ns]|timestamp";
 
-CsvOptions stream_options(std::vector<std::string> header, StampOrder order = StampOrder::kStrictlyIncreasing) {
+CsvOptions stream_options(std::vector<std::string> header,
+                          StampOrder order = StampOrder::kStrictlyIncreasing) {
   CsvOptions o;
   o.expected_header = std::move(header);
   o.stamp_column = 0;
@@ -116,9 +117,10 @@ Pose pose_from_json(const json& j, const std::string& source, const std::string&
   const Quaterniond q(qv[3], qv[0], qv[1], qv[2]);
   const double n = q.norm();
   if (!(std::abs(n - 1.0) <= kManifestQuatTol))
-    throw ConfigError(fmt::format("quaternion [qx, qy, qz, qw] is not unit norm (|q| = {:.12g}, tolerance {:g})",
-                                  n, kManifestQuatTol),
-                      {source, 0, 0, o.key_path("q")});
+    throw ConfigError(
+        fmt::format("quaternion [qx, qy, qz, qw] is not unit norm (|q| = {:.12g}, tolerance {:g})", n,
+                    kManifestQuatTol),
+        {source, 0, 0, o.key_path("q")});
   return make_pose(q, Vector3d(p[0], p[1], p[2]));
 }
 
@@ -173,9 +175,9 @@ bool present(const fs::path& file) {
 }
 
 const std::vector<std::string>& imu_header() {
-  static const std::vector<std::string> h = {"timestamp [ns]",      "w_RS_S_x [rad s^-1]", "w_RS_S_y [rad s^-1]",
-                                             "w_RS_S_z [rad s^-1]", "a_RS_S_x [m s^-2]",   "a_RS_S_y [m s^-2]",
-                                             "a_RS_S_z [m s^-2]"};
+  static const std::vector<std::string> h = {
+      "timestamp [ns]",    "w_RS_S_x [rad s^-1]", "w_RS_S_y [rad s^-1]", "w_RS_S_z [rad s^-1]",
+      "a_RS_S_x [m s^-2]", "a_RS_S_y [m s^-2]",   "a_RS_S_z [m s^-2]"};
   return h;
 }
 const std::vector<std::string>& mocap_header() {
@@ -186,12 +188,23 @@ const std::vector<std::string>& mocap_header() {
 // Exactly the EuRoC ground-truth header (state_groundtruth_estimate0), including its "#timestamp"
 // without unit; written with ", " separators like the original files.
 const std::vector<std::string>& groundtruth_header() {
-  static const std::vector<std::string> h = {
-      "timestamp",           "p_RS_R_x [m]",        "p_RS_R_y [m]",        "p_RS_R_z [m]",
-      "q_RS_w []",           "q_RS_x []",           "q_RS_y []",           "q_RS_z []",
-      "v_RS_R_x [m s^-1]",   "v_RS_R_y [m s^-1]",   "v_RS_R_z [m s^-1]",   "b_w_RS_S_x [rad s^-1]",
-      "b_w_RS_S_y [rad s^-1]", "b_w_RS_S_z [rad s^-1]", "b_a_RS_S_x [m s^-2]", "b_a_RS_S_y [m s^-2]",
-      "b_a_RS_S_z [m s^-2]"};
+  static const std::vector<std::string> h = {"timestamp",
+                                             "p_RS_R_x [m]",
+                                             "p_RS_R_y [m]",
+                                             "p_RS_R_z [m]",
+                                             "q_RS_w []",
+                                             "q_RS_x []",
+                                             "q_RS_y []",
+                                             "q_RS_z []",
+                                             "v_RS_R_x [m s^-1]",
+                                             "v_RS_R_y [m s^-1]",
+                                             "v_RS_R_z [m s^-1]",
+                                             "b_w_RS_S_x [rad s^-1]",
+                                             "b_w_RS_S_y [rad s^-1]",
+                                             "b_w_RS_S_z [rad s^-1]",
+                                             "b_a_RS_S_x [m s^-2]",
+                                             "b_a_RS_S_y [m s^-2]",
+                                             "b_a_RS_S_z [m s^-2]"};
   return h;
 }
 const std::vector<std::string>& detections_header(bool with_sigma) {
@@ -199,7 +212,8 @@ const std::vector<std::string>& detections_header(bool with_sigma) {
                                                 "qx",           "qy",        "qz", "qw", "score"};
   static const std::vector<std::string> full = [] {
     auto h = base;
-    for (const char* s : {"sigma_tx", "sigma_ty", "sigma_tz", "sigma_rx", "sigma_ry", "sigma_rz"}) h.push_back(s);
+    for (const char* s : {"sigma_tx", "sigma_ty", "sigma_tz", "sigma_rx", "sigma_ry", "sigma_rz"})
+      h.push_back(s);
     return h;
   }();
   return with_sigma ? full : base;
@@ -214,12 +228,42 @@ std::vector<std::string> with_stamp_alternatives(std::vector<std::string> h) {
 // roe.json layout: keys in a fixed, readable order (then alphabetical), arrays of numbers on one
 // line, two-space indent. Deterministic, so the same manifest always gives the same bytes.
 int key_rank(const std::string& k) {
-  static const char* order[] = {"schema", "id", "name", "kind", "path", "sha256", "options", "symmetric",
-                                "sources", "imu", "camera", "mocap", "objects", "truth", "rate_hz",
-                                "gyro_noise_density", "gyro_random_walk", "accel_noise_density",
-                                "accel_random_walk", "width", "height", "fx", "fy", "cx", "cy",
-                                "distortion_model", "distortion", "body", "T_I_C", "T_B_I", "T_W_O",
-                                "time_offset_s", "imu_noise", "detection_noise", "p", "q"};
+  static const char* order[] = {"schema",
+                                "id",
+                                "name",
+                                "kind",
+                                "path",
+                                "sha256",
+                                "options",
+                                "symmetric",
+                                "sources",
+                                "imu",
+                                "camera",
+                                "mocap",
+                                "objects",
+                                "truth",
+                                "rate_hz",
+                                "gyro_noise_density",
+                                "gyro_random_walk",
+                                "accel_noise_density",
+                                "accel_random_walk",
+                                "width",
+                                "height",
+                                "fx",
+                                "fy",
+                                "cx",
+                                "cy",
+                                "distortion_model",
+                                "distortion",
+                                "body",
+                                "T_I_C",
+                                "T_B_I",
+                                "T_W_O",
+                                "time_offset_s",
+                                "imu_noise",
+                                "detection_noise",
+                                "p",
+                                "q"};
   for (std::size_t i = 0; i < sizeof(order) / sizeof(order[0]); ++i)
     if (k == order[i]) return static_cast<int>(i);
   return 1000;
@@ -278,7 +322,9 @@ fs::path imu_csv_path(const fs::path& d) { return d / "mav0" / "imu0" / "data.cs
 fs::path cam_csv_path(const fs::path& d) { return d / "mav0" / "cam0" / "data.csv"; }
 fs::path cam_image_dir(const fs::path& d) { return d / "mav0" / "cam0" / "data"; }
 fs::path mocap_csv_path(const fs::path& d) { return d / "mav0" / "mocap0" / "data.csv"; }
-fs::path groundtruth_csv_path(const fs::path& d) { return d / "mav0" / "state_groundtruth_estimate0" / "data.csv"; }
+fs::path groundtruth_csv_path(const fs::path& d) {
+  return d / "mav0" / "state_groundtruth_estimate0" / "data.csv";
+}
 fs::path detections_dir(const fs::path& d, const std::string& name) { return d / "detections" / name; }
 
 // -------------------------------------------------------------------------------------------------
@@ -320,7 +366,8 @@ json manifest_to_json(const DatasetManifest& m) {
                   {"time_offset_s", m.mocap->time_offset_s}};
   }
   json objects = json::array();
-  for (const auto& o : m.objects) objects.push_back({{"id", o.id}, {"name", o.name}, {"symmetric", o.symmetric}});
+  for (const auto& o : m.objects)
+    objects.push_back({{"id", o.id}, {"name", o.name}, {"symmetric", o.symmetric}});
   j["objects"] = std::move(objects);
   if (m.truth) {
     const auto& t = *m.truth;
@@ -621,15 +668,16 @@ std::vector<Detection> read_detections_csv(const fs::path& file) {
   const auto& expected = detections_header(with_sigma);
   for (std::size_t c = 0; c < std::min(expected.size(), r.header().size()); ++c) {
     if (r.header()[c] != expected[c])
-      throw InputError(fmt::format("unexpected header: column is '{}', expected '{}'", r.header()[c], expected[c]),
-                       {file.string(), r.header_line(), static_cast<std::int64_t>(c + 1)});
+      throw InputError(
+          fmt::format("unexpected header: column is '{}', expected '{}'", r.header()[c], expected[c]),
+          {file.string(), r.header_line(), static_cast<std::int64_t>(c + 1)});
   }
   if (r.header().size() != expected.size())
-    throw InputError(fmt::format("unexpected header: {} columns, expected {} (or {} with the six sigma columns)",
-                                 r.header().size(), detections_header(false).size(),
-                                 detections_header(true).size()),
-                     {file.string(), r.header_line(),
-                      static_cast<std::int64_t>(std::min(r.header().size(), expected.size()) + 1)});
+    throw InputError(
+        fmt::format("unexpected header: {} columns, expected {} (or {} with the six sigma columns)",
+                    r.header().size(), detections_header(false).size(), detections_header(true).size()),
+        {file.string(), r.header_line(),
+         static_cast<std::int64_t>(std::min(r.header().size(), expected.size()) + 1)});
 
   std::vector<Detection> out;
   std::set<int> ids_at_stamp;
@@ -650,8 +698,7 @@ std::vector<Detection> read_detections_csv(const fs::path& file) {
     if (with_sigma) {
       std::size_t empty = 0;
       for (std::size_t c = 10; c < 16; ++c) empty += r.is_empty(c) ? 1 : 0;
-      if (empty != 0 && empty != 6)
-        throw r.row_error("sigma columns must be all empty or all given");
+      if (empty != 0 && empty != 6) throw r.row_error("sigma columns must be all empty or all given");
       if (empty == 0) {
         Vector6d s;
         for (int k = 0; k < 6; ++k) {
@@ -668,22 +715,25 @@ std::vector<Detection> read_detections_csv(const fs::path& file) {
 
 void write_detections_csv(const fs::path& file, const std::vector<Detection>& detections) {
   check_sorted(detections, file, false);
-  const bool with_sigma =
-      std::any_of(detections.begin(), detections.end(), [](const Detection& d) { return d.sigma.has_value(); });
+  const bool with_sigma = std::any_of(detections.begin(), detections.end(),
+                                      [](const Detection& d) { return d.sigma.has_value(); });
   CsvWriter w;
   w.header(detections_header(with_sigma));
   for (std::size_t i = 0; i < detections.size(); ++i) {
     const auto& d = detections[i];
     for (std::size_t k = 0; k < i && detections[i - 1 - k].t_ns == d.t_ns; ++k)
-      ROE_CHECK(detections[i - 1 - k].object_id != d.object_id,
-                fmt::format("{}: duplicate detection of object {} at {}", file.string(), d.object_id, d.t_ns));
+      ROE_CHECK(
+          detections[i - 1 - k].object_id != d.object_id,
+          fmt::format("{}: duplicate detection of object {} at {}", file.string(), d.object_id, d.t_ns));
     check_finite(d.T_C_O.p, "translation");
     ROE_CHECK(!std::isinf(d.score), "infinite detection score");
     w.add(d.t_ns).add(d.object_id);
     add_vec3(w, d.T_C_O.p);
     w.add(d.T_C_O.q.x()).add(d.T_C_O.q.y()).add(d.T_C_O.q.z()).add(d.T_C_O.q.w());
-    if (std::isnan(d.score)) w.add_empty();
-    else w.add(d.score);
+    if (std::isnan(d.score))
+      w.add_empty();
+    else
+      w.add(d.score);
     if (with_sigma) {
       for (int k = 0; k < 6; ++k) {
         if (d.sigma) {
@@ -718,7 +768,8 @@ Dataset read_dataset(const fs::path& dataset, const DatasetParts& parts) {
     const fs::path root = dataset / "detections";
     if (fs::is_directory(root, ec)) {
       for (const auto& e : fs::directory_iterator(root, ec))
-        if (e.is_directory() && present(e.path() / "detections.csv")) available.push_back(e.path().filename().string());
+        if (e.is_directory() && present(e.path() / "detections.csv"))
+          available.push_back(e.path().filename().string());
     }
     std::sort(available.begin(), available.end());  // deterministic order
     std::vector<std::string> names = parts.detection_names.empty() ? available : parts.detection_names;

@@ -22,8 +22,7 @@ Vector3d euler_zyx(const Matrix3d& R) {
 }
 
 Matrix3d from_euler_zyx(const Vector3d& rpy) {
-  return (Eigen::AngleAxisd(rpy.z(), Vector3d::UnitZ()) *
-          Eigen::AngleAxisd(rpy.y(), Vector3d::UnitY()) *
+  return (Eigen::AngleAxisd(rpy.z(), Vector3d::UnitZ()) * Eigen::AngleAxisd(rpy.y(), Vector3d::UnitY()) *
           Eigen::AngleAxisd(rpy.x(), Vector3d::UnitX()))
       .toRotationMatrix();
 }

@@ -34,14 +34,16 @@ Dataset synthetic(double minutes) {
   std::mt19937 rng(1);
   std::normal_distribution<double> n(0.0, 1.0);
   auto pose = [&] {
-    return Pose(math::exp_quat(Eigen::Vector3d(n(rng), n(rng), n(rng))), Eigen::Vector3d(n(rng), n(rng), n(rng)));
+    return Pose(math::exp_quat(Eigen::Vector3d(n(rng), n(rng), n(rng))),
+                Eigen::Vector3d(n(rng), n(rng), n(rng)));
   };
   Dataset d;
   d.manifest.name = "bench";
   const Timestamp t0 = 1'700'000'000'000'000'000LL;
   const auto dur = static_cast<Timestamp>(minutes * 60e9);
   for (Timestamp t = t0; t < t0 + dur; t += 5'000'000) {
-    d.imu.push_back({t, Eigen::Vector3d(n(rng), n(rng), n(rng)), Eigen::Vector3d(n(rng), n(rng), 9.81 + n(rng))});
+    d.imu.push_back(
+        {t, Eigen::Vector3d(n(rng), n(rng), n(rng)), Eigen::Vector3d(n(rng), n(rng), 9.81 + n(rng))});
     d.groundtruth.push_back({t, pose(), Eigen::Vector3d(n(rng), n(rng), n(rng)), Eigen::Vector3d::Zero(),
                              Eigen::Vector3d::Zero()});
   }
@@ -61,7 +63,8 @@ Dataset synthetic(double minutes) {
 }
 
 std::size_t rows(const Dataset& d) {
-  return d.imu.size() + d.groundtruth.size() + d.mocap.size() + d.frames.size() + d.detections.at("sim").size();
+  return d.imu.size() + d.groundtruth.size() + d.mocap.size() + d.frames.size() +
+         d.detections.at("sim").size();
 }
 
 std::uintmax_t folder_bytes(const fs::path& p) {
@@ -82,16 +85,18 @@ int main(int argc, char** argv) {
   const double t_read = best_of(3, [&] { back = io::read_dataset(dir); });
   const double mb = static_cast<double>(folder_bytes(dir)) / 1e6;
   std::printf("synthetic %.1f min: %zu rows, %.1f MB\n", minutes, rows(d), mb);
-  std::printf("  write_dataset: %.3f s (%.2f us/row, %.1f MB/s)\n", t_write, 1e6 * t_write / rows(d), mb / t_write);
-  std::printf("  read_dataset:  %.3f s (%.2f us/row, %.1f MB/s)\n", t_read, 1e6 * t_read / rows(back), mb / t_read);
+  std::printf("  write_dataset: %.3f s (%.2f us/row, %.1f MB/s)\n", t_write, 1e6 * t_write / rows(d),
+              mb / t_write);
+  std::printf("  read_dataset:  %.3f s (%.2f us/row, %.1f MB/s)\n", t_read, 1e6 * t_read / rows(back),
+              mb / t_read);
   fs::remove_all(dir);
 
   const fs::path gt = fs::path(ROE_SOURCE_DIR) / ".." / "shared" / "data" / "eval" / "V102_groundtruth.csv";
   if (fs::exists(gt)) {
     std::vector<ImuState> states;
     const double t = best_of(10, [&] { states = io::read_groundtruth_csv(gt); });
-    std::printf("real EuRoC V1_02 ground truth: %zu rows (17 columns) in %.2f ms (%.2f us/row)\n", states.size(),
-                1e3 * t, 1e6 * t / states.size());
+    std::printf("real EuRoC V1_02 ground truth: %zu rows (17 columns) in %.2f ms (%.2f us/row)\n",
+                states.size(), 1e3 * t, 1e6 * t / states.size());
   } else {
     std::printf("real EuRoC ground truth not found (skipped): %s\n", gt.c_str());
   }

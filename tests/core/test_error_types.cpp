@@ -54,7 +54,8 @@ TEST_CASE("core: seconds <-> nanoseconds", "[core][time]") {
   CHECK(from_seconds(0.999999999) == 999'999'999LL);
   CHECK(from_seconds(1e-10) == 0);
   // Stamps below 2^53 ns (~104 days) survive the round trip exactly...
-  for (Timestamp t : {Timestamp{1}, Timestamp{123'456'789}, Timestamp{86'400'000'000'001LL}, Timestamp{999'999'999'999'999LL}})
+  for (Timestamp t : {Timestamp{1}, Timestamp{123'456'789}, Timestamp{86'400'000'000'001LL},
+                      Timestamp{999'999'999'999'999LL}})
     CHECK(from_seconds(to_seconds(t)) == t);
   // ...epoch stamps (~1.4e18 ns) only to the double's resolution (~2^-22 s ≈ 238 ns): keep ns
   // integers internally and use dt_seconds for differences.

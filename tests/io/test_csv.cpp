@@ -1,9 +1,10 @@
+#include <unistd.h>
+
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
 #include <limits>
 #include <string>
-#include <unistd.h>
 
 #include "roe/io/csv.hpp"
 #include "roe/io/output.hpp"
@@ -283,8 +284,16 @@ TEST_CASE("csv: int range and file errors", "[csv]") {
 }
 
 TEST_CASE("csv: writer round-trips doubles exactly and is deterministic", "[csv]") {
-  const std::vector<double> values = {0.1,      1.0 / 3.0, -2.5e-300, 1e300, 6.02214076e23, -0.0, 0.0,
-                                      9.81,     1403715523.912140000, std::nextafter(1.0, 2.0),
+  const std::vector<double> values = {0.1,
+                                      1.0 / 3.0,
+                                      -2.5e-300,
+                                      1e300,
+                                      6.02214076e23,
+                                      -0.0,
+                                      0.0,
+                                      9.81,
+                                      1403715523.912140000,
+                                      std::nextafter(1.0, 2.0),
                                       std::numeric_limits<double>::denorm_min(),
                                       std::numeric_limits<double>::max()};
   CsvWriter w;
@@ -351,7 +360,8 @@ TEST_CASE("csv: decimal seconds to integer nanoseconds, exactly", "[csv][time]")
   CHECK(parse_seconds_ns("4e-11") == 0);
   CHECK(parse_seconds_ns("1.9999999999") == 2'000'000'000LL);
   // Not numbers / out of range.
-  for (const char* bad : {"", "-", ".", "abc", "1.5x", "1e", "1e+", "nan", "inf", "1..2", "1e5.5", "9.3e9", "--1"})
+  for (const char* bad :
+       {"", "-", ".", "abc", "1.5x", "1e", "1e+", "nan", "inf", "1..2", "1e5.5", "9.3e9", "--1"})
     CHECK_FALSE(parse_seconds_ns(bad).has_value());
   CHECK(parse_seconds_ns("9.2e9") == 9'200'000'000'000'000'000LL);
 

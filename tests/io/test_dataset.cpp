@@ -56,7 +56,8 @@ ConfigError expect_config_error(Fn&& fn) {
 
 Pose random_pose(std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
-  return Pose(math::exp_quat(Eigen::Vector3d(n(rng), n(rng), n(rng))), Eigen::Vector3d(n(rng), n(rng), n(rng)));
+  return Pose(math::exp_quat(Eigen::Vector3d(n(rng), n(rng), n(rng))),
+              Eigen::Vector3d(n(rng), n(rng), n(rng)));
 }
 
 bool same(const Pose& a, const Pose& b) { return a.q.coeffs() == b.q.coeffs() && a.p == b.p; }
@@ -68,7 +69,8 @@ Dataset make_dataset() {
   Dataset d;
   auto& m = d.manifest;
   m.name = "round trip, \"quoted\"";
-  m.sources.push_back({"simulate", "configs/sim/paper-seq4.json", std::string(64, 'a'), {{"seed", "1"}, {"x", "y"}}});
+  m.sources.push_back(
+      {"simulate", "configs/sim/paper-seq4.json", std::string(64, 'a'), {{"seed", "1"}, {"x", "y"}}});
   m.sources.push_back({"poet", "", "", {}});
   m.imu = ImuInfo{200.0, {1.6968e-4, 1.9393e-5, 2.0e-3, 3.0e-3}};
   CameraInfo c;
@@ -201,12 +203,14 @@ TEST_CASE("dataset: write then read gives identical structs and writing twice id
   CHECK(bytes_a.count("roe.json") == 1);
   CHECK(bytes_a.count("mav0/imu0/data.csv") == 1);
   CHECK(bytes_a.count("detections/empty/detections.csv") == 1);
-  CHECK(bytes_a.at("mav0/imu0/data.csv").rfind(
-            "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],a_RS_S_x [m s^-2],"
-            "a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n",
-            0) == 0);
-  CHECK(bytes_a.at("detections/sim/detections.csv").rfind("timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,score\n", 0) ==
-        0);
+  CHECK(
+      bytes_a.at("mav0/imu0/data.csv")
+          .rfind(
+              "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],a_RS_S_x [m s^-2],"
+              "a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n",
+              0) == 0);
+  CHECK(bytes_a.at("detections/sim/detections.csv")
+            .rfind("timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,score\n", 0) == 0);
   CHECK(bytes_a.at("detections/poet/detections.csv").find(",sigma_rz\n") != std::string::npos);
 
   // Writing what was read gives the same bytes again.
@@ -288,46 +292,89 @@ TEST_CASE("dataset: manifest schema errors name the key path", "[dataset][manife
   const std::vector<Case> cases = {
       {"unknown root key", [](json& j) { j["nmae"] = "typo"; }, "nmae", "unknown key"},
       {"unknown nested key",
-       [&](json& j) { j["mocap"] = {{"body", "b"}, {"T_B_I", pose}, {"offset", 1}}; }, "mocap.offset", "unknown key"},
+       [&](json& j) {
+         j["mocap"] = {{"body", "b"}, {"T_B_I", pose}, {"offset", 1}};
+       },
+       "mocap.offset", "unknown key"},
       {"unknown key in a pose",
        [&](json& j) {
-         j["truth"] = {{"T_I_C", pose}, {"objects", {{{"id", 1}, {"T_W_O", {{"p", {0, 0, 0}}, {"q", {0, 0, 0, 1}}, {"r", 1}}}}}}};
+         j["truth"] = {
+             {"T_I_C", pose},
+             {"objects", {{{"id", 1}, {"T_W_O", {{"p", {0, 0, 0}}, {"q", {0, 0, 0, 1}}, {"r", 1}}}}}}};
        },
        "truth.objects[0].T_W_O.r", "unknown key"},
       {"unknown key in a source option holder",
-       [](json& j) { j["sources"] = {{{"kind", "sim"}, {"sha", "x"}}}; }, "sources[0].sha", "unknown key"},
+       [](json& j) {
+         j["sources"] = {{{"kind", "sim"}, {"sha", "x"}}};
+       },
+       "sources[0].sha", "unknown key"},
       {"non-unit quaternion",
        [](json& j) {
-         j["camera"] = {{"width", 640}, {"height", 480}, {"fx", 1.0}, {"fy", 1.0}, {"cx", 0.0}, {"cy", 0.0},
+         j["camera"] = {{"width", 640},
+                        {"height", 480},
+                        {"fx", 1.0},
+                        {"fy", 1.0},
+                        {"cx", 0.0},
+                        {"cy", 0.0},
                         {"T_I_C", {{"p", {0, 0, 0}}, {"q", {0, 0, 0, 1.00001}}}}};
        },
        "camera.T_I_C.q", "not unit norm"},
       {"quaternion with three entries",
-       [](json& j) { j["mocap"] = {{"T_B_I", {{"p", {0, 0, 0}}, {"q", {0, 0, 1}}}}}; }, "mocap.T_B_I.q",
-       "array of 4"},
+       [](json& j) {
+         j["mocap"] = {{"T_B_I", {{"p", {0, 0, 0}}, {"q", {0, 0, 1}}}}};
+       },
+       "mocap.T_B_I.q", "array of 4"},
       {"quaternion entry not a number",
-       [](json& j) { j["mocap"] = {{"T_B_I", {{"p", {0, "0", 0}}, {"q", {0, 0, 0, 1}}}}}; }, "mocap.T_B_I.p[1]",
-       "expected a number"},
-      {"wrong type int", [](json& j) { j["camera"] = {{"width", "640"}}; }, "camera.width", "expected an integer"},
+       [](json& j) {
+         j["mocap"] = {{"T_B_I", {{"p", {0, "0", 0}}, {"q", {0, 0, 0, 1}}}}};
+       },
+       "mocap.T_B_I.p[1]", "expected a number"},
+      {"wrong type int",
+       [](json& j) {
+         j["camera"] = {{"width", "640"}};
+       },
+       "camera.width", "expected an integer"},
       {"wrong type object", [](json& j) { j["imu"] = 200; }, "imu", "expected a JSON object"},
-      {"wrong type bool", [](json& j) { j["objects"] = {{{"id", 1}, {"symmetric", 1}}}; }, "objects[0].symmetric",
-       "expected true or false"},
+      {"wrong type bool",
+       [](json& j) {
+         j["objects"] = {{{"id", 1}, {"symmetric", 1}}};
+       },
+       "objects[0].symmetric", "expected true or false"},
       {"array element not an object", [](json& j) { j["objects"] = json::array({1}); }, "objects[0]",
        "expected a JSON object"},
-      {"object instead of array", [](json& j) { j["objects"] = {{"id", 1}}; }, "objects", "expected an array"},
-      {"source option not a string", [](json& j) { j["sources"] = {{{"kind", "sim"}, {"options", {{"seed", 1}}}}}; },
+      {"object instead of array",
+       [](json& j) {
+         j["objects"] = {{"id", 1}};
+       },
+       "objects", "expected an array"},
+      {"source option not a string",
+       [](json& j) {
+         j["sources"] = {{{"kind", "sim"}, {"options", {{"seed", 1}}}}};
+       },
        "sources[0].options.seed", "expected a string"},
-      {"missing required", [](json& j) { j["imu"] = {{"gyro_noise_density", 1e-4}}; }, "imu.rate_hz",
-       "missing required key"},
-      {"negative noise", [](json& j) { j["imu"] = {{"rate_hz", 200}, {"accel_random_walk", -1.0}}; },
+      {"missing required",
+       [](json& j) {
+         j["imu"] = {{"gyro_noise_density", 1e-4}};
+       },
+       "imu.rate_hz", "missing required key"},
+      {"negative noise",
+       [](json& j) {
+         j["imu"] = {{"rate_hz", 200}, {"accel_random_walk", -1.0}};
+       },
        "imu.accel_random_walk", "must be >= 0"},
-      {"duplicate object id", [](json& j) { j["objects"] = {{{"id", 1}}, {{"id", 1}}}; }, "objects[1].id",
-       "duplicate object id"},
+      {"duplicate object id",
+       [](json& j) {
+         j["objects"] = {{{"id", 1}}, {{"id", 1}}};
+       },
+       "objects[1].id", "duplicate object id"},
       {"wrong schema", [](json& j) { j["schema"] = "roe-dataset/2"; }, "schema", "unsupported schema"},
       {"missing schema", [](json& j) { j.erase("schema"); }, "schema", "missing required key"},
-      {"truth pose missing", [](json& j) { j["truth"] = json::object(); }, "truth.T_I_C", "missing required key"},
+      {"truth pose missing", [](json& j) { j["truth"] = json::object(); }, "truth.T_I_C",
+       "missing required key"},
       {"detection noise not a number",
-       [&](json& j) { j["truth"] = {{"T_I_C", pose}, {"detection_noise", {{"tau_s", "0.3"}}}}; },
+       [&](json& j) {
+         j["truth"] = {{"T_I_C", pose}, {"detection_noise", {{"tau_s", "0.3"}}}};
+       },
        "truth.detection_noise.tau_s", "expected a number"},
   };
   for (const auto& c : cases) {
@@ -376,8 +423,10 @@ TEST_CASE("dataset: stream readers reject malformed rows with line and column", 
   CHECK(e.context().column == 3);
 
   // mocap: quaternion far from unit → error at the first quaternion column.
-  write_text(f, "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n"
-                "1,0,0,0,1,0,0,0\n2,0,0,0,0.5,0,0,0\n");
+  write_text(
+      f,
+      "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n"
+      "1,0,0,0,1,0,0,0\n2,0,0,0,0.5,0,0,0\n");
   e = expect_input_error([&] { io::read_mocap_csv(f); });
   CHECK(e.context().line == 3);
   CHECK(e.context().column == 5);
@@ -399,8 +448,9 @@ TEST_CASE("dataset: detections.csv rules", "[dataset][detections]") {
   TempDir tmp("det");
   const fs::path f = tmp.path / "detections.csv";
   const std::string h = "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,score\n";
-  const std::string hs = "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,score,sigma_tx,sigma_ty,sigma_tz,sigma_rx,"
-                         "sigma_ry,sigma_rz\n";
+  const std::string hs =
+      "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,score,sigma_tx,sigma_ty,sigma_tz,sigma_rx,"
+      "sigma_ry,sigma_rz\n";
 
   write_text(f, h + "10,1,0.1,0.2,1.5,0,0,0,1,0.9\n10,2,0,0,1,0,0,0,1,\n20,1,0,0,1,0,0,1,0,0.5\n");
   auto dets = io::read_detections_csv(f);

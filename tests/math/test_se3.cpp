@@ -46,7 +46,8 @@ TEST_CASE("se3: compose, inverse and act identities", "[se3]") {
   const Pose from_R(Matrix3d(Eigen::AngleAxisd(0.3, Vector3d::UnitY())), Vector3d(1, 2, 3));
   Quaterniond q(2.0, 0.0, 0.0, 0.0);
   CHECK(Pose(q, Vector3d::Zero()).q.w() == 1.0);
-  CHECK(pose_dist(from_R, Pose(Quaterniond(Eigen::AngleAxisd(0.3, Vector3d::UnitY())), Vector3d(1, 2, 3))) < 1e-15);
+  CHECK(pose_dist(from_R, Pose(Quaterniond(Eigen::AngleAxisd(0.3, Vector3d::UnitY())), Vector3d(1, 2, 3))) <
+        1e-15);
 }
 
 TEST_CASE("se3: pose_difference", "[se3]") {
@@ -92,7 +93,8 @@ TEST_CASE("se3: interpolate endpoints, midpoint and shortest arc", "[se3][interp
 TEST_CASE("interpolate_pose_at: samples, between samples, no extrapolation, gaps", "[interpolate]") {
   std::mt19937 rng(24);
   std::vector<StampedPose> seq;
-  for (int i = 0; i < 20; ++i) seq.push_back({1'000'000'000LL + i * 10'000'000LL + (i > 10 ? 50'000'000LL : 0), random_pose(rng)});
+  for (int i = 0; i < 20; ++i)
+    seq.push_back({1'000'000'000LL + i * 10'000'000LL + (i > 10 ? 50'000'000LL : 0), random_pose(rng)});
   // Exactly at samples: the sample itself.
   for (const auto& s : seq) {
     auto T = interpolate_pose_at(seq, s.t_ns);

@@ -10,8 +10,8 @@ using roe::test::rotation_samples;
 
 namespace {
 
-constexpr double kFdStep = 1e-6;       // central-difference step (rad)
-constexpr double kFdTol = 1e-7;        // Jacobian tolerance vs central differences
+constexpr double kFdStep = 1e-6;         // central-difference step (rad)
+constexpr double kFdTol = 1e-7;          // Jacobian tolerance vs central differences
 constexpr double kRoundTripTol = 1e-12;  // rad (relative below 1e-3 rad), Log∘Exp
 
 // Numeric Jacobian of f: R^3 → R^3 at 0 by central differences.
