@@ -1,0 +1,326 @@
+// roe eval at the app level: a synthetic run folder (trajectory.csv + reprojection.csv + states.csv)
+// against a synthetic dataset folder (roe.json with mocap T_B_I and time offset + mocap0), the
+// output files, per-object traces, NEES, error paths, and --summary.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "roe/app/eval.hpp"
+#include "roe/core/error.hpp"
+#include "roe/io/dataset.hpp"
+#include "roe/io/json.hpp"
+#include "roe/io/trajectory_io.hpp"
+#include "roe/math/euler.hpp"
+
+using namespace roe;
+namespace fs = std::filesystem;
+using Eigen::Vector3d;
+
+namespace {
+
+struct Fixture {
+  fs::path root;
+  fs::path dataset, run;
+  Pose T_B_I;  // mocap body -> IMU
+  Pose T_W_M;  // the run's world vs the mocap world
+  double offset_s = 0.05;
+  Timestamp t0 = 1'700'000'000'000'000'000LL;
+
+  explicit Fixture(const std::string& name, bool with_noise = true, bool straight = false) {
+    root = fs::temp_directory_path() / ("roe_test_eval_" + name);
+    fs::remove_all(root);
+    dataset = root / "dataset";
+    run = root / "run";
+    fs::create_directories(dataset);
+    fs::create_directories(run);
+    T_B_I =
+        Pose(Eigen::Quaterniond(math::from_euler_zyx(Vector3d(0.1, -0.2, 0.3))), Vector3d(0.02, -0.01, 0.05));
+    T_W_M = Pose(Eigen::Quaterniond(math::from_euler_zyx(Vector3d(0.0, 0.0, 1.0))), Vector3d(1.0, 2.0, -0.5));
+
+    // Mocap at 100 Hz: T_M_B(t). The IMU pose truth is T_M_I = T_M_B T_B_I at t_imu = t_mocap + offset.
+    std::vector<StampedPose> mocap;
+    const auto truth_imu = [&](double s) {
+      const Vector3d p = straight ? Vector3d(0.5 * s, 0.25 * s, 0.1 * s)
+                                  : Vector3d(std::cos(0.5 * s), std::sin(0.7 * s), 0.3 * std::sin(0.3 * s));
+      return Pose(Eigen::Quaterniond(math::from_euler_zyx(Vector3d(0.2 * std::sin(s), 0.1 * s, 0.4 * s))), p);
+    };
+    for (int i = 0; i <= 2000; ++i) {
+      const double s = 0.01 * i;
+      mocap.push_back({t0 + i * 10'000'000LL, truth_imu(s + offset_s) * T_B_I.inverse()});
+    }
+    io::write_mocap_csv(dataset / "mav0/mocap0/data.csv", mocap);
+    DatasetManifest m;
+    m.name = "synthetic";
+    m.mocap = MocapInfo{"rig", T_B_I, offset_s};
+    io::write_manifest(m, dataset / "roe.json");
+
+    // Run: T_W_I at 20 Hz in the run's world (T_W_M · T_M_I), with alternating errors.
+    std::vector<Timestamp> t;
+    std::vector<Pose> est;
+    for (int i = 0; i < 380; ++i) {
+      const double s = 0.05 * i + 0.3;
+      Pose T = T_W_M * truth_imu(s + offset_s);
+      if (with_noise) {
+        const double sign = (i % 2 == 0) ? 1.0 : -1.0;
+        T.p += T_W_M.q * Vector3d(0.01 * sign, 0.0, 0.0);
+        T.q = T.q * Eigen::Quaterniond(Eigen::AngleAxisd(sign * 1.0 * math::kRadPerDeg, Vector3d::UnitZ()));
+      }
+      t.push_back(t0 + static_cast<Timestamp>(std::llround(s * 1e9)) +
+                  static_cast<Timestamp>(offset_s * 1e9));
+      est.push_back(T);
+    }
+    io::write_trajectory(run / "trajectory.csv", t, est, io::TrajectoryFormat::kCsv);
+    // reprojection.csv: object 1 exact, object 2 offset by 0.1 m in x (run world); statuses mixed.
+    std::ofstream rep(run / "reprojection.csv");
+    rep << "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis\n";
+    std::ofstream st(run / "states.csv");
+    st << "timestamp_ns,p_W_I_x,p_W_I_y,p_W_I_z,sigma_p_W_I_x,sigma_p_W_I_y,sigma_p_W_I_z,sigma_theta_W_I_x,"
+          "sigma_theta_W_I_y,sigma_theta_W_I_z\n";
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      const Pose truth = T_W_M * truth_imu(0.05 * static_cast<double>(i) + 0.3 + offset_s);
+      for (int obj : {1, 2}) {
+        Pose T = truth;
+        if (obj == 2) T.p += Vector3d(0.1, 0, 0);
+        const char* status = (obj == 2 && i % 4 == 0) ? "rejected_chi2" : "accepted";
+        rep << t[i] << "," << obj << "," << fmt(T.p.x()) << "," << fmt(T.p.y()) << "," << fmt(T.p.z()) << ","
+            << fmt(T.q.x()) << "," << fmt(T.q.y()) << "," << fmt(T.q.z()) << "," << fmt(T.q.w()) << ","
+            << status << ",1.5\n";
+      }
+      st << t[i] << "," << fmt(est[i].p.x()) << "," << fmt(est[i].p.y()) << "," << fmt(est[i].p.z())
+         << ",0.01,0.01,0.01," << fmt(1.0 * math::kRadPerDeg) << "," << fmt(1.0 * math::kRadPerDeg) << ","
+         << fmt(1.0 * math::kRadPerDeg) << "\n";
+    }
+  }
+  ~Fixture() { fs::remove_all(root); }
+  static std::string fmt(double v) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.17g", v);
+    return b;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("roe eval: run folder vs dataset (mocap with T_B_I and time offset)", "[app][eval]") {
+  Fixture f("run");
+  app::EvalOptions o;
+  o.est = f.run.string();
+  o.gt = f.dataset.string();
+  const app::EvalResult r = app::run_eval(o);
+  const auto& j = r.report;
+  // every estimate pose has a mocap stamp within 10 ms (mocap at 100 Hz, shifted by the offset)
+  CHECK(j["association"]["n_matched"] == 380);
+  CHECK(j["association"]["max_abs_dt_s"].get<double>() < 1e-6);
+  // the alignment recovers T_M_W = T_W_M⁻¹ (noise is symmetric)
+  const Eigen::Matrix3d R_expected = f.T_W_M.inverse().R();
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      CHECK(j["alignment"]["R"][a][b].get<double>() == Approx(R_expected(a, b)).margin(2e-3));
+  CHECK(j["alignment"]["scale"] == 1.0);
+  // per-axis: the injected ±1 cm in the estimate's x (world frame rotated by R_W_M) and ±1° local yaw
+  const auto& pa = j["per_axis"];
+  const double ex = pa["pos_rmse_m"]["x"].get<double>(), ey = pa["pos_rmse_m"]["y"].get<double>();
+  CHECK(std::hypot(ex, ey) == Approx(0.01).epsilon(0.05));
+  CHECK(pa["pos_rmse_m"]["z"].get<double>() < 1e-3);
+  CHECK(pa["rpy_rmse_deg"]["yaw"].get<double>() == Approx(1.0).epsilon(0.01));
+  CHECK(pa["rpy_rmse_deg"]["roll"].get<double>() < 0.05);
+  CHECK(j["ape_rot_deg"]["max"].get<double>() == Approx(1.0).epsilon(0.01));
+  // NEES from states.csv: e_p ≈ 1 cm with σ = 1 cm per axis → ~1; rotation 1° with σ = 1° → ~1
+  REQUIRE(j["consistency"]["available"] == true);
+  CHECK(j["consistency"]["anees_p"].get<double>() == Approx(1.0).epsilon(0.1));
+  CHECK(j["consistency"]["anees_r"].get<double>() == Approx(1.0).epsilon(0.05));
+  // per-object traces: object 1 exact, object 2 off by 10 cm (rotated into the GT frame)
+  REQUIRE(j["per_object"].size() == 2);
+  const auto& o1 = j["per_object"][0];
+  const auto& o2 = j["per_object"][1];
+  CHECK(o1["object_id"] == 1);
+  CHECK(o1["n_detections"] == 380);
+  CHECK(o1["all"]["ape_trans_rmse_m"].get<double>() < 2e-3);
+  CHECK(o2["all"]["ape_trans_rmse_m"].get<double>() == Approx(0.1).epsilon(0.03));
+  CHECK(o2["counts"]["rejected_chi2"] == 95);
+  CHECK(o2["counts"]["accepted"] == 285);
+  CHECK(o2["accepted"]["n"] == 285);
+  // files
+  const fs::path out = f.run / "eval";
+  REQUIRE(r.out == out);
+  for (const char* name :
+       {"est_matched_aligned.csv", "gt_matched.csv", "errors.csv", "err_matched_aligned.csv", "summary.csv",
+        "report.json", "reprojection_aligned.csv", "per_object.csv", "est_matched_aligned.tum",
+        "gt_matched.tum"})
+    CHECK(fs::exists(out / name));
+  const io::Trajectory aligned = io::read_trajectory(out / "est_matched_aligned.csv");
+  CHECK(aligned.size() == 380);
+  const io::Trajectory gtm = io::read_trajectory(out / "gt_matched.csv");
+  CHECK(gtm.size() == 380);
+  CHECK((aligned.poses[10].p - gtm.poses[10].p).norm() < 0.02);
+  const io::Trajectory err = io::read_trajectory(out / "err_matched_aligned.csv");  // cnspy PoseTypedStamped
+  CHECK(err.size() == 380);
+  const auto rj = io::parse_json_file(out / "report.json");
+  for (const char* key : {"info", "association", "alignment", "ape_trans_m", "ape_rot_deg", "per_axis",
+                          "cnspy", "consistency", "per_object"})
+    CHECK(rj.contains(key));
+  for (const char* key : {"rmse", "mean", "median", "std", "min", "max", "sse"})
+    CHECK(rj["ape_trans_m"].contains(key));
+  // human text mentions the per-object table
+  const std::string text = r.to_text();
+  CHECK(text.find("per object") != std::string::npos);
+  CHECK(text.find("rejected_chi2 95") != std::string::npos);
+
+  // Running again without --force refuses to replace the output; with force it works.
+  CHECK_THROWS_AS(app::run_eval(o), InputError);
+  o.force = true;
+  CHECK_NOTHROW(app::run_eval(o));
+
+  // Without the mocap time offset the association still finds pairs but the errors grow: the offset
+  // and T_B_I from roe.json are what make the result exact.
+  SECTION("ignoring the dataset's T_B_I shows up in the errors") {
+    app::EvalOptions o2 = o;
+    o2.gt = (f.dataset / "mav0/mocap0/data.csv").string();
+    o2.no_out = true;
+    o2.t_offset_s = -f.offset_s;
+    const auto r2 = app::run_eval(o2);
+    CHECK(r2.report["ape_trans_m"]["rmse"].get<double>() > 0.02);
+  }
+}
+
+TEST_CASE("roe eval: alignment variants and options", "[app][eval]") {
+  Fixture f("variants", false);
+  app::EvalOptions o;
+  o.est = f.run.string();
+  o.gt = f.dataset.string();
+  o.no_out = true;
+  for (const char* a : {"se3", "sim3", "posyaw", "origin"}) {
+    o.align = a;
+    const auto r = app::run_eval(o);
+    INFO(a);
+    if (std::string(a) == "posyaw") {
+      // T_W_M is a pure yaw + translation: posyaw recovers it exactly as well
+      CHECK(r.report["ape_trans_m"]["rmse"].get<double>() < 1e-6);
+    } else {
+      CHECK(r.report["ape_trans_m"]["rmse"].get<double>() < 1e-6);
+      CHECK(r.report["ape_rot_deg"]["rmse"].get<double>() < 1e-4);
+    }
+  }
+  o.align = "none";
+  CHECK(app::run_eval(o).report["ape_trans_m"]["rmse"].get<double>() > 0.5);
+  o.align = "se3";
+  o.n_align = 10;
+  CHECK(app::run_eval(o).report["alignment"]["n_aligned"] == 10);
+  o.n_align = 0;
+  CHECK_THROWS_AS(app::run_eval(o), InputError);
+  o.n_align = -1;
+  o.align = "affine";
+  CHECK_THROWS_AS(app::run_eval(o), InputError);
+  o.align = "se3";
+  o.assoc = "unique";
+  CHECK(app::run_eval(o).report["association"]["policy"] == "unique");
+  o.assoc = "nearest";
+  o.plot = true;  // --plot without an output folder
+  CHECK_THROWS_AS(app::run_eval(o), InputError);
+}
+
+TEST_CASE("roe eval: error paths", "[app][eval]") {
+  Fixture f("errors");
+  app::EvalOptions o;
+  o.est = f.run.string();
+  o.gt = f.dataset.string();
+  o.no_out = true;
+  SECTION("no match: the message gives both ranges and a hint") {
+    o.t_offset_s = 1000.0;
+    try {
+      app::run_eval(o);
+      FAIL("no error");
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      CHECK(m.find("span") != std::string::npos);
+      CHECK(m.find("--t-offset") != std::string::npos);
+    }
+  }
+  SECTION("missing inputs") {
+    o.gt = (f.root / "nope").string();
+    CHECK_THROWS_AS(app::run_eval(o), InputError);
+    o.gt = f.root.string();  // a folder without ground truth
+    CHECK_THROWS_AS(app::run_eval(o), InputError);
+    o.gt = f.dataset.string();
+    o.est = f.dataset.string();  // a folder without trajectory.csv
+    CHECK_THROWS_AS(app::run_eval(o), InputError);
+  }
+  SECTION("malformed reprojection.csv names line and column") {
+    std::ofstream(f.run / "reprojection.csv")
+        << "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis\n"
+        << "1,1,0,0,0,0,0,0,1,accepted,1\n2,x,0,0,0,0,0,0,1,accepted,1\n";
+    try {
+      app::run_eval(o);
+      FAIL("no error");
+    } catch (const InputError& e) {
+      CHECK(e.context().line == 3);
+      CHECK(e.context().column == 2);
+    }
+  }
+}
+
+TEST_CASE("roe eval: degenerate (straight-line) trajectory is refused for se3, fine for origin",
+          "[app][eval]") {
+  Fixture f("straight", false, true);
+  app::EvalOptions o;
+  o.est = f.run.string();
+  o.gt = f.dataset.string();
+  o.no_out = true;
+  CHECK_THROWS_AS(app::run_eval(o), eval::DegenerateAlignmentError);
+  o.align = "origin";
+  CHECK(app::run_eval(o).report["ape_trans_m"]["rmse"].get<double>() < 1e-6);
+}
+
+TEST_CASE("roe eval --summary: rows, mean and population std", "[app][eval]") {
+  Fixture f("summary");
+  std::vector<std::string> reports;
+  for (int k = 0; k < 3; ++k) {
+    app::EvalOptions o;
+    o.est = f.run.string();
+    o.gt = f.dataset.string();
+    o.out = (f.root / ("eval" + std::to_string(k))).string();
+    o.label = "run" + std::to_string(k);
+    o.n_align = 50 + 100 * k;  // different results per "run"
+    app::run_eval(o);
+    reports.push_back(o.out);  // a folder containing report.json is accepted
+  }
+  app::EvalSummaryOptions so;
+  so.reports = reports;
+  so.out = (f.root / "table.csv").string();
+  const auto s = app::summarize_eval_reports(so);
+  REQUIRE(s.summary["runs"].size() == 3);
+  double mean = 0.0, var = 0.0;
+  std::vector<double> xs;
+  for (const auto& r : s.summary["runs"]) xs.push_back(r["rmse_x_m"].get<double>());
+  for (double x : xs) mean += x / 3.0;
+  for (double x : xs) var += (x - mean) * (x - mean) / 3.0;
+  CHECK(s.summary["mean"]["rmse_x_m"].get<double>() == Approx(mean));
+  CHECK(s.summary["std"]["rmse_x_m"].get<double>() == Approx(std::sqrt(var)));
+  CHECK(s.summary["runs"][1]["label"] == "run1");
+  CHECK(s.summary["runs"][0]["n_objects"] == 2);
+  CHECK(s.markdown.find("| mean |") != std::string::npos);
+  CHECK(s.markdown.find("± std") != std::string::npos);
+  for (const char* ext : {".csv", ".json", ".md"}) CHECK(fs::exists(f.root / (std::string("table") + ext)));
+  CHECK_THROWS_AS(app::summarize_eval_reports(so), InputError);  // exists, no force
+  so.force = true;
+  CHECK_NOTHROW(app::summarize_eval_reports(so));
+  so.reports = {(f.root / "table.json").string()};  // not a report
+  CHECK_THROWS_AS(app::summarize_eval_reports(so), InputError);
+}
+
+TEST_CASE("roe eval --plot renders PNGs when matplotlib is available", "[app][eval][plot]") {
+  Fixture f("plot");
+  app::EvalOptions o;
+  o.est = f.run.string();
+  o.gt = f.dataset.string();
+  o.plot = true;
+  const auto r = app::run_eval(o);
+  if (r.report["plots"]["ok"] != true) {
+    WARN("skipped: " << r.plot_status);
+    return;
+  }
+  for (const char* p : {"trajectory_top.png", "xyz.png", "rpy.png", "errors.png"})
+    CHECK(fs::file_size(f.run / "eval/plots" / p) > 10000);
+  CHECK_FALSE(fs::exists(f.run / "eval/.plot_eval.py"));
+}
