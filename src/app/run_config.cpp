@@ -49,6 +49,10 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
   {
     JsonObject f = root.child("filter");
     ekf::FilterOptions& o = c.filter;
+    std::string frame = ekf::to_string(o.residual_frame);
+    f.get("residual_frame", frame);
+    if (!ekf::parse_residual_frame(frame, o.residual_frame))
+      fail(f, "residual_frame", "must be \"object\" (paper: T_O_C) or \"camera\" (T_C_O)");
     positive(f, "meas_sigma_p_m", o.meas_sigma_p_m);
     positive(f, "meas_sigma_rot_deg", o.meas_sigma_rot_deg);
     f.get("use_detection_sigmas", o.use_detection_sigmas);
@@ -109,6 +113,7 @@ json run_config_to_json(const RunConfig& c) {
   const ekf::FilterOptions& o = c.filter;
   const auto v3 = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
   json f = {
+      {"residual_frame", ekf::to_string(o.residual_frame)},
       {"meas_sigma_p_m", o.meas_sigma_p_m},
       {"meas_sigma_rot_deg", o.meas_sigma_rot_deg},
       {"use_detection_sigmas", o.use_detection_sigmas},

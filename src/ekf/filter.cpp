@@ -40,6 +40,15 @@ bool parse_anchor_gauge(const std::string& s, AnchorGauge& out) {
   return false;
 }
 
+std::string to_string(ResidualFrame f) { return f == ResidualFrame::kObject ? "object" : "camera"; }
+
+bool parse_residual_frame(const std::string& s, ResidualFrame& out) {
+  if (s == "object") out = ResidualFrame::kObject;
+  else if (s == "camera") out = ResidualFrame::kCamera;
+  else return false;
+  return true;
+}
+
 std::string to_string(DetectionStatus s) {
   switch (s) {
     case DetectionStatus::kAccepted: return "accepted";
@@ -222,6 +231,20 @@ void Filter::build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) cons
     }
   }
   b.nc = c;
+  if (opt_.residual_frame == ResidualFrame::kCamera) {
+    // Residual on T_C_O = ẑ⁻¹ (translation additive, rotation left error) and H = J_inv H with
+    //   δt = −R_C_O δp_O_C + [t̂]× ε,  δθ_C = −ε   (ε the right error of R_O_C).
+    const Pose zc_hat = pr.T_O_C_hat.inverse();
+    const Pose zc = z.inverse();
+    b.r.head<3>() = zc.p - zc_hat.p;
+    // left error q ⊗ q̂⁻¹ (quat_residual(a, b) forms a⁻¹ ⊗ b)
+    b.r.tail<3>() = math::quat_residual(zc.q.conjugate(), zc_hat.q.conjugate());
+    const Mat3 R_C_O = zc_hat.R();
+    Eigen::Matrix<double, 6, 18> Hc;
+    Hc.topRows<3>().noalias() = -R_C_O * b.H.topRows<3>() + skew(zc_hat.p) * b.H.bottomRows<3>();
+    Hc.bottomRows<3>() = -b.H.bottomRows<3>();
+    b.H = Hc;
+  }
 }
 
 void Filter::measurement_jacobian(int object_id, const Pose& z, Vec6& r, Eigen::MatrixXd& H) const {
@@ -234,14 +257,20 @@ void Filter::measurement_jacobian(int object_id, const Pose& z, Vec6& r, Eigen::
   for (int j = 0; j < b.nc; ++j) H.col(b.idx[j]) += b.H.col(j);
 }
 
-Mat6 Filter::measurement_covariance(const Detection& d, const Pose& z) const {
-  (void)z;
-  if (opt_.use_detection_sigmas && d.sigma.has_value())
-    return detection_covariance_in_residual_frame(d.T_C_O, *d.sigma);
-  Mat6 R = Mat6::Zero();
+Mat6 Filter::measurement_covariance(const Detection& d, bool object_frame) const {
+  Vec6 sigma;
   const double sp = opt_.meas_sigma_p_m, sr = opt_.meas_sigma_rot_deg * math::kRadPerDeg;
-  R.diagonal() << sp * sp, sp * sp, sp * sp, sr * sr, sr * sr, sr * sr;
-  return R;
+  sigma << sp, sp, sp, sr, sr, sr;
+  const bool per_detection = opt_.use_detection_sigmas && d.sigma.has_value();
+  if (per_detection) sigma = *d.sigma;
+  // Camera-frame σ (per detection, or the fixed σ with kCamera): diagonal in the camera frame,
+  // mapped through the inversion when the object frame is wanted.
+  if (per_detection || opt_.residual_frame == ResidualFrame::kCamera) {
+    if (object_frame) return detection_covariance_in_residual_frame(d.T_C_O, sigma);
+    return Mat6(sigma.cwiseProduct(sigma).asDiagonal());
+  }
+  // Fixed σ in the object frame (the paper): diagonal there.
+  return Mat6(sigma.cwiseProduct(sigma).asDiagonal());
 }
 
 Eigen::MatrixXd Filter::gauge_generator() const {
@@ -395,7 +424,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
   // The anchor's first sight fixes the gauge before anything else uses this frame.
   if (anchor_det >= 0 && object(anchor_id_) == nullptr) {
     const Detection& d = dets[anchor_det];
-    initialize_object(d.object_id, z[anchor_det], measurement_covariance(d, z[anchor_det]), true);
+    initialize_object(d.object_id, z[anchor_det], measurement_covariance(d, true), true);
     res.detections[anchor_det].status = DetectionStatus::kInitialized;
     usable[anchor_det] = false;
   }
@@ -415,7 +444,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     b.det = static_cast<int>(i);
     b.obj = static_cast<int>(o - objects_.data());
     build_block(*o, z[i], b);
-    b.R = measurement_covariance(dets[i], z[i]);
+    b.R = measurement_covariance(dets[i], opt_.residual_frame == ResidualFrame::kObject);
     blocks_.push_back(b);
   }
 
@@ -496,7 +525,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
   // First sight of the other objects, from the posterior.
   for (int i : new_objects) {
     const Detection& d = dets[i];
-    initialize_object(d.object_id, z[i], measurement_covariance(d, z[i]), false);
+    initialize_object(d.object_id, z[i], measurement_covariance(d, true), false);
     res.detections[i].status = DetectionStatus::kInitialized;
   }
   implied();

@@ -199,8 +199,9 @@ TEST_CASE("per-detection sigmas are mapped through the T_C_O inversion", "[ekf][
 namespace {
 
 // A filter with objects 1 (anchor), 2 and 3 initialised and a non-trivial state.
-Filter make_filter(AnchorGauge gauge, bool extrinsics) {
+Filter make_filter(AnchorGauge gauge, bool extrinsics, ResidualFrame frame = ResidualFrame::kObject) {
   FilterOptions opt;
+  opt.residual_frame = frame;
   opt.anchor_id = 1;
   opt.anchor_gauge = gauge;
   opt.estimate_extrinsics = extrinsics;
@@ -227,16 +228,28 @@ Filter make_filter(AnchorGauge gauge, bool extrinsics) {
 }  // namespace
 
 TEST_CASE("full H of the filter equals finite differences, incl. zero and anchor blocks", "[ekf][jacobian]") {
-  for (AnchorGauge gauge : {AnchorGauge::kPose, AnchorGauge::kPositionYaw}) {
+  for (AnchorGauge gauge : {AnchorGauge::kPose, AnchorGauge::kPosition, AnchorGauge::kPositionYaw}) {
     for (bool extr : {true, false}) {
-      Filter f = make_filter(gauge, extr);
+     for (ResidualFrame frame : {ResidualFrame::kObject, ResidualFrame::kCamera}) {
+      Filter f = make_filter(gauge, extr, frame);
+      // The predicted measurement and its error in the residual frame: T_O_C (additive p, right
+      // rotation error) or T_C_O (additive t, left rotation error).
+      const auto diff = [frame](const Pose& a, const Pose& b) {
+        if (frame == ResidualFrame::kObject) return pose_minus(a, b);
+        const Pose ai = a.inverse(), bi = b.inverse();
+        Vec6 d;
+        d.head<3>() = ai.p - bi.p;
+        d.tail<3>() = log_quat(ai.q * bi.q.conjugate());
+        return d;
+      };
       REQUIRE(f.objects().size() == 3);
-      const int expect_dim = 15 + (extr ? 6 : 0) + (gauge == AnchorGauge::kPose ? 0 : 2) + 12;
+      const int anchor_dim = gauge == AnchorGauge::kPose ? 0 : gauge == AnchorGauge::kPosition ? 3 : 2;
+      const int expect_dim = 15 + (extr ? 6 : 0) + anchor_dim + 12;
       REQUIRE(f.dim() == expect_dim);
       const ObjectEntry* anchor = f.object(1);
       REQUIRE(anchor != nullptr);
       CHECK(anchor->anchor);
-      CHECK(anchor->dim == (gauge == AnchorGauge::kPose ? 0 : 2));
+      CHECK(anchor->dim == anchor_dim);
       for (int id : {1, 2, 3}) {
         const Pose z = pose_plus(f.predict(id), (Vec6() << 0.05, -0.02, 0.03, 0.1, -0.05, 0.02).finished());
         Vec6 r;
@@ -252,11 +265,12 @@ TEST_CASE("full H of the filter equals finite differences, incl. zero and anchor
             Eigen::VectorXd d = Eigen::VectorXd::Zero(f.dim());
             d(i) = s == 0 ? eps : -eps;
             g.boxplus(d);
-            v[s] = pose_minus(g.predict(id), zh0);
+            v[s] = diff(g.predict(id), zh0);
           }
           Hn.col(i) = (v[0] - v[1]) / (2 * eps);
         }
-        INFO("gauge " << to_string(gauge) << " extrinsics " << extr << " object " << id);
+        INFO("gauge " << to_string(gauge) << " extrinsics " << extr << " frame " << to_string(frame) << " object "
+                      << id);
         CHECK((H - Hn).cwiseAbs().maxCoeff() < 1e-7);
         // Structural zeros: v, biases, every other object's block (incl. the anchor's two tilt
         // columns for a non-anchor detection), and for the anchor its fixed components.
@@ -267,15 +281,18 @@ TEST_CASE("full H of the filter equals finite differences, incl. zero and anchor
           CHECK(H.middleCols(o.offset, o.dim).cwiseAbs().maxCoeff() == 0.0);
           CHECK(Hn.middleCols(o.offset, o.dim).cwiseAbs().maxCoeff() < 1e-9);
         }
-        // Residual: the paper's.
-        CHECK((r - object_residual(zh0, z)).norm() == 0.0);
+        // Residual: the paper's, or its camera-frame form (to first order −diff(ẑ, z)).
+        if (frame == ResidualFrame::kObject) CHECK((r - object_residual(zh0, z)).norm() == 0.0);
+        else CHECK((r - diff(z, zh0)).norm() < 1e-3 * r.norm());
       }
+     }
     }
   }
 }
 
 TEST_CASE("gauge generator equals finite differences of a change of world frame", "[ekf][jacobian]") {
-  Filter f = make_filter(AnchorGauge::kPositionYaw, true);
+  for (AnchorGauge gauge : {AnchorGauge::kPosition, AnchorGauge::kPositionYaw}) {
+  Filter f = make_filter(gauge, true);
   const Eigen::MatrixXd G = f.gauge_generator();
   const double eps = 1e-6;
   const CoreState x = f.core();
@@ -296,7 +313,7 @@ TEST_CASE("gauge generator equals finite differences of a change of world frame"
         const Pose To = o.T_O_W * T_W_Wp;
         const Vec6 e = pose_minus(To, o.T_O_W);
         if (o.dim == 6) d.segment<6>(o.offset) = e;
-        else d.segment<2>(o.offset) = e.segment<2>(3);
+        else d.segment(o.offset, o.dim) = e.segment(3, o.dim);
       }
       v[s] = d;
     }
@@ -304,4 +321,5 @@ TEST_CASE("gauge generator equals finite differences of a change of world frame"
     INFO("gamma component " << i << "\nG " << G.col(i).transpose() << "\nnum " << col.transpose());
     CHECK((G.col(i) - col).cwiseAbs().maxCoeff() < 1e-7);
   }
+}
 }

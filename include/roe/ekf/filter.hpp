@@ -20,7 +20,8 @@
 /// the accumulated transition Φ = F_k⋯F_1 the next time it is needed (update, augmentation,
 /// covariance()). No heap allocation per IMU sample.
 ///
-/// Update per image: residual and H per detection of an initialised object, a χ² test per object on
+/// Update per image: residual and H per detection of an initialised object (the paper's T_O_C
+/// residual, or the same model with the residual formed on T_C_O, FilterOptions::residual_frame), a χ² test per object on
 /// its own 6x6 S_k = H_k P H_kᵀ + R_k, all inliers stacked into one update; K from an LDLT of S (no
 /// explicit inverse); Joseph form written as P + E Kᵀ + K Eᵀ with E = ½ K S − P Hᵀ (equal to
 /// (I−KH)P(I−KH)ᵀ + K R Kᵀ, only the lower triangle evaluated), then
@@ -112,7 +113,8 @@ class Filter {
   void boxplus(const Eigen::VectorXd& dx);
   /// Predicted T_O_C of an initialised object.
   Pose predict(int object_id) const;
-  /// Residual and the full 6 x dim() Jacobian H of one detection of an initialised object.
+  /// Residual and the full 6 x dim() Jacobian H of one detection of an initialised object, in the
+  /// configured residual frame (z is T_O_C).
   void measurement_jacobian(int object_id, const Pose& T_O_C_meas, Vec6& r, Eigen::MatrixXd& H) const;
   /// The generator of an infinitesimal change of W (γ = [t; φ]: x_W = Exp(φ) x_W' + t) acting on the
   /// current error state: δx' = δx + G γ (dim() x 6).
@@ -131,7 +133,9 @@ class Filter {
 
   void sync_cross_covariance();
   void build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) const;
-  Mat6 measurement_covariance(const Detection& d, const Pose& z) const;
+  /// Measurement noise of a detection in the update's residual frame, or (object_frame) in the
+  /// T_O_C frame used by the first-sight initialisation.
+  Mat6 measurement_covariance(const Detection& d, bool object_frame) const;
   void initialize_object(int id, const Pose& z, const Mat6& R, bool anchor);
   void check_state(const char* where) const;
   void check_covariance(bool full, const char* where);
