@@ -365,7 +365,9 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
 
   // ---- Camera model and frame processor ---------------------------------------------------------
   std::optional<image::FrameProcessor> proc;
-  if (!S.color_topic.empty()) {
+  if (!S.color_topic.empty() && !cam_info && !opt.images) {
+    S.warnings.push_back("no CameraInfo for the colour stream: no camera section written");
+  } else if (!S.color_topic.empty()) {
     if (!cam_info)
       throw InputError("no CameraInfo for the colour stream (expected on " +
                            (camera_info_topic.empty() ? std::string("<color>/camera_info") : camera_info_topic) + ")",

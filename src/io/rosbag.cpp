@@ -208,14 +208,19 @@ bool parse_connection(const Header& h, std::string_view data, Connection& c) {
 // Compression
 // ---------------------------------------------------------------------------------------------
 bool lz4_decompress(std::string_view in, std::size_t expected_size, std::string& out) {
-  out.resize(expected_size);
+  // The output grows with what the decoder actually produces (doubling up to expected_size), so a
+  // corrupt size field on a tiny chunk costs nothing: no up-front zero-filled allocation.
+  out.clear();
+  out.resize(std::min<std::size_t>(expected_size, 1u << 16));
   LZ4F_dctx* ctx = nullptr;
   if (LZ4F_isError(LZ4F_createDecompressionContext(&ctx, LZ4F_VERSION))) return false;
   std::size_t in_pos = 0, out_pos = 0;
   bool ok = true;
   while (true) {
+    if (out_pos == out.size() && out.size() < expected_size)
+      out.resize(std::min<std::size_t>(expected_size, 2 * out.size()));
     std::size_t src_size = in.size() - in_pos;
-    std::size_t dst_size = expected_size - out_pos;
+    std::size_t dst_size = out.size() - out_pos;
     const std::size_t r = LZ4F_decompress(ctx, out.data() + out_pos, &dst_size, in.data() + in_pos,
                                           &src_size, nullptr);
     if (LZ4F_isError(r)) {
@@ -224,9 +229,9 @@ bool lz4_decompress(std::string_view in, std::size_t expected_size, std::string&
     }
     in_pos += src_size;
     out_pos += dst_size;
-    if (r == 0) break;                                   // frame complete
-    if (src_size == 0 && dst_size == 0) {                // no progress: input exhausted or output full
-      ok = false;
+    if (r == 0) break;  // frame complete
+    if (src_size == 0 && dst_size == 0 && (in_pos == in.size() || out_pos == expected_size)) {
+      ok = false;  // input exhausted before the end of the frame, or more output than announced
       break;
     }
   }
@@ -246,14 +251,34 @@ std::string lz4_compress(std::string_view in) {
 }
 
 bool bz2_decompress(std::string_view in, std::size_t expected_size, std::string& out) {
-  out.resize(expected_size);
-  if (in.size() > std::numeric_limits<unsigned>::max() || expected_size > std::numeric_limits<unsigned>::max())
-    return false;
-  unsigned dst_len = static_cast<unsigned>(expected_size);
-  // BZ2_bzBuffToBuffDecompress takes non-const pointers but does not modify the source.
-  const int r = BZ2_bzBuffToBuffDecompress(out.data(), &dst_len, const_cast<char*>(in.data()),
-                                           static_cast<unsigned>(in.size()), 0, 0);
-  return r == BZ_OK && dst_len == expected_size;
+  // Streaming, with the output grown as it is produced (see lz4_decompress).
+  if (in.size() > std::numeric_limits<unsigned>::max()) return false;
+  out.clear();
+  out.resize(std::min<std::size_t>(expected_size, 1u << 16));
+  bz_stream s;
+  std::memset(&s, 0, sizeof s);
+  if (BZ2_bzDecompressInit(&s, 0, 0) != BZ_OK) return false;
+  s.next_in = const_cast<char*>(in.data());  // libbz2 takes non-const pointers but does not write
+  s.avail_in = static_cast<unsigned>(in.size());
+  std::size_t out_pos = 0;
+  bool ok = false;
+  while (true) {
+    if (out_pos == out.size() && out.size() < expected_size)
+      out.resize(std::min<std::size_t>(expected_size, 2 * out.size()));
+    const std::size_t room = std::min<std::size_t>(out.size() - out_pos, std::numeric_limits<unsigned>::max());
+    s.next_out = out.data() + out_pos;
+    s.avail_out = static_cast<unsigned>(room);
+    const int r = BZ2_bzDecompress(&s);
+    out_pos += room - s.avail_out;
+    if (r == BZ_STREAM_END) {
+      ok = out_pos == expected_size;
+      break;
+    }
+    if (r != BZ_OK) break;
+    if (room - s.avail_out == 0 && (s.avail_in == 0 || out_pos == expected_size)) break;  // stuck
+  }
+  BZ2_bzDecompressEnd(&s);
+  return ok;
 }
 
 std::string bz2_compress(std::string_view in) {

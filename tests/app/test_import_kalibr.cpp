@@ -1,0 +1,150 @@
+// roe import kalibr: T_cam_imu → T_I_C (inverse), time shift, intrinsics, IMU noise, validation.
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "roe/app/import.hpp"
+#include "roe/io/dataset.hpp"
+#include "roe/math/so3.hpp"
+
+namespace fs = std::filesystem;
+using namespace roe;
+
+namespace {
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    std::random_device rd;
+    path = fs::temp_directory_path() / ("roe_test_import_kalibr_" + std::to_string(rd()));
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  fs::path write(const std::string& name, const std::string& text) const {
+    std::ofstream(path / name) << text;
+    return path / name;
+  }
+};
+
+// A Kalibr camchain as Kalibr writes it (camera rotated so that z_C = x_I, x_C = −y_I, y_C = −z_I).
+const char* kCamchain = R"(cam0:
+  T_cam_imu:
+  - [0.0, -1.0, 0.0, 0.02]
+  - [0.0, 0.0, -1.0, 0.01]
+  - [1.0, 0.0, 0.0, -0.03]
+  - [0.0, 0.0, 0.0, 1.0]
+  cam_overlaps: []
+  camera_model: pinhole
+  distortion_coeffs: [0.01, -0.02, 0.001, 0.002]
+  distortion_model: radtan
+  intrinsics: [612.0, 611.0, 320.5, 240.5]
+  resolution: [640, 480]
+  rostopic: /cam0/image_raw
+  timeshift_cam_imu: 0.0042
+)";
+
+const char* kImu = R"(accelerometer_noise_density: 0.002
+accelerometer_random_walk: 0.0003
+gyroscope_noise_density: 0.00016
+gyroscope_random_walk: 0.000019
+rostopic: /imu0
+update_rate: 200.0
+)";
+
+std::string replace(std::string s, const std::string& a, const std::string& b) {
+  const auto p = s.find(a);
+  REQUIRE(p != std::string::npos);
+  return s.replace(p, a.size(), b);
+}
+
+}  // namespace
+
+TEST_CASE("import kalibr: T_I_C is the inverse of T_cam_imu; noise and time shift", "[app][import][kalibr]") {
+  TempDir d;
+  const fs::path ds = d.path / "ds";
+  const auto s = app::import_kalibr(d.write("cc.yaml", kCamchain), d.write("imu.yaml", kImu), ds, {});
+  const auto m = io::read_manifest(ds);
+  REQUIRE(m.camera);
+  Eigen::Matrix3d R_C_I;
+  R_C_I << 0, -1, 0, 0, 0, -1, 1, 0, 0;
+  const Eigen::Vector3d p_C_I(0.02, 0.01, -0.03);
+  // x_I = R_C_Iᵀ (x_C − p_C_I)
+  CHECK(m.camera->T_I_C.R().isApprox(R_C_I.transpose(), 1e-12));
+  CHECK(m.camera->T_I_C.p.isApprox(-R_C_I.transpose() * p_C_I, 1e-12));
+  CHECK(m.camera->T_I_C.p.isApprox(Eigen::Vector3d(0.03, 0.02, 0.01), 1e-12));
+  CHECK(m.camera->time_offset_s == 0.0042);
+  CHECK(m.camera->fx == 612.0);
+  CHECK(m.camera->cy == 240.5);
+  CHECK(m.camera->distortion_model == "radtan");
+  CHECK(m.camera->distortion == std::vector<double>{0.01, -0.02, 0.001, 0.002});
+  REQUIRE(m.imu);
+  CHECK(m.imu->noise.gyro_noise_density == 0.00016);
+  CHECK(m.imu->noise.accel_random_walk == 0.0003);
+  CHECK(m.imu->rate_hz == 200.0);
+  CHECK(s.created_manifest);
+  CHECK(m.sources.size() == 2);
+  CHECK(fs::exists(ds / "calib/camchain-imucam.yaml"));
+  CHECK(fs::exists(ds / "calib/imu.yaml"));
+  // Refused again without force; accepted with it (records replaced, not duplicated).
+  CHECK_THROWS_WITH(app::import_kalibr(d.path / "cc.yaml", d.path / "imu.yaml", ds, {}), Catch::Contains("--force"));
+  app::ImportKalibrOptions f;
+  f.force = true;
+  app::import_kalibr(d.path / "cc.yaml", d.path / "imu.yaml", ds, f);
+  CHECK(io::read_manifest(ds).sources.size() == 2);
+}
+
+TEST_CASE("import kalibr: a dataset with other image sizes keeps its intrinsics", "[app][import][kalibr]") {
+  TempDir d;
+  const fs::path ds = d.path / "ds";
+  fs::create_directories(ds);
+  DatasetManifest m;
+  m.name = "x";
+  CameraInfo c;
+  c.width = 1280;
+  c.height = 720;
+  c.fx = c.fy = 900;
+  c.cx = 640;
+  c.cy = 360;
+  m.camera = c;
+  io::write_manifest(m, io::manifest_path(ds));
+  const auto s = app::import_kalibr(d.write("cc.yaml", kCamchain), std::nullopt, ds, {});
+  CHECK_FALSE(s.intrinsics_written);
+  CHECK_FALSE(s.warnings.empty());
+  const auto back = io::read_manifest(ds);
+  CHECK(back.camera->fx == 900);
+  CHECK(back.camera->T_I_C.p.isApprox(Eigen::Vector3d(0.03, 0.02, 0.01), 1e-12));
+  CHECK_FALSE(s.created_manifest);
+}
+
+TEST_CASE("import kalibr: invalid files are InputErrors naming file, line and key", "[app][import][kalibr]") {
+  TempDir d;
+  const fs::path ds = d.path / "ds";
+  auto fails = [&](const std::string& text, const std::string& what) {
+    INFO(what);
+    CHECK_THROWS_WITH(app::read_kalibr_camchain(d.write("bad.yaml", text)), Catch::Contains("bad.yaml") && Catch::Contains(what));
+  };
+  fails(replace(kCamchain, "[1.0, 0.0, 0.0, -0.03]", "[1.1, 0.0, 0.0, -0.03]"), "not orthonormal");
+  fails(replace(kCamchain, "[0.0, -1.0, 0.0, 0.02]", "[0.0, 1.0, 0.0, 0.02]"), "not orthonormal");  // det −1
+  fails(replace(kCamchain, "[0.0, 0.0, 0.0, 1.0]", "[0.0, 0.0, 0.1, 1.0]"), "bottom row");
+  fails(replace(kCamchain, "  intrinsics: [612.0, 611.0, 320.5, 240.5]\n", ""), "missing required key");
+  fails(replace(kCamchain, "[612.0, 611.0, 320.5, 240.5]", "[612.0, 611.0, 320.5]"), "need 4 values");
+  fails(replace(kCamchain, "[612.0, 611.0", "[-612.0, 611.0"), "focal");
+  fails(replace(kCamchain, "radtan", "kannala"), "unknown distortion_model");
+  fails(replace(kCamchain, "0.0042", "soon"), "expected a number");
+  fails(replace(kCamchain, "cam0:", "cam1:"), "no camera");
+  fails("cam0: [unclosed", "YAML syntax error");
+  CHECK_THROWS_WITH(app::read_kalibr_imu(d.write("i.yaml", replace(kImu, "0.00016", "-0.00016"))),
+                    Catch::Contains("i.yaml:3:") && Catch::Contains("must be > 0"));
+  CHECK_THROWS_WITH(app::read_kalibr_imu(d.write("i.yaml", replace(kImu, "gyroscope_random_walk: 0.000019\n", ""))),
+                    Catch::Contains("gyroscope_random_walk"));
+  // Nothing is written when validation fails.
+  CHECK_THROWS_AS(app::import_kalibr(d.write("cc.yaml", replace(kCamchain, "[1.0, 0.0, 0.0, -0.03]", "[2.0, 0.0, 0.0, -0.03]")),
+                                     std::nullopt, ds, {}),
+                  InputError);
+  CHECK_FALSE(fs::exists(ds));
+}

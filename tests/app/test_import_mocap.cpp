@@ -1,0 +1,186 @@
+// roe import mocap: real files into a dataset, the clock-offset estimator on simulated data, and
+// overwrite protection.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "roe/app/import.hpp"
+#include "roe/io/dataset.hpp"
+#include "roe/io/trajectory_io.hpp"
+#include "roe/math/so3.hpp"
+
+namespace fs = std::filesystem;
+using namespace roe;
+
+namespace {
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    std::random_device rd;
+    path = fs::temp_directory_path() / ("roe_test_import_mocap_" + std::to_string(rd()));
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+// A smooth rotation R(t) = Exp(a(t)) and its body angular rate Jr(a) ȧ.
+Eigen::Vector3d a_of(double t) {
+  return {0.8 * std::sin(0.9 * t) + 0.3 * std::sin(3.7 * t), 0.6 * std::sin(1.7 * t + 1.0),
+          0.5 * std::sin(2.3 * t + 2.0) + 0.2 * std::sin(5.1 * t)};
+}
+Eigen::Vector3d adot_of(double t) {
+  return {0.8 * 0.9 * std::cos(0.9 * t) + 0.3 * 3.7 * std::cos(3.7 * t), 0.6 * 1.7 * std::cos(1.7 * t + 1.0),
+          0.5 * 2.3 * std::cos(2.3 * t + 2.0) + 0.2 * 5.1 * std::cos(5.1 * t)};
+}
+
+/// IMU at 200 Hz in an epoch clock, mocap at 120 Hz in its own clock with t_imu = t_mocap + offset.
+void simulate(double offset_s, std::vector<ImuSample>& imu, std::vector<StampedPose>& mocap, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> gyro_noise(0.0, 0.01), pos_noise(0.0, 0.0005), rot_noise(0.0, 0.001);
+  const Timestamp t_imu0 = 1'700'000'000'000'000'000LL;
+  for (int k = 0; k < 200 * 30; ++k) {
+    const double t = k / 200.0;
+    ImuSample s;
+    s.t_ns = t_imu0 + from_seconds(t);
+    s.gyro = math::right_jacobian(a_of(t)) * adot_of(t) + Eigen::Vector3d(gyro_noise(rng), gyro_noise(rng), gyro_noise(rng));
+    s.accel = Eigen::Vector3d(0, 0, 9.81);
+    imu.push_back(s);
+  }
+  // Mocap clock starts near 0 (a Motive take); it covers IMU time [2 s, 27 s].
+  for (int k = 0; k < 120 * 25; ++k) {
+    const double t_m = 1.0 + k / 120.0;
+    const double t_imu = t_m + offset_s - static_cast<double>(t_imu0) * 1e-9;  // relative IMU time
+    Eigen::Vector3d noise(rot_noise(rng), rot_noise(rng), rot_noise(rng));
+    const Eigen::Quaterniond q = math::exp_quat(a_of(t_imu)) * math::exp_quat(noise);
+    mocap.push_back({from_seconds(t_m), Pose(q, Eigen::Vector3d(pos_noise(rng), 0, 0))});
+  }
+}
+
+}  // namespace
+
+TEST_CASE("estimate_time_offset recovers a known offset within one mocap frame", "[app][import][offset]") {
+  for (double rel : {1.0, 1.4567, 0.6123}) {
+    // Offset so that mocap time 1 s = IMU relative time `rel`.
+    const double offset = 1'700'000'000.0 + rel - 1.0;
+    std::vector<ImuSample> imu;
+    std::vector<StampedPose> mocap;
+    simulate(offset, imu, mocap, 7);
+    const auto e = app::estimate_time_offset(imu, mocap, 2.0);
+    INFO("true " << rel - 1.0 << " estimated " << e.offset_s - 1'700'000'000.0);
+    CHECK(std::abs(e.offset_s - offset) < 1.0 / 120.0);
+    CHECK(std::abs(e.offset_s - offset) < 2e-3);  // in practice much better than a frame
+    CHECK(e.correlation > 0.9);
+    CHECK(e.peak_ratio > 1.0);
+  }
+  // No rotation → a clear DataError.
+  std::vector<ImuSample> imu(100);
+  std::vector<StampedPose> mocap(100);
+  for (int k = 0; k < 100; ++k) {
+    imu[k].t_ns = k * 5'000'000LL;
+    mocap[k].t_ns = k * 8'000'000LL;
+  }
+  CHECK_THROWS_AS(app::estimate_time_offset(imu, mocap, 0.5), DataError);
+}
+
+TEST_CASE("import mocap --estimate-offset writes the offset into roe.json", "[app][import][offset]") {
+  TempDir d;
+  const double offset = 1'700'000'000.25;
+  std::vector<ImuSample> imu;
+  std::vector<StampedPose> mocap;
+  simulate(offset, imu, mocap, 3);
+  const fs::path ds = d.path / "ds";
+  fs::create_directories(ds / "mav0/imu0");
+  io::write_imu_csv(io::imu_csv_path(ds), imu);
+  io::write_trajectory(d.path / "gt.tum", mocap, io::TrajectoryFormat::kTum);
+  app::ImportMocapOptions o;
+  o.estimate_offset = true;
+  const auto s = app::import_mocap(d.path / "gt.tum", ds, o);
+  CHECK(s.format == "tum");
+  CHECK(s.created_manifest);
+  REQUIRE(s.estimate);
+  CHECK(std::abs(s.time_offset_s - offset) < 1.0 / 120.0);
+  const auto m = io::read_manifest(ds);
+  REQUIRE(m.mocap);
+  CHECK(m.mocap->time_offset_s == s.time_offset_s);
+  // Stamps stay in the mocap clock (the offset is applied by readers of roe.json).
+  const auto written = io::read_mocap_csv(io::mocap_csv_path(ds));
+  REQUIRE(written.size() == mocap.size());
+  CHECK(written.front().t_ns == mocap.front().t_ns);
+  CHECK(m.sources.at(0).options.at("time_offset_source") == "estimated");
+}
+
+TEST_CASE("import mocap: the real Motive file into a new dataset, then overwrite rules", "[app][import][shared]") {
+  const fs::path f = fs::path(ROE_SHARED_DATA_DIR) / "mocap/sample_optitrack_take_v1.21.csv";
+  if (!fs::exists(f)) {
+    WARN("skipped: " << f << " absent");
+    return;
+  }
+  TempDir d;
+  const fs::path ds = d.path / "seq";
+  app::ImportMocapOptions o;
+  o.time_offset_s = 12.5;
+  const auto s = app::import_mocap(f, ds, o);
+  CHECK(s.format == "motive");
+  CHECK(s.rows == 250);
+  CHECK(s.poses == 250);
+  CHECK(s.occluded == 0);
+  CHECK(s.rate_hz == Approx(120));
+  CHECK(s.up == "y");
+  CHECK(s.created_manifest);
+  const auto m = io::read_manifest(ds);
+  CHECK(m.name == "seq");
+  REQUIRE(m.mocap);
+  CHECK(m.mocap->body == "Rigid Body 1");
+  CHECK(m.mocap->time_offset_s == 12.5);
+  REQUIRE(m.sources.size() == 1);
+  CHECK(m.sources[0].kind == "motive-csv");
+  CHECK(m.sources[0].sha256 == "1c1aa181bc1015bc782fe6577c1e437ada25e9fdb7ff4f3682ddd9d64b030280");
+  const auto p = io::read_mocap_csv(io::mocap_csv_path(ds));
+  REQUIRE(p.size() == 250);
+  // Y-up → Z-up: (x, y, z)_Y = (0.060002, 0.019150, 0.076611) → (0.060002, −0.076611, 0.019150).
+  CHECK(p[0].T.p.isApprox(Eigen::Vector3d(0.060002, -0.076611, 0.019150), 1e-9));
+  // The body's rotation is expressed in the Z-up world: R_Z = R_x(+90°) R_Y.
+  const Eigen::Quaterniond qY = Eigen::Quaterniond(-1.0, 0.000035, 0.000016, -0.000030).normalized();
+  const Eigen::Quaterniond qZ = Eigen::Quaterniond(Eigen::AngleAxisd(3.14159265358979323846 / 2, Eigen::Vector3d::UnitX())) * qY;
+  CHECK(math::angle_between(p[0].T.q, qZ) < 1e-9);
+  // Refused without force; replaced with force (one source record for the folder).
+  CHECK_THROWS_WITH(app::import_mocap(f, ds, {}), Catch::Contains("--force"));
+  app::ImportMocapOptions forced;
+  forced.force = true;
+  forced.up = "z";
+  app::import_mocap(f, ds, forced);
+  const auto m2 = io::read_manifest(ds);
+  CHECK(m2.sources.size() == 1);
+  CHECK(io::read_mocap_csv(io::mocap_csv_path(ds))[0].T.p.isApprox(Eigen::Vector3d(0.060002, 0.019150, 0.076611), 1e-9));
+}
+
+TEST_CASE("import mocap: the evo bag's groundtruth topic and EuRoC/TUM-VI ground truth", "[app][import][shared]") {
+  const fs::path b = fs::path(ROE_SHARED_DATA_DIR) / "rosbag/evo_ROS_example.bag";
+  const fs::path g = fs::path(ROE_SHARED_DATA_DIR) / "tumvi/dataset-room1_512_16_gt.csv";
+  if (!fs::exists(b) || !fs::exists(g)) {
+    WARN("skipped: shared data absent");
+    return;
+  }
+  TempDir d;
+  app::ImportMocapOptions o;
+  o.topic = "groundtruth";
+  const auto s = app::import_mocap(b, d.path / "evo", o);
+  CHECK(s.format == "rosbag");
+  CHECK(s.poses == 12765);
+  CHECK(io::read_mocap_csv(io::mocap_csv_path(d.path / "evo")).size() == 12765);
+  CHECK(io::read_manifest(d.path / "evo").sources.at(0).kind == "ros1-bag");
+  CHECK_THROWS_WITH(app::import_mocap(b, d.path / "evo2", {}), Catch::Contains("--topic") && Catch::Contains("groundtruth"));
+  const auto t = app::import_mocap(g, d.path / "tumvi", {});
+  CHECK(t.format == "euroc");
+  const auto p = io::read_mocap_csv(io::mocap_csv_path(d.path / "tumvi"));
+  REQUIRE_FALSE(p.empty());
+  CHECK(p[0].t_ns == 1520530308189679351LL);
+  CHECK(p[0].T.p.isApprox(Eigen::Vector3d(0.8417820384, -0.2193354118, 1.2499749141), 1e-12));
+}

@@ -1,0 +1,164 @@
+// End-to-end: roe import realsense|mocap|kalibr through the executable — exit codes and messages
+// for good and corrupt inputs (DESIGN §1: 2 = bad input).
+#include <sys/wait.h>
+
+#include <array>
+#include <catch2/catch.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <string>
+
+#include "fixtures/gen_d435i_bag.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+struct Result {
+  int code;
+  std::string out;
+};
+Result run(const std::string& args, bool merge_stderr = true) {
+  const std::string cmd = std::string(ROE_BINARY) + " " + args + (merge_stderr ? " 2>&1" : " 2>/dev/null");
+  FILE* p = popen(cmd.c_str(), "r");
+  REQUIRE(p != nullptr);
+  std::string out;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    std::random_device rd;
+    path = fs::temp_directory_path() / ("roe_test_cli_import_" + std::to_string(rd()));
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  std::string write(const std::string& name, const std::string& bytes) const {
+    std::ofstream(path / name, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    return (path / name).string();
+  }
+  std::string operator/(const std::string& rel) const { return (path / rel).string(); }
+};
+
+std::string small_d435i(const std::string& compression) {
+  roe::testing::D435iBagSpec s;
+  s.compression = compression;
+  s.n_frames = 2;
+  s.imu_duration_s = 0.3;
+  return roe::testing::generate_d435i_bag(s);
+}
+}  // namespace
+
+TEST_CASE("roe import realsense: a generated bag imports (exit 0, JSON summary)", "[cli][import]") {
+  TempDir d;
+  const auto bag = d.write("a.bag", small_d435i("lz4"));
+  const auto r = run("import realsense " + bag + " --out " + d / "ds" + " --json", false);
+  REQUIRE(r.code == 0);
+  const auto j = nlohmann::json::parse(r.out);
+  CHECK(j["frames"] == 2);
+  CHECK(j["camera"]["width"] == 640);
+  CHECK(j["source_camera"]["distortion_model"] == "Inverse Brown Conrady");
+  CHECK(fs::exists(d / "ds/roe.json"));
+  // Existing output without --force: exit 2; with --force: 0.
+  const auto again = run("import realsense " + bag + " --out " + d / "ds");
+  CHECK(again.code == 2);
+  CHECK(again.out.find("--force") != std::string::npos);
+  CHECK(run("import realsense " + bag + " --out " + d / "ds" + " --force -q").code == 0);
+}
+
+TEST_CASE("roe import realsense: corrupt bags exit 2 with the byte offset", "[cli][import]") {
+  TempDir d;
+  const std::string good = small_d435i("lz4");
+  // Wrong magic.
+  auto r = run("import realsense " + d.write("magic.bag", "#ROSBAG V9.9\n" + good.substr(13)) + " --out " + d / "o1");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("version") != std::string::npos);
+  r = run("import realsense " + d.write("text.bag", "hello") + " --out " + d / "o1");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("wrong magic") != std::string::npos);
+  // Truncated.
+  const auto cut = d.write("cut.bag", good.substr(0, good.size() / 2));
+  r = run("import realsense " + cut + " --out " + d / "o2");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("damaged") != std::string::npos);
+  CHECK(r.out.find("byte ") != std::string::npos);
+  CHECK(r.out.find("--salvage") != std::string::npos);
+  CHECK_FALSE(fs::exists(d / "o2"));
+  CHECK(run("import realsense " + cut + " --out " + d / "o2" + " --salvage -q").code == 0);
+  // A corrupt chunk (bytes flipped inside the second chunk's LZ4 data).
+  std::string bad = good;
+  const std::size_t second = bad.find("compression=lz4", bad.find("compression=lz4") + 1);
+  REQUIRE(second != std::string::npos);
+  for (std::size_t i = second + 200; i < second + 400; ++i) bad[i] ^= 0x33;
+  r = run("import realsense " + d.write("bad.bag", bad) + " --out " + d / "o3");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("damaged") != std::string::npos);
+  // Not a file.
+  CHECK(run("import realsense " + d / "missing.bag" + " --out " + d / "o4").code == 2);
+}
+
+TEST_CASE("roe import mocap: malformed rows and non-unit quaternions exit 2 naming line:column", "[cli][import]") {
+  TempDir d;
+  const std::string motive =
+      "Format Version,1.23,Export Frame Rate,100,Rotation Type,Quaternion,Length Units,Meters\n\n"
+      ",Type,Rigid Body,Rigid Body,Rigid Body,Rigid Body,Rigid Body,Rigid Body,Rigid Body\n"
+      ",Name,b,b,b,b,b,b,b\n,ID,1,1,1,1,1,1,1\n,,Rotation,Rotation,Rotation,Rotation,Position,Position,Position\n"
+      "Frame,Time (Seconds),X,Y,Z,W,X,Y,Z\n"
+      "0,0.00,0,0,0,1,1,2,3\n"
+      "1,0.01,0,0,0,1,1,2,3\n";
+  auto r = run("import mocap " + d.write("ok.csv", motive) + " --into " + d / "ds" + " --json", false);
+  REQUIRE(r.code == 0);
+  CHECK(nlohmann::json::parse(r.out)["poses"] == 2);
+  std::string bad = motive;
+  bad.replace(bad.rfind("1,2,3"), 1, "?");
+  r = run("import mocap " + d.write("bad.csv", bad) + " --into " + d / "ds2");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("bad.csv:9:7") != std::string::npos);
+  std::string nonunit = motive;
+  nonunit.replace(nonunit.rfind("0,0,0,1,"), 8, "0,0,0,2,");
+  r = run("import mocap " + d.write("nu.csv", nonunit) + " --into " + d / "ds3");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("unit norm") != std::string::npos);
+  r = run("import mocap " + d.write("nu.tum", "0.0 1 2 3 0 0 0 1\n0.1 1 2 3 0 0 0 3\n") + " --into " + d / "ds4");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("nu.tum:2") != std::string::npos);
+  // The dataset already has mocap0: exit 2 without --force.
+  r = run("import mocap " + d / "ok.csv" + " --into " + d / "ds");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("--force") != std::string::npos);
+  // --estimate-offset without an IMU in the dataset.
+  r = run("import mocap " + d / "ok.csv" + " --into " + d / "ds5 --estimate-offset");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("imu0") != std::string::npos);
+}
+
+TEST_CASE("roe import kalibr: valid and invalid files", "[cli][import]") {
+  TempDir d;
+  const std::string cc =
+      "cam0:\n  T_cam_imu:\n  - [1.0, 0.0, 0.0, 0.1]\n  - [0.0, 1.0, 0.0, 0.0]\n  - [0.0, 0.0, 1.0, 0.0]\n"
+      "  - [0.0, 0.0, 0.0, 1.0]\n  camera_model: pinhole\n  distortion_coeffs: [0, 0, 0, 0]\n"
+      "  distortion_model: radtan\n  intrinsics: [600, 600, 320, 240]\n  resolution: [640, 480]\n"
+      "  timeshift_cam_imu: -0.01\n";
+  auto r = run("import kalibr " + d.write("cc.yaml", cc) + " --into " + d / "ds" + " --json", false);
+  REQUIRE(r.code == 0);
+  const auto j = nlohmann::json::parse(r.out);
+  CHECK(j["T_I_C"]["p"][0] == -0.1);
+  CHECK(j["timeshift_cam_imu"] == -0.01);
+  std::string bad = cc;
+  bad.replace(bad.find("[1.0, 0.0, 0.0, 0.1]"), 20, "[1.0, 0.5, 0.0, 0.1]");
+  r = run("import kalibr " + d.write("bad.yaml", bad) + " --into " + d / "ds2");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("orthonormal") != std::string::npos);
+  r = run("import kalibr " + d / "cc.yaml " + d.write("imu.yaml", "accelerometer_noise_density: 0\n") + " --into " + d / "ds3");
+  CHECK(r.code == 2);
+}
