@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <map>
+#include <set>
 #include <unistd.h>
 
 #include "roe/app/infer.hpp"
