@@ -266,9 +266,12 @@ json detection_json(const sim::DetectionNoiseConfig& d) {
           {"write_sigmas", d.write_sigmas}};
 }
 json visibility_json(const sim::VisibilityConfig& v) {
-  return {{"margin_px", v.margin_px},         {"min_depth_m", v.min_depth_m},
-          {"max_depth_m", v.max_depth_m},     {"miss_prob", v.miss_prob},
-          {"border_miss_prob", v.border_miss_prob}, {"border_band_px", v.border_band_px}};
+  return {{"margin_px", v.margin_px},
+          {"min_depth_m", v.min_depth_m},
+          {"max_depth_m", v.max_depth_m},
+          {"miss_prob", v.miss_prob},
+          {"border_miss_prob", v.border_miss_prob},
+          {"border_band_px", v.border_band_px}};
 }
 json intrinsics_json(const sim::PinholeCamera& k) {
   return {{"width", k.width}, {"height", k.height}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}};
@@ -373,8 +376,8 @@ sim::SimConfig sim_config_from_json(const json& j, const std::string& source) {
 }
 
 sim::SimConfig sim_config_from_preset(const std::string& name) {
-  sim::SimConfig c = sim_config_from_json(io::parse_json_text(preset_text(name), "preset " + name),
-                                          "preset " + name);
+  sim::SimConfig c =
+      sim_config_from_json(io::parse_json_text(preset_text(name), "preset " + name), "preset " + name);
   return c;
 }
 
@@ -385,11 +388,13 @@ sim::SimConfig sim_config_from_file(const std::filesystem::path& file) {
 sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
   const bool gt_mode = !opt.from_groundtruth.empty();
   if (gt_mode && (!opt.preset.empty() || !opt.config_file.empty()))
-    throw InputError("--from-groundtruth cannot be combined with --preset or --config", {"--from-groundtruth"});
+    throw InputError("--from-groundtruth cannot be combined with --preset or --config",
+                     {"--from-groundtruth"});
   if (!gt_mode && opt.objects)
     throw InputError("--objects only applies to --from-groundtruth", {"--objects"});
   if (!gt_mode && opt.preset.empty() == opt.config_file.empty())
-    throw InputError("give exactly one of --preset NAME, --config FILE or --from-groundtruth DIR", {"roe simulate"});
+    throw InputError("give exactly one of --preset NAME, --config FILE or --from-groundtruth DIR",
+                     {"roe simulate"});
   if (opt.duration_s && !(std::isfinite(*opt.duration_s) && *opt.duration_s > 0.0))
     throw InputError("--duration must be a positive number of seconds", {"--duration"});
 
@@ -423,7 +428,8 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
     src.options["imu_sha256"] = io::sha256_file(imu_file);
     src.options["groundtruth_sha256"] = io::sha256_file(gt_file);
     src.options["T_I_C"] = "EuRoC cam0 T_BS";
-    if (effective) *effective = {{"from_groundtruth", mav0.string()}, {"objects", cfg.num_objects}, {"seed", opt.seed}};
+    if (effective)
+      *effective = {{"from_groundtruth", mav0.string()}, {"objects", cfg.num_objects}, {"seed", opt.seed}};
   } else {
     std::string source;
     sim::SimConfig cfg;

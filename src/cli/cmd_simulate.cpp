@@ -27,11 +27,14 @@ RunFn setup(CLI::App& sub) {
   sub.add_flag("--list-presets", a->list, "List the built-in presets (configs/sim/*.json) and exit");
   sub.add_option("--preset", a->opt.preset, "Built-in preset, e.g. paper-seq4, noise-free, matched");
   sub.add_option("--config", a->opt.config_file, "Simulator config JSON (keys: docs/simulator.md)");
-  sub.add_option("--seed", a->opt.seed, "Random seed: varies the trajectory and all noise")->capture_default_str();
-  a->duration_opt = sub.add_option("--duration", a->duration, "Sequence length in seconds (overrides the config)");
+  sub.add_option("--seed", a->opt.seed, "Random seed: varies the trajectory and all noise")
+      ->capture_default_str();
+  a->duration_opt =
+      sub.add_option("--duration", a->duration, "Sequence length in seconds (overrides the config)");
   sub.add_option("--from-groundtruth", a->opt.from_groundtruth,
                  "EuRoC mav0 folder: keep its IMU and ground truth, synthesise detections");
-  a->objects_opt = sub.add_option("--objects", a->objects, "Number of objects for --from-groundtruth (default 3)");
+  a->objects_opt =
+      sub.add_option("--objects", a->objects, "Number of objects for --from-groundtruth (default 3)");
   sub.add_option("--out", a->out, "Output dataset folder (must not exist or be empty, unless --force)");
   return [a]() {
     if (a->list) {
@@ -55,7 +58,8 @@ RunFn setup(CLI::App& sub) {
   };
 }
 
-const Registrar reg("", "simulate", "Simulate a dataset (IMU, mocap, PoET-like detections) or detections on EuRoC", 10,
+const Registrar reg("", "simulate",
+                    "Simulate a dataset (IMU, mocap, PoET-like detections) or detections on EuRoC", 10,
                     &setup);
 
 }  // namespace

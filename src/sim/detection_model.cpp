@@ -56,8 +56,8 @@ PoetErrorModel::PoetErrorModel(DetectionNoiseConfig config, std::map<int, Symmet
 bool PoetErrorModel::frame_blurred(double camera_rate_rad_s, Rng& rng) const {
   // Always draw, so the stream stays aligned whatever the rate.
   const bool random_blur = rng.uniform() < config_.blur_frame_prob;
-  const bool fast = config_.blur_rate_threshold_deg_s > 0.0 &&
-                    camera_rate_rad_s > config_.blur_rate_threshold_deg_s * kDeg;
+  const bool fast =
+      config_.blur_rate_threshold_deg_s > 0.0 && camera_rate_rad_s > config_.blur_rate_threshold_deg_s * kDeg;
   return fast || random_blur;
 }
 
@@ -77,8 +77,8 @@ Vector6d PoetErrorModel::sigmas(const Pose& T_C_O_true) const {
   return s;
 }
 
-Detection PoetErrorModel::measure(Timestamp t_ns, int object_id, const Pose& T_C_O_true, bool blurred, Rng& rng,
-                                  DetectionLabel* label) {
+Detection PoetErrorModel::measure(Timestamp t_ns, int object_id, const Pose& T_C_O_true, bool blurred,
+                                  Rng& rng, DetectionLabel* label) {
   // 1–2. Correlated standard-normal factors (first-order Gauss-Markov, unit stationary variance).
   Vector6d w;
   for (int i = 0; i < 6; ++i) w(i) = rng.normal();
@@ -140,13 +140,27 @@ Detection PoetErrorModel::measure(Timestamp t_ns, int object_id, const Pose& T_C
 }
 
 std::string ycbv_name(int id) {
-  static const char* kNames[] = {"002_master_chef_can", "003_cracker_box",      "004_sugar_box",
-                                 "005_tomato_soup_can", "006_mustard_bottle",   "007_tuna_fish_can",
-                                 "008_pudding_box",     "009_gelatin_box",      "010_potted_meat_can",
-                                 "011_banana",          "019_pitcher_base",     "021_bleach_cleanser",
-                                 "024_bowl",            "025_mug",              "035_power_drill",
-                                 "036_wood_block",      "037_scissors",         "040_large_marker",
-                                 "051_large_clamp",     "052_extra_large_clamp", "061_foam_brick"};
+  static const char* kNames[] = {"002_master_chef_can",
+                                 "003_cracker_box",
+                                 "004_sugar_box",
+                                 "005_tomato_soup_can",
+                                 "006_mustard_bottle",
+                                 "007_tuna_fish_can",
+                                 "008_pudding_box",
+                                 "009_gelatin_box",
+                                 "010_potted_meat_can",
+                                 "011_banana",
+                                 "019_pitcher_base",
+                                 "021_bleach_cleanser",
+                                 "024_bowl",
+                                 "025_mug",
+                                 "035_power_drill",
+                                 "036_wood_block",
+                                 "037_scissors",
+                                 "040_large_marker",
+                                 "051_large_clamp",
+                                 "052_extra_large_clamp",
+                                 "061_foam_brick"};
   if (id >= 1 && id <= 21) return kNames[id - 1];
   return "obj_" + std::to_string(id);
 }

@@ -194,14 +194,15 @@ void validate(const SimConfig& c) {
   require_nonneg(c.mocap.rotation_sigma_deg, "mocap.rotation_sigma_deg");
 }
 
-TrajectoryConfig vary_trajectory(const TrajectoryConfig& nominal, const VariationConfig& v, std::uint64_t seed) {
+TrajectoryConfig vary_trajectory(const TrajectoryConfig& nominal, const VariationConfig& v,
+                                 std::uint64_t seed) {
   TrajectoryConfig t = nominal;
   Rng rng = Rng::stream(seed, "trajectory");
   t.azimuth_rad.offset += rng.uniform(-v.azimuth_start_rad, v.azimuth_start_rad);
   t.radius_m.offset *= rng.uniform(1.0 - v.offset_rel, 1.0 + v.offset_rel);
   t.height_m.offset *= rng.uniform(1.0 - v.offset_rel, 1.0 + v.offset_rel);
-  for (SmoothSignal* s : {&t.azimuth_rad, &t.radius_m, &t.height_m, &t.target_x_m, &t.target_y_m, &t.target_z_m,
-                          &t.roll_rad, &t.shake_x_m, &t.shake_y_m, &t.shake_z_m})
+  for (SmoothSignal* s : {&t.azimuth_rad, &t.radius_m, &t.height_m, &t.target_x_m, &t.target_y_m,
+                          &t.target_z_m, &t.roll_rad, &t.shake_x_m, &t.shake_y_m, &t.shake_z_m})
     vary(*s, v, rng);
   return t;
 }
@@ -358,9 +359,8 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
   // Manifest.
   DatasetManifest& m = ds.manifest;
   m.name = config.name;
-  m.imu = ImuInfo{config.imu.rate_hz,
-                  ImuNoise{config.imu.gyro_noise_density, config.imu.gyro_random_walk,
-                           config.imu.accel_noise_density, config.imu.accel_random_walk}};
+  m.imu = ImuInfo{config.imu.rate_hz, ImuNoise{config.imu.gyro_noise_density, config.imu.gyro_random_walk,
+                                               config.imu.accel_noise_density, config.imu.accel_random_walk}};
   m.camera = camera_info(config.camera.intrinsics, config.camera.T_I_C * config.camera.prior_error);
   if (config.mocap.enabled) m.mocap = MocapInfo{config.mocap.body, config.mocap.T_B_I, 0.0};
   const auto syms = symmetry_map(ids_of(objects_M), config.objects.symmetric_ids);
@@ -384,7 +384,7 @@ Pose FromGroundtruthConfig::euroc_T_I_C() {
   // EuRoC MAV mav0/cam0/sensor.yaml, T_BS (body = IMU, sensor = cam0), row-major.
   Eigen::Matrix3d R;
   R << 0.0148655429818, -0.999880929698, 0.00414029679422,  //
-      0.999557249008, 0.0149672133247, 0.025715529948,       //
+      0.999557249008, 0.0149672133247, 0.025715529948,      //
       -0.0257744366974, 0.00375618835797, 0.999660727178;
   return Pose(math::orthonormalize(R), Eigen::Vector3d(-0.0216401454975, -0.064676986768, 0.00981073058949));
 }
@@ -392,7 +392,8 @@ Pose FromGroundtruthConfig::euroc_T_I_C() {
 namespace {
 // T_W_I at time t by interpolation of the (sorted) ground truth; t must lie within it.
 Pose gt_pose_at(const std::vector<ImuState>& gt, Timestamp t) {
-  auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const ImuState& s, Timestamp x) { return s.t_ns < x; });
+  auto it =
+      std::lower_bound(gt.begin(), gt.end(), t, [](const ImuState& s, Timestamp x) { return s.t_ns < x; });
   if (it == gt.end()) return gt.back().T_W_I;
   if (it->t_ns == t || it == gt.begin()) return it->T_W_I;
   const auto& a = *(it - 1);
@@ -402,14 +403,15 @@ Pose gt_pose_at(const std::vector<ImuState>& gt, Timestamp t) {
 
 // |ω| of the IMU sample nearest to t.
 double rate_at(const std::vector<ImuSample>& imu, Timestamp t) {
-  auto it = std::lower_bound(imu.begin(), imu.end(), t, [](const ImuSample& s, Timestamp x) { return s.t_ns < x; });
+  auto it =
+      std::lower_bound(imu.begin(), imu.end(), t, [](const ImuSample& s, Timestamp x) { return s.t_ns < x; });
   if (it == imu.end()) return imu.back().gyro.norm();
   if (it != imu.begin() && (t - (it - 1)->t_ns) < (it->t_ns - t)) --it;
   return it->gyro.norm();
 }
 
-std::size_t frames_seeing(const std::vector<Pose>& T_C_W, const Eigen::Vector3d& p_W, const PinholeCamera& cam,
-                          const VisibilityConfig& vis) {
+std::size_t frames_seeing(const std::vector<Pose>& T_C_W, const Eigen::Vector3d& p_W,
+                          const PinholeCamera& cam, const VisibilityConfig& vis) {
   std::size_t n = 0;
   for (const auto& T : T_C_W)
     if (object_in_view(Pose(Eigen::Quaterniond::Identity(), T.act(p_W)), cam, vis)) ++n;
@@ -487,8 +489,8 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
   for (int id : ids) {
     bool placed = false;
     for (int attempt = 0; attempt < 2000 && !placed; ++attempt) {
-      const Eigen::Vector3d p = center + Eigen::Vector3d(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5),
-                                                         rng.uniform(-0.15, 0.15));
+      const Eigen::Vector3d p =
+          center + Eigen::Vector3d(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), rng.uniform(-0.15, 0.15));
       const Eigen::Quaterniond q = rng.rotation();
       bool ok = true;
       for (const auto& o : objects_W)

@@ -17,7 +17,9 @@ Jet operator+(Jet a, Jet b) { return {a.v + b.v, a.d + b.d, a.dd + b.dd}; }
 Jet operator-(Jet a, Jet b) { return {a.v - b.v, a.d - b.d, a.dd - b.dd}; }
 Jet operator-(Jet a) { return {-a.v, -a.d, -a.dd}; }
 Jet operator+(Jet a, double c) { return {a.v + c, a.d, a.dd}; }
-Jet operator*(Jet a, Jet b) { return {a.v * b.v, a.d * b.v + a.v * b.d, a.dd * b.v + 2.0 * a.d * b.d + a.v * b.dd}; }
+Jet operator*(Jet a, Jet b) {
+  return {a.v * b.v, a.d * b.v + a.v * b.d, a.dd * b.v + 2.0 * a.d * b.d + a.v * b.dd};
+}
 // f(g(t)) with f, f', f'' evaluated at g.
 Jet chain(Jet g, double f, double f1, double f2) { return {f, f1 * g.d, f2 * g.d * g.d + f1 * g.dd}; }
 Jet sin(Jet a) { return chain(a, std::sin(a.v), std::cos(a.v), -std::sin(a.v)); }

@@ -19,7 +19,8 @@ namespace fs = std::filesystem;
 
 namespace {
 fs::path temp_dir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("roe_test_simulate_" + name + "_" + std::to_string(::getpid()));
+  const fs::path p =
+      fs::temp_directory_path() / ("roe_test_simulate_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(p);
   return p;
 }
@@ -99,9 +100,9 @@ TEST_CASE("simulate: every paper preset is a plausible inspection sequence", "[a
     const std::string name = "paper-seq" + std::to_string(s);
     const sim::SimRun run = sim::simulate_run(app::sim_config_from_preset(name), 1);
     const auto& st = run.stats;
-    INFO(name << ": speed " << st.max_speed_m_s << " rate " << st.max_rate_deg_s << " dist " << st.min_distance_m
-               << ".." << st.max_distance_m << " frames with detections " << st.frames_with_detections << "/"
-               << st.frames);
+    INFO(name << ": speed " << st.max_speed_m_s << " rate " << st.max_rate_deg_s << " dist "
+              << st.min_distance_m << ".." << st.max_distance_m << " frames with detections "
+              << st.frames_with_detections << "/" << st.frames);
     // seq2 and seq3 are the fast ones (the paper's weakest sequences, blur and outliers).
     const bool fast = s == 2 || s == 3;
     CHECK(st.max_speed_m_s <= (fast ? 1.2 : 1.0));
@@ -206,7 +207,8 @@ TEST_CASE("simulate: same seed gives byte-identical folders; noise-free detectio
     INFO(f.string());
     CHECK(bytes(dir / "a" / f) == bytes(dir / "b" / f));
   }
-  CHECK(bytes(dir / "a" / "detections/sim/detections.csv") != bytes(dir / "c" / "detections/sim/detections.csv"));
+  CHECK(bytes(dir / "a" / "detections/sim/detections.csv") !=
+        bytes(dir / "c" / "detections/sim/detections.csv"));
   CHECK(bytes(dir / "a" / "mav0/imu0/data.csv") != bytes(dir / "c" / "mav0/imu0/data.csv"));
   // An existing non-empty folder is refused without force, replaced with it.
   opt.seed = 1;
@@ -255,7 +257,8 @@ TEST_CASE("simulate --from-groundtruth on the real EuRoC V1_02 snippet", "[app][
   const Dataset& d = run.dataset;
   CHECK(d.imu.size() == imu.size());
   CHECK(d.groundtruth.size() == gt.size());
-  const Timestamp t0 = std::max(imu.front().t_ns, gt.front().t_ns), t1 = std::min(imu.back().t_ns, gt.back().t_ns);
+  const Timestamp t0 = std::max(imu.front().t_ns, gt.front().t_ns),
+                  t1 = std::min(imu.back().t_ns, gt.back().t_ns);
   REQUIRE(!d.frames.empty());
   CHECK(d.frames.front().t_ns == t0);
   CHECK(d.frames.back().t_ns <= t1);
@@ -272,7 +275,8 @@ TEST_CASE("simulate --from-groundtruth on the real EuRoC V1_02 snippet", "[app][
     if (it->t_ns != det.t_ns) {
       REQUIRE(it != gt.begin());
       const auto& a = *(it - 1);
-      T_W_I = math::interpolate(a.T_W_I, it->T_W_I, dt_seconds(a.t_ns, det.t_ns) / dt_seconds(a.t_ns, it->t_ns));
+      T_W_I =
+          math::interpolate(a.T_W_I, it->T_W_I, dt_seconds(a.t_ns, det.t_ns) / dt_seconds(a.t_ns, it->t_ns));
     }
     const auto o = std::find_if(truth.objects.begin(), truth.objects.end(),
                                 [&](const TruthObject& x) { return x.id == det.object_id; });

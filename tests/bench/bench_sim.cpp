@@ -48,7 +48,8 @@ int main() {
     const auto imu = io::read_imu_csv(mav0 / "imu0" / "data.csv");
     const auto gt = io::read_groundtruth_csv(mav0 / "state_groundtruth_estimate0" / "data.csv");
     sim::FromGroundtruthConfig g;
-    const double t_gt = best_of(5, [&] { dets = sim::simulate_from_groundtruth(imu, gt, g, 1).stats.detections; });
+    const double t_gt =
+        best_of(5, [&] { dets = sim::simulate_from_groundtruth(imu, gt, g, 1).stats.detections; });
     std::printf("from-groundtruth EuRoC V1_02 (40 s):   %.3f s  (%zu detections)\n", t_gt, dets);
   } else {
     std::printf("from-groundtruth: skipped (%s not found)\n", mav0.c_str());

@@ -122,7 +122,7 @@ TEST_CASE("Gauss-Markov correlation: marginal sigma kept, lag-1 correlation exp(
 }
 
 TEST_CASE("Outliers, symmetric flips and blur happen at the configured rates", "[sim][noise]") {
-  DetectionNoiseConfig cfg;  // defaults: 5 % outliers, 25 % flips, blur > 120 °/s or 2 % of frames
+  DetectionNoiseConfig cfg;      // defaults: 5 % outliers, 25 % flips, blur > 120 °/s or 2 % of frames
   cfg.rotation_sigma_deg = 0.0;  // so a flip is recognisable exactly
   PoetErrorModel model(cfg, {{13, Symmetry::kContinuous}, {16, Symmetry::kDiscrete2}});
   Rng rng(99);
@@ -144,7 +144,8 @@ TEST_CASE("Outliers, symmetric flips and blur happen at the configured rates", "
         }
       }
       if (id == 16 && !label.outlier) {
-        const Eigen::Quaterniond flipped = truth.q * Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()));
+        const Eigen::Quaterniond flipped =
+            truth.q * Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()));
         const bool is_flip = math::angle_between(d.T_C_O.q, flipped) < 1e-9;
         REQUIRE(is_flip == label.flipped);
         flips16 += is_flip;
@@ -184,7 +185,9 @@ TEST_CASE("Outliers, symmetric flips and blur happen at the configured rates", "
 
 TEST_CASE("Visibility: depth range, image margin and border-weighted misses", "[sim][visibility]") {
   const VisibilityConfig vis;  // margin 10 px, 0.3–2.5 m, 2 % + 30 % at the border over 60 px
-  auto at = [](double x, double y, double z) { return Pose(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, y, z)); };
+  auto at = [](double x, double y, double z) {
+    return Pose(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, y, z));
+  };
   CHECK(object_in_view(at(0, 0, 1.0), kCam, vis));
   CHECK_FALSE(object_in_view(at(0, 0, -1.0), kCam, vis));  // behind
   CHECK_FALSE(object_in_view(at(0, 0, 0.29), kCam, vis));

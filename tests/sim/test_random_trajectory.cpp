@@ -11,7 +11,8 @@ using namespace roe;
 using namespace roe::sim;
 
 TEST_CASE("Rng streams are deterministic and independent", "[sim][random]") {
-  Rng a = Rng::stream(7, "imu"), b = Rng::stream(7, "imu"), c = Rng::stream(7, "mocap"), d = Rng::stream(8, "imu");
+  Rng a = Rng::stream(7, "imu"), b = Rng::stream(7, "imu"), c = Rng::stream(7, "mocap"),
+      d = Rng::stream(8, "imu");
   bool differs_c = false, differs_d = false;
   for (int i = 0; i < 100; ++i) {
     const double x = a.normal();

@@ -102,7 +102,8 @@ TEST_CASE("Integrating the noise-free IMU reproduces the trajectory", "[sim][imu
   CHECK(d200.groundtruth[0].T_W_I.p.norm() < 1e-15);
   // At rest the accelerometer would read +g upwards: check the sign convention on the mean.
   Eigen::Vector3d mean_f_W = Eigen::Vector3d::Zero();
-  for (std::size_t k = 0; k < d200.imu.size(); ++k) mean_f_W += d200.groundtruth[k].T_W_I.q * d200.imu[k].accel;
+  for (std::size_t k = 0; k < d200.imu.size(); ++k)
+    mean_f_W += d200.groundtruth[k].T_W_I.q * d200.imu[k].accel;
   mean_f_W /= static_cast<double>(d200.imu.size());
   CHECK(mean_f_W.z() == Approx(9.81).margin(0.05));
 }
@@ -173,7 +174,8 @@ TEST_CASE("Noise-free mocap equals the ground truth through T_B_I", "[sim][mocap
   c.mocap.T_B_I = Pose(math::exp_quat(Eigen::Vector3d(0.1, -0.2, 0.3)), Eigen::Vector3d(0.05, 0.01, -0.02));
   const Dataset d = simulate(c, 2);
   REQUIRE(d.mocap.size() == 601);  // 120 Hz for 5 s
-  const Pose T_M_W(Eigen::Quaterniond::Identity(), d.mocap[0].T.act(c.mocap.T_B_I.p) - Eigen::Vector3d::Zero());
+  const Pose T_M_W(Eigen::Quaterniond::Identity(),
+                   d.mocap[0].T.act(c.mocap.T_B_I.p) - Eigen::Vector3d::Zero());
   std::size_t g = 0, checked = 0;
   for (const auto& m : d.mocap) {
     while (g < d.groundtruth.size() && d.groundtruth[g].t_ns < m.t_ns) ++g;

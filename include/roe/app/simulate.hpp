@@ -20,13 +20,13 @@
 namespace roe::app {
 
 struct SimulateOptions {
-  std::string preset;                 ///< --preset NAME (embedded configs/sim/NAME.json)
-  std::string config_file;            ///< --config FILE
-  std::uint64_t seed = 1;             ///< --seed
-  std::optional<double> duration_s;   ///< --duration (overrides the config)
-  std::string from_groundtruth;       ///< --from-groundtruth EUROC_MAV0_DIR
-  std::optional<int> objects;         ///< --objects N (with --from-groundtruth)
-  bool force = false;                 ///< --force: replace a non-empty output folder
+  std::string preset;                ///< --preset NAME (embedded configs/sim/NAME.json)
+  std::string config_file;           ///< --config FILE
+  std::uint64_t seed = 1;            ///< --seed
+  std::optional<double> duration_s;  ///< --duration (overrides the config)
+  std::string from_groundtruth;      ///< --from-groundtruth EUROC_MAV0_DIR
+  std::optional<int> objects;        ///< --objects N (with --from-groundtruth)
+  bool force = false;                ///< --force: replace a non-empty output folder
 };
 
 struct SimulateResult {

@@ -47,22 +47,22 @@ struct PinholeCamera {
 };
 
 struct VisibilityConfig {
-  double margin_px = 10.0;         ///< the centre must project at least this far inside the image
-  double min_depth_m = 0.3;        ///< depth range (z_C of the object origin)
+  double margin_px = 10.0;   ///< the centre must project at least this far inside the image
+  double min_depth_m = 0.3;  ///< depth range (z_C of the object origin)
   double max_depth_m = 2.5;
-  double miss_prob = 0.02;         ///< miss probability well inside the image
-  double border_miss_prob = 0.3;   ///< extra miss probability at the margin
-  double border_band_px = 60.0;    ///< width of the band in which the extra probability ramps up
+  double miss_prob = 0.02;        ///< miss probability well inside the image
+  double border_miss_prob = 0.3;  ///< extra miss probability at the margin
+  double border_band_px = 60.0;   ///< width of the band in which the extra probability ramps up
 };
 
 struct DetectionNoiseConfig {
-  double lateral_sigma_m = 0.01;            ///< σ_lat = lateral_sigma_m + lateral_sigma_per_depth · z
+  double lateral_sigma_m = 0.01;  ///< σ_lat = lateral_sigma_m + lateral_sigma_per_depth · z
   double lateral_sigma_per_depth = 0.01;
-  double along_ray_sigma_m = 0.03;          ///< σ_ray = along_ray_sigma_m + along_ray_sigma_per_depth · z
+  double along_ray_sigma_m = 0.03;  ///< σ_ray = along_ray_sigma_m + along_ray_sigma_per_depth · z
   double along_ray_sigma_per_depth = 0.05;
-  double rotation_sigma_deg = 6.0;          ///< per axis, tangent space
-  std::string translation_frame = "ray";    ///< "ray" (lateral ⟂ viewing ray) or "camera" (x, y | z)
-  double correlation_time_s = 0.3;          ///< τ of the Gauss-Markov process; 0 = white
+  double rotation_sigma_deg = 6.0;        ///< per axis, tangent space
+  std::string translation_frame = "ray";  ///< "ray" (lateral ⟂ viewing ray) or "camera" (x, y | z)
+  double correlation_time_s = 0.3;        ///< τ of the Gauss-Markov process; 0 = white
   double outlier_prob = 0.05;
   double outlier_translation_max_m = 0.3;
   double symmetric_flip_prob = 0.25;
@@ -73,10 +73,10 @@ struct DetectionNoiseConfig {
 
 /// What happened to one simulated detection (for tests and statistics; not written to the dataset).
 struct DetectionLabel {
-  bool outlier = false;    ///< replaced by an outlier (3)
-  bool flipped = false;    ///< symmetry-equivalent rotation returned (4)
-  bool blurred = false;    ///< its frame was blurred (5); the detection is corrupted like an outlier
-  Pose T_C_O_true;         ///< the error-free value
+  bool outlier = false;  ///< replaced by an outlier (3)
+  bool flipped = false;  ///< symmetry-equivalent rotation returned (4)
+  bool blurred = false;  ///< its frame was blurred (5); the detection is corrupted like an outlier
+  Pose T_C_O_true;       ///< the error-free value
 };
 
 /// Visibility test of one object; returns false when not visible. Draws the miss from `rng` only when

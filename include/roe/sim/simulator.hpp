@@ -59,28 +59,28 @@ struct CameraConfig {
 
 /// One object of the scene.
 struct ObjectSpec {
-  int id = 0;                 ///< YCB-V class id (1..21) or any positive id
-  bool has_pose = false;      ///< when true, T_M_O is used as given; otherwise it is drawn
-  Pose T_M_O;                 ///< pose in the room frame M
+  int id = 0;             ///< YCB-V class id (1..21) or any positive id
+  bool has_pose = false;  ///< when true, T_M_O is used as given; otherwise it is drawn
+  Pose T_M_O;             ///< pose in the room frame M
 };
 
 struct ObjectsConfig {
   std::vector<ObjectSpec> objects{{1, false, {}}, {5, false, {}}, {13, false, {}}};
   Eigen::Vector3d area_center = Eigen::Vector3d(0.0, 0.0, 0.8);  ///< centre of the placement area (M)
-  double area_size_m = 1.0;        ///< side of the square area (about 1 m²)
-  double min_separation_m = 0.15;  ///< between drawn object centres
-  double height_jitter_m = 0.05;   ///< drawn centre height: area_center.z + U(0, height_jitter)
-  double lying_prob = 0.3;         ///< probability that a drawn object lies on its side (90° roll)
-  std::uint64_t layout_seed = 1;   ///< seed of the placement draw (fixed per preset, not --seed)
+  double area_size_m = 1.0;                                      ///< side of the square area (about 1 m²)
+  double min_separation_m = 0.15;                                ///< between drawn object centres
+  double height_jitter_m = 0.05;  ///< drawn centre height: area_center.z + U(0, height_jitter)
+  double lying_prob = 0.3;        ///< probability that a drawn object lies on its side (90° roll)
+  std::uint64_t layout_seed = 1;  ///< seed of the placement draw (fixed per preset, not --seed)
   std::vector<int> symmetric_ids{13, 16, 19, 20, 21};  ///< PoET's YCB-V symmetric classes
 };
 
 /// How --seed varies a preset's trajectory ("similar but not identical" repeated runs).
 struct VariationConfig {
-  double amplitude_rel = 0.15;  ///< each sinusoid amplitude × U(1 − a, 1 + a)
-  double frequency_rel = 0.05;  ///< each frequency × U(1 − f, 1 + f)
-  double phase_rad = 0.5;       ///< each phase + U(−φ, φ)
-  double offset_rel = 0.05;     ///< offsets of radius and height × U(1 − o, 1 + o)
+  double amplitude_rel = 0.15;     ///< each sinusoid amplitude × U(1 − a, 1 + a)
+  double frequency_rel = 0.05;     ///< each frequency × U(1 − f, 1 + f)
+  double phase_rad = 0.5;          ///< each phase + U(−φ, φ)
+  double offset_rel = 0.05;        ///< offsets of radius and height × U(1 − o, 1 + o)
   double azimuth_start_rad = 0.3;  ///< azimuth offset + U(−a, a)
 };
 

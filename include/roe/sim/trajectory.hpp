@@ -38,18 +38,18 @@ struct SmoothSignal {
 /// The trajectory's shape. Angles in radians, lengths in metres, all in the room frame M (z up).
 struct TrajectoryConfig {
   Eigen::Vector3d center = Eigen::Vector3d(0.0, 0.0, 0.8);  ///< c: centre of the object group in M
-  SmoothSignal azimuth_rad{0.0, 0.15, {}};   ///< a(t): angle of the camera around c (about z)
-  SmoothSignal radius_m{1.0, 0.0, {}};       ///< r(t): horizontal distance from c
-  SmoothSignal height_m{0.5, 0.0, {}};       ///< h(t): camera height above c
-  SmoothSignal target_x_m, target_y_m, target_z_m;  ///< look-at point offset from c (slow wander)
-  SmoothSignal roll_rad;                      ///< roll about the optical axis
-  SmoothSignal shake_x_m, shake_y_m, shake_z_m;  ///< handheld shake added to the position (M)
+  SmoothSignal azimuth_rad{0.0, 0.15, {}};                  ///< a(t): angle of the camera around c (about z)
+  SmoothSignal radius_m{1.0, 0.0, {}};                      ///< r(t): horizontal distance from c
+  SmoothSignal height_m{0.5, 0.0, {}};                      ///< h(t): camera height above c
+  SmoothSignal target_x_m, target_y_m, target_z_m;          ///< look-at point offset from c (slow wander)
+  SmoothSignal roll_rad;                                    ///< roll about the optical axis
+  SmoothSignal shake_x_m, shake_y_m, shake_z_m;             ///< handheld shake added to the position (M)
 };
 
 /// The kinematic state of a rigid frame X at one instant, everything in the fixed frame M unless
 /// named otherwise.
 struct Kinematics {
-  math::Pose T_M_X;                                  ///< pose
+  math::Pose T_M_X;                                   ///< pose
   Eigen::Vector3d v_M = Eigen::Vector3d::Zero();      ///< velocity of the origin of X
   Eigen::Vector3d a_M = Eigen::Vector3d::Zero();      ///< acceleration of the origin of X
   Eigen::Vector3d omega_X = Eigen::Vector3d::Zero();  ///< angular velocity in X (body rates)
