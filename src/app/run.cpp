@@ -48,6 +48,7 @@ class Recorder : public ekf::FilterObserver {
         case ekf::DetectionStatus::kRejectedNoMain: ++c.rejected_no_main; break;
         case ekf::DetectionStatus::kRejectedScore: ++c.rejected_score; break;
         case ekf::DetectionStatus::kRejectedNoImu: ++c.rejected_no_imu; break;
+        case ekf::DetectionStatus::kPendingInit: ++c.pending_init; break;
       }
       if (std::isfinite(d.nis)) out_.nis.push_back(d.nis);
     }
@@ -338,7 +339,8 @@ json counts_json(const RunOutput& r) {
     per[std::to_string(kv.first)] = {{"detections", c.detections},         {"accepted", c.accepted},
                                      {"initialized", c.initialized},       {"rejected_chi2", c.rejected_chi2},
                                      {"rejected_no_main", c.rejected_no_main}, {"rejected_score", c.rejected_score},
-                                     {"rejected_no_imu", c.rejected_no_imu}};
+                                     {"rejected_no_imu", c.rejected_no_imu},
+                                     {"pending_init", c.pending_init}};
     total.detections += c.detections;
     total.accepted += c.accepted;
     total.initialized += c.initialized;

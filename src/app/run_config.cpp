@@ -55,6 +55,7 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
       fail(f, "residual_frame", "must be \"object\" (paper: T_O_C) or \"camera\" (T_C_O)");
     positive(f, "meas_sigma_p_m", o.meas_sigma_p_m);
     positive(f, "meas_sigma_rot_deg", o.meas_sigma_rot_deg);
+    f.get("meas_sigma_in_camera", o.meas_sigma_in_camera);
     f.get("use_detection_sigmas", o.use_detection_sigmas);
     non_negative(f, "min_score", o.min_score);
     f.get("chi2_gate", o.chi2_gate);
@@ -68,6 +69,10 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
     if (!ekf::parse_anchor_gauge(gauge, o.anchor_gauge))
       fail(f, "anchor_gauge", "must be \"position\" (paper), \"position_yaw\" or \"pose\"");
     f.get("require_anchor", o.require_anchor);
+    f.get("init_min_detections", o.init_min_detections);
+    if (o.init_min_detections < 1) fail(f, "init_min_detections", "must be >= 1 (1 = the paper: first detection)");
+    positive(f, "init_gate_p_m", o.init_gate_p_m);
+    positive(f, "init_gate_rot_deg", o.init_gate_rot_deg);
     f.get("estimate_extrinsics", o.estimate_extrinsics);
     positive(f, "extrinsics_sigma_p_m", o.extrinsics_sigma_p_m);
     positive(f, "extrinsics_sigma_rot_deg", o.extrinsics_sigma_rot_deg);
@@ -116,6 +121,7 @@ json run_config_to_json(const RunConfig& c) {
       {"residual_frame", ekf::to_string(o.residual_frame)},
       {"meas_sigma_p_m", o.meas_sigma_p_m},
       {"meas_sigma_rot_deg", o.meas_sigma_rot_deg},
+      {"meas_sigma_in_camera", o.meas_sigma_in_camera},
       {"use_detection_sigmas", o.use_detection_sigmas},
       {"min_score", o.min_score},
       {"chi2_gate", o.chi2_gate},
@@ -123,6 +129,9 @@ json run_config_to_json(const RunConfig& c) {
       {"anchor_id", o.anchor_id},
       {"anchor_gauge", ekf::to_string(o.anchor_gauge)},
       {"require_anchor", o.require_anchor},
+      {"init_min_detections", o.init_min_detections},
+      {"init_gate_p_m", o.init_gate_p_m},
+      {"init_gate_rot_deg", o.init_gate_rot_deg},
       {"estimate_extrinsics", o.estimate_extrinsics},
       {"extrinsics_sigma_p_m", o.extrinsics_sigma_p_m},
       {"extrinsics_sigma_rot_deg", o.extrinsics_sigma_rot_deg},

@@ -57,6 +57,7 @@ std::string to_string(DetectionStatus s) {
     case DetectionStatus::kRejectedNoMain: return "rejected_no_main";
     case DetectionStatus::kRejectedScore: return "rejected_score";
     case DetectionStatus::kRejectedNoImu: return "rejected_no_imu";
+    case DetectionStatus::kPendingInit: return "pending_init";
   }
   return "unknown";
 }
@@ -73,7 +74,10 @@ Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const 
   blocks_.reserve(16);
 }
 
-std::string Filter::when() const { return fmt::format("t = {:.9f} s", to_seconds(t_ns_)); }
+std::string Filter::when() const {
+  const Timestamp s = t_ns_ / kNsPerSecond, ns = t_ns_ % kNsPerSecond;
+  return fmt::format("t = {}.{:09d} s", s, ns < 0 ? -ns : ns);
+}
 
 void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, const Vec3& mean_accel) {
   const Vec3 f = mean_accel - opt_.init_accel_bias;
@@ -265,11 +269,11 @@ Mat6 Filter::measurement_covariance(const Detection& d, bool object_frame) const
   if (per_detection) sigma = *d.sigma;
   // Camera-frame σ (per detection, or the fixed σ with kCamera): diagonal in the camera frame,
   // mapped through the inversion when the object frame is wanted.
-  if (per_detection || opt_.residual_frame == ResidualFrame::kCamera) {
+  if (per_detection || opt_.meas_sigma_in_camera || opt_.residual_frame == ResidualFrame::kCamera) {
     if (object_frame) return detection_covariance_in_residual_frame(d.T_C_O, sigma);
     return Mat6(sigma.cwiseProduct(sigma).asDiagonal());
   }
-  // Fixed σ in the object frame (the paper): diagonal there.
+  // Fixed σ on the axes of the T_O_C residual.
   return Mat6(sigma.cwiseProduct(sigma).asDiagonal());
 }
 
@@ -424,9 +428,19 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
   // The anchor's first sight fixes the gauge before anything else uses this frame.
   if (anchor_det >= 0 && object(anchor_id_) == nullptr) {
     const Detection& d = dets[anchor_det];
-    initialize_object(d.object_id, z[anchor_det], measurement_covariance(d, true), true);
-    res.detections[anchor_det].status = DetectionStatus::kInitialized;
+    if (confirm_first_sight(d.object_id, z[anchor_det])) {
+      initialize_object(d.object_id, z[anchor_det], measurement_covariance(d, true), true);
+      res.detections[anchor_det].status = DetectionStatus::kInitialized;
+    } else {
+      res.detections[anchor_det].status = DetectionStatus::kPendingInit;
+    }
     usable[anchor_det] = false;
+  }
+  if (opt_.require_anchor && object(anchor_id_) == nullptr) {
+    for (std::size_t i = 0; i < dets.size(); ++i)
+      if (usable[i]) res.detections[i].status = DetectionStatus::kRejectedNoMain;
+    implied();
+    return res;
   }
 
   // Residuals, H and the per-object gate.
@@ -525,11 +539,35 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
   // First sight of the other objects, from the posterior.
   for (int i : new_objects) {
     const Detection& d = dets[i];
+    if (!confirm_first_sight(d.object_id, z[i])) {
+      res.detections[i].status = DetectionStatus::kPendingInit;
+      continue;
+    }
     initialize_object(d.object_id, z[i], measurement_covariance(d, true), false);
     res.detections[i].status = DetectionStatus::kInitialized;
   }
   implied();
   return res;
+}
+
+bool Filter::confirm_first_sight(int id, const Pose& z) {
+  if (opt_.init_min_detections <= 1) return true;
+  const Pose cand = init_object(x_, T_I_C_, z).T_O_W;
+  auto it = std::find_if(pending_.begin(), pending_.end(), [id](const auto& p) { return p.first == id; });
+  if (it == pending_.end()) {
+    pending_.push_back({id, Pending{cand, 1}});
+    return false;
+  }
+  Pending& p = it->second;
+  const Vec6 d = math::pose_difference(p.T_O_W, cand);
+  if (d.head<3>().norm() <= opt_.init_gate_p_m && d.tail<3>().norm() <= opt_.init_gate_rot_deg * math::kRadPerDeg)
+    ++p.count;
+  else
+    p.count = 1;
+  p.T_O_W = cand;
+  if (p.count < opt_.init_min_detections) return false;
+  pending_.erase(it);
+  return true;
 }
 
 void Filter::check_state(const char* where) const {

@@ -66,7 +66,7 @@ struct ReprojectionRow {
 
 struct ObjectCounts {
   std::size_t detections = 0, accepted = 0, initialized = 0, rejected_chi2 = 0, rejected_no_main = 0,
-              rejected_score = 0, rejected_no_imu = 0;
+              rejected_score = 0, rejected_no_imu = 0, pending_init = 0;
 };
 
 /// The result of a run in memory (what the files hold).

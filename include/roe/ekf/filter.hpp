@@ -47,6 +47,7 @@ enum class DetectionStatus {
   kRejectedNoMain,   ///< frame without the anchor (require_anchor)
   kRejectedScore,    ///< score below min_score
   kRejectedNoImu,    ///< frame outside the IMU stream (before the first / after the last sample)
+  kPendingInit,      ///< first sight not yet confirmed (FilterOptions::init_min_detections)
 };
 std::string to_string(DetectionStatus s);
 
@@ -137,6 +138,8 @@ class Filter {
   /// T_O_C frame used by the first-sight initialisation.
   Mat6 measurement_covariance(const Detection& d, bool object_frame) const;
   void initialize_object(int id, const Pose& z, const Mat6& R, bool anchor);
+  /// Records a first-sight candidate; true when init_min_detections consecutive candidates agree.
+  bool confirm_first_sight(int id, const Pose& z);
   void check_state(const char* where) const;
   void check_covariance(bool full, const char* where);
   std::string when() const;
@@ -157,6 +160,11 @@ class Filter {
   bool phi_pending_ = false;
   Eigen::MatrixXd tmp_cross_;
   std::vector<MeasBlock> blocks_;
+  struct Pending {
+    Pose T_O_W;
+    int count = 0;
+  };
+  std::vector<std::pair<int, Pending>> pending_;
   double gate_ = 0.0;
   std::size_t n_updates_ = 0;
 };

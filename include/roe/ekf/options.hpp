@@ -49,10 +49,13 @@ bool parse_residual_frame(const std::string& s, ResidualFrame& out);
 struct FilterOptions {
   // --- Measurement model ---
   ResidualFrame residual_frame = ResidualFrame::kCamera;
-  /// Fixed measurement σ per axis, in the residual frame: position of T_O_C (kObject, the paper) or
-  /// translation of T_C_O (kCamera), and orientation.
+  /// Fixed measurement σ per axis (position, orientation). The paper's 10 cm / 20° are PoET's own
+  /// errors ("the standard deviation of PoET across a video sequence"), i.e. σ of the detected T_C_O
+  /// in camera axes; with meas_sigma_in_camera they are mapped through the inversion into the T_O_C
+  /// residual frame (notes/filter.md §1.7), otherwise they are put on the residual's axes directly.
   double meas_sigma_p_m = 0.10;       ///< position σ per axis (paper: 10 cm)
   double meas_sigma_rot_deg = 20.0;   ///< orientation σ per axis (paper: 20°)
+  bool meas_sigma_in_camera = true;
   /// Use the per-detection sigma columns of detections.csv (camera-frame σ of T_C_O, mapped into the
   /// T_O_C residual frame) where present; the fixed σ above otherwise.
   bool use_detection_sigmas = false;
@@ -72,6 +75,13 @@ struct FilterOptions {
   /// true (paper): frames in which the anchor is not detected are rejected (status rejected_no_main);
   /// false: updates (and first-sight initialisations) from other objects are used as well.
   bool require_anchor = true;
+
+  // --- First sight: an object-world (and the anchor) is initialised only after this many consecutive
+  // detections of the object whose implied T_O_W agree within the gates below (1 = the paper: the
+  // first detection). Guards against initialising from an outlier, which no later update can repair.
+  int init_min_detections = 3;
+  double init_gate_p_m = 0.3;
+  double init_gate_rot_deg = 30.0;
 
   // --- Camera-IMU extrinsics T_I_C (self-calibration) ---
   bool estimate_extrinsics = true;       ///< false: held fixed at the dataset prior (not in the state)
