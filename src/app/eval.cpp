@@ -139,6 +139,8 @@ EvalResult run_eval(const EvalOptions& o) {
   std::vector<Timestamp> t_e, t_g;
   pe.reserve(a.size());
   pg.reserve(a.size());
+  t_e.reserve(a.size());
+  t_g.reserve(a.size());
   for (std::size_t k = 0; k < a.size(); ++k) {
     pe.push_back(te.poses[a.est_index[k]]);
     pg.push_back(tg.poses[a.gt_index[k]]);

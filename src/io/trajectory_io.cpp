@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <optional>
 #include <set>
@@ -303,6 +304,10 @@ Trajectory parse_trajectory(std::string text, const std::string& source, Traject
   Trajectory tr;
   tr.format = format;
   tr.source = source;
+  const std::size_t lines = static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1;
+  tr.t_ns.reserve(lines);
+  tr.poses.reserve(lines);
+  tr.lines.reserve(lines);
   CsvOptions o;
   o.comment_prefix = "#";
   switch (format) {
@@ -334,8 +339,32 @@ Trajectory parse_trajectory(std::string text, const std::string& source, Traject
   return tr;
 }
 
+namespace {
+// One read into a pre-sized string: trajectory files reach hundreds of MB (1e6 poses ≈ 160 MB), where
+// a stream copy would double the memory traffic.
+std::string slurp(const fs::path& file) {
+  std::FILE* f = std::fopen(file.c_str(), "rb");
+  if (!f) {
+    if (fs::is_directory(file)) throw InputError("is a folder, expected a trajectory file", {file.string()});
+    throw InputError("cannot open file", {file.string()});
+  }
+  std::string text;
+  std::error_code ec;
+  const auto size = fs::file_size(file, ec);
+  if (!ec) text.resize(static_cast<std::size_t>(size));
+  const std::size_t got = text.empty() ? 0 : std::fread(text.data(), 1, text.size(), f);
+  text.resize(got);
+  char buf[65536];  // files that grew meanwhile, or had no size (pipes)
+  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, f)) > 0;) text.append(buf, n);
+  const bool bad = std::ferror(f) != 0;
+  std::fclose(f);
+  if (bad) throw InputError("read error", {file.string()});
+  return text;
+}
+}  // namespace
+
 Trajectory read_trajectory(const fs::path& file, TrajectoryFormat format) {
-  return parse_trajectory(read_file(file), file.string(), format);
+  return parse_trajectory(slurp(file), file.string(), format);
 }
 
 // -------------------------------------------------------------------------------------------------
