@@ -3,6 +3,7 @@
 // roe simulate --list-presets
 #include <fmt/format.h>
 
+#include <limits>
 #include <memory>
 
 #include "command.hpp"
@@ -17,6 +18,7 @@ struct Args {
   std::string out;
   double duration = 0.0;
   int objects = 0;
+  std::int64_t seed = 1;
   bool list = false;
   CLI::Option* duration_opt = nullptr;
   CLI::Option* objects_opt = nullptr;
@@ -27,7 +29,8 @@ RunFn setup(CLI::App& sub) {
   sub.add_flag("--list-presets", a->list, "List the built-in presets (configs/sim/*.json) and exit");
   sub.add_option("--preset", a->opt.preset, "Built-in preset, e.g. paper-seq4, noise-free, matched");
   sub.add_option("--config", a->opt.config_file, "Simulator config JSON (keys: docs/simulator.md)");
-  sub.add_option("--seed", a->opt.seed, "Random seed: varies the trajectory and all noise")
+  sub.add_option("--seed", a->seed, "Random seed (integer >= 0): varies the trajectory and all noise")
+      ->check(CLI::Range(std::int64_t{0}, std::numeric_limits<std::int64_t>::max()))
       ->capture_default_str();
   a->duration_opt =
       sub.add_option("--duration", a->duration, "Sequence length in seconds (overrides the config)");
@@ -52,6 +55,7 @@ RunFn setup(CLI::App& sub) {
     if (*a->duration_opt) a->opt.duration_s = a->duration;
     if (*a->objects_opt) a->opt.objects = a->objects;
     a->opt.force = globals().force;
+    a->opt.seed = static_cast<std::uint64_t>(a->seed);
     const auto r = app::simulate(a->opt, a->out);
     emit(r.to_json(), r.to_text());
     return 0;
