@@ -130,6 +130,7 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
   infer::PoetModel model(bundle, mo);
   s.model_id = bundle.model_id;
   s.selftest = model.selftest_report().to_json();
+  s.device = model.device();
 
   // Selection.
   const auto [first, last] = parse_frame_range(opt.frames, frames.size());
@@ -270,7 +271,7 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
         {"bundle", fs::absolute(opt.model_dir).lexically_normal().string()},
         {"provenance", bundle.provenance},
         {"libtorch", infer::PoseHead::runtime_version()},
-        {"device", opt.device}}},
+        {"device", s.device}}},
       {"config_hash", s.config_hash},
       {"config", cfg},
       {"options",

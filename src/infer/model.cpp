@@ -230,6 +230,7 @@ void PoetModel::set_camera(int width, int height, const std::optional<Intrinsics
 }
 
 bool PoetModel::warping() const { return impl_->warp; }
+std::string PoetModel::device() const { return impl_->head->device(); }
 
 nlohmann::json PoetModel::camera_json() const {
   const auto& m = *impl_;
@@ -350,6 +351,8 @@ FrameResult PoetModel::infer(const std::string& encoded_image, const std::vector
     std::stable_sort(boxes.begin(), boxes.end(), [](const BoxDetection& a, const BoxDetection& b) {
       return a.score > b.score;  // NaN scores compare false: their order is kept
     });
+    // A pose head on detector features still needs the detector's feature maps.
+    if (m.b.pose.inputs == PoseInputs::kFeatures) feats = run_detector(blob).second;
   } else if (m.b.detector == DetectorKind::kDarknet) {
     auto r = run_detector(blob);
     boxes = std::move(r.first);

@@ -1,6 +1,7 @@
 // roe infer end to end on synthetic frames rendered for the committed tiny bundle: detections are
 // written, a second run reuses every frame from the cache, subsampling and the virtual-camera warp.
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -189,6 +190,39 @@ TEST_CASE("roe infer warps another camera to the training intrinsics", "[infer]"
   // Without the warp the 256x192 images do not fit the model.
   o.warp = "off";
   o.force = true;
+  CHECK_THROWS_AS(app::run_infer(ds, o), InputError);
+}
+
+TEST_CASE("roe infer with external boxes (PoET's ground-truth box mode)", "[infer]") {
+  TmpDir tmp("boxes");
+  const fs::path ds = make_dataset(tmp.path, kFrames);
+  // Frame 0: both squares, one without a score; frame 2: the blue one; frame 1: none listed.
+  io::write_file_atomic(tmp.path / "boxes.csv",
+                        "timestamp_ns,class,x1,y1,x2,y2,score\n"
+                        "1000000000,1,18,18,42,42,0.9\n"
+                        "1000000000,2,78,48,102,72,\n"
+                        "1200000000,3,28,38,52,62,0.6\n");
+  app::InferOptions o;
+  o.model_dir = kTiny.string();
+  o.boxes_file = (tmp.path / "boxes.csv").string();
+  const auto s = app::run_infer(ds, o);
+  CHECK(s.frames_computed == 5);
+  CHECK(s.detections_written == 3);
+  const auto dets = io::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
+  REQUIRE(dets.size() == 3);
+  CHECK(dets[0].t_ns == 1'000'000'000);
+  CHECK(dets[0].object_id == 11);
+  CHECK(dets[0].score == Approx(0.9));
+  CHECK(std::isnan(dets[1].score));
+  CHECK(dets[2].t_ns == 1'200'000'000);
+  CHECK(dets[2].object_id == 13);
+  // External boxes are part of the cache key: other boxes, same images → recomputed.
+  io::write_file_atomic(tmp.path / "boxes.csv", "timestamp_ns,class,x1,y1,x2,y2,score\n1000000000,1,18,18,42,42,0.8\n");
+  o.force = true;
+  const auto s2 = app::run_infer(ds, o);
+  CHECK(s2.frames_reused == 3);   // frames 1, 3, 4 had no boxes before and have none now
+  CHECK(s2.frames_computed == 2);  // frame 0 (other score) and frame 2 (its box is gone)
+  io::write_file_atomic(tmp.path / "boxes.csv", "timestamp_ns,class,x1,y1,x2,y2,score\n1000000000,0,18,18,42,42,0.8\n");
   CHECK_THROWS_AS(app::run_infer(ds, o), InputError);
 }
 

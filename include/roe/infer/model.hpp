@@ -80,6 +80,8 @@ class PoetModel {
   /// possible (warp off or unknown intrinsics).
   void set_camera(int width, int height, const std::optional<Intrinsics>& K);
   bool warping() const;
+  /// The pose head's LibTorch device ("cpu", "cuda:0").
+  std::string device() const;
   /// The warp decision and homography, for meta.json and the config hash.
   nlohmann::json camera_json() const;
 
