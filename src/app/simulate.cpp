@@ -419,7 +419,12 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
       run = sim::simulate_from_groundtruth(imu, gt, cfg, opt.seed);
     } catch (const ConfigError& e) {
       ErrorContext ctx = e.context();
-      ctx.file = ctx.key == "objects" ? "--objects" : "from-groundtruth";
+      if (ctx.key == "objects") {
+        ctx.file = "--objects";
+        ctx.key.clear();
+      } else {
+        ctx.file = "from-groundtruth";
+      }
       throw InputError(e.bare_message(), ctx);
     }
     src.kind = "simulate-from-groundtruth";

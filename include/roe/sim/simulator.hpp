@@ -157,7 +157,7 @@ struct FromGroundtruthConfig {
   /// EuRoC MAV cam0 → IMU (body) extrinsics, T_BS of mav0/cam0/sensor.yaml (x_I = T_I_C x_C).
   Pose T_I_C = euroc_T_I_C();
   double place_min_depth_m = 0.8;  ///< placement depth range in front of the chosen camera
-  double place_max_depth_m = 2.0;
+  double place_max_depth_m = 2.4;
   double place_inner_fraction = 0.6;  ///< placement pixel uniform in the central fraction of the image
   double min_separation_m = 0.2;
   std::size_t min_frames_visible = 30;  ///< reject a placement seen (geometrically) in fewer frames
