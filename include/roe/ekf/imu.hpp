@@ -89,6 +89,19 @@ void add_process_noise(const ImuNoiseParams& n, double dt, Eigen::MatrixBase<Der
 template <typename Derived>
 void CoreTransition::apply_left(Eigen::MatrixBase<Derived>& X) const {
   // Old rows are read before they are overwritten: p uses old v and θ, v uses old θ, θ last.
+  if constexpr (Derived::ColsAtCompileTime == 15) {
+    // Fixed-size path for the 15x15 core block and Φ (the per-IMU-sample hot path).
+    Eigen::Matrix<double, 3, 15> dv, dth;
+    dv.noalias() = F_vtheta * X.template middleRows<3>(kTheta);
+    dv.noalias() += F_vbg * X.template middleRows<3>(kBg);
+    dv.noalias() += F_vba * X.template middleRows<3>(kBa);
+    dth.noalias() = F_tt * X.template middleRows<3>(kTheta);
+    dth.noalias() += F_tbg * X.template middleRows<3>(kBg);
+    X.template middleRows<3>(kP) += dt * X.template middleRows<3>(kV) + (0.5 * dt) * dv;
+    X.template middleRows<3>(kV) += dv;
+    X.template middleRows<3>(kTheta) = dth;
+    return;
+  }
   const int m = static_cast<int>(X.cols());
   for (int c0 = 0; c0 < m; c0 += 15) {
     const int w = std::min(15, m - c0);

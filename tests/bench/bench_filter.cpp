@@ -1,0 +1,84 @@
+// bench_filter: wall time of the multi-object EKF on paper-seq4 (60 s, 4 objects) at 200 Hz and 400 Hz
+// IMU, single-threaded. Reports the filter alone (run_filter with an observer that records nothing),
+// propagation alone (no images), and the whole in-memory run (run_dataset: recording every state).
+// usage: bench_filter [repetitions=15]
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <vector>
+
+#include "roe/app/run.hpp"
+#include "roe/app/simulate.hpp"
+#include "roe/ekf/driver.hpp"
+#include "roe/sim/simulator.hpp"
+
+using namespace roe;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+struct Null : ekf::FilterObserver {
+  std::size_t n = 0;
+  void on_imu(const ekf::Filter& f) override { n += f.time() & 1; }
+};
+
+std::vector<ekf::ImageDetections> images_of(const Dataset& d) {
+  std::vector<ekf::ImageDetections> images;
+  for (const auto& det : d.detections.at("sim")) {
+    if (images.empty() || images.back().t_ns != det.t_ns) images.push_back({det.t_ns, {}});
+    images.back().detections.push_back(det);
+  }
+  return images;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int reps = argc > 1 ? std::atoi(argv[1]) : 15;
+  fmt::print("bench_filter: paper-seq4, 60 s, seed 1, configs defaults; {} repetitions, median (min) [ms]\n", reps);
+  fmt::print("{:>8} {:>7} {:>8} {:>20} {:>20} {:>20} {:>12}\n", "IMU Hz", "images", "updates", "filter",
+             "propagation only", "run_dataset", "x real time");
+  for (double rate : {200.0, 400.0}) {
+    sim::SimConfig c = app::sim_config_from_preset("paper-seq4");
+    c.imu.rate_hz = rate;
+    c.duration_s = 60.0;
+    const Dataset d = sim::simulate(c, 1);
+    const auto images = images_of(d);
+    app::RunConfig cfg;
+    const ekf::ImuNoiseParams noise{d.manifest.imu->noise.gyro_noise_density, d.manifest.imu->noise.gyro_random_walk,
+                                    d.manifest.imu->noise.accel_noise_density,
+                                    d.manifest.imu->noise.accel_random_walk};
+    // The anchor as roe run picks it (most detected among the first image's objects).
+    ekf::FilterOptions opt = cfg.filter;
+    const app::RunOutput ref = app::run_dataset(d, "sim", cfg);
+    opt.anchor_id = ref.anchor_id;
+    std::vector<double> t_filter, t_prop, t_run;
+    std::size_t updates = 0;
+    for (int r = 0; r < reps; ++r) {
+      Null obs;
+      auto t0 = Clock::now();
+      const auto s = ekf::run_filter(d.imu, images, opt, noise, d.manifest.camera->T_I_C, obs);
+      t_filter.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      updates = s.updates;
+      t0 = Clock::now();
+      ekf::run_filter(d.imu, {}, opt, noise, d.manifest.camera->T_I_C, obs);
+      t_prop.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      t0 = Clock::now();
+      const auto out = app::run_dataset(d, "sim", cfg);
+      t_run.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    }
+    const double mf = median(t_filter);
+    fmt::print("{:>8.0f} {:>7} {:>8} {:>12.2f} ({:>5.2f}) {:>12.2f} ({:>5.2f}) {:>12.2f} ({:>5.2f}) {:>12.0f}\n", rate,
+               images.size(), updates, mf, *std::min_element(t_filter.begin(), t_filter.end()), median(t_prop),
+               *std::min_element(t_prop.begin(), t_prop.end()), median(t_run),
+               *std::min_element(t_run.begin(), t_run.end()), 60000.0 / mf);
+  }
+  return 0;
+}
