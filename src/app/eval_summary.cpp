@@ -48,21 +48,25 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
       f = fs::exists(f / "report.json") ? f / "report.json" : f / "eval" / "report.json";
     const json j = io::parse_json_file(f);
     Row row;
-    row.file = f.string();
-    row.label = j.contains("info") && j["info"].contains("label") ? j["info"]["label"].get<std::string>()
-                                                                  : f.parent_path().filename().string();
-    row.n_objects = j.contains("per_object") ? j["per_object"].size() : 0;
-    row.n_matched = j.contains("association") ? j["association"].value("n_matched", std::size_t{0}) : 0;
-    if (!j.contains("per_axis") || !j["per_axis"].contains("pos_rmse_m") ||
-        !j["per_axis"].contains("rpy_rmse_deg"))
-      throw InputError("not a roe eval report: per_axis.pos_rmse_m / rpy_rmse_deg missing", {row.file});
-    const auto& pa = j["per_axis"];
-    if (!pa["pos_rmse_m"].is_object() || !pa["rpy_rmse_deg"].is_object())
-      throw InputError("not a roe eval report: per_axis.pos_rmse_m / rpy_rmse_deg missing", {row.file});
-    row.v = {pa["pos_rmse_m"]["x"].get<double>(),       pa["pos_rmse_m"]["y"].get<double>(),
-             pa["pos_rmse_m"]["z"].get<double>(),       pa["rpy_rmse_deg"]["roll"].get<double>(),
-             pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>(),
-             num(j, row.file, "ape_trans_m", "rmse"),   num(j, row.file, "ape_rot_deg", "rmse")};
+    try {
+      row.file = f.string();
+      row.label = j.contains("info") && j["info"].contains("label") ? j["info"]["label"].get<std::string>()
+                                                                    : f.parent_path().filename().string();
+      row.n_objects = j.contains("per_object") ? j["per_object"].size() : 0;
+      row.n_matched = j.contains("association") ? j["association"].value("n_matched", std::size_t{0}) : 0;
+      if (!j.contains("per_axis") || !j["per_axis"].contains("pos_rmse_m") ||
+          !j["per_axis"].contains("rpy_rmse_deg"))
+        throw InputError("not a roe eval report: per_axis.pos_rmse_m / rpy_rmse_deg missing", {row.file});
+      const auto& pa = j["per_axis"];
+      if (!pa["pos_rmse_m"].is_object() || !pa["rpy_rmse_deg"].is_object())
+        throw InputError("not a roe eval report: per_axis.pos_rmse_m / rpy_rmse_deg missing", {row.file});
+      row.v = {pa["pos_rmse_m"]["x"].get<double>(),       pa["pos_rmse_m"]["y"].get<double>(),
+               pa["pos_rmse_m"]["z"].get<double>(),       pa["rpy_rmse_deg"]["roll"].get<double>(),
+               pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>(),
+               num(j, row.file, "ape_trans_m", "rmse"),   num(j, row.file, "ape_rot_deg", "rmse")};
+    } catch (const json::exception& e) {
+      throw InputError(std::string("not a roe eval report: ") + e.what(), {f.string()});
+    }
     rows.push_back(std::move(row));
   }
   std::vector<double> mean(kNumCols, 0.0), sd(kNumCols, 0.0);

@@ -307,6 +307,9 @@ TEST_CASE("roe eval --summary: rows, mean and population std", "[app][eval]") {
   CHECK_NOTHROW(app::summarize_eval_reports(so));
   so.reports = {(f.root / "table.json").string()};  // not a report
   CHECK_THROWS_AS(app::summarize_eval_reports(so), InputError);
+  std::ofstream(f.root / "bad.json") << R"({"per_axis": {"pos_rmse_m": {"x": "a"}, "rpy_rmse_deg": {}}})";
+  so.reports = {(f.root / "bad.json").string()};  // wrong types: a clear InputError, not an internal error
+  CHECK_THROWS_AS(app::summarize_eval_reports(so), InputError);
 }
 
 TEST_CASE("roe eval --plot renders PNGs when matplotlib is available", "[app][eval][plot]") {
