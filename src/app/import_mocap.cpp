@@ -96,12 +96,12 @@ io::MocapData read_mocap(const fs::path& file, const ImportMocapOptions& opt) {
     d.rotation_type = "Quaternion";
     for (std::size_t i = 0; i < t.size(); ++i) {
       if (!d.poses.empty() && t.t_ns[i] == d.poses.back().t_ns) {
-        ++d.occluded;  // a repeated stamp: keep the first pose
+        ++d.duplicates;  // a repeated stamp: keep the first pose
         continue;
       }
       d.poses.push_back({t.t_ns[i], t.poses[i]});
     }
-    if (d.occluded) d.warnings.push_back(fmt::format("{} pose(s) with a repeated stamp dropped", d.occluded));
+    if (d.duplicates) d.warnings.push_back(fmt::format("{} pose(s) with a repeated stamp dropped", d.duplicates));
   } else {
     throw InputError("unknown mocap format \"" + opt.format + "\" (auto, motive, vicon, euroc, tum, csv, rosbag)");
   }
@@ -218,6 +218,7 @@ nlohmann::json ImportMocapSummary::to_json() const {
                       {"rows", rows},
                       {"poses", poses},
                       {"occluded", occluded},
+                      {"duplicate_stamps", duplicates},
                       {"rate_hz", rate_hz},
                       {"length_unit", length_unit},
                       {"rotation_type", rotation_type},
@@ -251,6 +252,7 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   S.topic = opt.topic;
   S.rows = d.rows;
   S.occluded = d.occluded;
+  S.duplicates = d.duplicates;
   S.rate_hz = d.rate_hz;
   S.length_unit = d.length_unit;
   S.rotation_type = d.rotation_type;
@@ -307,6 +309,7 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   if (S.estimate) src.options["offset_correlation"] = io::format_double(S.estimate->correlation);
   src.options["rows"] = std::to_string(d.rows);
   src.options["occluded"] = std::to_string(d.occluded);
+  src.options["duplicate_stamps"] = std::to_string(d.duplicates);
   if (!d.length_unit.empty()) src.options["length_unit"] = d.length_unit;
   if (!d.rotation_type.empty()) src.options["rotation_type"] = d.rotation_type;
   // A forced re-import replaces the record of the same folder.

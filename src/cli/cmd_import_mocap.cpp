@@ -43,8 +43,8 @@ RunFn setup(CLI::App& sub) {
     const auto s = app::import_mocap(a->file, a->dataset, a->opt);
     std::string human = fmt::format("imported {} pose(s) of \"{}\" ({} format) into {}\n", s.poses, s.body, s.format,
                                     s.csv.string());
-    human += fmt::format("  rows {}, occluded/skipped {}, rate {:.3f} Hz, up axis of the file: {}{}\n", s.rows,
-                         s.occluded, s.rate_hz, s.up, s.up == "y" ? " (converted to Z up)" : "");
+    human += fmt::format("  rows {}, occluded {}, repeated stamps {}, rate {:.3f} Hz, up axis of the file: {}{}\n",
+                         s.rows, s.occluded, s.duplicates, s.rate_hz, s.up, s.up == "y" ? " (converted to Z up)" : "");
     if (s.estimate)
       human += fmt::format("  estimated time offset {:.6f} s (t_imu = t_mocap + offset), correlation {:.3f}, "
                            "peak ratio {:.2f}, {} samples\n",

@@ -400,7 +400,8 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
   const std::size_t n = out.poses.size();
   out.poses.erase(std::unique(out.poses.begin(), out.poses.end(), [](const auto& a, const auto& b) { return a.t_ns == b.t_ns; }),
                   out.poses.end());
-  if (n != out.poses.size()) out.warnings.push_back(fmt::format("{} poses with a repeated stamp dropped", n - out.poses.size()));
+  out.duplicates = n - out.poses.size();
+  if (out.duplicates) out.warnings.push_back(fmt::format("{} poses with a repeated stamp dropped", out.duplicates));
   for (const auto& w : reader.warnings())
     out.warnings.push_back(fmt::format("{}: byte {}: {}", reader.name(), w.offset, w.message));
   return out;

@@ -183,4 +183,16 @@ TEST_CASE("import mocap: the evo bag's groundtruth topic and EuRoC/TUM-VI ground
   REQUIRE_FALSE(p.empty());
   CHECK(p[0].t_ns == 1520530308189679351LL);
   CHECK(p[0].T.p.isApprox(Eigen::Vector3d(0.8417820384, -0.2193354118, 1.2499749141), 1e-12));
+  // cnspy CSV (t,tx,ty,tz,qx,qy,qz,qw; 12590 rows of which 590 repeat the previous stamp).
+  const fs::path c = fs::path(ROE_SHARED_DATA_DIR) / "cnspy/ID1-pose-gt.csv";
+  if (fs::exists(c)) {
+    const auto cs = app::import_mocap(c, d.path / "cnspy", {});
+    CHECK(cs.format == "csv");
+    CHECK(cs.rows == 12590);
+    CHECK(cs.duplicates == 590);
+    CHECK(cs.poses == 12000);
+    const auto cp = io::read_mocap_csv(io::mocap_csv_path(d.path / "cnspy"));
+    CHECK(cp[0].t_ns == 5'000'000);
+    CHECK(cp[0].T.p.isApprox(Eigen::Vector3d(-0.000693000000000055, 0.00131999999999999, 0.000394999999999923), 1e-15));
+  }
 }

@@ -105,6 +105,7 @@ struct ImportMocapSummary {
   std::size_t rows = 0;           ///< frames/rows/messages read
   std::size_t poses = 0;          ///< poses written
   std::size_t occluded = 0;       ///< frames skipped because the body was not tracked
+  std::size_t duplicates = 0;     ///< poses dropped for a repeated stamp (the first is kept)
   double rate_hz = 0.0;           ///< from the file header when it has one, else median
   double time_offset_s = 0.0;     ///< applied
   std::optional<OffsetEstimate> estimate;

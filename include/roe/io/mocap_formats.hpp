@@ -28,6 +28,7 @@ struct MocapData {
   std::vector<StampedPose> poses;  ///< T_M_B, metres, ns of the file's clock
   std::size_t rows = 0;            ///< frames (rows/messages) read
   std::size_t occluded = 0;        ///< frames without a pose of the body
+  std::size_t duplicates = 0;      ///< poses dropped because their stamp repeats the previous one
   double rate_hz = 0.0;            ///< from the header (Motive export rate, Vicon rate), 0 if none
   bool y_up = false;               ///< world M is Y-up (Motive's default world)
   std::string length_unit;         ///< as given in the file
