@@ -182,6 +182,17 @@ TEST_CASE("CSV reader: any column order, covariance columns", "[io][trajectory]"
   }
 }
 
+TEST_CASE("csv-ns reader: malformed input", "[io][trajectory]") {
+  const std::string h = "timestamp_ns,tx,ty,tz,qx,qy,qz,qw\n";
+  check_error_at([&] { parse_trajectory(h + "1,0,0,0,0,0,0,1\n1.5,0,0,0,0,0,0,1\n", "n.csv"); }, 3, 1, "");
+  check_error_at([&] { parse_trajectory(h + "2,0,0,0,0,0,0,1\n1,0,0,0,0,0,0,1\n", "n.csv"); }, 3, 1,
+                 "must not decrease");
+  check_error_at([&] { parse_trajectory(h + "1,0,0,0,0,0,0,1,7\n", "n.csv"); }, 2, 9, "columns");
+  check_error_at([&] { parse_trajectory(h + "1,0,0,inf,0,0,0,1\n", "n.csv"); }, 2, 4, "");
+  CHECK_THROWS_AS(read_trajectory(std::filesystem::temp_directory_path()), InputError);  // a folder
+  CHECK_THROWS_AS(read_trajectory("/nonexistent/roe/traj.txt"), InputError);
+}
+
 TEST_CASE("csv-ns reader and writers round-trip exactly", "[io][trajectory]") {
   std::vector<Timestamp> t{1403715529112143517LL, 1403715529212143517LL, 1403715529212143517LL};
   std::vector<Pose> p;
