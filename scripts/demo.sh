@@ -14,6 +14,6 @@ echo "== roe eval $OUT/run --gt datasets/sample"
 if /usr/bin/python3 -c "import matplotlib" 2>/dev/null; then
   "$ROE" eval "$OUT/run" --gt datasets/sample --out "$OUT/eval" --force --plot -q
   echo
-  echo "Plots: $(ls "$OUT"/eval/*.png 2>/dev/null | tr '\n' ' ')"
+  echo "Plots: $(ls "$OUT"/eval/plots/*.png 2>/dev/null | tr '\n' ' ')"
 fi
 echo "Run folder: $OUT/run   Evaluation: $OUT/eval"
