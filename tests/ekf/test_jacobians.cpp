@@ -202,6 +202,7 @@ namespace {
 Filter make_filter(AnchorGauge gauge, bool extrinsics, ResidualFrame frame = ResidualFrame::kObject) {
   FilterOptions opt;
   opt.residual_frame = frame;
+  opt.init_min_detections = 1;  // initialise every object on its first detection
   opt.anchor_id = 1;
   opt.anchor_gauge = gauge;
   opt.estimate_extrinsics = extrinsics;
