@@ -196,3 +196,30 @@ TEST_CASE("import mocap: the evo bag's groundtruth topic and EuRoC/TUM-VI ground
     CHECK(cp[0].T.p.isApprox(Eigen::Vector3d(-0.000693000000000055, 0.00131999999999999, 0.000394999999999923), 1e-15));
   }
 }
+
+TEST_CASE("import mocap: format detection (Vicon, Motive) and occlusion counts", "[app][import]") {
+  TempDir d;
+  const fs::path v = d.path / "tracker.csv";
+  std::ofstream(v) << "Objects\n100\n,,Global Angle cam:cam,,,,,\n"
+                      "Frame,Sub Frame,RX,RY,RZ,TX,TY,TZ\n,,rad,rad,rad,mm,mm,mm\n"
+                      "1,0,0,0,0,1000,0,0\n2,0,,,,,,\n3,0,0,0,0.1,1000,10,0\n";
+  const auto s = app::import_mocap(v, d.path / "ds", {});
+  CHECK(s.format == "vicon");
+  CHECK(s.body == "cam");
+  CHECK(s.rows == 3);
+  CHECK(s.occluded == 1);
+  CHECK(s.poses == 2);
+  CHECK(s.up == "z");
+  const auto p = io::read_mocap_csv(io::mocap_csv_path(d.path / "ds"));
+  REQUIRE(p.size() == 2);
+  CHECK(p[1].t_ns == 20'000'000);
+  CHECK(p[1].T.p.isApprox(Eigen::Vector3d(1.0, 0.01, 0.0), 1e-12));
+  const auto m = io::read_manifest(d.path / "ds");
+  CHECK(m.sources.at(0).kind == "vicon-csv");
+  CHECK(m.sources.at(0).options.at("occluded") == "1");
+  // Every frame occluded → nothing to import is bad input.
+  const fs::path all = d.path / "all.csv";
+  std::ofstream(all) << "Objects\n100\n,,Global Angle cam:cam,,,,,\n"
+                        "Frame,Sub Frame,RX,RY,RZ,TX,TY,TZ\n,,rad,rad,rad,mm,mm,mm\n1,0,,,,,,\n";
+  CHECK_THROWS_WITH(app::import_mocap(all, d.path / "ds2", {}), Catch::Contains("occluded"));
+}
