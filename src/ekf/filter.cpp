@@ -496,14 +496,18 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     const int ni = static_cast<int>(inliers.size());
     if (ni > 0) {
       const int m = 6 * ni;
-      Eigen::MatrixXd PHt(n_, m);
-      Eigen::VectorXd r(m);
+      // Workspaces are members: no reallocation while (n, m) repeat.
+      Eigen::MatrixXd& PHt = ws_PHt_;
+      Eigen::VectorXd& r = ws_r_;
+      Eigen::MatrixXd& S = ws_S_;
+      PHt.resize(n_, m);
+      r.resize(m);
       for (int a = 0; a < ni; ++a) {
         PHt.middleCols<6>(6 * a) = PHt_all.middleCols<6>(6 * inliers[a]);
         r.segment<6>(6 * a) = blocks_[inliers[a]].r;
       }
       // S = H P Hᵀ + R, block (a, c) = H_a (P H_cᵀ)[idx_a rows].
-      Eigen::MatrixXd S = Eigen::MatrixXd::Zero(m, m);
+      S.setZero(m, m);
       for (int a = 0; a < ni; ++a) {
         const MeasBlock& b = blocks_[inliers[a]];
         for (int c = 0; c < ni; ++c) {
@@ -513,20 +517,24 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
         S.block<6, 6>(6 * a, 6 * a) += b.R;
       }
       S = 0.5 * (S + S.transpose()).eval();
-      Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
-      if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all())
+      ws_ldlt_.compute(S);
+      if (ws_ldlt_.info() != Eigen::Success || !(ws_ldlt_.vectorD().array() > 0.0).all())
         throw NumericError(fmt::format("filter failed at {}: stacked innovation covariance is not positive "
                                        "definite",
                                        when()));
-      // K = P Hᵀ S⁻¹ (Kᵀ = S⁻¹ (P Hᵀ)ᵀ, by the LDLT solve).
-      const Eigen::MatrixXd K = ldlt.solve(PHt.transpose()).transpose();
-      const Eigen::VectorXd dx = K * r;
+      // Kᵀ = S⁻¹ (P Hᵀ)ᵀ by the LDLT solve (no explicit inverse).
+      Eigen::MatrixXd& Kt = ws_Kt_;
+      Kt = PHt.transpose();
+      ws_ldlt_.solveInPlace(Kt);
+      const Eigen::VectorXd dx = Kt.transpose() * r;
       // Joseph form: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + KSKᵀ = P + E Kᵀ + K Eᵀ,
-      // E = ½ K S − P Hᵀ; only the lower triangle is computed, then mirrored.
-      const Eigen::MatrixXd E = 0.5 * (K * S) - PHt;
-      // (assigning a product to a triangular view evaluates only that triangle: n²m multiply-adds)
-      P_.triangularView<Eigen::Lower>() += E * K.transpose();
-      P_.triangularView<Eigen::Lower>() += K * E.transpose();
+      // E = ½ K S − P Hᵀ (Eᵀ = ½ S Kᵀ − (P Hᵀ)ᵀ); only the lower triangle is computed, then mirrored
+      // (assigning a product to a triangular view evaluates only that triangle: n²m multiply-adds).
+      Eigen::MatrixXd& Et = ws_Et_;
+      Et.noalias() = 0.5 * (S * Kt);
+      Et -= PHt.transpose();
+      P_.triangularView<Eigen::Lower>() += Et.transpose() * Kt;
+      P_.triangularView<Eigen::Lower>() += Kt.transpose() * Et;
       P_.triangularView<Eigen::StrictlyUpper>() = P_.transpose();
       boxplus(dx);
       res.n_inliers = ni;

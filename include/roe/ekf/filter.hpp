@@ -27,6 +27,7 @@
 /// (I−KH)P(I−KH)ᵀ + K R Kᵀ, only the lower triangle evaluated), then
 /// symmetrised. Guard rails throw roe::NumericError naming the time and what broke.
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <limits>
 #include <string>
@@ -160,6 +161,10 @@ class Filter {
   bool phi_pending_ = false;
   Eigen::MatrixXd tmp_cross_;
   std::vector<MeasBlock> blocks_;
+  // Update workspaces (kept to avoid reallocation per image).
+  Eigen::MatrixXd ws_PHt_, ws_S_, ws_Kt_, ws_Et_;
+  Eigen::VectorXd ws_r_;
+  Eigen::LDLT<Eigen::MatrixXd> ws_ldlt_;
   struct Pending {
     Pose T_O_W;
     int count = 0;
