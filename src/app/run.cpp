@@ -42,13 +42,27 @@ class Recorder : public ekf::FilterObserver {
       ObjectCounts& c = out_.counts[d.object_id];
       ++c.detections;
       switch (d.status) {
-        case ekf::DetectionStatus::kAccepted: ++c.accepted; break;
-        case ekf::DetectionStatus::kInitialized: ++c.initialized; break;
-        case ekf::DetectionStatus::kRejectedChi2: ++c.rejected_chi2; break;
-        case ekf::DetectionStatus::kRejectedNoMain: ++c.rejected_no_main; break;
-        case ekf::DetectionStatus::kRejectedScore: ++c.rejected_score; break;
-        case ekf::DetectionStatus::kRejectedNoImu: ++c.rejected_no_imu; break;
-        case ekf::DetectionStatus::kPendingInit: ++c.pending_init; break;
+        case ekf::DetectionStatus::kAccepted:
+          ++c.accepted;
+          break;
+        case ekf::DetectionStatus::kInitialized:
+          ++c.initialized;
+          break;
+        case ekf::DetectionStatus::kRejectedChi2:
+          ++c.rejected_chi2;
+          break;
+        case ekf::DetectionStatus::kRejectedNoMain:
+          ++c.rejected_no_main;
+          break;
+        case ekf::DetectionStatus::kRejectedScore:
+          ++c.rejected_score;
+          break;
+        case ekf::DetectionStatus::kRejectedNoImu:
+          ++c.rejected_no_imu;
+          break;
+        case ekf::DetectionStatus::kPendingInit:
+          ++c.pending_init;
+          break;
       }
       if (std::isfinite(d.nis)) out_.nis.push_back(d.nis);
     }
@@ -104,11 +118,13 @@ std::string choose_detections(const Dataset& d, const std::string& name) {
   }
   if (names.size() == 1) return names.front();
   if (names.empty())
-    throw InputError("the dataset has no detections (detections/<name>/detections.csv); run `roe infer` or "
-                     "`roe import poet` first",
-                     {"detections/"});
-  throw InputError(fmt::format("the dataset has several detection sets ({}); choose one with --detections", list),
-                   {"detections/"});
+    throw InputError(
+        "the dataset has no detections (detections/<name>/detections.csv); run `roe infer` or "
+        "`roe import poet` first",
+        {"detections/"});
+  throw InputError(
+      fmt::format("the dataset has several detection sets ({}); choose one with --detections", list),
+      {"detections/"});
 }
 
 ekf::ImuNoiseParams imu_noise(const Dataset& d, const ekf::FilterOptions& o) {
@@ -117,8 +133,9 @@ ekf::ImuNoiseParams imu_noise(const Dataset& d, const ekf::FilterOptions& o) {
   const auto pick = [&](double opt, double ImuNoise::*field, const char* key) {
     if (opt >= 0.0) return opt;
     if (ds == nullptr || !(ds->*field >= 0.0))
-      throw ConfigError(fmt::format("IMU noise unknown: roe.json has no imu.{0}; set filter.{0} in the config", key),
-                        {"roe.json", 0, 0, std::string("imu.") + key});
+      throw ConfigError(
+          fmt::format("IMU noise unknown: roe.json has no imu.{0}; set filter.{0} in the config", key),
+          {"roe.json", 0, 0, std::string("imu.") + key});
     return ds->*field;
   };
   n.gyro_noise_density = pick(o.gyro_noise_density, &ImuNoise::gyro_noise_density, "gyro_noise_density");
@@ -162,15 +179,18 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
       throw ConfigError(fmt::format("anchor_id {} is not an object of this dataset (roe.json objects: {})",
                                     opt.anchor_id, fmt::join(known, ", ")),
                         {"config", 0, 0, "filter.anchor_id"});
-    const bool seen = std::any_of(dets.begin(), dets.end(), [&](const Detection& d) { return d.object_id == opt.anchor_id; });
+    const bool seen = std::any_of(dets.begin(), dets.end(),
+                                  [&](const Detection& d) { return d.object_id == opt.anchor_id; });
     if (!seen)
       throw DataError(fmt::format("the anchor object {} is never detected in {}: no update could be made "
                                   "(choose another filter.anchor_id, or -1 for the first object seen)",
                                   opt.anchor_id, det_file),
                       {det_file});
   }
-  if (opt.use_detection_sigmas && std::none_of(dets.begin(), dets.end(), [](const Detection& d) { return d.sigma.has_value(); }))
-    out.warnings.push_back(det_file + " has no sigma columns: use_detection_sigmas falls back to the fixed σ");
+  if (opt.use_detection_sigmas &&
+      std::none_of(dets.begin(), dets.end(), [](const Detection& d) { return d.sigma.has_value(); }))
+    out.warnings.push_back(det_file +
+                           " has no sigma columns: use_detection_sigmas falls back to the fixed σ");
 
   // Extrinsics prior.
   Pose T_I_C;
@@ -179,7 +199,8 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   } else {
     out.warnings.push_back("roe.json has no camera: T_I_C prior = identity");
   }
-  const Timestamp offset_ns = dataset.manifest.camera ? from_seconds(dataset.manifest.camera->time_offset_s) : 0;
+  const Timestamp offset_ns =
+      dataset.manifest.camera ? from_seconds(dataset.manifest.camera->time_offset_s) : 0;
 
   // Group detections per image (IMU clock).
   std::vector<ekf::ImageDetections> images;
@@ -203,7 +224,8 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
       int best = -1;
       for (const auto& d : im.detections) {
         if (std::isfinite(d.score) && d.score < opt.min_score) continue;
-        if (best < 0 || seen[d.object_id] > seen[best] || (seen[d.object_id] == seen[best] && d.object_id < best))
+        if (best < 0 || seen[d.object_id] > seen[best] ||
+            (seen[d.object_id] == seen[best] && d.object_id < best))
           best = d.object_id;
       }
       if (best >= 0) {
@@ -211,8 +233,9 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
         break;
       }
     }
-    out.warnings.push_back(fmt::format("anchor chosen automatically: object {} (first seen{}, detected in {} images)",
-                                       fopt.anchor_id, "", seen[fopt.anchor_id]));
+    out.warnings.push_back(
+        fmt::format("anchor chosen automatically: object {} (first seen{}, detected in {} images)",
+                    fopt.anchor_id, "", seen[fopt.anchor_id]));
   }
   const ekf::ImuNoiseParams noise = imu_noise(dataset, opt);
   out.gate = ekf::chi2_quantile(opt.chi2_confidence, 6.0);
@@ -248,13 +271,15 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   for (const auto& kv : out.counts) {
     no_imu += kv.second.rejected_no_imu;
     if (kv.second.initialized == 0 && kv.second.detections > 0)
-      out.warnings.push_back(fmt::format("object {} was detected {} times but never initialised (all its frames "
-                                         "lacked the anchor or the IMU)",
-                                         kv.first, kv.second.detections));
+      out.warnings.push_back(
+          fmt::format("object {} was detected {} times but never initialised (all its frames "
+                      "lacked the anchor or the IMU)",
+                      kv.first, kv.second.detections));
   }
   if (no_imu > 0)
     out.warnings.push_back(fmt::format("{} detections lie outside the IMU stream and were skipped", no_imu));
-  if (out.summary.updates == 0) out.warnings.push_back("no update was made: the trajectory is IMU dead reckoning");
+  if (out.summary.updates == 0)
+    out.warnings.push_back("no update was made: the trajectory is IMU dead reckoning");
   return out;
 }
 
@@ -274,10 +299,10 @@ void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
 
   {
     io::CsvWriter w;
-    std::vector<std::string> h = {"timestamp_ns", "p_W_I_x", "p_W_I_y", "p_W_I_z", "v_W_I_x", "v_W_I_y", "v_W_I_z",
-                                  "q_W_I_x", "q_W_I_y", "q_W_I_z", "q_W_I_w", "b_g_x", "b_g_y", "b_g_z", "b_a_x",
-                                  "b_a_y", "b_a_z", "p_I_C_x", "p_I_C_y", "p_I_C_z", "q_I_C_x", "q_I_C_y", "q_I_C_z",
-                                  "q_I_C_w"};
+    std::vector<std::string> h = {"timestamp_ns", "p_W_I_x", "p_W_I_y", "p_W_I_z", "v_W_I_x", "v_W_I_y",
+                                  "v_W_I_z",      "q_W_I_x", "q_W_I_y", "q_W_I_z", "q_W_I_w", "b_g_x",
+                                  "b_g_y",        "b_g_z",   "b_a_x",   "b_a_y",   "b_a_z",   "p_I_C_x",
+                                  "p_I_C_y",      "p_I_C_z", "q_I_C_x", "q_I_C_y", "q_I_C_z", "q_I_C_w"};
     for (const char* g : {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a", "p_I_C", "theta_I_C"})
       for (const char* a : {"x", "y", "z"}) h.push_back(fmt::format("sigma_{}_{}", g, a));
     w.header(h);
@@ -299,8 +324,9 @@ void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
   }
   {
     io::CsvWriter w;
-    w.header({"timestamp_ns", "object_id", "anchor", "p_O_W_x", "p_O_W_y", "p_O_W_z", "q_O_W_x", "q_O_W_y", "q_O_W_z",
-              "q_O_W_w", "sigma_p_x", "sigma_p_y", "sigma_p_z", "sigma_theta_x", "sigma_theta_y", "sigma_theta_z"});
+    w.header({"timestamp_ns", "object_id", "anchor", "p_O_W_x", "p_O_W_y", "p_O_W_z", "q_O_W_x", "q_O_W_y",
+              "q_O_W_z", "q_O_W_w", "sigma_p_x", "sigma_p_y", "sigma_p_z", "sigma_theta_x", "sigma_theta_y",
+              "sigma_theta_z"});
     for (const auto& o : r.objects) {
       const Eigen::Quaterniond q = math::canonical(o.T_O_W.q);
       w.add(o.t_ns).add(o.object_id).add(o.anchor ? 1 : 0);
@@ -336,9 +362,12 @@ json counts_json(const RunOutput& r) {
   ObjectCounts total;
   for (const auto& kv : r.counts) {
     const ObjectCounts& c = kv.second;
-    per[std::to_string(kv.first)] = {{"detections", c.detections},         {"accepted", c.accepted},
-                                     {"initialized", c.initialized},       {"rejected_chi2", c.rejected_chi2},
-                                     {"rejected_no_main", c.rejected_no_main}, {"rejected_score", c.rejected_score},
+    per[std::to_string(kv.first)] = {{"detections", c.detections},
+                                     {"accepted", c.accepted},
+                                     {"initialized", c.initialized},
+                                     {"rejected_chi2", c.rejected_chi2},
+                                     {"rejected_no_main", c.rejected_no_main},
+                                     {"rejected_score", c.rejected_score},
                                      {"rejected_no_imu", c.rejected_no_imu},
                                      {"pending_init", c.pending_init}};
     total.detections += c.detections;
@@ -417,24 +446,25 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
         last = p.t_ns;
       }
   }
-  json report = {{"roe_version", kVersion},
-                 {"command", "run"},
-                 {"config", run_config_to_json(config)},
-                 {"inputs", inputs},
-                 {"anchor_id", r.anchor_id},
-                 {"counts",
-                  {{"imu_samples", dataset.imu.size()},
-                   {"camera_frames", dataset.frames.size()},
-                   {"images_with_detections", images},
-                   {"updates", r.summary.updates},
-                   {"trajectory_rows", r.states.size()},
-                   {"detections", counts_json(r)}}},
-                 {"nis", nis_json(r)},
-                 {"final",
-                  {{"T_I_C",
-                    {{"p", {r.final_T_I_C.p.x(), r.final_T_I_C.p.y(), r.final_T_I_C.p.z()}},
-                     {"q", {r.final_T_I_C.q.x(), r.final_T_I_C.q.y(), r.final_T_I_C.q.z(), r.final_T_I_C.q.w()}}}}}},
-                 {"warnings", r.warnings}};
+  json report = {
+      {"roe_version", kVersion},
+      {"command", "run"},
+      {"config", run_config_to_json(config)},
+      {"inputs", inputs},
+      {"anchor_id", r.anchor_id},
+      {"counts",
+       {{"imu_samples", dataset.imu.size()},
+        {"camera_frames", dataset.frames.size()},
+        {"images_with_detections", images},
+        {"updates", r.summary.updates},
+        {"trajectory_rows", r.states.size()},
+        {"detections", counts_json(r)}}},
+      {"nis", nis_json(r)},
+      {"final",
+       {{"T_I_C",
+         {{"p", {r.final_T_I_C.p.x(), r.final_T_I_C.p.y(), r.final_T_I_C.p.z()}},
+          {"q", {r.final_T_I_C.q.x(), r.final_T_I_C.q.y(), r.final_T_I_C.q.z(), r.final_T_I_C.q.w()}}}}}},
+      {"warnings", r.warnings}};
   json objs = json::array();
   for (const auto& kv : r.final_T_O_W)
     objs.push_back({{"id", kv.first},
@@ -443,7 +473,9 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
                      {{"p", {kv.second.p.x(), kv.second.p.y(), kv.second.p.z()}},
                       {"q", {kv.second.q.x(), kv.second.q.y(), kv.second.q.z(), kv.second.q.w()}}}}});
   report["final"]["objects"] = objs;
-  report["timing_s"] = {{"read", read_s}, {"filter", r.filter_wall_s}, {"write", seconds_since(t_write)},
+  report["timing_s"] = {{"read", read_s},
+                        {"filter", r.filter_wall_s},
+                        {"write", seconds_since(t_write)},
                         {"total", seconds_since(t_start)}};
   io::write_file_atomic(dir.file("run.json"), report.dump(2) + "\n");
   dir.commit();
@@ -452,13 +484,10 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
 }
 
 json RunResult::to_json() const {
-  return {{"out", out.string()},
-          {"anchor_id", output.anchor_id},
-          {"updates", output.summary.updates},
-          {"counts", report.at("counts")},
-          {"nis", report.at("nis")},
-          {"timing_s", report.at("timing_s")},
-          {"warnings", output.warnings}};
+  return {
+      {"out", out.string()},           {"anchor_id", output.anchor_id}, {"updates", output.summary.updates},
+      {"counts", report.at("counts")}, {"nis", report.at("nis")},       {"timing_s", report.at("timing_s")},
+      {"warnings", output.warnings}};
 }
 
 std::string RunResult::to_text() const {
@@ -468,10 +497,11 @@ std::string RunResult::to_text() const {
   s += fmt::format("  IMU samples {}, images with detections {}, updates {}, anchor object {}\n",
                    c.at("imu_samples").get<std::size_t>(), c.at("images_with_detections").get<std::size_t>(),
                    output.summary.updates, output.anchor_id);
-  s += fmt::format("  detections {}: accepted {}, initialised {}, rejected χ² {}, rejected without anchor {}\n",
-                   d.at("detections").get<std::size_t>(), d.at("accepted").get<std::size_t>(),
-                   d.at("initialized").get<std::size_t>(), d.at("rejected_chi2").get<std::size_t>(),
-                   d.at("rejected_no_main").get<std::size_t>());
+  s += fmt::format(
+      "  detections {}: accepted {}, initialised {}, rejected χ² {}, rejected without anchor {}\n",
+      d.at("detections").get<std::size_t>(), d.at("accepted").get<std::size_t>(),
+      d.at("initialized").get<std::size_t>(), d.at("rejected_chi2").get<std::size_t>(),
+      d.at("rejected_no_main").get<std::size_t>());
   const json& n = report.at("nis");
   if (n.at("count").get<std::size_t>() > 0)
     s += fmt::format("  NIS (6 dof): mean {:.2f}, median {:.2f}, {:.1f} % above the gate {:.2f}\n",

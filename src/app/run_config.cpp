@@ -70,7 +70,8 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
       fail(f, "anchor_gauge", "must be \"position\" (paper), \"position_yaw\" or \"pose\"");
     f.get("require_anchor", o.require_anchor);
     f.get("init_min_detections", o.init_min_detections);
-    if (o.init_min_detections < 1) fail(f, "init_min_detections", "must be >= 1 (1 = the paper: first detection)");
+    if (o.init_min_detections < 1)
+      fail(f, "init_min_detections", "must be >= 1 (1 = the paper: first detection)");
     positive(f, "init_gate_p_m", o.init_gate_p_m);
     positive(f, "init_gate_rot_deg", o.init_gate_rot_deg);
     f.get("estimate_extrinsics", o.estimate_extrinsics);

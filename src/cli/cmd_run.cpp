@@ -16,9 +16,11 @@ struct Args {
 
 RunFn setup(CLI::App& sub) {
   auto a = std::make_shared<Args>();
-  sub.add_option("DATASET", a->dataset, "Dataset folder (roe.json, mav0/imu0, detections/<name>/)")->required();
-  sub.add_option("--config", a->opt.config_file,
-                 "Run config JSON: {\"filter\": {...}, \"output\": {...}} (configs/default.json, configs/paper.json)");
+  sub.add_option("DATASET", a->dataset, "Dataset folder (roe.json, mav0/imu0, detections/<name>/)")
+      ->required();
+  sub.add_option(
+      "--config", a->opt.config_file,
+      "Run config JSON: {\"filter\": {...}, \"output\": {...}} (configs/default.json, configs/paper.json)");
   sub.add_option("--detections", a->opt.detections, "Detection set detections/NAME (default: the only one)");
   sub.add_option("--out", a->out, "Output run folder (must not exist or be empty, unless --force)");
   return [a]() {

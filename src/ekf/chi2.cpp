@@ -60,10 +60,10 @@ double chi2_cdf(double x, double k) {
 double normal_quantile(double p) {
   ROE_CHECK(p > 0.0 && p < 1.0, "normal_quantile needs 0 < p < 1");
   // Acklam's coefficients (rational approximations on a central and two tail regions).
-  static const double a[] = {-3.969683028665376e+01, 2.209460984245205e+02, -2.759285104469687e+02,
+  static const double a[] = {-3.969683028665376e+01, 2.209460984245205e+02,  -2.759285104469687e+02,
                              1.383577518672690e+02,  -3.066479806614716e+01, 2.506628277459239e+00};
   static const double b[] = {-5.447609879822406e+01, 1.615858368580409e+02, -1.556989798598866e+02,
-                             6.680131188771972e+01,  -1.328068155288572e+01};
+                             6.680131188771972e+01, -1.328068155288572e+01};
   static const double c[] = {-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e+00,
                              -2.549732539343734e+00, 4.374664141464968e+00,  2.938163982698783e+00};
   static const double d[] = {7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e+00,
@@ -101,7 +101,8 @@ double chi2_quantile(double p, double k) {
   // is kept positive by halving towards 0 when a step would cross it.
   for (int it = 0; it < 100; ++it) {
     const double F = chi2_cdf(x, k);
-    const double logf = (0.5 * k - 1.0) * std::log(x) - 0.5 * x - 0.5 * k * std::log(2.0) - std::lgamma(0.5 * k);
+    const double logf =
+        (0.5 * k - 1.0) * std::log(x) - 0.5 * x - 0.5 * k * std::log(2.0) - std::lgamma(0.5 * k);
     const double f = std::exp(logf);
     if (!(f > 0.0)) break;
     double step = (F - p) / f;

@@ -7,12 +7,13 @@
 namespace roe::ekf {
 
 FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,
-                            const FilterOptions& options, const ImuNoiseParams& noise, const Pose& T_I_C_prior,
-                            FilterObserver& observer) {
+                            const FilterOptions& options, const ImuNoiseParams& noise,
+                            const Pose& T_I_C_prior, FilterObserver& observer) {
   if (imu.size() < 2) throw DataError(fmt::format("need at least 2 IMU samples, got {}", imu.size()));
   for (std::size_t k = 1; k < imu.size(); ++k)
     if (imu[k].t_ns <= imu[k - 1].t_ns)
-      throw DataError(fmt::format("IMU stamps not strictly increasing at sample {} (t = {} ns)", k, imu[k].t_ns));
+      throw DataError(
+          fmt::format("IMU stamps not strictly increasing at sample {} (t = {} ns)", k, imu[k].t_ns));
   for (std::size_t j = 1; j < images.size(); ++j)
     if (images[j].t_ns <= images[j - 1].t_ns)
       throw DataError(
@@ -56,8 +57,10 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
     const ImuSample& a = imu[k - 1];
     const ImuSample& b = imu[k];
     while (j < images.size() && images[j].t_ns < b.t_ns) {
-      const double alpha = static_cast<double>(images[j].t_ns - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
-      filter.propagate(images[j].t_ns, a.gyro + alpha * (b.gyro - a.gyro), a.accel + alpha * (b.accel - a.accel));
+      const double alpha =
+          static_cast<double>(images[j].t_ns - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
+      filter.propagate(images[j].t_ns, a.gyro + alpha * (b.gyro - a.gyro),
+                       a.accel + alpha * (b.accel - a.accel));
       observer.on_image(filter, filter.update(images[j++].detections));
       ++summary.images;
     }

@@ -1,9 +1,10 @@
 #include "roe/ekf/filter.hpp"
 
+#include <fmt/format.h>
+
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
-#include <fmt/format.h>
 
 #include "roe/core/error.hpp"
 #include "roe/ekf/chi2.hpp"
@@ -17,9 +18,12 @@ using math::skew;
 
 std::string to_string(AnchorGauge g) {
   switch (g) {
-    case AnchorGauge::kPose: return "pose";
-    case AnchorGauge::kPosition: return "position";
-    case AnchorGauge::kPositionYaw: return "position_yaw";
+    case AnchorGauge::kPose:
+      return "pose";
+    case AnchorGauge::kPosition:
+      return "position";
+    case AnchorGauge::kPositionYaw:
+      return "position_yaw";
   }
   return "unknown";
 }
@@ -43,21 +47,31 @@ bool parse_anchor_gauge(const std::string& s, AnchorGauge& out) {
 std::string to_string(ResidualFrame f) { return f == ResidualFrame::kObject ? "object" : "camera"; }
 
 bool parse_residual_frame(const std::string& s, ResidualFrame& out) {
-  if (s == "object") out = ResidualFrame::kObject;
-  else if (s == "camera") out = ResidualFrame::kCamera;
-  else return false;
+  if (s == "object")
+    out = ResidualFrame::kObject;
+  else if (s == "camera")
+    out = ResidualFrame::kCamera;
+  else
+    return false;
   return true;
 }
 
 std::string to_string(DetectionStatus s) {
   switch (s) {
-    case DetectionStatus::kAccepted: return "accepted";
-    case DetectionStatus::kInitialized: return "initialized";
-    case DetectionStatus::kRejectedChi2: return "rejected_chi2";
-    case DetectionStatus::kRejectedNoMain: return "rejected_no_main";
-    case DetectionStatus::kRejectedScore: return "rejected_score";
-    case DetectionStatus::kRejectedNoImu: return "rejected_no_imu";
-    case DetectionStatus::kPendingInit: return "pending_init";
+    case DetectionStatus::kAccepted:
+      return "accepted";
+    case DetectionStatus::kInitialized:
+      return "initialized";
+    case DetectionStatus::kRejectedChi2:
+      return "rejected_chi2";
+    case DetectionStatus::kRejectedNoMain:
+      return "rejected_no_main";
+    case DetectionStatus::kRejectedScore:
+      return "rejected_score";
+    case DetectionStatus::kRejectedNoImu:
+      return "rejected_no_imu";
+    case DetectionStatus::kPendingInit:
+      return "pending_init";
   }
   return "unknown";
 }
@@ -82,10 +96,12 @@ std::string Filter::when() const {
 void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, const Vec3& mean_accel) {
   const Vec3 f = mean_accel - opt_.init_accel_bias;
   if (!f.allFinite() || f.norm() < 1e-6)
-    throw NumericError(fmt::format("cannot initialise roll/pitch at t = {:.9f} s: mean accelerometer is zero "
-                                   "or not finite",
-                                   to_seconds(t0)));
-  // R_W_I = Ry(pitch) Rx(roll) (yaw 0) with R_W_Iᵀ e_z ∥ f: roll = atan2(f_y, f_z), pitch = atan2(−f_x, |f_yz|).
+    throw NumericError(
+        fmt::format("cannot initialise roll/pitch at t = {:.9f} s: mean accelerometer is zero "
+                    "or not finite",
+                    to_seconds(t0)));
+  // R_W_I = Ry(pitch) Rx(roll) (yaw 0) with R_W_Iᵀ e_z ∥ f: roll = atan2(f_y, f_z), pitch = atan2(−f_x,
+  // |f_yz|).
   const double roll = std::atan2(f.y(), f.z());
   const double pitch = std::atan2(-f.x(), std::hypot(f.y(), f.z()));
   x_ = CoreState();
@@ -355,9 +371,17 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   Gamma.block<3, 3>(0, 0) = -in.T_O_W.R().transpose();
   int keep = 0;
   switch (opt_.anchor_gauge) {
-    case AnchorGauge::kPose: Gamma.block<3, 3>(3, 3) = -Mat3::Identity(); keep = 0; break;
-    case AnchorGauge::kPosition: keep = 3; break;
-    case AnchorGauge::kPositionYaw: Gamma(5, 5) = -1.0; keep = 2; break;
+    case AnchorGauge::kPose:
+      Gamma.block<3, 3>(3, 3) = -Mat3::Identity();
+      keep = 0;
+      break;
+    case AnchorGauge::kPosition:
+      keep = 3;
+      break;
+    case AnchorGauge::kPositionYaw:
+      Gamma(5, 5) = -1.0;
+      keep = 2;
+      break;
   }
   const Eigen::MatrixXd G = gauge_generator();  // objects_ does not contain the anchor yet
   const int n_aug = n_ + 6;
@@ -477,13 +501,14 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       S = 0.5 * (S + S.transpose()).eval();
       Eigen::LDLT<Mat6> ldlt(S);
       if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all())
-        throw NumericError(fmt::format("filter failed at {}: innovation covariance of object {} is not "
-                                       "positive definite",
-                                       when(), dets[b.det].object_id));
+        throw NumericError(
+            fmt::format("filter failed at {}: innovation covariance of object {} is not "
+                        "positive definite",
+                        when(), dets[b.det].object_id));
       const double nis = b.r.dot(ldlt.solve(b.r));
       if (!std::isfinite(nis))
-        throw NumericError(fmt::format("filter failed at {}: non-finite NIS for object {}", when(),
-                                       dets[b.det].object_id));
+        throw NumericError(
+            fmt::format("filter failed at {}: non-finite NIS for object {}", when(), dets[b.det].object_id));
       res.detections[b.det].nis = nis;
       if (opt_.chi2_gate && nis > gate_) {
         res.detections[b.det].status = DetectionStatus::kRejectedChi2;
@@ -519,9 +544,10 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       S = 0.5 * (S + S.transpose()).eval();
       ws_ldlt_.compute(S);
       if (ws_ldlt_.info() != Eigen::Success || !(ws_ldlt_.vectorD().array() > 0.0).all())
-        throw NumericError(fmt::format("filter failed at {}: stacked innovation covariance is not positive "
-                                       "definite",
-                                       when()));
+        throw NumericError(
+            fmt::format("filter failed at {}: stacked innovation covariance is not positive "
+                        "definite",
+                        when()));
       // Kᵀ = S⁻¹ (P Hᵀ)ᵀ by the LDLT solve (no explicit inverse).
       Eigen::MatrixXd& Kt = ws_Kt_;
       Kt = PHt.transpose();
@@ -568,7 +594,8 @@ bool Filter::confirm_first_sight(int id, const Pose& z) {
   }
   Pending& p = it->second;
   const Vec6 d = math::pose_difference(p.T_O_W, cand);
-  if (d.head<3>().norm() <= opt_.init_gate_p_m && d.tail<3>().norm() <= opt_.init_gate_rot_deg * math::kRadPerDeg)
+  if (d.head<3>().norm() <= opt_.init_gate_p_m &&
+      d.tail<3>().norm() <= opt_.init_gate_rot_deg * math::kRadPerDeg)
     ++p.count;
   else
     p.count = 1;
@@ -586,14 +613,17 @@ void Filter::check_state(const char* where) const {
       !x_.b_g.allFinite() || !x_.b_a.allFinite())
     fail("non-finite core state");
   if (x_.p_W_I.norm() > opt_.max_position_m)
-    fail(fmt::format("|p_W_I| = {:.4g} m exceeds max_position_m = {:.4g}", x_.p_W_I.norm(), opt_.max_position_m));
+    fail(fmt::format("|p_W_I| = {:.4g} m exceeds max_position_m = {:.4g}", x_.p_W_I.norm(),
+                     opt_.max_position_m));
   if (x_.v_W_I.norm() > opt_.max_velocity_mps)
     fail(fmt::format("|v_W_I| = {:.4g} m/s exceeds max_velocity_mps = {:.4g}", x_.v_W_I.norm(),
                      opt_.max_velocity_mps));
   if (x_.b_g.norm() > opt_.max_gyro_bias)
-    fail(fmt::format("|b_g| = {:.4g} rad/s exceeds max_gyro_bias = {:.4g}", x_.b_g.norm(), opt_.max_gyro_bias));
+    fail(fmt::format("|b_g| = {:.4g} rad/s exceeds max_gyro_bias = {:.4g}", x_.b_g.norm(),
+                     opt_.max_gyro_bias));
   if (x_.b_a.norm() > opt_.max_accel_bias)
-    fail(fmt::format("|b_a| = {:.4g} m/s² exceeds max_accel_bias = {:.4g}", x_.b_a.norm(), opt_.max_accel_bias));
+    fail(fmt::format("|b_a| = {:.4g} m/s² exceeds max_accel_bias = {:.4g}", x_.b_a.norm(),
+                     opt_.max_accel_bias));
   if (!T_I_C_.p.allFinite() || !T_I_C_.q.coeffs().allFinite()) fail("non-finite extrinsics");
   for (const auto& o : objects_)
     if (!o.T_O_W.p.allFinite() || !o.T_O_W.q.coeffs().allFinite() || o.T_O_W.p.norm() > opt_.max_position_m)

@@ -43,7 +43,7 @@ CoreState integrate(const CoreState& x, const Vec3& w0, const Vec3& a0, const Ve
   if (F != nullptr) {
     F->dt = dt;
     const Mat3 R_half_T = q_half.toRotationMatrix().transpose();  // Exp(−ω̄dt/2)
-    const Mat3 Ra_skew_dt = R_m * skew(a) * dt;                    // R_m [ā]× dt
+    const Mat3 Ra_skew_dt = R_m * skew(a) * dt;                   // R_m [ā]× dt
     // δθ_m = Exp(−ω̄dt/2) δθ − Jr(ω̄dt/2) dt/2 δb_g; δv⁺ = δv − R_m[ā]× dt δθ_m − R_m dt δb_a.
     F->F_vtheta = -Ra_skew_dt * R_half_T;
     F->F_vbg = Ra_skew_dt * right_jacobian(0.5 * phi) * (0.5 * dt);

@@ -1,9 +1,10 @@
 // roe run (app layer): output files, strict config, bad input, and the real-IMU regression.
+#include <unistd.h>
+
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <unistd.h>
 
 #include "../ekf/filter_support.hpp"
 #include "roe/app/run.hpp"
@@ -44,7 +45,8 @@ TEST_CASE("roe run writes the files of DESIGN §4", "[app][run]") {
   const fs::path out = temp_dir("files_out");
   app::RunOptions opt;
   const auto r = app::run(ds, out, opt);
-  for (const char* f : {"trajectory.csv", "trajectory.tum", "states.csv", "objects.csv", "reprojection.csv", "run.json"})
+  for (const char* f :
+       {"trajectory.csv", "trajectory.tum", "states.csv", "objects.csv", "reprojection.csv", "run.json"})
     CHECK(fs::exists(out / f));
   // trajectory.csv: header, t with 9 decimals, one row per IMU sample.
   std::ifstream tr(out / "trajectory.csv");
@@ -201,7 +203,8 @@ TEST_CASE("bad input gives clear errors", "[app][run]") {
   fs::remove_all(out);
 }
 
-TEST_CASE("paper-seq4 with configs/paper.json: fused RMSE <= half the median raw per-object RMSE", "[app][run][sim]") {
+TEST_CASE("paper-seq4 with configs/paper.json: fused RMSE <= half the median raw per-object RMSE",
+          "[app][run][sim]") {
   const Dataset d = test::simulate_preset("paper-seq4", 1, 60.0);
   const app::RunConfig cfg = app::run_config_from_file(std::string(ROE_SOURCE_DIR) + "/configs/paper.json");
   const app::RunOutput r = app::run_dataset(d, "sim", cfg);
@@ -286,8 +289,8 @@ TEST_CASE("real IMU: EuRoC snippet with 4 objects", "[app][run][euroc]") {
   eul = (eul / m.est.size()).cwiseSqrt();
   WARN("EuRoC real IMU: " << m.est.size() << " supported rows of " << r.states.size() << "; position RMSE "
                           << acc.pos_rmse.transpose() << " m; Euler RMSE (SE(3) alignment) "
-                          << acc.euler_rmse.transpose() << " deg; Euler RMSE (rotation-fitted) " << eul.transpose()
-                          << " deg");
+                          << acc.euler_rmse.transpose() << " deg; Euler RMSE (rotation-fitted) "
+                          << eul.transpose() << " deg");
   CHECK(acc.pos_rmse.maxCoeff() <= 0.10);
   CHECK(eul.maxCoeff() <= 5.0);
 }

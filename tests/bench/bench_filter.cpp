@@ -51,9 +51,10 @@ double median(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::atoi(argv[1]) : 15;
-  fmt::print("bench_filter: paper-seq4, 60 s, seed 1, configs defaults; {} repetitions, median (min) [ms]\n", reps);
-  fmt::print("{:>8} {:>7} {:>8} {:>20} {:>14} {:>20} {:>20} {:>12}\n", "IMU Hz", "images", "updates", "filter wall",
-             "filter CPU", "propagation only", "run_dataset", "x real time");
+  fmt::print("bench_filter: paper-seq4, 60 s, seed 1, configs defaults; {} repetitions, median (min) [ms]\n",
+             reps);
+  fmt::print("{:>8} {:>7} {:>8} {:>20} {:>14} {:>20} {:>20} {:>12}\n", "IMU Hz", "images", "updates",
+             "filter wall", "filter CPU", "propagation only", "run_dataset", "x real time");
   for (double rate : {200.0, 400.0}) {
     sim::SimConfig c = app::sim_config_from_preset("paper-seq4");
     c.imu.rate_hz = rate;
@@ -61,9 +62,9 @@ int main(int argc, char** argv) {
     const Dataset d = sim::simulate(c, 1);
     const auto images = images_of(d);
     app::RunConfig cfg;
-    const ekf::ImuNoiseParams noise{d.manifest.imu->noise.gyro_noise_density, d.manifest.imu->noise.gyro_random_walk,
-                                    d.manifest.imu->noise.accel_noise_density,
-                                    d.manifest.imu->noise.accel_random_walk};
+    const ekf::ImuNoiseParams noise{
+        d.manifest.imu->noise.gyro_noise_density, d.manifest.imu->noise.gyro_random_walk,
+        d.manifest.imu->noise.accel_noise_density, d.manifest.imu->noise.accel_random_walk};
     // The anchor as roe run picks it (most detected among the first image's objects).
     ekf::FilterOptions opt = cfg.filter;
     const app::RunOutput ref = app::run_dataset(d, "sim", cfg);
@@ -86,11 +87,12 @@ int main(int argc, char** argv) {
       t_run.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     }
     const double mf = median(t_filter);
-    fmt::print("{:>8.0f} {:>7} {:>8} {:>12.2f} ({:>5.2f}) {:>14.2f} {:>12.2f} ({:>5.2f}) {:>12.2f} ({:>5.2f}) {:>12.0f}\n",
-               rate, images.size(), updates, mf, *std::min_element(t_filter.begin(), t_filter.end()),
-               median(t_cpu), median(t_prop),
-               *std::min_element(t_prop.begin(), t_prop.end()), median(t_run),
-               *std::min_element(t_run.begin(), t_run.end()), 60000.0 / median(t_cpu));
+    fmt::print(
+        "{:>8.0f} {:>7} {:>8} {:>12.2f} ({:>5.2f}) {:>14.2f} {:>12.2f} ({:>5.2f}) {:>12.2f} ({:>5.2f}) "
+        "{:>12.0f}\n",
+        rate, images.size(), updates, mf, *std::min_element(t_filter.begin(), t_filter.end()), median(t_cpu),
+        median(t_prop), *std::min_element(t_prop.begin(), t_prop.end()), median(t_run),
+        *std::min_element(t_run.begin(), t_run.end()), 60000.0 / median(t_cpu));
   }
   return 0;
 }

@@ -108,8 +108,10 @@ TEST_CASE("object measurement H blocks equal finite differences", "[ekf][jacobia
         CoreState xs = x;
         Pose cs = T_I_C;
         Eigen::Matrix<double, 15, 1> d = Eigen::Matrix<double, 15, 1>::Zero();
-        if (i < 3) d(kP + i) = e;
-        else if (i < 6) d(kTheta + i - 3) = e;
+        if (i < 3)
+          d(kP + i) = e;
+        else if (i < 6)
+          d(kTheta + i - 3) = e;
         xs = plus(x, d);
         Vec6 dc = Vec6::Zero();
         if (i >= 6) dc(i - 6) = e;
@@ -161,10 +163,14 @@ TEST_CASE("first-sight initialisation Jacobians equal finite differences", "[ekf
         const double e = s == 0 ? eps : -eps;
         Eigen::Matrix<double, 15, 1> d = Eigen::Matrix<double, 15, 1>::Zero();
         Vec6 dc = Vec6::Zero(), dz = Vec6::Zero();
-        if (i < 3) d(kP + i) = e;
-        else if (i < 6) d(kTheta + i - 3) = e;
-        else if (i < 12) dc(i - 6) = e;
-        else dz(i - 12) = e;
+        if (i < 3)
+          d(kP + i) = e;
+        else if (i < 6)
+          d(kTheta + i - 3) = e;
+        else if (i < 12)
+          dc(i - 6) = e;
+        else
+          dz(i - 12) = e;
         v[s] = pose_minus(init_object(plus(x, d), pose_plus(T_I_C, dc), pose_plus(z, dz)).T_O_W, in.T_O_W);
       }
       Jn.col(i) = (v[0] - v[1]) / (2 * eps);
@@ -231,96 +237,100 @@ Filter make_filter(AnchorGauge gauge, bool extrinsics, ResidualFrame frame = Res
 TEST_CASE("full H of the filter equals finite differences, incl. zero and anchor blocks", "[ekf][jacobian]") {
   for (AnchorGauge gauge : {AnchorGauge::kPose, AnchorGauge::kPosition, AnchorGauge::kPositionYaw}) {
     for (bool extr : {true, false}) {
-     for (ResidualFrame frame : {ResidualFrame::kObject, ResidualFrame::kCamera}) {
-      Filter f = make_filter(gauge, extr, frame);
-      // The predicted measurement and its error in the residual frame: T_O_C (additive p, right
-      // rotation error) or T_C_O (additive t, left rotation error).
-      const auto diff = [frame](const Pose& a, const Pose& b) {
-        if (frame == ResidualFrame::kObject) return pose_minus(a, b);
-        const Pose ai = a.inverse(), bi = b.inverse();
-        Vec6 d;
-        d.head<3>() = ai.p - bi.p;
-        d.tail<3>() = log_quat(ai.q * bi.q.conjugate());
-        return d;
-      };
-      REQUIRE(f.objects().size() == 3);
-      const int anchor_dim = gauge == AnchorGauge::kPose ? 0 : gauge == AnchorGauge::kPosition ? 3 : 2;
-      const int expect_dim = 15 + (extr ? 6 : 0) + anchor_dim + 12;
-      REQUIRE(f.dim() == expect_dim);
-      const ObjectEntry* anchor = f.object(1);
-      REQUIRE(anchor != nullptr);
-      CHECK(anchor->anchor);
-      CHECK(anchor->dim == anchor_dim);
-      for (int id : {1, 2, 3}) {
-        const Pose z = pose_plus(f.predict(id), (Vec6() << 0.05, -0.02, 0.03, 0.1, -0.05, 0.02).finished());
-        Vec6 r;
-        Eigen::MatrixXd H;
-        f.measurement_jacobian(id, z, r, H);
-        Eigen::MatrixXd Hn(6, f.dim());
-        const Pose zh0 = f.predict(id);
-        const double eps = 1e-6;
-        for (int i = 0; i < f.dim(); ++i) {
-          Vec6 v[2];
-          for (int s = 0; s < 2; ++s) {
-            Filter g = f;
-            Eigen::VectorXd d = Eigen::VectorXd::Zero(f.dim());
-            d(i) = s == 0 ? eps : -eps;
-            g.boxplus(d);
-            v[s] = diff(g.predict(id), zh0);
+      for (ResidualFrame frame : {ResidualFrame::kObject, ResidualFrame::kCamera}) {
+        Filter f = make_filter(gauge, extr, frame);
+        // The predicted measurement and its error in the residual frame: T_O_C (additive p, right
+        // rotation error) or T_C_O (additive t, left rotation error).
+        const auto diff = [frame](const Pose& a, const Pose& b) {
+          if (frame == ResidualFrame::kObject) return pose_minus(a, b);
+          const Pose ai = a.inverse(), bi = b.inverse();
+          Vec6 d;
+          d.head<3>() = ai.p - bi.p;
+          d.tail<3>() = log_quat(ai.q * bi.q.conjugate());
+          return d;
+        };
+        REQUIRE(f.objects().size() == 3);
+        const int anchor_dim = gauge == AnchorGauge::kPose ? 0 : gauge == AnchorGauge::kPosition ? 3 : 2;
+        const int expect_dim = 15 + (extr ? 6 : 0) + anchor_dim + 12;
+        REQUIRE(f.dim() == expect_dim);
+        const ObjectEntry* anchor = f.object(1);
+        REQUIRE(anchor != nullptr);
+        CHECK(anchor->anchor);
+        CHECK(anchor->dim == anchor_dim);
+        for (int id : {1, 2, 3}) {
+          const Pose z = pose_plus(f.predict(id), (Vec6() << 0.05, -0.02, 0.03, 0.1, -0.05, 0.02).finished());
+          Vec6 r;
+          Eigen::MatrixXd H;
+          f.measurement_jacobian(id, z, r, H);
+          Eigen::MatrixXd Hn(6, f.dim());
+          const Pose zh0 = f.predict(id);
+          const double eps = 1e-6;
+          for (int i = 0; i < f.dim(); ++i) {
+            Vec6 v[2];
+            for (int s = 0; s < 2; ++s) {
+              Filter g = f;
+              Eigen::VectorXd d = Eigen::VectorXd::Zero(f.dim());
+              d(i) = s == 0 ? eps : -eps;
+              g.boxplus(d);
+              v[s] = diff(g.predict(id), zh0);
+            }
+            Hn.col(i) = (v[0] - v[1]) / (2 * eps);
           }
-          Hn.col(i) = (v[0] - v[1]) / (2 * eps);
+          INFO("gauge " << to_string(gauge) << " extrinsics " << extr << " frame " << to_string(frame)
+                        << " object " << id);
+          CHECK((H - Hn).cwiseAbs().maxCoeff() < 1e-7);
+          // Structural zeros: v, biases, every other object's block (incl. the anchor's two tilt
+          // columns for a non-anchor detection), and for the anchor its fixed components.
+          CHECK(H.middleCols(kV, 3).cwiseAbs().maxCoeff() == 0.0);
+          CHECK(H.middleCols(kBg, 6).cwiseAbs().maxCoeff() == 0.0);
+          for (const auto& o : f.objects()) {
+            if (o.id == id || o.dim == 0) continue;
+            CHECK(H.middleCols(o.offset, o.dim).cwiseAbs().maxCoeff() == 0.0);
+            CHECK(Hn.middleCols(o.offset, o.dim).cwiseAbs().maxCoeff() < 1e-9);
+          }
+          // Residual: the paper's, or its camera-frame form (to first order −diff(ẑ, z)).
+          if (frame == ResidualFrame::kObject)
+            CHECK((r - object_residual(zh0, z)).norm() == 0.0);
+          else
+            CHECK((r - diff(z, zh0)).norm() < 1e-3 * r.norm());
         }
-        INFO("gauge " << to_string(gauge) << " extrinsics " << extr << " frame " << to_string(frame) << " object "
-                      << id);
-        CHECK((H - Hn).cwiseAbs().maxCoeff() < 1e-7);
-        // Structural zeros: v, biases, every other object's block (incl. the anchor's two tilt
-        // columns for a non-anchor detection), and for the anchor its fixed components.
-        CHECK(H.middleCols(kV, 3).cwiseAbs().maxCoeff() == 0.0);
-        CHECK(H.middleCols(kBg, 6).cwiseAbs().maxCoeff() == 0.0);
-        for (const auto& o : f.objects()) {
-          if (o.id == id || o.dim == 0) continue;
-          CHECK(H.middleCols(o.offset, o.dim).cwiseAbs().maxCoeff() == 0.0);
-          CHECK(Hn.middleCols(o.offset, o.dim).cwiseAbs().maxCoeff() < 1e-9);
-        }
-        // Residual: the paper's, or its camera-frame form (to first order −diff(ẑ, z)).
-        if (frame == ResidualFrame::kObject) CHECK((r - object_residual(zh0, z)).norm() == 0.0);
-        else CHECK((r - diff(z, zh0)).norm() < 1e-3 * r.norm());
       }
-     }
     }
   }
 }
 
 TEST_CASE("gauge generator equals finite differences of a change of world frame", "[ekf][jacobian]") {
   for (AnchorGauge gauge : {AnchorGauge::kPosition, AnchorGauge::kPositionYaw}) {
-  Filter f = make_filter(gauge, true);
-  const Eigen::MatrixXd G = f.gauge_generator();
-  const double eps = 1e-6;
-  const CoreState x = f.core();
-  for (int i = 0; i < 6; ++i) {
-    Eigen::VectorXd v[2];
-    for (int s = 0; s < 2; ++s) {
-      Vec6 gam = Vec6::Zero();
-      gam(i) = s == 0 ? eps : -eps;
-      const Pose T_W_Wp(exp_quat(gam.tail<3>()), gam.head<3>());  // x_W = Exp(φ) x_W' + t
-      const Pose T_Wp_W = T_W_Wp.inverse();
-      Eigen::VectorXd d = Eigen::VectorXd::Zero(f.dim());
-      const Pose Ti = T_Wp_W * Pose(x.q_W_I, x.p_W_I);
-      d.segment<3>(kP) = Ti.p - x.p_W_I;
-      d.segment<3>(kV) = T_Wp_W.q * x.v_W_I - x.v_W_I;
-      d.segment<3>(kTheta) = log_quat(x.q_W_I.conjugate() * Ti.q);
-      for (const auto& o : f.objects()) {
-        if (o.dim == 0) continue;
-        const Pose To = o.T_O_W * T_W_Wp;
-        const Vec6 e = pose_minus(To, o.T_O_W);
-        if (o.dim == 6) d.segment<6>(o.offset) = e;
-        else d.segment(o.offset, o.dim) = e.segment(3, o.dim);
+    Filter f = make_filter(gauge, true);
+    const Eigen::MatrixXd G = f.gauge_generator();
+    const double eps = 1e-6;
+    const CoreState x = f.core();
+    for (int i = 0; i < 6; ++i) {
+      Eigen::VectorXd v[2];
+      for (int s = 0; s < 2; ++s) {
+        Vec6 gam = Vec6::Zero();
+        gam(i) = s == 0 ? eps : -eps;
+        const Pose T_W_Wp(exp_quat(gam.tail<3>()), gam.head<3>());  // x_W = Exp(φ) x_W' + t
+        const Pose T_Wp_W = T_W_Wp.inverse();
+        Eigen::VectorXd d = Eigen::VectorXd::Zero(f.dim());
+        const Pose Ti = T_Wp_W * Pose(x.q_W_I, x.p_W_I);
+        d.segment<3>(kP) = Ti.p - x.p_W_I;
+        d.segment<3>(kV) = T_Wp_W.q * x.v_W_I - x.v_W_I;
+        d.segment<3>(kTheta) = log_quat(x.q_W_I.conjugate() * Ti.q);
+        for (const auto& o : f.objects()) {
+          if (o.dim == 0) continue;
+          const Pose To = o.T_O_W * T_W_Wp;
+          const Vec6 e = pose_minus(To, o.T_O_W);
+          if (o.dim == 6)
+            d.segment<6>(o.offset) = e;
+          else
+            d.segment(o.offset, o.dim) = e.segment(3, o.dim);
+        }
+        v[s] = d;
       }
-      v[s] = d;
+      const Eigen::VectorXd col = (v[0] - v[1]) / (2 * eps);
+      INFO("gamma component " << i << "\nG " << G.col(i).transpose() << "\nnum " << col.transpose());
+      CHECK((G.col(i) - col).cwiseAbs().maxCoeff() < 1e-7);
     }
-    const Eigen::VectorXd col = (v[0] - v[1]) / (2 * eps);
-    INFO("gamma component " << i << "\nG " << G.col(i).transpose() << "\nnum " << col.transpose());
-    CHECK((G.col(i) - col).cwiseAbs().maxCoeff() < 1e-7);
   }
-}
 }

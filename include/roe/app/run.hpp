@@ -106,6 +106,7 @@ struct RunResult {
 };
 
 /// `roe run`: reads DATASET, runs, writes RUN_DIR atomically (OutputDir).
-RunResult run(const std::filesystem::path& dataset, const std::filesystem::path& out, const RunOptions& options);
+RunResult run(const std::filesystem::path& dataset, const std::filesystem::path& out,
+              const RunOptions& options);
 
 }  // namespace roe::app

@@ -40,7 +40,7 @@ struct FilterRunSummary {
 /// Runs the whole stream. Throws roe::DataError when the IMU stream is too short or not strictly
 /// increasing, or the images are not sorted; roe::NumericError when the filter diverges.
 FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,
-                            const FilterOptions& options, const ImuNoiseParams& noise, const Pose& T_I_C_prior,
-                            FilterObserver& observer);
+                            const FilterOptions& options, const ImuNoiseParams& noise,
+                            const Pose& T_I_C_prior, FilterObserver& observer);
 
 }  // namespace roe::ekf

@@ -10,9 +10,9 @@
 ///   J_x P, measurement.hpp);
 /// - the anchor (main object) has no position error state (the paper zeroes H_{p,p_OmW}, which is
 ///   equivalent); of its rotation it keeps δθ_O_W (kPosition, the paper), only the tilt δθ_x, δθ_y
-///   (kPositionYaw, roe's default) or nothing (kPose). On its first sight the gauge of W is fixed by an exact linear change of
-///   variables (docs/filter.md §4): the world is re-defined so that the fixed components of the anchor
-///   are exactly their initial estimate, and the uncertainty that was in the anchor moves into the
+///   (kPositionYaw, roe's default) or nothing (kPose). On its first sight the gauge of W is fixed by an exact
+///   linear change of variables (docs/filter.md §4): the world is re-defined so that the fixed components of
+///   the anchor are exactly their initial estimate, and the uncertainty that was in the anchor moves into the
 ///   IMU pose, velocity and the other object-worlds (δx' = δx + G Γ δa, P' = M P_aug Mᵀ).
 ///
 /// Propagation is block-sparse: only the 15 core rows/columns change. P_cc is propagated every IMU
@@ -21,9 +21,9 @@
 /// covariance()). No heap allocation per IMU sample.
 ///
 /// Update per image: residual and H per detection of an initialised object (the paper's T_O_C
-/// residual, or the same model with the residual formed on T_C_O, FilterOptions::residual_frame), a χ² test per object on
-/// its own 6x6 S_k = H_k P H_kᵀ + R_k, all inliers stacked into one update; K from an LDLT of S (no
-/// explicit inverse); Joseph form written as P + E Kᵀ + K Eᵀ with E = ½ K S − P Hᵀ (equal to
+/// residual, or the same model with the residual formed on T_C_O, FilterOptions::residual_frame), a χ² test
+/// per object on its own 6x6 S_k = H_k P H_kᵀ + R_k, all inliers stacked into one update; K from an LDLT of S
+/// (no explicit inverse); Joseph form written as P + E Kᵀ + K Eᵀ with E = ½ K S − P Hᵀ (equal to
 /// (I−KH)P(I−KH)ᵀ + K R Kᵀ, only the lower triangle evaluated), then
 /// symmetrised. Guard rails throw roe::NumericError naming the time and what broke.
 
@@ -42,13 +42,13 @@ namespace roe::ekf {
 
 /// What happened to one detection (reprojection.csv `status`).
 enum class DetectionStatus {
-  kAccepted,         ///< used in the update (passed the χ² gate)
-  kInitialized,      ///< first sight: its object-world was initialised from it (anchor: gauge fixed)
-  kRejectedChi2,     ///< failed the χ² gate
-  kRejectedNoMain,   ///< frame without the anchor (require_anchor)
-  kRejectedScore,    ///< score below min_score
-  kRejectedNoImu,    ///< frame outside the IMU stream (before the first / after the last sample)
-  kPendingInit,      ///< first sight not yet confirmed (FilterOptions::init_min_detections)
+  kAccepted,        ///< used in the update (passed the χ² gate)
+  kInitialized,     ///< first sight: its object-world was initialised from it (anchor: gauge fixed)
+  kRejectedChi2,    ///< failed the χ² gate
+  kRejectedNoMain,  ///< frame without the anchor (require_anchor)
+  kRejectedScore,   ///< score below min_score
+  kRejectedNoImu,   ///< frame outside the IMU stream (before the first / after the last sample)
+  kPendingInit,     ///< first sight not yet confirmed (FilterOptions::init_min_detections)
 };
 std::string to_string(DetectionStatus s);
 
@@ -56,7 +56,7 @@ struct DetectionOutcome {
   int object_id = 0;
   DetectionStatus status = DetectionStatus::kAccepted;
   double nis = std::numeric_limits<double>::quiet_NaN();  ///< rᵀ S⁻¹ r before the update (6 dof)
-  bool has_T_W_I = false;  ///< false while the object has no object-world yet
+  bool has_T_W_I = false;                                 ///< false while the object has no object-world yet
   /// IMU pose implied by the raw detection and the current object-world estimate:
   /// T_W_I = T_O_W⁻¹ · T_O_C · T_I_C⁻¹ (paper Fig. 3, "obj").
   Pose T_W_I;
@@ -70,10 +70,10 @@ struct FrameResult {
 
 struct ObjectEntry {
   int id = 0;
-  Pose T_O_W;          ///< the paper's (p_O_W, q_O_W)
+  Pose T_O_W;  ///< the paper's (p_O_W, q_O_W)
   bool anchor = false;
-  int offset = -1;     ///< first error-state column (−1 when dim == 0)
-  int dim = 0;         ///< 6; anchor: 0 (kPose), 3 (kPosition: δθ) or 2 (kPositionYaw: δθ_x, δθ_y)
+  int offset = -1;  ///< first error-state column (−1 when dim == 0)
+  int dim = 0;      ///< 6; anchor: 0 (kPose), 3 (kPosition: δθ) or 2 (kPositionYaw: δθ_x, δθ_y)
   Timestamp t_init_ns = 0;
 };
 
@@ -124,8 +124,8 @@ class Filter {
 
  private:
   struct MeasBlock {
-    int det = 0;      // index into the detection vector
-    int obj = 0;      // index into objects_
+    int det = 0;  // index into the detection vector
+    int obj = 0;  // index into objects_
     Vec6 r;
     Mat6 R;
     Eigen::Matrix<double, 6, 18> H;  // compact columns

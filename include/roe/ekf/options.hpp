@@ -53,8 +53,8 @@ struct FilterOptions {
   /// errors ("the standard deviation of PoET across a video sequence"), i.e. σ of the detected T_C_O
   /// in camera axes; with meas_sigma_in_camera they are mapped through the inversion into the T_O_C
   /// residual frame (notes/filter.md §1.7), otherwise they are put on the residual's axes directly.
-  double meas_sigma_p_m = 0.10;       ///< position σ per axis (paper: 10 cm)
-  double meas_sigma_rot_deg = 20.0;   ///< orientation σ per axis (paper: 20°)
+  double meas_sigma_p_m = 0.10;      ///< position σ per axis (paper: 10 cm)
+  double meas_sigma_rot_deg = 20.0;  ///< orientation σ per axis (paper: 20°)
   bool meas_sigma_in_camera = true;
   /// Use the per-detection sigma columns of detections.csv (camera-frame σ of T_C_O, mapped into the
   /// T_O_C residual frame) where present; the fixed σ above otherwise.
@@ -84,9 +84,9 @@ struct FilterOptions {
   double init_gate_rot_deg = 30.0;
 
   // --- Camera-IMU extrinsics T_I_C (self-calibration) ---
-  bool estimate_extrinsics = true;       ///< false: held fixed at the dataset prior (not in the state)
-  double extrinsics_sigma_p_m = 0.02;    ///< prior σ of p_I_C per axis
-  double extrinsics_sigma_rot_deg = 2.0; ///< prior σ of δθ_I_C per axis
+  bool estimate_extrinsics = true;        ///< false: held fixed at the dataset prior (not in the state)
+  double extrinsics_sigma_p_m = 0.02;     ///< prior σ of p_I_C per axis
+  double extrinsics_sigma_rot_deg = 2.0;  ///< prior σ of δθ_I_C per axis
 
   // --- IMU noise (continuous time). Negative = take the dataset's roe.json imu values ---
   double gyro_noise_density = -1.0;   ///< rad/s/√Hz
