@@ -53,10 +53,12 @@ struct FrameResult {
   FrameTimings timings;
 };
 
-/// Self-test results (max |difference| against the bundle's reference outputs).
+/// Self-test results against the bundle's reference outputs.
 struct SelfTestReport {
-  std::vector<std::pair<std::string, double>> detector;  ///< per checked layer
-  std::vector<std::pair<std::string, double>> pose;      ///< per output
+  /// Per checked detector layer: max |out − ref| / max(1, max |ref|) (feature maps reach 1e4).
+  std::vector<std::pair<std::string, double>> detector;
+  /// Per pose-head output: max |out − ref| (metres, rotation values).
+  std::vector<std::pair<std::string, double>> pose;
   double detector_atol = 0, pose_atol = 0;
   nlohmann::json to_json() const;
 };
