@@ -5,6 +5,7 @@
 #include <fstream>
 #include <random>
 
+#include "support/test_util.hpp"
 #include "roe/app/import.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/math/so3.hpp"
@@ -13,23 +14,8 @@ namespace fs = std::filesystem;
 using namespace roe;
 
 namespace {
+using roe::test::TempDir;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::random_device rd;
-    path = fs::temp_directory_path() / ("roe_test_import_kalibr_" + std::to_string(rd()));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  fs::path write(const std::string& name, const std::string& text) const {
-    std::ofstream(path / name) << text;
-    return path / name;
-  }
-};
 
 // A Kalibr camchain as Kalibr writes it (camera rotated so that z_C = x_I, x_C = −y_I, y_C = −z_I).
 const char* kCamchain = R"(cam0:

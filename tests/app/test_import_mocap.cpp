@@ -7,6 +7,7 @@
 #include <fstream>
 #include <random>
 
+#include "support/test_util.hpp"
 #include "roe/app/import.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/trajectory_io.hpp"
@@ -16,19 +17,8 @@ namespace fs = std::filesystem;
 using namespace roe;
 
 namespace {
+using roe::test::TempDir;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::random_device rd;
-    path = fs::temp_directory_path() / ("roe_test_import_mocap_" + std::to_string(rd()));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
 
 // A smooth rotation R(t) = Exp(a(t)) and its body angular rate Jr(a) ȧ.
 Eigen::Vector3d a_of(double t) {

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <random>
 
+#include "support/test_util.hpp"
 #include "fixtures/gen_d435i_bag.hpp"
 #include "roe/app/import.hpp"
 #include "roe/image/frame_processor.hpp"
@@ -17,19 +18,8 @@ namespace fs = std::filesystem;
 using namespace roe;
 
 namespace {
+using roe::test::TempDir;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::random_device rd;
-    path = fs::temp_directory_path() / ("roe_test_import_rs_" + std::to_string(rd()));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
 
 fs::path write_bag(const TempDir& d, const std::string& name, const std::string& bytes) {
   const fs::path p = d.path / name;

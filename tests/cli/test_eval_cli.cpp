@@ -1,6 +1,7 @@
 // End-to-end: the roe executable's `eval` command on files and a run folder written here (TUM estimate,
 // EuRoC ground truth), exit codes (0 ok, 1 degenerate alignment, 2 bad input / no match), --json,
 // --summary. Works on any machine (no shared data needed).
+#include "support/test_util.hpp"
 #include <sys/wait.h>
 
 #include <array>
@@ -15,20 +16,9 @@
 namespace fs = std::filesystem;
 
 namespace {
-struct Result {
-  int code;
-  std::string out;
-};
+using Result = roe::test::RunResult;
 Result run(const std::string& args, bool merge_stderr = true) {
-  const std::string cmd = std::string(ROE_BINARY) + " " + args + (merge_stderr ? " 2>&1" : " 2>/dev/null");
-  FILE* p = popen(cmd.c_str(), "r");
-  REQUIRE(p != nullptr);
-  std::string out;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+  return roe::test::run_roe(args, merge_stderr);
 }
 
 /// Ground truth (EuRoC, 200 Hz, ns) and an estimate (TUM, 20 Hz, seconds) rotated by 90° about z,

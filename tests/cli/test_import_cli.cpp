@@ -11,43 +11,24 @@
 #include <random>
 #include <string>
 
+#include "support/test_util.hpp"
 #include "fixtures/gen_d435i_bag.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
-struct Result {
-  int code;
-  std::string out;
-};
+using Result = roe::test::RunResult;
 Result run(const std::string& args, bool merge_stderr = true) {
-  const std::string cmd = std::string(ROE_BINARY) + " " + args + (merge_stderr ? " 2>&1" : " 2>/dev/null");
-  FILE* p = popen(cmd.c_str(), "r");
-  REQUIRE(p != nullptr);
-  std::string out;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+  return roe::test::run_roe(args, merge_stderr);
 }
 
+/// A temporary folder whose paths come back as strings (they are spliced into command lines).
 struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::random_device rd;
-    path = fs::temp_directory_path() / ("roe_test_cli_import_" + std::to_string(rd()));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
+  roe::test::TempDir dir{"roe_test_cli_import"};
   std::string write(const std::string& name, const std::string& bytes) const {
-    std::ofstream(path / name, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    return (path / name).string();
+    return dir.write(name, bytes).string();
   }
-  std::string operator/(const std::string& rel) const { return (path / rel).string(); }
+  std::string operator/(const std::string& rel) const { return (dir.path / rel).string(); }
 };
 
 std::string small_d435i(const std::string& compression) {

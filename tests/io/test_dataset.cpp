@@ -6,6 +6,7 @@
 #include <random>
 #include <string>
 
+#include "support/test_util.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/math/so3.hpp"
@@ -15,22 +16,9 @@ using namespace roe;
 using roe::io::json;
 
 namespace {
+using roe::test::TempDir;
 
 // A fresh, empty temporary folder removed at scope exit.
-struct TempDir {
-  fs::path path;
-  explicit TempDir(const std::string& tag) {
-    static int counter = 0;
-    path = fs::temp_directory_path() /
-           ("roe_test_dataset_" + tag + "_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
 
 template <typename Fn>
 InputError expect_input_error(Fn&& fn) {

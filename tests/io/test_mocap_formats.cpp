@@ -6,6 +6,7 @@
 #include <fstream>
 #include <random>
 
+#include "support/test_util.hpp"
 #include "fixtures/bag_writer.hpp"
 #include "roe/io/mocap_formats.hpp"
 #include "roe/io/ros_msgs.hpp"
@@ -15,23 +16,8 @@ namespace fs = std::filesystem;
 using namespace roe;
 
 namespace {
+using roe::test::TempDir;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::random_device rd;
-    path = fs::temp_directory_path() / ("roe_test_mocap_" + std::to_string(rd()));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  fs::path write(const std::string& name, const std::string& text) const {
-    std::ofstream(path / name, std::ios::binary) << text;
-    return path / name;
-  }
-};
 
 // A Motive 3.x-style export: labels in the second column, TimeCode column, two rigid bodies,
 // millimetres, an occluded frame for body "cam".

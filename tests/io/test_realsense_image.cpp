@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <random>
 
+#include "support/test_util.hpp"
 #include "roe/core/error.hpp"
 #include "roe/image/camera_model.hpp"
 #include "roe/image/frame_processor.hpp"
@@ -16,6 +17,7 @@ using image::CameraModel;
 using image::Distortion;
 
 namespace {
+using roe::test::TempDir;
 
 CameraModel model(Distortion d, std::array<double, 5> c, int w = 640, int h = 480) {
   CameraModel m;
@@ -30,18 +32,6 @@ CameraModel model(Distortion d, std::array<double, 5> c, int w = 640, int h = 48
   return m;
 }
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::random_device rd;
-    path = fs::temp_directory_path() / ("roe_test_image_" + std::to_string(rd()));
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
 
 }  // namespace
 

@@ -1,0 +1,64 @@
+#pragma once
+/// @file
+/// Helpers shared by the tests: a self-deleting temporary folder and a runner for the roe binary.
+
+#include <sys/wait.h>
+
+#include <array>
+#include <catch2/catch.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+namespace roe::test {
+
+namespace fs = std::filesystem;
+
+/// A fresh folder under the system temp dir, removed with everything in it on destruction.
+struct TempDir {
+  fs::path path;
+  explicit TempDir(const std::string& tag = "roe_test") {
+    std::random_device rd;
+    path = fs::temp_directory_path() / (tag + "_" + std::to_string(rd()) + std::to_string(rd()));
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  /// Writes `text` to `name` inside the folder and returns its path.
+  fs::path write(const std::string& name, const std::string& text) const {
+    const fs::path p = path / name;
+    fs::create_directories(p.parent_path());
+    std::ofstream(p, std::ios::binary) << text;
+    return p;
+  }
+  fs::path operator/(const std::string& name) const { return path / name; }
+};
+
+/// Exit code and captured output of one run of the roe executable.
+struct RunResult {
+  int code;
+  std::string out;
+};
+
+/// Runs `ROE_BINARY args` through the shell; stderr is merged into `out` unless merge_stderr is false
+/// (then it is discarded, so `out` is exactly stdout, e.g. for --json).
+inline RunResult run_roe(const std::string& args, bool merge_stderr = true) {
+  const std::string cmd =
+      std::string(ROE_BINARY) + " " + args + (merge_stderr ? " 2>&1" : " 2>/dev/null");
+  FILE* p = popen(cmd.c_str(), "r");
+  REQUIRE(p != nullptr);
+  std::string out;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+}  // namespace roe::test
