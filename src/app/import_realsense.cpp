@@ -474,6 +474,10 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
     // tf/0 of stream S is rs2_extrinsics(ref → S): x_S = R x_ref + t, i.e. T_S_ref.
     T_I_C = S.extrinsics[accel_label->label] * S.extrinsics[color_label->label].inverse();
     S.have_T_I_C = true;
+  } else if (!imu.empty()) {
+    S.warnings.push_back(
+        "no camera-IMU extrinsics in the bag (realsense-ros /tf_static is not read): camera.T_I_C prior set "
+        "to identity; import a Kalibr calibration (roe import kalibr) before running the filter");
   }
 
   // ---- Write the dataset -------------------------------------------------------------------------
