@@ -10,6 +10,28 @@
 
 namespace roe::sim {
 namespace {
+
+/// One object in one frame: the visibility rules, then (when seen) the PoET-like error model. Appends
+/// the detection and its label and counts it in run.stats; returns whether it was detected.
+bool observe_object(Timestamp t, int id, const Pose& T_C_O, const PinholeCamera& cam,
+                    const VisibilityConfig& vis, bool blurred, PoetErrorModel& model, Rng& rng_vis,
+                    Rng& rng_det, std::vector<Detection>& dets, SimRun& run) {
+  SimStats& st = run.stats;
+  if (!object_in_view(T_C_O, cam, vis)) return false;
+  if (!object_visible(T_C_O, cam, vis, rng_vis)) {
+    ++st.missed;
+    return false;
+  }
+  DetectionLabel label;
+  dets.push_back(model.measure(t, id, T_C_O, blurred, rng_det, &label));
+  run.labels.push_back(label);
+  ++st.detections;
+  ++st.detections_per_object[id];
+  if (label.outlier) ++st.outliers;
+  if (label.flipped) ++st.flips;
+  if (label.blurred) ++st.blurred_detections;
+  return true;
+}
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 const Eigen::Vector3d kGravity_W(0.0, 0.0, 9.81);
@@ -323,20 +345,8 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
       bool any = false;
       for (const auto& o : objects_M) {
         const Pose T_C_O = T_C_M * o.T_W_O;  // T_W_O holds T_M_O here
-        if (!object_in_view(T_C_O, config.camera.intrinsics, config.visibility)) continue;
-        if (!object_visible(T_C_O, config.camera.intrinsics, config.visibility, rng_vis)) {
-          ++st.missed;
-          continue;
-        }
-        DetectionLabel label;
-        dets.push_back(model.measure(t, o.id, T_C_O, blurred, rng_det, &label));
-        run.labels.push_back(label);
-        any = true;
-        ++st.detections;
-        ++st.detections_per_object[o.id];
-        if (label.outlier) ++st.outliers;
-        if (label.flipped) ++st.flips;
-        if (label.blurred) ++st.blurred_detections;
+        any |= observe_object(t, o.id, T_C_O, config.camera.intrinsics, config.visibility, blurred, model,
+                              rng_vis, rng_det, dets, run);
       }
       if (any) ++st.frames_with_detections;
     }
@@ -517,20 +527,7 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
     bool any = false;
     for (const auto& o : objects_W) {
       const Pose T_C_O = T_C_W[k] * o.T_W_O;
-      if (!object_in_view(T_C_O, K, config.visibility)) continue;
-      if (!object_visible(T_C_O, K, config.visibility, rng_vis)) {
-        ++st.missed;
-        continue;
-      }
-      DetectionLabel label;
-      dets.push_back(model.measure(ts[k], o.id, T_C_O, blurred, rng_det, &label));
-      run.labels.push_back(label);
-      any = true;
-      ++st.detections;
-      ++st.detections_per_object[o.id];
-      if (label.outlier) ++st.outliers;
-      if (label.flipped) ++st.flips;
-      if (label.blurred) ++st.blurred_detections;
+      any |= observe_object(ts[k], o.id, T_C_O, K, config.visibility, blurred, model, rng_vis, rng_det, dets, run);
     }
     if (any) ++st.frames_with_detections;
   }
