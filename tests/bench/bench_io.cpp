@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <random>
 
+#include "bench_util.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/math/so3.hpp"
 
@@ -19,16 +20,7 @@ using namespace roe;
 
 namespace {
 
-template <typename F>
-double best_of(int n, F&& f) {
-  double best = 1e30;
-  for (int i = 0; i < n; ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
-    f();
-    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-  return best;
-}
+using roe::bench::best_of;
 
 Dataset synthetic(double minutes) {
   std::mt19937 rng(1);

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "bench_util.hpp"
 #include "roe/app/simulate.hpp"
 #include "roe/io/dataset.hpp"
 
@@ -15,16 +16,7 @@ namespace fs = std::filesystem;
 using namespace roe;
 
 namespace {
-template <typename F>
-double best_of(int n, F&& f) {
-  double best = 1e30;
-  for (int i = 0; i < n; ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
-    f();
-    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-  return best;
-}
+using roe::bench::best_of;
 }  // namespace
 
 int main() {

@@ -6,6 +6,7 @@
 #include <limits>
 #include <string>
 
+#include "support/test_util.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/output.hpp"
 
@@ -21,16 +22,7 @@ using roe::io::StampOrder;
 namespace {
 
 // Runs `fn` and returns the InputError it throws (fails the test when it throws nothing).
-template <typename Fn>
-InputError expect_input_error(Fn&& fn) {
-  try {
-    fn();
-  } catch (const InputError& e) {
-    return e;
-  }
-  FAIL("expected roe::InputError");
-  throw std::logic_error("unreachable");
-}
+using roe::test::expect_input_error;
 
 // Reads every row of `text` (forcing a parse of each field as double except column 0 as int64).
 void read_all(const std::string& text, CsvOptions o) {

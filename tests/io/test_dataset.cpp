@@ -20,16 +20,7 @@ using roe::test::TempDir;
 
 // A fresh, empty temporary folder removed at scope exit.
 
-template <typename Fn>
-InputError expect_input_error(Fn&& fn) {
-  try {
-    fn();
-  } catch (const InputError& e) {
-    return e;
-  }
-  FAIL("expected roe::InputError");
-  throw std::logic_error("unreachable");
-}
+using roe::test::expect_input_error;
 
 template <typename Fn>
 ConfigError expect_config_error(Fn&& fn) {

@@ -10,7 +10,10 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <stdexcept>
 #include <string>
+
+#include "roe/core/error.hpp"
 
 namespace roe::test {
 
@@ -59,6 +62,18 @@ inline RunResult run_roe(const std::string& args, bool merge_stderr = true) {
   while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
   const int status = pclose(p);
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+/// Runs `fn` and returns the roe::InputError it throws (fails the test when it throws nothing).
+template <typename Fn>
+InputError expect_input_error(Fn&& fn) {
+  try {
+    fn();
+  } catch (const InputError& e) {
+    return e;
+  }
+  FAIL("expected roe::InputError");
+  throw std::logic_error("unreachable");
 }
 
 }  // namespace roe::test
