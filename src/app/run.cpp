@@ -73,12 +73,8 @@ class Recorder : public ekf::FilterObserver {
       row.object_id = o.id;
       row.anchor = o.anchor;
       row.T_O_W = o.T_O_W;
-      row.sigma.setZero();
-      if (o.dim == 6) {
-        for (int i = 0; i < 6; ++i) row.sigma(i) = std::sqrt(f.variance(o.offset + i));
-      } else {
-        for (int i = 0; i < o.dim; ++i) row.sigma(3 + i) = std::sqrt(f.variance(o.offset + i));
-      }
+      row.sigma = f.object_covariance(o).diagonal().cwiseSqrt();
+      row.sigma_W_O = f.object_covariance_in_world(o).diagonal().cwiseMax(0.0).cwiseSqrt();
       out_.objects.push_back(row);
     }
   }
@@ -326,13 +322,15 @@ void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
     io::CsvWriter w;
     w.header({"timestamp_ns", "object_id", "anchor", "p_O_W_x", "p_O_W_y", "p_O_W_z", "q_O_W_x", "q_O_W_y",
               "q_O_W_z", "q_O_W_w", "sigma_p_x", "sigma_p_y", "sigma_p_z", "sigma_theta_x", "sigma_theta_y",
-              "sigma_theta_z"});
+              "sigma_theta_z", "sigma_p_W_O_x", "sigma_p_W_O_y", "sigma_p_W_O_z", "sigma_theta_W_O_x",
+              "sigma_theta_W_O_y", "sigma_theta_W_O_z"});
     for (const auto& o : r.objects) {
       const Eigen::Quaterniond q = math::canonical(o.T_O_W.q);
       w.add(o.t_ns).add(o.object_id).add(o.anchor ? 1 : 0);
       for (int i = 0; i < 3; ++i) w.add(o.T_O_W.p(i));
       w.add(q.x()).add(q.y()).add(q.z()).add(q.w());
       for (int i = 0; i < 6; ++i) w.add(o.sigma(i));
+      for (int i = 0; i < 6; ++i) w.add(o.sigma_W_O(i));
       w.end_row();
     }
     w.write(dir.file("objects.csv"));

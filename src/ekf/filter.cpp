@@ -196,6 +196,20 @@ const Eigen::MatrixXd& Filter::covariance() {
   return P_;
 }
 
+Mat6 Filter::object_covariance(const ObjectEntry& o) const {
+  Mat6 C = Mat6::Zero();
+  if (o.dim == 0) return C;
+  // The anchor's estimated components are its leading rotation components (δθ_x, δθ_y[, δθ_z]).
+  const int first = o.dim == 6 ? 0 : 3;
+  C.block(first, first, o.dim, o.dim) = P_.block(o.offset, o.offset, o.dim, o.dim);
+  return C;
+}
+
+Mat6 Filter::object_covariance_in_world(const ObjectEntry& o) const {
+  const Mat6 J = inverse_pose_jacobian(o.T_O_W);
+  return J * object_covariance(o) * J.transpose();
+}
+
 void Filter::boxplus(const Eigen::VectorXd& dx) {
   ROE_CHECK(dx.size() == n_, "boxplus: wrong size");
   x_.p_W_I += dx.segment<3>(kP);

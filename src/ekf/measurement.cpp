@@ -67,4 +67,14 @@ Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Vec6& sigma
   return J * var.asDiagonal() * J.transpose();
 }
 
+Mat6 inverse_pose_jacobian(const Pose& T_O_W) {
+  const Mat3 R_O_W = T_O_W.q.toRotationMatrix();
+  const Vec3 p_W_O = -R_O_W.transpose() * T_O_W.p;
+  Mat6 J = Mat6::Zero();
+  J.block<3, 3>(0, 0) = -R_O_W.transpose();
+  J.block<3, 3>(0, 3) = math::skew(p_W_O);
+  J.block<3, 3>(3, 3) = -R_O_W;
+  return J;
+}
+
 }  // namespace roe::ekf

@@ -202,6 +202,27 @@ TEST_CASE("per-detection sigmas are mapped through the T_C_O inversion", "[ekf][
   CHECK((S - Sn).cwiseAbs().maxCoeff() < 1e-9);
 }
 
+TEST_CASE("inverse_pose_jacobian equals finite differences of T_O_W -> T_W_O", "[ekf][jacobian]") {
+  for (int trial = 0; trial < 20; ++trial) {
+    const Pose T_O_W = Upose(2.0);
+    const Mat6 J = inverse_pose_jacobian(T_O_W);
+    Mat6 Jn;
+    const double eps = 1e-6;
+    for (int i = 0; i < 6; ++i) {
+      Vec6 v[2];
+      for (int s = 0; s < 2; ++s) {
+        Vec6 d = Vec6::Zero();
+        d(i) = s == 0 ? eps : -eps;
+        const Pose pert(T_O_W.q * exp_quat(d.tail<3>()), T_O_W.p + d.head<3>());
+        v[s] = pose_minus(pert.inverse(), T_O_W.inverse());
+      }
+      Jn.col(i) = (v[0] - v[1]) / (2 * eps);
+    }
+    INFO("trial " << trial << "\nanalytic\n" << J << "\nnumeric\n" << Jn);
+    CHECK((J - Jn).cwiseAbs().maxCoeff() < 1e-7);
+  }
+}
+
 namespace {
 
 // A filter with objects 1 (anchor), 2 and 3 initialised and a non-trivial state.

@@ -7,7 +7,8 @@
 ///   trajectory.tum   the same in TUM format
 ///   states.csv       timestamp_ns, p_W_I, v_W_I, q_W_I, b_g, b_a, p_I_C, q_I_C, then one σ per
 ///                    error-state component of the core and the extrinsics (sigma_*; rad for angles)
-///   objects.csv      timestamp_ns,object_id,anchor, T_O_W (p, q xyzw), six σ, after each image
+///   objects.csv      timestamp_ns,object_id,anchor, T_O_W (p, q xyzw), six σ, after each image, then
+///                    the six σ of T_W_O (where the object is: sigma_p_W_O_*, sigma_theta_W_O_*)
 ///   reprojection.csv timestamp_ns,object_id, T_W_I implied by the raw detection, status, nis
 ///   run.json         effective configuration, input hashes, counts, NIS statistics, timings, warnings
 ///
@@ -56,6 +57,8 @@ struct ObjectRow {
   bool anchor = false;
   Pose T_O_W;
   Eigen::Matrix<double, 6, 1> sigma;  ///< [δp_O_W; δθ_O_W]; 0 for components held fixed (anchor)
+  /// [δp_W_O; δθ_W_O]: the same uncertainty for the object's pose in W (Filter::object_covariance_in_world)
+  Eigen::Matrix<double, 6, 1> sigma_W_O;
 };
 
 struct ReprojectionRow {

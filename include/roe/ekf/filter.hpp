@@ -105,6 +105,14 @@ class Filter {
   double variance(int i) const { return P_(i, i); }
   /// Entry (i, j) of the core 15x15 block of P (always current).
   double core_covariance(int i, int j) const { return P_(i, j); }
+  /// Covariance of an object's error state [δp_O_W; δθ_O_W] (6x6; rows/columns of components the
+  /// anchor does not estimate are 0). Always current: propagation changes only the core rows/columns.
+  Mat6 object_covariance(const ObjectEntry& o) const;
+  /// Covariance of the object's pose in W, T_W_O = T_O_W⁻¹, as [δp_W_O; δθ_W_O] with the same right
+  /// perturbation (R_W_O = R̂_W_O Exp(δθ_W_O)): J P_O Jᵀ with J = inverse_pose_jacobian (measurement.hpp).
+  /// Unlike δp_O_W (the origin of W seen from the object, whose σ grows with the object's orientation σ
+  /// times its distance to the origin of W), δp_W_O is the uncertainty of where the object is.
+  Mat6 object_covariance_in_world(const ObjectEntry& o) const;
   /// The full covariance, brought up to date (applies the pending cross-covariance transition).
   const Eigen::MatrixXd& covariance();
   const FilterOptions& options() const { return opt_; }

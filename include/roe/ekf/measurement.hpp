@@ -60,4 +60,10 @@ ObjectInit init_object(const CoreState& x, const Pose& T_I_C, const Pose& T_O_C_
 /// δθ_O_C = −n_r:  Σ = J diag(σ²) Jᵀ with J = [[−R_O_C, −R_O_C [t]×], [0, −I]].
 Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Vec6& sigma_C);
 
+/// Jacobian of the inversion T_W_O = T_O_W⁻¹ in the error-state convention (additive position, right
+/// rotation error): [δp_W_O; δθ_W_O] = J [δp_O_W; δθ_O_W] to first order, with
+///   J = [[−R_O_Wᵀ, [p_W_O]×], [0, −R_O_W]].
+/// (p_W_O = −R_O_Wᵀ p_O_W; R_W_O = Exp(−δθ) R̂_O_Wᵀ = R̂_O_Wᵀ Exp(−R̂_O_W δθ).)
+Mat6 inverse_pose_jacobian(const Pose& T_O_W);
+
 }  // namespace roe::ekf
