@@ -63,7 +63,7 @@ std::pair<double, std::size_t> compare_with_truth(const Dataset& d) {
 TEST_CASE("simulate: presets exist, load strictly and differ", "[app][simulate]") {
   const auto names = app::list_presets();
   for (const char* n : {"paper-seq1", "paper-seq2", "paper-seq3", "paper-seq4", "paper-seq5", "paper-seq6",
-                        "paper-seq7", "paper-seq8", "noise-free", "matched"})
+                        "paper-seq7", "paper-seq8", "noise-free", "matched", "matched-calib"})
     CHECK(std::find(names.begin(), names.end(), n) != names.end());
   const std::size_t expected_objects[] = {3, 3, 2, 4, 1, 3, 4, 3};  // the paper's Table I
   std::vector<nlohmann::json> trajectories;

@@ -2,7 +2,9 @@
 // noise-free convergence, Monte-Carlo NEES/NIS on the `matched` preset, extrinsics and object-world
 // self-calibration.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
+#include <fmt/format.h>
 
 #include "filter_support.hpp"
 #include "roe/ekf/chi2.hpp"
@@ -66,23 +68,29 @@ TEST_CASE("noise-free preset: the estimate converges to the truth", "[ekf][sim]"
   }
 }
 
-// Consistency: with the configured noise equal to the simulated noise (the `matched` preset writes
-// its per-detection σ), the time-averaged NEES of the IMU pose over N Monte-Carlo runs must lie in the
-// two-sided 95 % χ² bounds [χ²_{6N}(0.025)/N, χ²_{6N}(0.975)/N], and the χ² rejection rate must be
-// close to 1 − confidence. 20 runs of 20 s (~2 s in total in Release).
-TEST_CASE("matched preset Monte-Carlo: NEES inside the 95 % bounds, rejection rate ~ 5 %", "[ekf][sim][mc]") {
-  const int N = 20;
-  const double duration = 20.0, skip_s = 3.0;
+namespace {
+
+struct MonteCarlo {
+  double anees = 0.0;       ///< time-averaged NEES of the IMU pose (6 dof)
+  double lo = 0.0, hi = 0.0;  ///< two-sided 95 % bounds of the time-averaged NEES
+  double rejection_rate = 0.0;
+  std::size_t gated = 0;
+};
+
+// N runs of `preset` (seeds 100..100+N−1) with the per-detection σ the simulator wrote (configured
+// noise = simulated noise); NEES of the IMU pose in the filter's gauge, after skip_s.
+MonteCarlo monte_carlo(const std::string& preset, int N, double duration, double skip_s) {
   app::RunConfig cfg;
   cfg.filter.use_detection_sigmas = true;
   cfg.filter.init_sigma_v_mps = 1.0;
   std::vector<double> nees_sum;  // per time step, summed over runs
-  std::size_t gated = 0, rejected = 0;
+  std::size_t rejected = 0;
+  MonteCarlo mc;
   for (int run = 0; run < N; ++run) {
-    const Dataset d = test::simulate_preset("matched", 100 + run, duration);
+    const Dataset d = test::simulate_preset(preset, 100 + run, duration);
     const app::RunOutput r = app::run_dataset(d, "sim", cfg);
     for (double nis : r.nis) {
-      ++gated;
+      ++mc.gated;
       if (nis > r.gate) ++rejected;
     }
     const Pose T_Wp_Wt =
@@ -99,60 +107,155 @@ TEST_CASE("matched preset Monte-Carlo: NEES inside the 95 % bounds, rejection ra
       nees_sum[k] += e.dot(s.pose_cov.ldlt().solve(e));
     }
   }
-  double anees = 0.0;
-  for (double v : nees_sum) anees += v / N;
-  anees /= nees_sum.size();
-  const double lo = ekf::chi2_quantile(0.025, 6.0 * N) / N, hi = ekf::chi2_quantile(0.975, 6.0 * N) / N;
-  const double rate = static_cast<double>(rejected) / gated;
-  WARN("matched MC: time-averaged NEES " << anees << " (bounds " << lo << ", " << hi << "), rejection rate "
-                                         << rate << " over " << gated << " gated detections");
-  CHECK(anees > lo);
-  CHECK(anees < hi);
-  CHECK(rate > 0.03);
-  CHECK(rate < 0.075);
+  for (double v : nees_sum) mc.anees += v / N;
+  mc.anees /= nees_sum.size();
+  mc.lo = ekf::chi2_quantile(0.025, 6.0 * N) / N;
+  mc.hi = ekf::chi2_quantile(0.975, 6.0 * N) / N;
+  mc.rejection_rate = static_cast<double>(rejected) / mc.gated;
+  return mc;
 }
 
-// Self-calibration on `matched` (60 s): the issue's targets are extrinsics < 5 mm / 0.5° from a
-// 3 cm / 3° perturbation, and non-anchor object-worlds σ < 1 cm / 1° within 10 s of first sight.
-// Measured (docs/RESULTS.md): rotation 0.26° (met); the lever arm p_I_C only reaches ~27 mm after 60 s
-// (filter σ ~1 cm; 17 mm after 300 s: NOT met); object σ < 1 cm / 1° after 14–34 s (NOT met in 10 s).
-// The assertions below hold what is achieved so a regression is caught.
-TEST_CASE("self-calibration: perturbed extrinsics and object-worlds converge", "[ekf][sim]") {
-  Dataset d = test::simulate_preset("matched", 7, 60.0);
+}  // namespace
+
+// Consistency: with the configured noise equal to the simulated noise (the `matched` preset writes
+// its per-detection σ), the time-averaged NEES of the IMU pose over N Monte-Carlo runs must lie in the
+// two-sided 95 % χ² bounds [χ²_{6N}(0.025)/N, χ²_{6N}(0.975)/N], and the χ² rejection rate must be
+// close to 1 − confidence. 20 runs of 20 s (~2 s in total in Release).
+TEST_CASE("matched preset Monte-Carlo: NEES inside the 95 % bounds, rejection rate ~ 5 %", "[ekf][sim][mc]") {
+  const MonteCarlo mc = monte_carlo("matched", 20, 20.0, 3.0);
+  WARN("matched MC: time-averaged NEES " << mc.anees << " (bounds " << mc.lo << ", " << mc.hi
+                                         << "), rejection rate " << mc.rejection_rate << " over " << mc.gated
+                                         << " gated detections");
+  CHECK(mc.anees > mc.lo);
+  CHECK(mc.anees < mc.hi);
+  CHECK(mc.rejection_rate > 0.03);
+  CHECK(mc.rejection_rate < 0.075);
+}
+
+TEST_CASE("matched-calib Monte-Carlo (fast rotations): NEES and rejection rate", "[ekf][sim][mc]") {
+  const MonteCarlo mc = monte_carlo("matched-calib", 20, 20.0, 3.0);
+  WARN("matched-calib MC: time-averaged NEES " << mc.anees << " (bounds " << mc.lo << ", " << mc.hi
+                                               << "), rejection rate " << mc.rejection_rate << " over "
+                                               << mc.gated << " gated detections");
+  CHECK(mc.anees > mc.lo);
+  CHECK(mc.anees < mc.hi);
+  CHECK(mc.rejection_rate > 0.03);
+  CHECK(mc.rejection_rate < 0.075);
+}
+
+namespace {
+
+// The `matched`-family dataset with T_I_C perturbed by 3 cm / 3° in the prior (the truth unchanged).
+Dataset perturbed_extrinsics(const std::string& preset, std::uint64_t seed, double duration) {
+  Dataset d = test::simulate_preset(preset, seed, duration);
   const Pose T_I_C_true = d.manifest.truth->T_I_C;
   const Vec3 dp = Vec3(1, -1, 1).normalized() * 0.03;
   const Vec3 dth = Vec3(-1, 1, 1).normalized() * (3.0 * math::kRadPerDeg);
   d.manifest.camera->T_I_C = Pose(T_I_C_true.q * math::exp_quat(dth), T_I_C_true.p + dp);
+  return d;
+}
+
+app::RunConfig self_calibration_config() {
   app::RunConfig cfg;
   cfg.filter.use_detection_sigmas = true;
   cfg.filter.extrinsics_sigma_p_m = 0.05;
   cfg.filter.extrinsics_sigma_rot_deg = 5.0;
-  const app::RunOutput r = app::run_dataset(d, "sim", cfg);
+  return cfg;
+}
+
+}  // namespace
+
+// Self-calibration (issue target: extrinsics perturbed by 3 cm / 3° converge to < 5 mm / 0.5°) under a
+// calibration motion (`matched-calib`: roll swings ±0.6 rad at 0.5 Hz, pitch/yaw swings ~±10°, as one
+// waves a rig for Kalibr), 120 s. Measured: seeds 7/8/9 → 1.3/2.7/1.5 mm and 0.11/0.05/0.09° at 120 s.
+TEST_CASE("self-calibration: perturbed extrinsics converge to < 5 mm / 0.5 deg under a calibration motion",
+          "[ekf][sim][calib]") {
+  const Dataset d = perturbed_extrinsics("matched-calib", 7, 120.0);
+  const Pose& T_I_C_true = d.manifest.truth->T_I_C;
+  const app::RunOutput r = app::run_dataset(d, "sim", self_calibration_config());
   const Vec6 e = math::pose_difference(T_I_C_true, r.final_T_I_C);
   const double e_p = e.head<3>().norm(), e_r = e.tail<3>().norm() * math::kDegPerRad;
   const auto& last = r.states.back();
-  WARN("self-calibration: extrinsics error after 60 s "
-       << e_p * 1000 << " mm, " << e_r << " deg; filter sigma p_I_C "
-       << last.sigma.segment<3>(15).transpose() * 1000 << " mm");
-  CHECK(e_r < 0.5);   // target met
-  CHECK(e_p < 0.03);  // improved from the 30 mm perturbation (target 5 mm not met, see above)
-  // Consistency of the lever arm estimate with its own σ (3σ per axis).
+  WARN("self-calibration (matched-calib, 120 s): extrinsics error " << e_p * 1000 << " mm, " << e_r
+                                                                    << " deg; filter sigma p_I_C "
+                                                                    << last.sigma.segment<3>(15).transpose() * 1000
+                                                                    << " mm");
+  CHECK(e_p < 0.005);
+  CHECK(e_r < 0.5);
+  // The estimate agrees with its own σ (3σ per axis).
+  for (int i = 0; i < 3; ++i) CHECK(std::abs(r.final_T_I_C.p(i) - T_I_C_true.p(i)) < 3.0 * last.sigma(15 + i));
+}
+
+// On the paper-like slow orbit alone (`matched`, 0.12 rad/s) a lever-arm error δ looks like an
+// accelerometer bias ω²δ (4e-4 m/s² for 3 cm), far below the bias random walk: the lever arm stays
+// uncertain. The filter must say so (σ stays above 5 mm) while its estimate stays within 3σ, and the
+// rotation still converges.
+TEST_CASE("self-calibration on the slow orbit: the lever arm stays uncertain and the filter says so",
+          "[ekf][sim][calib]") {
+  const Dataset d = perturbed_extrinsics("matched", 7, 60.0);
+  const Pose& T_I_C_true = d.manifest.truth->T_I_C;
+  const app::RunOutput r = app::run_dataset(d, "sim", self_calibration_config());
+  const Vec6 e = math::pose_difference(T_I_C_true, r.final_T_I_C);
+  const auto& last = r.states.back();
+  WARN("self-calibration (matched, 60 s): extrinsics error "
+       << e.head<3>().norm() * 1000 << " mm, " << e.tail<3>().norm() * math::kDegPerRad
+       << " deg; filter sigma p_I_C " << last.sigma.segment<3>(15).transpose() * 1000 << " mm");
+  CHECK(e.tail<3>().norm() * math::kDegPerRad < 0.5);
+  CHECK(last.sigma.segment<3>(15).maxCoeff() > 0.005);
   for (int i = 0; i < 3; ++i)
     CHECK(std::abs(r.final_T_I_C.p(i) - T_I_C_true.p(i)) < 3.0 * last.sigma(15 + i) + 0.002);
+}
 
-  std::map<int, Timestamp> first, reached;
-  for (const auto& row : r.objects) {
-    if (row.anchor) continue;
-    if (!first.count(row.object_id)) first[row.object_id] = row.t_ns;
-    const double sp = row.sigma.head<3>().maxCoeff(), sr = row.sigma.tail<3>().maxCoeff() * math::kDegPerRad;
-    if (sp < 0.01 && sr < 1.0 && !reached.count(row.object_id)) reached[row.object_id] = row.t_ns;
+// Non-anchor object-worlds (issue target: σ < 1 cm / 1° within 10 s of first sight). σ of where the
+// object is (T_W_O, objects.csv sigma_*_W_O_*), default configuration (extrinsics self-calibrated from
+// the 2 cm / 2° prior) with the per-detection σ, `matched`, six seeds of 30 s. The time is limited by
+// the information in the detections (σ along the ray 0.03 m + 5 % of the depth, 1.3–1.7 m here), so it
+// depends on the seed's geometry; docs/RESULTS.md has the figures. Each object's final estimate must
+// also lie within 3σ of the truth (in the filter's gauge).
+TEST_CASE("object-worlds: sigma < 1 cm / 1 deg after first sight, estimates within 3 sigma", "[ekf][sim][calib]") {
+  app::RunConfig cfg;
+  cfg.filter.use_detection_sigmas = true;
+  std::vector<double> first_times;  // per seed: the first non-anchor object to reach the target
+  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+    const Dataset d = test::simulate_preset("matched", seed, 30.0);
+    const app::RunOutput r = app::run_dataset(d, "sim", cfg);
+    std::map<int, Timestamp> first, reached;
+    std::map<int, const app::ObjectRow*> last;
+    for (const auto& row : r.objects) {
+      if (row.anchor) continue;
+      last[row.object_id] = &row;
+      if (!first.count(row.object_id)) first[row.object_id] = row.t_ns;
+      const double sp = row.sigma_W_O.head<3>().maxCoeff();
+      const double sr = row.sigma_W_O.tail<3>().maxCoeff() * math::kDegPerRad;
+      if (sp < 0.01 && sr < 1.0 && !reached.count(row.object_id)) reached[row.object_id] = row.t_ns;
+    }
+    REQUIRE(first.size() >= 2);
+    double best = 1e9;
+    for (const auto& kv : first) {
+      INFO("seed " << seed << " object " << kv.first);
+      REQUIRE(reached.count(kv.first));
+      const double t = dt_seconds(kv.second, reached[kv.first]);
+      best = std::min(best, t);
+      // Final estimate vs the truth in the filter's gauge (anchor position + yaw).
+      const Pose T_Wp_Wt =
+          test::gauge_position_yaw(r.final_T_O_W.at(r.anchor_id), truth_object(d, r.anchor_id).T_W_O);
+      const Pose T_W_O_true = T_Wp_Wt * truth_object(d, kv.first).T_W_O;
+      const Pose T_W_O_est = r.final_T_O_W.at(kv.first).inverse();
+      const Vec6 err = math::pose_difference(T_W_O_true, T_W_O_est);
+      const auto& sig = last.at(kv.first)->sigma_W_O;
+      INFO("error " << err.transpose() << " sigma " << sig.transpose());
+      for (int i = 0; i < 6; ++i) CHECK(std::abs(err(i)) < 3.0 * sig(i));
+    }
+    first_times.push_back(best);
   }
-  CHECK(first.size() >= 2);
-  for (const auto& kv : first) {
-    INFO("object " << kv.first);
-    REQUIRE(reached.count(kv.first));
-    const double t = dt_seconds(kv.second, reached[kv.first]);
-    WARN("object " << kv.first << ": sigma < 1 cm / 1 deg " << t << " s after first sight");
-    CHECK(t < 40.0);
-  }
+  std::vector<double> sorted = first_times;
+  std::sort(sorted.begin(), sorted.end());
+  const double median = 0.5 * (sorted[2] + sorted[3]);
+  std::string list;
+  for (double t : first_times) list += fmt::format(" {:.1f}", t);
+  WARN("object-worlds: first non-anchor object below 1 cm / 1 deg after [s]:" << list << " (median " << median
+                                                                               << " s)");
+  // Measured: 20.6 12.7 18.0 11.9 10.4 18.6 s (median 15.4 s): the 10 s target is not met.
+  CHECK(median < 18.0);
+  CHECK(sorted.back() < 25.0);
 }
