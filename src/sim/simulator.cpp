@@ -420,14 +420,139 @@ double rate_at(const std::vector<ImuSample>& imu, Timestamp t) {
   return it->gyro.norm();
 }
 
-std::size_t frames_seeing(const std::vector<Pose>& T_C_W, const Eigen::Vector3d& p_W,
-                          const PinholeCamera& cam, const VisibilityConfig& vis) {
-  std::size_t n = 0;
-  for (const auto& T : T_C_W)
-    if (object_in_view(Pose(Eigen::Quaterniond::Identity(), T.act(p_W)), cam, vis)) ++n;
-  return n;
+// Frames (indices into T_C_W) in which a point is in view (object_in_view: depth range, margin).
+std::vector<std::uint32_t> frames_seeing(const std::vector<Pose>& T_C_W, const Eigen::Vector3d& p_W,
+                                         const PinholeCamera& cam, const VisibilityConfig& vis) {
+  std::vector<std::uint32_t> seen;
+  for (std::size_t k = 0; k < T_C_W.size(); ++k)
+    if (object_in_view(Pose(Eigen::Quaterniond::Identity(), T_C_W[k].act(p_W)), cam, vis))
+      seen.push_back(static_cast<std::uint32_t>(k));
+  return seen;
+}
+
+std::vector<Pose> inverses(const std::vector<Pose>& T) {
+  std::vector<Pose> out;
+  out.reserve(T.size());
+  for (const auto& x : T) out.push_back(x.inverse());
+  return out;
 }
 }  // namespace
+
+PlacementCoverage placement_coverage(const std::vector<Timestamp>& t, const std::vector<Pose>& T_W_C,
+                                     const std::vector<Eigen::Vector3d>& p_W, const PinholeCamera& cam,
+                                     const VisibilityConfig& vis) {
+  if (t.size() != T_W_C.size()) throw DataError("placement_coverage: stamps and poses differ in size");
+  PlacementCoverage c;
+  c.frames = t.size();
+  const std::vector<Pose> T_C_W = inverses(T_W_C);
+  std::vector<char> covered(t.size(), 0);
+  for (const auto& p : p_W) {
+    const auto seen = frames_seeing(T_C_W, p, cam, vis);
+    c.frames_per_object.push_back(seen.size());
+    for (auto k : seen) covered[k] = 1;
+  }
+  if (t.empty()) return c;
+  // Gaps: between consecutive covered frames, and the uncovered stretches at both ends.
+  Timestamp last = t.front();
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (!covered[k]) continue;
+    ++c.frames_covered;
+    c.longest_gap_s = std::max(c.longest_gap_s, dt_seconds(last, t[k]));
+    last = t[k];
+  }
+  c.longest_gap_s = std::max(c.longest_gap_s, dt_seconds(last, t.back()));
+  return c;
+}
+
+std::vector<Eigen::Vector3d> place_along_trajectory(const std::vector<Timestamp>& t,
+                                                    const std::vector<Pose>& T_W_C,
+                                                    const FromGroundtruthConfig& config, std::uint64_t seed) {
+  const std::string cfg = "from_groundtruth";
+  require_positive(config.place_min_depth_m, cfg + ".place_min_depth_m");
+  if (!(config.place_max_depth_m > config.place_min_depth_m))
+    bad(cfg + ".place_max_depth_m", "must be greater than place_min_depth_m");
+  if (!(config.place_inner_fraction > 0.0 && config.place_inner_fraction <= 1.0))
+    bad(cfg + ".place_inner_fraction", "must be in (0, 1]");
+  require_positive(config.place_candidate_every_s, cfg + ".place_candidate_every_s");
+  if (config.place_candidates_per_frame < 1) bad(cfg + ".place_candidates_per_frame", "must be at least 1");
+  require_nonneg(config.anchor_window_s, cfg + ".anchor_window_s");
+  require_nonneg(config.anchor_lead_s, cfg + ".anchor_lead_s");
+  require_nonneg(config.min_separation_m, cfg + ".min_separation_m");
+  if (config.num_objects < 1) bad("objects", "--objects must be at least 1");
+  if (t.size() != T_W_C.size()) throw DataError("place_along_trajectory: stamps and poses differ in size");
+  if (t.empty()) throw DataError("no camera frames to place objects for");
+
+  // Candidates: points in front of the camera at frames spread over the whole recording, so that
+  // every part of the trajectory proposes positions it sees.
+  Rng rng = Rng::stream(seed, "placement");
+  const auto& K = config.intrinsics;
+  const std::vector<Pose> T_C_W = inverses(T_W_C);
+  struct Candidate {
+    Eigen::Vector3d p_W;
+    std::vector<std::uint32_t> seen;  // sorted frame indices
+  };
+  std::vector<Candidate> cands;
+  Timestamp next = t.front();
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (t[k] < next) continue;
+    next = t[k] + static_cast<Timestamp>(std::llround(config.place_candidate_every_s * 1e9));
+    for (int j = 0; j < config.place_candidates_per_frame; ++j) {
+      const double f = config.place_inner_fraction;
+      const double u = K.cx + rng.uniform(-0.5, 0.5) * f * K.width;
+      const double v = K.cy + rng.uniform(-0.5, 0.5) * f * K.height;
+      const double z = rng.uniform(config.place_min_depth_m, config.place_max_depth_m);
+      const Eigen::Vector3d p_W =
+          T_W_C[k].act(Eigen::Vector3d((u - K.cx) / K.fx * z, (v - K.cy) / K.fy * z, z));
+      auto seen = frames_seeing(T_C_W, p_W, K, config.visibility);
+      if (seen.size() >= config.min_frames_visible) cands.push_back({p_W, std::move(seen)});
+    }
+  }
+
+  auto far_enough = [&](const Eigen::Vector3d& p, const std::vector<Eigen::Vector3d>& chosen) {
+    for (const auto& q : chosen)
+      if ((q - p).norm() < config.min_separation_m) return false;
+    return true;
+  };
+  // Anchor: seen first (within the window) and in as many frames as possible, so that the filter's
+  // main object is the first one detected and stays in view repeatedly.
+  const Timestamp window_end = t.front() + static_cast<Timestamp>(std::llround(config.anchor_window_s * 1e9));
+  const Candidate* anchor = nullptr;
+  for (const auto& c : cands)
+    if (t[c.seen.front()] <= window_end && (!anchor || c.seen.size() > anchor->seen.size())) anchor = &c;
+  if (!anchor)
+    throw DataError("no position in front of the camera within " + std::to_string(config.anchor_window_s) +
+                    " s of the start is seen in " + std::to_string(config.min_frames_visible) +
+                    " frames; cannot place the anchor object");
+  std::vector<Eigen::Vector3d> chosen{anchor->p_W};
+  std::vector<char> covered(t.size(), 0);
+  for (auto k : anchor->seen) covered[k] = 1;
+  const Timestamp others_from =
+      t[anchor->seen.front()] + static_cast<Timestamp>(std::llround(config.anchor_lead_s * 1e9));
+
+  // Greedy maximum coverage for the others (the classic (1 − 1/e) approximation of max coverage).
+  while (chosen.size() < static_cast<std::size_t>(config.num_objects)) {
+    const Candidate* best = nullptr;
+    std::size_t best_gain = 0;
+    for (const auto& c : cands) {
+      if (t[c.seen.front()] < others_from || !far_enough(c.p_W, chosen)) continue;
+      std::size_t gain = 0;
+      for (auto k : c.seen) gain += covered[k] ? 0 : 1;
+      if (!best || gain > best_gain || (gain == best_gain && c.seen.size() > best->seen.size())) {
+        best = &c;
+        best_gain = gain;
+      }
+    }
+    if (!best)
+      throw DataError("only " + std::to_string(chosen.size()) + " of " + std::to_string(config.num_objects) +
+                      " objects can be placed where the camera sees them in " +
+                      std::to_string(config.min_frames_visible) + " frames, " +
+                      std::to_string(config.min_separation_m) + " m apart");
+    chosen.push_back(best->p_W);
+    for (auto k : best->seen) covered[k] = 1;
+  }
+
+  return chosen;
+}
 
 SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::vector<ImuState>& gt,
                                  const FromGroundtruthConfig& config, std::uint64_t seed) {
@@ -436,11 +561,6 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
   if (static_cast<std::size_t>(config.num_objects) > config.object_ids.size())
     bad("objects", "at most " + std::to_string(config.object_ids.size()) + " objects are available");
   require_positive(config.camera_rate_hz, cfg + ".camera_rate_hz");
-  require_positive(config.place_min_depth_m, cfg + ".place_min_depth_m");
-  if (config.place_max_depth_m <= config.place_min_depth_m)
-    bad(cfg + ".place_max_depth_m", "must be greater than place_min_depth_m");
-  if (!(config.place_inner_fraction > 0.0 && config.place_inner_fraction <= 1.0))
-    bad(cfg + ".place_inner_fraction", "must be in (0, 1]");
   validate_detection(config.detection, config.visibility, config.intrinsics, cfg + ".detection",
                      cfg + ".visibility", cfg + ".intrinsics");
   const std::vector<int> ids(config.object_ids.begin(), config.object_ids.begin() + config.num_objects);
@@ -470,49 +590,13 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
   }
   st.frames = ts.size();
 
-  // Placement: the group centre is the candidate point (random frame, pixel in the central part of
-  // the image, depth in range) seen in the most frames; the objects are then drawn around it, each
-  // seen in at least min_frames_visible frames.
-  Rng rng = Rng::stream(seed, "placement");
-  const auto& K = config.intrinsics;
-  auto candidate = [&](const Pose& T_W_Ck) {
-    const double f = config.place_inner_fraction;
-    const double u = K.cx + rng.uniform(-0.5, 0.5) * f * K.width;
-    const double v = K.cy + rng.uniform(-0.5, 0.5) * f * K.height;
-    const double z = rng.uniform(config.place_min_depth_m, config.place_max_depth_m);
-    return T_W_Ck.act(Eigen::Vector3d((u - K.cx) / K.fx * z, (v - K.cy) / K.fy * z, z));
-  };
-  Eigen::Vector3d center = Eigen::Vector3d::Zero();
-  std::size_t best = 0;
-  for (int i = 0; i < 200; ++i) {
-    const Eigen::Vector3d p = candidate(T_W_C[rng.uniform_int(T_W_C.size())]);
-    const std::size_t n = frames_seeing(T_C_W, p, K, config.visibility);
-    if (n > best) {
-      best = n;
-      center = p;
-    }
-  }
-  if (best < config.min_frames_visible)
-    throw DataError("no point along the trajectory is seen in " + std::to_string(config.min_frames_visible) +
-                    " frames; cannot place objects");
+  // Placement (place_along_trajectory): centres covering the trajectory; orientations uniform.
+  Rng rng_rot = Rng::stream(seed, "from-groundtruth/orientations");
   std::vector<TruthObject> objects_W;
-  for (int id : ids) {
-    bool placed = false;
-    for (int attempt = 0; attempt < 2000 && !placed; ++attempt) {
-      const Eigen::Vector3d p =
-          center + Eigen::Vector3d(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5), rng.uniform(-0.15, 0.15));
-      const Eigen::Quaterniond q = rng.rotation();
-      bool ok = true;
-      for (const auto& o : objects_W)
-        if ((o.T_W_O.p - p).norm() < config.min_separation_m) ok = false;
-      if (!ok || frames_seeing(T_C_W, p, K, config.visibility) < config.min_frames_visible) continue;
-      objects_W.push_back({id, Pose(q, p)});
-      placed = true;
-    }
-    if (!placed)
-      throw DataError("cannot place object " + std::to_string(id) + " where the camera sees it in " +
-                      std::to_string(config.min_frames_visible) + " frames");
-  }
+  const std::vector<Eigen::Vector3d> centres = place_along_trajectory(ts, T_W_C, config, seed);
+  for (std::size_t i = 0; i < centres.size(); ++i)
+    objects_W.push_back({ids[i], Pose(rng_rot.rotation(), centres[i])});
+  const auto& K = config.intrinsics;
 
   // Detections.
   const auto syms = symmetry_map(ids, config.symmetric_ids);
@@ -527,7 +611,8 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
     bool any = false;
     for (const auto& o : objects_W) {
       const Pose T_C_O = T_C_W[k] * o.T_W_O;
-      any |= observe_object(ts[k], o.id, T_C_O, K, config.visibility, blurred, model, rng_vis, rng_det, dets, run);
+      any |= observe_object(ts[k], o.id, T_C_O, K, config.visibility, blurred, model, rng_vis, rng_det, dets,
+                            run);
     }
     if (any) ++st.frames_with_detections;
   }

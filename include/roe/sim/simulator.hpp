@@ -148,25 +148,65 @@ void validate(const SimConfig& config);
 
 /// `roe simulate --from-groundtruth`: a real recording's IMU and ground truth kept unchanged, objects
 /// placed where the camera sees them along the real trajectory, detections synthesised.
+///
+/// Placement rule (place_along_trajectory, docs/simulator.md "--from-groundtruth"): candidate object
+/// centres are drawn in front of the camera at frames spread over the whole recording (every
+/// place_candidate_every_s, place_candidates_per_frame each: pixel uniform in the central
+/// place_inner_fraction of the image, depth uniform in [place_min_depth_m, place_max_depth_m]); for each
+/// candidate the set of frames that see it geometrically (object_in_view: depth range and image margin)
+/// is computed. The anchor (object_ids[0]) is the candidate seen in the most frames among those first
+/// seen within anchor_window_s of the first frame; the other objects are chosen greedily, each the
+/// candidate that adds the most frames not yet seeing any object (ties: most frames overall), among
+/// candidates at least min_separation_m from the chosen ones, seen in ≥ min_frames_visible frames and
+/// never in view before anchor_lead_s after the anchor's first sight (so the filter takes the anchor as
+/// its main object). Deterministic for a seed (the candidate draw uses the seed's "placement" stream).
 struct FromGroundtruthConfig {
   int num_objects = 3;
   std::vector<int> object_ids{1, 5, 13, 2, 4, 8, 14, 19, 10, 12, 15, 21};  ///< the first N are used
   std::vector<int> symmetric_ids{13, 16, 19, 20, 21};
   double camera_rate_hz = 30.0;
-  PinholeCamera intrinsics{640, 480, 919.806, 920.129, 319.909, 238.775};
+  /// The recording's own camera: EuRoC MAV cam0 (mav0/cam0/sensor.yaml: 752x480, fu 458.654,
+  /// fv 457.296, cu 367.215, cv 248.375), taken as undistorted pinhole. Its ~79°x55° field of view
+  /// (not the 38°x29° of the processed D435i image of the presets) decides which frames see an object.
+  PinholeCamera intrinsics{752, 480, 458.654, 457.296, 367.215, 248.375};
   /// EuRoC MAV cam0 → IMU (body) extrinsics, T_BS of mav0/cam0/sensor.yaml (x_I = T_I_C x_C).
   Pose T_I_C = euroc_T_I_C();
-  double place_min_depth_m = 0.8;  ///< placement depth range in front of the chosen camera
-  double place_max_depth_m = 2.4;
-  double place_inner_fraction = 0.6;  ///< placement pixel uniform in the central fraction of the image
-  double min_separation_m = 0.2;
-  std::size_t min_frames_visible = 30;  ///< reject a placement seen (geometrically) in fewer frames
+  double place_min_depth_m = 0.8;  ///< candidate depth range in front of the camera (handheld/MAV view)
+  double place_max_depth_m = 2.0;
+  double place_inner_fraction = 0.6;      ///< candidate pixel uniform in the central fraction of the image
+  double place_candidate_every_s = 0.03;  ///< spacing of the frames that spawn candidates (≤ 1/rate: all)
+  int place_candidates_per_frame = 4;     ///< candidates drawn at each such frame
+  double anchor_window_s = 1.0;           ///< the anchor is first seen within this time of the start
+  double anchor_lead_s = 0.5;             ///< no other object is in view before anchor sight + this
+  double min_separation_m = 0.3;          ///< between object centres
+  std::size_t min_frames_visible = 30;    ///< reject a placement seen (geometrically) in fewer frames
   ImuNoise imu_noise{1.6968e-4, 1.9393e-5, 2.0e-3, 3.0e-3};  ///< EuRoC ADIS16448 (sensor.yaml)
   VisibilityConfig visibility;
   DetectionNoiseConfig detection;
 
   static Pose euroc_T_I_C();
 };
+
+/// How well a set of object centres covers a sequence of camera poses (geometric visibility only).
+struct PlacementCoverage {
+  std::size_t frames = 0;                      ///< camera frames
+  std::size_t frames_covered = 0;              ///< frames in which at least one object is in view
+  std::vector<std::size_t> frames_per_object;  ///< frames in which each object is in view
+  double longest_gap_s = 0.0;  ///< longest time between two covered frames (or from the first / to the
+                               ///< last frame when those are not covered)
+  double fraction() const { return frames ? static_cast<double>(frames_covered) / frames : 0.0; }
+};
+
+/// Coverage of the object centres p_W by the cameras T_W_C at stamps t (same size, sorted).
+PlacementCoverage placement_coverage(const std::vector<Timestamp>& t, const std::vector<Pose>& T_W_C,
+                                     const std::vector<Eigen::Vector3d>& p_W, const PinholeCamera& cam,
+                                     const VisibilityConfig& vis);
+
+/// The placement rule above: num_objects centres in W (the anchor first) for the cameras T_W_C at
+/// stamps t. Throws roe::DataError when fewer than num_objects admissible positions exist.
+std::vector<Eigen::Vector3d> place_along_trajectory(const std::vector<Timestamp>& t,
+                                                    const std::vector<Pose>& T_W_C,
+                                                    const FromGroundtruthConfig& config, std::uint64_t seed);
 
 /// Builds the dataset from typed real streams (time-sorted, IMU in I, ground truth T_W_I).
 /// Throws roe::DataError when the streams do not overlap or the objects cannot be placed.
