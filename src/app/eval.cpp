@@ -38,7 +38,7 @@ double path_length(const std::vector<Pose>& p) {
 struct Estimate {
   EvalInput in;
   bool run = false;
-  std::vector<ReprojectionRow> reprojection;
+  std::vector<ReprojectionCsvRow> reprojection;
   bool have_reprojection = false;
   std::vector<std::optional<eval::PoseCovariance>> cov;
   std::string cov_source;
@@ -194,14 +194,14 @@ EvalResult run_eval(const EvalOptions& o) {
   json per_object = json::array();
   std::vector<std::tuple<Timestamp, int, Pose, std::string, double>> rep_aligned;
   if (est.have_reprojection) {
-    std::map<int, std::vector<const ReprojectionRow*>> by_obj;
+    std::map<int, std::vector<const ReprojectionCsvRow*>> by_obj;
     for (const auto& r : est.reprojection) by_obj[r.object_id].push_back(&r);
     for (const auto& [id, rows] : by_obj) {
       std::map<std::string, std::size_t> counts;
       std::vector<Timestamp> ts;
       std::vector<Pose> ps;
       std::vector<bool> accepted;
-      for (const ReprojectionRow* r : rows) {
+      for (const ReprojectionCsvRow* r : rows) {
         ++counts[r->status];
         const bool valid = r->T_W_I.p.allFinite();
         Pose T = valid ? al.apply(r->T_W_I) : r->T_W_I;

@@ -14,7 +14,7 @@ namespace roe::app {
 
 namespace fs = std::filesystem;
 
-std::vector<ReprojectionRow> read_reprojection_csv(const fs::path& file) {
+std::vector<ReprojectionCsvRow> read_reprojection_csv(const fs::path& file) {
   io::CsvOptions o;
   o.header = io::CsvHeader::kFirstLine;
   io::CsvReader r(file, o);
@@ -23,9 +23,9 @@ std::vector<ReprojectionRow> read_reprojection_csv(const fs::path& file) {
   const std::size_t cq[4] = {r.column("qx"), r.column("qy"), r.column("qz"), r.column("qw")};
   const std::size_t cs = r.column("status");
   const auto cn = r.find_column("nis");
-  std::vector<ReprojectionRow> rows;
+  std::vector<ReprojectionCsvRow> rows;
   while (r.next()) {
-    ReprojectionRow row;
+    ReprojectionCsvRow row;
     row.t_ns = r.get_int64(ct);
     if (!rows.empty() && row.t_ns < rows.back().t_ns)
       throw r.error(ct,

@@ -98,7 +98,7 @@ TEST_CASE("run config: strict keys, shipped configs load, defaults round-trip", 
   CHECK(a == b);
   CHECK(paper.filter.anchor_gauge == ekf::AnchorGauge::kPosition);
   CHECK(paper.filter.residual_frame == ekf::ResidualFrame::kObject);
-  CHECK(paper.filter.init_min_detections == 1);
+  CHECK(paper.filter.init_min_detections == 3);  // the one departure from the paper (docs/filter.md §6)
   // Round trip.
   const auto j = app::run_config_to_json(paper);
   CHECK(app::run_config_to_json(app::run_config_from_json(j, "echo")) == j);

@@ -47,7 +47,7 @@ struct EvalOptions {
 };
 
 /// One row of a run folder's reprojection.csv: the IMU pose T_W_I implied by one raw detection.
-struct ReprojectionRow {
+struct ReprojectionCsvRow {
   Timestamp t_ns = 0;
   int object_id = 0;
   Pose T_W_I;
@@ -57,7 +57,7 @@ struct ReprojectionRow {
 
 /// reprojection.csv: `timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis` (columns matched by
 /// name, any order; nis may be empty or nan). Rows sorted by time (non-decreasing).
-std::vector<ReprojectionRow> read_reprojection_csv(const std::filesystem::path& file);
+std::vector<ReprojectionCsvRow> read_reprojection_csv(const std::filesystem::path& file);
 
 /// Per-pose diagonal covariance from a run folder's states.csv, matched to `t_ns` by stamp.
 /// Columns are found by name: `timestamp_ns`, and one standard deviation per axis of the IMU position
