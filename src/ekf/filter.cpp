@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 #include "roe/core/error.hpp"
 #include "roe/ekf/chi2.hpp"
@@ -133,7 +134,7 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
       P_(extr_offset_ + 3 + i, extr_offset_ + 3 + i) = sq(opt_.extrinsics_sigma_rot_deg * d2r);
     }
   }
-  Phi_.setIdentity();
+  PhiT_.setIdentity();
   phi_pending_ = false;
   initialized_ = true;
   check_covariance(true, "initialisation");
@@ -160,34 +161,58 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   gyro_ = gyro;
   accel_ = accel;
 
-  // P_cc ← F P_cc Fᵀ + Q:  A = F P_cc;  F Aᵀ = F P_cc Fᵀ (P_cc symmetric).
-  Mat15 A = P_.topLeftCorner<15, 15>();
-  F.apply_left(A);
-  A.transposeInPlace();
-  F.apply_left(A);
-  add_process_noise(noise_, dt, A);
-  P_.topLeftCorner<15, 15>() = 0.5 * (A + A.transpose());
+  // P_cc ← F P_cc Fᵀ + Q with every product on columns (contiguous): C = P_cc Fᵀ changes only the
+  // columns p, v, θ (F's rows b_g, b_a are the identity), and B = F C = Cᵀ Fᵀ (symmetric) needs only
+  // B[0:9, 0:9] = (C[:, 0:9]ᵀ Fᵀ)[:, 0:9]; B[9:15, 0:9] = C[9:15, 0:9], B[9:15, 9:15] = P[9:15, 9:15].
+  // 675 + 405 multiply-adds instead of 2 x 675; the 9x9 block is symmetrised.
+  Mat15 C = P_.topLeftCorner<15, 15>();
+  F.apply_right_transposed(C);
+  Eigen::Matrix<double, 9, 15> T = C.leftCols<9>().transpose();
+  F.apply_right_transposed(T);
+  auto Pcc = P_.topLeftCorner<15, 15>();
+  const Eigen::Matrix<double, 9, 9> B = T.leftCols<9>();
+  Pcc.topLeftCorner<9, 9>() = 0.5 * (B + B.transpose());
+  Pcc.block<6, 9>(9, 0) = C.block<6, 9>(9, 0);
+  Pcc.block<9, 6>(0, 9) = C.block<6, 9>(9, 0).transpose();
+  add_process_noise(noise_, dt, Pcc);
   if (n_ > kCore) {
-    F.apply_left(Phi_);
+    // Φᵀ ← Φᵀ Fᵀ (Φ = F_k⋯F_1 is kept transposed so that the products run on columns). Φ's columns p and v
+    // (Φᵀ's rows p, v) stay [I; 0; 0; 0; 0] and [Σdt I; I; 0; 0; 0] (F's columns p, v are trivial), so
+    // only Φᵀ's rows θ, b_g, b_a need the product and Φ_pv accumulates dt.
+    auto PhiT_tb = PhiT_.bottomRows<9>();
+    F.apply_right_transposed(PhiT_tb);
+    PhiT_.block<3, 3>(kV, kP).diagonal().array() += dt;
     phi_pending_ = true;
   }
   // Cheap guard rails every sample: core state and core variances.
   bool ok = x_.p_W_I.allFinite() && x_.v_W_I.allFinite() && x_.q_W_I.coeffs().allFinite();
   for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(P_(i, i)) && P_(i, i) > 0.0;
   if (!ok) check_covariance(false, "propagation");
-  check_state("propagation");
+  check_state("propagation", /*core_only=*/true);
 }
 
 void Filter::sync_cross_covariance() {
   if (!phi_pending_) return;
   const int r = n_ - kCore;
   if (r > 0) {
-    tmp_cross_.resize(kCore, r);
-    tmp_cross_.noalias() = Phi_ * P_.topRightCorner(kCore, r);
-    P_.topRightCorner(kCore, r) = tmp_cross_;
-    P_.bottomLeftCorner(r, kCore) = tmp_cross_.transpose();
+    // P_rc ← P_rc Φᵀ on the contiguous columns of the bottom-left block; Φ's rows b_g, b_a are the
+    // identity, so only P_rc's columns p, v, θ (and P_cr's rows) change. Column j of the result is a sum
+    // of axpys over P_rc's columns; Φ's exact zeros are skipped.
+    tmp_cross_.resize(r, 9);
+    for (int j = 0; j < 9; ++j) {
+      double* __restrict t = tmp_cross_.col(j).data();
+      for (int i = 0; i < r; ++i) t[i] = 0.0;
+      for (int k = 0; k < kCore; ++k) {
+        const double phi = PhiT_(k, j);
+        if (phi == 0.0) continue;
+        const double* __restrict p = &P_(kCore, k);
+        for (int i = 0; i < r; ++i) t[i] += phi * p[i];
+      }
+    }
+    P_.bottomLeftCorner(r, 9) = tmp_cross_;
+    P_.topRightCorner(9, r) = tmp_cross_.transpose();
   }
-  Phi_.setIdentity();
+  PhiT_.setIdentity();
   phi_pending_ = false;
 }
 
@@ -239,30 +264,103 @@ Pose Filter::predict(int object_id) const {
   return predict_object(x_, T_I_C_, o->T_O_W).T_O_C_hat;
 }
 
+namespace {
+
+/// Calls f(std::integral_constant<int, L>, state_offset, compact_col) for each run of a block's H
+/// (fixed-size lengths 1, 2, 3, 6: the products below unroll completely).
+template <typename Block, typename F>
+inline void for_each_run(const Block& b, F&& f) {
+  for (int k = 0; k < b.nruns; ++k) {
+    switch (b.run_len[k]) {
+      case 6:
+        f(std::integral_constant<int, 6>(), b.run_off[k], b.run_col[k]);
+        break;
+      case 3:
+        f(std::integral_constant<int, 3>(), b.run_off[k], b.run_col[k]);
+        break;
+      case 2:
+        f(std::integral_constant<int, 2>(), b.run_off[k], b.run_col[k]);
+        break;
+      default:
+        for (int j = 0; j < b.run_len[k]; ++j)
+          f(std::integral_constant<int, 1>(), b.run_off[k] + j, b.run_col[k] + j);
+        break;
+    }
+  }
+}
+
+/// Y (n x 6) = P H_bᵀ using only H_b's non-zero columns (P symmetric: P H_bᵀ = Σ_runs P[:, run] H_b[:, run]ᵀ),
+/// four rows at a time with the 4x6 accumulator in registers (fixed-size products, fully unrolled).
+template <typename Block, typename Y>
+inline void p_ht(const Eigen::MatrixXd& P, const Block& b, Y&& out) {
+  const Eigen::Matrix<double, 18, 6> Ht = b.H.transpose();
+  const Eigen::Index n = P.rows();
+  Eigen::Index i = 0;
+  for (; i + 4 <= n; i += 4) {
+    Eigen::Matrix<double, 4, 6> acc = Eigen::Matrix<double, 4, 6>::Zero();
+    for_each_run(b, [&](auto len, int off, int col) {
+      constexpr int L = decltype(len)::value;
+      acc.noalias() += P.block<4, L>(i, off) * Ht.template middleRows<L>(col);
+    });
+    out.template middleRows<4>(i) = acc;
+  }
+  for (; i < n; ++i) {
+    Eigen::Matrix<double, 1, 6> acc = Eigen::Matrix<double, 1, 6>::Zero();
+    for_each_run(b, [&](auto len, int off, int col) {
+      constexpr int L = decltype(len)::value;
+      acc.noalias() += P.block<1, L>(i, off) * Ht.template middleRows<L>(col);
+    });
+    out.row(i) = acc;
+  }
+}
+
+/// H_a (P H_cᵀ) (6 x 6) from the rows of P H_cᵀ at H_a's non-zero columns.
+template <typename Block, typename Y>
+inline Mat6 h_pht(const Block& a, const Y& pht_c) {
+  Mat6 S = Mat6::Zero();
+  for_each_run(a, [&](auto len, int off, int col) {
+    constexpr int L = decltype(len)::value;
+    S.noalias() += a.H.template middleCols<L>(col) * pht_c.template middleRows<L>(off);
+  });
+  return S;
+}
+
+}  // namespace
+
 void Filter::build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) const {
   const ObjectPrediction pr = predict_object(x_, T_I_C_, o.T_O_W);
   b.r = object_residual(pr.T_O_C_hat, z);
   int c = 0;
-  auto put3 = [&](int off, const Mat63& blk) {
-    for (int j = 0; j < 3; ++j) {
+  b.nruns = 0;
+  // A run of contiguous state columns; a run directly continuing the previous one (p and θ of the
+  // extrinsics or of an object) extends it to 6 columns.
+  auto put = [&](int off, const Mat63& blk, int len) {
+    const int k = b.nruns;
+    if (k > 0 && b.run_len[k - 1] == 3 && len == 3 && b.run_off[k - 1] + 3 == off &&
+        b.run_col[k - 1] + 3 == c) {
+      b.run_len[k - 1] = 6;
+    } else {
+      b.run_off[k] = off;
+      b.run_col[k] = c;
+      b.run_len[k] = len;
+      ++b.nruns;
+    }
+    for (int j = 0; j < len; ++j) {
       b.H.col(c) = blk.col(j);
       b.idx[c++] = off + j;
     }
   };
-  put3(kP, pr.H_p_WI);
-  put3(kTheta, pr.H_theta_WI);
+  put(kP, pr.H_p_WI, 3);
+  put(kTheta, pr.H_theta_WI, 3);
   if (extr_offset_ >= 0) {
-    put3(extr_offset_, pr.H_p_IC);
-    put3(extr_offset_ + 3, pr.H_theta_IC);
+    put(extr_offset_, pr.H_p_IC, 3);
+    put(extr_offset_ + 3, pr.H_theta_IC, 3);
   }
   if (o.dim == 6) {
-    put3(o.offset, pr.H_p_OW);
-    put3(o.offset + 3, pr.H_theta_OW);
+    put(o.offset, pr.H_p_OW, 3);
+    put(o.offset + 3, pr.H_theta_OW, 3);
   } else if (o.dim > 0) {
-    for (int j = 0; j < o.dim; ++j) {
-      b.H.col(c) = pr.H_theta_OW.col(j);
-      b.idx[c++] = o.offset + j;
-    }
+    put(o.offset, pr.H_theta_OW, o.dim);  // anchor: the first o.dim components of δθ_O_W
   }
   b.nc = c;
   if (opt_.residual_frame == ResidualFrame::kCamera) {
@@ -372,6 +470,7 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
     P_.swap(P_new);
     n_ += 6;
     objects_.push_back(o);
+    check_state("object initialisation");
     check_covariance(true, "object initialisation");
     return;
   }
@@ -415,6 +514,7 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   P_.swap(P_new);
   n_ += keep;
   objects_.push_back(o);
+  check_state("anchor initialisation");
   check_covariance(true, "anchor initialisation");
 }
 
@@ -423,12 +523,13 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
   FrameResult res;
   res.t_ns = t_ns_;
   res.detections.resize(dets.size());
-  std::vector<bool> usable(dets.size(), true);
+  std::vector<char>& usable = ws_usable_;
+  usable.assign(dets.size(), 1);
   for (std::size_t i = 0; i < dets.size(); ++i) {
     res.detections[i].object_id = dets[i].object_id;
     if (std::isfinite(dets[i].score) && dets[i].score < opt_.min_score) {
       res.detections[i].status = DetectionStatus::kRejectedScore;
-      usable[i] = false;
+      usable[i] = 0;
     }
   }
   // Anchor choice: the configured id, or the lowest id among the first frame's usable detections.
@@ -444,7 +545,8 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
   for (std::size_t i = 0; i < dets.size(); ++i)
     if (usable[i] && dets[i].object_id == anchor_id_) anchor_det = static_cast<int>(i);
 
-  std::vector<Pose> z(dets.size());
+  std::vector<Pose>& z = ws_z_;
+  z.resize(dets.size());
   for (std::size_t i = 0; i < dets.size(); ++i) z[i] = dets[i].T_C_O.inverse();
 
   const auto implied = [&]() {
@@ -472,7 +574,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     } else {
       res.detections[anchor_det].status = DetectionStatus::kPendingInit;
     }
-    usable[anchor_det] = false;
+    usable[anchor_det] = 0;
   }
   if (opt_.require_anchor && object(anchor_id_) == nullptr) {
     for (std::size_t i = 0; i < dets.size(); ++i)
@@ -484,7 +586,8 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
   // Residuals, H and the per-object gate.
   sync_cross_covariance();
   blocks_.clear();
-  std::vector<int> new_objects;
+  std::vector<int>& new_objects = ws_new_objects_;
+  new_objects.clear();
   for (std::size_t i = 0; i < dets.size(); ++i) {
     if (!usable[i]) continue;
     const ObjectEntry* o = object(dets[i].object_id);
@@ -502,18 +605,18 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
 
   const int nb = static_cast<int>(blocks_.size());
   if (nb > 0) {
-    // P Hᵀ per block (n x 6) and the block S_k.
-    Eigen::MatrixXd PHt_all = Eigen::MatrixXd::Zero(n_, 6 * nb);
-    std::vector<int> inliers;
-    inliers.reserve(nb);
+    // P H_kᵀ per block (n x 6, from H_k's ≤ 18 non-zero columns) and the block S_k for the gate.
+    Eigen::MatrixXd& PHt = ws_PHt_;
+    if (PHt.rows() != n_ || PHt.cols() < 6 * nb) PHt.resize(n_, std::max<Eigen::Index>(6 * nb, PHt.cols()));
+    std::vector<int>& inliers = ws_inliers_;
+    inliers.clear();
     for (int k = 0; k < nb; ++k) {
       MeasBlock& b = blocks_[k];
-      auto PHt = PHt_all.middleCols<6>(6 * k);
-      for (int j = 0; j < b.nc; ++j) PHt.noalias() += P_.col(b.idx[j]) * b.H.col(j).transpose();
-      Mat6 S = b.R;
-      for (int j = 0; j < b.nc; ++j) S.noalias() += b.H.col(j) * PHt.row(b.idx[j]);
-      S = 0.5 * (S + S.transpose()).eval();
-      Eigen::LDLT<Mat6> ldlt(S);
+      auto PHt_k = PHt.middleCols<6>(6 * k);
+      p_ht(P_, b, PHt_k);
+      Mat6 S = h_pht(b, PHt_k) + b.R;
+      b.S = 0.5 * (S + S.transpose());
+      Eigen::LDLT<Mat6> ldlt(b.S);
       if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all())
         throw NumericError(
             fmt::format("filter failed at {}: innovation covariance of object {} is not "
@@ -535,46 +638,84 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     const int ni = static_cast<int>(inliers.size());
     if (ni > 0) {
       const int m = 6 * ni;
-      // Workspaces are members: no reallocation while (n, m) repeat.
-      Eigen::MatrixXd& PHt = ws_PHt_;
+      // Inliers' P Hᵀ compacted to the left (in place: inliers[a] ≥ a), residuals stacked.
       Eigen::VectorXd& r = ws_r_;
-      Eigen::MatrixXd& S = ws_S_;
-      PHt.resize(n_, m);
       r.resize(m);
       for (int a = 0; a < ni; ++a) {
-        PHt.middleCols<6>(6 * a) = PHt_all.middleCols<6>(6 * inliers[a]);
+        if (inliers[a] != a) PHt.middleCols<6>(6 * a) = PHt.middleCols<6>(6 * inliers[a]);
         r.segment<6>(6 * a) = blocks_[inliers[a]].r;
       }
-      // S = H P Hᵀ + R, block (a, c) = H_a (P H_cᵀ)[idx_a rows].
-      S.setZero(m, m);
-      for (int a = 0; a < ni; ++a) {
-        const MeasBlock& b = blocks_[inliers[a]];
-        for (int c = 0; c < ni; ++c) {
-          auto Sac = S.block<6, 6>(6 * a, 6 * c);
-          for (int j = 0; j < b.nc; ++j) Sac.noalias() += b.H.col(j) * PHt.block<1, 6>(b.idx[j], 6 * c);
-        }
-        S.block<6, 6>(6 * a, 6 * a) += b.R;
+      const auto Y = PHt.leftCols(m);  // P Hᵀ (n x m)
+      // S = H P Hᵀ + R: the diagonal blocks are the gate's S_k; block (a, c), a > c, is H_a (P H_cᵀ),
+      // evaluated once and mirrored (S exactly symmetric).
+      if (ws_S_.rows() < m) {
+        ws_S_.resize(m, m);
+        ws_L_.resize(m, m);
       }
-      S = 0.5 * (S + S.transpose()).eval();
-      ws_ldlt_.compute(S);
-      if (ws_ldlt_.info() != Eigen::Success || !(ws_ldlt_.vectorD().array() > 0.0).all())
+      auto S = ws_S_.topLeftCorner(m, m);
+      for (int a = 0; a < ni; ++a) {
+        const MeasBlock& ba = blocks_[inliers[a]];
+        S.block<6, 6>(6 * a, 6 * a) = ba.S;
+        for (int c = 0; c < a; ++c) {
+          const Mat6 Sac = h_pht(ba, Y.middleCols<6>(6 * c));
+          S.block<6, 6>(6 * a, 6 * c) = Sac;
+          S.block<6, 6>(6 * c, 6 * a) = Sac.transpose();
+        }
+      }
+      // Cholesky S = L Lᵀ in place (no pivoting needed: S is symmetric positive definite, and failing
+      // that is the guard rail), then K = P Hᵀ S⁻¹ by two triangular solves from the right (no inverse).
+      auto L = ws_L_.topLeftCorner(m, m);
+      L = S;
+      Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(L);
+      if (llt.info() != Eigen::Success || !(L.diagonal().array() > 0.0).all())
         throw NumericError(
             fmt::format("filter failed at {}: stacked innovation covariance is not positive "
                         "definite",
                         when()));
-      // Kᵀ = S⁻¹ (P Hᵀ)ᵀ by the LDLT solve (no explicit inverse).
-      Eigen::MatrixXd& Kt = ws_Kt_;
-      Kt = PHt.transpose();
-      ws_ldlt_.solveInPlace(Kt);
-      const Eigen::VectorXd dx = Kt.transpose() * r;
-      // Joseph form: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + KSKᵀ = P + E Kᵀ + K Eᵀ,
-      // E = ½ K S − P Hᵀ (Eᵀ = ½ S Kᵀ − (P Hᵀ)ᵀ); only the lower triangle is computed, then mirrored
-      // (assigning a product to a triangular view evaluates only that triangle: n²m multiply-adds).
-      Eigen::MatrixXd& Et = ws_Et_;
-      Et.noalias() = 0.5 * (S * Kt);
-      Et -= PHt.transpose();
-      P_.triangularView<Eigen::Lower>() += Et.transpose() * Kt;
-      P_.triangularView<Eigen::Lower>() += Kt.transpose() * Et;
+      if (ws_U_.rows() != n_ || ws_U_.cols() < 2 * m) {
+        const Eigen::Index cols = std::max<Eigen::Index>(2 * m, ws_U_.rows() == n_ ? ws_U_.cols() : 0);
+        ws_U_.resize(n_, cols);
+        ws_V_.resize(n_, cols);
+      }
+      auto E = ws_U_.leftCols(m);
+      auto K = ws_V_.leftCols(m);
+      K = Y;
+      // K = Y L⁻ᵀ L⁻¹: solve X Lᵀ = Y (forward over the columns), then K L = X (backward); every step
+      // is an axpy on contiguous columns of length n.
+      {
+        const Eigen::Index n = n_, ld = ws_V_.rows();
+        double* const k0 = K.data();
+        for (int j = 0; j < m; ++j) {
+          double* __restrict kj = k0 + j * ld;
+          for (int k = 0; k < j; ++k) {
+            const double l = L(j, k);
+            const double* __restrict kk = k0 + k * ld;
+            for (Eigen::Index i = 0; i < n; ++i) kj[i] -= l * kk[i];
+          }
+          const double d = 1.0 / L(j, j);
+          for (Eigen::Index i = 0; i < n; ++i) kj[i] *= d;
+        }
+        for (int j = m - 1; j >= 0; --j) {
+          double* __restrict kj = k0 + j * ld;
+          for (int k = j + 1; k < m; ++k) {
+            const double l = L(k, j);
+            const double* __restrict kk = k0 + k * ld;
+            for (Eigen::Index i = 0; i < n; ++i) kj[i] -= l * kk[i];
+          }
+          const double d = 1.0 / L(j, j);
+          for (Eigen::Index i = 0; i < n; ++i) kj[i] *= d;
+        }
+      }
+      Eigen::VectorXd& dx = ws_dx_;
+      dx.noalias() = K * r;
+      // Joseph form: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + KSKᵀ = P + E Kᵀ + K Eᵀ with
+      // E = ½ K S − P Hᵀ (exact for any K). Evaluated as one product [E, K] [K, E]ᵀ of inner size 2m
+      // assigned to the lower triangle only (n²m multiply-adds), then mirrored (symmetrisation).
+      E.noalias() = K * S;
+      E = 0.5 * E - Y;
+      ws_U_.middleCols(m, m) = K;
+      ws_V_.middleCols(m, m) = E;
+      P_.triangularView<Eigen::Lower>() += ws_U_.leftCols(2 * m) * ws_V_.leftCols(2 * m).transpose();
       P_.triangularView<Eigen::StrictlyUpper>() = P_.transpose();
       boxplus(dx);
       res.n_inliers = ni;
@@ -619,7 +760,7 @@ bool Filter::confirm_first_sight(int id, const Pose& z) {
   return true;
 }
 
-void Filter::check_state(const char* where) const {
+void Filter::check_state(const char* where, bool core_only) const {
   const auto fail = [&](const std::string& what) {
     throw NumericError(fmt::format("filter diverged at {} ({}): {}", when(), where, what));
   };
@@ -638,6 +779,9 @@ void Filter::check_state(const char* where) const {
   if (x_.b_a.norm() > opt_.max_accel_bias)
     fail(fmt::format("|b_a| = {:.4g} m/s² exceeds max_accel_bias = {:.4g}", x_.b_a.norm(),
                      opt_.max_accel_bias));
+  // Propagation changes only the core state; the extrinsics and object-worlds were checked when they last
+  // changed (update, initialisation).
+  if (core_only) return;
   if (!T_I_C_.p.allFinite() || !T_I_C_.q.coeffs().allFinite()) fail("non-finite extrinsics");
   for (const auto& o : objects_)
     if (!o.T_O_W.p.allFinite() || !o.T_O_W.q.coeffs().allFinite() || o.T_O_W.p.norm() > opt_.max_position_m)

@@ -136,9 +136,14 @@ class Filter {
     int obj = 0;  // index into objects_
     Vec6 r;
     Mat6 R;
+    Mat6 S;                          // H P Hᵀ + R of this block (the χ² gate; the stacked S's diagonal)
     Eigen::Matrix<double, 6, 18> H;  // compact columns
     int idx[18];
     int nc = 0;
+    // H's compact columns as runs of contiguous error-state columns: run k covers the state columns
+    // run_off[k] … run_off[k]+run_len[k]−1 and the compact columns run_col[k] …
+    int run_off[6], run_col[6], run_len[6];
+    int nruns = 0;
   };
 
   void sync_cross_covariance();
@@ -149,7 +154,7 @@ class Filter {
   void initialize_object(int id, const Pose& z, const Mat6& R, bool anchor);
   /// Records a first-sight candidate; true when init_min_detections consecutive candidates agree.
   bool confirm_first_sight(int id, const Pose& z);
-  void check_state(const char* where) const;
+  void check_state(const char* where, bool core_only = false) const;
   void check_covariance(bool full, const char* where);
   std::string when() const;
 
@@ -165,14 +170,21 @@ class Filter {
   int extr_offset_ = -1;
   int n_ = kCore;
   Eigen::MatrixXd P_;
-  Mat15 Phi_ = Mat15::Identity();
+  Mat15 PhiT_ = Mat15::Identity();  // Φᵀ, Φ = F_k⋯F_1 since the last cross-covariance sync
   bool phi_pending_ = false;
   Eigen::MatrixXd tmp_cross_;
   std::vector<MeasBlock> blocks_;
-  // Update workspaces (kept to avoid reallocation per image).
-  Eigen::MatrixXd ws_PHt_, ws_S_, ws_Kt_, ws_Et_;
-  Eigen::VectorXd ws_r_;
-  Eigen::LDLT<Eigen::MatrixXd> ws_ldlt_;
+  // Update workspaces, kept between images and only grown (no heap allocation per image once the state
+  // dimension and the number of detections per image have been seen).
+  Eigen::MatrixXd ws_PHt_;  // n x 6·blocks: P H_kᵀ per block, inliers compacted to the left
+  Eigen::MatrixXd ws_S_;    // stacked S (m x m, top-left)
+  Eigen::MatrixXd ws_L_;    // its Cholesky factor (m x m, top-left)
+  Eigen::MatrixXd ws_U_;    // n x 2m: [E, K]
+  Eigen::MatrixXd ws_V_;    // n x 2m: [K, E]
+  Eigen::VectorXd ws_r_, ws_dx_;
+  std::vector<Pose> ws_z_;
+  std::vector<char> ws_usable_;
+  std::vector<int> ws_new_objects_, ws_inliers_;
   struct Pending {
     Pose T_O_W;
     int count = 0;

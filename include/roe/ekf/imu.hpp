@@ -60,6 +60,10 @@ struct CoreTransition {
   /// X ← F X for a 15 x m block (block-sparse: 8 small products instead of a dense 15x15 product).
   template <typename Derived>
   void apply_left(Eigen::MatrixBase<Derived>& X) const;
+  /// X ← X Fᵀ for a fixed-size r x 15 block: the same 8 small products on columns (contiguous in
+  /// column-major storage, so they vectorise over the rows; used by the per-sample F P Fᵀ and Φ).
+  template <typename Derived>
+  void apply_right_transposed(Eigen::MatrixBase<Derived>& X) const;
 };
 
 /// Integrates the nominal state over dt with the measurements (w0, a0) at the start and (w1, a1) at
@@ -89,9 +93,11 @@ void add_process_noise(const ImuNoiseParams& n, double dt, Eigen::MatrixBase<Der
 template <typename Derived>
 void CoreTransition::apply_left(Eigen::MatrixBase<Derived>& X) const {
   // Old rows are read before they are overwritten: p uses old v and θ, v uses old θ, θ last.
-  if constexpr (Derived::ColsAtCompileTime == 15) {
-    // Fixed-size path for the 15x15 core block and Φ (the per-IMU-sample hot path).
-    Eigen::Matrix<double, 3, 15> dv, dth;
+  if constexpr (Derived::ColsAtCompileTime != Eigen::Dynamic) {
+    // Fixed-size path for the core block, its first 9 columns and Φ's last 9 columns (the
+    // per-IMU-sample hot path: fully unrolled 3x3 products, no loop over column chunks).
+    constexpr int kCols = Derived::ColsAtCompileTime;
+    Eigen::Matrix<double, 3, kCols> dv, dth;
     dv.noalias() = F_vtheta * X.template middleRows<3>(kTheta);
     dv.noalias() += F_vbg * X.template middleRows<3>(kBg);
     dv.noalias() += F_vba * X.template middleRows<3>(kBa);
@@ -115,6 +121,24 @@ void CoreTransition::apply_left(Eigen::MatrixBase<Derived>& X) const {
     X.block(kV, c0, 3, w) += dv;
     X.block(kTheta, c0, 3, w) = dth;
   }
+}
+
+template <typename Derived>
+void CoreTransition::apply_right_transposed(Eigen::MatrixBase<Derived>& X) const {
+  static_assert(Derived::RowsAtCompileTime != Eigen::Dynamic && Derived::ColsAtCompileTime == 15,
+                "apply_right_transposed: fixed-size r x 15 block");
+  constexpr int kRows = Derived::RowsAtCompileTime;
+  // (X Fᵀ)[:, v] = X_v + X_θ F_vθᵀ + X_bg F_vbgᵀ + X_ba F_vbaᵀ, (X Fᵀ)[:, p] = X_p + dt X_v + (dt/2)(…),
+  // (X Fᵀ)[:, θ] = X_θ F_θθᵀ + X_bg F_θbgᵀ; old columns are read before they are overwritten.
+  Eigen::Matrix<double, kRows, 3> dv, dth;
+  dv.noalias() = X.template middleCols<3>(kTheta) * F_vtheta.transpose();
+  dv.noalias() += X.template middleCols<3>(kBg) * F_vbg.transpose();
+  dv.noalias() += X.template middleCols<3>(kBa) * F_vba.transpose();
+  dth.noalias() = X.template middleCols<3>(kTheta) * F_tt.transpose();
+  dth.noalias() += X.template middleCols<3>(kBg) * F_tbg.transpose();
+  X.template middleCols<3>(kP) += dt * X.template middleCols<3>(kV) + (0.5 * dt) * dv;
+  X.template middleCols<3>(kV) += dv;
+  X.template middleCols<3>(kTheta) = dth;
 }
 
 }  // namespace roe::ekf
