@@ -241,12 +241,7 @@ TEST_CASE("paper-seq4 with configs/paper.json: fused RMSE <= half the median raw
   }
 }
 
-// Real IMU (EuRoC V1_02, ADIS16448) with synthetic detections of 4 objects.
-// The issue's "Real IMU" acceptance: per-axis position RMSE ≤ 0.10 m and Euler RMSE ≤ 5° over the WHOLE
-// run, SE(3)-aligned as `roe eval` does. NOT MET yet (worst axis 0.16–64 m over the configs and seeds
-// below; see docs/simulator.md §9 and the figures this test prints): tagged [!mayfail] so that the
-// figures and failed checks are reported on every run without failing the suite; remove the tag once
-// the filter meets the target.
+// Real IMU (EuRoC V1_02, ADIS16448) with synthetic detections of 4 objects (docs/RESULTS.md §5).
 TEST_CASE("real IMU: EuRoC snippet with 4 objects", "[app][run][euroc]") {
   const fs::path mav0 = fs::path(ROE_SHARED_DATA_DIR) / "euroc_v102_snippet" / "mav0";
   if (!fs::exists(mav0)) {
