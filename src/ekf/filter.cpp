@@ -6,6 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <type_traits>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "roe/core/error.hpp"
 #include "roe/ekf/chi2.hpp"
@@ -323,6 +326,80 @@ inline Mat6 h_pht(const Block& a, const Y& pht_c) {
     S.noalias() += a.H.template middleCols<L>(col) * pht_c.template middleRows<L>(off);
   });
   return S;
+}
+
+/// C[i, j] += α Σ_k A[i, k] B[j, k] (C = C + α A Bᵀ; column-major with leading dimensions ldc, lda, ldb;
+/// C is M x N, the sum runs over k < K). With `lower`, only i ≥ j is needed: tiles above the diagonal are
+/// skipped (the upper part of the diagonal tiles is written too; the caller overwrites it). 4x4 register
+/// tiles: per k two packets of A and two of B (and their swaps) feed 16 multiply-adds, without the
+/// packing copies of a general GEMM (the operands here are small and already in L1).
+void add_abt(double* C, Eigen::Index ldc, const double* A, Eigen::Index lda, const double* B, Eigen::Index ldb,
+             Eigen::Index M, Eigen::Index N, Eigen::Index K, double alpha, bool lower) {
+  Eigen::Index j = 0;
+  for (; j + 4 <= N; j += 4) {
+    Eigen::Index i = lower ? j - j % 4 : 0;
+    for (; i + 4 <= M; i += 4) {
+      double c[4][4];  // c[col][row]
+      const double* a = A + i;
+      const double* b = B + j;
+#if defined(__SSE2__)
+      // Packets of two rows (a01, a23) times packets of two columns (b01, b23) and their swaps
+      // (b10, b32): p_xy accumulates [c(r0, c0), c(r1, c1)], q_xy [c(r0, c1), c(r1, c0)].
+      __m128d p00 = _mm_setzero_pd(), p01 = p00, p10 = p00, p11 = p00;
+      __m128d q00 = p00, q01 = p00, q10 = p00, q11 = p00;
+      for (Eigen::Index k = 0; k < K; ++k, a += lda, b += ldb) {
+        const __m128d a01 = _mm_loadu_pd(a), a23 = _mm_loadu_pd(a + 2);
+        const __m128d b01 = _mm_loadu_pd(b), b23 = _mm_loadu_pd(b + 2);
+        const __m128d b10 = _mm_shuffle_pd(b01, b01, 1), b32 = _mm_shuffle_pd(b23, b23, 1);
+        p00 = _mm_add_pd(p00, _mm_mul_pd(a01, b01));
+        q00 = _mm_add_pd(q00, _mm_mul_pd(a01, b10));
+        p01 = _mm_add_pd(p01, _mm_mul_pd(a01, b23));
+        q01 = _mm_add_pd(q01, _mm_mul_pd(a01, b32));
+        p10 = _mm_add_pd(p10, _mm_mul_pd(a23, b01));
+        q10 = _mm_add_pd(q10, _mm_mul_pd(a23, b10));
+        p11 = _mm_add_pd(p11, _mm_mul_pd(a23, b23));
+        q11 = _mm_add_pd(q11, _mm_mul_pd(a23, b32));
+      }
+      double t[2];
+      const auto put = [&](__m128d pp, __m128d qq, int r, int cc) {
+        _mm_storeu_pd(t, pp);
+        c[cc][r] = t[0], c[cc + 1][r + 1] = t[1];
+        _mm_storeu_pd(t, qq);
+        c[cc + 1][r] = t[0], c[cc][r + 1] = t[1];
+      };
+      put(p00, q00, 0, 0);
+      put(p01, q01, 0, 2);
+      put(p10, q10, 2, 0);
+      put(p11, q11, 2, 2);
+#else
+      for (auto& col : c) col[0] = col[1] = col[2] = col[3] = 0.0;
+      for (Eigen::Index k = 0; k < K; ++k, a += lda, b += ldb)
+        for (int cc = 0; cc < 4; ++cc)
+          for (int r = 0; r < 4; ++r) c[cc][r] += a[r] * b[cc];
+#endif
+      for (int cc = 0; cc < 4; ++cc) {
+        double* p = C + (j + cc) * ldc + i;
+        p[0] += alpha * c[cc][0], p[1] += alpha * c[cc][1], p[2] += alpha * c[cc][2],
+            p[3] += alpha * c[cc][3];
+      }
+    }
+    for (; i < M; ++i) {  // remaining rows of this column block
+      double c0 = 0, c1 = 0, c2 = 0, c3 = 0;
+      for (Eigen::Index k = 0; k < K; ++k) {
+        const double a0 = A[k * lda + i];
+        const double* b = B + k * ldb + j;
+        c0 += a0 * b[0], c1 += a0 * b[1], c2 += a0 * b[2], c3 += a0 * b[3];
+      }
+      C[j * ldc + i] += alpha * c0, C[(j + 1) * ldc + i] += alpha * c1, C[(j + 2) * ldc + i] += alpha * c2,
+          C[(j + 3) * ldc + i] += alpha * c3;
+    }
+  }
+  for (; j < N; ++j)  // remaining columns
+    for (Eigen::Index i = lower ? j : 0; i < M; ++i) {
+      double c = 0;
+      for (Eigen::Index k = 0; k < K; ++k) c += A[k * lda + i] * B[k * ldb + j];
+      C[j * ldc + i] += alpha * c;
+    }
 }
 
 }  // namespace
@@ -711,11 +788,15 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       // Joseph form: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + KSKᵀ = P + E Kᵀ + K Eᵀ with
       // E = ½ K S − P Hᵀ (exact for any K). Evaluated as one product [E, K] [K, E]ᵀ of inner size 2m
       // assigned to the lower triangle only (n²m multiply-adds), then mirrored (symmetrisation).
-      E.noalias() = K * S;
+      // K S as K Sᵀ (S symmetric) with the same tile kernel.
+      E.setZero();
+      add_abt(E.data(), ws_U_.outerStride(), K.data(), ws_V_.outerStride(), S.data(), ws_S_.outerStride(), n_, m, m,
+              1.0, /*lower=*/false);
       E = 0.5 * E - Y;
       ws_U_.middleCols(m, m) = K;
       ws_V_.middleCols(m, m) = E;
-      P_.triangularView<Eigen::Lower>() += ws_U_.leftCols(2 * m) * ws_V_.leftCols(2 * m).transpose();
+      add_abt(P_.data(), P_.outerStride(), ws_U_.data(), ws_U_.outerStride(), ws_V_.data(), ws_V_.outerStride(),
+              n_, n_, 2 * m, 1.0, /*lower=*/true);
       P_.triangularView<Eigen::StrictlyUpper>() = P_.transpose();
       boxplus(dx);
       res.n_inliers = ni;

@@ -16,16 +16,24 @@
 ///   IMU pose, velocity and the other object-worlds (δx' = δx + G Γ δa, P' = M P_aug Mᵀ).
 ///
 /// Propagation is block-sparse: only the 15 core rows/columns change. P_cc is propagated every IMU
-/// sample (F applied as 8 small 3x3 products); the core/rest cross-covariance is updated lazily with
-/// the accumulated transition Φ = F_k⋯F_1 the next time it is needed (update, augmentation,
-/// covariance()). No heap allocation per IMU sample.
+/// sample with every product on contiguous columns: C = P_cc Fᵀ (only C's columns p, v, θ change), then
+/// only the 9x9 block B[0:9, 0:9] of B = F C = Cᵀ Fᵀ needs a second product (B's bias rows/columns are C's),
+/// symmetrised, + Q. The core/rest cross-covariance is updated lazily with the accumulated transition
+/// Φ = F_k⋯F_1 (kept transposed, only its non-trivial columns θ, b_g, b_a multiplied) the next time it is
+/// needed (update, augmentation, covariance()). No heap allocation per IMU sample.
 ///
 /// Update per image: residual and H per detection of an initialised object (the paper's T_O_C
 /// residual, or the same model with the residual formed on T_C_O, FilterOptions::residual_frame), a χ² test
-/// per object on its own 6x6 S_k = H_k P H_kᵀ + R_k, all inliers stacked into one update; K from an LDLT of S
-/// (no explicit inverse); Joseph form written as P + E Kᵀ + K Eᵀ with E = ½ K S − P Hᵀ (equal to
-/// (I−KH)P(I−KH)ᵀ + K R Kᵀ, only the lower triangle evaluated), then
-/// symmetrised. Guard rails throw roe::NumericError naming the time and what broke.
+/// per object on its own 6x6 S_k = H_k P H_kᵀ + R_k, all inliers stacked into one update. What is computed:
+/// P H_kᵀ from H_k's ≤ 18 non-zero columns (runs of contiguous state columns); the stacked S's diagonal
+/// blocks are the gate's S_k, its off-diagonal blocks H_a (P H_cᵀ) are evaluated once and mirrored; S = L Lᵀ
+/// (Cholesky in place; not positive definite → guard rail) and K = P Hᵀ L⁻ᵀ L⁻¹ by two triangular solves (no
+/// explicit inverse); the Joseph form (I−KH)P(I−KH)ᵀ + KRKᵀ is evaluated exactly (for the K actually
+/// computed) as P + E Kᵀ + K Eᵀ with E = ½ K S − P Hᵀ, as one product [E, K][K, E]ᵀ of inner size 2m on
+/// the lower triangle only (n²m multiply-adds, SSE2 4x4 register tiles), then mirrored (symmetrisation).
+/// Guard rails throw roe::NumericError naming the time and what broke: state bounds after every update
+/// and object initialisation (the core state after every IMU sample), the covariance diagonal every time,
+/// a full Cholesky test of P every FilterOptions::pd_check_every updates and after every augmentation.
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
