@@ -394,6 +394,41 @@ void add_abt(double* C, Eigen::Index ldc, const double* A, Eigen::Index lda, con
           C[(j + 3) * ldc + i] += alpha * c3;
     }
   }
+#if defined(__SSE2__)
+  for (; j + 2 <= N; j += 2) {  // remaining column pairs: 4x2 tiles (same packet/swap scheme)
+    Eigen::Index i = lower ? j - j % 4 : 0;
+    for (; i + 4 <= M; i += 4) {
+      const double* a = A + i;
+      const double* b = B + j;
+      __m128d p0 = _mm_setzero_pd(), q0 = p0, p1 = p0, q1 = p0;
+      for (Eigen::Index k = 0; k < K; ++k, a += lda, b += ldb) {
+        const __m128d a01 = _mm_loadu_pd(a), a23 = _mm_loadu_pd(a + 2);
+        const __m128d b01 = _mm_loadu_pd(b), b10 = _mm_shuffle_pd(b01, b01, 1);
+        p0 = _mm_add_pd(p0, _mm_mul_pd(a01, b01));
+        q0 = _mm_add_pd(q0, _mm_mul_pd(a01, b10));
+        p1 = _mm_add_pd(p1, _mm_mul_pd(a23, b01));
+        q1 = _mm_add_pd(q1, _mm_mul_pd(a23, b10));
+      }
+      double t[2], u[2];
+      double* c0 = C + j * ldc + i;
+      double* c1 = c0 + ldc;
+      _mm_storeu_pd(t, p0);
+      _mm_storeu_pd(u, q0);
+      c0[0] += alpha * t[0], c1[1] += alpha * t[1], c1[0] += alpha * u[0], c0[1] += alpha * u[1];
+      _mm_storeu_pd(t, p1);
+      _mm_storeu_pd(u, q1);
+      c0[2] += alpha * t[0], c1[3] += alpha * t[1], c1[2] += alpha * u[0], c0[3] += alpha * u[1];
+    }
+    for (; i < M; ++i) {
+      double s0 = 0, s1 = 0;
+      for (Eigen::Index k = 0; k < K; ++k) {
+        const double a0 = A[k * lda + i];
+        s0 += a0 * B[k * ldb + j], s1 += a0 * B[k * ldb + j + 1];
+      }
+      C[j * ldc + i] += alpha * s0, C[(j + 1) * ldc + i] += alpha * s1;
+    }
+  }
+#endif
   for (; j < N; ++j)  // remaining columns
     for (Eigen::Index i = lower ? j : 0; i < M; ++i) {
       double c = 0;
@@ -757,30 +792,41 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       auto E = ws_U_.leftCols(m);
       auto K = ws_V_.leftCols(m);
       K = Y;
-      // K = Y L⁻ᵀ L⁻¹: solve X Lᵀ = Y (forward over the columns), then K L = X (backward); every step
-      // is an axpy on contiguous columns of length n.
+      // K = Y L⁻ᵀ L⁻¹: solve X Lᵀ = Y (forward over 6-column blocks), then K L = X (backward). Per block
+      // the contribution of the blocks already solved is one tiled product (add_abt), then the 6x6
+      // triangle is solved by axpys on contiguous columns of length n.
       {
-        const Eigen::Index n = n_, ld = ws_V_.rows();
+        const Eigen::Index n = n_, ld = ws_V_.outerStride(), ldl = ws_L_.outerStride();
         double* const k0 = K.data();
-        for (int j = 0; j < m; ++j) {
-          double* __restrict kj = k0 + j * ld;
-          for (int k = 0; k < j; ++k) {
-            const double l = L(j, k);
-            const double* __restrict kk = k0 + k * ld;
-            for (Eigen::Index i = 0; i < n; ++i) kj[i] -= l * kk[i];
+        const double* const l0 = L.data();
+        const auto axpy = [n](double* __restrict y, const double* __restrict x, double a) {
+          for (Eigen::Index i = 0; i < n; ++i) y[i] -= a * x[i];
+        };
+        const auto scale = [n](double* y, double a) {
+          for (Eigen::Index i = 0; i < n; ++i) y[i] *= a;
+        };
+        for (int j = 0; j < m; j += 6) {
+          // X[:, J] −= X[:, 0:j] L[J, 0:j]ᵀ   (B[c, k] = L(j + c, k))
+          if (j > 0) add_abt(k0 + j * ld, ld, k0, ld, l0 + j, ldl, n, 6, j, -1.0, false);
+          for (int jj = j; jj < j + 6; ++jj) {
+            for (int k = j; k < jj; ++k) axpy(k0 + jj * ld, k0 + k * ld, L(jj, k));
+            scale(k0 + jj * ld, 1.0 / L(jj, jj));
           }
-          const double d = 1.0 / L(j, j);
-          for (Eigen::Index i = 0; i < n; ++i) kj[i] *= d;
         }
-        for (int j = m - 1; j >= 0; --j) {
-          double* __restrict kj = k0 + j * ld;
-          for (int k = j + 1; k < m; ++k) {
-            const double l = L(k, j);
-            const double* __restrict kk = k0 + k * ld;
-            for (Eigen::Index i = 0; i < n; ++i) kj[i] -= l * kk[i];
+        // Lᵀ (so that the backward products read L(k, j + c) contiguously in c).
+        Eigen::MatrixXd& Lt = ws_Lt_;
+        if (Lt.rows() < m) Lt.resize(ws_L_.rows(), ws_L_.rows());
+        Lt.topLeftCorner(m, m) = L.transpose();
+        const Eigen::Index ldt = Lt.outerStride();
+        for (int j = m - 6; j >= 0; j -= 6) {
+          // K[:, J] −= K[:, j+6:m] L[j+6:m, J]   (B[c, k'] = L(j + 6 + k', j + c) = Lᵀ(j + c, j + 6 + k'))
+          if (j + 6 < m)
+            add_abt(k0 + j * ld, ld, k0 + (j + 6) * ld, ld, Lt.data() + (j + 6) * ldt + j, ldt, n, 6, m - j - 6,
+                    -1.0, false);
+          for (int jj = j + 5; jj >= j; --jj) {
+            for (int k = jj + 1; k < j + 6; ++k) axpy(k0 + jj * ld, k0 + k * ld, L(k, jj));
+            scale(k0 + jj * ld, 1.0 / L(jj, jj));
           }
-          const double d = 1.0 / L(j, j);
-          for (Eigen::Index i = 0; i < n; ++i) kj[i] *= d;
         }
       }
       Eigen::VectorXd& dx = ws_dx_;

@@ -3,13 +3,14 @@
 // propagation alone (no images), and the whole in-memory run (run_dataset: recording every state).
 // Wall time and thread CPU time (CLOCK_THREAD_CPUTIME_ID) are both reported: on a shared, loaded
 // machine the CPU time is the better measure of what the filter costs.
-// usage: bench_filter [repetitions=15]
+// usage: bench_filter [repetitions=15] [--each]   (--each: also print every repetition's filter wall time)
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <ctime>
+#include <string>
 #include <vector>
 
 #include "roe/app/run.hpp"
@@ -51,6 +52,7 @@ double median(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::atoi(argv[1]) : 15;
+  const bool each = argc > 2 && std::string(argv[2]) == "--each";
   fmt::print("bench_filter: paper-seq4, 60 s, seed 1, configs defaults; {} repetitions, median (min) [ms]\n",
              reps);
   fmt::print("{:>8} {:>7} {:>8} {:>20} {:>14} {:>20} {:>20} {:>12}\n", "IMU Hz", "images", "updates",
@@ -85,6 +87,11 @@ int main(int argc, char** argv) {
       t0 = Clock::now();
       const auto out = app::run_dataset(d, "sim", cfg);
       t_run.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    }
+    if (each) {
+      fmt::print("  {:.0f} Hz, filter wall per repetition [ms]:", rate);
+      for (double t : t_filter) fmt::print(" {:.1f}", t);
+      fmt::print("\n");
     }
     const double mf = median(t_filter);
     fmt::print(
