@@ -292,31 +292,6 @@ inline void for_each_run(const Block& b, F&& f) {
   }
 }
 
-/// Y (n x 6) = P H_bᵀ using only H_b's non-zero columns (P symmetric: P H_bᵀ = Σ_runs P[:, run] H_b[:, run]ᵀ),
-/// four rows at a time with the 4x6 accumulator in registers (fixed-size products, fully unrolled).
-template <typename Block, typename Y>
-inline void p_ht(const Eigen::MatrixXd& P, const Block& b, Y&& out) {
-  const Eigen::Matrix<double, 18, 6> Ht = b.H.transpose();
-  const Eigen::Index n = P.rows();
-  Eigen::Index i = 0;
-  for (; i + 4 <= n; i += 4) {
-    Eigen::Matrix<double, 4, 6> acc = Eigen::Matrix<double, 4, 6>::Zero();
-    for_each_run(b, [&](auto len, int off, int col) {
-      constexpr int L = decltype(len)::value;
-      acc.noalias() += P.block<4, L>(i, off) * Ht.template middleRows<L>(col);
-    });
-    out.template middleRows<4>(i) = acc;
-  }
-  for (; i < n; ++i) {
-    Eigen::Matrix<double, 1, 6> acc = Eigen::Matrix<double, 1, 6>::Zero();
-    for_each_run(b, [&](auto len, int off, int col) {
-      constexpr int L = decltype(len)::value;
-      acc.noalias() += P.block<1, L>(i, off) * Ht.template middleRows<L>(col);
-    });
-    out.row(i) = acc;
-  }
-}
-
 /// H_a (P H_cᵀ) (6 x 6) from the rows of P H_cᵀ at H_a's non-zero columns.
 template <typename Block, typename Y>
 inline Mat6 h_pht(const Block& a, const Y& pht_c) {
@@ -725,7 +700,20 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     for (int k = 0; k < nb; ++k) {
       MeasBlock& b = blocks_[k];
       auto PHt_k = PHt.middleCols<6>(6 * k);
-      p_ht(P_, b, PHt_k);
+      {
+        // Gather P's columns at H_k's non-zero columns (contiguous n x nc), then one tiled product
+        // P Hᵀ = Σ_j P[:, idx_j] H[:, j]ᵀ (ws_U_ serves as the gather buffer; it is reused below).
+        if (ws_U_.rows() != n_ || ws_U_.cols() < 18) {
+          const Eigen::Index cols = std::max<Eigen::Index>(18, ws_U_.rows() == n_ ? ws_U_.cols() : 0);
+          ws_U_.resize(n_, cols);
+          ws_V_.resize(n_, cols);
+        }
+        for (int r = 0; r < b.nruns; ++r)
+          ws_U_.middleCols(b.run_col[r], b.run_len[r]) = P_.middleCols(b.run_off[r], b.run_len[r]);
+        PHt_k.setZero();
+        add_abt(PHt_k.data(), PHt.outerStride(), ws_U_.data(), ws_U_.outerStride(), b.H.data(), 6, n_, 6, b.nc,
+                1.0, /*lower=*/false);
+      }
       Mat6 S = h_pht(b, PHt_k) + b.R;
       b.S = 0.5 * (S + S.transpose());
       Eigen::LDLT<Mat6> ldlt(b.S);
