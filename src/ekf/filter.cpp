@@ -308,8 +308,8 @@ inline Mat6 h_pht(const Block& a, const Y& pht_c) {
 /// skipped (the upper part of the diagonal tiles is written too; the caller overwrites it). 4x4 register
 /// tiles: per k two packets of A and two of B (and their swaps) feed 16 multiply-adds, without the
 /// packing copies of a general GEMM (the operands here are small and already in L1).
-void add_abt(double* C, Eigen::Index ldc, const double* A, Eigen::Index lda, const double* B, Eigen::Index ldb,
-             Eigen::Index M, Eigen::Index N, Eigen::Index K, double alpha, bool lower) {
+void add_abt(double* C, Eigen::Index ldc, const double* A, Eigen::Index lda, const double* B,
+             Eigen::Index ldb, Eigen::Index M, Eigen::Index N, Eigen::Index K, double alpha, bool lower) {
   Eigen::Index j = 0;
   for (; j + 4 <= N; j += 4) {
     Eigen::Index i = lower ? j - j % 4 : 0;
@@ -711,8 +711,8 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
         for (int r = 0; r < b.nruns; ++r)
           ws_U_.middleCols(b.run_col[r], b.run_len[r]) = P_.middleCols(b.run_off[r], b.run_len[r]);
         PHt_k.setZero();
-        add_abt(PHt_k.data(), PHt.outerStride(), ws_U_.data(), ws_U_.outerStride(), b.H.data(), 6, n_, 6, b.nc,
-                1.0, /*lower=*/false);
+        add_abt(PHt_k.data(), PHt.outerStride(), ws_U_.data(), ws_U_.outerStride(), b.H.data(), 6, n_, 6,
+                b.nc, 1.0, /*lower=*/false);
       }
       Mat6 S = h_pht(b, PHt_k) + b.R;
       b.S = 0.5 * (S + S.transpose());
@@ -809,8 +809,8 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
         for (int j = m - 6; j >= 0; j -= 6) {
           // K[:, J] −= K[:, j+6:m] L[j+6:m, J]   (B[c, k'] = L(j + 6 + k', j + c) = Lᵀ(j + c, j + 6 + k'))
           if (j + 6 < m)
-            add_abt(k0 + j * ld, ld, k0 + (j + 6) * ld, ld, Lt.data() + (j + 6) * ldt + j, ldt, n, 6, m - j - 6,
-                    -1.0, false);
+            add_abt(k0 + j * ld, ld, k0 + (j + 6) * ld, ld, Lt.data() + (j + 6) * ldt + j, ldt, n, 6,
+                    m - j - 6, -1.0, false);
           for (int jj = j + 5; jj >= j; --jj) {
             for (int k = jj + 1; k < j + 6; ++k) axpy(k0 + jj * ld, k0 + k * ld, L(k, jj));
             scale(k0 + jj * ld, 1.0 / L(jj, jj));
@@ -824,13 +824,13 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       // assigned to the lower triangle only (n²m multiply-adds), then mirrored (symmetrisation).
       // K S as K Sᵀ (S symmetric) with the same tile kernel.
       E.setZero();
-      add_abt(E.data(), ws_U_.outerStride(), K.data(), ws_V_.outerStride(), S.data(), ws_S_.outerStride(), n_, m, m,
-              1.0, /*lower=*/false);
+      add_abt(E.data(), ws_U_.outerStride(), K.data(), ws_V_.outerStride(), S.data(), ws_S_.outerStride(), n_,
+              m, m, 1.0, /*lower=*/false);
       E = 0.5 * E - Y;
       ws_U_.middleCols(m, m) = K;
       ws_V_.middleCols(m, m) = E;
-      add_abt(P_.data(), P_.outerStride(), ws_U_.data(), ws_U_.outerStride(), ws_V_.data(), ws_V_.outerStride(),
-              n_, n_, 2 * m, 1.0, /*lower=*/true);
+      add_abt(P_.data(), P_.outerStride(), ws_U_.data(), ws_U_.outerStride(), ws_V_.data(),
+              ws_V_.outerStride(), n_, n_, 2 * m, 1.0, /*lower=*/true);
       P_.triangularView<Eigen::StrictlyUpper>() = P_.transpose();
       boxplus(dx);
       res.n_inliers = ni;

@@ -27,7 +27,8 @@ Mat15 CoreTransition::dense() const {
 
 namespace {
 
-/// Jr(φ) = I − (1 − cos θ)/θ² [φ]× + (θ − sin θ)/θ³ [φ]×² (θ = |φ| ≥ kSmallAngle) from given sin θ, 1 − cos θ.
+/// Jr(φ) = I − (1 − cos θ)/θ² [φ]× + (θ − sin θ)/θ³ [φ]×² (θ = |φ| ≥ kSmallAngle) from given sin θ, 1 − cos
+/// θ.
 Mat3 right_jacobian_from(const Vec3& phi, double theta, double sin_t, double one_minus_cos_t) {
   const Mat3 K = skew(phi);
   const double t2 = theta * theta;
@@ -76,7 +77,8 @@ CoreState integrate(const CoreState& x, const Vec3& w0, const Vec3& a0, const Ve
     const Mat3 Ra_skew_dt = R_m * skew(a) * dt;                   // R_m [ā]× dt
     // δθ_m = Exp(−ω̄dt/2) δθ − Jr(ω̄dt/2) dt/2 δb_g; δv⁺ = δv − R_m[ā]× dt δθ_m − R_m dt δb_a.
     F->F_vtheta = -Ra_skew_dt * R_half_T;
-    const Mat3 Jr_half = small ? right_jacobian(0.5 * phi) : right_jacobian_from(0.5 * phi, 0.5 * theta, sin_h, omc_h);
+    const Mat3 Jr_half =
+        small ? right_jacobian(0.5 * phi) : right_jacobian_from(0.5 * phi, 0.5 * theta, sin_h, omc_h);
     const Mat3 Jr = small ? right_jacobian(phi) : right_jacobian_from(phi, theta, sin_t, omc_t);
     F->F_vbg = Ra_skew_dt * Jr_half * (0.5 * dt);
     F->F_vba = -R_m * dt;

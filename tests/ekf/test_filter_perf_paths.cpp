@@ -54,7 +54,8 @@ double max_abs(const Eigen::MatrixXd& A) { return A.cwiseAbs().maxCoeff(); }
 
 }  // namespace
 
-TEST_CASE("block-sparse propagation equals the dense F P Fᵀ + Q on the whole covariance", "[ekf][perf_paths]") {
+TEST_CASE("block-sparse propagation equals the dense F P Fᵀ + Q on the whole covariance",
+          "[ekf][perf_paths]") {
   for (bool extr : {true, false}) {
     Filter f = make_filter(AnchorGauge::kPositionYaw, extr, ResidualFrame::kCamera);
     const int n = f.dim();
