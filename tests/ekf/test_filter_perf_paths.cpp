@@ -1,7 +1,7 @@
 // The fast paths of the filter against dense reference computations: the block-sparse propagation
 // (P_cc column-wise, Φ kept transposed on its non-trivial columns, lazy cross-covariance sync) against
 // F P Fᵀ + Q on the whole covariance, and the stacked update (P Hᵀ from H's runs of non-zero columns,
-// S from the gate's 6x6 blocks, Cholesky + axpy solves, Joseph form as one tiled rank-2m product on the
+// S from the gate's 6x6 blocks, Cholesky + axpy solves, Joseph form as one rank-2m product on the
 // lower triangle) against (I−KH)P(I−KH)ᵀ + KRKᵀ with the full 6 x n H of measurement_jacobian.
 #include <catch2/catch.hpp>
 #include <random>
@@ -24,7 +24,7 @@ Vec3 U3(double s = 1.0) { return Vec3(U(), U(), U()) * s; }
 const Vec3 kGyro0(0.1, 0.2, -0.1), kAccel0(0.2, 0.1, 9.7);
 
 // Objects 1 (anchor), 2, 3 and 4 initialised (n = 15 [+ 6] + anchor + 18: not a multiple of 4, so the
-// tile kernels' remainders are exercised), a non-trivial state and covariance.
+// odd block sizes are exercised), a non-trivial state and covariance.
 Filter make_filter(AnchorGauge gauge, bool extrinsics, ResidualFrame frame) {
   FilterOptions opt;
   opt.residual_frame = frame;

@@ -30,7 +30,7 @@
 /// (Cholesky in place; not positive definite → guard rail) and K = P Hᵀ L⁻ᵀ L⁻¹ by two triangular solves (no
 /// explicit inverse); the Joseph form (I−KH)P(I−KH)ᵀ + KRKᵀ is evaluated exactly (for the K actually
 /// computed) as P + E Kᵀ + K Eᵀ with E = ½ K S − P Hᵀ, as one product [E, K][K, E]ᵀ of inner size 2m on
-/// the lower triangle only (n²m multiply-adds, SSE2 4x4 register tiles), then mirrored (symmetrisation).
+/// the lower triangle only (n²m multiply-adds), then mirrored (symmetrisation).
 /// Guard rails throw roe::NumericError naming the time and what broke: state bounds after every update
 /// and object initialisation (the core state after every IMU sample), the covariance diagonal every time,
 /// a full Cholesky test of P every FilterOptions::pd_check_every updates and after every augmentation.
