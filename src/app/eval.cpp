@@ -491,6 +491,11 @@ std::string EvalResult::to_text() const {
     s += fmt::format("\n  ANEES position {:.3f}, orientation {:.3f} (expected 3 for a consistent filter)\n",
                      r["consistency"]["anees_p"].is_null() ? NAN : r["consistency"]["anees_p"].get<double>(),
                      r["consistency"]["anees_r"].is_null() ? NAN : r["consistency"]["anees_r"].get<double>());
+    // The alignment is fitted on positions; its own rotation error (often ~1°) is not in the estimate's
+    // covariance, which is relative to the estimator's gauge, so the orientation NEES after it is
+    // inflated when the estimate's orientation σ is small (docs/eval.md).
+    s += "  (both are relative to this alignment, not to the estimator's own gauge: the alignment's rotation\n"
+         "   error, fitted on positions, is not in the estimate's covariance and inflates the orientation NEES)\n";
   }
   if (!r["per_object"].empty()) {
     s += "\n  per object (reprojected IMU pose of each raw detection, same alignment)\n";
