@@ -206,41 +206,6 @@ TEST_CASE("bad input gives clear errors", "[app][run]") {
   fs::remove_all(out);
 }
 
-TEST_CASE("paper-seq4 with configs/paper.json: fused RMSE <= half the median raw per-object RMSE",
-          "[app][run][sim]") {
-  const Dataset d = test::simulate_preset("paper-seq4", 1, 60.0);
-  const app::RunConfig cfg = app::run_config_from_file(std::string(ROE_SOURCE_DIR) + "/configs/paper.json");
-  const app::RunOutput r = app::run_dataset(d, "sim", cfg);
-  const auto m = test::match(r, d);
-  const auto acc = test::accuracy(m);
-  // Raw per-object reprojection RMSE (rows with an implied IMU pose), same alignment.
-  std::map<Timestamp, const ImuState*> gt;
-  for (const auto& g : d.groundtruth) gt[g.t_ns] = &g;
-  std::map<int, std::pair<Eigen::Vector3d, int>> raw;
-  for (const auto& p : r.reprojection) {
-    if (!p.outcome.has_T_W_I) continue;
-    auto it = gt.lower_bound(p.t_ns);
-    if (it == gt.end() || it == gt.begin()) continue;
-    auto prev = std::prev(it);
-    const double a = static_cast<double>(p.t_ns - prev->first) / static_cast<double>(it->first - prev->first);
-    const Eigen::Vector3d p_gt = (1 - a) * prev->second->T_W_I.p + a * it->second->T_W_I.p;
-    const Eigen::Vector3d e = acc.alignment.apply(p.outcome.T_W_I.p) - p_gt;
-    raw[p.object_id].first += e.cwiseProduct(e);
-    raw[p.object_id].second += 1;
-  }
-  std::vector<Eigen::Vector3d> per;
-  for (auto& kv : raw) per.push_back((kv.second.first / kv.second.second).cwiseSqrt());
-  REQUIRE(per.size() == 4);
-  for (int ax = 0; ax < 3; ++ax) {
-    std::vector<double> v;
-    for (const auto& x : per) v.push_back(x(ax));
-    std::sort(v.begin(), v.end());
-    const double median = 0.5 * (v[1] + v[2]);
-    INFO("axis " << ax << " fused " << acc.pos_rmse(ax) << " median raw " << median);
-    CHECK(acc.pos_rmse(ax) <= 0.5 * median);
-  }
-}
-
 // Real IMU (EuRoC V1_02, ADIS16448) with synthetic detections of 4 objects (docs/RESULTS.md §5).
 TEST_CASE("real IMU: EuRoC snippet with 4 objects", "[app][run][euroc]") {
   const fs::path mav0 = fs::path(ROE_SHARED_DATA_DIR) / "euroc_v102_snippet" / "mav0";
