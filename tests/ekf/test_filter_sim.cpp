@@ -167,7 +167,7 @@ app::RunConfig self_calibration_config() {
 
 // Self-calibration (issue target: extrinsics perturbed by 3 cm / 3° converge to < 5 mm / 0.5°) under a
 // calibration motion (`matched-calib`: roll swings ±0.6 rad at 0.5 Hz, pitch/yaw swings ~±10°, as one
-// waves a rig for Kalibr), 120 s. Measured: seeds 7/8/9 → 1.3/2.7/1.5 mm and 0.11/0.05/0.09° at 120 s.
+// waves a rig for Kalibr), 120 s. Measured: seeds 7/8/9 → 2.0/1.0/2.0 mm and 0.09/0.03/0.11° at 120 s.
 TEST_CASE("self-calibration: perturbed extrinsics converge to < 5 mm / 0.5 deg under a calibration motion",
           "[ekf][sim][calib]") {
   const Dataset d = perturbed_extrinsics("matched-calib", 7, 120.0);
