@@ -301,7 +301,7 @@ inline Mat6 h_pht(const Block& a, const Y& pht_c) {
 }
 
 /// C += α A Bᵀ on raw column-major storage (C is M x N with leading dimension ldc, A is M x K, B is N x K),
-/// so that the blocked solves below can address sub-blocks by pointer. With `lower` (M = N) only the lower
+/// so that the update can address sub-blocks by pointer. With `lower` (M = N) only the lower
 /// triangle of C is updated (the caller mirrors it). Eigen's products do the arithmetic: a hand-tiled
 /// SSE2 kernel measured 12 % faster on the benchmark and was not kept (docs/benchmarks/ekf.md).
 void add_abt(double* C, Eigen::Index ldc, const double* A, Eigen::Index lda, const double* B,
@@ -685,43 +685,9 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       auto E = ws_U_.leftCols(m);
       auto K = ws_V_.leftCols(m);
       K = Y;
-      // K = Y L⁻ᵀ L⁻¹: solve X Lᵀ = Y (forward over 6-column blocks), then K L = X (backward). Per block
-      // the contribution of the blocks already solved is one product (add_abt), then the 6x6
-      // triangle is solved by axpys on contiguous columns of length n.
-      {
-        const Eigen::Index n = n_, ld = ws_V_.outerStride(), ldl = ws_L_.outerStride();
-        double* const k0 = K.data();
-        const double* const l0 = L.data();
-        const auto axpy = [n](double* __restrict y, const double* __restrict x, double a) {
-          for (Eigen::Index i = 0; i < n; ++i) y[i] -= a * x[i];
-        };
-        const auto scale = [n](double* y, double a) {
-          for (Eigen::Index i = 0; i < n; ++i) y[i] *= a;
-        };
-        for (int j = 0; j < m; j += 6) {
-          // X[:, J] −= X[:, 0:j] L[J, 0:j]ᵀ   (B[c, k] = L(j + c, k))
-          if (j > 0) add_abt(k0 + j * ld, ld, k0, ld, l0 + j, ldl, n, 6, j, -1.0, false);
-          for (int jj = j; jj < j + 6; ++jj) {
-            for (int k = j; k < jj; ++k) axpy(k0 + jj * ld, k0 + k * ld, L(jj, k));
-            scale(k0 + jj * ld, 1.0 / L(jj, jj));
-          }
-        }
-        // Lᵀ (so that the backward products read L(k, j + c) contiguously in c).
-        Eigen::MatrixXd& Lt = ws_Lt_;
-        if (Lt.rows() < m) Lt.resize(ws_L_.rows(), ws_L_.rows());
-        Lt.topLeftCorner(m, m) = L.transpose();
-        const Eigen::Index ldt = Lt.outerStride();
-        for (int j = m - 6; j >= 0; j -= 6) {
-          // K[:, J] −= K[:, j+6:m] L[j+6:m, J]   (B[c, k'] = L(j + 6 + k', j + c) = Lᵀ(j + c, j + 6 + k'))
-          if (j + 6 < m)
-            add_abt(k0 + j * ld, ld, k0 + (j + 6) * ld, ld, Lt.data() + (j + 6) * ldt + j, ldt, n, 6,
-                    m - j - 6, -1.0, false);
-          for (int jj = j + 5; jj >= j; --jj) {
-            for (int k = jj + 1; k < j + 6; ++k) axpy(k0 + jj * ld, k0 + k * ld, L(k, jj));
-            scale(k0 + jj * ld, 1.0 / L(jj, jj));
-          }
-        }
-      }
+      // K = Y S⁻¹ = Y L⁻ᵀ L⁻¹: solve X Lᵀ = Y, then K L = X (in place, Eigen's triangular solves).
+      L.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(K);
+      L.triangularView<Eigen::Lower>().solveInPlace<Eigen::OnTheRight>(K);
       Eigen::VectorXd& dx = ws_dx_;
       dx.noalias() = K * r;
       // Joseph form: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + KSKᵀ = P + E Kᵀ + K Eᵀ with

@@ -1,7 +1,7 @@
 // The fast paths of the filter against dense reference computations: the block-sparse propagation
 // (P_cc column-wise, Φ kept transposed on its non-trivial columns, lazy cross-covariance sync) against
 // F P Fᵀ + Q on the whole covariance, and the stacked update (P Hᵀ from H's runs of non-zero columns,
-// S from the gate's 6x6 blocks, Cholesky + axpy solves, Joseph form as one rank-2m product on the
+// S from the gate's 6x6 blocks, Cholesky + triangular solves, Joseph form as one rank-2m product on the
 // lower triangle) against (I−KH)P(I−KH)ᵀ + KRKᵀ with the full 6 x n H of measurement_jacobian.
 #include <catch2/catch.hpp>
 #include <random>

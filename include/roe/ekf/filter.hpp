@@ -187,7 +187,6 @@ class Filter {
   Eigen::MatrixXd ws_PHt_;  // n x 6·blocks: P H_kᵀ per block, inliers compacted to the left
   Eigen::MatrixXd ws_S_;    // stacked S (m x m, top-left)
   Eigen::MatrixXd ws_L_;    // its Cholesky factor (m x m, top-left)
-  Eigen::MatrixXd ws_Lt_;   // the factor transposed
   Eigen::MatrixXd ws_U_;    // n x 2m: [E, K]
   Eigen::MatrixXd ws_V_;    // n x 2m: [K, E]
   Eigen::VectorXd ws_r_, ws_dx_;
