@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "../support/euroc_snippet.hpp"
 #include "roe/app/simulate.hpp"
 #include "roe/core/error.hpp"
 #include "roe/io/dataset.hpp"
@@ -241,13 +242,14 @@ TEST_CASE("simulate: same seed gives byte-identical folders; noise-free detectio
 }
 
 TEST_CASE("simulate --from-groundtruth on the real EuRoC V1_02 snippet", "[app][simulate][shared-data]") {
-  const fs::path mav0 = fs::path(ROE_SHARED_DATA_DIR) / "euroc_v102_snippet" / "mav0";
-  if (!fs::exists(mav0 / "imu0" / "data.csv")) {
-    WARN("skipped: " << mav0 << " not found");
+  const auto snippet = test::load_euroc_snippet();
+  if (!snippet) {
+    WARN("skipped: ../shared/data/euroc_v102_snippet not found");
     return;
   }
-  const auto imu = io::read_imu_csv(mav0 / "imu0" / "data.csv");
-  const auto gt = io::read_groundtruth_csv(mav0 / "state_groundtruth_estimate0" / "data.csv");
+  const fs::path& mav0 = snippet->mav0;
+  const auto& imu = snippet->imu;
+  const auto& gt = snippet->groundtruth;
 
   // Typed, noise-free: detections equal T_C_O from the interpolated real ground truth.
   sim::FromGroundtruthConfig cfg;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "../support/euroc_snippet.hpp"
 #include "roe/core/error.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/math/so3.hpp"
@@ -122,13 +123,13 @@ TEST_CASE("from-groundtruth placement: impossible requests are data/config error
 
 TEST_CASE("from-groundtruth placement covers the real EuRoC V1_02 snippet",
           "[sim][from-groundtruth][shared-data]") {
-  const fs::path mav0 = fs::path(ROE_SHARED_DATA_DIR) / "euroc_v102_snippet" / "mav0";
-  if (!fs::exists(mav0 / "imu0" / "data.csv")) {
-    WARN("skipped: " << mav0 << " not found");
+  const auto snippet = test::load_euroc_snippet();
+  if (!snippet) {
+    WARN("skipped: ../shared/data/euroc_v102_snippet not found");
     return;
   }
-  const auto imu = io::read_imu_csv(mav0 / "imu0" / "data.csv");
-  const auto gt = io::read_groundtruth_csv(mav0 / "state_groundtruth_estimate0" / "data.csv");
+  const auto& imu = snippet->imu;
+  const auto& gt = snippet->groundtruth;
   FromGroundtruthConfig c;
   c.num_objects = 4;
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
