@@ -56,6 +56,15 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
     positive(f, "meas_sigma_p_m", o.meas_sigma_p_m);
     positive(f, "meas_sigma_rot_deg", o.meas_sigma_rot_deg);
     f.get("meas_sigma_in_camera", o.meas_sigma_in_camera);
+    non_negative(f, "meas_sigma_p_per_depth", o.meas_sigma_p_per_depth);
+    f.get("meas_sigma_ray_m", o.meas_sigma_ray_m);
+    non_negative(f, "meas_sigma_ray_per_depth", o.meas_sigma_ray_per_depth);
+    if (o.meas_sigma_ray_m >= 0.0 && o.meas_sigma_ray_m + o.meas_sigma_ray_per_depth <= 0.0)
+      fail(f, "meas_sigma_ray_m", "must be > 0 (or meas_sigma_ray_per_depth > 0), or negative for σ_ray = σ_lat");
+    const bool camera_sigma = o.meas_sigma_in_camera || o.residual_frame == ekf::ResidualFrame::kCamera;
+    if (!camera_sigma && (o.meas_sigma_ray_m >= 0.0 || o.meas_sigma_p_per_depth > 0.0))
+      fail(f, "meas_sigma_ray_m",
+           "the ray-aligned, depth-dependent σ describe the detected T_C_O: set meas_sigma_in_camera true");
     f.get("use_detection_sigmas", o.use_detection_sigmas);
     non_negative(f, "min_score", o.min_score);
     f.get("chi2_gate", o.chi2_gate);
@@ -123,6 +132,9 @@ json run_config_to_json(const RunConfig& c) {
       {"meas_sigma_p_m", o.meas_sigma_p_m},
       {"meas_sigma_rot_deg", o.meas_sigma_rot_deg},
       {"meas_sigma_in_camera", o.meas_sigma_in_camera},
+      {"meas_sigma_p_per_depth", o.meas_sigma_p_per_depth},
+      {"meas_sigma_ray_m", o.meas_sigma_ray_m},
+      {"meas_sigma_ray_per_depth", o.meas_sigma_ray_per_depth},
       {"use_detection_sigmas", o.use_detection_sigmas},
       {"min_score", o.min_score},
       {"chi2_gate", o.chi2_gate},

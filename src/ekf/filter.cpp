@@ -382,19 +382,34 @@ void Filter::measurement_jacobian(int object_id, const Pose& z, Vec6& r, Eigen::
 }
 
 Mat6 Filter::measurement_covariance(const Detection& d, bool object_frame) const {
-  Vec6 sigma;
-  const double sp = opt_.meas_sigma_p_m, sr = opt_.meas_sigma_rot_deg * math::kRadPerDeg;
-  sigma << sp, sp, sp, sr, sr, sr;
   const bool per_detection = opt_.use_detection_sigmas && d.sigma.has_value();
-  if (per_detection) sigma = *d.sigma;
-  // Camera-frame σ (per detection, or the fixed σ with kCamera): diagonal in the camera frame,
-  // mapped through the inversion when the object frame is wanted.
-  if (per_detection || opt_.meas_sigma_in_camera || opt_.residual_frame == ResidualFrame::kCamera) {
-    if (object_frame) return detection_covariance_in_residual_frame(d.T_C_O, sigma);
+  if (per_detection) {
+    // Camera-frame σ of the detection, mapped through the inversion when the object frame is wanted.
+    if (object_frame) return detection_covariance_in_residual_frame(d.T_C_O, *d.sigma);
+    return Mat6(d.sigma->cwiseProduct(*d.sigma).asDiagonal());
+  }
+  const double sr = opt_.meas_sigma_rot_deg * math::kRadPerDeg;
+  if (!(opt_.meas_sigma_in_camera || opt_.residual_frame == ResidualFrame::kCamera)) {
+    // Fixed σ on the axes of the T_O_C residual (the paper).
+    Vec6 sigma;
+    sigma << Vec3::Constant(opt_.meas_sigma_p_m), Vec3::Constant(sr);
     return Mat6(sigma.cwiseProduct(sigma).asDiagonal());
   }
-  // Fixed σ on the axes of the T_O_C residual.
-  return Mat6(sigma.cwiseProduct(sigma).asDiagonal());
+  // Fixed σ of the detected T_C_O in the camera frame: lateral/along-ray position σ growing with depth.
+  const auto sq = [](double s) { return s * s; };
+  const double depth = d.T_C_O.p.norm();
+  const double s_lat = opt_.meas_sigma_p_m + opt_.meas_sigma_p_per_depth * depth;
+  const double s_ray =
+      opt_.meas_sigma_ray_m < 0.0 ? s_lat : opt_.meas_sigma_ray_m + opt_.meas_sigma_ray_per_depth * depth;
+  Mat6 cov_C = Mat6::Zero();
+  cov_C.topLeftCorner<3, 3>() = sq(s_lat) * Mat3::Identity();
+  if (s_ray != s_lat && depth > 0.0) {
+    const Vec3 u = d.T_C_O.p / depth;
+    cov_C.topLeftCorner<3, 3>() += (sq(s_ray) - sq(s_lat)) * u * u.transpose();
+  }
+  cov_C.bottomRightCorner<3, 3>() = sq(sr) * Mat3::Identity();
+  if (object_frame) return detection_covariance_in_residual_frame(d.T_C_O, cov_C);
+  return cov_C;
 }
 
 Eigen::MatrixXd Filter::gauge_generator() const {
@@ -734,7 +749,9 @@ bool Filter::confirm_first_sight(int id, const Pose& z) {
     return false;
   }
   Pending& p = it->second;
-  const Vec6 d = math::pose_difference(p.T_O_W, cand);
+  // Agreement of where the object is (T_W_O), not of T_O_W: the position of W's origin seen from the
+  // object moves by |p_W_O| · δθ with every rotation error of the detection (0.3 m for 6° at 3 m).
+  const Vec6 d = math::pose_difference(p.T_O_W.inverse(), cand.inverse());
   if (d.head<3>().norm() <= opt_.init_gate_p_m &&
       d.tail<3>().norm() <= opt_.init_gate_rot_deg * math::kRadPerDeg)
     ++p.count;

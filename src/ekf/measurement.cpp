@@ -57,14 +57,17 @@ ObjectInit init_object(const CoreState& x, const Pose& T_I_C, const Pose& z) {
   return out;
 }
 
-Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Vec6& sigma_C) {
+Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Mat6& cov_C) {
   const Mat3 R_O_C = T_C_O.R().transpose();
   Mat6 J = Mat6::Zero();
   J.block<3, 3>(0, 0) = -R_O_C;
   J.block<3, 3>(0, 3) = -R_O_C * skew(T_C_O.p);
   J.block<3, 3>(3, 3) = -Mat3::Identity();
-  const Vec6 var = sigma_C.cwiseProduct(sigma_C);
-  return J * var.asDiagonal() * J.transpose();
+  return J * cov_C * J.transpose();
+}
+
+Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Vec6& sigma_C) {
+  return detection_covariance_in_residual_frame(T_C_O, Mat6(sigma_C.cwiseProduct(sigma_C).asDiagonal()));
 }
 
 Mat6 inverse_pose_jacobian(const Pose& T_O_W) {

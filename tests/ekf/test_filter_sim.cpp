@@ -211,8 +211,8 @@ TEST_CASE("self-calibration on the slow orbit: the lever arm stays uncertain and
 // the 2 cm / 2° prior) with the per-detection σ, `matched`, six seeds of 30 s. The time is limited by
 // the information in the detections (σ along the ray 0.03 m + 5 % of the depth, 1.3–1.7 m here), so it
 // depends on the seed's geometry; docs/RESULTS.md has the figures. Each object's final estimate must
-// also lie within 3σ of the truth (in the filter's gauge).
-TEST_CASE("object-worlds: sigma < 1 cm / 1 deg after first sight, estimates within 3 sigma", "[ekf][sim][calib]") {
+// also agree with its σ (in the filter's gauge).
+TEST_CASE("object-worlds: sigma < 1 cm / 1 deg after first sight, estimates consistent with sigma", "[ekf][sim][calib]") {
   app::RunConfig cfg;
   cfg.filter.use_detection_sigmas = true;
   std::vector<double> first_times;  // per seed: the first non-anchor object to reach the target
@@ -244,7 +244,11 @@ TEST_CASE("object-worlds: sigma < 1 cm / 1 deg after first sight, estimates with
       const Vec6 err = math::pose_difference(T_W_O_true, T_W_O_est);
       const auto& sig = last.at(kv.first)->sigma_W_O;
       INFO("error " << err.transpose() << " sigma " << sig.transpose());
-      for (int i = 0; i < 6; ++i) CHECK(std::abs(err(i)) < 3.0 * sig(i));
+      // Consistency per object: Σ (err_i / σ_i)² against the χ²₆ 99.9 % quantile (22.46). (Eighteen
+      // objects × six axes of 3σ checks would fail by chance one run in four for a consistent filter.)
+      double nees = 0.0;
+      for (int i = 0; i < 6; ++i) nees += (err(i) / sig(i)) * (err(i) / sig(i));
+      CHECK(nees < 22.46);
     }
     first_times.push_back(best);
   }
@@ -255,7 +259,7 @@ TEST_CASE("object-worlds: sigma < 1 cm / 1 deg after first sight, estimates with
   for (double t : first_times) list += fmt::format(" {:.1f}", t);
   WARN("object-worlds: first non-anchor object below 1 cm / 1 deg after [s]:" << list << " (median " << median
                                                                                << " s)");
-  // Measured: 20.6 12.7 18.0 11.9 10.4 18.6 s (median 15.4 s): the 10 s target is not met.
+  // Measured: 18.6 12.3 23.5 15.2 11.3 16.3 s (median 15.7 s): the 10 s target is not met.
   CHECK(median < 18.0);
   CHECK(sorted.back() < 25.0);
 }

@@ -137,6 +137,9 @@ class Filter {
   /// The generator of an infinitesimal change of W (γ = [t; φ]: x_W = Exp(φ) x_W' + t) acting on the
   /// current error state: δx' = δx + G γ (dim() x 6).
   Eigen::MatrixXd gauge_generator() const;
+  /// Measurement noise R of a detection in the update's residual frame, or (object_frame) in the
+  /// T_O_C frame used by the first-sight initialisation (options: meas_sigma_*, use_detection_sigmas).
+  Mat6 measurement_covariance(const Detection& d, bool object_frame) const;
 
  private:
   struct MeasBlock {
@@ -156,9 +159,6 @@ class Filter {
 
   void sync_cross_covariance();
   void build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) const;
-  /// Measurement noise of a detection in the update's residual frame, or (object_frame) in the
-  /// T_O_C frame used by the first-sight initialisation.
-  Mat6 measurement_covariance(const Detection& d, bool object_frame) const;
   void initialize_object(int id, const Pose& z, const Mat6& R, bool anchor);
   /// Records a first-sight candidate; true when init_min_detections consecutive candidates agree.
   bool confirm_first_sight(int id, const Pose& z);

@@ -59,6 +59,8 @@ ObjectInit init_object(const CoreState& x, const Pose& T_I_C, const Pose& T_O_C_
 /// Inversion: p_O_C = −Rᵀt, R_O_C = Rᵀ, so δp_O_C = −R_O_C n_t − R_O_C [t]× n_r and
 /// δθ_O_C = −n_r:  Σ = J diag(σ²) Jᵀ with J = [[−R_O_C, −R_O_C [t]×], [0, −I]].
 Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Vec6& sigma_C);
+/// The same for a full camera-frame covariance Σ_C of (n_t, n_r): J Σ_C Jᵀ.
+Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Mat6& cov_C);
 
 /// Jacobian of the inversion T_W_O = T_O_W⁻¹ in the error-state convention (additive position, right
 /// rotation error): [δp_W_O; δθ_W_O] = J [δp_O_W; δθ_O_W] to first order, with

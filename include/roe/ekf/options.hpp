@@ -56,6 +56,15 @@ struct FilterOptions {
   double meas_sigma_p_m = 0.10;      ///< position σ per axis (paper: 10 cm)
   double meas_sigma_rot_deg = 20.0;  ///< orientation σ per axis (paper: 20°)
   bool meas_sigma_in_camera = true;
+  /// Depth-dependent, ray-aligned position σ of the detected T_C_O (needs meas_sigma_in_camera or the
+  /// camera residual frame). With d = |t_C_O| and u = t_C_O / d the camera-frame position covariance is
+  ///   σ_lat² (I − u uᵀ) + σ_ray² u uᵀ,  σ_lat = meas_sigma_p_m + meas_sigma_p_per_depth · d,
+  ///   σ_ray = meas_sigma_ray_m + meas_sigma_ray_per_depth · d   (σ_ray = σ_lat when meas_sigma_ray_m < 0).
+  /// Monocular detectors are worse along the viewing ray (scale/depth) than across it; the defaults
+  /// (0, −1, 0) give the paper's isotropic σ.
+  double meas_sigma_p_per_depth = 0.0;
+  double meas_sigma_ray_m = -1.0;
+  double meas_sigma_ray_per_depth = 0.0;
   /// Use the per-detection sigma columns of detections.csv (camera-frame σ of T_C_O, mapped into the
   /// T_O_C residual frame) where present; the fixed σ above otherwise.
   bool use_detection_sigmas = false;
