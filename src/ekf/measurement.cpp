@@ -80,4 +80,18 @@ Mat6 inverse_pose_jacobian(const Pose& T_O_W) {
   return J;
 }
 
+Eigen::Matrix<double, 6, 12> relative_pose_jacobian(const Pose& T_A_W, const Pose& T_O_W) {
+  const Mat3 R_X = T_A_W.q.toRotationMatrix(), R_Y = T_O_W.q.toRotationMatrix();
+  const Vec3 v = R_Y.transpose() * T_O_W.p;
+  const Mat3 Jp_th = R_X * skew(v);
+  Eigen::Matrix<double, 6, 12> J = Eigen::Matrix<double, 6, 12>::Zero();
+  J.block<3, 3>(0, 0) = Mat3::Identity();
+  J.block<3, 3>(0, 3) = Jp_th;
+  J.block<3, 3>(0, 6) = -R_X * R_Y.transpose();
+  J.block<3, 3>(0, 9) = -Jp_th;
+  J.block<3, 3>(3, 3) = R_Y;
+  J.block<3, 3>(3, 9) = -R_Y;
+  return J;
+}
+
 }  // namespace roe::ekf

@@ -223,6 +223,30 @@ TEST_CASE("inverse_pose_jacobian equals finite differences of T_O_W -> T_W_O", "
   }
 }
 
+TEST_CASE("relative_pose_jacobian equals finite differences of (T_A_W, T_O_W) -> T_A_W T_O_W^-1",
+          "[ekf][jacobian]") {
+  for (int trial = 0; trial < 20; ++trial) {
+    const Pose T_A_W = Upose(2.0), T_O_W = Upose(2.0);
+    const Eigen::Matrix<double, 6, 12> J = relative_pose_jacobian(T_A_W, T_O_W);
+    Eigen::Matrix<double, 6, 12> Jn;
+    const Pose rel0 = T_A_W * T_O_W.inverse();
+    const double eps = 1e-6;
+    for (int i = 0; i < 12; ++i) {
+      Vec6 v[2];
+      for (int s = 0; s < 2; ++s) {
+        Eigen::Matrix<double, 12, 1> d = Eigen::Matrix<double, 12, 1>::Zero();
+        d(i) = s == 0 ? eps : -eps;
+        const Pose X(T_A_W.q * exp_quat(d.segment<3>(3)), T_A_W.p + d.segment<3>(0));
+        const Pose Y(T_O_W.q * exp_quat(d.segment<3>(9)), T_O_W.p + d.segment<3>(6));
+        v[s] = pose_minus(X * Y.inverse(), rel0);
+      }
+      Jn.col(i) = (v[0] - v[1]) / (2 * eps);
+    }
+    INFO("trial " << trial << "\nanalytic\n" << J << "\nnumeric\n" << Jn);
+    CHECK((J - Jn).cwiseAbs().maxCoeff() < 1e-7);
+  }
+}
+
 namespace {
 
 // A filter with objects 1 (anchor), 2 and 3 initialised and a non-trivial state.

@@ -68,4 +68,13 @@ Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Mat6& cov_C
 /// (p_W_O = −R_O_Wᵀ p_O_W; R_W_O = Exp(−δθ) R̂_O_Wᵀ = R̂_O_Wᵀ Exp(−R̂_O_W δθ).)
 Mat6 inverse_pose_jacobian(const Pose& T_O_W);
 
+/// Jacobian of an object's pose relative to another object A (the anchor), T_A_O = T_A_W · T_O_W⁻¹, in the
+/// same convention: [δp_A_O; δθ_A_O] = J [δp_A_W; δθ_A_W; δp_O_W; δθ_O_W] (6x12) to first order, with
+/// X = T_A_W, Y = T_O_W, v = R_Yᵀ p_Y:
+///   δθ_A_O = R_Y (δθ_X − δθ_Y),
+///   δp_A_O = δp_X − R_X R_Yᵀ δp_Y + R_X [v]× (δθ_X − δθ_Y).
+/// (R_X Exp(a) Exp(−b) R_Yᵀ = R_X R_Yᵀ Exp(R_Y (a − b)).) Unlike T_W_O, this does not depend on the gauge
+/// chosen for W: it is where the object is as seen from the anchor.
+Eigen::Matrix<double, 6, 12> relative_pose_jacobian(const Pose& T_A_W, const Pose& T_O_W);
+
 }  // namespace roe::ekf
