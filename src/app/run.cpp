@@ -75,6 +75,7 @@ class Recorder : public ekf::FilterObserver {
       row.T_O_W = o.T_O_W;
       row.sigma = f.object_covariance(o).diagonal().cwiseSqrt();
       row.sigma_W_O = f.object_covariance_in_world(o).diagonal().cwiseMax(0.0).cwiseSqrt();
+      if (!o.anchor) row.sigma_A_O = f.object_covariance_relative_to_anchor(o).diagonal().cwiseMax(0.0).cwiseSqrt();
       out_.objects.push_back(row);
     }
   }
@@ -323,7 +324,8 @@ void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
     w.header({"timestamp_ns", "object_id", "anchor", "p_O_W_x", "p_O_W_y", "p_O_W_z", "q_O_W_x", "q_O_W_y",
               "q_O_W_z", "q_O_W_w", "sigma_p_x", "sigma_p_y", "sigma_p_z", "sigma_theta_x", "sigma_theta_y",
               "sigma_theta_z", "sigma_p_W_O_x", "sigma_p_W_O_y", "sigma_p_W_O_z", "sigma_theta_W_O_x",
-              "sigma_theta_W_O_y", "sigma_theta_W_O_z"});
+              "sigma_theta_W_O_y", "sigma_theta_W_O_z", "sigma_p_A_O_x", "sigma_p_A_O_y", "sigma_p_A_O_z",
+              "sigma_theta_A_O_x", "sigma_theta_A_O_y", "sigma_theta_A_O_z"});
     for (const auto& o : r.objects) {
       const Eigen::Quaterniond q = math::canonical(o.T_O_W.q);
       w.add(o.t_ns).add(o.object_id).add(o.anchor ? 1 : 0);
@@ -331,6 +333,7 @@ void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
       w.add(q.x()).add(q.y()).add(q.z()).add(q.w());
       for (int i = 0; i < 6; ++i) w.add(o.sigma(i));
       for (int i = 0; i < 6; ++i) w.add(o.sigma_W_O(i));
+      for (int i = 0; i < 6; ++i) w.add(o.sigma_A_O(i));
       w.end_row();
     }
     w.write(dir.file("objects.csv"));

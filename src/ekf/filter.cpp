@@ -235,6 +235,23 @@ Mat6 Filter::object_covariance_in_world(const ObjectEntry& o) const {
   return J * object_covariance(o) * J.transpose();
 }
 
+Mat6 Filter::object_covariance_relative_to_anchor(const ObjectEntry& o) const {
+  const ObjectEntry* a = object(anchor_id_);
+  if (o.anchor || a == nullptr) return Mat6::Zero();
+  // Error-state columns of [δp_A_W; δθ_A_W; δp_O_W; δθ_O_W] (−1: held fixed by the gauge).
+  int idx[12];
+  std::fill(idx, idx + 12, -1);
+  const int first = a->dim == 6 ? 0 : 3;  // the anchor estimates its leading rotation components
+  for (int k = 0; k < a->dim; ++k) idx[first + k] = a->offset + k;
+  for (int k = 0; k < 6; ++k) idx[6 + k] = o.offset + k;
+  Eigen::Matrix<double, 12, 12> C = Eigen::Matrix<double, 12, 12>::Zero();
+  for (int i = 0; i < 12; ++i)
+    for (int j = 0; j < 12; ++j)
+      if (idx[i] >= 0 && idx[j] >= 0) C(i, j) = P_(idx[i], idx[j]);
+  const Eigen::Matrix<double, 6, 12> J = relative_pose_jacobian(a->T_O_W, o.T_O_W);
+  return J * C * J.transpose();
+}
+
 void Filter::boxplus(const Eigen::VectorXd& dx) {
   ROE_CHECK(dx.size() == n_, "boxplus: wrong size");
   x_.p_W_I += dx.segment<3>(kP);

@@ -69,6 +69,30 @@ TEST_CASE("roe run writes the files of DESIGN §4", "[app][run]") {
   std::ifstream st(out / "states.csv");
   std::getline(st, header);
   CHECK(std::count(header.begin(), header.end(), ',') + 1 == 1 + 23 + 21);
+  // objects.csv: the state T_O_W with its σ, then the σ of T_W_O and of T_A_O (0 on the anchor's rows).
+  std::ifstream ob(out / "objects.csv");
+  std::getline(ob, header);
+  CHECK(std::count(header.begin(), header.end(), ',') + 1 == 10 + 6 + 6 + 6);
+  CHECK(header.find(",sigma_p_W_O_x,") != std::string::npos);
+  CHECK(header.substr(header.size() - 18) == ",sigma_theta_A_O_z");
+  std::size_t anchor_rows = 0, other_rows = 0;
+  while (std::getline(ob, row)) {
+    std::vector<std::string> cols;
+    std::stringstream rs(row);
+    for (std::string c; std::getline(rs, c, ',');) cols.push_back(c);
+    REQUIRE(cols.size() == 28);
+    double rel = 0.0;
+    for (int i = 22; i < 28; ++i) rel += std::stod(cols[i]);
+    if (cols[2] == "1") {
+      ++anchor_rows;
+      CHECK(rel == 0.0);
+    } else {
+      ++other_rows;
+      CHECK(rel > 0.0);
+    }
+  }
+  CHECK(anchor_rows > 0);
+  CHECK(other_rows > 0);
   // reprojection.csv: one row per detection.
   std::ifstream rp(out / "reprojection.csv");
   std::size_t n_rp = 0;

@@ -59,6 +59,9 @@ struct ObjectRow {
   Eigen::Matrix<double, 6, 1> sigma;  ///< [δp_O_W; δθ_O_W]; 0 for components held fixed (anchor)
   /// [δp_W_O; δθ_W_O]: the same uncertainty for the object's pose in W (Filter::object_covariance_in_world)
   Eigen::Matrix<double, 6, 1> sigma_W_O;
+  /// [δp_A_O; δθ_A_O]: the object's pose relative to the anchor A, T_A_O (gauge-free; 0 for the anchor)
+  /// (Filter::object_covariance_relative_to_anchor)
+  Eigen::Matrix<double, 6, 1> sigma_A_O = Eigen::Matrix<double, 6, 1>::Zero();
 };
 
 struct ReprojectionRow {

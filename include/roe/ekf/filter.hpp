@@ -121,6 +121,11 @@ class Filter {
   /// Unlike δp_O_W (the origin of W seen from the object, whose σ grows with the object's orientation σ
   /// times its distance to the origin of W), δp_W_O is the uncertainty of where the object is.
   Mat6 object_covariance_in_world(const ObjectEntry& o) const;
+  /// Covariance of the object's pose relative to the anchor A, T_A_O = T_A_W T_O_W⁻¹, as [δp_A_O; δθ_A_O]
+  /// (relative_pose_jacobian, measurement.hpp, with the anchor/object cross-covariance). Gauge-free:
+  /// it does not contain the uncertainty of how W is pinned to the anchor. Zero for the anchor itself or
+  /// before the anchor is initialised. Always current, like object_covariance.
+  Mat6 object_covariance_relative_to_anchor(const ObjectEntry& o) const;
   /// The full covariance, brought up to date (applies the pending cross-covariance transition).
   const Eigen::MatrixXd& covariance();
   const FilterOptions& options() const { return opt_; }
