@@ -146,6 +146,36 @@ const ObjectEntry* Filter::object(int id) const {
   return nullptr;
 }
 
+namespace {
+
+/// Φᵀ ← Φᵀ Fᵀ for the accumulated core transition Φ = F_k⋯F_1 (kept transposed, see propagate), using
+/// the block structure that every product of F's keeps: Φ's columns b_g and b_a are [Φ_pbg; Φ_vbg; Φ_θbg; I; 0]
+/// and [Φ_pba; Φ_vba; 0; 0; I], its column θ is [Φ_pθ; Φ_vθ; Φ_θθ; 0; 0] (F's rows b_g, b_a are the identity
+/// and F_θba = 0). So in Φᵀ's rows θ, b_g only the θ columns need products with F (the identity and zero
+/// blocks give F's own blocks exactly) and the row b_a needs none: 108 multiply-adds instead of the 405 of
+/// the generic CoreTransition::apply_right_transposed on the 9 rows, with the same operations in the same
+/// order on every non-trivial entry (the skipped terms are exact zeros, the identity blocks exact copies).
+void accumulate_transition(const CoreTransition& F, Mat15& PhiT) {
+  const double dt = F.dt;
+  // Rows θ and b_g: X_θ = their θ columns, X_bg = [0; I], X_ba = 0.
+  Eigen::Matrix<double, 6, 3> dv, dth;
+  const Eigen::Matrix<double, 6, 3> X_th = PhiT.block<6, 3>(kTheta, kTheta);
+  dv.noalias() = X_th * F.F_vtheta.transpose();
+  dv.bottomRows<3>() += F.F_vbg.transpose();
+  dth.noalias() = X_th * F.F_tt.transpose();
+  dth.bottomRows<3>() += F.F_tbg.transpose();
+  PhiT.block<6, 3>(kTheta, kP) += dt * PhiT.block<6, 3>(kTheta, kV) + (0.5 * dt) * dv;
+  PhiT.block<6, 3>(kTheta, kV) += dv;
+  PhiT.block<6, 3>(kTheta, kTheta) = dth;
+  // Row b_a: X_θ = 0, X_bg = 0, X_ba = I, so dv = F_vbaᵀ and its θ columns stay 0.
+  PhiT.block<3, 3>(kBa, kP) += dt * PhiT.block<3, 3>(kBa, kV) + (0.5 * dt) * F.F_vba.transpose();
+  PhiT.block<3, 3>(kBa, kV) += F.F_vba.transpose();
+  // Φ's columns p, v: Φ_pv accumulates dt.
+  PhiT.block<3, 3>(kV, kP).diagonal().array() += dt;
+}
+
+}  // namespace
+
 void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   ROE_CHECK(initialized_, "propagate before initialize");
   ROE_CHECK(t >= t_ns_, "propagation backwards in time");
@@ -178,10 +208,9 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   if (n_ > kCore) {
     // Φᵀ ← Φᵀ Fᵀ (Φ = F_k⋯F_1 is kept transposed so that the products run on columns). Φ's columns p and v
     // (Φᵀ's rows p, v) stay [I; 0; 0; 0; 0] and [Σdt I; I; 0; 0; 0] (F's columns p, v are trivial), so
-    // only Φᵀ's rows θ, b_g, b_a need the product and Φ_pv accumulates dt.
-    auto PhiT_tb = PhiT_.bottomRows<9>();
-    F.apply_right_transposed(PhiT_tb);
-    PhiT_.block<3, 3>(kV, kP).diagonal().array() += dt;
+    // only Φᵀ's rows θ, b_g, b_a need the product (and of those only the θ columns, accumulate_transition)
+    // and Φ_pv accumulates dt.
+    accumulate_transition(F, PhiT_);
     phi_pending_ = true;
   }
   // Cheap guard rails every sample: core state and core variances.

@@ -28,11 +28,10 @@ Mat15 CoreTransition::dense() const {
 namespace {
 
 /// Jr(φ) = I − (1 − cos θ)/θ² [φ]× + (θ − sin θ)/θ³ [φ]×² (θ = |φ| ≥ kSmallAngle) from given sin θ, 1 − cos
-/// θ.
-Mat3 right_jacobian_from(const Vec3& phi, double theta, double sin_t, double one_minus_cos_t) {
-  const Mat3 K = skew(phi);
+/// θ and the skew matrix K = [φ]× and its square.
+Mat3 right_jacobian_from(const Mat3& K, const Mat3& K2, double theta, double sin_t, double one_minus_cos_t) {
   const double t2 = theta * theta;
-  return Mat3::Identity() - (one_minus_cos_t / t2) * K + ((theta - sin_t) / (t2 * theta)) * (K * K);
+  return Mat3::Identity() - (one_minus_cos_t / t2) * K + ((theta - sin_t) / (t2 * theta)) * K2;
 }
 
 }  // namespace
@@ -77,9 +76,17 @@ CoreState integrate(const CoreState& x, const Vec3& w0, const Vec3& a0, const Ve
     const Mat3 Ra_skew_dt = R_m * skew(a) * dt;                   // R_m [ā]× dt
     // δθ_m = Exp(−ω̄dt/2) δθ − Jr(ω̄dt/2) dt/2 δb_g; δv⁺ = δv − R_m[ā]× dt δθ_m − R_m dt δb_a.
     F->F_vtheta = -Ra_skew_dt * R_half_T;
-    const Mat3 Jr_half =
-        small ? right_jacobian(0.5 * phi) : right_jacobian_from(0.5 * phi, 0.5 * theta, sin_h, omc_h);
-    const Mat3 Jr = small ? right_jacobian(phi) : right_jacobian_from(phi, theta, sin_t, omc_t);
+    Mat3 Jr_half, Jr;
+    if (small) {
+      Jr_half = right_jacobian(0.5 * phi);
+      Jr = right_jacobian(phi);
+    } else {
+      // [φ]× = 2 [φ/2]× and [φ]×² = 4 [φ/2]×² exactly (power-of-two scaling): one skew square for both.
+      const Mat3 K_half = skew(0.5 * phi);
+      const Mat3 K2_half = K_half * K_half;
+      Jr_half = right_jacobian_from(K_half, K2_half, 0.5 * theta, sin_h, omc_h);
+      Jr = right_jacobian_from(2.0 * K_half, 4.0 * K2_half, theta, sin_t, omc_t);
+    }
     F->F_vbg = Ra_skew_dt * Jr_half * (0.5 * dt);
     F->F_vba = -R_m * dt;
     F->F_tt = R_half_T * R_half_T;  // Exp(−ω̄dt)
