@@ -217,7 +217,17 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   bool ok = x_.p_W_I.allFinite() && x_.v_W_I.allFinite() && x_.q_W_I.coeffs().allFinite();
   for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(P_(i, i)) && P_(i, i) > 0.0;
   if (!ok) check_covariance(false, "propagation");
-  check_state("propagation", /*core_only=*/true);
+  // check_state(core_only) on squared norms: a state clearly inside the bounds (norm² ≤ (0.999999·max)², so
+  // that the rounded norm is ≤ max) skips it; anything else (near or over a bound, non-finite: NaN fails every
+  // comparison, ∞ exceeds the bound) goes through check_state, which decides and words the error as before.
+  const auto inside = [](const Vec3& v, double max) {
+    const double b = 0.999999 * max, b2 = b * b;  // b2 finite: a finite norm² ≤ b2 has finite components
+    return max > 0.0 && b2 <= std::numeric_limits<double>::max() && v.squaredNorm() <= b2;
+  };
+  if (!(inside(x_.p_W_I, opt_.max_position_m) && inside(x_.v_W_I, opt_.max_velocity_mps) &&
+        inside(x_.b_g, opt_.max_gyro_bias) && inside(x_.b_a, opt_.max_accel_bias) &&
+        x_.q_W_I.coeffs().squaredNorm() <= 2.0))
+    check_state("propagation", /*core_only=*/true);
 }
 
 void Filter::sync_cross_covariance() {

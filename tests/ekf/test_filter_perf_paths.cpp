@@ -4,8 +4,11 @@
 // S from the gate's 6x6 blocks, Cholesky + triangular solves, Joseph form as one rank-2m product on the
 // lower triangle) against (I−KH)P(I−KH)ᵀ + KRKᵀ with the full 6 x n H of measurement_jacobian.
 #include <catch2/catch.hpp>
+#include <limits>
 #include <random>
+#include <string>
 
+#include "roe/core/error.hpp"
 #include "roe/ekf/filter.hpp"
 #include "roe/ekf/imu.hpp"
 #include "roe/math/euler.hpp"
@@ -162,5 +165,51 @@ TEST_CASE("stacked update equals the dense Joseph-form reference, with a gated-o
         }
       }
     }
+  }
+}
+
+TEST_CASE("propagation guard rails: the squared-norm fast path throws exactly when check_state would",
+          "[ekf][perf_paths]") {
+  const ImuNoiseParams noise{1e-3, 1e-4, 1e-2, 1e-3};
+  // Initialised level (mean accelerometer kLevel), then 1 m/s² along x: |v| grows by about 1 m/s per s.
+  const Vec3 gyro(0.0, 0.0, 0.3), accel(1.0, 0.0, 9.81), kLevel(0.0, 0.0, 9.81);
+  SECTION("velocity bound: no throw while |v| <= max, a throw naming the bound on the first sample above") {
+    for (double max_v : {0.5, 1.0, 0.73}) {
+      FilterOptions opt;
+      opt.max_velocity_mps = max_v;
+      Filter f(opt, noise, Pose());
+      f.initialize(0, gyro, accel, kLevel);
+      bool thrown = false;
+      for (int k = 1; k <= 200 && !thrown; ++k) {
+        try {
+          f.propagate(Timestamp(k) * 10'000'000, gyro, accel);  // 100 Hz
+          REQUIRE(f.core().v_W_I.norm() <= max_v);
+        } catch (const NumericError& e) {
+          thrown = true;
+          CHECK(f.core().v_W_I.norm() > max_v);
+          CHECK(std::string(e.what()).find("max_velocity_mps") != std::string::npos);
+        }
+      }
+      CHECK(thrown);
+    }
+  }
+  SECTION("a bias outside its bound from the start is caught on the first sample") {
+    FilterOptions opt;
+    opt.init_gyro_bias = Vec3(0.0, 0.0, 1.5);  // max_gyro_bias = 1 rad/s
+    Filter f(opt, noise, Pose());
+    f.initialize(0, gyro, accel, kLevel);
+    try {
+      f.propagate(10'000'000, gyro, accel);
+      FAIL("no throw");
+    } catch (const NumericError& e) {
+      CHECK(std::string(e.what()).find("max_gyro_bias") != std::string::npos);
+    }
+  }
+  SECTION("non-finite measurements stop the run") {
+    Filter f(FilterOptions(), noise, Pose());
+    f.initialize(0, gyro, accel, kLevel);
+    f.propagate(10'000'000, gyro, accel);
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    CHECK_THROWS_AS(f.propagate(20'000'000, gyro, Vec3(nan, 0.0, 9.81)), NumericError);
   }
 }
