@@ -18,7 +18,7 @@
 /// Propagation is block-sparse: only the 15 core rows/columns change. P_cc is propagated every IMU
 /// sample with every product on contiguous columns: C = P_cc Fᵀ (only C's columns p, v, θ change), then
 /// only the 9x9 block B[0:9, 0:9] of B = F C = Cᵀ Fᵀ needs a second product (B's bias rows/columns are C's),
-/// symmetrised, + Q. The core/rest cross-covariance is updated lazily with the accumulated transition
+/// and of it only the lower block triangle (mirrored; diagonal blocks symmetrised), + Q. The core/rest cross-covariance is updated lazily with the accumulated transition
 /// Φ = F_k⋯F_1 (kept transposed, only its non-trivial columns θ, b_g, b_a multiplied) the next time it is
 /// needed (update, augmentation, covariance()). No heap allocation per IMU sample.
 ///
