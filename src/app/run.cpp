@@ -277,6 +277,9 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
     out.warnings.push_back(fmt::format("{} detections lie outside the IMU stream and were skipped", no_imu));
   if (out.summary.updates == 0)
     out.warnings.push_back("no update was made: the trajectory is IMU dead reckoning");
+  if (!out.summary.gyro_bias_rest_refused.empty())
+    out.warnings.push_back("init_gyro_bias_from_rest: " + out.summary.gyro_bias_rest_refused +
+                           "; the gyro bias starts at init_gyro_bias");
   return out;
 }
 
@@ -404,6 +407,21 @@ json nis_json(const RunOutput& r) {
           {"fraction_above_gate", static_cast<double>(above) / v.size()}};
 }
 
+// The initial state's IMU-derived parts: the init window and where the gyro bias came from.
+json init_json(const ekf::FilterRunSummary& s) {
+  const auto v3 = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
+  json j = {{"window_samples", s.init.samples},
+            {"window_s", s.init.duration_s},
+            {"accel_mean", v3(s.init.mean_accel)},
+            {"accel_std", v3(s.init.std_accel)},
+            {"gyro_mean", v3(s.init.mean_gyro)},
+            {"gyro_std", v3(s.init.std_gyro)},
+            {"gyro_bias", v3(s.init_gyro_bias)},
+            {"gyro_bias_from", s.gyro_bias_from_rest ? "rest" : "config"}};
+  if (!s.gyro_bias_rest_refused.empty()) j["gyro_bias_rest_refused"] = s.gyro_bias_rest_refused;
+  return j;
+}
+
 }  // namespace
 
 RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::path& out_dir,
@@ -461,6 +479,7 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
         {"trajectory_rows", r.states.size()},
         {"detections", counts_json(r)}}},
       {"nis", nis_json(r)},
+      {"init", init_json(r.summary)},
       {"final",
        {{"T_I_C",
          {{"p", {r.final_T_I_C.p.x(), r.final_T_I_C.p.y(), r.final_T_I_C.p.z()}},

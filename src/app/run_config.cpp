@@ -93,6 +93,9 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
     positive(f, "imu_noise_scale", o.imu_noise_scale);
     non_negative(f, "init_window_s", o.init_window_s);
     read_vec3(f, "init_gyro_bias", o.init_gyro_bias);
+    f.get("init_gyro_bias_from_rest", o.init_gyro_bias_from_rest);
+    positive(f, "init_rest_max_gyro_std", o.init_rest_max_gyro_std);
+    positive(f, "init_rest_max_accel_std", o.init_rest_max_accel_std);
     read_vec3(f, "init_accel_bias", o.init_accel_bias);
     positive(f, "init_sigma_p_m", o.init_sigma_p_m);
     positive(f, "init_sigma_v_mps", o.init_sigma_v_mps);
@@ -155,6 +158,9 @@ json run_config_to_json(const RunConfig& c) {
       {"imu_noise_scale", o.imu_noise_scale},
       {"init_window_s", o.init_window_s},
       {"init_gyro_bias", v3(o.init_gyro_bias)},
+      {"init_gyro_bias_from_rest", o.init_gyro_bias_from_rest},
+      {"init_rest_max_gyro_std", o.init_rest_max_gyro_std},
+      {"init_rest_max_accel_std", o.init_rest_max_accel_std},
       {"init_accel_bias", v3(o.init_accel_bias)},
       {"init_sigma_p_m", o.init_sigma_p_m},
       {"init_sigma_v_mps", o.init_sigma_v_mps},

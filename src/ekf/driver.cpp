@@ -6,6 +6,52 @@
 
 namespace roe::ekf {
 
+InitWindow init_window(const std::vector<ImuSample>& imu, double window_s) {
+  if (imu.empty()) throw DataError("no IMU samples for the init window");
+  const Timestamp t0 = imu.front().t_ns;
+  const Timestamp t_end = t0 + from_seconds(std::max(0.0, window_s));
+  InitWindow w;
+  Vec3 sq_g = Vec3::Zero(), sq_a = Vec3::Zero();
+  std::size_t k = 0;
+  for (; k < imu.size() && (k == 0 || imu[k].t_ns <= t_end); ++k) {
+    w.mean_gyro += imu[k].gyro;
+    w.mean_accel += imu[k].accel;
+  }
+  w.samples = static_cast<int>(k);
+  w.duration_s = to_seconds(imu[k - 1].t_ns - t0);
+  w.mean_gyro /= w.samples;
+  w.mean_accel /= w.samples;
+  if (w.samples > 1) {
+    // Two-pass σ (numerically safe for the accelerometer's large mean).
+    for (std::size_t i = 0; i < k; ++i) {
+      sq_g += (imu[i].gyro - w.mean_gyro).cwiseAbs2();
+      sq_a += (imu[i].accel - w.mean_accel).cwiseAbs2();
+    }
+    w.std_gyro = (sq_g / (w.samples - 1)).cwiseSqrt();
+    w.std_accel = (sq_a / (w.samples - 1)).cwiseSqrt();
+  }
+  return w;
+}
+
+Vec3 initial_gyro_bias(const InitWindow& w, const FilterOptions& options, std::string* why_not) {
+  std::string why;
+  if (!options.init_gyro_bias_from_rest) return options.init_gyro_bias;
+  if (w.samples < 2)
+    why = fmt::format("the init window holds {} IMU sample(s)", w.samples);
+  else if (!(w.std_gyro.maxCoeff() <= options.init_rest_max_gyro_std))
+    why = fmt::format("the gyro moves in the init window (sample sigma {:.4f} rad/s > init_rest_max_gyro_std {})",
+                      w.std_gyro.maxCoeff(), options.init_rest_max_gyro_std);
+  else if (!(w.std_accel.maxCoeff() <= options.init_rest_max_accel_std))
+    why = fmt::format(
+        "the accelerometer moves in the init window (sample sigma {:.4f} m/s^2 > init_rest_max_accel_std {})",
+        w.std_accel.maxCoeff(), options.init_rest_max_accel_std);
+  else if (!(w.mean_gyro.norm() <= options.max_gyro_bias))
+    why = fmt::format("the gyro mean {:.4f} rad/s exceeds max_gyro_bias {}", w.mean_gyro.norm(),
+                      options.max_gyro_bias);
+  if (why_not) *why_not = why;
+  return why.empty() ? w.mean_gyro : options.init_gyro_bias;
+}
+
 FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,
                             const FilterOptions& options, const ImuNoiseParams& noise,
                             const Pose& T_I_C_prior, FilterObserver& observer) {
@@ -19,23 +65,18 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
       throw DataError(
           fmt::format("image stamps not strictly increasing at image {} (t = {} ns)", j, images[j].t_ns));
 
-  // Accelerometer mean over the init window.
+  // Roll/pitch from the accelerometer mean over the init window; the gyro bias from its gyro mean when
+  // asked for and at rest.
   const Timestamp t0 = imu.front().t_ns;
-  const Timestamp t_end_window = t0 + from_seconds(std::max(0.0, options.init_window_s));
-  Vec3 sum = Vec3::Zero();
-  int count = 0;
-  for (const auto& s : imu) {
-    if (s.t_ns > t_end_window && count > 0) break;
-    sum += s.accel;
-    ++count;
-  }
-
-  Filter filter(options, noise, T_I_C_prior);
-  filter.initialize(t0, imu.front().gyro, imu.front().accel, sum / count);
-  observer.on_imu(filter);
-
   FilterRunSummary summary;
   summary.imu_samples = imu.size();
+  summary.init = init_window(imu, options.init_window_s);
+  summary.init_gyro_bias = initial_gyro_bias(summary.init, options, &summary.gyro_bias_rest_refused);
+  summary.gyro_bias_from_rest = options.init_gyro_bias_from_rest && summary.gyro_bias_rest_refused.empty();
+
+  Filter filter(options, noise, T_I_C_prior);
+  filter.initialize(t0, imu.front().gyro, imu.front().accel, summary.init.mean_accel, &summary.init_gyro_bias);
+  observer.on_imu(filter);
   std::size_t j = 0;
   const auto reject_no_imu = [&](const ImageDetections& im) {
     FrameResult r;

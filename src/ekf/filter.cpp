@@ -94,7 +94,8 @@ std::string Filter::when() const {
   return fmt::format("t = {}.{:09d} s", s, ns < 0 ? -ns : ns);
 }
 
-void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, const Vec3& mean_accel) {
+void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, const Vec3& mean_accel,
+                        const Vec3* gyro_bias) {
   const Vec3 f = mean_accel - opt_.init_accel_bias;
   if (!f.allFinite() || f.norm() < 1e-6)
     throw NumericError(
@@ -107,7 +108,7 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
   const double pitch = std::atan2(-f.x(), std::hypot(f.y(), f.z()));
   x_ = CoreState();
   x_.q_W_I = Eigen::Quaterniond(math::from_euler_zyx(Vec3(roll, pitch, 0.0))).normalized();
-  x_.b_g = opt_.init_gyro_bias;
+  x_.b_g = gyro_bias ? *gyro_bias : opt_.init_gyro_bias;
   x_.b_a = opt_.init_accel_bias;
   t_ns_ = t0;
   gyro_ = gyro0;

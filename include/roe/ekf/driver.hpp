@@ -31,10 +31,32 @@ class FilterObserver {
   virtual void on_image(Filter& /*filter*/, const FrameResult& /*result*/) {}
 };
 
+/// The IMU samples of the init window [t0, t0 + init_window_s] (at least the first sample).
+struct InitWindow {
+  int samples = 0;
+  double duration_s = 0.0;  ///< last − first stamp of the window
+  Vec3 mean_gyro = Vec3::Zero();
+  Vec3 mean_accel = Vec3::Zero();
+  Vec3 std_gyro = Vec3::Zero();  ///< per-axis sample σ (0 for one sample)
+  Vec3 std_accel = Vec3::Zero();
+};
+
+/// Means and per-axis σ of the samples of `imu` (non-empty, sorted) within window_s of the first.
+InitWindow init_window(const std::vector<ImuSample>& imu, double window_s);
+
+/// The gyro bias the filter starts with: the window's gyro mean when options.init_gyro_bias_from_rest
+/// and the window is at rest (≥ 2 samples, σ within the thresholds), else options.init_gyro_bias.
+/// `why_not` (may be null) receives the reason when the rest estimate was asked for but not taken.
+Vec3 initial_gyro_bias(const InitWindow& w, const FilterOptions& options, std::string* why_not);
+
 struct FilterRunSummary {
   std::size_t imu_samples = 0;
   std::size_t images = 0;
   std::size_t updates = 0;
+  InitWindow init;                   ///< the init window's statistics
+  Vec3 init_gyro_bias = Vec3::Zero();  ///< the gyro bias the filter started with
+  bool gyro_bias_from_rest = false;  ///< init_gyro_bias is the window's gyro mean
+  std::string gyro_bias_rest_refused;  ///< why not, when init_gyro_bias_from_rest was asked for
 };
 
 /// Runs the whole stream. Throws roe::DataError when the IMU stream is too short or not strictly

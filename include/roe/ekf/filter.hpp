@@ -91,8 +91,11 @@ class Filter {
 
   /// Starts the filter at t0 with the IMU at the origin of W, v = 0, yaw 0 and roll/pitch from
   /// `mean_accel` (the accelerometer mean over the init window, minus the configured bias); gyro0 and
-  /// accel0 are the IMU measurement at t0 (start of the first integration interval).
-  void initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, const Vec3& mean_accel);
+  /// accel0 are the IMU measurement at t0 (start of the first integration interval). The gyro bias
+  /// starts at `gyro_bias` when given (run_filter: the init window's mean at rest), else at
+  /// FilterOptions::init_gyro_bias.
+  void initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, const Vec3& mean_accel,
+                  const Vec3* gyro_bias = nullptr);
   bool initialized() const { return initialized_; }
 
   /// Propagates to t (> time()) with the IMU measurement at t (midpoint integrator, imu.hpp).

@@ -107,6 +107,14 @@ struct FilterOptions {
   // --- Initialisation: IMU at the origin of W, v = 0, yaw 0, roll/pitch from the mean accelerometer ---
   double init_window_s = 0.2;  ///< accelerometer averaging window from the first IMU sample
   Eigen::Vector3d init_gyro_bias = Eigen::Vector3d::Zero();   ///< rad/s
+  /// Take the initial gyro bias from the gyro mean over the init window when that window is at rest
+  /// (every axis's sample σ within init_rest_max_gyro_std and init_rest_max_accel_std); otherwise
+  /// init_gyro_bias is kept and FilterRunSummary says why. For recordings that start standing still
+  /// (EuRoC, TUM-VI, most handheld recordings): a MEMS gyro bias of several σ of
+  /// init_sigma_gyro_bias turns into a yaw drift the detections correct only slowly.
+  bool init_gyro_bias_from_rest = false;
+  double init_rest_max_gyro_std = 0.01;  ///< rad/s, per-axis sample σ over the window
+  double init_rest_max_accel_std = 0.1;  ///< m/s², per-axis sample σ over the window
   Eigen::Vector3d init_accel_bias = Eigen::Vector3d::Zero();  ///< m/s²
   double init_sigma_p_m = 0.01;
   double init_sigma_v_mps = 0.5;

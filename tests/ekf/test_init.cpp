@@ -1,0 +1,143 @@
+// The initial state taken from the IMU: the init window's statistics and the gyro bias at rest
+// (FilterOptions::init_gyro_bias_from_rest).
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "roe/ekf/driver.hpp"
+#include "roe/math/euler.hpp"
+#include "roe/math/so3.hpp"
+
+using namespace roe;
+using namespace roe::ekf;
+
+namespace {
+
+// 200 Hz samples from t = 0: a level IMU at rest with gyro bias `b_g`, small alternating noise, and
+// from `t_move_s` on a rotation of 0.5 rad/s about z added to the gyro.
+std::vector<ImuSample> imu_stream(const Vec3& b_g, double duration_s, double t_move_s = 1e9) {
+  std::vector<ImuSample> v;
+  const int n = static_cast<int>(std::lround(duration_s * 200.0));
+  for (int k = 0; k <= n; ++k) {
+    const double t = k / 200.0;
+    const double s = (k % 2 == 0) ? 1.0 : -1.0;  // zero-mean ±
+    ImuSample m;
+    m.t_ns = from_seconds(t);
+    m.gyro = b_g + Vec3(2e-3, -1e-3, 1.5e-3) * s;
+    if (t >= t_move_s) m.gyro.z() += 0.5;
+    m.accel = Vec3(0.0, 0.0, 9.81) + Vec3(0.02, 0.03, -0.01) * s;
+    v.push_back(m);
+  }
+  return v;
+}
+
+struct Last : FilterObserver {
+  CoreState first, last;
+  bool have_first = false;
+  void on_imu(const Filter& f) override {
+    if (!have_first) {
+      first = f.core();
+      have_first = true;
+    }
+    last = f.core();
+  }
+};
+
+double yaw_deg(const Eigen::Quaterniond& q) { return math::euler_zyx(q.toRotationMatrix()).z() * math::kDegPerRad; }
+
+}  // namespace
+
+TEST_CASE("init window: means and per-axis sample sigma of the samples within init_window_s", "[ekf][init]") {
+  const Vec3 b_g(0.01, -0.02, 0.08);
+  const auto imu = imu_stream(b_g, 2.0);
+  const InitWindow w = init_window(imu, 0.2);
+  CHECK(w.samples == 41);  // 0 … 0.2 s inclusive at 200 Hz
+  CHECK(w.duration_s == Approx(0.2));
+  // 21 "+" and 20 "−" samples.
+  CHECK((w.mean_gyro - (b_g + Vec3(2e-3, -1e-3, 1.5e-3) / 41.0)).norm() < 1e-12);
+  CHECK(w.mean_accel.z() == Approx(9.81 - 0.01 / 41.0));
+  // Sample σ of ±a with 21/20 signs: a · sqrt(41 (1 − (1/41)²) / 40).
+  const double f = std::sqrt(41.0 * (1.0 - 1.0 / (41.0 * 41.0)) / 40.0);
+  CHECK(w.std_gyro.x() == Approx(2e-3 * f).epsilon(1e-9));
+  CHECK(w.std_accel.y() == Approx(0.03 * f).epsilon(1e-9));
+  // A zero window still holds the first sample (σ 0).
+  const InitWindow one = init_window(imu, 0.0);
+  CHECK(one.samples == 1);
+  CHECK(one.std_gyro.isZero());
+  CHECK_THROWS(init_window({}, 0.2));
+}
+
+TEST_CASE("gyro bias at rest: taken from the window only when asked for and at rest", "[ekf][init]") {
+  const Vec3 b_g(0.01, -0.02, 0.08);
+  FilterOptions opt;
+  opt.init_gyro_bias = Vec3(1e-3, 2e-3, 3e-3);
+  std::string why;
+
+  SECTION("off (the paper, roe's default): the configured bias") {
+    const InitWindow w = init_window(imu_stream(b_g, 1.0), 0.2);
+    CHECK(initial_gyro_bias(w, opt, &why) == opt.init_gyro_bias);
+    CHECK(why.empty());
+  }
+  opt.init_gyro_bias_from_rest = true;
+  SECTION("at rest: the window's gyro mean") {
+    const InitWindow w = init_window(imu_stream(b_g, 1.0), 0.2);
+    CHECK(initial_gyro_bias(w, opt, &why) == w.mean_gyro);
+    CHECK(why.empty());
+  }
+  SECTION("rotating in the window: the configured bias, and why") {
+    const InitWindow w = init_window(imu_stream(b_g, 1.0, 0.1), 0.2);
+    CHECK(initial_gyro_bias(w, opt, &why) == opt.init_gyro_bias);
+    CHECK(why.find("gyro moves") != std::string::npos);
+    CHECK(why.find("init_rest_max_gyro_std") != std::string::npos);
+  }
+  SECTION("a shaking accelerometer: the configured bias, and why") {
+    auto imu = imu_stream(b_g, 1.0);
+    for (std::size_t k = 0; k < imu.size(); ++k) imu[k].accel.x() += (k % 4 < 2) ? 0.3 : -0.3;
+    const InitWindow w = init_window(imu, 0.2);
+    CHECK(initial_gyro_bias(w, opt, &why) == opt.init_gyro_bias);
+    CHECK(why.find("accelerometer moves") != std::string::npos);
+  }
+  SECTION("one sample: no σ, no rest estimate") {
+    const InitWindow w = init_window(imu_stream(b_g, 1.0), 0.0);
+    CHECK(initial_gyro_bias(w, opt, &why) == opt.init_gyro_bias);
+    CHECK(why.find("1 IMU sample") != std::string::npos);
+  }
+  SECTION("the thresholds decide") {
+    const InitWindow w = init_window(imu_stream(b_g, 1.0), 0.2);
+    opt.init_rest_max_gyro_std = 1e-3;  // below the ±2e-3 rad/s of the stream
+    CHECK(initial_gyro_bias(w, opt, &why) == opt.init_gyro_bias);
+    CHECK_FALSE(why.empty());
+  }
+}
+
+TEST_CASE("run_filter: a gyro bias of 4.6 deg/s at rest, from the window instead of 0", "[ekf][init]") {
+  // 10 s standing still, no detections: with the bias from the window the yaw stays put; with the
+  // configured 0 it runs off at the bias rate (the EuRoC V1_02 ADIS16448 has 0.076 rad/s about z).
+  const Vec3 b_g(0.002, -0.02, 0.08);
+  const auto imu = imu_stream(b_g, 10.0);
+  const ImuNoiseParams noise{1.7e-4, 2e-5, 2e-3, 3e-3};
+  FilterOptions opt;
+  opt.init_gyro_bias_from_rest = true;
+  Last rest;
+  const FilterRunSummary s = run_filter(imu, {}, opt, noise, Pose(), rest);
+  CHECK(s.gyro_bias_from_rest);
+  CHECK(s.gyro_bias_rest_refused.empty());
+  CHECK((s.init_gyro_bias - b_g).norm() < 1e-4);
+  CHECK((rest.first.b_g - s.init_gyro_bias).norm() == 0.0);
+  CHECK(std::abs(yaw_deg(rest.last.q_W_I)) < 0.05);
+
+  opt.init_gyro_bias_from_rest = false;
+  Last zero;
+  const FilterRunSummary s0 = run_filter(imu, {}, opt, noise, Pose(), zero);
+  CHECK_FALSE(s0.gyro_bias_from_rest);
+  CHECK(s0.init_gyro_bias.isZero());
+  CHECK(std::abs(yaw_deg(zero.last.q_W_I)) > 40.0);  // 0.08 rad/s for 10 s = 46 deg
+
+  // Moving from the first sample: refused, the configured bias, and the reason in the summary.
+  opt.init_gyro_bias_from_rest = true;
+  Last moving;
+  const FilterRunSummary s1 = run_filter(imu_stream(b_g, 2.0, 0.05), {}, opt, noise, Pose(), moving);
+  CHECK_FALSE(s1.gyro_bias_from_rest);
+  CHECK(s1.init_gyro_bias.isZero());
+  CHECK(s1.gyro_bias_rest_refused.find("gyro moves") != std::string::npos);
+}
