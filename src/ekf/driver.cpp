@@ -34,8 +34,9 @@ InitWindow init_window(const std::vector<ImuSample>& imu, double window_s) {
 }
 
 Vec3 initial_gyro_bias(const InitWindow& w, const FilterOptions& options, std::string* why_not) {
-  std::string why;
+  if (why_not) why_not->clear();
   if (!options.init_gyro_bias_from_rest) return options.init_gyro_bias;
+  std::string why;
   if (w.samples < 2)
     why = fmt::format("the init window holds {} IMU sample(s)", w.samples);
   else if (!(w.std_gyro.maxCoeff() <= options.init_rest_max_gyro_std))
