@@ -92,6 +92,45 @@ TEST_CASE("discrete F equals finite differences of the nominal integration", "[e
   }
 }
 
+TEST_CASE("integration and F below the small-angle threshold (a nearly still gyro)", "[ekf][jacobian]") {
+  // ω̄dt below 2·kSmallAngle takes integrate's Taylor branch; finite differences cannot resolve its terms
+  // (1e-7 relative), so the branch is checked against closed forms. A constant rate composes exactly:
+  // N steps of Exp(ωdt) are Exp(Nωdt).
+  const double dt = 0.0025;
+  const Vec3 omega(2e-4, -1e-4, 3e-4);  // rad/s: |ω|dt = 9.4e-7 rad per step
+  CoreState x = random_core();
+  const Eigen::Quaterniond q0 = x.q_W_I;
+  const Vec3 w = x.b_g + omega, a = x.b_a + Vec3(0.3, -0.2, 9.81);
+  const int n = 4000;
+  for (int k = 0; k < n; ++k) x = integrate(x, w, a, w, a, dt);
+  const Eigen::Quaterniond q_ref = q0 * exp_quat(omega * (n * dt));
+  CHECK(log_quat(q_ref.conjugate() * x.q_W_I).norm() < 1e-10);  // 3.8e-3 rad if a step rotated twice
+
+  // F's blocks against the second-order forms Exp(−φ) ≈ I − K + K²/2, Jr(φ) ≈ I − K/2 + K²/6 (K = [φ]×;
+  // the next terms are below 1e-19 here).
+  CoreTransition F;
+  const CoreState x1 = integrate(x, w, a, w, a, dt, &F);
+  (void)x1;
+  const Vec3 phi = omega * dt;
+  const auto jr = [](const Vec3& p) {
+    const Mat3 K = math::skew(p);
+    return Mat3(Mat3::Identity() - 0.5 * K + K * K / 6.0);
+  };
+  const Mat3 K = math::skew(phi);
+  const Mat3 R_half = exp_quat(0.5 * phi).toRotationMatrix();
+  const Mat3 R_m = x.q_W_I.toRotationMatrix() * R_half;
+  const Vec3 a_b = a - x.b_a;
+  const Mat3 F_tt = Mat3::Identity() - K + 0.5 * K * K;
+  const Mat3 F_tbg = -jr(phi) * dt;
+  const Mat3 F_vbg = R_m * math::skew(a_b) * dt * jr(0.5 * phi) * (0.5 * dt);
+  const Mat3 F_vtheta = -R_m * math::skew(a_b) * dt * R_half.transpose();
+  const auto rel = [](const Mat3& A, const Mat3& B) { return (A - B).norm() / B.norm(); };
+  CHECK(rel(F.F_tt, F_tt) < 1e-13);
+  CHECK(rel(F.F_tbg, F_tbg) < 1e-13);
+  CHECK(rel(F.F_vbg, F_vbg) < 1e-13);  // 2.4e-7 if Jr were taken at φ instead of φ/2
+  CHECK(rel(F.F_vtheta, F_vtheta) < 1e-13);
+}
+
 TEST_CASE("object measurement H blocks equal finite differences", "[ekf][jacobian]") {
   for (int trial = 0; trial < 10; ++trial) {
     const CoreState x = random_core();
@@ -200,6 +239,13 @@ TEST_CASE("per-detection sigmas are mapped through the T_C_O inversion", "[ekf][
   }
   const Mat6 Sn = J * sigma.cwiseProduct(sigma).asDiagonal() * J.transpose();
   CHECK((S - Sn).cwiseAbs().maxCoeff() < 1e-9);
+  // A full covariance with translation-rotation cross terms (the blocks' signs only show through them).
+  Mat6 L = Mat6::Zero();
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c <= r; ++c) L(r, c) = r == c ? 0.02 + 0.01 * r : 0.01 * U();
+  const Mat6 C = L * L.transpose();
+  const Mat6 Sc = detection_covariance_in_residual_frame(T_C_O, C);
+  CHECK((Sc - J * C * J.transpose()).cwiseAbs().maxCoeff() < 1e-9);
 }
 
 TEST_CASE("inverse_pose_jacobian equals finite differences of T_O_W -> T_W_O", "[ekf][jacobian]") {
