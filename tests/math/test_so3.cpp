@@ -1,5 +1,6 @@
 // Property tests of SO(3) (DESIGN §2 conventions) over the sample set of samples.hpp.
 #include <catch2/catch.hpp>
+#include <Eigen/Eigenvalues>
 #include <cmath>
 
 #include "roe/math/so3.hpp"
@@ -187,4 +188,16 @@ TEST_CASE("so3: angle_between, canonical, orthonormalize", "[so3]") {
   }
   // A reflection is mapped to a proper rotation.
   CHECK(orthonormalize(Vector3d(1, 1, -1).asDiagonal()).determinant() > 0.0);
+  // Far from a rotation (det > 0): the result is M's polar factor, the R with M = R P, P symmetric positive
+  // definite (the rotation closest to M in the Frobenius norm).
+  for (int i = 0; i < 20; ++i) {
+    const Matrix3d Ra = exp_so3(roe::test::random_vector(rng)), Rb = exp_so3(roe::test::random_vector(rng));
+    const Matrix3d M = Ra * Vector3d(1.3, 0.8, 0.5).asDiagonal() * Rb;
+    const Matrix3d R = orthonormalize(M);
+    const Matrix3d P = R.transpose() * M;
+    CHECK((R.transpose() * R - Matrix3d::Identity()).norm() < 1e-12);
+    CHECK((P - P.transpose()).norm() < 1e-12);
+    CHECK(Eigen::SelfAdjointEigenSolver<Matrix3d>(0.5 * (P + P.transpose())).eigenvalues().minCoeff() > 0.0);
+    CHECK(rot_dist(R, Ra * Rb) < 1e-12);  // M = (Ra Rb)(Rbᵀ D Rb)
+  }
 }
