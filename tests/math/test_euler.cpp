@@ -77,4 +77,20 @@ TEST_CASE("euler: wrap_pi and wrap_180 edges", "[euler]") {
     CHECK((r >= -kPi && r < kPi));
     CHECK(std::abs(std::remainder(r - a, 2 * kPi)) < 1e-9);
   }
+  // Within 40 ulps of odd multiples of π and 180°, where the floor step can land just below −π / −180°
+  // (e.g. wrap_pi(−12563.229021705583) gives −π − 1.3e-12 before the guard) and the guards bring it back.
+  int outside = 0;
+  for (int k = -2000; k <= 2000; ++k) {
+    for (const bool deg : {false, true}) {
+      const double half = deg ? 180.0 : kPi;
+      double a = (2.0 * k + 1) * half;
+      for (int s = 0; s < 40; ++s) a = std::nextafter(a, -HUGE_VAL);
+      for (int s = 0; s < 80; ++s, a = std::nextafter(a, HUGE_VAL)) {
+        const double w = deg ? wrap_180(a) : wrap_pi(a);
+        const bool ok = w >= -half && w < half && std::abs(std::remainder(w - a, 2 * half)) < 1e-9;
+        if (!ok) ++outside;
+      }
+    }
+  }
+  CHECK(outside == 0);
 }
