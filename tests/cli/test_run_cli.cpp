@@ -1,0 +1,93 @@
+// End-to-end: the roe executable's `run` command on a dataset simulated here. Exit codes (DESIGN §1):
+// 0 success; 1 the run failed for a reason in the data (a guard rail of the filter, docs/filter.md §6);
+// 2 bad usage or bad input (unknown config key, missing IMU, unknown detection set, a non-empty output
+// folder without --force). After a failure nothing is written to the output folder, and a refused second
+// run leaves the first run's files as they were.
+#include "support/test_util.hpp"
+
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+roe::test::RunResult roe_run(const std::string& args, bool merge_stderr = true) {
+  return roe::test::run_roe(args, merge_stderr);
+}
+
+std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+
+const std::string kDefaultConfig = q(fs::path(ROE_SOURCE_DIR) / "configs" / "default.json");
+
+std::string slurp(const fs::path& f) {
+  std::ifstream in(f, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+bool empty_or_absent(const fs::path& dir) { return !fs::exists(dir) || fs::is_empty(dir); }
+
+}  // namespace
+
+TEST_CASE("roe run: exit codes 0/1/2, --force, nothing half-written", "[cli][run]") {
+  roe::test::TempDir tmp("roe_cli_run");
+  const fs::path ds = tmp / "ds";
+  REQUIRE(roe_run("-q simulate --preset paper-seq4 --seed 3 --duration 6 --out " + q(ds)).code == 0);
+
+  // Success: the files of DESIGN §4 and, with --json, one JSON object on stdout.
+  const fs::path out = tmp / "run";
+  const auto ok = roe_run("--json run " + q(ds) + " --config " + kDefaultConfig + " --out " + q(out), false);
+  REQUIRE(ok.code == 0);
+  const auto summary = nlohmann::json::parse(ok.out);
+  CHECK(summary.at("updates").get<int>() > 100);
+  for (const char* f :
+       {"trajectory.csv", "trajectory.tum", "states.csv", "objects.csv", "reprojection.csv", "run.json"})
+    CHECK(fs::exists(out / f));
+  const std::string traj = slurp(out / "trajectory.csv");
+  const auto mtime = fs::last_write_time(out / "trajectory.csv");
+
+  SECTION("a non-empty output folder is refused without --force, its files untouched") {
+    const auto r = roe_run("run " + q(ds) + " --out " + q(out));
+    CHECK(r.code == 2);
+    CHECK(r.out.find("--force") != std::string::npos);
+    CHECK(slurp(out / "trajectory.csv") == traj);
+    CHECK(fs::last_write_time(out / "trajectory.csv") == mtime);
+    // With --force the run replaces it; the same inputs give the same bytes.
+    CHECK(roe_run("-q run " + q(ds) + " --config " + kDefaultConfig + " --out " + q(out) + " --force").code == 0);
+    CHECK(slurp(out / "trajectory.csv") == traj);
+  }
+  SECTION("bad usage and bad input: exit 2, naming what is wrong") {
+    const fs::path out2 = tmp / "run2";
+    CHECK(roe_run("run " + q(ds)).code == 2);  // no --out
+    const fs::path cfg = tmp.write("bad.json", R"({"filter": {"meas_sigma_p": 0.1}})");
+    auto r = roe_run("run " + q(ds) + " --config " + q(cfg) + " --out " + q(out2));
+    CHECK(r.code == 2);
+    CHECK(r.out.find("bad.json") != std::string::npos);
+    CHECK(r.out.find("meas_sigma_p") != std::string::npos);
+    r = roe_run("run " + q(ds) + " --detections nope --out " + q(out2));
+    CHECK(r.code == 2);
+    CHECK(r.out.find("nope") != std::string::npos);
+    fs::remove(ds / "mav0" / "imu0" / "data.csv");
+    r = roe_run("run " + q(ds) + " --out " + q(out2));
+    CHECK(r.code == 2);
+    CHECK(r.out.find("imu0") != std::string::npos);
+    CHECK(empty_or_absent(out2));
+  }
+  SECTION("a guard rail stops the run: exit 1 with the time and what broke, no trajectory") {
+    // A velocity bound below what the sequence flies makes the state leave its sane bounds.
+    const fs::path cfg = tmp.write("tight.json", R"({"filter": {"max_velocity_mps": 0.05}})");
+    const fs::path out3 = tmp / "run3";
+    const auto r = roe_run("run " + q(ds) + " --config " + q(cfg) + " --out " + q(out3));
+    CHECK(r.code == 1);
+    CHECK(r.out.find("max_velocity_mps") != std::string::npos);
+    CHECK(r.out.find("t = ") != std::string::npos);
+    CHECK_FALSE(fs::exists(out3 / "trajectory.csv"));
+    CHECK_FALSE(fs::exists(out3 / "run.json"));
+  }
+}
