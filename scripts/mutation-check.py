@@ -19,6 +19,7 @@ commands' first words). The report (--report, Markdown) lists every mutant and i
 import argparse
 import os
 import re
+import signal
 import subprocess
 import sys
 import time
@@ -134,6 +135,11 @@ def main():
 
     results = []
     t_start = time.time()
+
+    def stop(signum, frame):  # restore the sources (finally below) on kill / Ctrl-C
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, stop)
     try:
         for i, (path, n, desc, old, new) in enumerate(mutants, 1):
             lines = originals[path].split("\n")
@@ -158,25 +164,36 @@ def main():
                 f.write(originals[path])
             results.append((path, n, desc, old.strip(), new.strip(), fate, by))
             print(f"[{i}/{len(mutants)} {time.time() - t_start:6.0f} s] {fate:8s} {path}:{n} {desc}", flush=True)
+            write_report(a.report, tests, results, len(mutants))
+    except KeyboardInterrupt:
+        print("mutation-check: interrupted; the report covers the mutants run so far", file=sys.stderr)
     finally:
         for p, text in originals.items():
             with open(p, "w", encoding="utf-8") as f:
                 f.write(text)
         run(" ".join(build), ".", 3600)
+    print(summary_line(results, len(mutants)))
+    return 0
 
+
+def summary_line(results, total):
     counts = {k: sum(1 for r in results if r[5] == k) for k in ("killed", "survived", "invalid")}
     valid = counts["killed"] + counts["survived"]
-    summary = (f"{len(results)} mutants: {counts['killed']} killed, {counts['survived']} survived, "
-               f"{counts['invalid']} invalid (do not compile); kill rate {counts['killed']}/{valid}")
-    print(summary)
-    if a.report:
-        with open(a.report + ".tmp", "w", encoding="utf-8") as f:
-            f.write(f"# Mutation check\n\nTests: {', '.join('`' + t + '`' for t in tests)}\n\n{summary}\n\n")
-            f.write("| file:line | mutation | fate | caught by |\n|---|---|---|---|\n")
-            for path, n, desc, old, new, fate, by in results:
-                f.write(f"| {path}:{n} | {desc}: `{new.replace('|', '∣')}` | {fate} | {by.replace('|', '∣')} |\n")
-        os.replace(a.report + ".tmp", a.report)
-    return 0
+    return (f"{len(results)} of {total} mutants run: {counts['killed']} killed, {counts['survived']} survived, "
+            f"{counts['invalid']} invalid (do not compile); kill rate {counts['killed']}/{valid}")
+
+
+def write_report(report, tests, results, total):
+    """Markdown report, rewritten (temporary file + rename) after every mutant."""
+    if not report:
+        return
+    with open(report + ".tmp", "w", encoding="utf-8") as f:
+        f.write(f"# Mutation check\n\nTests: {', '.join('`' + t + '`' for t in tests)}\n\n")
+        f.write(summary_line(results, total) + "\n\n")
+        f.write("| file:line | mutation | fate | caught by |\n|---|---|---|---|\n")
+        for path, n, desc, old, new, fate, by in results:
+            f.write(f"| {path}:{n} | {desc}: `{new.replace('|', '∣')}` | {fate} | {by.replace('|', '∣')} |\n")
+    os.replace(report + ".tmp", report)
 
 
 if __name__ == "__main__":
