@@ -141,3 +141,20 @@ TEST_CASE("run_filter: a gyro bias of 4.6 deg/s at rest, from the window instead
   CHECK(s1.init_gyro_bias.isZero());
   CHECK(s1.gyro_bias_rest_refused.find("gyro moves") != std::string::npos);
 }
+
+TEST_CASE("initialize: roll and pitch from the mean accelerometer less the configured accelerometer bias",
+          "[ekf][init]") {
+  // A tilted IMU at rest whose accelerometer reads R_W_Iᵀ g + b_a; with init_accel_bias = b_a the initial
+  // attitude is the true roll and pitch (yaw 0), and the bias state starts at b_a.
+  const Vec3 rpy(0.2, -0.1, 0.0);
+  const Mat3 R_W_I = math::from_euler_zyx(rpy);
+  const Vec3 b_a(0.3, -0.2, 0.15);
+  const Vec3 f = R_W_I.transpose() * Vec3(0.0, 0.0, 9.81) + b_a;
+  FilterOptions opt;
+  opt.init_accel_bias = b_a;
+  Filter filter(opt, ImuNoiseParams{1e-3, 1e-4, 1e-2, 1e-3}, Pose());
+  filter.initialize(0, Vec3::Zero(), f, f);
+  const Vec3 est = math::euler_zyx(filter.core().q_W_I.toRotationMatrix());
+  CHECK((est - rpy).norm() < 1e-12);  // 1.6 deg off if the bias were added instead
+  CHECK((filter.core().b_a - b_a).norm() == 0.0);
+}
