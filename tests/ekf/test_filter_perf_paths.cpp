@@ -213,3 +213,75 @@ TEST_CASE("propagation guard rails: the squared-norm fast path throws exactly wh
     CHECK_THROWS_AS(f.propagate(20'000'000, gyro, Vec3(nan, 0.0, 9.81)), NumericError);
   }
 }
+
+TEST_CASE("first sight: a new object's predicted detection has exactly the detection's covariance",
+          "[ekf][perf_paths]") {
+  // An object-world initialised from detection z makes the predicted detection equal z for any state, so
+  // right after first sight H P Hᵀ = R: the augmentation's cross-covariances and the anchor's gauge fix
+  // (a change of W, which no relative pose sees) must preserve it. A wrong sign in the gauge transform, or
+  // a wrong factor on the new block, breaks it.
+  for (ResidualFrame frame : {ResidualFrame::kCamera, ResidualFrame::kObject}) {
+    for (AnchorGauge gauge : {AnchorGauge::kPose, AnchorGauge::kPosition, AnchorGauge::kPositionYaw}) {
+      for (bool extr : {true, false}) {
+        FilterOptions opt;
+        opt.residual_frame = frame;
+        opt.init_min_detections = 1;
+        opt.anchor_id = 1;
+        opt.anchor_gauge = gauge;
+        opt.estimate_extrinsics = extr;
+        Filter f(opt, ImuNoiseParams{1e-3, 1e-4, 1e-2, 1e-3},
+                 Pose(exp_quat(Vec3(0.1, -0.2, 0.05)), Vec3(0.02, 0.01, -0.03)));
+        f.initialize(0, Vec3::Zero(), Vec3(0, 0, 9.81), Vec3(0.3, -0.2, 9.8));
+        for (int k = 1; k <= 40; ++k) f.propagate(k * 2'500'000, kGyro0 + U3(0.3), kAccel0 + U3(0.3));
+        std::vector<Detection> dets;
+        for (int id : {1, 2, 3}) {
+          Detection d;
+          d.t_ns = f.time();
+          d.object_id = id;
+          d.T_C_O = Pose(exp_quat(U3(1.0)), U3(0.5) + Vec3(0, 0, 1.5));
+          dets.push_back(d);
+        }
+        const FrameResult res = f.update(dets);
+        const Eigen::MatrixXd P = f.covariance();
+        for (const Detection& d : dets) {
+          INFO("frame " << static_cast<int>(frame) << " gauge " << to_string(gauge) << " extr " << extr
+                        << " object " << d.object_id);
+          REQUIRE(f.object(d.object_id) != nullptr);
+          Vec6 r;
+          Eigen::MatrixXd H;
+          f.measurement_jacobian(d.object_id, d.T_C_O.inverse(), r, H);
+          const Mat6 R = f.measurement_covariance(d, frame == ResidualFrame::kObject);
+          CHECK(r.norm() < 1e-12);
+          CHECK(max_abs(H * P * H.transpose() - R) <= 1e-9 * max_abs(R));
+        }
+        CHECK(res.n_inliers == 0);  // first sight only initialises
+      }
+    }
+  }
+}
+
+TEST_CASE("a detection's implied IMU pose (reprojection.csv) is the state's pose for an exact detection",
+          "[ekf][perf_paths]") {
+  // T_W_I implied by detection z of object O: T_O_W⁻¹ z T_I_C⁻¹ (z = T_O_C). For the detection the state
+  // predicts, it is the state's own T_W_I (the update does not move a state with zero residuals).
+  for (AnchorGauge gauge : {AnchorGauge::kPose, AnchorGauge::kPositionYaw}) {
+    Filter f = make_filter(gauge, true, ResidualFrame::kCamera);
+    f.propagate(f.time() + 5'000'000, kGyro0, kAccel0);
+    const Pose T_W_I(f.core().q_W_I, f.core().p_W_I);
+    std::vector<Detection> dets;
+    for (int id : {2, 1, 4}) {
+      Detection d;
+      d.t_ns = f.time();
+      d.object_id = id;
+      d.T_C_O = f.predict(id).inverse();
+      dets.push_back(d);
+    }
+    const FrameResult res = f.update(dets);
+    for (const DetectionOutcome& o : res.detections) {
+      INFO("object " << o.object_id);
+      REQUIRE(o.has_T_W_I);
+      CHECK((o.T_W_I.p - T_W_I.p).norm() < 1e-9);
+      CHECK(math::angle_between(o.T_W_I.q, T_W_I.q) < 1e-9);
+    }
+  }
+}
