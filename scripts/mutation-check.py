@@ -84,11 +84,18 @@ def collect(spec):
 
 
 def run(cmd, cwd, timeout):
+    """Runs a shell command in its own process group; on timeout the whole group is killed (a mutant that
+    makes a test loop forever must not keep running behind the shell)."""
+    p = subprocess.Popen(cmd, cwd=cwd, shell=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                         start_new_session=True)
     try:
-        p = subprocess.run(cmd, cwd=cwd, shell=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                           timeout=timeout)
-        return p.returncode, p.stdout.decode(errors="replace")
-    except subprocess.TimeoutExpired:
+        out, _ = p.communicate(timeout=timeout)
+        return p.returncode, out.decode(errors="replace")
+    except (subprocess.TimeoutExpired, KeyboardInterrupt) as e:
+        os.killpg(p.pid, signal.SIGKILL)
+        p.wait()
+        if isinstance(e, KeyboardInterrupt):
+            raise
         return None, "timeout"
 
 
