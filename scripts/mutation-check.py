@@ -111,7 +111,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     a = ap.parse_args()
     tests = a.test or ["./test_math", "./test_ekf"]
-    targets = a.target or sorted({t.split()[0].lstrip("./") for t in tests})
+    targets = a.target or sorted({os.path.basename(t.split()[0]) for t in tests})
 
     mutants = [m for spec in a.files for m in collect(spec)]
     if a.list:
