@@ -264,9 +264,11 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   out.filter_wall_s = seconds_since(t0);
 
   // Warnings about what the data allowed.
-  std::size_t no_imu = 0;
+  std::size_t no_imu = 0, no_anchor = 0, detections = 0;
   for (const auto& kv : out.counts) {
     no_imu += kv.second.rejected_no_imu;
+    no_anchor += kv.second.rejected_no_main;
+    detections += kv.second.detections;
     if (kv.second.initialized == 0 && kv.second.detections > 0)
       out.warnings.push_back(
           fmt::format("object {} was detected {} times but never initialised (all its frames "
@@ -275,6 +277,15 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   }
   if (no_imu > 0)
     out.warnings.push_back(fmt::format("{} detections lie outside the IMU stream and were skipped", no_imu));
+  // The paper's rule (require_anchor) wastes most of a recording whose camera leaves the anchor often,
+  // e.g. a flight that sweeps a room: say so, and name the switch.
+  if (fopt.require_anchor && detections > 0 && 4 * no_anchor >= detections)
+    out.warnings.push_back(fmt::format(
+        "{} of {} detections ({:.0f} %) were rejected because their image lacks the anchor object {} "
+        "(filter.require_anchor is true, the paper's rule); require_anchor false updates from every "
+        "initialised object",
+        no_anchor, detections, 100.0 * static_cast<double>(no_anchor) / static_cast<double>(detections),
+        fopt.anchor_id));
   if (out.summary.updates == 0)
     out.warnings.push_back("no update was made: the trajectory is IMU dead reckoning");
   if (!out.summary.gyro_bias_rest_refused.empty())
