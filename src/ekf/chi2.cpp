@@ -59,7 +59,11 @@ double chi2_cdf(double x, double k) {
 
 double normal_quantile(double p) {
   ROE_CHECK(p > 0.0 && p < 1.0, "normal_quantile needs 0 < p < 1");
-  // Acklam's coefficients (rational approximations on a central and two tail regions).
+  // Φ⁻¹(p) = −Φ⁻¹(1 − p), and 1 − p is exact in double for p ≥ ½: the upper half is computed as the
+  // lower one, where the Halley step's Φ(x) − p is formed from a small erfc without cancellation
+  // (near p = 1, 0.5·erfc(−x/√2) − p would lose ~8 digits to the subtraction).
+  if (p > 0.5) return -normal_quantile(1.0 - p);
+  // Acklam's coefficients (rational approximations on the central region and the lower tail).
   static const double a[] = {-3.969683028665376e+01, 2.209460984245205e+02,  -2.759285104469687e+02,
                              1.383577518672690e+02,  -3.066479806614716e+01, 2.506628277459239e+00};
   static const double b[] = {-5.447609879822406e+01, 1.615858368580409e+02, -1.556989798598866e+02,
@@ -74,17 +78,14 @@ double normal_quantile(double p) {
     const double q = std::sqrt(-2.0 * std::log(p));
     x = (((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) /
         ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
-  } else if (p <= 1.0 - plow) {
+  } else {
     const double q = p - 0.5;
     const double r = q * q;
     x = (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q /
         (((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1.0);
-  } else {
-    const double q = std::sqrt(-2.0 * std::log(1.0 - p));
-    x = -(((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) /
-        ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
   }
-  // One Halley step on Φ(x) − p with Φ from erfc: brings the error to ~1e-15.
+  // One Halley step on Φ(x) − p with Φ from erfc (x ≤ 0 here: erfc of a non-negative argument, no
+  // cancellation): brings the relative error to ~1e-15.
   const double e = 0.5 * std::erfc(-x / std::sqrt(2.0)) - p;
   const double u = e * std::sqrt(2.0 * M_PI) * std::exp(0.5 * x * x);
   return x - u / (1.0 + 0.5 * x * u);

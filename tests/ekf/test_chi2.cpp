@@ -40,3 +40,22 @@ TEST_CASE("normal quantile", "[ekf][chi2]") {
   CHECK(normal_quantile(0.5) == Approx(0.0).margin(1e-12));
   CHECK(normal_quantile(1e-5) == Approx(-4.264890794).epsilon(1e-8));
 }
+
+// Both tails to 1e-13 against Python's statistics.NormalDist().inv_cdf (Wichura's AS241, ~1e-16),
+// for the same double p: near p = 1 a Halley step on 0.5·erfc(−x/√2) − p would lose ~8 digits.
+TEST_CASE("normal quantile: both tails to full precision, odd symmetry", "[ekf][chi2]") {
+  struct Row {
+    double p, x;
+  };
+  const Row rows[] = {
+      {0.02, -2.0537489106318225},     {1e-9, -5.9978070150076865},    {1e-100, -21.27345356096532},
+      {0.3, -0.5244005127080407},      {0.7, 0.5244005127080407},      {0.98, 2.053748910631822},
+      {0.999, 3.090232306167813},      {0.999999, 4.753424308817089},  {0.999999999, 5.997807019601638},
+  };
+  for (const auto& r : rows) {
+    INFO("p = " << r.p);
+    CHECK(normal_quantile(r.p) == Approx(r.x).epsilon(1e-13));
+  }
+  for (double p : {0.6, 0.9, 0.97, 0.99, 0.9999})
+    CHECK(normal_quantile(p) == Approx(-normal_quantile(1.0 - p)).epsilon(1e-14));
+}
