@@ -1,5 +1,6 @@
 // The initial state taken from the IMU: the init window's statistics and the gyro bias at rest
-// (FilterOptions::init_gyro_bias_from_rest).
+// (FilterOptions::init_gyro_bias_from_rest), and run_filter's schedule of IMU samples and images.
+#include <algorithm>
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -60,6 +61,13 @@ TEST_CASE("init window: means and per-axis sample sigma of the samples within in
   const double f = std::sqrt(41.0 * (1.0 - 1.0 / (41.0 * 41.0)) / 40.0);
   CHECK(w.std_gyro.x() == Approx(2e-3 * f).epsilon(1e-9));
   CHECK(w.std_accel.y() == Approx(0.03 * f).epsilon(1e-9));
+  // The same samples 1000 s later: the window is relative to the first sample's stamp.
+  auto later = imu;
+  for (auto& m : later) m.t_ns += from_seconds(1000.0);
+  const InitWindow wl = init_window(later, 0.2);
+  CHECK(wl.samples == 41);
+  CHECK(wl.duration_s == Approx(0.2).epsilon(1e-12));
+  CHECK((wl.mean_gyro - w.mean_gyro).norm() == 0.0);
   // A zero window still holds the first sample (σ 0).
   const InitWindow one = init_window(imu, 0.0);
   CHECK(one.samples == 1);
@@ -157,4 +165,85 @@ TEST_CASE("initialize: roll and pitch from the mean accelerometer less the confi
   const Vec3 est = math::euler_zyx(filter.core().q_W_I.toRotationMatrix());
   CHECK((est - rpy).norm() < 1e-12);  // 1.6 deg off if the bias were added instead
   CHECK((filter.core().b_a - b_a).norm() == 0.0);
+}
+
+// run_filter's schedule: an image between two IMU samples is processed after propagating to its stamp
+// with the IMU sample linearly interpolated there, an image on an IMU stamp after that sample, and images
+// outside the IMU span are rejected. Checked against a filter stepped by hand on a stream whose gyro and
+// accelerometer change from sample to sample (an interpolation error of one sample's change shows at
+// 1e-7 rad over the second; the comparison is to 1e-13).
+TEST_CASE("run_filter: images between IMU samples see the IMU linearly interpolated at their stamp",
+          "[ekf][init]") {
+  std::vector<ImuSample> imu;
+  const Timestamp t0 = from_seconds(5.0);
+  for (int k = 0; k <= 200; ++k) {
+    const double t = k / 200.0;
+    ImuSample m;
+    m.t_ns = t0 + from_seconds(t);
+    m.gyro = Vec3(0.3 * std::sin(7.0 * t), 0.8 * t, -0.4 + 0.6 * std::cos(5.0 * t));
+    m.accel = Vec3(0.5 * t, -0.3 + std::sin(9.0 * t), 9.81 + 0.4 * std::cos(6.0 * t));
+    imu.push_back(m);
+  }
+  // 30 Hz images, 1.7 ms after an IMU stamp mostly, one exactly on a stamp, one before and one after the
+  // IMU span.
+  std::vector<ImageDetections> images;
+  images.push_back({t0 - from_seconds(0.01), {}});
+  for (int j = 0; j < 30; ++j) images.push_back({t0 + from_seconds(j / 30.0 + 0.0017), {}});
+  images.push_back({t0 + from_seconds(1.0), {}});  // the last IMU stamp
+  images.push_back({t0 + from_seconds(1.002), {}});
+  std::sort(images.begin(), images.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
+
+  struct Trace : FilterObserver {
+    std::vector<std::pair<Timestamp, CoreState>> imu, image;
+    void on_imu(const Filter& f) override { imu.emplace_back(f.time(), f.core()); }
+    void on_image(Filter& f, const FrameResult& r) override { image.emplace_back(r.t_ns, f.core()); }
+  } run;
+  const ImuNoiseParams noise{1.7e-4, 2e-5, 2e-3, 3e-3};
+  FilterOptions opt;
+  const FilterRunSummary s = run_filter(imu, images, opt, noise, Pose(), run);
+  CHECK(s.images == images.size() - 2);  // all but the two outside the IMU span
+
+  // By hand.
+  const InitWindow w = init_window(imu, opt.init_window_s);
+  Vec3 b_g0 = initial_gyro_bias(w, opt, nullptr);
+  Filter f(opt, noise, Pose());
+  f.initialize(imu[0].t_ns, imu[0].gyro, imu[0].accel, w.mean_accel, &b_g0);
+  std::vector<std::pair<Timestamp, CoreState>> imu_ref{{f.time(), f.core()}}, image_ref;
+  for (std::size_t k = 1; k < imu.size(); ++k) {
+    const ImuSample& a = imu[k - 1];
+    const ImuSample& b = imu[k];
+    for (const auto& im : images)
+      if (im.t_ns > a.t_ns && im.t_ns < b.t_ns) {
+        const double u = to_seconds(im.t_ns - a.t_ns) / to_seconds(b.t_ns - a.t_ns);
+        f.propagate(im.t_ns, (1.0 - u) * a.gyro + u * b.gyro, (1.0 - u) * a.accel + u * b.accel);
+        f.update({});
+        image_ref.emplace_back(im.t_ns, f.core());
+      }
+    f.propagate(b.t_ns, b.gyro, b.accel);
+    imu_ref.emplace_back(f.time(), f.core());
+    for (const auto& im : images)
+      if (im.t_ns == b.t_ns) {
+        f.update({});
+        image_ref.emplace_back(im.t_ns, f.core());
+      }
+  }
+  // run's image trace also holds the two rejected images (before and after the IMU span).
+  REQUIRE(run.image.size() == image_ref.size() + 2);
+  CHECK(run.image.front().first == images.front().t_ns);
+  CHECK(run.image.back().first == images.back().t_ns);
+  const auto same = [](const CoreState& x, const CoreState& y) {
+    return (x.p_W_I - y.p_W_I).norm() < 1e-13 && (x.v_W_I - y.v_W_I).norm() < 1e-13 &&
+           x.q_W_I.angularDistance(y.q_W_I) < 1e-13;
+  };
+  for (std::size_t i = 0; i < image_ref.size(); ++i) {
+    INFO("image " << i);
+    CHECK(run.image[i + 1].first == image_ref[i].first);
+    CHECK(same(run.image[i + 1].second, image_ref[i].second));
+  }
+  REQUIRE(run.imu.size() == imu_ref.size());
+  for (std::size_t i = 0; i < imu_ref.size(); ++i) {
+    INFO("IMU sample " << i);
+    CHECK(run.imu[i].first == imu_ref[i].first);
+    CHECK(same(run.imu[i].second, imu_ref[i].second));
+  }
 }
