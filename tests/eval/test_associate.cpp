@@ -140,3 +140,62 @@ TEST_CASE("explain_no_match: ranges and likely causes", "[eval][assoc]") {
     CHECK(m.find("0.002 s apart") != std::string::npos);
   }
 }
+
+// The nearest-neighbour search at the ends of the searched list, with an offset on the searched side,
+// duplicates at the very start, and the message for decreasing stamps.
+TEST_CASE("associate: list ends, offset on the longer list, leading duplicates, messages", "[eval][assoc]") {
+  // An estimate stamp after the last ground-truth stamp, within max_dt, and one before the first.
+  const std::vector<Timestamp> gt{100 * ms, 110 * ms, 120 * ms};
+  const Association a = associate({95 * ms, 124 * ms}, gt);
+  REQUIRE(a.size() == 2);
+  CHECK(a.gt_index == std::vector<std::size_t>{0, 2});
+  CHECK(a.dt_ns == std::vector<Timestamp>{5 * ms, -4 * ms});
+
+  // The estimate is the longer list (it is searched for each ground-truth stamp) and its clock runs
+  // 0.25 s early: the offset moves the searched stamps.
+  std::vector<Timestamp> dense;
+  for (Timestamp t : seq(1000 * ms, 1 * ms, 1001)) dense.push_back(t - 250 * ms);
+  const std::vector<Timestamp> sparse{1000 * ms, 1500 * ms, 2000 * ms};
+  const Association b = associate(dense, sparse, {0.0005, 0.25, AssocPolicy::kNearest});
+  REQUIRE(b.size() == 3);
+  CHECK(b.est_index == std::vector<std::size_t>{0, 500, 1000});
+  CHECK(b.dt_ns == std::vector<Timestamp>{0, 0, 0});
+
+  // Duplicates at the start of each list are counted; the unique policy keeps the first of the run.
+  const std::vector<Timestamp> e3{100 * ms, 100 * ms, 200 * ms};
+  const std::vector<Timestamp> g3{100 * ms, 100 * ms, 150 * ms, 200 * ms};
+  const Association n3 = associate(e3, g3);
+  CHECK(n3.n_duplicate_est == 1);
+  CHECK(n3.n_duplicate_gt == 1);
+  const Association u3 = associate(e3, g3, {0.01, 0.0, AssocPolicy::kUnique});
+  CHECK(u3.est_index == std::vector<std::size_t>{0, 2});
+  CHECK(u3.gt_index == std::vector<std::size_t>{0, 3});
+
+  // Decreasing stamps: the message names the pose (1-based) and both stamps.
+  try {
+    associate({0, 20 * ms, 10 * ms, 30 * ms}, {0});
+    FAIL("no error");
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    INFO(m);
+    CHECK(m.find("at pose 3 (0.010000000 s after 0.020000000 s)") != std::string::npos);
+  }
+}
+
+// With an offset, the diagnosis reports the estimate's stamps with the offset applied, and the
+// closest pair after it.
+TEST_CASE("explain_no_match: ranges and the closest pair with an offset", "[eval][assoc]") {
+  const auto gt = seq(100'000 * ms, 10 * ms, 101);  // 100 .. 101 s
+  const auto est = seq(50'000 * ms, 100 * ms, 11);  // 50 .. 51 s
+  AssociationOptions o{0.001, 49.5, AssocPolicy::kNearest};  // → 99.5 .. 100.5 s, stamps 0.5 s apart
+  const std::string m = explain_no_match(est, gt, o);
+  INFO(m);
+  CHECK(m.find("span [99.500000, 100.500000] s (11 poses)") != std::string::npos);
+  CHECK(m.find("ground truth [100.000000, 101.000000] s (101 poses)") != std::string::npos);
+  // 3 ms more offset: every shifted estimate stamp inside the ground truth's span is 3 ms off its
+  // nearest ground-truth stamp (the ones before the span are 0.4 s or more off).
+  AssociationOptions o2{0.001, 49.503, AssocPolicy::kNearest};
+  const std::string m2 = explain_no_match(est, gt, o2);
+  INFO(m2);
+  CHECK(m2.find("the closest pair is 0.003 s apart") != std::string::npos);
+}

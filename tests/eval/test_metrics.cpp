@@ -1,10 +1,12 @@
 // APE statistics (evo definitions), per-axis RMSE, Euler wrap at ±180°, NEES.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <random>
 
 #include "roe/core/error.hpp"
 #include "roe/eval/metrics.hpp"
 #include "roe/math/euler.hpp"
+#include "roe/math/so3.hpp"
 
 using namespace roe;
 using namespace roe::eval;
@@ -92,4 +94,39 @@ TEST_CASE("compute_ape: per-axis RMSE, cnspy ARMSE, NEES", "[eval][metrics]") {
   CHECK(ca.P_p(0, 0) == Approx(8.0));
   CHECK(ca.P_p(1, 1) == Approx(4.0));
   CHECK_THROWS_AS(compute_ape(est, {gt[0]}), InputError);
+}
+
+// The median of a long, unordered list (the selection must see the whole list), odd and even sizes.
+TEST_CASE("compute_stats: median of long shuffled lists", "[eval][metrics]") {
+  std::mt19937 rng(7);
+  for (int n : {4, 5, 100, 101, 1000}) {
+    std::vector<double> v(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) v[static_cast<std::size_t>(i)] = 0.5 * i;
+    std::shuffle(v.begin(), v.end(), rng);
+    const double expect = n % 2 ? 0.5 * (n / 2) : 0.5 * (0.5 * (n / 2 - 1) + 0.5 * (n / 2));
+    INFO("n = " << n);
+    CHECK(compute_stats(v).median == expect);
+  }
+}
+
+// The mean position error is signed (est − gt) per axis, and the rotation NEES uses the local error
+// Log(R_estᵀ R_gt), also far from the identity.
+TEST_CASE("compute_ape: signed mean position error; rotation NEES away from the identity", "[eval][metrics]") {
+  const Eigen::Quaterniond q_gt(math::from_euler_zyx(Vector3d(0.4, -0.7, 2.1)));
+  const Vector3d dtheta(0.01, -0.02, 0.015);
+  std::vector<Pose> gt{Pose(q_gt, Vector3d(1, 2, 3)), Pose(q_gt, Vector3d(-1, 0, 2))};
+  // R_gt = R_est · Exp(δθ)  ⇒  R_est = R_gt · Exp(−δθ)
+  const Eigen::Quaterniond q_est = q_gt * math::exp_quat(-dtheta);
+  std::vector<Pose> est{Pose(q_est, Vector3d(1.1, 1.8, 3.3)), Pose(q_est, Vector3d(-0.9, -0.4, 2.1))};
+  PoseCovariance c;
+  c.P_p = Eigen::Matrix3d::Identity();
+  c.P_theta = Vector3d(1e-4, 4e-4, 9e-4).asDiagonal();
+  const ApeResult r = compute_ape(est, gt, {c, c});
+  CHECK(r.pos_mean_m.x() == Approx(0.1));
+  CHECK(r.pos_mean_m.y() == Approx(-0.3));
+  CHECK(r.pos_mean_m.z() == Approx(0.2));
+  const double nees_r = 0.01 * 0.01 / 1e-4 + 0.02 * 0.02 / 4e-4 + 0.015 * 0.015 / 9e-4;
+  REQUIRE(r.nees.size() == 2);
+  CHECK(r.nees[0].rot == Approx(nees_r).epsilon(1e-9));
+  CHECK(*r.anees_r == Approx(nees_r).epsilon(1e-9));
 }
