@@ -199,3 +199,43 @@ TEST_CASE("explain_no_match: ranges and the closest pair with an offset", "[eval
   INFO(m2);
   CHECK(m2.find("the closest pair is 0.003 s apart") != std::string::npos);
 }
+
+// The unit mix-up rule: the scaled estimate range lines up with the ground truth when its start lies
+// within 1 % plus the ground truth's span of the ground truth's start, or when the ranges overlap and
+// the starts are within half the ground truth's start of each other. Each clause alone is enough.
+TEST_CASE("explain_no_match: each clause of the unit mix-up rule on its own", "[eval][assoc]") {
+  const auto says_1e = [](const std::string& m, const char* p) {
+    return m.find(std::string("only when scaled by ") + p) != std::string::npos;
+  };
+  SECTION("starts close, ranges apart (first clause only)") {
+    // ×1e9: [1403715520, 1403715522] s, 2 s before the ground truth starts.
+    const auto gt = seq(1'403'715'524'000 * ms, 5 * ms, 1000);
+    const std::vector<Timestamp> est{1'403'715'520, 1'403'715'521, 1'403'715'522};
+    const std::string m = explain_no_match(est, gt, {});
+    INFO(m);
+    CHECK(says_1e(m, "1e9"));
+  }
+  SECTION("start within the ground truth's span after its end (first clause only)") {
+    // ×1e3: [201, 210] s against [100, 200] s.
+    const auto gt = seq(100'000 * ms, 1000 * ms, 101);
+    const auto est = seq(201 * ms, 1 * ms, 10);
+    const std::string m = explain_no_match(est, gt, {});
+    INFO(m);
+    CHECK(says_1e(m, "1e3"));
+  }
+  SECTION("overlapping, starts 40 % apart (second clause only)") {
+    // ×1e3: [60, 120] s against [100, 101] s.
+    const auto gt = seq(100'000 * ms, 100 * ms, 11);
+    const auto est = seq(60 * ms, 1 * ms, 61);
+    const std::string m = explain_no_match(est, gt, {});
+    INFO(m);
+    CHECK(says_1e(m, "1e3"));
+  }
+  SECTION("neither: no unit is blamed") {
+    const auto gt = seq(100'000 * ms, 100 * ms, 11);
+    const auto est = seq(400 * ms, 1 * ms, 10);  // ×1e3: [400, 409] s
+    const std::string m = explain_no_match(est, gt, {});
+    INFO(m);
+    CHECK_FALSE(says_1e(m, "1e3"));
+  }
+}
