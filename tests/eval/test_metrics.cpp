@@ -130,3 +130,17 @@ TEST_CASE("compute_ape: signed mean position error; rotation NEES away from the 
   CHECK(r.nees[0].rot == Approx(nees_r).epsilon(1e-9));
   CHECK(*r.anees_r == Approx(nees_r).epsilon(1e-9));
 }
+
+// Values far from zero with a small spread (errors of a georeferenced run, stamps in seconds since the
+// epoch): the two-pass σ keeps full precision, where Σx² − n·mean² would cancel to nothing.
+TEST_CASE("compute_stats: sigma of values far from zero", "[eval][metrics]") {
+  std::vector<double> v, d;
+  for (int k = 0; k < 1000; ++k) {
+    const double u = 0.001 * ((k * 7919) % 1000);  // 0 … 0.999, shuffled
+    v.push_back(1.0e8 + u);
+    d.push_back(u);
+  }
+  const Stats far = compute_stats(v), near = compute_stats(d);
+  CHECK(far.std == Approx(near.std).epsilon(1e-6));
+  CHECK(far.median == Approx(1.0e8 + near.median).epsilon(1e-15));
+}
