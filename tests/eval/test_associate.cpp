@@ -170,6 +170,11 @@ TEST_CASE("associate: list ends, offset on the longer list, leading duplicates, 
   const Association u3 = associate(e3, g3, {0.01, 0.0, AssocPolicy::kUnique});
   CHECK(u3.est_index == std::vector<std::size_t>{0, 2});
   CHECK(u3.gt_index == std::vector<std::size_t>{0, 3});
+  // A duplicate run after the start whose pairs are better than the first pose's: the run is one key,
+  // whichever of its poses is looked at first.
+  const Association u4 = associate({101 * ms, 200 * ms, 200 * ms, 300 * ms}, seq(0, 5 * ms, 100),
+                                   {0.01, 0.0, AssocPolicy::kUnique});
+  CHECK(u4.est_index == std::vector<std::size_t>{0, 1, 3});
 
   // Decreasing stamps: the message names the pose (1-based) and both stamps.
   try {
@@ -198,6 +203,18 @@ TEST_CASE("explain_no_match: ranges and the closest pair with an offset", "[eval
   const std::string m2 = explain_no_match(est, gt, o2);
   INFO(m2);
   CHECK(m2.find("the closest pair is 0.003 s apart") != std::string::npos);
+  // The closest pair away from the ends: ground truth at 100.05, 100.5003 and 101.05 s, the shifted
+  // estimate at 99.503 + 0.1 k s: 100.503 vs 100.5003.
+  const std::vector<Timestamp> g3{100'050 * ms, 100'500'300'000, 101'050 * ms};
+  const std::string m3 = explain_no_match(est, g3, o2);
+  INFO(m3);
+  CHECK(m3.find("the closest pair is 0.0027 s apart") != std::string::npos);
+  // Ranges apart, both relative: the suggested --t-offset is the total one (it includes the offset
+  // already given): 1000 − (10 + 5) + 5 = 990.
+  const std::string m4 = explain_no_match(seq(10'000 * ms, 100 * ms, 11), seq(1'000'000 * ms, 100 * ms, 11),
+                                          {0.01, 5.0, AssocPolicy::kNearest});
+  INFO(m4);
+  CHECK(m4.find("(e.g. 990.000000000 aligns the starts)") != std::string::npos);
 }
 
 // The unit mix-up rule: the scaled estimate range lines up with the ground truth when its start lies
