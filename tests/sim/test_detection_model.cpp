@@ -128,7 +128,8 @@ TEST_CASE("Outliers, symmetric flips and blur happen at the configured rates", "
   Rng rng(99);
   const Pose truth(math::exp_quat(Eigen::Vector3d(0.2, 0.4, -0.1)), Eigen::Vector3d(0.1, 0.05, 1.2));
   const int n = 40000;
-  int outliers = 0, flips16 = 0, flips13 = 0, far = 0, flips1 = 0;
+  int outliers = 0, flips16 = 0, flips13 = 0, far = 0, flips1 = 0, flips13_negative = 0;
+  double flip_cos = 0.0, flip_sin = 0.0;
   for (int i = 0; i < n; ++i) {
     const Timestamp t = i * 33'333'333LL;
     for (int id : {1, 13, 16}) {
@@ -151,10 +152,16 @@ TEST_CASE("Outliers, symmetric flips and blur happen at the configured rates", "
         flips16 += is_flip;
       }
       if (id == 13 && !label.outlier) {
-        // Continuous symmetry: the error is a rotation about the model z axis only.
+        // Continuous symmetry: the error is a rotation about the model z axis only, by an angle uniform
+        // on the circle.
         const Eigen::Vector3d e = math::log_quat(truth.q.conjugate() * d.T_C_O.q);
         REQUIRE(e.head<2>().norm() < 1e-9);
         flips13 += label.flipped;
+        if (label.flipped) {
+          flip_cos += std::cos(e.z());
+          flip_sin += std::sin(e.z());
+          flips13_negative += e.z() < 0.0;  // angles in (π, 2π) come back from log as negative
+        }
       }
     }
   }
@@ -165,6 +172,10 @@ TEST_CASE("Outliers, symmetric flips and blur happen at the configured rates", "
   const double n_in = n * 0.95;
   CHECK(flips16 / n_in == Approx(0.25).margin(0.015));
   CHECK(flips13 / n_in == Approx(0.25).margin(0.015));
+  // Uniform on the circle: mean cos and sin 0 (σ of each 1/√(2·flips) ≈ 0.007), half the angles past π.
+  CHECK(flip_cos / flips13 == Approx(0.0).margin(0.03));
+  CHECK(flip_sin / flips13 == Approx(0.0).margin(0.03));
+  CHECK(flips13_negative / double(flips13) == Approx(0.5).margin(0.03));
 
   // Blur: always above the rate threshold, 2 % of frames below it; blurred detections are corrupted.
   int blurred = 0;
@@ -218,6 +229,36 @@ TEST_CASE("Visibility: depth range, image margin and border-weighted misses", "[
   }
   CHECK(miss_centre / double(n) == Approx(0.02).margin(0.004));
   CHECK(miss_border / double(n) == Approx(0.17).margin(0.01));
+}
+
+// The same rules at each of the four image edges (left, right, top, bottom): in view 1 px inside the
+// margin, out 1 px outside it, and the border-band miss probability halfway (30 px) into the band.
+TEST_CASE("Visibility: the margin and the border band at every image edge", "[sim][visibility]") {
+  const VisibilityConfig vis;  // margin 10 px, band 60 px, 2 % + 30 %
+  const double z = 1.5;
+  const auto at_pixel = [&](double u, double v) {
+    return Pose(Eigen::Quaterniond::Identity(),
+                Eigen::Vector3d((u - kCam.cx) / kCam.fx * z, (v - kCam.cy) / kCam.fy * z, z));
+  };
+  const double uc = 0.5 * kCam.width, vc = 0.5 * kCam.height;
+  struct Edge {
+    const char* name;
+    double du, dv;  // pixel offset per px of distance *into* the image from the edge line
+    double u0, v0;  // a point on the edge line
+  };
+  const Edge edges[] = {{"left", 1, 0, 0, vc},
+                        {"right", -1, 0, static_cast<double>(kCam.width), vc},
+                        {"top", 0, 1, uc, 0},
+                        {"bottom", 0, -1, uc, static_cast<double>(kCam.height)}};
+  for (const Edge& e : edges) {
+    INFO(e.name << " edge");
+    const auto inside = [&](double px) { return at_pixel(e.u0 + e.du * px, e.v0 + e.dv * px); };
+    CHECK(object_in_view(inside(11.0), kCam, vis));
+    CHECK_FALSE(object_in_view(inside(9.0), kCam, vis));
+    CHECK(miss_probability(inside(10.0 + 30.0), kCam, vis) == Approx(0.02 + 0.15).margin(1e-9));
+    CHECK(miss_probability(inside(10.0 + 60.0), kCam, vis) == Approx(0.02).margin(1e-9));
+    CHECK(miss_probability(inside(10.0 + 15.0), kCam, vis) == Approx(0.02 + 0.3 * 0.75).margin(1e-9));
+  }
 }
 
 TEST_CASE("YCB-V names and symmetries", "[sim]") {
