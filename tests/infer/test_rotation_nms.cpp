@@ -91,6 +91,12 @@ TEST_CASE("YOLO rows → candidates: objectness gate, multi-label, pixels", "[nm
   const auto c1 = yolo_candidates(rows, 3, 8, 200, 100, o);
   REQUIRE(c1.size() == 1);
   CHECK(c1[0].class_id == 0);
+  // Single label: the best class wherever it is, with its own score.
+  const float late[] = {0.5f, 0.5f, 0.25f, 0.5f, 0.9f, 0.2f, 0.3f, 0.6f};
+  const auto c2 = yolo_candidates(late, 1, 8, 200, 100, o);
+  REQUIRE(c2.size() == 1);
+  CHECK(c2[0].class_id == 2);
+  CHECK(c2[0].score == Approx(0.6));
 }
 
 TEST_CASE("class-aware NMS on crafted boxes", "[nms]") {

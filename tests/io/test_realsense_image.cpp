@@ -64,11 +64,25 @@ TEST_CASE("distortion models: closed forms and distort/undistort round trips", "
   // Inverse Brown–Conrady: the same polynomial UNdistorts.
   const auto ib = model(Distortion::kInverseBrownConrady, bc);
   CHECK((ib.undistort(p) - expect).norm() < 1e-15);
+  // Modified Brown–Conrady (librealsense's rs2_project_point_to_pixel): the radial factor scales x and y
+  // first, and the tangential terms use the scaled x, y with the unscaled r².
+  const auto mb = model(Distortion::kModifiedBrownConrady, bc);
+  const double xm = p.x() * f, ym = p.y() * f;
+  const Eigen::Vector2d expect_mb(xm + 2 * bc[2] * xm * ym + bc[3] * (r2 + 2 * xm * xm),
+                                  ym + 2 * bc[3] * xm * ym + bc[2] * (r2 + 2 * ym * ym));
+  CHECK((mb.distort(p) - expect_mb).norm() < 1e-15);
+  CHECK((mb.distort(p) - expect).norm() > 1e-5);  // differs from Brown–Conrady at this point
   // KB4: θ_d = θ(1 + k1θ² + ...), along the ray.
   const auto kb = model(Distortion::kKannalaBrandt4, {0.05, -0.01, 0.002, -0.0004, 0});
   const double th = std::atan(p.norm());
   const double thd = th * (1 + 0.05 * th * th - 0.01 * std::pow(th, 4) + 0.002 * std::pow(th, 6) - 0.0004 * std::pow(th, 8));
   CHECK((kb.distort(p) - p * (thd / p.norm())).norm() < 1e-15);
+  // Fisheye field of view (rays 63–72° off the axis, as a T265 sees them): the radial derivative of
+  // distort is ~0.1 there, so undistort needs true Newton steps to converge.
+  for (const Eigen::Vector2d& u : {Eigen::Vector2d(2.0, 1.5), Eigen::Vector2d(-2.5, 0.5), Eigen::Vector2d(0.3, -2.0)}) {
+    INFO("u = " << u.transpose());
+    CHECK((kb.undistort(kb.distort(u)) - u).norm() < 1e-9);
+  }
   for (const auto& m : {b, ib, kb, model(Distortion::kModifiedBrownConrady, bc), model(Distortion::kFtheta, {0.9, 0, 0, 0, 0}),
                         model(Distortion::kNone, {})}) {
     INFO(image::distortion_name(m.model));
