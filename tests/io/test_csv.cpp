@@ -71,6 +71,19 @@ TEST_CASE("csv: header names are trimmed and alternatives accepted", "[csv]") {
   CHECK(r.get_double(1) == 2.0);
   auto r2 = CsvReader::from_text("\xEF\xBB\xBF#timestamp [ns],p [m]\n1,2\n", "t.csv", o);  // BOM
   REQUIRE(r2.next());
+
+  // Every alternative of a three-way spec matches on its own, the middle one included; a prefix or a
+  // concatenation of alternatives does not.
+  o.expected_header = {"t [ns]|t [s]|t", "p [m]"};
+  for (const char* name : {"t [ns]", "t [s]", "t"}) {
+    auto r3 = CsvReader::from_text(std::string("#") + name + ",p [m]\n1,2\n", "t.csv", o);
+    CHECK(r3.header()[0] == name);
+  }
+  for (const char* name : {"t [", "t [s]|t", "t [ns]|t [s]"}) {
+    auto e = expect_input_error([&] { (void)CsvReader::from_text(std::string("#") + name + ",p [m]\n1,2\n", "t.csv", o); });
+    CHECK(e.context().column == 1);
+    CHECK(std::string(e.what()).find("'t [ns]' or 't [s]' or 't'") != std::string::npos);
+  }
 }
 
 TEST_CASE("csv: bad header reports the header line and the column", "[csv]") {
@@ -356,6 +369,10 @@ TEST_CASE("csv: decimal seconds to integer nanoseconds, exactly", "[csv][time]")
        {"", "-", ".", "abc", "1.5x", "1e", "1e+", "nan", "inf", "1..2", "1e5.5", "9.3e9", "--1"})
     CHECK_FALSE(parse_seconds_ns(bad).has_value());
   CHECK(parse_seconds_ns("9.2e9") == 9'200'000'000'000'000'000LL);
+  // The text ends where the view ends, even when digits follow it in memory.
+  CHECK(parse_seconds_ns(std::string_view("5e-31234", 4)) == 5'000'000LL);
+  CHECK(parse_seconds_ns(std::string_view("1.5e+0999", 6)) == 1'500'000'000LL);
+  CHECK(parse_seconds_ns(std::string_view("2.25999", 4)) == 2'250'000'000LL);
 
   CHECK(format_seconds_ns(1403715523912140000LL) == "1403715523.912140000");
   CHECK(format_seconds_ns(5) == "0.000000005");

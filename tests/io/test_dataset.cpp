@@ -218,6 +218,15 @@ TEST_CASE("dataset: write then read gives identical structs and writing twice id
   CHECK(io::read_dataset(tmp.path / "a").manifest.name == "small");
 }
 
+TEST_CASE("dataset: the committed sample manifest is written back byte for byte", "[dataset][manifest]") {
+  // roe.json's layout (key order, two-space indentation at every depth, flat arrays on one line) is
+  // part of what users diff between datasets: reading and writing the sample changes no byte.
+  const fs::path sample = fs::path(ROE_SOURCE_DIR) / "datasets" / "sample" / "roe.json";
+  TempDir tmp("manifest-bytes");
+  io::write_manifest(io::read_manifest(sample.parent_path()), tmp.path / "roe.json");
+  CHECK(io::read_file(tmp.path / "roe.json") == io::read_file(sample));
+}
+
 TEST_CASE("dataset: a folder without roe.json is refused", "[dataset]") {
   TempDir tmp("nomanifest");
   auto e = expect_input_error([&] { io::read_dataset(tmp.path); });
@@ -497,6 +506,12 @@ TEST_CASE("dataset: writers refuse unsorted streams and invalid manifests", "[da
   CHECK_THROWS_AS(io::write_detections_csv(tmp.path / "d.csv", dets), InternalError);
   dets[1].object_id = 3;
   CHECK_NOTHROW(io::write_detections_csv(tmp.path / "d.csv", dets));
+  // Every earlier detection of the same stamp is compared, not only the previous one.
+  dets.push_back(dets[0]);
+  dets.back().object_id = 4;
+  CHECK_NOTHROW(io::write_detections_csv(tmp.path / "d.csv", dets));  // objects 0, 3, 4 at t = 5
+  dets.back().object_id = 0;
+  CHECK_THROWS_AS(io::write_detections_csv(tmp.path / "d.csv", dets), InternalError);  // 0 again, two rows back
   CHECK_FALSE(fs::exists(tmp.path / "imu.csv"));
   DatasetManifest m;
   m.objects = {{3, "a", false}, {3, "b", true}};

@@ -149,6 +149,39 @@ TEST_CASE("vicon: Tracker-style Objects section", "[io][mocap]") {
   CHECK_THROWS_AS(io::read_vicon_csv(d.write("nov.csv", "Trajectories\n100\n")), InputError);
 }
 
+TEST_CASE("vicon: Nexus-style Segments section, a body by its segment name, full rotation vectors", "[io][mocap]") {
+  TempDir d;
+  const std::string text =
+      "Segments\n200\n,,Rig:base,,,,,,Wand:tip,,,,,\n"
+      "Frame,Sub Frame,RX,RY,RZ,TX,TY,TZ,RX,RY,RZ,TX,TY,TZ\n"
+      ",,rad,rad,rad,m,m,m,rad,rad,rad,m,m,m\n"
+      "5,0,0.1,0.2,0.3,1,2,3,0.4,-0.5,0.6,4,5,6\n"
+      "6,0,-0.3,0.1,0.2,-1,-2,-3,-0.7,0.2,0.1,-4,-5,-6\n";
+  const fs::path f = d.write("n.csv", text);
+  // The rotation columns are a rotation vector (axis x angle), each component in its own column.
+  const auto rotvec = [](double x, double y, double z) {
+    const Eigen::Vector3d v(x, y, z);
+    return Eigen::Quaterniond(Eigen::AngleAxisd(v.norm(), v.normalized()));
+  };
+  const auto tip = io::read_vicon_csv(f, "tip");  // "Subject:Segment" matched by the segment name
+  CHECK(tip.body == "Wand:tip");
+  REQUIRE(tip.poses.size() == 2);
+  CHECK(tip.poses[1].t_ns == 5'000'000);
+  CHECK(tip.poses[0].T.p == Eigen::Vector3d(4, 5, 6));
+  CHECK(tip.poses[1].T.p == Eigen::Vector3d(-4, -5, -6));
+  CHECK(math::angle_between(tip.poses[0].T.q, rotvec(0.4, -0.5, 0.6)) < 1e-12);
+  CHECK(math::angle_between(tip.poses[1].T.q, rotvec(-0.7, 0.2, 0.1)) < 1e-12);
+  const auto base = io::read_vicon_csv(f, "Rig:base");  // or by the whole label
+  CHECK(base.body == "Rig:base");
+  REQUIRE(base.poses.size() == 2);
+  CHECK(base.poses[1].T.p == Eigen::Vector3d(-1, -2, -3));
+  CHECK(math::angle_between(base.poses[0].T.q, rotvec(0.1, 0.2, 0.3)) < 1e-12);
+  CHECK(math::angle_between(base.poses[1].T.q, rotvec(-0.3, 0.1, 0.2)) < 1e-12);
+  // Only a whole segment name after the ':' matches.
+  for (const char* part : {"ip", "Wand", "d:tip", "base:"})
+    CHECK_THROWS_WITH(io::read_vicon_csv(f, part), Catch::Contains("is not in the file"));
+}
+
 TEST_CASE("bag poses: PoseStamped, TransformStamped, Odometry and TF topics", "[io][mocap]") {
   TempDir d;
   testing::BagWriter w("lz4", 1000);

@@ -2,6 +2,7 @@
 // time ordering across chunks, damaged bags, message decoders, and the real files in ../shared/data.
 #include <catch2/catch.hpp>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -47,6 +48,25 @@ std::vector<Timestamp> imu_stamps(bag::Reader& r) {
 
 std::string shared(const char* rel) { return std::string(ROE_SHARED_DATA_DIR) + "/" + rel; }
 
+std::uint32_t get_le32(const std::string& b, std::size_t at) {
+  std::uint32_t v = 0;
+  for (int k = 3; k >= 0; --k) v = (v << 8) | static_cast<unsigned char>(b.at(at + k));
+  return v;
+}
+
+void put_le32(std::string& b, std::size_t at, std::uint32_t v) {
+  for (int k = 0; k < 4; ++k) b.at(at + k) = static_cast<char>((v >> (8 * k)) & 0xFF);
+}
+
+std::size_t count_messages(bag::Reader& r) {
+  std::size_t n = 0;
+  r.for_each_topic({"/imu", "/pose"}, [&](const bag::MessageView&) {
+    ++n;
+    return true;
+  });
+  return n;
+}
+
 }  // namespace
 
 TEST_CASE("rosbag: round trip for every compression, indexed and unindexed", "[io][rosbag]") {
@@ -84,8 +104,47 @@ TEST_CASE("rosbag: force_scan gives the same content as the index", "[io][rosbag
   o.force_scan = true;
   bag::Reader a(b, "a"), s(b, "s", o);
   CHECK_FALSE(s.indexed());
-  CHECK(a.message_count() == s.message_count());
+  CHECK(a.message_count() == 330);
+  CHECK(s.message_count() == 330);
   CHECK(imu_stamps(a) == imu_stamps(s));
+  // The scan rebuilds each chunk's summary (times from its index records) exactly as the index has it.
+  REQUIRE(a.chunks().size() == s.chunks().size());
+  for (std::size_t k = 0; k < a.chunks().size(); ++k) {
+    CAPTURE(k);
+    CHECK(s.chunks()[k].offset == a.chunks()[k].offset);
+    CHECK(s.chunks()[k].start_ns == a.chunks()[k].start_ns);
+    CHECK(s.chunks()[k].end_ns == a.chunks()[k].end_ns);
+    CHECK(s.chunks()[k].counts == a.chunks()[k].counts);
+  }
+}
+
+TEST_CASE("rosbag: chunks beyond 64 KiB (growing decompression buffers) and progress totals", "[io][rosbag]") {
+  for (const char* comp : {"none", "lz4", "bz2"}) {
+    INFO(comp);
+    bag::Reader r(small_bag(comp, true, 1u << 20), "big.bag");
+    REQUIRE(r.chunks().size() == 1);
+    REQUIRE(r.chunks()[0].uncompressed_size > (1u << 16));  // the decompressors start at 64 KiB
+    CHECK(r.message_count() == 330);
+    std::size_t seen = 0, last_done = 0, last_total = 0, calls = 0;
+    r.for_each_topic(
+        {"/imu"},
+        [&](const bag::MessageView& m) {
+          const auto imu = ros::decode_imu(m.data, "test");
+          CHECK(imu.header.seq == seen);
+          CHECK(imu.angular_velocity.z() == 0.5 * seen);
+          ++seen;
+          return true;
+        },
+        [&](std::size_t done, std::size_t total) {
+          ++calls;
+          last_done = done;
+          last_total = total;
+        });
+    CHECK(seen == 300);
+    CHECK(calls == 300);
+    CHECK(last_done == 300);
+    CHECK(last_total == 300);  // the selected topic's messages only
+  }
 }
 
 TEST_CASE("rosbag: iteration is in record-time order across chunks that overlap", "[io][rosbag]") {
@@ -164,6 +223,46 @@ TEST_CASE("rosbag: a corrupt chunk is skipped with a warning, the others are rea
   }
 }
 
+TEST_CASE("rosbag: a record whose lengths overrun its chunk ends the chunk there, with the reason", "[io][rosbag]") {
+  const std::string clean_bytes = small_bag("none");
+  bag::Reader clean(clean_bytes, "clean");
+  REQUIRE(clean.chunks().size() > 3);
+  const bag::ChunkInfo c = clean.chunks()[1];
+  REQUIRE(c.compression == "none");
+  // The chunk's records: [u32 header length][header][u32 data length][data] ... up to data_size.
+  std::vector<std::size_t> records;
+  for (std::size_t p = 0; p < c.data_size;) {
+    records.push_back(p);
+    const std::size_t hlen = get_le32(clean_bytes, c.data_offset + p);
+    p += 8 + hlen + get_le32(clean_bytes, c.data_offset + p + 4 + hlen);
+  }
+  REQUIRE(records.size() > 2);
+  const std::size_t last = records.back();  // a message record ending exactly at the chunk's end
+  const std::uint32_t hlen = get_le32(clean_bytes, c.data_offset + last);
+  const std::uint32_t dlen = get_le32(clean_bytes, c.data_offset + last + 4 + hlen);
+  REQUIRE(last + 8 + hlen + dlen == c.data_size);
+  const std::size_t all = count_messages(clean);
+
+  const auto check_damage = [&](std::size_t field, std::uint32_t value, const std::string& why) {
+    INFO(why);
+    std::string b = clean_bytes;
+    put_le32(b, c.data_offset + field, value);
+    bag::Reader r(b, "bad.bag");
+    CHECK(count_messages(r) == all - 1);  // only the damaged record is lost
+    bool found = false;
+    for (const auto& w : r.warnings())
+      found = found || (w.offset == c.offset &&
+                        w.message.find("uncompressed offset " + std::to_string(last) + ": " + why) != std::string::npos);
+    CHECK(found);
+  };
+  // One byte too long, for the data and for the header.
+  check_damage(last + 4 + hlen, dlen + 1, "record data runs past the end");
+  check_damage(last, static_cast<std::uint32_t>(c.data_size - last - 4 + 1), "record header runs past the end");
+  // Lengths that wrap around when added to the offset.
+  check_damage(last + 4 + hlen, 0xFFFFFFFFu, "record data runs past the end");
+  check_damage(last, 0xFFFFFFF0u, "record header runs past the end");
+}
+
 TEST_CASE("rosbag: unknown compression and absurd sizes are skipped, not trusted", "[io][rosbag]") {
   std::string b = small_bag("none");
   bag::Reader clean(b, "clean");
@@ -207,6 +306,22 @@ TEST_CASE("ros_msgs: decoders check bounds and trailing bytes", "[io][rosbag]") 
   CHECK(back.D == ci.D);
   CHECK(back.K == ci.K);
   CHECK(back.distortion_model == ci.distortion_model);
+  // float32 fields (realsense_msgs/ImuIntrinsic, std_msgs/Float32), each value in its place.
+  ros::ImuIntrinsic ii;
+  for (std::size_t k = 0; k < ii.data.size(); ++k) ii.data[k] = 0.5f + static_cast<float>(k);
+  for (std::size_t k = 0; k < ii.noise_variances.size(); ++k) ii.noise_variances[k] = -1.25f * (1.0f + k);
+  for (std::size_t k = 0; k < ii.bias_variances.size(); ++k) ii.bias_variances[k] = 1e-6f * (3.0f + k);
+  const auto iback = ros::decode_rs_imu_intrinsic(ros::encode_rs_imu_intrinsic(ii), "t");
+  CHECK(iback.data == ii.data);
+  CHECK(iback.noise_variances == ii.noise_variances);
+  CHECK(iback.bias_variances == ii.bias_variances);
+  CHECK_THROWS_WITH(ros::decode_rs_imu_intrinsic(ros::encode_rs_imu_intrinsic(ii) + "x", "t"),
+                    Catch::Contains("trailing"));
+  const float f = -3.75f;
+  std::string f_bytes(4, '\0');
+  std::memcpy(f_bytes.data(), &f, 4);  // little-endian, as ROS serialises it (and every machine roe runs on)
+  CHECK(ros::decode_float32(f_bytes, "t") == f);
+  CHECK_THROWS_AS(ros::decode_float32(f_bytes.substr(1), "t"), InputError);
 }
 
 TEST_CASE("rosbag: the real RealSense recorder bag", "[io][rosbag][shared]") {

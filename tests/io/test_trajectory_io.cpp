@@ -129,17 +129,15 @@ TEST_CASE("CSV reader: any column order, covariance columns", "[io][trajectory]"
     const Trajectory t = parse_trajectory(
         "qrr,qrp,qry,qpp,qpy,qyy,pxx,pxy,pxz,pyy,pyz,pzz,t,tx,ty,tz,qx,qy,qz,qw,est_err_type,err_"
         "representation\n"
-        "0.1,0,0,0.2,0,0.3,1,0.5,0,2,0,3,10,0,0,0,0,0,0,1,type1,theta_R\n",
+        "0.1,0.01,0.02,0.2,0.03,0.3,1,0.5,0.25,2,0.75,3,10,0,0,0,0,0,0,1,type1,theta_R\n",
         "x.csv");
     REQUIRE(t.cov.size() == 1);
     CHECK(t.cov_position_local);
-    CHECK(t.cov[0](0, 0) == 1.0);
-    CHECK(t.cov[0](0, 1) == 0.5);
-    CHECK(t.cov[0](1, 0) == 0.5);
-    CHECK(t.cov[0](2, 2) == 3.0);
-    CHECK(t.cov[0](3, 3) == 0.1);
-    CHECK(t.cov[0](5, 5) == 0.3);
-    CHECK(t.cov[0](0, 3) == 0.0);
+    // Every entry in its place: two symmetric 3x3 blocks, no position-orientation correlation.
+    Eigen::Matrix<double, 6, 6> want = Eigen::Matrix<double, 6, 6>::Zero();
+    want.topLeftCorner<3, 3>() << 1, 0.5, 0.25, 0.5, 2, 0.75, 0.25, 0.75, 3;
+    want.bottomRightCorner<3, 3>() << 0.1, 0.01, 0.02, 0.01, 0.2, 0.03, 0.02, 0.03, 0.3;
+    CHECK(t.cov[0] == want);
   }
   SECTION("PoseWithCov 21 entries") {
     std::string h =
@@ -154,6 +152,12 @@ TEST_CASE("CSV reader: any column order, covariance columns", "[io][trajectory]"
     CHECK(t.cov[0](5, 0) == 6);
     CHECK(t.cov[0](1, 1) == 7);
     CHECK(t.cov[0](5, 5) == 21);
+    // Row-major upper triangle: entry (a, b), a <= b, is number 1 + 6a - a(a-1)/2 + (b - a).
+    for (int a = 0; a < 6; ++a)
+      for (int b = a; b < 6; ++b) {
+        CHECK(t.cov[0](a, b) == 1 + 6 * a - a * (a - 1) / 2 + (b - a));
+        CHECK(t.cov[0](b, a) == t.cov[0](a, b));
+      }
     CHECK_FALSE(t.cov_position_local);
   }
   SECTION("PoseTypedStamped (an err_matched_aligned.csv)") {
