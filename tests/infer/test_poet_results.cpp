@@ -1,8 +1,10 @@
 // PoET results.json reader: the file as PoET's inference tool writes it, and its edge cases.
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 
+#include "support/test_util.hpp"
 #include "roe/core/error.hpp"
 #include "roe/io/poet_results.hpp"
 #include "roe/math/so3.hpp"
@@ -132,4 +134,57 @@ TEST_CASE("PoET's image id rule", "[poet_results]") {
   CHECK(ycbv_class_names().size() == 22);
   CHECK(ycbv_class_names()[5] == "006_mustard_bottle");
   CHECK(ycbv_class_names()[21] == "061_foam_brick");
+}
+
+TEST_CASE("the tokenizer: -Infinity, keywords run on into names, \\u escapes, nesting depth", "[poet_results]") {
+  const auto one = [](const std::string& id, const std::string& t) {
+    return R"({")" + id + R"(": {"0": {"t": )" + t + R"(, "rot": [1,0,0,0], "class": 1}}})";
+  };
+  // The sign of -Infinity is kept.
+  const auto r = parse_poet_results(one("a", "[Infinity, -Infinity, 1]"), "results.json");
+  CHECK(r.images[0].detections[0].t.x() == std::numeric_limits<double>::infinity());
+  CHECK(r.images[0].detections[0].t.y() == -std::numeric_limits<double>::infinity());
+  // NaN / Infinity followed by letters, digits or '_' are not the keywords.
+  for (const char* t : {"[0, 0, NaNx]", "[0, 0, Infinity2]", "[0, 0, NaN_]"}) {
+    INFO(t);
+    const std::string e = expect_error(one("a", t));
+    CAPTURE(e);
+    CHECK(e.find("results.json:1:26") != std::string::npos);
+    CHECK(e.find("unexpected character") != std::string::npos);
+  }
+  // \u escapes in ids: decimal and both cases of hex digits, and a surrogate pair (U+1F600), to UTF-8.
+  CHECK(parse_poet_results(one("caf\\u00e9_\\u00C9_\\u0041\\u0030", "[0,0,1]"), "r").images[0].id ==
+        "caf\xC3\xA9_\xC3\x89_A0");
+  CHECK(parse_poet_results(one("\\ud83d\\ude00\\uD83D\\uDE4F", "[0,0,1]"), "r").images[0].id ==
+        "\xF0\x9F\x98\x80\xF0\x9F\x99\x8F");
+  CHECK(expect_error(one("\\ud83dx", "[0,0,1]")).find("unpaired UTF-16 surrogate") != std::string::npos);
+  CHECK(expect_error(one("\\ud83d\\u0041", "[0,0,1]")).find("invalid UTF-16 surrogate pair") != std::string::npos);
+  CHECK(expect_error(one("\\u00g9", "[0,0,1]")).find("invalid \\u escape") != std::string::npos);
+  // Nesting: 64 levels are fine (the document is then refused for its content), 65 are not, whether
+  // the levels are arrays or objects.
+  const auto arrays = [](int n) { return std::string(n, '[') + std::string(n, ']'); };
+  std::string objects;
+  for (int k = 0; k < 70; ++k) objects += "{\"a\": ";
+  objects += "1" + std::string(70, '}');
+  CHECK(expect_error(arrays(64)).find("nested too deeply") == std::string::npos);
+  CHECK(expect_error(arrays(66)).find("nested too deeply") != std::string::npos);
+  CHECK(expect_error(objects).find("nested too deeply") != std::string::npos);
+}
+
+TEST_CASE("PoET's image id rule without an extension, and class-name files", "[poet_results]") {
+  // Python's name[name.find('_') + 1 : name.rfind('.')] with no '.': the end index is -1, the last
+  // character is dropped. roe reproduces it, so ids match what PoET wrote.
+  CHECK(poet_image_id("rgb_17") == "1");
+  CHECK(poet_image_id("cam_rgb_170") == "rgb_17");
+  CHECK(poet_image_id("frame17") == "frame17");
+  CHECK(poet_image_id("a.b_c.png") == "c");   // from the first '_' to the last '.'
+  CHECK(poet_image_id("x.y_z.png") == "z");
+  CHECK(poet_image_id("x_y.z_w") == "y");
+  CHECK(poet_image_id("x.y_z").empty());       // the first '_' after the last '.': an empty slice
+
+  // A class-name file {"id": "name"} in any order; ids missing from it get empty names.
+  roe::test::TempDir d("poet-classes");
+  const auto names = read_poet_class_names(d.write("classes.json", R"({"3": "c", "1": "a", "0": "bg"})"));
+  CHECK(names == std::vector<std::string>{"bg", "a", "", "c"});
+  CHECK(read_poet_class_names(d.write("one.json", R"({"5": "e"})")).size() == 6);
 }

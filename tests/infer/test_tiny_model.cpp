@@ -35,6 +35,42 @@ TEST_CASE(".npy reader and writer", "[tensor]") {
   fs::remove(tmp);
 }
 
+TEST_CASE(".npy format versions 2.0 and 3.0 (32-bit header length), float64 and int32 data", "[tensor]") {
+  // The files NumPy writes when a header does not fit in 65535 bytes (2.0) or holds UTF-8 (3.0):
+  // magic, version, a little-endian uint32 header length, the dict padded to 64 bytes, the data.
+  const auto npy = [](char major, const std::string& dict, const std::string& data) {
+    std::string h = dict;
+    while ((12 + h.size() + 1) % 64 != 0) h += ' ';
+    h += '\n';
+    std::string out = std::string("\x93NUMPY", 6) + major + '\0';
+    for (int k = 0; k < 4; ++k) out += static_cast<char>((h.size() >> (8 * k)) & 0xFF);
+    return out + h + data;
+  };
+  std::string f8, i4;
+  for (int k = 0; k < 6; ++k) {
+    const double v = 0.25 * k - 0.5;
+    f8.append(reinterpret_cast<const char*>(&v), 8);
+  }
+  for (std::int32_t v : {7, -3, 65536}) i4.append(reinterpret_cast<const char*>(&v), 4);
+  const fs::path tmp = fs::temp_directory_path() / ("roe_npy2_" + std::to_string(::getpid()) + ".npy");
+  roe::io::write_file_atomic(tmp, npy('\2', "{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3), }", f8));
+  const HostTensor a = read_npy(tmp);
+  CHECK(a.shape == std::vector<std::int64_t>{2, 3});
+  CHECK_FALSE(a.is_int);
+  CHECK(a.f == std::vector<float>{-0.5f, -0.25f, 0.0f, 0.25f, 0.5f, 0.75f});
+  roe::io::write_file_atomic(tmp, npy('\3', "{'descr': '<i4', 'fortran_order': False, 'shape': (3,), }", i4));
+  const HostTensor b = read_npy(tmp);
+  CHECK(b.shape == std::vector<std::int64_t>{3});
+  CHECK(b.is_int);
+  CHECK(b.i == std::vector<std::int64_t>{7, -3, 65536});
+  // A header length beyond the file is an error, not a read past the end.
+  std::string cut = npy('\2', "{'descr': '<i4', 'fortran_order': False, 'shape': (3,), }", i4);
+  cut[8] = '\xFF';
+  roe::io::write_file_atomic(tmp, cut);
+  CHECK_THROWS_WITH(read_npy(tmp), Catch::Contains("truncated .npy header"));
+  fs::remove(tmp);
+}
+
 #ifdef ROE_HAVE_TORCH
 
 TEST_CASE("tiny bundle: self-test within tolerance (pose head 1e-5, Darknet taps 1e-4)", "[model][torch]") {
@@ -123,6 +159,44 @@ TEST_CASE("full pipeline on one frame: boxes → queries → poses", "[model][to
     CHECK(d.score > 0.4);
   }
   CHECK(r.boxes_after_nms == 3);
+}
+
+TEST_CASE("pose-head outputs to detections: each query keeps its own translation, sigma, box and class", "[model][torch]") {
+  PoetBundle b = read_bundle(kTiny);
+  b.pose.aleatoric = true;  // outputs crafted below; the tiny head itself has no variance outputs
+  ModelOptions opt;
+  opt.selftest = false;
+  const PoetModel model(b, opt);
+  const std::size_t Q = static_cast<std::size_t>(b.num_queries);
+  REQUIRE(Q == 4);
+  std::vector<float> t, r6, lv_t, lv_r;
+  for (std::size_t q = 0; q < Q; ++q) {
+    const float f = static_cast<float>(q);
+    t.insert(t.end(), {0.125f + f, -0.25f - f, 0.5f + 2 * f});
+    r6.insert(r6.end(), {1, 0, 0, 0, 1, 0});  // identity in either 6D convention
+    lv_t.insert(lv_t.end(), {-8.0f + f, -7.0f + f, -6.0f + f});
+    lv_r.insert(lv_r.end(), {-4.0f - f, -3.0f - f, -2.0f - f});
+  }
+  std::vector<BoxDetection> boxes;
+  for (int q = 0; q < 3; ++q) boxes.push_back({10.0 + q, 20.0 + q, 40.0 + q, 60.0 + q, 0.9 - 0.1 * q, 2 + q});
+  const auto dets = model.decode_outputs({HostTensor::floats({4, 3}, t), HostTensor::floats({4, 6}, r6),
+                                          HostTensor::floats({4, 3}, lv_t), HostTensor::floats({4, 3}, lv_r)},
+                                         boxes);
+  REQUIRE(dets.size() == 3);  // one per box; the spare query is ignored
+  for (std::size_t q = 0; q < 3; ++q) {
+    CAPTURE(q);
+    const double s = b.translation_scale;
+    CHECK(dets[q].T_C_O.p.isApprox(s * Eigen::Vector3d(t[3 * q], t[3 * q + 1], t[3 * q + 2]), 1e-12));
+    CHECK(dets[q].T_C_O.R().isApprox(Eigen::Matrix3d::Identity(), 1e-12));
+    CHECK(dets[q].class_id == boxes[q].class_id);
+    CHECK(dets[q].score == boxes[q].score);
+    CHECK(dets[q].box == std::array<double, 4>{boxes[q].x1, boxes[q].y1, boxes[q].x2, boxes[q].y2});
+    REQUIRE(dets[q].sigma.has_value());
+    for (std::size_t k = 0; k < 3; ++k) {  // sigma = sqrt(exp(log-variance)), translation in metres
+      CHECK((*dets[q].sigma)[k] == Approx(s * std::exp(0.5 * lv_t[3 * q + k])).epsilon(1e-12));
+      CHECK((*dets[q].sigma)[3 + k] == Approx(std::exp(0.5 * lv_r[3 * q + k])).epsilon(1e-12));
+    }
+  }
 }
 
 #else
