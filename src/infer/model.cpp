@@ -325,6 +325,24 @@ std::vector<PoseDetection> PoetModel::decode_outputs(const std::vector<HostTenso
   return dets;
 }
 
+std::vector<HostTensor> pose_queries(const std::vector<BoxDetection>& boxes, std::size_t num_queries, int width,
+                                     int height) {
+  // Normalised cx, cy, w, h per query; padding rows −1 and class −1 (PoET's placeholders).
+  const std::size_t Q = num_queries;
+  HostTensor tb = HostTensor::floats({static_cast<std::int64_t>(Q), 4}, std::vector<float>(Q * 4, -1.0f));
+  HostTensor tc = HostTensor::ints({static_cast<std::int64_t>(Q)}, std::vector<std::int64_t>(Q, -1));
+  const double W = width, H = height;
+  for (std::size_t q = 0; q < std::min(Q, boxes.size()); ++q) {
+    const auto& bx = boxes[q];
+    tb.f[4 * q + 0] = static_cast<float>((bx.x1 + bx.x2) / 2 / W);
+    tb.f[4 * q + 1] = static_cast<float>((bx.y1 + bx.y2) / 2 / H);
+    tb.f[4 * q + 2] = static_cast<float>((bx.x2 - bx.x1) / W);
+    tb.f[4 * q + 3] = static_cast<float>((bx.y2 - bx.y1) / H);
+    tc.i[q] = bx.class_id;
+  }
+  return {std::move(tb), std::move(tc)};
+}
+
 FrameResult PoetModel::infer(const std::string& encoded_image, const std::vector<BoxDetection>* external_boxes,
                              const std::string& source) {
   auto& m = *impl_;
@@ -373,19 +391,7 @@ FrameResult PoetModel::infer(const std::string& encoded_image, const std::vector
 
   t0 = clock::now();
   if (!boxes.empty()) {
-    // Queries: normalised cx, cy, w, h; padding rows −1 / class −1 (PoET's placeholders).
-    HostTensor tb = HostTensor::floats({static_cast<std::int64_t>(Q), 4}, std::vector<float>(Q * 4, -1.0f));
-    HostTensor tc = HostTensor::ints({static_cast<std::int64_t>(Q)}, std::vector<std::int64_t>(Q, -1));
-    const double W = m.b.image.width, Hh = m.b.image.height;
-    for (std::size_t q = 0; q < boxes.size(); ++q) {
-      const auto& bx = boxes[q];
-      tb.f[4 * q + 0] = static_cast<float>((bx.x1 + bx.x2) / 2 / W);
-      tb.f[4 * q + 1] = static_cast<float>((bx.y1 + bx.y2) / 2 / Hh);
-      tb.f[4 * q + 2] = static_cast<float>((bx.x2 - bx.x1) / W);
-      tb.f[4 * q + 3] = static_cast<float>((bx.y2 - bx.y1) / Hh);
-      tc.i[q] = bx.class_id;
-    }
-    std::vector<HostTensor> in = {std::move(tb), std::move(tc)};
+    std::vector<HostTensor> in = pose_queries(boxes, Q, m.b.image.width, m.b.image.height);
     if (m.b.pose.inputs == PoseInputs::kImage) in.push_back(blob);
     else for (auto& f : feats) in.push_back(std::move(f));
     const auto out = m.head->forward(in);

@@ -68,7 +68,36 @@ TEST_CASE(".npy format versions 2.0 and 3.0 (32-bit header length), float64 and 
   cut[8] = '\xFF';
   roe::io::write_file_atomic(tmp, cut);
   CHECK_THROWS_WITH(read_npy(tmp), Catch::Contains("truncated .npy header"));
+  roe::io::write_file_atomic(tmp, npy('\2', "{'descr': '<i4', 'fortran_order': False, 'shape': (3,), }", i4.substr(1)));
+  CHECK_THROWS_WITH(read_npy(tmp), Catch::Contains("truncated .npy data (11 bytes for 3 elements)"));
+  // What roe writes is format 1.0 with the data 64-byte aligned, as NumPy requires.
+  write_npy(tmp, HostTensor::ints({2}, {5, -6}));
+  const std::string w = roe::io::read_file(tmp);
+  REQUIRE(w.size() > 10);
+  CHECK(w[6] == '\1');
+  const std::size_t header_len = static_cast<unsigned char>(w[8]) | (static_cast<std::size_t>(static_cast<unsigned char>(w[9])) << 8);
+  CHECK((10 + header_len) % 64 == 0);
+  CHECK(w.size() == 10 + header_len + 16);
+  CHECK(read_npy(tmp).i == std::vector<std::int64_t>{5, -6});
+  // max_abs_diff on integers is the largest |a - b|.
+  CHECK(max_abs_diff(HostTensor::ints({3}, {1, 2, -4}), HostTensor::ints({3}, {1, 5, -5})) == 3.0);
   fs::remove(tmp);
+}
+
+TEST_CASE("pose-head queries: normalised cx, cy, w, h and class per box, PoET's -1 padding", "[model]") {
+  std::vector<BoxDetection> boxes = {{10, 20, 50, 100, 0.9, 7}, {0, 0, 64, 32, 0.8, 2}};
+  auto q = pose_queries(boxes, 3, 64, 128);
+  REQUIRE(q.size() == 2);
+  CHECK(q[0].shape == std::vector<std::int64_t>{3, 4});
+  CHECK(q[0].f == std::vector<float>{30.0f / 64, 60.0f / 128, 40.0f / 64, 80.0f / 128,  // box 0
+                                     0.5f, 0.125f, 1.0f, 0.25f,                          // box 1
+                                     -1, -1, -1, -1});                                   // padding
+  CHECK(q[1].shape == std::vector<std::int64_t>{3});
+  CHECK(q[1].i == std::vector<std::int64_t>{7, 2, -1});
+  // More boxes than queries: the best Q are kept.
+  q = pose_queries(boxes, 1, 64, 128);
+  CHECK(q[0].f.size() == 4);
+  CHECK(q[1].i == std::vector<std::int64_t>{7});
 }
 
 #ifdef ROE_HAVE_TORCH
@@ -159,6 +188,59 @@ TEST_CASE("full pipeline on one frame: boxes → queries → poses", "[model][to
     CHECK(d.score > 0.4);
   }
   CHECK(r.boxes_after_nms == 3);
+}
+
+TEST_CASE("the warp decision: the training camera (fx, fy to 1e-6, cx, cy to 1e-3 px) is not warped", "[model][torch]") {
+  const PoetBundle b = read_bundle(kTiny);
+  PoetModel model(b);
+  const Intrinsics T = b.train_intrinsics;
+  const int w = b.image.width, h = b.image.height;
+  model.set_camera(w, h, T);
+  CHECK_FALSE(model.warping());
+  Intrinsics K = T;
+  K.fx *= 1 + 5e-7;
+  K.cy += 5e-4;
+  model.set_camera(w, h, K);
+  CHECK_FALSE(model.warping());  // inside the tolerances
+  for (int k = 0; k < 4; ++k) {
+    CAPTURE(k);
+    K = T;
+    if (k == 0) K.fx *= 1 + 1e-4;
+    if (k == 1) K.fy *= 1 - 1e-4;
+    if (k == 2) K.cx += 0.01;
+    if (k == 3) K.cy -= 0.01;
+    model.set_camera(w, h, K);
+    CHECK(model.warping());
+  }
+  model.set_camera(w, h, std::nullopt);  // unknown intrinsics at the training size: used as they are
+  CHECK_FALSE(model.warping());
+  model.set_camera(w + 2, h, T);  // another size: resampled to the training camera
+  CHECK(model.warping());
+}
+
+TEST_CASE("network input: (pixel x scale - mean) / std per channel", "[model][torch]") {
+  PoetBundle b = read_bundle(kTiny);
+  const std::string png = roe::io::read_file(kTiny / "selftest/detector_input.png");
+  const HostTensor plain = PoetModel(b).preprocess(png);  // the tiny bundle: mean 0, std 1
+  const double mean[3] = {0.485, 0.456, 0.406}, sd[3] = {0.229, 0.224, 0.225};  // ImageNet's, as PoET's
+  for (int c = 0; c < 3; ++c) {
+    b.image.mean[c] = mean[c];
+    b.image.std[c] = sd[c];
+  }
+  ModelOptions opt;
+  opt.selftest = false;  // the reference outputs were made with the tiny bundle's normalisation
+  const HostTensor norm = PoetModel(b, opt).preprocess(png);
+  REQUIRE(norm.shape == plain.shape);
+  REQUIRE(plain.shape.size() == 4);
+  const std::size_t plane = static_cast<std::size_t>(plain.shape[2] * plain.shape[3]);
+  double worst = 0, spread = 0;
+  for (std::size_t k = 0; k < plain.f.size(); ++k) {
+    const int c = static_cast<int>(k / plane);
+    worst = std::max(worst, std::abs(norm.f[k] - (plain.f[k] - mean[c]) / sd[c]));
+    spread = std::max(spread, static_cast<double>(std::abs(plain.f[k] - plain.f[0])));
+  }
+  CHECK(worst < 1e-5);
+  CHECK(spread > 0.1);  // the image is not uniform
 }
 
 TEST_CASE("pose-head outputs to detections: each query keeps its own translation, sigma, box and class", "[model][torch]") {

@@ -108,4 +108,10 @@ class PoetModel {
   std::unique_ptr<Impl> impl_;
 };
 
+/// The pose head's query inputs for boxes in network pixels (best first): a [Q, 4] float tensor of
+/// normalised cx, cy, w, h and a [Q] int tensor of class ids; rows beyond the boxes are −1 (PoET's
+/// padding), boxes beyond Q are dropped.
+std::vector<HostTensor> pose_queries(const std::vector<BoxDetection>& boxes, std::size_t num_queries, int width,
+                                     int height);
+
 }  // namespace roe::infer
