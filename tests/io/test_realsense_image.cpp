@@ -160,6 +160,13 @@ TEST_CASE("FrameProcessor: crop geometry, errors, encodings", "[io][image]") {
                     Catch::Contains("frame 2"));
   CHECK_THROWS_AS(p.process_to_png({1280, 720, "rgb8", 3840, px.substr(0, 1000)}, t.path / "x.png", "f"), InputError);
   CHECK_THROWS_AS(p.process_encoded_to_png("not a png", t.path / "x.png", "f"), InputError);
+  // Padded rows (step > width x bytes per pixel): the last row needs no padding, one byte less is an error.
+  const std::size_t step = 3840 + 64, need = step * 719 + 3840;
+  const std::string padded(need, '\7');
+  CHECK_NOTHROW(p.process_to_png({1280, 720, "rgb8", step, padded}, t.path / "p.png", "p"));
+  CHECK_THROWS_WITH(
+      p.process_to_png({1280, 720, "rgb8", step, padded.substr(0, need - 1)}, t.path / "x.png", "q"),
+      Catch::Contains("q: image data too short for 1280x720 rgb8"));
   // 16-bit depth survives as 16-bit PNG.
   const std::string d16(1280 * 720 * 2, '\1');
   p.process_to_png({1280, 720, "mono16", 2560, d16}, t.path / "d.png", "d");
