@@ -1,6 +1,8 @@
 // `roe simulate --from-groundtruth`: the object placement rule (place_along_trajectory) on a synthetic
 // sweeping trajectory, and the coverage it achieves on the real EuRoC V1_02 snippet.
 #include <catch2/catch.hpp>
+
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -96,6 +98,26 @@ TEST_CASE("from-groundtruth placement covers a sweeping trajectory", "[sim][from
   for (std::size_t i = 0; i < p.size(); ++i) CHECK(again[i] == p[i]);
   const auto other = place_along_trajectory(t, T_W_C, c, 8);
   CHECK((other[0] - p[0]).norm() > 0.0);
+}
+
+TEST_CASE("from-groundtruth placement keeps the minimum separation where the best candidates crowd", "[sim][from-groundtruth]") {
+  // A 60 deg pan: every good candidate lies in the same narrow cone, so the separation is what keeps
+  // the objects apart.
+  std::vector<Timestamp> t;
+  std::vector<Pose> T_W_C;
+  spinning_camera(3.0, t, T_W_C);
+  FromGroundtruthConfig c;
+  c.num_objects = 3;
+  c.min_separation_m = 0.9;
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    CAPTURE(seed);
+    const auto p = place_along_trajectory(t, T_W_C, c, seed);
+    REQUIRE(p.size() == 3);
+    double closest = 1e9;
+    for (std::size_t i = 0; i < p.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j) closest = std::min(closest, (p[i] - p[j]).norm());
+    CHECK(closest >= 0.9);
+  }
 }
 
 TEST_CASE("from-groundtruth placement: impossible requests are data/config errors",

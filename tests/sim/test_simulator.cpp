@@ -1,6 +1,7 @@
 // The simulator: IMU consistency with the trajectory (integration), noise statistics, truth-derived
 // detections, visibility of the presets' scenes, mocap, determinism, config validation.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 
 #include "roe/core/error.hpp"
@@ -261,6 +262,59 @@ TEST_CASE("Default scene: speeds, rates, distances and detection coverage", "[si
     CHECK(std::abs(o.T_W_O.p.x()) <= 0.5);
     CHECK(std::abs(o.T_W_O.p.y()) <= 0.5);
   }
+}
+
+TEST_CASE("Object placement: area, height jitter, separation, yaw and lying objects as configured", "[sim]") {
+  ObjectsConfig o;
+  o.objects.clear();
+  for (int id = 1; id <= 12; ++id) o.objects.push_back({id, false, {}});
+  o.objects.push_back({99, true, Pose(Eigen::Quaterniond::Identity(), Eigen::Vector3d(2.0, 3.0, 0.8))});  // given pose
+  o.area_center = Eigen::Vector3d(2.0, 3.0, 0.8);
+  o.area_size_m = 1.2;
+  o.min_separation_m = 0.2;
+  o.height_jitter_m = 0.1;
+  o.lying_prob = 0.5;
+  std::vector<double> yaws;
+  int lying = 0, standing = 0;
+  double z_min = 1e9, z_max = -1e9;
+  for (std::uint64_t seed = 1; seed <= 40; ++seed) {
+    o.layout_seed = seed;
+    const auto placed = place_objects(o);
+    REQUIRE(placed.size() == 13);
+    CHECK(placed.back().id == 99);  // the configured order, the given pose kept
+    CHECK(placed.back().T_W_O.p == Eigen::Vector3d(2.0, 3.0, 0.8));
+    for (std::size_t a = 0; a < placed.size(); ++a) {
+      for (std::size_t b = a + 1; b < placed.size(); ++b)
+        CHECK((placed[a].T_W_O.p.head<2>() - placed[b].T_W_O.p.head<2>()).norm() >= 0.2);
+      if (placed[a].id == 99) continue;
+      const Eigen::Vector3d p = placed[a].T_W_O.p;
+      CHECK(std::abs(p.x() - 2.0) <= 0.6);
+      CHECK(std::abs(p.y() - 3.0) <= 0.6);
+      z_min = std::min(z_min, p.z());
+      z_max = std::max(z_max, p.z());
+      // Standing: the object's z axis is up; lying: it is horizontal (a 90 deg roll after the yaw).
+      const Eigen::Matrix3d R = placed[a].T_W_O.R();
+      const double up = R.col(2).z();
+      if (std::abs(up - 1.0) < 1e-12) {
+        ++standing;
+        yaws.push_back(std::atan2(R(1, 0), R(0, 0)));
+      } else {
+        CHECK(std::abs(up) < 1e-12);
+        ++lying;
+      }
+    }
+  }
+  // Heights in [0.8, 0.9], spread over the range.
+  CHECK(z_min >= 0.8);
+  CHECK(z_max <= 0.9);
+  CHECK(z_max - z_min > 0.08);
+  // About half lie; standing yaws cover the circle (mean resultant length near 0).
+  CHECK(lying + standing == 480);
+  CHECK(lying / 480.0 == Approx(0.5).margin(0.08));
+  double cs = 0, sn = 0;
+  for (double y : yaws) cs += std::cos(y), sn += std::sin(y);
+  CHECK(std::hypot(cs, sn) / yaws.size() < 0.15);
+  CHECK(*std::max_element(yaws.begin(), yaws.end()) - *std::min_element(yaws.begin(), yaws.end()) > 5.5);
 }
 
 TEST_CASE("Invalid configs are rejected with the key", "[sim][config]") {
