@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
 
 #include "../support/euroc_snippet.hpp"
 #include "roe/core/error.hpp"
@@ -206,4 +207,40 @@ TEST_CASE("from-groundtruth placement covers the real EuRoC V1_02 snippet",
       CHECK(again.dataset.manifest.truth->objects[i].T_W_O.p == truth.objects[i].T_W_O.p);
     CHECK(again.stats.detections == run.stats.detections);
   }
+
+  // The manifest's IMU rate is the real stream's (EuRoC: 200 Hz, from the median interval).
+  const SimRun run = simulate_from_groundtruth(imu, gt, c, 1);
+  REQUIRE(run.dataset.manifest.imu.has_value());
+  CHECK(run.dataset.manifest.imu->rate_hz == Approx(200.0).epsilon(1e-6));
+
+  // Error-free detections are exactly T_C_W(t) T_W_O, with T_W_C(t) the ground truth interpolated at
+  // the frame stamp (which falls between two 200 Hz poses) times T_I_C.
+  FromGroundtruthConfig exact = c;
+  exact.detection.lateral_sigma_m = exact.detection.lateral_sigma_per_depth = 0.0;
+  exact.detection.along_ray_sigma_m = exact.detection.along_ray_sigma_per_depth = 0.0;
+  exact.detection.rotation_sigma_deg = 0.0;
+  exact.detection.outlier_prob = exact.detection.symmetric_flip_prob = exact.detection.blur_frame_prob = 0.0;
+  exact.detection.blur_rate_threshold_deg_s = 0.0;
+  const SimRun clean = simulate_from_groundtruth(imu, gt, exact, 1);
+  const auto& truth = *clean.dataset.manifest.truth;
+  std::map<int, Pose> T_W_O;
+  for (const auto& o : truth.objects) T_W_O[o.id] = o.T_W_O;
+  std::size_t between = 0;
+  for (const auto& det : clean.dataset.detections.at("sim")) {
+    auto it = std::lower_bound(gt.begin(), gt.end(), det.t_ns, [](const ImuState& s, Timestamp y) { return s.t_ns < y; });
+    REQUIRE(it != gt.end());
+    if (it->t_ns == det.t_ns) continue;
+    REQUIRE(it != gt.begin());
+    ++between;
+    const auto& a = *(it - 1);
+    const Pose T_W_I = math::interpolate(a.T_W_I, it->T_W_I, dt_seconds(a.t_ns, det.t_ns) / dt_seconds(a.t_ns, it->t_ns));
+    const Pose want = (T_W_I * truth.T_I_C).inverse() * T_W_O.at(det.object_id);
+    CHECK((det.T_C_O.p - want.p).norm() < 1e-9);
+    CHECK(math::angle_between(det.T_C_O.q, want.q) < 1e-9);
+  }
+  CHECK(between > 300);
+
+  // Streams that overlap for less than a second are refused.
+  const std::vector<ImuSample> short_imu(imu.begin(), imu.begin() + 150);  // 0.75 s at 200 Hz
+  CHECK_THROWS_WITH(simulate_from_groundtruth(short_imu, gt, c, 1), Catch::Contains("less than one second"));
 }
