@@ -240,6 +240,31 @@ TEST_CASE("from-groundtruth placement covers the real EuRoC V1_02 snippet",
   }
   CHECK(between > 300);
 
+  // Motion blur follows |w| of the IMU sample nearest to each frame (docs/simulator.md): a gyro that is
+  // fast on every third sample only blurs exactly the frames whose nearest sample is a fast one.
+  std::vector<ImuSample> spiky = imu;
+  for (std::size_t k = 0; k < spiky.size(); ++k) spiky[k].gyro = Eigen::Vector3d(k % 3 == 0 ? 5.0 : 0.0, 0.0, 0.0);
+  FromGroundtruthConfig blur = c;
+  blur.detection.blur_frame_prob = 0.0;
+  blur.detection.blur_rate_threshold_deg_s = 120.0;  // 5 rad/s = 286 deg/s is above, 0 below
+  const SimRun blurred = simulate_from_groundtruth(spiky, gt, blur, 1);
+  const auto nearest_is_fast = [&](Timestamp t) {
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < spiky.size(); ++k)
+      if (std::llabs(spiky[k].t_ns - t) <= std::llabs(spiky[best].t_ns - t)) best = k;  // ties: the later
+    return best % 3 == 0;
+  };
+  std::size_t want_blurred = 0;
+  for (const auto& f : blurred.dataset.frames) want_blurred += nearest_is_fast(f.t_ns) ? 1 : 0;
+  CHECK(want_blurred > 200);
+  CHECK(blurred.stats.blurred_frames == want_blurred);
+  // ... frame by frame: every detection carries its frame's blur.
+  const auto& bdets = blurred.dataset.detections.at("sim");
+  REQUIRE(blurred.labels.size() == bdets.size());
+  std::size_t mismatched = 0;
+  for (std::size_t k = 0; k < bdets.size(); ++k) mismatched += blurred.labels[k].blurred != nearest_is_fast(bdets[k].t_ns);
+  CHECK(mismatched == 0);
+
   // Streams that overlap for less than a second are refused.
   const std::vector<ImuSample> short_imu(imu.begin(), imu.begin() + 150);  // 0.75 s at 200 Hz
   CHECK_THROWS_WITH(simulate_from_groundtruth(short_imu, gt, c, 1), Catch::Contains("less than one second"));
