@@ -136,14 +136,17 @@ TEST_CASE("Seed variation changes the trajectory a little and deterministically"
     CHECK(std::abs(s->roll_rad.terms[1].phase_rad - 1.0) <= v.phase_rad);
   }
   // Over many seeds each factor fills its whole range: amplitude x U(1 - a, 1 + a), frequency
-  // x U(1 - f, 1 + f), phase + U(-phi, phi), start azimuth + U(-a0, a0).
+  // x U(1 - f, 1 + f), phase + U(-phi, phi), start azimuth + U(-a0, a0),
+  // height x U(1 - o, 1 + o).
   const Sinusoid& n = nominal.radius_m.terms[0];
-  double amp_lo = 9, amp_hi = -9, f_lo = 9, f_hi = -9, ph_lo = 9, ph_hi = -9, az_lo = 9, az_hi = -9;
+  double amp_lo = 9, amp_hi = -9, f_lo = 9, f_hi = -9, ph_lo = 9, ph_hi = -9, az_lo = 9, az_hi = -9, h_lo = 9, h_hi = -9;
   for (std::uint64_t seed = 1; seed <= 300; ++seed) {
     const TrajectoryConfig varied = vary_trajectory(nominal, v, seed);
     const Sinusoid& x = varied.radius_m.terms[0];
     az_lo = std::min(az_lo, varied.azimuth_rad.offset - nominal.azimuth_rad.offset);
     az_hi = std::max(az_hi, varied.azimuth_rad.offset - nominal.azimuth_rad.offset);
+    h_lo = std::min(h_lo, varied.height_m.offset / nominal.height_m.offset - 1.0);
+    h_hi = std::max(h_hi, varied.height_m.offset / nominal.height_m.offset - 1.0);
     amp_lo = std::min(amp_lo, x.amplitude / n.amplitude - 1.0);
     amp_hi = std::max(amp_hi, x.amplitude / n.amplitude - 1.0);
     f_lo = std::min(f_lo, x.frequency_hz / n.frequency_hz - 1.0);
@@ -152,7 +155,8 @@ TEST_CASE("Seed variation changes the trajectory a little and deterministically"
     ph_hi = std::max(ph_hi, x.phase_rad - n.phase_rad);
   }
   for (auto [lo, hi, range] : {std::tuple{amp_lo, amp_hi, v.amplitude_rel}, std::tuple{f_lo, f_hi, v.frequency_rel},
-                               std::tuple{ph_lo, ph_hi, v.phase_rad}, std::tuple{az_lo, az_hi, v.azimuth_start_rad}}) {
+                               std::tuple{ph_lo, ph_hi, v.phase_rad}, std::tuple{az_lo, az_hi, v.azimuth_start_rad},
+                               std::tuple{h_lo, h_hi, v.offset_rel}}) {
     CHECK(lo >= -range);
     CHECK(hi <= range);
     CHECK(lo < -0.9 * range);
