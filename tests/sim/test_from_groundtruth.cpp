@@ -121,6 +121,34 @@ TEST_CASE("from-groundtruth placement keeps the minimum separation where the bes
   }
 }
 
+TEST_CASE("from-groundtruth placement: no other object in view before the anchor's lead, even when one would cover more", "[sim][from-groundtruth]") {
+  // A 60 deg pan in 1.5 s, then 8 s still: points in both the first and the last view are seen from the
+  // first frame to the end, so without the lead rule they would be the greedy's best choices.
+  Eigen::Matrix3d R0;
+  R0.col(0) = -Eigen::Vector3d::UnitY();
+  R0.col(1) = -Eigen::Vector3d::UnitZ();
+  R0.col(2) = Eigen::Vector3d::UnitX();
+  std::vector<Timestamp> t;
+  std::vector<Pose> T_W_C;
+  for (int k = 0; k <= 285; ++k) {
+    const double s = k / 30.0, yaw = 40.0 * kPi / 180.0 * std::min(s, 1.5);
+    t.push_back(1'000'000'000 + static_cast<Timestamp>(std::llround(s * 1e9)));
+    T_W_C.push_back(Pose(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R0),
+                         Eigen::Vector3d(0.0, 0.0, 1.5)));
+  }
+  FromGroundtruthConfig c;
+  c.num_objects = 3;
+  c.min_separation_m = 0.3;
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    CAPTURE(seed);
+    const auto p = place_along_trajectory(t, T_W_C, c, seed);
+    REQUIRE(p.size() == 3);
+    const std::size_t k_anchor = first_in_view(T_W_C, p[0], c);
+    for (std::size_t i = 1; i < p.size(); ++i)
+      CHECK(t[first_in_view(T_W_C, p[i], c)] >= t[k_anchor] + static_cast<Timestamp>(c.anchor_lead_s * 1e9));
+  }
+}
+
 TEST_CASE("from-groundtruth placement: impossible requests are data/config errors",
           "[sim][from-groundtruth]") {
   std::vector<Timestamp> t;
