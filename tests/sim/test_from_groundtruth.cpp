@@ -21,9 +21,9 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 // A camera at a fixed point 1.5 m above the floor, optical axis horizontal, yawing at a constant
-// 20 °/s for `seconds`: like EuRoC's room sweeps, no single point is in view for more than a
-// fraction of the time (the horizontal field of view of the default EuRoC cam0 is ~79°).
-void spinning_camera(double seconds, std::vector<Timestamp>& t, std::vector<Pose>& T_W_C) {
+// `deg_per_s` until `pan_until_s` and still after, for `seconds` at 30 Hz.
+void panning_camera(double seconds, double deg_per_s, double pan_until_s, std::vector<Timestamp>& t,
+                    std::vector<Pose>& T_W_C) {
   // Camera axes for yaw 0: z_C (optical) = x_W, x_C = -y_W, y_C = -z_W.
   Eigen::Matrix3d R0;
   R0.col(0) = -Eigen::Vector3d::UnitY();
@@ -32,11 +32,17 @@ void spinning_camera(double seconds, std::vector<Timestamp>& t, std::vector<Pose
   const Timestamp t0 = 1'000'000'000;
   for (int k = 0; k <= static_cast<int>(seconds * 30.0); ++k) {
     const double s = k / 30.0;
-    const double yaw = 20.0 * kPi / 180.0 * s;
+    const double yaw = deg_per_s * kPi / 180.0 * std::min(s, pan_until_s);
     const Eigen::Matrix3d Rz = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     t.push_back(t0 + static_cast<Timestamp>(std::llround(s * 1e9)));
     T_W_C.push_back(Pose(Eigen::Quaterniond(Rz * R0), Eigen::Vector3d(0.0, 0.0, 1.5)));
   }
+}
+
+// Yawing at 20 °/s throughout: like EuRoC's room sweeps, no single point is in view for more than a
+// fraction of the time (the horizontal field of view of the default EuRoC cam0 is ~79°).
+void spinning_camera(double seconds, std::vector<Timestamp>& t, std::vector<Pose>& T_W_C) {
+  panning_camera(seconds, 20.0, seconds, t, T_W_C);
 }
 
 std::size_t first_in_view(const std::vector<Pose>& T_W_C, const Eigen::Vector3d& p_W,
@@ -101,19 +107,37 @@ TEST_CASE("from-groundtruth placement covers a sweeping trajectory", "[sim][from
   CHECK((other[0] - p[0]).norm() > 0.0);
 }
 
+namespace {
+
+FromGroundtruthConfig three_objects(double min_separation_m) {
+  FromGroundtruthConfig c;
+  c.num_objects = 3;
+  c.min_separation_m = min_separation_m;
+  return c;
+}
+
+// The object centres placed along a path for seeds 1 to 5.
+std::vector<std::vector<Eigen::Vector3d>> placements_for_seeds_1_to_5(const std::vector<Timestamp>& t,
+                                                                      const std::vector<Pose>& T_W_C,
+                                                                      const FromGroundtruthConfig& c) {
+  std::vector<std::vector<Eigen::Vector3d>> out;
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    out.push_back(place_along_trajectory(t, T_W_C, c, seed));
+    REQUIRE(out.back().size() == static_cast<std::size_t>(c.num_objects));
+  }
+  return out;
+}
+
+}  // namespace
+
 TEST_CASE("from-groundtruth placement keeps the minimum separation where the best candidates crowd", "[sim][from-groundtruth]") {
   // A 60 deg pan: every good candidate lies in the same narrow cone, so the separation is what keeps
   // the objects apart.
   std::vector<Timestamp> t;
   std::vector<Pose> T_W_C;
   spinning_camera(3.0, t, T_W_C);
-  FromGroundtruthConfig c;
-  c.num_objects = 3;
-  c.min_separation_m = 0.9;
-  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
-    CAPTURE(seed);
-    const auto p = place_along_trajectory(t, T_W_C, c, seed);
-    REQUIRE(p.size() == 3);
+  const FromGroundtruthConfig c = three_objects(0.9);
+  for (const auto& p : placements_for_seeds_1_to_5(t, T_W_C, c)) {
     double closest = 1e9;
     for (std::size_t i = 0; i < p.size(); ++i)
       for (std::size_t j = 0; j < i; ++j) closest = std::min(closest, (p[i] - p[j]).norm());
@@ -124,25 +148,11 @@ TEST_CASE("from-groundtruth placement keeps the minimum separation where the bes
 TEST_CASE("from-groundtruth placement: no other object in view before the anchor's lead, even when one would cover more", "[sim][from-groundtruth]") {
   // A 60 deg pan in 1.5 s, then 8 s still: points in both the first and the last view are seen from the
   // first frame to the end, so without the lead rule they would be the greedy's best choices.
-  Eigen::Matrix3d R0;
-  R0.col(0) = -Eigen::Vector3d::UnitY();
-  R0.col(1) = -Eigen::Vector3d::UnitZ();
-  R0.col(2) = Eigen::Vector3d::UnitX();
   std::vector<Timestamp> t;
   std::vector<Pose> T_W_C;
-  for (int k = 0; k <= 285; ++k) {
-    const double s = k / 30.0, yaw = 40.0 * kPi / 180.0 * std::min(s, 1.5);
-    t.push_back(1'000'000'000 + static_cast<Timestamp>(std::llround(s * 1e9)));
-    T_W_C.push_back(Pose(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R0),
-                         Eigen::Vector3d(0.0, 0.0, 1.5)));
-  }
-  FromGroundtruthConfig c;
-  c.num_objects = 3;
-  c.min_separation_m = 0.3;
-  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
-    CAPTURE(seed);
-    const auto p = place_along_trajectory(t, T_W_C, c, seed);
-    REQUIRE(p.size() == 3);
+  panning_camera(9.5, 40.0, 1.5, t, T_W_C);
+  const FromGroundtruthConfig c = three_objects(0.3);
+  for (const auto& p : placements_for_seeds_1_to_5(t, T_W_C, c)) {
     const std::size_t k_anchor = first_in_view(T_W_C, p[0], c);
     for (std::size_t i = 1; i < p.size(); ++i)
       CHECK(t[first_in_view(T_W_C, p[i], c)] >= t[k_anchor] + static_cast<Timestamp>(c.anchor_lead_s * 1e9));
