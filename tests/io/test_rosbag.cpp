@@ -48,15 +48,9 @@ std::vector<Timestamp> imu_stamps(bag::Reader& r) {
 
 std::string shared(const char* rel) { return std::string(ROE_SHARED_DATA_DIR) + "/" + rel; }
 
-std::uint32_t get_le32(const std::string& b, std::size_t at) {
-  std::uint32_t v = 0;
-  for (int k = 3; k >= 0; --k) v = (v << 8) | static_cast<unsigned char>(b.at(at + k));
-  return v;
-}
-
-void put_le32(std::string& b, std::size_t at, std::uint32_t v) {
-  for (int k = 0; k < 4; ++k) b.at(at + k) = static_cast<char>((v >> (8 * k)) & 0xFF);
-}
+// A bag's little-endian uint32 fields, read and overwritten in place (ROS's own uint32 coding).
+std::uint32_t get_le32(const std::string& b, std::size_t at) { return ros::decode_uint32(b.substr(at, 4), "test"); }
+void put_le32(std::string& b, std::size_t at, std::uint32_t v) { b.replace(at, 4, ros::encode_uint32(v)); }
 
 std::size_t count_messages(bag::Reader& r) {
   std::size_t n = 0;
