@@ -159,6 +159,139 @@ TEST_CASE("from-groundtruth placement: no other object in view before the anchor
   }
 }
 
+namespace {
+
+// A camera at a fixed point turning at a constant rate about one of its own axes (x_C: tilting, y_C:
+// panning), 30 Hz. Positive about y_C turns the optical axis towards +x_C (a pan to the right), positive
+// about x_C towards -y_C (a tilt up).
+void turning_camera(double seconds, const Eigen::Vector3d& axis_C, double deg_per_s, std::vector<Timestamp>& t,
+                    std::vector<Pose>& T_W_C) {
+  Eigen::Matrix3d R0;  // yaw 0 of panning_camera
+  R0.col(0) = -Eigen::Vector3d::UnitY();
+  R0.col(1) = -Eigen::Vector3d::UnitZ();
+  R0.col(2) = Eigen::Vector3d::UnitX();
+  const Timestamp t0 = 1'000'000'000;
+  for (int k = 0; k <= static_cast<int>(seconds * 30.0); ++k) {
+    const double s = k / 30.0;
+    const Eigen::Matrix3d R = R0 * Eigen::AngleAxisd(deg_per_s * kPi / 180.0 * s, axis_C).toRotationMatrix();
+    t.push_back(t0 + static_cast<Timestamp>(std::llround(s * 1e9)));
+    T_W_C.push_back(Pose(Eigen::Quaterniond(R), Eigen::Vector3d(0.0, 0.0, 1.5)));
+  }
+}
+
+// Is p_W a possible candidate of frame k: depth in the candidate range, pixel inside the central
+// place_inner_fraction of the image?
+bool candidate_of_frame(const Pose& T_W_C, const Eigen::Vector3d& p_W, const FromGroundtruthConfig& c) {
+  const Eigen::Vector3d p_C = T_W_C.inverse().act(p_W);
+  if (p_C.z() < c.place_min_depth_m - 1e-9 || p_C.z() > c.place_max_depth_m + 1e-9) return false;
+  const Eigen::Vector2d uv = c.intrinsics.project(p_C);
+  const double f = c.place_inner_fraction;
+  return std::abs(uv.x() - c.intrinsics.cx) <= 0.5 * f * c.intrinsics.width + 1e-6 &&
+         std::abs(uv.y() - c.intrinsics.cy) <= 0.5 * f * c.intrinsics.height + 1e-6;
+}
+
+}  // namespace
+
+TEST_CASE("from-groundtruth placement draws its candidates in the central image area", "[sim][from-groundtruth]") {
+  // Only the first frame spawns candidates (place_candidate_every_s beyond the end). While the camera
+  // turns at a constant rate, the candidate on the side it turns towards stays in view longest, so the
+  // anchor (the most-seen candidate) is the one at that edge of the central area: inside it, and close
+  // to the edge.
+  FromGroundtruthConfig c;
+  c.num_objects = 1;
+  c.place_inner_fraction = 0.3;
+  c.place_candidate_every_s = 100.0;
+  c.place_candidates_per_frame = 60;
+  const double half_u = 0.5 * c.place_inner_fraction * c.intrinsics.width;
+  const double half_v = 0.5 * c.place_inner_fraction * c.intrinsics.height;
+  struct Turn {
+    Eigen::Vector3d axis;
+    double sign;
+    int coord;  // 0: u, 1: v
+    double edge;  // where the anchor's pixel should be, relative to the principal point
+  };
+  const Turn turns[] = {{Eigen::Vector3d::UnitY(), 1.0, 0, half_u},    // pan right: right edge
+                        {Eigen::Vector3d::UnitY(), -1.0, 0, -half_u},  // pan left: left edge
+                        {Eigen::Vector3d::UnitX(), 1.0, 1, -half_v},   // tilt up: top edge
+                        {Eigen::Vector3d::UnitX(), -1.0, 1, half_v}};  // tilt down: bottom edge
+  for (const auto& turn : turns) {
+    std::vector<Timestamp> t;
+    std::vector<Pose> T_W_C;
+    turning_camera(4.0, turn.axis, 20.0 * turn.sign, t, T_W_C);
+    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+      const auto p = place_along_trajectory(t, T_W_C, c, seed);
+      REQUIRE(p.size() == 1);
+      CHECK(candidate_of_frame(T_W_C[0], p[0], c));
+      const Eigen::Vector2d uv = c.intrinsics.project(T_W_C[0].inverse().act(p[0]));
+      const double off = uv[turn.coord] - (turn.coord == 0 ? c.intrinsics.cx : c.intrinsics.cy);
+      CHECK(off / turn.edge > 0.8);
+      CHECK(off / turn.edge <= 1.0 + 1e-9);
+    }
+  }
+}
+
+TEST_CASE("from-groundtruth placement spawns candidates every place_candidate_every_s", "[sim][from-groundtruth]") {
+  // Most of a turn (340 deg) to the right at 20 deg/s with candidates every 2 s: the central areas (28 deg wide at
+  // place_inner_fraction 0.3) of the spawning frames are 40 deg apart, so every object lies in the
+  // central area of a spawning frame and in no other frame's on a different bearing.
+  std::vector<Timestamp> t;
+  std::vector<Pose> T_W_C;
+  turning_camera(17.0, Eigen::Vector3d::UnitY(), 20.0, t, T_W_C);
+  FromGroundtruthConfig c;
+  c.num_objects = 3;
+  c.place_inner_fraction = 0.3;
+  c.place_candidate_every_s = 2.0;
+  std::vector<std::size_t> spawning;  // the rule: the first frame at or after the previous one + 2 s
+  for (std::size_t k = 0; k < t.size(); ++k)
+    if (spawning.empty() || t[k] >= t[spawning.back()] + 2'000'000'000) spawning.push_back(k);
+  REQUIRE(spawning.size() == 9);
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const auto p = place_along_trajectory(t, T_W_C, c, seed);
+    REQUIRE(p.size() == 3);
+    for (const auto& x : p) {
+      std::size_t n = 0;
+      for (auto k : spawning) n += candidate_of_frame(T_W_C[k], x, c) ? 1 : 0;
+      CHECK(n == 1);
+    }
+  }
+}
+
+TEST_CASE("from-groundtruth: the manifest's IMU rate is the median sample interval's", "[sim][from-groundtruth]") {
+  // A 200 Hz simulated flight as the "real" recording, thinned to irregular streams.
+  SimConfig sc;
+  sc.duration_s = 20.0;
+  const Dataset flight = simulate(sc, 3);
+  FromGroundtruthConfig c;
+  c.num_objects = 2;
+  const auto thinned = [&](int period, std::initializer_list<int> keep) {
+    std::vector<ImuSample> out;
+    for (std::size_t k = 0; k < flight.imu.size(); ++k)
+      if (std::find(keep.begin(), keep.end(), static_cast<int>(k % period)) != keep.end()) out.push_back(flight.imu[k]);
+    return out;
+  };
+  // Intervals 5, 5, 10 ms, repeated: the median is 5 ms (the mean 6.7 ms, the largest 10 ms).
+  const SimRun fast = simulate_from_groundtruth(thinned(4, {0, 1, 2}), flight.groundtruth, c, 1);
+  REQUIRE(fast.dataset.manifest.imu.has_value());
+  CHECK(fast.dataset.manifest.imu->rate_hz == Approx(200.0).epsilon(1e-9));
+  // Intervals 10, 10, 5 ms: the median is 10 ms.
+  const SimRun slow = simulate_from_groundtruth(thinned(5, {0, 2, 4}), flight.groundtruth, c, 1);
+  REQUIRE(slow.dataset.manifest.imu.has_value());
+  CHECK(slow.dataset.manifest.imu->rate_hz == Approx(100.0).epsilon(1e-9));
+  // Stamps jittered by up to ±1 ms (a driver's timestamping): all intervals differ, and the rate is
+  // the sorted middle one's.
+  std::vector<ImuSample> jittered = flight.imu;
+  for (std::size_t k = 0; k < jittered.size(); ++k)
+    jittered[k].t_ns += static_cast<Timestamp>((k * 7919) % 2001) * 1000 - 1'000'000;
+  std::vector<Timestamp> dts;
+  for (std::size_t k = 1; k < jittered.size(); ++k) dts.push_back(jittered[k].t_ns - jittered[k - 1].t_ns);
+  std::sort(dts.begin(), dts.end());
+  REQUIRE(dts.front() > 0);
+  REQUIRE(dts.front() != dts.back());
+  const SimRun jitter = simulate_from_groundtruth(jittered, flight.groundtruth, c, 1);
+  REQUIRE(jitter.dataset.manifest.imu.has_value());
+  CHECK(jitter.dataset.manifest.imu->rate_hz == Approx(1e9 / static_cast<double>(dts[dts.size() / 2])).epsilon(1e-12));
+}
+
 TEST_CASE("from-groundtruth placement: impossible requests are data/config errors",
           "[sim][from-groundtruth]") {
   std::vector<Timestamp> t;

@@ -138,6 +138,15 @@ TEST_CASE("IMU noise and bias random walks have the configured statistics", "[si
   CHECK(std::sqrt(sa / (3.0 * n)) == Approx(1.471e-3 * std::sqrt(rate)).epsilon(0.05));
   CHECK(std::sqrt(wg / (3.0 * (n - 1))) == Approx(1e-3 * std::sqrt(dt)).epsilon(0.05));
   CHECK(std::sqrt(wa / (3.0 * (n - 1))) == Approx(1e-2 * std::sqrt(dt)).epsilon(0.05));
+  // Every sample steps the walk, the first one included (the statistics above would hardly notice one
+  // missing step).
+  std::size_t still_g = 0, still_a = 0;
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    still_g += b.groundtruth[k + 1].b_g == b.groundtruth[k].b_g;
+    still_a += b.groundtruth[k + 1].b_a == b.groundtruth[k].b_a;
+  }
+  CHECK(still_g == 0);
+  CHECK(still_a == 0);
   // The noise-free run has zero bias everywhere.
   CHECK(a.groundtruth.back().b_g.norm() == 0.0);
 }
