@@ -120,6 +120,59 @@ TEST_CASE("roe run writes the files of DESIGN §4", "[app][run]") {
   fs::remove_all(out);
 }
 
+TEST_CASE("states rows carry the filter's own sigmas and IMU pose covariance", "[app][run]") {
+  const Dataset d = test::simulate_preset("matched", 3, 6.0);
+  const app::RunConfig config;
+  const app::RunOutput out = app::run_dataset(d, "", config);
+  REQUIRE(out.states.size() == d.imu.size());
+  // Before the first update the extrinsics' σ is the configured prior (propagation leaves it alone).
+  const double deg = M_PI / 180.0;
+  for (int i = 0; i < 3; ++i) {
+    CHECK(out.states.front().sigma(15 + i) == Approx(config.filter.extrinsics_sigma_p_m).epsilon(1e-12));
+    CHECK(out.states.front().sigma(18 + i) == Approx(config.filter.extrinsics_sigma_rot_deg * deg).epsilon(1e-12));
+  }
+  // ... and self-calibration shrinks it.
+  for (int i = 15; i < 21; ++i) CHECK(out.states.back().sigma(i) < out.states.front().sigma(i));
+  // The pose covariance [δp; δθ] holds the σ of δp (error-state 0–2) and δθ (6–8) on its diagonal,
+  // is symmetric positive definite, and its p-θ block is filled in (the IMU correlates them).
+  double max_cross = 0.0;
+  for (const auto& s : out.states) {
+    for (int i = 0; i < 3; ++i) {
+      CHECK(s.pose_cov(i, i) == Approx(s.sigma(i) * s.sigma(i)).epsilon(1e-12));
+      CHECK(s.pose_cov(3 + i, 3 + i) == Approx(s.sigma(6 + i) * s.sigma(6 + i)).epsilon(1e-12));
+    }
+    CHECK((s.pose_cov - s.pose_cov.transpose()).norm() <= 1e-12 * s.pose_cov.norm());
+    CHECK(Eigen::LLT<Eigen::Matrix<double, 6, 6>>(s.pose_cov).info() == Eigen::Success);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        max_cross = std::max(max_cross, std::abs(s.pose_cov(i, 3 + j)) / std::sqrt(s.pose_cov(i, i) * s.pose_cov(3 + j, 3 + j)));
+  }
+  CHECK(max_cross > 0.1);  // a correlation coefficient
+}
+
+TEST_CASE("camera.time_offset_s moves the detections into the IMU clock", "[app][run]") {
+  // The same recording with the camera clock 12.5 ms behind the IMU's and the offset declared in
+  // roe.json runs exactly like the original.
+  const Dataset d = test::simulate_preset("matched", 3, 6.0);
+  Dataset late = d;
+  const Timestamp shift = 12'500'000;
+  for (auto& x : late.detections.at("sim")) x.t_ns -= shift;
+  for (auto& f : late.frames) f.t_ns -= shift;
+  REQUIRE(late.manifest.camera.has_value());
+  late.manifest.camera->time_offset_s = 0.0125;
+  const app::RunConfig config;
+  const app::RunOutput a = app::run_dataset(d, "", config), b = app::run_dataset(late, "", config);
+  REQUIRE(a.reprojection.size() == b.reprojection.size());
+  for (std::size_t k = 0; k < a.reprojection.size(); ++k) CHECK(b.reprojection[k].t_ns == a.reprojection[k].t_ns);
+  REQUIRE(a.states.size() == b.states.size());
+  CHECK((a.states.back().x.p_W_I - b.states.back().x.p_W_I).norm() < 1e-9);
+  // Without the offset the same stamps are 12.5 ms early, and the result differs.
+  late.manifest.camera->time_offset_s = 0.0;
+  const app::RunOutput c = app::run_dataset(late, "", config);
+  CHECK(c.reprojection.front().t_ns == a.reprojection.front().t_ns - shift);
+  CHECK((a.states.back().x.p_W_I - c.states.back().x.p_W_I).norm() > 1e-6);
+}
+
 TEST_CASE("run config: strict keys, shipped configs load, defaults round-trip", "[app][run]") {
   const std::string src = ROE_SOURCE_DIR;
   const app::RunConfig def = app::run_config_from_file(src + "/configs/default.json");
