@@ -372,31 +372,36 @@ void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
   }
 }
 
+json counts_json(const ObjectCounts& c) {
+  return {{"detections", c.detections},
+          {"accepted", c.accepted},
+          {"initialized", c.initialized},
+          {"rejected_chi2", c.rejected_chi2},
+          {"rejected_no_main", c.rejected_no_main},
+          {"rejected_score", c.rejected_score},
+          {"rejected_no_imu", c.rejected_no_imu},
+          {"pending_init", c.pending_init}};
+}
+
+// Per object and in total: every status, so that the totals add up to the detections.
 json counts_json(const RunOutput& r) {
   json per = json::object();
   ObjectCounts total;
   for (const auto& kv : r.counts) {
     const ObjectCounts& c = kv.second;
-    per[std::to_string(kv.first)] = {{"detections", c.detections},
-                                     {"accepted", c.accepted},
-                                     {"initialized", c.initialized},
-                                     {"rejected_chi2", c.rejected_chi2},
-                                     {"rejected_no_main", c.rejected_no_main},
-                                     {"rejected_score", c.rejected_score},
-                                     {"rejected_no_imu", c.rejected_no_imu},
-                                     {"pending_init", c.pending_init}};
+    per[std::to_string(kv.first)] = counts_json(c);
     total.detections += c.detections;
     total.accepted += c.accepted;
     total.initialized += c.initialized;
     total.rejected_chi2 += c.rejected_chi2;
     total.rejected_no_main += c.rejected_no_main;
+    total.rejected_score += c.rejected_score;
+    total.rejected_no_imu += c.rejected_no_imu;
+    total.pending_init += c.pending_init;
   }
-  return {{"per_object", per},
-          {"detections", total.detections},
-          {"accepted", total.accepted},
-          {"initialized", total.initialized},
-          {"rejected_chi2", total.rejected_chi2},
-          {"rejected_no_main", total.rejected_no_main}};
+  json j = counts_json(total);
+  j["per_object"] = per;
+  return j;
 }
 
 json nis_json(const RunOutput& r) {

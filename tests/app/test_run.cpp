@@ -173,6 +173,53 @@ TEST_CASE("camera.time_offset_s moves the detections into the IMU clock", "[app]
   CHECK((a.states.back().x.p_W_I - c.states.back().x.p_W_I).norm() > 1e-6);
 }
 
+TEST_CASE("run.json's detection counts and NIS statistics agree with the reprojection rows", "[app][run]") {
+  // PoET-like errors (5 % outliers) give χ² rejections as well as accepted detections.
+  const fs::path ds = make_dataset("counts", 8.0, "paper-seq1");
+  const fs::path out = temp_dir("counts_out");
+  const auto r = app::run(ds, out, app::RunOptions());
+  const io::json& c = r.report.at("counts").at("detections");
+  const auto& rows = r.output.reprojection;
+  CHECK(c.at("detections").get<std::size_t>() == rows.size());
+  const char* statuses[] = {"accepted",         "initialized",    "rejected_chi2", "rejected_no_main",
+                            "rejected_score",   "rejected_no_imu", "pending_init"};
+  std::size_t all = 0;
+  for (const char* st : statuses) {
+    std::size_t want = 0;
+    for (const auto& x : rows) want += ekf::to_string(x.outcome.status) == st ? 1 : 0;
+    CHECK(c.at(st).get<std::size_t>() == want);
+    std::size_t per = 0;
+    for (const auto& kv : c.at("per_object").items()) per += kv.value().at(st).get<std::size_t>();
+    CHECK(per == want);
+    all += want;
+  }
+  CHECK(all == rows.size());
+  CHECK(c.at("accepted").get<std::size_t>() > 0);
+  CHECK(c.at("rejected_chi2").get<std::size_t>() > 0);
+  // NIS: every gated detection's, against the 95 % χ²₆ gate.
+  std::vector<double> nis;
+  for (const auto& x : rows)
+    if (std::isfinite(x.outcome.nis)) nis.push_back(x.outcome.nis);
+  std::sort(nis.begin(), nis.end());
+  const io::json& n = r.report.at("nis");
+  REQUIRE(n.at("count").get<std::size_t>() == nis.size());
+  REQUIRE(nis.size() > 20);
+  double sum = 0.0;
+  std::size_t above = 0;
+  for (double x : nis) {
+    sum += x;
+    above += x > 12.591587 ? 1 : 0;
+  }
+  CHECK(n.at("gate").get<double>() == Approx(12.591587).epsilon(1e-6));
+  CHECK(n.at("mean").get<double>() == Approx(sum / nis.size()).epsilon(1e-12));
+  CHECK(n.at("median").get<double>() == nis[nis.size() / 2]);
+  CHECK(n.at("p95").get<double>() == nis[static_cast<std::size_t>(0.95 * nis.size())]);
+  CHECK(n.at("fraction_above_gate").get<double>() == Approx(static_cast<double>(above) / nis.size()).epsilon(1e-12));
+  CHECK(above == c.at("rejected_chi2").get<std::size_t>());
+  fs::remove_all(ds);
+  fs::remove_all(out);
+}
+
 TEST_CASE("run config: strict keys, shipped configs load, defaults round-trip", "[app][run]") {
   const std::string src = ROE_SOURCE_DIR;
   const app::RunConfig def = app::run_config_from_file(src + "/configs/default.json");
