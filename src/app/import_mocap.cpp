@@ -42,11 +42,7 @@ std::string detect_format(const fs::path& file) {
 }
 
 double median_rate(const std::vector<StampedPose>& p) {
-  if (p.size() < 2) return 0.0;
-  std::vector<Timestamp> d;
-  for (std::size_t i = 1; i < p.size(); ++i) d.push_back(p[i].t_ns - p[i - 1].t_ns);
-  std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
-  return d[d.size() / 2] > 0 ? 1e9 / static_cast<double>(d[d.size() / 2]) : 0.0;
+  return median_rate_hz(p, [](const StampedPose& x) { return x.t_ns; });
 }
 
 std::string source_kind(const std::string& format) {

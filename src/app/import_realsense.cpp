@@ -90,12 +90,7 @@ void sort_unique(std::vector<Vec3Stamped>& v, std::size_t& dropped) {
 }
 
 double median_rate(const std::vector<Vec3Stamped>& v) {
-  if (v.size() < 2) return 0.0;
-  std::vector<Timestamp> d;
-  for (std::size_t i = 1; i < v.size(); ++i) d.push_back(v[i].first - v[i - 1].first);
-  std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 2), d.end());
-  const Timestamp m = d[d.size() / 2];
-  return m > 0 ? 1e9 / static_cast<double>(m) : 0.0;
+  return median_rate_hz(v, [](const Vec3Stamped& x) { return x.first; });
 }
 
 void write_xyz_csv(const fs::path& file, const std::vector<Vec3Stamped>& v, const char* unit) {

@@ -628,10 +628,7 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
   DatasetManifest& m = ds.manifest;
   m.name = "from-groundtruth";
   // Rate from the median sample interval of the real IMU.
-  std::vector<Timestamp> dts;
-  for (std::size_t k = 1; k < imu.size(); ++k) dts.push_back(imu[k].t_ns - imu[k - 1].t_ns);
-  std::nth_element(dts.begin(), dts.begin() + dts.size() / 2, dts.end());
-  const double rate = 1e9 / static_cast<double>(dts[dts.size() / 2]);
+  const double rate = median_rate_hz(imu, [](const ImuSample& s) { return s.t_ns; });
   m.imu = ImuInfo{rate, config.imu_noise};
   m.camera = camera_info(K, config.T_I_C);
   m.mocap = MocapInfo{"groundtruth", Pose(), 0.0};

@@ -30,6 +30,19 @@ inline Timestamp from_seconds(double t_s) { return static_cast<Timestamp>(std::l
 /// dt in seconds between two stamps (b − a), computed in integers first to keep precision.
 inline double dt_seconds(Timestamp a, Timestamp b) { return static_cast<double>(b - a) * 1e-9; }
 
+/// Sample rate [Hz] of a stream from the median interval between consecutive stamps (the element at
+/// n/2 of the sorted intervals), so that gaps, dropped samples and jittered stamps do not move it;
+/// 0 for fewer than two stamps or a median interval that is not positive (unsorted stamps).
+double median_rate_hz(const std::vector<Timestamp>& stamps);
+/// The same for any sequence of samples, `stamp(sample)` giving each one's Timestamp.
+template <class Samples, class StampOf>
+double median_rate_hz(const Samples& samples, StampOf stamp) {
+  std::vector<Timestamp> t;
+  t.reserve(samples.size());
+  for (const auto& s : samples) t.push_back(stamp(s));
+  return median_rate_hz(t);
+}
+
 /// One IMU sample in the IMU frame I: angular rate (rad/s) and specific force (m/s²).
 struct ImuSample {
   Timestamp t_ns = 0;
