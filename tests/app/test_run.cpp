@@ -502,6 +502,29 @@ TEST_CASE("real IMU: the gyro bias at rest from the init window matches the grou
   for (const auto& w : r.warnings) CHECK(w.find("init_gyro_bias_from_rest") == std::string::npos);
 }
 
+TEST_CASE("detections outside the IMU stream are skipped, counted and named in a warning", "[app][run]") {
+  Dataset d = test::simulate_preset("matched", 3, 6.0);
+  // The IMU ends a second before the camera does.
+  const Timestamp imu_end = d.imu.back().t_ns - kNsPerSecond;
+  d.imu.erase(std::remove_if(d.imu.begin(), d.imu.end(), [&](const ImuSample& s) { return s.t_ns > imu_end; }),
+              d.imu.end());
+  d.groundtruth.erase(std::remove_if(d.groundtruth.begin(), d.groundtruth.end(),
+                                     [&](const ImuState& s) { return s.t_ns > imu_end; }),
+                      d.groundtruth.end());
+  std::size_t late = 0;
+  for (const auto& x : d.detections.at("sim")) late += x.t_ns > imu_end ? 1 : 0;
+  REQUIRE(late > 10);
+  const app::RunOutput r = app::run_dataset(d, "sim", app::RunConfig());
+  std::size_t skipped = 0;
+  for (const auto& kv : r.counts) skipped += kv.second.rejected_no_imu;
+  CHECK(skipped == late);
+  const std::string want = std::to_string(late) + " detections lie outside the IMU stream and were skipped";
+  CHECK(std::count(r.warnings.begin(), r.warnings.end(), want) == 1);
+  // None when all lie inside.
+  const app::RunOutput inside = app::run_dataset(test::simulate_preset("matched", 3, 6.0), "sim", app::RunConfig());
+  for (const auto& w : inside.warnings) CHECK(w.find("outside the IMU stream") == std::string::npos);
+}
+
 TEST_CASE("init_gyro_bias_from_rest on a recording that starts moving: refused, with a warning", "[app][run]") {
   // The simulator's handheld presets move from the first sample (orbit and shake).
   const Dataset d = test::simulate_preset("paper-seq4", 1, 3.0);
