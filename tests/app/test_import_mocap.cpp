@@ -169,6 +169,8 @@ TEST_CASE("import mocap: the evo bag's groundtruth topic and EuRoC/TUM-VI ground
   CHECK_THROWS_WITH(app::import_mocap(b, d.path / "evo2", {}), Catch::Contains("--topic") && Catch::Contains("groundtruth"));
   const auto t = app::import_mocap(g, d.path / "tumvi", {});
   CHECK(t.format == "euroc");
+  // No rate in the file: the median interval's (8.333 ms; the mean, 8.53 ms, is stretched by a 1.06 s gap).
+  CHECK(t.rate_hz == Approx(1e9 / 8'333'000).epsilon(1e-12));
   const auto p = io::read_mocap_csv(io::mocap_csv_path(d.path / "tumvi"));
   REQUIRE_FALSE(p.empty());
   CHECK(p[0].t_ns == 1520530308189679351LL);
