@@ -198,8 +198,7 @@ OffsetEstimate estimate_time_offset(const std::vector<ImuSample>& imu, const std
   for (int k = 0; k < static_cast<int>(corr.size()); ++k)
     if (std::abs(k - best) > excl && !std::isnan(corr[k])) second = std::max(second, corr[k]);
   e.peak_ratio = second > 0 ? corr[best] / second : std::numeric_limits<double>::infinity();
-  if (best == 0 || best + 1 == static_cast<int>(corr.size()))
-    log::warn("time-offset estimate: the peak is at the edge of the ±{} s search range; widen --max-offset", max_offset_s);
+  e.peak_at_edge = best == 0 || best + 1 == static_cast<int>(corr.size());
   return e;
 }
 
@@ -227,7 +226,8 @@ nlohmann::json ImportMocapSummary::to_json() const {
                             {"peak_ratio", std::isfinite(estimate->peak_ratio) ? nlohmann::json(estimate->peak_ratio)
                                                                                : nlohmann::json(nullptr)},
                             {"samples", estimate->samples},
-                            {"grid_dt_s", estimate->grid_dt_s}};
+                            {"grid_dt_s", estimate->grid_dt_s},
+                            {"peak_at_edge", estimate->peak_at_edge}};
   return j;
 }
 
@@ -283,6 +283,10 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
     offset = e.offset_s;
     if (e.correlation < 0.5)
       S.warnings.push_back(fmt::format("time-offset estimate is weak (correlation {:.3f}): check it", e.correlation));
+    if (e.peak_at_edge)
+      S.warnings.push_back(fmt::format(
+          "time-offset estimate: the peak is at the edge of the ±{} s search range; widen --max-offset",
+          opt.max_offset_s));
   }
   S.time_offset_s = offset;
   S.poses = d.poses.size();

@@ -71,6 +71,19 @@ TEST_CASE("estimate_time_offset recovers a known offset within one mocap frame",
     CHECK(std::abs(e.offset_s - offset) < 2e-3);  // in practice much better than a frame
     CHECK(e.correlation > 0.9);
     CHECK(e.peak_ratio > 1.0);
+    CHECK_FALSE(e.peak_at_edge);
+  }
+  // Clocks that do not overlap are searched around the offset that lines up the first stamps
+  // (1'699'999'999 s here, so `rel` is the true offset from it). A true offset 0.55 s from it, either
+  // way, with a ±0.5 s search: the peak sits on that edge, flagged.
+  for (double rel : {0.55, -0.55}) {
+    const double offset = 1'700'000'000.0 + rel - 1.0;
+    std::vector<ImuSample> imu;
+    std::vector<StampedPose> mocap;
+    simulate(offset, imu, mocap, 7);
+    const auto e = app::estimate_time_offset(imu, mocap, 0.5);
+    CHECK(e.peak_at_edge);
+    CHECK(std::abs(e.offset_s - (1'699'999'999.0 + (rel > 0.0 ? 0.5 : -0.5))) < 1e-6);
   }
   // Without noise the peak's parabolic refinement places it within a small fraction of the 5 ms grid.
   // The grid is laid from the streams' first stamps; dropping the first 1 or 2 mocap poses (8.33 ms
@@ -120,6 +133,29 @@ TEST_CASE("import mocap --estimate-offset writes the offset into roe.json", "[ap
   REQUIRE(written.size() == mocap.size());
   CHECK(written.front().t_ns == mocap.front().t_ns);
   CHECK(m.sources.at(0).options.at("time_offset_source") == "estimated");
+  CHECK(s.warnings.empty());  // neither weak nor at the edge of the search
+  CHECK(s.to_json().at("offset_estimate").at("peak_at_edge") == false);
+
+  // --time-offset with --estimate-offset: the given offset centres a narrow search.
+  o.time_offset_s = 1'700'000'000.2;
+  o.max_offset_s = 0.1;
+  o.force = true;
+  const auto centred = app::import_mocap(d.path / "gt.tum", ds, o);
+  REQUIRE(centred.estimate);
+  CHECK(std::abs(centred.time_offset_s - offset) < 1.0 / 120.0);
+  CHECK_FALSE(centred.estimate->peak_at_edge);
+  CHECK(centred.warnings.empty());
+  // The same with the given offset 0.3 s off: the peak is at the search's edge, and the summary says so
+  o.time_offset_s = 1'700'000'000.55;
+  const auto edge = app::import_mocap(d.path / "gt.tum", ds, o);
+  REQUIRE(edge.estimate);
+  CHECK(edge.estimate->peak_at_edge);
+  CHECK(edge.time_offset_s == Approx(1'700'000'000.45).margin(1e-6));
+  // ... and so far from the true peak the correlation is weak as well (0.46).
+  REQUIRE(edge.warnings.size() == 2);
+  CHECK(edge.warnings[0].find("time-offset estimate is weak") != std::string::npos);
+  CHECK(edge.warnings[1].find("edge of the ±0.1 s search range; widen --max-offset") != std::string::npos);
+  CHECK(edge.to_json().at("warnings").size() == 2);
 }
 
 TEST_CASE("import mocap: the real Motive file into a new dataset, then overwrite rules", "[app][import][shared]") {

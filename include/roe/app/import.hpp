@@ -96,6 +96,8 @@ struct OffsetEstimate {
   double peak_ratio = 0.0;    ///< peak / best value outside ±0.25 s of the peak (>1: distinct)
   std::size_t samples = 0;    ///< overlapping grid samples used at the peak
   double grid_dt_s = 0.0;
+  /// The peak is the first or last lag searched: the true offset may lie beyond ±max_offset_s.
+  bool peak_at_edge = false;
 };
 
 struct ImportMocapSummary {
