@@ -125,7 +125,7 @@ TEST_CASE("import kalibr: invalid files are InputErrors naming file, line and ke
   fails(replace(kCamchain, "cam0:", "cam1:"), "no camera");
   fails("cam0: [unclosed", "YAML syntax error");
   CHECK_THROWS_WITH(app::read_kalibr_imu(d.write("i.yaml", replace(kImu, "0.00016", "-0.00016"))),
-                    Catch::Contains("i.yaml:3:") && Catch::Contains("must be > 0"));
+                    Catch::Contains("i.yaml:3:26:") && Catch::Contains("must be > 0"));  // the value's line:column
   CHECK_THROWS_WITH(app::read_kalibr_imu(d.write("i.yaml", replace(kImu, "gyroscope_random_walk: 0.000019\n", ""))),
                     Catch::Contains("gyroscope_random_walk"));
   // Nothing is written when validation fails.
