@@ -120,6 +120,12 @@ TEST_CASE("import kalibr: invalid files are InputErrors naming file, line and ke
   fails(replace(kCamchain, "  intrinsics: [612.0, 611.0, 320.5, 240.5]\n", ""), "missing required key");
   fails(replace(kCamchain, "[612.0, 611.0, 320.5, 240.5]", "[612.0, 611.0, 320.5]"), "need 4 values");
   fails(replace(kCamchain, "[612.0, 611.0", "[-612.0, 611.0"), "focal");
+  fails(replace(kCamchain, "611.0, 320.5", "-611.0, 320.5"), "focal");  // f_v
+  // omni: [xi, fu, fv, pu, pv]; the focal lengths are the 2nd and 3rd value.
+  const std::string omni = replace(replace(kCamchain, "pinhole", "omni"), "[612.0, 611.0", "[0.9, 612.0, 611.0");
+  CHECK_NOTHROW(app::read_kalibr_camchain(d.write("omni.yaml", omni)));
+  fails(replace(omni, "612.0, 611.0", "612.0, -611.0"), "focal");
+  fails(replace(omni, "[0.9, 612.0", "[0.9, -612.0"), "focal");
   fails(replace(kCamchain, "radtan", "kannala"), "unknown distortion_model");
   fails(replace(kCamchain, "0.0042", "soon"), "expected a number");
   fails(replace(kCamchain, "cam0:", "cam1:"), "no camera");
