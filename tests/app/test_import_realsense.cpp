@@ -120,6 +120,23 @@ TEST_CASE("import realsense: generated D435i bags (LZ4, bz2, none) match the gen
   }
 }
 
+TEST_CASE("import realsense: repeated IMU messages are dropped and counted", "[app][import]") {
+  for (const char* layout : {"recorder", "ros"}) {
+    INFO(layout);
+    TempDir d;
+    testing::D435iBagSpec spec;
+    spec.layout = std::string(layout) == "ros" ? testing::D435iBagSpec::Layout::kRealsenseRos
+                                               : testing::D435iBagSpec::Layout::kRecorder;
+    spec.repeated_imu = 3;  // 3 accel + 3 gyro messages written twice
+    testing::D435iBagTruth truth;
+    const fs::path b = write_bag(d, "rep.bag", testing::generate_d435i_bag(spec, &truth));
+    const auto s = app::import_realsense(b, d.path / "ds", {});
+    // Everything else as without the repeats: the first copy of each is kept.
+    check_against_truth(d.path / "ds", spec, truth, s);
+    CHECK(std::count(s.warnings.begin(), s.warnings.end(), "6 IMU samples with a repeated stamp dropped") == 1);
+  }
+}
+
 TEST_CASE("import realsense: sensors are found by name, unindexed bags are scanned", "[app][import]") {
   TempDir d;
   testing::D435iBagSpec spec;
