@@ -184,6 +184,67 @@ TEST_CASE("roe eval: run folder vs dataset (mocap with T_B_I and time offset)", 
   }
 }
 
+TEST_CASE("roe eval: cnspy covariance in the body frame (type1) is rotated into the world; path lengths",
+          "[app][eval]") {
+  const fs::path root = fs::temp_directory_path() / "roe_test_eval_cnspy_cov";
+  fs::remove_all(root);
+  fs::create_directories(root);
+  // A tumbling body on a circle at 20 Hz; the estimate has deterministic position errors e_W with a
+  // known, anisotropic world-frame covariance P_W, written once as type1 (body frame: Rᵀ P_W R) and
+  // once as type2 (world frame, as given).
+  const Eigen::Matrix3d Q = math::from_euler_zyx(Vector3d(0.3, -0.4, 1.1));
+  const Eigen::Matrix3d P_W = Q * Vector3d(1e-4, 4e-4, 9e-4).asDiagonal() * Q.transpose();
+  std::ofstream gt(root / "gt.tum");
+  std::ofstream b1(root / "est1.csv"), b2(root / "est2.csv");
+  const char* header = "t,tx,ty,tz,qx,qy,qz,qw,pxx,pxy,pxz,pyy,pyz,pzz,qrr,qrp,qry,qpp,qpy,qyy,est_err_type,err_representation\n";
+  b1 << header;
+  b2 << header;
+  double nees_sum = 0.0, L = 0.0;
+  Vector3d last;
+  const int n = 400;
+  for (int k = 0; k < n; ++k) {
+    const double s = 0.05 * k;
+    const Vector3d p(2.0 * std::cos(0.3 * s), 2.0 * std::sin(0.3 * s), 0.5 * std::sin(0.2 * s));
+    if (k > 0) L += (p - last).norm();
+    last = p;
+    const Eigen::Quaterniond q(math::from_euler_zyx(Vector3d(0.5 * std::sin(0.7 * s), 0.4 * std::cos(0.5 * s), 0.9 * s)));
+    const Vector3d e(0.01 * std::sin(3.1 * k), 0.02 * std::cos(5.3 * k), 0.03 * std::sin(7.7 * k + 1.0));
+    nees_sum += e.dot(P_W.inverse() * e);
+    gt << Fixture::fmt(s) << " " << Fixture::fmt(p.x()) << " " << Fixture::fmt(p.y()) << " " << Fixture::fmt(p.z()) << " "
+       << Fixture::fmt(q.x()) << " " << Fixture::fmt(q.y()) << " " << Fixture::fmt(q.z()) << " " << Fixture::fmt(q.w()) << "\n";
+    const Eigen::Matrix3d R = q.toRotationMatrix();
+    const Eigen::Matrix3d P_B = R.transpose() * P_W * R;
+    for (int file = 1; file <= 2; ++file) {
+      std::ofstream& o = file == 1 ? b1 : b2;
+      const Eigen::Matrix3d& P = file == 1 ? P_B : P_W;
+      const Vector3d pe = p + e;
+      o << Fixture::fmt(s) << "," << Fixture::fmt(pe.x()) << "," << Fixture::fmt(pe.y()) << "," << Fixture::fmt(pe.z()) << ","
+        << Fixture::fmt(q.x()) << "," << Fixture::fmt(q.y()) << "," << Fixture::fmt(q.z()) << "," << Fixture::fmt(q.w());
+      for (auto [i, j] : {std::pair{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}}) o << "," << Fixture::fmt(P(i, j));
+      o << ",1e-4,0,0,1e-4,0,1e-4," << (file == 1 ? "type1" : "type2") << ",theta_R\n";
+    }
+  }
+  gt.close();
+  b1.close();
+  b2.close();
+  app::EvalOptions o;
+  o.gt = (root / "gt.tum").string();
+  o.align = "none";
+  o.no_out = true;
+  o.est = (root / "est1.csv").string();
+  const auto r1 = app::run_eval(o);
+  o.est = (root / "est2.csv").string();
+  const auto r2 = app::run_eval(o);
+  REQUIRE(r1.report["association"]["n_matched"].get<int>() == n);
+  // The average NEES (1/n) Σ eᵀ P_W⁻¹ e (3 for a consistent estimate), from either file.
+  CHECK(r2.report["consistency"]["anees_p"].get<double>() == Approx(nees_sum / n).epsilon(1e-6));
+  CHECK(r1.report["consistency"]["anees_p"].get<double>() == Approx(nees_sum / n).epsilon(1e-6));
+  // Path lengths: the ground truth's, and the estimate's (longer: its errors zig-zag).
+  CHECK(r1.report["path_length_m"]["gt"].get<double>() == Approx(L).epsilon(1e-9));
+  CHECK(r1.report["path_length_m"]["est"].get<double>() > L + 0.5);
+  fs::remove_all(root);
+}
+
 TEST_CASE("roe eval: alignment variants and options", "[app][eval]") {
   Fixture f("variants", false);
   app::EvalOptions o;
