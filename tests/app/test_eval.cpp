@@ -363,6 +363,23 @@ TEST_CASE("roe eval --summary: rows, mean and population std", "[app][eval]") {
   CHECK(s.markdown.find("| mean |") != std::string::npos);
   CHECK(s.markdown.find("± std") != std::string::npos);
   for (const char* ext : {".csv", ".json", ".md"}) CHECK(fs::exists(f.root / (std::string("table") + ext)));
+  // table.csv: runs numbered from 1, in the order given, each with its label and report; then the
+  // mean and std rows.
+  {
+    std::ifstream csv(f.root / "table.csv");
+    std::string line;
+    std::getline(csv, line);
+    CHECK(line.rfind("run,label,report,n_objects,n_matched,", 0) == 0);
+    for (int k = 0; k < 3; ++k) {
+      REQUIRE(std::getline(csv, line));
+      CHECK(line.rfind(std::to_string(k + 1) + ",run" + std::to_string(k) + ",", 0) == 0);
+    }
+    REQUIRE(std::getline(csv, line));
+    CHECK(line.rfind("mean,,,,,", 0) == 0);
+    REQUIRE(std::getline(csv, line));
+    CHECK(line.rfind("std,,,,,", 0) == 0);
+    CHECK_FALSE(std::getline(csv, line));
+  }
   CHECK_THROWS_AS(app::summarize_eval_reports(so), InputError);  // exists, no force
   so.force = true;
   CHECK_NOTHROW(app::summarize_eval_reports(so));
