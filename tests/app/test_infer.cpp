@@ -122,6 +122,10 @@ TEST_CASE("roe infer writes detections, and a second run reuses the cache", "[in
   CHECK(meta.at("config_hash") == s.config_hash);
   CHECK(meta.at("per_frame").size() == 5);
   CHECK(meta.at("per_frame")[0].at("ms").get<double>() > 0.0);
+  // The summary's mean inference time is the mean over the frames computed in this run.
+  double sum_ms = 0.0;
+  for (const auto& f : meta.at("per_frame")) sum_ms += f.at("ms").get<double>();
+  CHECK(s.mean_ms_computed == Approx(sum_ms / 5.0).epsilon(1e-9));
   CHECK(meta.at("selftest").at("pose_max_abs_diff").at("t").get<double>() <= 1e-5);
 
   // Second run: everything from the cache, identical output; it needs --force to replace the set.
@@ -130,6 +134,7 @@ TEST_CASE("roe infer writes detections, and a second run reuses the cache", "[in
   const auto s2 = app::run_infer(ds, o);
   CHECK(s2.frames_reused == 5);
   CHECK(s2.frames_computed == 0);
+  CHECK(s2.mean_ms_computed == 0.0);  // nothing computed
   CHECK(s2.config_hash == s.config_hash);
   const auto dets2 = io::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
   REQUIRE(dets2.size() == dets.size());
