@@ -385,7 +385,16 @@ TEST_CASE("dataset: manifest file errors carry line and column", "[dataset][mani
   write_text(tmp.path / "roe.json", "{\n  \"schema\": \"roe-dataset/1\",\n  \"name\": x\n}\n");
   auto e = expect_input_error([&] { io::read_manifest(tmp.path); });
   CHECK(e.context().line == 3);
-  CHECK(e.context().column > 0);
+  CHECK(e.context().column == 11);  // the x
+  // At the start of a line, and JSON that stops early (reported where it stops).
+  write_text(tmp.path / "roe.json", "{\n]\n");
+  e = expect_input_error([&] { io::read_manifest(tmp.path); });
+  CHECK(e.context().line == 2);
+  CHECK(e.context().column == 1);
+  write_text(tmp.path / "roe.json", "{\n  \"name\": \"a\",\n");
+  e = expect_input_error([&] { io::read_manifest(tmp.path); });
+  CHECK(e.context().line == 3);
+  CHECK(e.context().column == 1);
 }
 
 TEST_CASE("dataset: stream readers reject malformed rows with line and column", "[dataset]") {
