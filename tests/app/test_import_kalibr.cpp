@@ -107,6 +107,31 @@ TEST_CASE("import kalibr: a dataset with other image sizes keeps its intrinsics"
   CHECK_FALSE(s.created_manifest);
 }
 
+TEST_CASE("import kalibr: imu.yaml's update_rate against the dataset's IMU rate", "[app][import][kalibr]") {
+  // A dataset whose IMU runs at `rate`; imu.yaml says 200 Hz. Within 5 %: quiet; beyond: a warning, the
+  // dataset's rate kept. Its noise densities are taken either way.
+  const auto import_into = [](double rate) {
+    TempDir d;
+    const fs::path ds = d.path / "ds";
+    fs::create_directories(ds);
+    DatasetManifest m;
+    m.name = "x";
+    m.imu = ImuInfo{rate, {}};
+    io::write_manifest(m, io::manifest_path(ds));
+    const auto s = app::import_kalibr(d.write("cc.yaml", kCamchain), d.write("imu.yaml", kImu), ds, {});
+    const auto back = io::read_manifest(ds);
+    CHECK(back.imu->rate_hz == rate);
+    CHECK(back.imu->noise.gyro_noise_density == 0.00016);
+    return s.warnings;
+  };
+  CHECK(import_into(200.0).empty());
+  CHECK(import_into(205.0).empty());
+  const auto w = import_into(400.0);
+  REQUIRE(w.size() == 1);
+  CHECK(w[0] == "imu.yaml update_rate 200 Hz differs from the dataset's IMU rate 400 Hz (kept)");
+  CHECK(import_into(189.0).size() == 1);
+}
+
 TEST_CASE("import kalibr: invalid files are InputErrors naming file, line and key", "[app][import][kalibr]") {
   TempDir d;
   const fs::path ds = d.path / "ds";
