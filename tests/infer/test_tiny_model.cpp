@@ -2,6 +2,7 @@
 // reproduce the generator's reference outputs; the detector finds the rendered squares.
 #include <catch2/catch.hpp>
 #include <filesystem>
+#include <limits>
 #include <set>
 #include <unistd.h>
 
@@ -279,6 +280,18 @@ TEST_CASE("pose-head outputs to detections: each query keeps its own translation
       CHECK((*dets[q].sigma)[3 + k] == Approx(std::exp(0.5 * lv_r[3 * q + k])).epsilon(1e-12));
     }
   }
+  // A degenerate rotation (query 0: both 6D columns zero) and a non-finite translation (query 2) are
+  // dropped and counted; query 1 survives.
+  std::vector<float> r6_bad = r6, t_bad = t;
+  std::fill(r6_bad.begin(), r6_bad.begin() + 6, 0.0f);
+  t_bad[3 * 2 + 1] = std::numeric_limits<float>::quiet_NaN();
+  std::size_t dropped = 0;
+  const auto kept = model.decode_outputs({HostTensor::floats({4, 3}, t_bad), HostTensor::floats({4, 6}, r6_bad),
+                                          HostTensor::floats({4, 3}, lv_t), HostTensor::floats({4, 3}, lv_r)},
+                                         boxes, &dropped);
+  CHECK(dropped == 2);
+  REQUIRE(kept.size() == 1);
+  CHECK(kept[0].class_id == boxes[1].class_id);
 }
 
 #else
