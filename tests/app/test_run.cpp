@@ -174,10 +174,28 @@ TEST_CASE("camera.time_offset_s moves the detections into the IMU clock", "[app]
 }
 
 TEST_CASE("run.json's detection counts and NIS statistics agree with the reprojection rows", "[app][run]") {
-  // PoET-like errors (5 % outliers) give χ² rejections as well as accepted detections.
+  // PoET-like errors (5 % outliers) give χ² rejections as well as accepted detections; every 7th
+  // detection gets a score below min_score, and the IMU stops a second before the camera.
   const fs::path ds = make_dataset("counts", 8.0, "paper-seq1");
   const fs::path out = temp_dir("counts_out");
-  const auto r = app::run(ds, out, app::RunOptions());
+  const auto rewrite = [](const fs::path& f, const std::function<bool(std::size_t, std::string&)>& keep) {
+    std::stringstream in(slurp(f));
+    std::ofstream o(f);
+    std::size_t i = 0;
+    for (std::string l; std::getline(in, l); ++i)
+      if (i == 0 || keep(i, l)) o << l << "\n";
+  };
+  rewrite(ds / "detections" / "sim" / "detections.csv", [](std::size_t i, std::string& l) {
+    if (i % 7 == 0) l = l.substr(0, l.rfind(',')) + ",0.25";
+    return true;
+  });
+  std::size_t imu_rows = 0;
+  rewrite(ds / "mav0" / "imu0" / "data.csv", [&](std::size_t, std::string&) { return ++imu_rows; });
+  rewrite(ds / "mav0" / "imu0" / "data.csv", [&](std::size_t i, std::string&) { return i + 200 <= imu_rows; });
+  std::ofstream(out.string() + ".json") << R"({"filter": {"min_score": 0.5}})";
+  app::RunOptions ro;
+  ro.config_file = out.string() + ".json";
+  const auto r = app::run(ds, out, ro);
   const io::json& c = r.report.at("counts").at("detections");
   const auto& rows = r.output.reprojection;
   CHECK(c.at("detections").get<std::size_t>() == rows.size());
@@ -194,8 +212,8 @@ TEST_CASE("run.json's detection counts and NIS statistics agree with the reproje
     all += want;
   }
   CHECK(all == rows.size());
-  CHECK(c.at("accepted").get<std::size_t>() > 0);
-  CHECK(c.at("rejected_chi2").get<std::size_t>() > 0);
+  for (const char* st : {"accepted", "rejected_chi2", "rejected_score", "rejected_no_imu"})
+    CHECK(c.at(st).get<std::size_t>() > 0);
   // NIS: every gated detection's, against the 95 % χ²₆ gate.
   std::vector<double> nis;
   for (const auto& x : rows)
@@ -218,6 +236,7 @@ TEST_CASE("run.json's detection counts and NIS statistics agree with the reproje
   CHECK(above == c.at("rejected_chi2").get<std::size_t>());
   fs::remove_all(ds);
   fs::remove_all(out);
+  fs::remove(out.string() + ".json");
 }
 
 TEST_CASE("run config: strict keys, shipped configs load, defaults round-trip", "[app][run]") {
