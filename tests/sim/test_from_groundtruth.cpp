@@ -20,11 +20,12 @@ namespace fs = std::filesystem;
 namespace {
 constexpr double kPi = 3.14159265358979323846;
 
-// A camera at a fixed point 1.5 m above the floor, optical axis horizontal, yawing at a constant
-// `deg_per_s` until `pan_until_s` and still after, for `seconds` at 30 Hz.
-void panning_camera(double seconds, double deg_per_s, double pan_until_s, std::vector<Timestamp>& t,
-                    std::vector<Pose>& T_W_C) {
-  // Camera axes for yaw 0: z_C (optical) = x_W, x_C = -y_W, y_C = -z_W.
+// A camera at a fixed point 1.5 m above the floor, starting with its optical axis along x_W (z_C = x_W,
+// x_C = -y_W, y_C = -z_W), turning at `deg_per_s` about one of its own axes until `turn_until_s` and
+// still after, for `seconds` at 30 Hz. Positive about y_C turns the optical axis towards +x_C (a pan to
+// the right), positive about x_C towards -y_C (a tilt up).
+void turning_camera(double seconds, const Eigen::Vector3d& axis_C, double deg_per_s, double turn_until_s,
+                    std::vector<Timestamp>& t, std::vector<Pose>& T_W_C) {
   Eigen::Matrix3d R0;
   R0.col(0) = -Eigen::Vector3d::UnitY();
   R0.col(1) = -Eigen::Vector3d::UnitZ();
@@ -32,11 +33,17 @@ void panning_camera(double seconds, double deg_per_s, double pan_until_s, std::v
   const Timestamp t0 = 1'000'000'000;
   for (int k = 0; k <= static_cast<int>(seconds * 30.0); ++k) {
     const double s = k / 30.0;
-    const double yaw = deg_per_s * kPi / 180.0 * std::min(s, pan_until_s);
-    const Eigen::Matrix3d Rz = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const double angle = deg_per_s * kPi / 180.0 * std::min(s, turn_until_s);
     t.push_back(t0 + static_cast<Timestamp>(std::llround(s * 1e9)));
-    T_W_C.push_back(Pose(Eigen::Quaterniond(Rz * R0), Eigen::Vector3d(0.0, 0.0, 1.5)));
+    T_W_C.push_back(Pose(Eigen::Quaterniond(R0 * Eigen::AngleAxisd(angle, axis_C).toRotationMatrix()),
+                         Eigen::Vector3d(0.0, 0.0, 1.5)));
   }
+}
+
+// Yawing about the vertical (= about -y_C) at `deg_per_s` until `pan_until_s`, then still.
+void panning_camera(double seconds, double deg_per_s, double pan_until_s, std::vector<Timestamp>& t,
+                    std::vector<Pose>& T_W_C) {
+  turning_camera(seconds, -Eigen::Vector3d::UnitY(), deg_per_s, pan_until_s, t, T_W_C);
 }
 
 // Yawing at 20 °/s throughout: like EuRoC's room sweeps, no single point is in view for more than a
@@ -161,24 +168,6 @@ TEST_CASE("from-groundtruth placement: no other object in view before the anchor
 
 namespace {
 
-// A camera at a fixed point turning at a constant rate about one of its own axes (x_C: tilting, y_C:
-// panning), 30 Hz. Positive about y_C turns the optical axis towards +x_C (a pan to the right), positive
-// about x_C towards -y_C (a tilt up).
-void turning_camera(double seconds, const Eigen::Vector3d& axis_C, double deg_per_s, std::vector<Timestamp>& t,
-                    std::vector<Pose>& T_W_C) {
-  Eigen::Matrix3d R0;  // yaw 0 of panning_camera
-  R0.col(0) = -Eigen::Vector3d::UnitY();
-  R0.col(1) = -Eigen::Vector3d::UnitZ();
-  R0.col(2) = Eigen::Vector3d::UnitX();
-  const Timestamp t0 = 1'000'000'000;
-  for (int k = 0; k <= static_cast<int>(seconds * 30.0); ++k) {
-    const double s = k / 30.0;
-    const Eigen::Matrix3d R = R0 * Eigen::AngleAxisd(deg_per_s * kPi / 180.0 * s, axis_C).toRotationMatrix();
-    t.push_back(t0 + static_cast<Timestamp>(std::llround(s * 1e9)));
-    T_W_C.push_back(Pose(Eigen::Quaterniond(R), Eigen::Vector3d(0.0, 0.0, 1.5)));
-  }
-}
-
 // Is p_W a possible candidate of frame k: depth in the candidate range, pixel inside the central
 // place_inner_fraction of the image?
 bool candidate_of_frame(const Pose& T_W_C, const Eigen::Vector3d& p_W, const FromGroundtruthConfig& c) {
@@ -217,7 +206,7 @@ TEST_CASE("from-groundtruth placement draws its candidates in the central image 
   for (const auto& turn : turns) {
     std::vector<Timestamp> t;
     std::vector<Pose> T_W_C;
-    turning_camera(4.0, turn.axis, 20.0 * turn.sign, t, T_W_C);
+    turning_camera(4.0, turn.axis, 20.0 * turn.sign, 4.0, t, T_W_C);
     for (std::uint64_t seed = 1; seed <= 3; ++seed) {
       const auto p = place_along_trajectory(t, T_W_C, c, seed);
       REQUIRE(p.size() == 1);
@@ -236,7 +225,7 @@ TEST_CASE("from-groundtruth placement spawns candidates every place_candidate_ev
   // central area of a spawning frame and in no other frame's on a different bearing.
   std::vector<Timestamp> t;
   std::vector<Pose> T_W_C;
-  turning_camera(17.0, Eigen::Vector3d::UnitY(), 20.0, t, T_W_C);
+  turning_camera(17.0, Eigen::Vector3d::UnitY(), 20.0, 17.0, t, T_W_C);
   FromGroundtruthConfig c;
   c.num_objects = 3;
   c.place_inner_fraction = 0.3;
