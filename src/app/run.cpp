@@ -533,11 +533,16 @@ std::string RunResult::to_text() const {
   s += fmt::format("  IMU samples {}, images with detections {}, updates {}, anchor object {}\n",
                    c.at("imu_samples").get<std::size_t>(), c.at("images_with_detections").get<std::size_t>(),
                    output.summary.updates, output.anchor_id);
-  s += fmt::format(
-      "  detections {}: accepted {}, initialised {}, rejected χ² {}, rejected without anchor {}\n",
-      d.at("detections").get<std::size_t>(), d.at("accepted").get<std::size_t>(),
-      d.at("initialized").get<std::size_t>(), d.at("rejected_chi2").get<std::size_t>(),
-      d.at("rejected_no_main").get<std::size_t>());
+  s += fmt::format("  detections {}: accepted {}, initialised {}, rejected χ² {}, rejected without anchor {}",
+                   d.at("detections").get<std::size_t>(), d.at("accepted").get<std::size_t>(),
+                   d.at("initialized").get<std::size_t>(), d.at("rejected_chi2").get<std::size_t>(),
+                   d.at("rejected_no_main").get<std::size_t>());
+  // The rarer statuses only when they occur.
+  for (const auto& [key, text] : {std::pair{"rejected_score", "below min_score"},
+                                  std::pair{"rejected_no_imu", "outside the IMU stream"},
+                                  std::pair{"pending_init", "awaiting initialisation"}})
+    if (const auto n = d.at(key).get<std::size_t>(); n > 0) s += fmt::format(", {} {}", text, n);
+  s += "\n";
   const json& n = report.at("nis");
   if (n.at("count").get<std::size_t>() > 0)
     s += fmt::format("  NIS (6 dof): mean {:.2f}, median {:.2f}, {:.1f} % above the gate {:.2f}\n",

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <filesystem>
+#include <fmt/format.h>
 #include <fstream>
 #include <functional>
 #include <sstream>
@@ -234,6 +235,13 @@ TEST_CASE("run.json's detection counts and NIS statistics agree with the reproje
   CHECK(n.at("p95").get<double>() == nis[static_cast<std::size_t>(0.95 * nis.size())]);
   CHECK(n.at("fraction_above_gate").get<double>() == Approx(static_cast<double>(above) / nis.size()).epsilon(1e-12));
   CHECK(above == c.at("rejected_chi2").get<std::size_t>());
+  // The text summary names the rarer statuses with their counts when they occur.
+  const std::string text = r.to_text();
+  CHECK(text.find(fmt::format("rejected χ² {}", c.at("rejected_chi2").get<std::size_t>())) != std::string::npos);
+  CHECK(text.find(fmt::format("below min_score {}", c.at("rejected_score").get<std::size_t>())) != std::string::npos);
+  CHECK(text.find(fmt::format("outside the IMU stream {}", c.at("rejected_no_imu").get<std::size_t>())) !=
+        std::string::npos);
+  CHECK((text.find("awaiting initialisation") != std::string::npos) == (c.at("pending_init").get<std::size_t>() > 0));
   fs::remove_all(ds);
   fs::remove_all(out);
   fs::remove(out.string() + ".json");
