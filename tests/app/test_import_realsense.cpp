@@ -269,3 +269,27 @@ TEST_CASE("import realsense: the real RealSense recorder bag", "[app][import][sh
   CHECK(img.height == 480);
   CHECK(img.channels == 3);
 }
+
+TEST_CASE("import realsense: a stream label without an index is not a stream", "[app][import]") {
+  // The recorder names streams <Kind>_<index> (Accel_0, Accel_1); "Accel_" or "Accel_x" is another topic,
+  // so the bag has a gyro but no accelerometer: the raw gyro is kept, imu0 is not written.
+  for (const char* label : {"Accel_", "Accel_x", "Accel_3"}) {
+    INFO(label);
+    TempDir d;
+    testing::D435iBagSpec spec;
+    spec.n_frames = 2;
+    spec.accel_stream = label;
+    const fs::path b = write_bag(d, "x.bag", testing::generate_d435i_bag(spec));
+    const auto s = app::import_realsense(b, d.path / "ds", {});
+    if (std::string(label) == "Accel_3") {
+      CHECK(s.accel_topic == "/device_0/sensor_2/Accel_3/imu/data");
+      CHECK(s.imu_samples > 0);
+    } else {
+      CHECK(s.accel_topic.empty());
+      CHECK(s.imu_samples == 0);
+      CHECK(std::count(s.warnings.begin(), s.warnings.end(),
+                       "only one of accel/gyro is present: imu0 not written (raw stream kept in imu0_raw)") == 1);
+      CHECK_FALSE(fs::exists(d.path / "ds/mav0/imu0/data.csv"));
+    }
+  }
+}
