@@ -38,7 +38,7 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("--gt-source", a->opt.gt_source, "For a dataset: auto, groundtruth or mocap")
       ->capture_default_str();
   sub.add_option("--out", a->opt.out,
-                 "Output folder (default RUN_DIR/eval for a run folder); with --summary: FILE[.csv]");
+                 "Output folder (default RUN_DIR/eval for a run folder); with --summary: FILE[.csv|.json|.md], writes all three");
   sub.add_flag("--no-out", a->opt.no_out, "Write no files, only print the result");
   sub.add_option("--label", a->opt.label, "Name of this run in reports and summaries");
   sub.add_flag("--plot", a->opt.plot,
