@@ -339,7 +339,7 @@ EvalResult run_eval(const EvalOptions& o) {
         {"", 0, 0, "plot"});
   }
   if (!out.empty()) {
-    io::OutputDir dir(out, o.force);
+    io::OutputDir dir(out, o.force, {o.est, o.gt});
     std::vector<std::string> files;
     const auto put = [&](const std::string& name, const std::string& text) {
       io::write_file_atomic(dir.file(name), text);

@@ -237,7 +237,7 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
 
   // ---- write --------------------------------------------------------------------------------
   const std::string sha = io::sha256_file(results_json);
-  io::OutputDir dir(io::detections_dir(dataset, opt.name), opt.force);
+  io::OutputDir dir(io::detections_dir(dataset, opt.name), opt.force, {results_json});
   io::write_detections_csv(dir.file("detections.csv"), out);
   nlohmann::json meta = {
       {"producer", "roe import poet"},

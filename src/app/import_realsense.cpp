@@ -175,7 +175,7 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
   ImportRealsenseSummary S;
   S.dataset = dataset;
   // Refuse an existing output before the (possibly long) read.
-  io::OutputDir out(dataset, opt.force);
+  io::OutputDir out(dataset, opt.force, {bag_path});
   bag::Reader reader(bag_path);
   const auto& conns = reader.connections();
   std::set<std::string> topics;

@@ -259,7 +259,7 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
   for (double v : computed_ms) sum += v;
   s.mean_ms_computed = computed_ms.empty() ? 0.0 : sum / static_cast<double>(computed_ms.size());
 
-  io::OutputDir dir(io::detections_dir(dataset, name), opt.force);
+  io::OutputDir dir(io::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
   io::write_detections_csv(dir.file("detections.csv"), out);
   nlohmann::json class_map = nlohmann::json::object();
   for (const auto& [c, o] : mapper.used()) class_map[std::to_string(c)] = o;

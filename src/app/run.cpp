@@ -445,7 +445,8 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
   const auto t_start = Clock::now();
   RunConfig config;
   if (!options.config_file.empty()) config = run_config_from_file(options.config_file);
-  io::OutputDir dir(out_dir, options.force);  // refuses a non-empty RUN_DIR before any work
+  // Refuses a non-empty RUN_DIR, and one that is or contains the dataset or the config, before any work.
+  io::OutputDir dir(out_dir, options.force, {dataset_dir, options.config_file});
 
   io::DatasetParts parts;
   parts.mocap = false;

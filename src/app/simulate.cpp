@@ -466,9 +466,9 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
 }
 
 SimulateResult simulate(const SimulateOptions& opt, const std::filesystem::path& out) {
+  io::OutputDir dir(out, opt.force, {opt.from_groundtruth, opt.config_file});  // refused before any work
   json effective;
   sim::SimRun run = simulate_dataset(opt, &effective);
-  io::OutputDir dir(out, opt.force);
   io::write_dataset_files(run.dataset, dir.tmp());
   // detections/sim/meta.json: who produced the detections and with which configuration.
   const json meta = {{"producer", std::string("roe simulate ") + roe::kVersion},

@@ -54,8 +54,50 @@ class Sha256 {
 
 }  // namespace
 
-OutputDir::OutputDir(fs::path final_dir, bool force) : final_(std::move(final_dir)), force_(force) {
+fs::path without_trailing_separator(const fs::path& path) {
+  std::string s = path.string();
+  while (s.size() > 1 && s.back() == '/') s.pop_back();
+  return s;
+}
+
+namespace {
+// `a` equals `b` or is one of its ancestors (both absolute and normal).
+bool is_same_or_ancestor(const fs::path& a, const fs::path& b) {
+  auto ia = a.begin(), ib = b.begin();
+  for (; ia != a.end(); ++ia, ++ib) {
+    if (ia->empty() && std::next(ia) == a.end()) break;  // trailing "" of "dir/"
+    if (ib == b.end() || *ia != *ib) return false;
+  }
+  return true;
+}
+fs::path resolved(const fs::path& p) {
   std::error_code ec;
+  fs::path r = fs::weakly_canonical(fs::absolute(p, ec), ec);
+  if (ec) r = fs::absolute(p, ec).lexically_normal();
+  return without_trailing_separator(r);
+}
+}  // namespace
+
+void refuse_overwriting_inputs(const fs::path& out, const std::vector<fs::path>& inputs, const std::string& what) {
+  const fs::path o = resolved(out);
+  for (const auto& in : inputs) {
+    std::error_code ec;
+    if (in.empty() || !fs::exists(in, ec)) continue;
+    const fs::path i = resolved(in);
+    if (is_same_or_ancestor(o, i))
+      throw InputError(what + (o == i ? " is" : " contains") + " the input " + in.string() +
+                           ": write the output elsewhere (even --force would delete the input)",
+                       {out.string()});
+  }
+}
+
+OutputDir::OutputDir(fs::path final_dir, bool force, const std::vector<fs::path>& inputs)
+    : final_(without_trailing_separator(final_dir)), force_(force) {
+  std::error_code ec;
+  if (final_.empty()) throw InputError("empty output folder name", {final_.string()});
+  if (is_same_or_ancestor(resolved(final_), resolved(fs::current_path(ec))))
+    throw InputError("output folder is the current folder or contains it: name a folder below it", {final_.string()});
+  refuse_overwriting_inputs(final_, inputs);
   if (fs::exists(final_, ec)) {
     if (!fs::is_directory(final_, ec))
       throw InputError("output exists and is not a folder", {final_.string()});

@@ -632,6 +632,64 @@ TEST_CASE("output: OutputDir refuses, replaces with force, and leaves nothing be
   CHECK_THROWS_AS(io::OutputDir(tmp.path / "file", true), InputError);
 }
 
+TEST_CASE("output: OutputDir takes runs/x/ for runs/x, and never replaces an input or the current folder", "[output]") {
+  TempDir tmp("outdir2");
+  CHECK(io::without_trailing_separator("runs/x/") == fs::path("runs/x"));
+  CHECK(io::without_trailing_separator("runs/x//") == fs::path("runs/x"));
+  CHECK(io::without_trailing_separator("/") == fs::path("/"));
+  CHECK(io::without_trailing_separator("x") == fs::path("x"));
+  // A new folder named with a trailing separator (tab completion, "$dir/" in scripts).
+  {
+    io::OutputDir o((tmp.path / "new").string() + "/", false);
+    write_text(o.file("a.txt"), "a");
+    o.commit();
+  }
+  CHECK(io::read_file(tmp.path / "new" / "a.txt") == "a");
+  CHECK(std::distance(fs::directory_iterator(tmp.path), fs::directory_iterator()) == 1);
+  // ... and an existing one replaced with force.
+  {
+    io::OutputDir o((tmp.path / "new").string() + "/", true);
+    write_text(o.file("b.txt"), "b");
+    o.commit();
+  }
+  CHECK(io::read_file(tmp.path / "new" / "b.txt") == "b");
+  CHECK_FALSE(fs::exists(tmp.path / "new" / "a.txt"));
+  CHECK(std::distance(fs::directory_iterator(tmp.path), fs::directory_iterator()) == 1);
+
+  // The output is an input, or contains one: refused even with force, nothing touched.
+  const fs::path ds = tmp.path / "ds";
+  write_text(ds / "mav0" / "imu0" / "data.csv", "imu");
+  write_text(tmp.path / "cfg.json", "{}");
+  for (const fs::path& out : {ds, fs::path(ds.string() + "/"), tmp.path / "ds" / "mav0" / ".." , tmp.path}) {
+    INFO(out);
+    auto e = expect_input_error([&] { io::OutputDir o(out, true, {ds / "mav0" / "imu0" / "data.csv"}); });
+    CHECK_THAT(e.what(), Catch::Contains("input") && Catch::Contains("data.csv"));
+  }
+  auto e = expect_input_error([&] { io::OutputDir o(tmp.path / "new", true, {"", tmp.path / "missing", tmp.path / "new"}); });
+  CHECK_THAT(e.what(), Catch::Contains("output folder is the input"));
+  // Through a symlink to the input.
+  fs::create_directory_symlink(ds, tmp.path / "link");
+  CHECK_THROWS_AS(io::OutputDir(tmp.path / "link", true, {ds}), InputError);
+  // Beside or below an input is fine; missing and empty inputs are ignored.
+  CHECK_NOTHROW(io::OutputDir(ds / "run", true, {ds, tmp.path / "cfg.json"}));
+  CHECK_NOTHROW(io::OutputDir(tmp.path / "ds2", true, {ds, "", tmp.path / "absent"}));
+  CHECK(io::read_file(ds / "mav0" / "imu0" / "data.csv") == "imu");
+
+  // The current folder or an ancestor of it is never an output folder.
+  struct Cwd {
+    fs::path old = fs::current_path();
+    ~Cwd() { fs::current_path(old); }
+  } restore;
+  fs::create_directories(tmp.path / "work");
+  fs::current_path(tmp.path / "work");
+  for (const fs::path& out : {fs::path("."), fs::path("./"), fs::path(".."), tmp.path / "work"}) {
+    INFO(out);
+    auto c = expect_input_error([&] { io::OutputDir o(out, true); });
+    CHECK_THAT(c.what(), Catch::Contains("current folder"));
+  }
+  CHECK_NOTHROW(io::OutputDir("sub", false));
+}
+
 TEST_CASE("output: write_file_atomic and sha256", "[output]") {
   TempDir tmp("atomic");
   const fs::path f = tmp.path / "a" / "b.txt";

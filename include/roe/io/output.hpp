@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace roe::io {
 
@@ -17,8 +18,10 @@ namespace fs = std::filesystem;
 class OutputDir {
  public:
   /// Throws roe::InputError if `final_dir` exists, is non-empty and force is false, or exists and is
-  /// not a directory.
-  OutputDir(fs::path final_dir, bool force);
+  /// not a directory; if it is the current folder or one of its ancestors; or if it is one of
+  /// `inputs` or contains one (replacing it would delete the command's own input, even with force).
+  /// Trailing separators are ignored (`runs/x/` is `runs/x`).
+  OutputDir(fs::path final_dir, bool force, const std::vector<fs::path>& inputs = {});
   ~OutputDir();
   OutputDir(const OutputDir&) = delete;
   OutputDir& operator=(const OutputDir&) = delete;
@@ -38,6 +41,15 @@ class OutputDir {
   bool force_;
   bool committed_ = false;
 };
+
+/// `path` without trailing separators ("runs/x/" → "runs/x"; "/" stays "/").
+fs::path without_trailing_separator(const fs::path& path);
+
+/// Throws roe::InputError when `out` (a folder or file about to be written or replaced) is one of
+/// `inputs` or contains one of them. Paths are compared after resolving symlinks and `..`; inputs
+/// that do not exist are ignored. `what` names the output in the message ("output folder").
+void refuse_overwriting_inputs(const fs::path& out, const std::vector<fs::path>& inputs,
+                               const std::string& what = "output folder");
 
 /// Writes `content` to `path` through a temporary file in the same folder and a rename.
 /// Refuses to replace an existing file unless `overwrite` is true (roe::InputError).
