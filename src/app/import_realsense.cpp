@@ -524,7 +524,9 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
     ii.rate_hz = S.imu_topic.empty() && S.gyro_rate_hz > 0 ? S.gyro_rate_hz : median_rate(g);
     if (!(ii.rate_hz > 0)) ii.rate_hz = 1.0;
     m.imu = ii;
-    S.warnings.push_back("IMU noise densities unknown (set to 0): import a Kalibr imu.yaml with roe import kalibr");
+    S.warnings.push_back(
+        "IMU noise densities unknown (not written to roe.json): import a Kalibr imu.yaml with roe import kalibr, "
+        "or set them in the run config");
   }
   if (proc) {
     CameraInfo c;

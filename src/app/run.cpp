@@ -124,15 +124,22 @@ std::string choose_detections(const Dataset& d, const std::string& name) {
       {"detections/"});
 }
 
-ekf::ImuNoiseParams imu_noise(const Dataset& d, const ekf::FilterOptions& o) {
+// The filter's IMU noise: the config's value where it gives one (>= 0), else roe.json's; `from` says which.
+ekf::ImuNoiseParams imu_noise(const Dataset& d, const ekf::FilterOptions& o, std::array<std::string, 4>& from) {
   ekf::ImuNoiseParams n;
   const ImuNoise* ds = d.manifest.imu ? &d.manifest.imu->noise : nullptr;
+  int i = 0;
   const auto pick = [&](double opt, double ImuNoise::*field, const char* key) {
-    if (opt >= 0.0) return opt;
+    if (opt >= 0.0) {
+      from[i++] = "config";
+      return opt;
+    }
     if (ds == nullptr || !(ds->*field >= 0.0))
-      throw ConfigError(
-          fmt::format("IMU noise unknown: roe.json has no imu.{0}; set filter.{0} in the config", key),
-          {"roe.json", 0, 0, std::string("imu.") + key});
+      throw ConfigError(fmt::format("IMU noise unknown: roe.json has no imu.{0}; set filter.{0} in the config "
+                                    "(or import a Kalibr imu.yaml with roe import kalibr)",
+                                    key),
+                        {"roe.json", 0, 0, std::string("imu.") + key});
+    from[i++] = "dataset";
     return ds->*field;
   };
   n.gyro_noise_density = pick(o.gyro_noise_density, &ImuNoise::gyro_noise_density, "gyro_noise_density");
@@ -234,7 +241,14 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
         fmt::format("anchor chosen automatically: object {} (first seen{}, detected in {} images)",
                     fopt.anchor_id, "", seen[fopt.anchor_id]));
   }
-  const ekf::ImuNoiseParams noise = imu_noise(dataset, opt);
+  const ekf::ImuNoiseParams noise = imu_noise(dataset, opt, out.imu_noise_from);
+  out.imu_noise = noise;
+  if (noise.gyro_noise_density == 0.0 || noise.accel_noise_density == 0.0)
+    out.warnings.push_back(fmt::format(
+        "IMU noise density 0 (gyro {:g}, accel {:g}; from the {}): the filter trusts the IMU exactly, which "
+        "only a noise-free simulation justifies",
+        noise.gyro_noise_density, noise.accel_noise_density,
+        out.imu_noise_from[0] == out.imu_noise_from[2] ? out.imu_noise_from[0] : "dataset and config"));
   out.gate = ekf::chi2_quantile(opt.chi2_confidence, 6.0);
   out.states.reserve(config.output_rate == "imu" ? dataset.imu.size() : images.size());
   out.reprojection.reserve(dets.size());
@@ -497,6 +511,16 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
         {"detections", counts_json(r)}}},
       {"nis", nis_json(r)},
       {"init", init_json(r.summary)},
+      {"imu_noise",
+       {{"gyro_noise_density", r.imu_noise.gyro_noise_density},
+        {"gyro_random_walk", r.imu_noise.gyro_random_walk},
+        {"accel_noise_density", r.imu_noise.accel_noise_density},
+        {"accel_random_walk", r.imu_noise.accel_random_walk},
+        {"from",
+         {{"gyro_noise_density", r.imu_noise_from[0]},
+          {"gyro_random_walk", r.imu_noise_from[1]},
+          {"accel_noise_density", r.imu_noise_from[2]},
+          {"accel_random_walk", r.imu_noise_from[3]}}}}},
       {"final",
        {{"T_I_C",
          {{"p", {r.final_T_I_C.p.x(), r.final_T_I_C.p.y(), r.final_T_I_C.p.z()}},

@@ -149,23 +149,31 @@ void require_finite_nonneg(double v, const JsonObject& o, const char* key) {
   if (!(std::isfinite(v) && v >= 0.0)) throw ConfigError("must be >= 0", {o.source(), 0, 0, o.key_path(key)});
 }
 
+// The known (>= 0) noise values; unknown ones (negative) are left out.
 json noise_to_json(const ImuNoise& n) {
-  return json{{"gyro_noise_density", n.gyro_noise_density},
-              {"gyro_random_walk", n.gyro_random_walk},
-              {"accel_noise_density", n.accel_noise_density},
-              {"accel_random_walk", n.accel_random_walk}};
+  json j = json::object();
+  const auto put = [&j](const char* key, double v) {
+    if (v >= 0.0) j[key] = v;
+  };
+  put("gyro_noise_density", n.gyro_noise_density);
+  put("gyro_random_walk", n.gyro_random_walk);
+  put("accel_noise_density", n.accel_noise_density);
+  put("accel_random_walk", n.accel_random_walk);
+  return j;
 }
 
-// Reads the four noise keys of `o` (each optional, default 0 = unknown).
+// Reads the four noise keys of `o`: each optional (absent = unknown, stored as −1), >= 0 when given
+// (0 = a noise-free IMU).
 void read_noise(JsonObject& o, ImuNoise& n) {
-  o.get("gyro_noise_density", n.gyro_noise_density);
-  o.get("gyro_random_walk", n.gyro_random_walk);
-  o.get("accel_noise_density", n.accel_noise_density);
-  o.get("accel_random_walk", n.accel_random_walk);
-  require_finite_nonneg(n.gyro_noise_density, o, "gyro_noise_density");
-  require_finite_nonneg(n.gyro_random_walk, o, "gyro_random_walk");
-  require_finite_nonneg(n.accel_noise_density, o, "accel_noise_density");
-  require_finite_nonneg(n.accel_random_walk, o, "accel_random_walk");
+  const auto get = [&o](const char* key, double& v) {
+    if (!o.has(key)) return;
+    o.get(key, v);
+    require_finite_nonneg(v, o, key);
+  };
+  get("gyro_noise_density", n.gyro_noise_density);
+  get("gyro_random_walk", n.gyro_random_walk);
+  get("accel_noise_density", n.accel_noise_density);
+  get("accel_random_walk", n.accel_random_walk);
 }
 
 // The stamp-ordered loaders share "absent file → empty stream".

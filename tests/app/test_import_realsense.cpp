@@ -13,6 +13,7 @@
 #include "roe/image/frame_processor.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
+#include "roe/io/json.hpp"
 
 namespace fs = std::filesystem;
 using namespace roe;
@@ -111,6 +112,9 @@ TEST_CASE("import realsense: generated D435i bags (LZ4, bz2, none) match the gen
     CHECK(opt.at("source_distortion_model") == "Inverse Brown Conrady");
     CHECK(opt.at("timestamp_domain") == "Global Time");
     CHECK(m.sources[0].kind == "realsense-bag");
+    // A bag has no IMU noise densities: left out of roe.json (unknown), not written as 0 (noise-free).
+    CHECK_FALSE(m.imu->noise.known());
+    CHECK_FALSE(io::parse_json_file(d.path / "ds" / "roe.json").at("imu").contains("gyro_noise_density"));
     // T_I_C from the tf/0 extrinsics: T_accel_depth · T_color_depth⁻¹.
     REQUIRE(s.have_T_I_C);
     const Pose T_C_D(truth.q_color_depth, truth.t_color_depth), T_A_D(truth.q_accel_depth, truth.t_accel_depth);

@@ -603,3 +603,64 @@ TEST_CASE("a warning when require_anchor rejects a quarter or more of the detect
   CHECK(std::any_of(share.begin(), share.end(), [](const auto& kv) { return kv.second >= 0.25; }));
   CHECK(std::any_of(share.begin(), share.end(), [](const auto& kv) { return kv.second < 0.25; }));
 }
+
+// roe.json's IMU noise: absent = unknown (an error naming the key unless the config sets it), 0 = a
+// noise-free IMU (allowed, with a warning); run.json records the values used and where each came from.
+TEST_CASE("IMU noise: unknown in roe.json is an error, 0 a warning, the values used are in run.json", "[app][run]") {
+  Dataset d = test::simulate_preset("matched", 3, 3.0);
+  app::RunConfig cfg;
+  {
+    const app::RunOutput r = app::run_dataset(d, "sim", cfg);
+    CHECK(r.imu_noise.gyro_noise_density == d.manifest.imu->noise.gyro_noise_density);
+    CHECK(r.imu_noise.accel_random_walk == d.manifest.imu->noise.accel_random_walk);
+    CHECK(r.imu_noise_from == std::array<std::string, 4>{"dataset", "dataset", "dataset", "dataset"});
+    for (const auto& w : r.warnings) CHECK(w.find("IMU noise") == std::string::npos);
+  }
+  // The config wins where it gives a value; imu_noise_scale applies to both sources.
+  cfg.filter.accel_noise_density = 0.05;
+  cfg.filter.imu_noise_scale = 2.0;
+  {
+    const app::RunOutput r = app::run_dataset(d, "sim", cfg);
+    CHECK(r.imu_noise.accel_noise_density == 0.1);
+    CHECK(r.imu_noise.gyro_noise_density == 2.0 * d.manifest.imu->noise.gyro_noise_density);
+    CHECK(r.imu_noise_from == std::array<std::string, 4>{"dataset", "dataset", "config", "dataset"});
+  }
+  // Unknown in roe.json (as `roe import realsense` leaves it) and not in the config: refused, key named.
+  cfg = app::RunConfig{};
+  d.manifest.imu->noise.gyro_random_walk = -1.0;
+  try {
+    app::run_dataset(d, "sim", cfg);
+    FAIL("no error");
+  } catch (const ConfigError& e) {
+    CHECK_THAT(e.what(), Catch::Contains("imu.gyro_random_walk") && Catch::Contains("filter.gyro_random_walk"));
+  }
+  cfg.filter.gyro_random_walk = 1e-5;
+  CHECK_NOTHROW(app::run_dataset(d, "sim", cfg));
+  // 0 is a noise-free IMU: used as given, with a warning.
+  d.manifest.imu->noise.gyro_noise_density = 0.0;
+  const app::RunOutput z = app::run_dataset(d, "sim", cfg);
+  CHECK(z.imu_noise.gyro_noise_density == 0.0);
+  CHECK(std::count_if(z.warnings.begin(), z.warnings.end(), [](const std::string& w) {
+          return w.find("IMU noise density 0 (gyro 0, accel") == 0 && w.find("from the dataset") != std::string::npos;
+        }) == 1);
+}
+
+TEST_CASE("run.json records the IMU noise the filter used", "[app][run]") {
+  const fs::path ds = make_dataset("noise_json", 3.0);
+  const fs::path out = temp_dir("noise_json_out");
+  app::RunOptions opt;
+  const fs::path cfg = temp_dir("noise_json_cfg.json");
+  std::ofstream(cfg) << R"({"filter": {"gyro_noise_density": 0.002}})";
+  opt.config_file = cfg.string();
+  app::run(ds, out, opt);
+  const auto j = io::parse_json_file(out / "run.json");
+  const auto& n = j.at("imu_noise");
+  CHECK(n.at("gyro_noise_density") == 0.002);
+  CHECK(n.at("from").at("gyro_noise_density") == "config");
+  CHECK(n.at("from").at("accel_noise_density") == "dataset");
+  const auto m = io::read_manifest(ds);
+  CHECK(n.at("accel_noise_density") == m.imu->noise.accel_noise_density);
+  fs::remove_all(ds);
+  fs::remove_all(out);
+  fs::remove(cfg);
+}

@@ -255,7 +255,20 @@ TEST_CASE("dataset: manifest defaults for missing optional keys", "[dataset][man
   CHECK(same(m.mocap->T_B_I, Pose::identity()));
   REQUIRE(m.imu);
   CHECK(m.imu->rate_hz == 200.0);
-  CHECK(m.imu->noise.gyro_noise_density == 0.0);
+  CHECK(m.imu->noise.gyro_noise_density < 0.0);  // absent = unknown
+  CHECK(m.imu->noise.accel_random_walk < 0.0);
+  CHECK_FALSE(m.imu->noise.known());
+  // Unknown values are left out when written, 0 (a noise-free IMU) is kept, and both read back.
+  {
+    DatasetManifest w = m;
+    w.imu->noise.accel_noise_density = 0.0;
+    const json back = io::manifest_to_json(w);
+    CHECK_FALSE(back.at("imu").contains("gyro_noise_density"));
+    CHECK(back.at("imu").at("accel_noise_density") == 0.0);
+    const DatasetManifest r = io::manifest_from_json(back, "roe.json");
+    CHECK(r.imu->noise.gyro_noise_density < 0.0);
+    CHECK(r.imu->noise.accel_noise_density == 0.0);
+  }
   REQUIRE(m.objects.size() == 1);
   CHECK(m.objects[0].name.empty());
   CHECK_FALSE(m.objects[0].symmetric);

@@ -15,6 +15,7 @@
 /// Config file (configs/default.json, configs/paper.json): {"filter": {FilterOptions keys},
 /// "output": {"rate": "imu" | "images"}}; every key optional, unknown keys are errors.
 
+#include <array>
 #include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -90,6 +91,11 @@ struct RunOutput {
   /// NIS of every gated detection (6 dof), and the gate.
   std::vector<double> nis;
   double gate = 0.0;
+  /// The IMU noise the filter used (after imu_noise_scale), and where each value came from
+  /// ("config" or "dataset"), in the order gyro_noise_density, gyro_random_walk, accel_noise_density,
+  /// accel_random_walk.
+  ekf::ImuNoiseParams imu_noise;
+  std::array<std::string, 4> imu_noise_from;
 };
 
 /// Runs the filter on a dataset in memory with the detection set `detections_name` (empty: the only

@@ -24,11 +24,16 @@ struct SourceRecord {
 };
 
 /// IMU noise (continuous-time, Kalibr/EuRoC convention).
+/// Continuous-time IMU noise. Negative = unknown (the key is absent from roe.json); 0 = a noise-free
+/// IMU (e.g. the simulator's noise-free preset).
 struct ImuNoise {
-  double gyro_noise_density = 0.0;   ///< rad/s/√Hz
-  double gyro_random_walk = 0.0;     ///< rad/s²/√Hz
-  double accel_noise_density = 0.0;  ///< m/s²/√Hz
-  double accel_random_walk = 0.0;    ///< m/s³/√Hz
+  double gyro_noise_density = -1.0;   ///< rad/s/√Hz
+  double gyro_random_walk = -1.0;     ///< rad/s²/√Hz
+  double accel_noise_density = -1.0;  ///< m/s²/√Hz
+  double accel_random_walk = -1.0;    ///< m/s³/√Hz
+  bool known() const {
+    return gyro_noise_density >= 0 && gyro_random_walk >= 0 && accel_noise_density >= 0 && accel_random_walk >= 0;
+  }
 };
 
 struct ImuInfo {
