@@ -352,6 +352,10 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
     imu = merge_accel_gyro(accel, gyro, &S.gyro_outside_accel);
   } else if (!accel.empty() || !gyro.empty()) {
     S.warnings.push_back("only one of accel/gyro is present: imu0 not written (raw stream kept in imu0_raw)");
+  } else {
+    S.warnings.push_back(
+        "the bag has no IMU stream (no accel/gyro messages; record with the motion module enabled): imu0 not "
+        "written, so roe run cannot use this dataset");
   }
   S.imu_samples = imu.size();
   for (const auto& s : imu)

@@ -452,6 +452,33 @@ json init_json(const ekf::FilterRunSummary& s) {
   return j;
 }
 
+// run_dataset names files relative to the dataset ("roe.json", "mav0/imu0/data.csv") and the config
+// as "config": over many sequences a message must say which dataset and which config file.
+ErrorContext located(const ErrorContext& c, const std::filesystem::path& dataset_dir, const std::string& config_file) {
+  ErrorContext out = c;
+  if (c.file == "config")
+    out.file = config_file.empty() ? "the default config (no --config)" : config_file;
+  else if (!c.file.empty() && std::filesystem::path(c.file).is_relative())
+    out.file = (dataset_dir / c.file).string();
+  return out;
+}
+
+RunOutput run_dataset_located(const Dataset& dataset, const std::filesystem::path& dataset_dir,
+                              const RunOptions& options, const RunConfig& config) {
+  const auto at = [&](const Error& e) { return located(e.context(), dataset_dir, options.config_file); };
+  try {
+    return run_dataset(dataset, options.detections, config);
+  } catch (const ConfigError& e) {
+    throw ConfigError(e.bare_message(), at(e));
+  } catch (const InputError& e) {
+    throw InputError(e.bare_message(), at(e));
+  } catch (const NumericError& e) {
+    throw NumericError(e.bare_message(), at(e));
+  } catch (const DataError& e) {
+    throw DataError(e.bare_message(), at(e));
+  }
+}
+
 }  // namespace
 
 RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::path& out_dir,
@@ -471,7 +498,7 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
 
   RunResult res;
   res.out = out_dir;
-  res.output = run_dataset(dataset, options.detections, config);
+  res.output = run_dataset_located(dataset, dataset_dir, options, config);
   const RunOutput& r = res.output;
   for (const auto& w : r.warnings) log::warn("{}", w);
 

@@ -243,6 +243,11 @@ TEST_CASE("import realsense: the real RealSense recorder bag", "[app][import][sh
   CHECK(s.layout == "recorder");
   CHECK(s.frames == 1);
   CHECK(s.imu_samples == 0);
+  // A bag without the motion module: imported, but said loudly (roe run needs an IMU).
+  CHECK(std::count_if(s.warnings.begin(), s.warnings.end(), [](const std::string& w) {
+          return w.find("the bag has no IMU stream") == 0;
+        }) == 1);
+  CHECK_FALSE(fs::exists(d.path / "ds" / "mav0" / "imu0" / "data.csv"));
   CHECK(s.timestamp_domain == "Hardware Clock");
   const auto m = io::read_manifest(d.path / "ds");
   REQUIRE(m.camera);

@@ -304,7 +304,14 @@ TEST_CASE("bad input gives clear errors", "[app][run]") {
 
   SECTION("no IMU") {
     fs::remove(ds / "mav0" / "imu0" / "data.csv");
-    CHECK_THROWS_AS(app::run(ds, out, opt), InputError);
+    try {
+      app::run(ds, out, opt);
+      FAIL("no error");
+    } catch (const InputError& e) {
+      // Over many sequences the message must say which dataset: the file is named with the dataset's path.
+      CHECK(e.context().file == (ds / "mav0/imu0/data.csv").string());
+      CHECK_THAT(e.what(), Catch::StartsWith((ds / "mav0/imu0/data.csv").string() + ": the dataset has no usable IMU"));
+    }
   }
   SECTION("unsorted IMU stamps") {
     const fs::path imu = ds / "mav0" / "imu0" / "data.csv";
@@ -336,7 +343,7 @@ TEST_CASE("bad input gives clear errors", "[app][run]") {
       FAIL("no error");
     } catch (const InputError& e) {
       CHECK(std::string(e.what()).find("unknown object id 99") != std::string::npos);
-      CHECK(std::string(e.what()).find("detections.csv") != std::string::npos);
+      CHECK(e.context().file == (ds / "detections/sim/detections.csv").string());
       CHECK(e.context().line == 2);
     }
   }
@@ -363,6 +370,16 @@ TEST_CASE("bad input gives clear errors", "[app][run]") {
       FAIL("no error");
     } catch (const DataError& e) {
       CHECK(std::string(e.what()).find("anchor object 2 is never detected") != std::string::npos);
+      CHECK(e.context().file == (ds / "detections/sim/detections.csv").string());
+    }
+    // An anchor that is no object of the dataset: the config file is named.
+    std::ofstream(cfg) << R"({"filter": {"anchor_id": 7}})";
+    try {
+      app::run(ds, out, opt);
+      FAIL("no error");
+    } catch (const ConfigError& e) {
+      CHECK(e.context().file == cfg.string());
+      CHECK(e.context().key == "filter.anchor_id");
     }
     fs::remove(cfg);
   }
@@ -373,6 +390,7 @@ TEST_CASE("bad input gives clear errors", "[app][run]") {
       FAIL("no error");
     } catch (const DataError& e) {
       CHECK(std::string(e.what()).find("has no detections") != std::string::npos);
+      CHECK(e.context().file == (ds / "detections/sim/detections.csv").string());
     }
   }
   CHECK_FALSE(fs::exists(out / "trajectory.csv"));  // nothing half-written
