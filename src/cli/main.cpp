@@ -77,8 +77,15 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? 0 : 2;  // DESIGN §1: bad usage is exit code 2
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // Bad usage: the same "roe: error:" prefix as every other error, and where to read about the command.
+    std::string path = "roe";
+    for (CLI::App* a = &app; !a->get_subcommands().empty();) {
+      a = a->get_subcommands().front();
+      path += " " + a->get_name();
+    }
+    std::cerr << "roe: error: " << e.what() << "\n(see " << path << " --help)\n";
+    return 2;  // DESIGN §1: bad usage is exit code 2
   }
 
   roe::log::set_level(g_globals.quiet          ? roe::log::Level::kWarn
