@@ -238,6 +238,14 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
       opt.mocap_name == "..")
     throw InputError("invalid mocap folder name \"" + opt.mocap_name + "\"");
   if (opt.up != "auto" && opt.up != "y" && opt.up != "z") throw InputError("--up must be auto, y or z");
+  // Up to ~127 years: enough to move a take's relative clock onto epoch time, and stamps stay in int64 ns.
+  constexpr double kMaxOffsetS = 4e9;
+  if (opt.time_offset_s && !(std::abs(*opt.time_offset_s) <= kMaxOffsetS))
+    throw InputError(fmt::format("--time-offset must be a finite number of seconds within ±{:g}, got {}", kMaxOffsetS,
+                                 *opt.time_offset_s));
+  if (!(opt.max_offset_s > 0.0 && opt.max_offset_s <= 60.0))
+    throw InputError(fmt::format("--max-offset must be in (0, 60] seconds, got {} (give a coarse shift with --time-offset)",
+                                 opt.max_offset_s));
   if (!fs::exists(file)) throw InputError("no such file", {file.string()});
   S.csv = dataset / "mav0" / opt.mocap_name / "data.csv";
   if (fs::exists(S.csv) && !opt.force)

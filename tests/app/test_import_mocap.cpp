@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -266,4 +267,32 @@ TEST_CASE("import mocap: format detection (Vicon, Motive) and occlusion counts",
   std::ofstream(all) << "Objects\n100\n,,Global Angle cam:cam,,,,,\n"
                         "Frame,Sub Frame,RX,RY,RZ,TX,TY,TZ\n,,rad,rad,rad,mm,mm,mm\n1,0,,,,,,\n";
   CHECK_THROWS_WITH(app::import_mocap(all, d.path / "ds2", {}), Catch::Contains("occluded"));
+}
+
+TEST_CASE("import mocap: --time-offset and --max-offset are checked before anything is written", "[app][import]") {
+  TempDir d;
+  const fs::path v = d.path / "tracker.csv";
+  std::ofstream(v) << "Objects\n100\n,,Global Angle cam:cam,,,,,\n"
+                      "Frame,Sub Frame,RX,RY,RZ,TX,TY,TZ\n,,rad,rad,rad,mm,mm,mm\n"
+                      "1,0,0,0,0,1000,0,0\n2,0,0,0,0,1000,0,0\n";
+  for (double bad : {std::nan(""), 1e300, -4.1e9, std::numeric_limits<double>::infinity()}) {
+    INFO(bad);
+    app::ImportMocapOptions o;
+    o.time_offset_s = bad;
+    CHECK_THROWS_WITH(app::import_mocap(v, d.path / "ds", o), Catch::Contains("--time-offset must be a finite"));
+    CHECK_FALSE(fs::exists(d.path / "ds"));
+  }
+  for (double bad : {0.0, -1.0, 61.0, std::nan("")}) {
+    INFO(bad);
+    app::ImportMocapOptions o;
+    o.max_offset_s = bad;
+    CHECK_THROWS_WITH(app::import_mocap(v, d.path / "ds", o), Catch::Contains("--max-offset must be in (0, 60]"));
+    CHECK_FALSE(fs::exists(d.path / "ds"));
+  }
+  // A relative take clock moved onto epoch time is fine.
+  app::ImportMocapOptions o;
+  o.time_offset_s = 1.7e9;
+  const auto s = app::import_mocap(v, d.path / "ds", o);
+  CHECK(s.time_offset_s == 1.7e9);
+  CHECK(io::read_manifest(d.path / "ds").mocap->time_offset_s == 1.7e9);
 }
