@@ -269,6 +269,11 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
     gyro_intr_topic = first_of({"/camera/gyro/imu_info"});
   }
   if (S.color_topic.empty() && S.gyro_topic.empty() && S.imu_topic.empty()) {
+    if (reader.damaged())  // e.g. cut inside its first chunk: the topics are in the part that is lost
+      throw InputError("the bag is damaged (" + reader.first_damage() +
+                           ") and its intact part has no colour image and no IMU stream: nothing to import, "
+                           "even with --salvage",
+                       {reader.name()});
     std::string list;
     for (const auto& t : topics) list += "\n  " + t;
     throw InputError("no colour image and no IMU stream found (RealSense recorder layout /device_0/sensor_N/Color_0/"

@@ -334,9 +334,12 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
           c.type == "nav_msgs/Odometry" || c.type == "tf2_msgs/TFMessage" ||
           c.type == "geometry_msgs/PoseWithCovarianceStamped")
         list += "\n  " + c.topic + " [" + c.type + "]";
-    throw InputError((topic.empty() ? std::string("choose a pose topic with --topic") : "topic \"" + topic + "\" is not in the bag") +
-                         "; pose topics in the bag:" + (list.empty() ? std::string(" none") : list),
-                     {reader.name()});
+    const std::string where = reader.damaged() ? "the intact part of the bag" : "the bag";
+    std::string msg = (topic.empty() ? std::string("choose a pose topic with --topic")
+                                     : "topic \"" + topic + "\" is not in " + where) +
+                      "; pose topics in " + where + ":" + (list.empty() ? std::string(" none") : list);
+    if (reader.damaged()) msg += "\nthe bag is damaged (" + reader.first_damage() + "); --salvage cannot recover what is lost";
+    throw InputError(msg, {reader.name()});
   }
   static const std::set<std::string> kTypes = {"geometry_msgs/PoseStamped", "geometry_msgs/TransformStamped",
                                                "nav_msgs/Odometry", "tf2_msgs/TFMessage",

@@ -206,6 +206,20 @@ TEST_CASE("import realsense: options, overwrite protection, damaged bags", "[app
   big.crop_width = 2000;
   CHECK_THROWS_AS(app::import_realsense(b, d.path / "ds2", big), InputError);
   CHECK_FALSE(fs::exists(d.path / "ds2"));
+  // Cut inside its first chunk, before any stream's topics: "damaged", with or without --salvage.
+  {
+    testing::D435iBagSpec one = spec;
+    one.chunk_threshold = 64 << 20;  // a single chunk
+    const std::string all = testing::generate_d435i_bag(one);
+    const fs::path early = write_bag(d, "early.bag", all.substr(0, all.size() / 2));
+    for (bool salvage : {false, true}) {
+      app::ImportRealsenseOptions so;
+      so.salvage = salvage;
+      CHECK_THROWS_WITH(app::import_realsense(early, d.path / "ds4", so),
+                        Catch::Contains("the bag is damaged (byte ") && Catch::Contains("nothing to import"));
+      CHECK_FALSE(fs::exists(d.path / "ds4"));
+    }
+  }
   // Truncated: an InputError naming the byte offset; --salvage imports the intact part.
   const fs::path cut = write_bag(d, "cut.bag", bytes.substr(0, bytes.size() * 6 / 10));
   CHECK_THROWS_WITH(app::import_realsense(cut, d.path / "ds3", {}), Catch::Contains("damaged") && Catch::Contains("byte "));

@@ -9,6 +9,7 @@
 #include "support/test_util.hpp"
 #include "fixtures/bag_writer.hpp"
 #include "roe/io/mocap_formats.hpp"
+#include "roe/io/output.hpp"
 #include "roe/io/ros_msgs.hpp"
 #include "roe/math/so3.hpp"
 
@@ -220,6 +221,32 @@ TEST_CASE("bag poses: PoseStamped, TransformStamped, Odometry and TF topics", "[
   CHECK(tf.poses[2].T.p.isApprox(Eigen::Vector3d(-2, -4, -3)));
   CHECK_THROWS_WITH(io::read_bag_poses(f, "/nope"), Catch::Contains("/pose [geometry_msgs/PoseStamped]"));
   CHECK_THROWS_WITH(io::read_bag_poses(f, "/badq"), Catch::Contains("unit norm"));
+}
+
+TEST_CASE("bag poses: a bag cut inside its only chunk says it is damaged, not that the topic is missing",
+          "[io][mocap]") {
+  TempDir d;
+  testing::BagWriter w("none", 1 << 20);  // one chunk holds everything
+  for (int k = 0; k < 50; ++k) {
+    io::ros::StampedTransform p;
+    p.header.stamp_ns = 1'000'000'000LL + k * 10'000'000LL;
+    p.transform.q = Eigen::Quaterniond::Identity();
+    w.write("/pose", "geometry_msgs/PoseStamped", p.header.stamp_ns, io::ros::encode_pose_stamped(p));
+  }
+  const fs::path whole = d.path / "whole.bag";
+  w.save(whole.string());
+  const std::string bytes = io::read_file(whole);
+  const fs::path cut = d.path / "cut.bag";
+  std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  for (bool salvage : {false, true}) {
+    INFO(salvage);
+    CHECK_THROWS_WITH(io::read_bag_poses(cut, "/pose", "", salvage),
+                      Catch::Contains("topic \"/pose\" is not in the intact part of the bag") &&
+                          Catch::Contains("the bag is damaged (byte "));
+  }
+  CHECK(io::read_bag_poses(whole, "/pose").poses.size() == 50);
+  // An intact bag without the topic says just that.
+  CHECK_THROWS_WITH(io::read_bag_poses(whole, "/nope"), !Catch::Contains("damaged") && Catch::Contains("is not in the bag"));
 }
 
 TEST_CASE("bag poses: the evo example bag's groundtruth topic", "[io][mocap][shared]") {
