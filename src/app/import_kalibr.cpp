@@ -243,13 +243,18 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
                                        imu->update_rate, ii.rate_hz));
     m.imu = ii;
   }
-  // Sources (a forced re-import replaces the previous Kalibr records) and copies of the files.
+  // Sources and copies of the files. A forced re-import replaces the previous camchain record, and the
+  // imu.yaml record only when a new imu.yaml is given: without one the IMU noise (and calib/imu.yaml)
+  // stay those of the earlier import, and so does their provenance.
+  const bool new_imu = imu_yaml.has_value();
   m.sources.erase(std::remove_if(m.sources.begin(), m.sources.end(),
-                                 [](const SourceRecord& r) { return r.kind == "kalibr-camchain" || r.kind == "kalibr-imu"; }),
+                                 [new_imu](const SourceRecord& r) {
+                                   return r.kind == "kalibr-camchain" || (new_imu && r.kind == "kalibr-imu");
+                                 }),
                   m.sources.end());
   SourceRecord sc;
   sc.kind = "kalibr-camchain";
-  sc.path = camchain.string();
+  sc.path = io::provenance_path(camchain);
   sc.sha256 = io::sha256_file(camchain);
   sc.options["camera"] = opt.camera;
   sc.options["copied_to"] = "calib/camchain-imucam.yaml";
@@ -260,7 +265,7 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
   if (imu_yaml) {
     SourceRecord si;
     si.kind = "kalibr-imu";
-    si.path = imu_yaml->string();
+    si.path = io::provenance_path(*imu_yaml);
     si.sha256 = io::sha256_file(*imu_yaml);
     si.options["copied_to"] = "calib/imu.yaml";
     m.sources.push_back(si);

@@ -304,7 +304,7 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   io::write_mocap_csv(S.csv, d.poses);
   SourceRecord src;
   src.kind = source_kind(d.format);
-  src.path = file.string();
+  src.path = io::provenance_path(file);
   src.sha256 = io::sha256_file(file);
   src.options["format"] = d.format;
   src.options["folder"] = "mav0/" + opt.mocap_name;

@@ -256,7 +256,7 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
   // Record the import in roe.json (replacing an earlier import into the same detections name).
   SourceRecord rec;
   rec.kind = "poet";
-  rec.path = results_json.string();
+  rec.path = io::provenance_path(results_json);
   rec.sha256 = sha;
   rec.options = {{"name", opt.name}, {"rotation", opt.rotation}};
   if (!opt.classes_file.empty()) rec.options["classes"] = opt.classes_file;

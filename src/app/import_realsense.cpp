@@ -489,7 +489,7 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
   m.name = opt.name.empty() ? bag_path.stem().string() : opt.name;
   SourceRecord src;
   src.kind = recorder ? "realsense-bag" : "ros1-bag";
-  src.path = bag_path.string();
+  src.path = io::provenance_path(bag_path);
   src.sha256 = io::sha256_file(bag_path);
   src.options["layout"] = S.layout;
   if (!S.color_topic.empty()) src.options["color_topic"] = S.color_topic;

@@ -428,7 +428,7 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
       throw InputError(e.bare_message(), ctx);
     }
     src.kind = "simulate-from-groundtruth";
-    src.path = mav0.string();
+    src.path = io::provenance_path(mav0);
     src.options["objects"] = std::to_string(cfg.num_objects);
     src.options["imu_sha256"] = io::sha256_file(imu_file);
     src.options["groundtruth_sha256"] = io::sha256_file(gt_file);
@@ -445,7 +445,7 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
     } else {
       cfg = sim_config_from_file(opt.config_file);
       source = opt.config_file;
-      src.path = opt.config_file;
+      src.path = io::provenance_path(opt.config_file);
       src.sha256 = io::sha256_file(opt.config_file);
     }
     if (opt.duration_s) cfg.duration_s = *opt.duration_s;

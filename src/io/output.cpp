@@ -78,6 +78,8 @@ fs::path resolved(const fs::path& p) {
 }
 }  // namespace
 
+std::string provenance_path(const fs::path& path) { return resolved(path).string(); }
+
 void refuse_overwriting_inputs(const fs::path& out, const std::vector<fs::path>& inputs, const std::string& what) {
   const fs::path o = resolved(out);
   for (const auto& in : inputs) {

@@ -82,6 +82,17 @@ TEST_CASE("import kalibr: T_I_C is the inverse of T_cam_imu; noise and time shif
   f.force = true;
   app::import_kalibr(d.path / "cc.yaml", d.path / "imu.yaml", ds, f);
   CHECK(io::read_manifest(ds).sources.size() == 2);
+  // Re-importing only the camchain keeps the IMU noise, calib/imu.yaml and their source record.
+  app::import_kalibr(d.path / "cc.yaml", std::nullopt, ds, f);
+  const auto again = io::read_manifest(ds);
+  REQUIRE(again.sources.size() == 2);
+  CHECK(again.sources[0].kind == "kalibr-imu");
+  CHECK(again.sources[1].kind == "kalibr-camchain");
+  CHECK(again.imu->noise.gyro_noise_density == 0.00016);
+  CHECK(fs::exists(ds / "calib/imu.yaml"));
+  // Sources are recorded with absolute paths, whatever folder the import ran from.
+  for (const auto& src : again.sources) CHECK(fs::path(src.path).is_absolute());
+  CHECK(again.sources[1].path == fs::weakly_canonical(d.path / "cc.yaml").string());
 }
 
 TEST_CASE("import kalibr: a dataset with other image sizes keeps its intrinsics", "[app][import][kalibr]") {

@@ -51,6 +51,10 @@ fs::path without_trailing_separator(const fs::path& path);
 void refuse_overwriting_inputs(const fs::path& out, const std::vector<fs::path>& inputs,
                                const std::string& what = "output folder");
 
+/// The absolute, normalised form of an input's path (symlinks resolved where they exist), as recorded
+/// in roe.json's sources[]: valid whatever folder the command ran from.
+std::string provenance_path(const fs::path& path);
+
 /// Writes `content` to `path` through a temporary file in the same folder and a rename.
 /// Refuses to replace an existing file unless `overwrite` is true (roe::InputError).
 void write_file_atomic(const fs::path& path, std::string_view content, bool overwrite = true);
