@@ -493,14 +493,25 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
   parts.mocap = false;
   parts.groundtruth = false;
   if (!options.detections.empty()) parts.detection_names = {options.detections};
+  log::info("config: {}", options.config_file.empty() ? "roe's defaults (no --config)" : options.config_file);
   const Dataset dataset = io::read_dataset(dataset_dir, parts);
   const double read_s = seconds_since(t_start);
+  {
+    std::size_t n_det = 0;
+    for (const auto& kv : dataset.detections) n_det += kv.second.size();
+    log::info("read {} in {:.2f} s: {} IMU samples, {} camera frames, {} detection set(s) with {} detections",
+              dataset_dir.string(), read_s, dataset.imu.size(), dataset.frames.size(), dataset.detections.size(),
+              n_det);
+  }
 
   RunResult res;
   res.out = out_dir;
   res.output = run_dataset_located(dataset, dataset_dir, options, config);
   const RunOutput& r = res.output;
   for (const auto& w : r.warnings) log::warn("{}", w);
+  log::info("filter: {} updates, anchor object {}, {:.3f} s; IMU noise gyro {:g} ({}), accel {:g} ({})",
+            r.summary.updates, r.anchor_id, r.filter_wall_s, r.imu_noise.gyro_noise_density, r.imu_noise_from[0],
+            r.imu_noise.accel_noise_density, r.imu_noise_from[2]);
 
   const auto t_write = Clock::now();
   write_outputs(r, dir);
@@ -567,6 +578,7 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
                         {"total", seconds_since(t_start)}};
   io::write_file_atomic(dir.file("run.json"), report.dump(2) + "\n");
   dir.commit();
+  log::info("wrote {} ({} trajectory rows)", out_dir.string(), r.states.size());
   res.report = report;
   return res;
 }

@@ -10,6 +10,7 @@
 #include "roe/core/error.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/json.hpp"
+#include "roe/core/log.hpp"
 #include "roe/io/output.hpp"
 #include "roe/version.hpp"
 
@@ -469,6 +470,9 @@ SimulateResult simulate(const SimulateOptions& opt, const std::filesystem::path&
   io::OutputDir dir(out, opt.force, {opt.from_groundtruth, opt.config_file});  // refused before any work
   json effective;
   sim::SimRun run = simulate_dataset(opt, &effective);
+  log::info("simulated {}: seed {}, {} IMU samples, {} camera frames, {} detections of {} objects",
+            run.dataset.manifest.name, opt.seed, run.dataset.imu.size(), run.dataset.frames.size(),
+            run.stats.detections, run.dataset.manifest.objects.size());
   io::write_dataset_files(run.dataset, dir.tmp());
   // detections/sim/meta.json: who produced the detections and with which configuration.
   const json meta = {{"producer", std::string("roe simulate ") + roe::kVersion},
@@ -478,6 +482,7 @@ SimulateResult simulate(const SimulateOptions& opt, const std::filesystem::path&
                      {"config", effective}};
   io::write_file_atomic(dir.file("detections/sim/meta.json"), meta.dump(2) + "\n");
   dir.commit();
+  log::info("wrote {}", out.string());
 
   SimulateResult r;
   r.out = out;

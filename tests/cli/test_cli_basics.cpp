@@ -39,3 +39,21 @@ TEST_CASE("bad usage says 'roe: error:' like every other error, and names the co
   CHECK(r.out.rfind("roe: error: ", 0) == 0);
   CHECK(r.out.find("(see roe --help)") != std::string::npos);
 }
+
+TEST_CASE("verbose: -v logs what simulate and run read and wrote on stderr; -q keeps it quiet", "[cli]") {
+  roe::test::TempDir d;
+  const std::string ds = (d / "ds").string(), out = (d / "run").string();
+  auto r = run_roe("-v simulate --preset paper-seq4 --duration 1 --out " + ds);
+  REQUIRE(r.code == 0);
+  CHECK(r.out.find("roe: info: simulated paper-seq4: seed 1, 201 IMU samples") != std::string::npos);
+  r = run_roe("-v run " + ds + " --out " + out);
+  REQUIRE(r.code == 0);
+  CHECK(r.out.find("roe: info: config: roe's defaults (no --config)") != std::string::npos);
+  CHECK(r.out.find("roe: info: read " + ds + " in ") != std::string::npos);
+  CHECK(r.out.find("roe: info: filter: ") != std::string::npos);
+  CHECK(r.out.find("roe: info: wrote " + out + " (201 trajectory rows)") != std::string::npos);
+  r = run_roe("--force run " + ds + " --out " + out);
+  CHECK(r.out.find("roe: info:") == std::string::npos);
+  r = run_roe("-v -q --force run " + ds + " --out " + out);
+  CHECK(r.out.find("roe: info:") == std::string::npos);
+}
