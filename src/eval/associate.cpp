@@ -22,6 +22,8 @@ AssocPolicy parse_assoc_policy(const std::string& name) {
 
 namespace {
 
+constexpr double kSecondsPerDay = 86400.0;
+
 void check_sorted(const std::vector<Timestamp>& t, const char* which) {
   for (std::size_t i = 1; i < t.size(); ++i) {
     if (t[i] < t[i - 1]) {
@@ -143,6 +145,32 @@ Association associate(const std::vector<Timestamp>& t_est, const std::vector<Tim
   return a;
 }
 
+Overlap overlap(const std::vector<Timestamp>& t_est, const std::vector<Timestamp>& t_gt,
+                const AssociationOptions& options) {
+  if (!std::isfinite(options.max_dt_s) || options.max_dt_s < 0.0) {
+    throw InputError(fmt::format("max_dt must be a finite value ≥ 0, got {}", options.max_dt_s),
+                     {"", 0, 0, "max_dt"});
+  }
+  check_sorted(t_est, "estimate");
+  check_sorted(t_gt, "ground-truth");
+  Overlap o;
+  if (t_est.empty() || t_gt.empty()) return o;
+  const Timestamp max_dt = seconds_to_ns_checked(options.max_dt_s, "max_dt");
+  const Timestamp offset = seconds_to_ns_checked(options.offset_s, "t_offset");
+  const Timestamp begin = std::max(t_est.front() + offset, t_gt.front()) - max_dt;
+  const Timestamp end = std::min(t_est.back() + offset, t_gt.back()) + max_dt;
+  if (begin > end) return o;
+  o.begin_ns = begin;
+  o.end_ns = end;
+  const auto count = [](const std::vector<Timestamp>& t, Timestamp lo, Timestamp hi) {
+    return static_cast<std::size_t>(std::upper_bound(t.begin(), t.end(), hi) -
+                                    std::lower_bound(t.begin(), t.end(), lo));
+  };
+  o.n_est = count(t_est, begin - offset, end - offset);
+  o.n_gt = count(t_gt, begin, end);
+  return o;
+}
+
 std::string explain_no_match(const std::vector<Timestamp>& t_est, const std::vector<Timestamp>& t_gt,
                              const AssociationOptions& options) {
   if (t_est.empty()) return "the estimate has no poses";
@@ -167,14 +195,24 @@ std::string explain_no_match(const std::vector<Timestamp>& t_est, const std::vec
       options.max_dt_s, options.offset_s, e0, e1, t_est.size(), g0, g1, t_gt.size(), to_seconds(best));
   // Likely causes.
   const double me = std::max(std::abs(e0), std::abs(e1)), mg = std::max(std::abs(g0), std::abs(g1));
-  // A unit mix-up shows as ranges that line up once one of them is scaled by 1e3, 1e6 or 1e9.
+  const double es = e1 - e0, gs_span = g1 - g0;
+  // A unit mix-up shows as ranges that line up once one of them is scaled by 1e3, 1e6 or 1e9: the
+  // scaled start lies near the other start, or the scaled range overlaps the other with the starts
+  // close, AND the scaled span is comparable with the other span (within a factor 100: a ground truth
+  // may cover a longer session than the estimate). Without the span test a trajectory in relative
+  // time (starting near 0) "lines up" with any epoch-time one scaled by 1e-9.
   if (me > 0.0 && mg > 0.0) {
     for (int p : {3, 6, 9}) {
       for (int sign : {1, -1}) {
         const double f = std::pow(10.0, sign * p);
         const double s0 = e0 * f, s1 = e1 * f;
         const double tol = 0.01 * std::max(std::abs(g0), std::abs(s0)) + (g1 - g0);
-        if (std::abs(s0 - g0) <= tol || (s0 <= g1 && g0 <= s1 && std::abs(s0 - g0) <= 0.5 * std::abs(g0))) {
+        const bool lines_up =
+            std::abs(s0 - g0) <= tol || (s0 <= g1 && g0 <= s1 && std::abs(s0 - g0) <= 0.5 * std::abs(g0));
+        const double ss = es * f;
+        const bool spans_match =
+            es <= 0.0 || gs_span <= 0.0 || (ss <= 100.0 * gs_span && gs_span <= 100.0 * ss);
+        if (lines_up && spans_match) {
           const char* unit = p == 9 ? "nanoseconds" : p == 6 ? "microseconds" : "milliseconds";
           msg += fmt::format(
               " The {} stamps line up with the {} stamps only when scaled by 1e{}: one file probably "
@@ -186,20 +224,33 @@ std::string explain_no_match(const std::vector<Timestamp>& t_est, const std::vec
       }
     }
   }
+  // Relative vs epoch time: one trajectory starts within a day of 0 (time since the start of a
+  // recording, e.g. a motion-capture take) and the other at an epoch time (1973 .. 2286 in seconds).
+  const auto relative = [](double t0) { return std::abs(t0) <= kSecondsPerDay; };
+  const auto epoch = [](double t0) { return t0 >= 1e8 && t0 < 1e10; };
+  const double suggested = g0 - e0 + options.offset_s;  // aligns the starts (offset already included in e0)
+  if ((relative(e0) && epoch(g0)) || (relative(g0) && epoch(e0))) {
+    const bool gt_rel = relative(g0);
+    msg += fmt::format(
+        " The {} starts near 0 s (time since the start of its recording) while the {} uses absolute "
+        "(epoch) time: they are on different clocks, not in different units. --t-offset {:.9f} aligns "
+        "the starts (the true offset also includes any delay between the two recordings' starts).",
+        gt_rel ? "ground truth" : "estimate", gt_rel ? "estimate" : "ground truth", suggested);
+    if (gt_rel) {
+      msg += fmt::format(
+          " For a motion-capture take imported into a dataset, the clock offset belongs in the dataset: "
+          "re-import it with `roe import mocap FILE --into DATASET --time-offset S` (t_imu = t_mocap + S; "
+          "S = {:.9f} aligns the starts) or with --estimate-offset, which estimates S from the IMU.",
+          -suggested);
+    }
+    return msg;
+  }
   const bool overlap = e0 <= g1 && g0 <= e1;
   if (!overlap) {
-    const bool e_rel = me < 1e6, g_rel = mg < 1e6;
-    if (e_rel != g_rel) {
-      msg += fmt::format(
-          " The time ranges do not overlap and the {} starts near 0: it probably uses time since start "
-          "while the other uses absolute (epoch) time; try --t-offset {:.9f}.",
-          e_rel ? "estimate" : "ground truth", g0 - e0 + options.offset_s);
-    } else {
-      msg += fmt::format(
-          " The time ranges do not overlap (different clocks or recordings?); if the clocks differ by a "
-          "constant, pass it as --t-offset (e.g. {:.9f} aligns the starts).",
-          g0 - e0 + options.offset_s);
-    }
+    msg += fmt::format(
+        " The time ranges do not overlap (different clocks or recordings?); if the clocks differ by a "
+        "constant, pass it as --t-offset (e.g. {:.9f} aligns the starts).",
+        suggested);
   } else {
     msg +=
         " The ranges overlap, so the stamps are sparser than max_dt or offset by a constant: increase "

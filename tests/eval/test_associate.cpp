@@ -129,8 +129,11 @@ TEST_CASE("explain_no_match: ranges and likely causes", "[eval][assoc]") {
   SECTION("relative time vs epoch") {
     const auto est = seq(0, 100 * ms, 20);
     const std::string m = explain_no_match(est, gt, {});
-    CHECK(m.find("time since start") != std::string::npos);
+    CHECK(m.find("estimate starts near 0 s") != std::string::npos);
     CHECK(m.find("--t-offset 1403715524.000000000") != std::string::npos);
+    CHECK(m.find("scaled by") == std::string::npos);
+    // the estimate is the relative one: no import hint for the ground truth
+    CHECK(m.find("roe import mocap") == std::string::npos);
   }
   SECTION("overlapping but sparse") {
     std::vector<Timestamp> est;
@@ -248,4 +251,79 @@ TEST_CASE("explain_no_match: each clause of the unit mix-up rule on its own", "[
     CHECK(blames == (c.blamed != nullptr));
     if (c.blamed) CHECK(m.find(std::string("only when scaled by ") + c.blamed) != std::string::npos);
   }
+}
+
+// A ground truth in relative time (a mocap take: 0 .. 2 s at 100 Hz) against an estimate in epoch
+// time (20 s at 20 Hz): scaled by 1e-9 the estimate starts at 1.6 s, inside the ground truth's range,
+// but its 20 s span becomes 2e-8 s: not a unit mix-up. The diagnosis names the clocks and suggests
+// the --t-offset that aligns the starts, and roe import mocap's offset options.
+TEST_CASE("explain_no_match: relative ground truth vs epoch estimate is not a unit mix-up", "[eval][assoc]") {
+  const Timestamp e0 = 1'600'000'000'000 * ms;
+  const auto est = seq(e0, 50 * ms, 400);
+  const auto gt = seq(0, 10 * ms, 201);
+  const std::string m = explain_no_match(est, gt, {});
+  INFO(m);
+  CHECK(m.find("scaled by") == std::string::npos);
+  CHECK(m.find("ns vs s") == std::string::npos);
+  CHECK(m.find("ground truth starts near 0 s") != std::string::npos);
+  CHECK(m.find("epoch") != std::string::npos);
+  CHECK(m.find("--t-offset -1600000000.000000000") != std::string::npos);
+  CHECK(m.find("roe import mocap FILE --into DATASET --time-offset S") != std::string::npos);
+  CHECK(m.find("S = 1600000000.000000000") != std::string::npos);
+  CHECK(m.find("--estimate-offset") != std::string::npos);
+  // With an offset already given, the suggestion is the total offset and the import S the clock's own.
+  const std::string m2 = explain_no_match(est, gt, {0.01, -100.0, AssocPolicy::kNearest});
+  INFO(m2);
+  CHECK(m2.find("--t-offset -1600000000.000000000") != std::string::npos);
+  CHECK(m2.find("S = 1600000000.000000000") != std::string::npos);
+  // A ground truth starting 2 days after 0 is not "relative": the generic no-overlap hint.
+  const std::string m3 = explain_no_match(est, seq(2 * 86'400'000 * ms, 10 * ms, 201), {});
+  INFO(m3);
+  CHECK(m3.find("starts near 0 s") == std::string::npos);
+  CHECK(m3.find("aligns the starts") != std::string::npos);
+}
+
+// A real unit mix-up still says so: the same recording with one side in ns read as s (×1e9) or in
+// ms (×1e3), both in relative time and in epoch time; the scaled spans match.
+TEST_CASE("explain_no_match: a unit mix-up is still diagnosed when the scaled spans match", "[eval][assoc]") {
+  const Timestamp e0 = 1'600'000'000'000 * ms;
+  // epoch: the estimate's seconds were taken for nanoseconds → 1e9 times too small (1.6 .. 1.6 + 2e-8 s).
+  std::vector<Timestamp> est_s_as_ns;
+  for (Timestamp t : seq(e0, 50 * ms, 400)) est_s_as_ns.push_back(t / 1'000'000'000);
+  const auto gt = seq(e0 - 5'000 * ms, 5 * ms, 6000);
+  const std::string m = explain_no_match(est_s_as_ns, gt, {});
+  INFO(m);
+  CHECK(m.find("only when scaled by 1e9") != std::string::npos);
+  CHECK(m.find("starts near 0 s") == std::string::npos);
+  // relative time: the ground truth in ms read as s (0 .. 20000 "s") vs the estimate 0 .. 20 s.
+  std::vector<Timestamp> gt_ms_as_s;
+  for (Timestamp t : seq(0, 10 * ms, 2001)) gt_ms_as_s.push_back(t * 1000);
+  const std::string m2 = explain_no_match(seq(0, 50 * ms, 400), gt_ms_as_s, {0.001, 0.0, AssocPolicy::kNearest});
+  INFO(m2);
+  CHECK(m2.find("only when scaled by 1e3") != std::string::npos);
+}
+
+// The most pairs to expect: the sparser stream inside the span both cover.
+TEST_CASE("overlap: poses of each trajectory inside the common span", "[eval][assoc]") {
+  // EuRoC-style: 83 s of ground truth at 40 Hz, a 40 s estimate at 200 Hz from 20 s on.
+  const auto gt = seq(0, 25 * ms, 3321);            // 0 .. 83 s
+  const auto est = seq(20'000 * ms, 5 * ms, 8001);  // 20 .. 60 s
+  const Overlap o = overlap(est, gt, {});
+  CHECK(o.begin_ns == 20'000 * ms - 10 * ms);
+  CHECK(o.end_ns == 60'000 * ms + 10 * ms);
+  CHECK(o.n_est == 8001);
+  CHECK(o.n_gt == 1601);
+  CHECK(o.n_max() == 1601);
+  CHECK(associate(est, gt).size() == 1601);  // every ground-truth pose in the span matches
+  // The offset shifts the estimate: 30 .. 70 s.
+  const Overlap o2 = overlap(est, gt, {0.0, 10.0, AssocPolicy::kNearest});
+  CHECK(o2.n_est == 8001);
+  CHECK(o2.n_gt == 1601);
+  CHECK(o2.begin_ns == 30'000 * ms);
+  // Disjoint ranges: nothing.
+  const Overlap o3 = overlap(seq(100'000 * ms, 5 * ms, 10), gt, {});
+  CHECK(o3.n_max() == 0);
+  CHECK(o3.begin_ns > o3.end_ns);
+  CHECK(overlap({}, gt, {}).n_max() == 0);
+  CHECK_THROWS_AS(overlap(est, gt, {-1.0, 0.0, AssocPolicy::kNearest}), InputError);
 }

@@ -52,9 +52,27 @@ struct Association {
 Association associate(const std::vector<Timestamp>& t_est, const std::vector<Timestamp>& t_gt,
                       const AssociationOptions& options = {});
 
+/// The time span both trajectories cover and how many poses of each lie in it: the most pairs an
+/// association can be expected to find is n_max() (the sparser stream inside the overlap), not the
+/// size of the shorter trajectory (a ground truth that covers a longer session than the estimate is
+/// not a matching problem). Estimate stamps are shifted by the offset; the span is widened by max_dt
+/// on both sides. Empty (begin > end, counts 0) when the ranges do not overlap.
+struct Overlap {
+  Timestamp begin_ns = 0;  ///< max(first stamps) − max_dt
+  Timestamp end_ns = -1;   ///< min(last stamps) + max_dt
+  std::size_t n_est = 0;   ///< estimate poses in [begin, end] (shifted stamps)
+  std::size_t n_gt = 0;    ///< ground-truth poses in [begin, end]
+  std::size_t n_max() const { return n_est < n_gt ? n_est : n_gt; }
+};
+/// InputError for decreasing stamps or bad options, as associate().
+Overlap overlap(const std::vector<Timestamp>& t_est, const std::vector<Timestamp>& t_gt,
+                const AssociationOptions& options = {});
+
 /// A message for an association that found no pair: both stamp ranges (in seconds), the closest
 /// distance found, and the likely cause: units mixed up (ranges differ by ~1e3/1e6/1e9, e.g. ns read
-/// as s), relative vs absolute time (no overlap, one starts near 0: try --t-offset), or a max_dt
+/// as s; only when the scaled spans are comparable too), relative vs absolute time (one starts within
+/// a day of 0, the other at an epoch time: the --t-offset that aligns the starts, and for a ground
+/// truth in relative time `roe import mocap --time-offset/--estimate-offset`), or a max_dt
 /// smaller than the stamp spacing.
 std::string explain_no_match(const std::vector<Timestamp>& t_est, const std::vector<Timestamp>& t_gt,
                              const AssociationOptions& options);
