@@ -58,6 +58,11 @@ Estimate load_estimate(const EvalOptions& o, std::vector<std::string>& warnings)
     }
     e.run = true;
     e.in.kind = "run";
+    if (o.est_format != "auto")
+      warnings.push_back(
+          fmt::format("--est-format {} is ignored for a run folder (its trajectory.csv is read "
+                      "as roe writes it)",
+                      o.est_format));
     e.in.traj = io::read_trajectory(traj, io::TrajectoryFormat::kAuto);
     e.in.description = fmt::format("run folder {} (trajectory.csv)", o.est);
     const fs::path rep = e.in.path / "reprojection.csv";
@@ -96,6 +101,21 @@ Estimate load_estimate(const EvalOptions& o, std::vector<std::string>& warnings)
   return e;
 }
 
+/// InputError naming the option for an unknown trajectory format.
+io::TrajectoryFormat parse_format_option(const std::string& value, const std::string& option) {
+  try {
+    return io::parse_trajectory_format(value);
+  } catch (const InputError& e) {
+    throw InputError(option + ": " + e.bare_message(), {"", 0, 0, option.substr(2)});
+  }
+}
+
+void check_gt_source(const std::string& v) {
+  if (v != "auto" && v != "groundtruth" && v != "mocap")
+    throw InputError(fmt::format("unknown --gt-source '{}' (expected auto, groundtruth or mocap)", v),
+                     {"", 0, 0, "gt-source"});
+}
+
 std::string default_label(const fs::path& p) {
   fs::path q = p;
   if (q.filename().empty()) q = q.parent_path();
@@ -117,6 +137,20 @@ EvalResult run_eval(const EvalOptions& o) {
   if (o.n_align == 0 || o.n_align < -1)
     throw InputError(fmt::format("--n-align must be -1 (all) or ≥ 1, got {}", o.n_align),
                      {"", 0, 0, "n-align"});
+  if (o.no_out && !o.out.empty())
+    throw InputError(fmt::format("--no-out and --out {} contradict each other: pass one of them", o.out),
+                     {"", 0, 0, "no-out"});
+  // Every option value is checked, even where it does not apply to the inputs given.
+  (void)parse_format_option(o.est_format, "--est-format");
+  (void)parse_format_option(o.gt_format, "--gt-format");
+  check_gt_source(o.gt_source);
+  if (o.n_align != -1 && (align == eval::AlignType::kOrigin || align == eval::AlignType::kNone)) {
+    // evo ignores --n_to_align with --align_origin; say so instead.
+    warnings.push_back(fmt::format("--n-align {} is ignored with --align {}: {}", o.n_align, o.align,
+                                   align == eval::AlignType::kOrigin
+                                       ? "origin alignment uses the first matched pose pair by definition"
+                                       : "nothing is aligned"));
+  }
 
   // The two inputs are independent: parse the ground truth on a second thread while the estimate is
   // read here (large files are parse-bound; this halves the wall time on two cores).
@@ -159,10 +193,14 @@ EvalResult run_eval(const EvalOptions& o) {
     t_e.push_back(te.t_ns[a.est_index[k]]);
     t_g.push_back(tg.t_ns[a.gt_index[k]]);
   }
-  const std::size_t n_short = std::min(te.size(), tg.size());
-  if (a.size() < n_short / 2) {
-    warnings.push_back(fmt::format("only {} of at most {} poses were matched: check --max-dt / --t-offset",
-                                   a.size(), n_short));
+  // The most pairs to expect: the sparser stream's poses inside the span both trajectories cover (a
+  // ground truth covering a longer session than the estimate is not a matching problem).
+  const eval::Overlap ov = eval::overlap(te.t_ns, tg.t_ns, ao);
+  if (a.size() < ov.n_max() / 2) {
+    warnings.push_back(fmt::format(
+        "only {} of at most {} poses were matched ({} estimate and {} ground-truth poses lie in the span "
+        "[{:.6f}, {:.6f}] s both cover): check --max-dt / --t-offset",
+        a.size(), ov.n_max(), ov.n_est, ov.n_gt, to_seconds(ov.begin_ns), to_seconds(ov.end_ns)));
   }
 
   // Alignment.
@@ -274,6 +312,7 @@ EvalResult run_eval(const EvalOptions& o) {
         {"n_gt", tg.size()},
         {"n_est", te.size()},
         {"n_matched", a.size()},
+        {"n_overlap_max", ov.n_max()},
         {"n_dropped_unique", a.n_dropped_unique},
         {"max_abs_dt_s", max_abs_dt},
         {"rule",

@@ -140,6 +140,9 @@ EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warn
   if (o.gt.empty()) throw InputError("--gt DATASET|GT_FILE is required", {"roe eval"});
   if (!fs::exists(in.path)) throw InputError("ground truth not found", {o.gt});
   if (!fs::is_directory(in.path)) {
+    if (o.gt_source != "auto")
+      warnings.push_back(
+          fmt::format("--gt-source {} is ignored: the ground truth is a file, not a dataset", o.gt_source));
     in.kind = "file";
     in.traj = io::read_trajectory(in.path, io::parse_trajectory_format(o.gt_format));
     in.description = fmt::format("{} ({})", in.path.string(), io::to_string(in.traj.format));
@@ -151,6 +154,11 @@ EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warn
         {"", 0, 0, "gt-source"});
   }
   in.kind = "dataset";
+  if (o.gt_format != "auto")
+    warnings.push_back(
+        fmt::format("--gt-format {} is ignored for a dataset folder (its EuRoC csv files are "
+                    "read as such)",
+                    o.gt_format));
   // A roe dataset (roe.json + mav0/...), an EuRoC sequence folder (mav0/...) or a mav0 folder itself.
   const bool has_manifest = fs::exists(io::manifest_path(in.path));
   fs::path mav0 = in.path / "mav0";

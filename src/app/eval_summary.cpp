@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <iterator>
 
 #include "roe/app/eval.hpp"
 #include "roe/core/error.hpp"
@@ -27,6 +28,33 @@ double num(const json& j, const std::string& file, const char* a, const char* b)
   return j[a][b].get<double>();
 }
 
+/// The settings a report was made with that change its numbers: runs evaluated with different ones
+/// should not be averaged without saying so. (key in the summary, where in report.json, name in messages)
+struct Setting {
+  const char* key;
+  const char* section;
+  const char* field;
+  const char* name;
+};
+constexpr Setting kSettings[] = {{"alignment", "alignment", "type", "alignment (--align)"},
+                                 {"n_align", "alignment", "n_align_requested", "--n-align"},
+                                 {"max_dt_s", "association", "max_dt_s", "--max-dt"},
+                                 {"t_offset_s", "association", "offset_s", "--t-offset"},
+                                 {"assoc", "association", "policy", "association (--assoc)"}};
+
+json setting_value(const json& j, const Setting& s) {
+  if (j.contains(s.section) && j[s.section].is_object() && j[s.section].contains(s.field))
+    return j[s.section][s.field];
+  return nullptr;  // an older or foreign report: unknown
+}
+
+std::string setting_text(const json& v) {
+  if (v.is_null()) return "unknown";
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_number_float()) return fmt::format("{}", v.get<double>());
+  return v.dump();
+}
+
 std::string vec3(const std::vector<double>& v, int first, int decimals) {
   return fmt::format("[{:.{}f}, {:.{}f}, {:.{}f}]", v[first], decimals, v[first + 1], decimals, v[first + 2],
                      decimals);
@@ -40,6 +68,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     std::string label, file;
     std::size_t n_objects = 0, n_matched = 0;
     std::vector<double> v;
+    json settings = json::object();
   };
   std::vector<Row> rows;
   for (const auto& r : o.reports) {
@@ -64,6 +93,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
                pa["pos_rmse_m"]["z"].get<double>(),       pa["rpy_rmse_deg"]["roll"].get<double>(),
                pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>(),
                num(j, row.file, "ape_trans_m", "rmse"),   num(j, row.file, "ape_rot_deg", "rmse")};
+      for (const Setting& st : kSettings) row.settings[st.key] = setting_value(j, st);
     } catch (const json::exception& e) {
       throw InputError(std::string("not a roe eval report: ") + e.what(), {f.string()});
     }
@@ -77,6 +107,24 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     for (int k = 0; k < kNumCols; ++k) sd[k] += (r.v[k] - mean[k]) * (r.v[k] - mean[k]) / n;
   for (double& s : sd) s = std::sqrt(s);  // population std, as in the paper's tables
 
+  // Mixed settings: a warning (the table is still written; comparing settings can be the point).
+  std::vector<std::string> warnings;
+  json common = json::object();
+  for (const Setting& st : kSettings) {
+    bool same = true;
+    for (const auto& r : rows) same = same && r.settings[st.key] == rows.front().settings[st.key];
+    if (same) {
+      common[st.key] = rows.front().settings[st.key];
+      continue;
+    }
+    std::string list;
+    for (std::size_t i = 0; i < rows.size(); ++i)
+      list += fmt::format("{}run {} {}", i == 0 ? "" : ", ", i + 1, setting_text(rows[i].settings[st.key]));
+    warnings.push_back(fmt::format(
+        "the reports were made with different {} ({}): the mean and std mix results that are not comparable",
+        st.name, list));
+  }
+
   EvalSummaryResult res;
   json runs = json::array();
   for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -86,6 +134,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
                {"n_objects", rows[i].n_objects},
                {"n_matched", rows[i].n_matched}};
     for (int k = 0; k < kNumCols; ++k) jr[kCols[k]] = rows[i].v[k];
+    for (const Setting& st : kSettings) jr[st.key] = rows[i].settings[st.key];
     runs.push_back(jr);
   }
   json jm, js;
@@ -97,7 +146,9 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
                  {"mean", jm},
                  {"std", js},
                  {"n_runs", rows.size()},
-                 {"std_definition", "population (ddof 0)"}};
+                 {"std_definition", "population (ddof 0)"},
+                 {"settings", common},
+                 {"warnings", warnings}};
 
   // Markdown in the layout of the paper's Table I.
   std::string md =
@@ -107,32 +158,73 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
                       vec3(rows[i].v, 0, 3), vec3(rows[i].v, 3, 2));
   md += fmt::format("| mean | | - | {} | {} |\n", vec3(mean, 0, 3), vec3(mean, 3, 2));
   md += fmt::format("| ± std | | | ± {} | ± {} |\n", vec3(sd, 0, 3), vec3(sd, 3, 2));
+  if (warnings.empty()) {
+    md += fmt::format(
+        "\nSettings of every run: alignment {}, --n-align {}, --max-dt {} s, --t-offset {} s, "
+        "association {}.\n",
+        setting_text(common["alignment"]), setting_text(common["n_align"]), setting_text(common["max_dt_s"]),
+        setting_text(common["t_offset_s"]), setting_text(common["assoc"]));
+  } else {
+    md += "\n";
+    for (const auto& w : warnings) md += "warning: " + w + "\n";
+  }
   res.markdown = md;
 
   if (!o.out.empty()) {
-    fs::path base = o.out;
-    const std::string ext = base.extension().string();
-    if (ext == ".csv" || ext == ".json" || ext == ".md") base.replace_extension();
+    // --out FOLDER/ (a trailing separator) or an existing folder: FOLDER/summary.{csv,json,md};
+    // otherwise FILE with its .csv/.json/.md extension, if any, replaced.
+    const std::string out_str = o.out;
+    const bool trailing = out_str.back() == '/';
+    const fs::path out = io::without_trailing_separator(o.out);
+    const bool into_folder = trailing || fs::is_directory(out);
+    fs::path base = out;
+    if (into_folder) {
+      base = out / "summary";
+    } else {
+      const std::string ext = base.extension().string();
+      if (ext == ".csv" || ext == ".json" || ext == ".md") base.replace_extension();
+    }
     io::CsvWriter w;
     std::vector<std::string> h = {"run", "label", "report", "n_objects", "n_matched"};
     for (const char* c : kCols) h.push_back(c);
+    for (const Setting& st : kSettings) h.push_back(st.key);
     w.header(h);
     for (std::size_t i = 0; i < rows.size(); ++i) {
       w.add(std::to_string(i + 1)).add(rows[i].label).add(rows[i].file);
       w.add(static_cast<std::int64_t>(rows[i].n_objects)).add(static_cast<std::int64_t>(rows[i].n_matched));
       for (double v : rows[i].v) w.add(v);
+      for (const Setting& st : kSettings) {
+        const json& v = rows[i].settings[st.key];
+        if (v.is_null())
+          w.add_empty();
+        else if (v.is_string())
+          w.add(v.get<std::string>());
+        else if (v.is_number_integer())
+          w.add(v.get<std::int64_t>());
+        else
+          w.add(v.get<double>());
+      }
       w.end_row();
     }
     for (const auto& [name, vals] : {std::pair{"mean", &mean}, std::pair{"std", &sd}}) {
       w.add(name).add_empty().add_empty().add_empty().add_empty();
       for (double v : *vals) w.add(v);
+      for (std::size_t k = 0; k < std::size(kSettings); ++k) w.add_empty();
       w.end_row();
     }
     const fs::path csv = base.string() + ".csv", js_path = base.string() + ".json",
                    md_path = base.string() + ".md";
+    std::vector<fs::path> inputs;
+    for (const auto& r : rows) inputs.push_back(r.file);
     for (const auto& p : {csv, js_path, md_path}) {
+      io::refuse_overwriting_inputs(p, inputs, "summary output " + p.string());
       if (fs::exists(p) && !o.force)
         throw InputError("output file exists (use --force to replace it)", {p.string()});
+    }
+    if (base.has_parent_path()) {
+      std::error_code ec;
+      fs::create_directories(base.parent_path(), ec);
+      if (ec) throw InputError("cannot create folder: " + ec.message(), {base.parent_path().string()});
     }
     io::write_file_atomic(csv, w.str());
     io::write_file_atomic(js_path, res.summary.dump(2) + "\n");

@@ -1,5 +1,7 @@
 // roe eval RUN_DIR|EST_FILE --gt DATASET|GT_FILE [--align ...] [--max-dt S] [--t-offset S] [--out DIR]
 // [--plot] roe eval --summary REPORT_JSON... [--out FILE]
+#include <fmt/format.h>
+
 #include <memory>
 
 #include "command.hpp"
@@ -12,42 +14,64 @@ namespace {
 struct Args {
   app::EvalOptions opt;
   std::vector<std::string> summary;
+  std::vector<CLI::Option*> eval_only;  // options of an evaluation, meaningless with --summary
 };
 
 RunFn setup(CLI::App& sub) {
   auto a = std::make_shared<Args>();
   sub.add_option("estimate", a->opt.est,
                  "Run folder (trajectory.csv [+ reprojection.csv, states.csv]) or trajectory file");
-  sub.add_option("--gt", a->opt.gt,
-                 "Ground truth: dataset folder (state_groundtruth_estimate0 or mocap0) or trajectory file");
-  sub.add_option("--align", a->opt.align, "Alignment: se3, sim3, posyaw, origin or none")
-      ->capture_default_str();
-  sub.add_option("--n-align", a->opt.n_align, "Align on the first N matched pairs (-1: all)")
-      ->capture_default_str();
-  sub.add_option("--max-dt", a->opt.max_dt_s, "Max |dt| in seconds for a match (evo --t_max_diff)")
-      ->capture_default_str();
-  sub.add_option("--t-offset", a->opt.t_offset_s, "Seconds added to the estimate stamps (evo --t_offset)")
-      ->capture_default_str();
-  sub.add_option("--assoc", a->opt.assoc, "Association: nearest (evo) or unique (one-to-one, cnspy-like)")
-      ->capture_default_str();
-  sub.add_option("--est-format", a->opt.est_format,
-                 "Estimate file format: auto, tum, euroc, csv (cnspy), csv-ns (roe)")
-      ->capture_default_str();
-  sub.add_option("--gt-format", a->opt.gt_format, "Ground-truth file format: auto, tum, euroc, csv, csv-ns")
-      ->capture_default_str();
-  sub.add_option("--gt-source", a->opt.gt_source, "For a dataset: auto, groundtruth or mocap")
-      ->capture_default_str();
-  sub.add_option("--out", a->opt.out,
-                 "Output folder (default RUN_DIR/eval for a run folder); with --summary: FILE[.csv|.json|.md], writes all three");
-  sub.add_flag("--no-out", a->opt.no_out, "Write no files, only print the result");
-  sub.add_option("--label", a->opt.label, "Name of this run in reports and summaries");
-  sub.add_flag("--plot", a->opt.plot,
-               "Render PNG plots with /usr/bin/python3 + matplotlib (scripts/plot_eval.py)");
+  a->eval_only.push_back(sub.add_option(
+      "--gt", a->opt.gt,
+      "Ground truth: dataset folder (state_groundtruth_estimate0 or mocap0) or trajectory file"));
+  a->eval_only.push_back(
+      sub.add_option("--align", a->opt.align, "Alignment: se3, sim3, posyaw, origin or none")
+          ->capture_default_str());
+  a->eval_only.push_back(
+      sub.add_option("--n-align", a->opt.n_align, "Align on the first N matched pairs (-1: all)")
+          ->capture_default_str());
+  a->eval_only.push_back(
+      sub.add_option("--max-dt", a->opt.max_dt_s, "Max |dt| in seconds for a match (evo --t_max_diff)")
+          ->capture_default_str());
+  a->eval_only.push_back(
+      sub.add_option("--t-offset", a->opt.t_offset_s, "Seconds added to the estimate stamps (evo --t_offset)")
+          ->capture_default_str());
+  a->eval_only.push_back(
+      sub.add_option("--assoc", a->opt.assoc, "Association: nearest (evo) or unique (one-to-one, cnspy-like)")
+          ->capture_default_str());
+  a->eval_only.push_back(sub.add_option("--est-format", a->opt.est_format,
+                                        "Estimate file format: auto, tum, euroc, csv (cnspy), csv-ns (roe)")
+                             ->capture_default_str());
+  a->eval_only.push_back(sub.add_option("--gt-format", a->opt.gt_format,
+                                        "Ground-truth file format: auto, tum, euroc, csv, csv-ns")
+                             ->capture_default_str());
+  a->eval_only.push_back(
+      sub.add_option("--gt-source", a->opt.gt_source, "For a dataset: auto, groundtruth or mocap")
+          ->capture_default_str());
+  sub.add_option(
+      "--out", a->opt.out,
+      "Output folder (default RUN_DIR/eval for a run folder); with --summary: FILE[.csv|.json|.md] "
+      "writes all three, a folder (existing, or ending in /) gets summary.csv/.json/.md");
+  a->eval_only.push_back(sub.add_flag("--no-out", a->opt.no_out, "Write no files, only print the result"));
+  a->eval_only.push_back(
+      sub.add_option("--label", a->opt.label, "Name of this run in reports and summaries"));
+  a->eval_only.push_back(sub.add_flag(
+      "--plot", a->opt.plot, "Render PNG plots with /usr/bin/python3 + matplotlib (scripts/plot_eval.py)"));
   sub.add_option("--summary", a->summary,
                  "Summarise report.json files: mean and std over runs (paper table layout)")
       ->expected(1, -1);
   return [a]() {
     if (!a->summary.empty()) {
+      // --summary only reads existing reports: options of an evaluation would be silently ignored.
+      std::string given;
+      for (const CLI::Option* op : a->eval_only)
+        if (op->count() > 0) given += (given.empty() ? "" : ", ") + op->get_name();
+      if (!given.empty())
+        throw InputError(fmt::format("--summary summarises existing report.json files and cannot be combined "
+                                     "with {} (options of an evaluation): run `roe eval ESTIMATE --gt ...` "
+                                     "first, then `roe eval --summary REPORT_JSON...`",
+                                     given),
+                         {"roe eval"});
       if (!a->opt.est.empty()) a->summary.insert(a->summary.begin(), a->opt.est);
       app::EvalSummaryOptions so;
       so.reports = a->summary;

@@ -4,14 +4,20 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
+#include <cstdlib>
 #include <fstream>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "roe/app/eval.hpp"
 #include "roe/core/error.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/json.hpp"
+#include "roe/io/output.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "roe/math/euler.hpp"
+#include "support/test_util.hpp"
 
 using namespace roe;
 namespace fs = std::filesystem;
@@ -404,4 +410,318 @@ TEST_CASE("roe eval --plot renders PNGs when matplotlib is available", "[app][ev
   for (const char* p : {"trajectory_top.png", "xyz.png", "rpy.png", "errors.png"})
     CHECK(fs::file_size(f.run / "eval/plots" / p) > 10000);
   CHECK_FALSE(fs::exists(f.run / "eval/.plot_eval.py"));
+}
+
+namespace {
+
+/// A TUM file with the given stamps on a circle with a slow climb (enough spread for se3).
+void write_tum(const fs::path& file, const std::vector<Timestamp>& t_ns) {
+  fs::create_directories(file.parent_path());
+  std::ofstream f(file);
+  f << "# timestamp tx ty tz qx qy qz qw\n";
+  for (Timestamp t : t_ns) {
+    const double s = to_seconds(t);
+    char line[256];
+    std::snprintf(line, sizeof line, "%lld.%09lld %.9f %.9f %.9f 0 0 0 1\n", static_cast<long long>(t / 1'000'000'000),
+                  static_cast<long long>(t % 1'000'000'000), std::cos(0.2 * s), std::sin(0.3 * s), 0.01 * s);
+    f << line;
+  }
+}
+
+std::vector<Timestamp> stamps(Timestamp t0, Timestamp step, int n) {
+  std::vector<Timestamp> t;
+  for (int i = 0; i < n; ++i) t.push_back(t0 + step * i);
+  return t;
+}
+
+bool any_warning_contains(const nlohmann::json& report, const std::string& needle) {
+  for (const auto& w : report["warnings"])
+    if (w.get<std::string>().find(needle) != std::string::npos) return true;
+  return false;
+}
+
+/// Sets an environment variable for one scope.
+struct ScopedEnv {
+  std::string name;
+  std::optional<std::string> old;
+  ScopedEnv(const std::string& n, const std::string& value) : name(n) {
+    if (const char* v = std::getenv(n.c_str())) old = v;
+    setenv(n.c_str(), value.c_str(), 1);
+  }
+  ~ScopedEnv() {
+    if (old)
+      setenv(name.c_str(), old->c_str(), 1);
+    else
+      unsetenv(name.c_str());
+  }
+};
+
+}  // namespace
+
+// A mocap take imported without a clock offset starts near 0 s; the run's stamps are epoch time. The
+// diagnosis must say so (and suggest the offset), not blame a ns/s mix-up.
+TEST_CASE("roe eval: no match between a relative-time ground truth and an epoch-time estimate", "[app][eval]") {
+  Fixture f("relative_gt");
+  const fs::path gt = f.root / "take.tum";
+  write_tum(gt, stamps(0, 10'000'000, 201));  // 0 .. 2 s
+  app::EvalOptions o;
+  o.est = f.run.string();
+  o.gt = gt.string();
+  o.no_out = true;
+  const InputError e = test::expect_input_error([&] { app::run_eval(o); });
+  const std::string m = e.what();
+  INFO(m);
+  CHECK(m.find("scaled by") == std::string::npos);
+  CHECK(m.find("ground truth starts near 0 s") != std::string::npos);
+  CHECK(m.find("--t-offset -") != std::string::npos);
+  CHECK(m.find("--time-offset") != std::string::npos);
+}
+
+// EuRoC-style: the ground truth covers 83 s, the estimate 40 s of it. Every ground-truth pose in the
+// common span is matched: no "only N of at most M" warning. A real --max-dt problem still warns.
+TEST_CASE("roe eval: the matched-pairs warning counts only the span both trajectories cover", "[app][eval]") {
+  test::TempDir dir("roe_test_eval_overlap");
+  const fs::path gt = dir / "gt.tum", est = dir / "est.tum";
+  write_tum(gt, stamps(0, 25'000'000, 3321));                    // 0 .. 83 s at 40 Hz
+  write_tum(est, stamps(20'000'000'000LL, 5'000'000, 8001));      // 20 .. 60 s at 200 Hz
+  app::EvalOptions o;
+  o.est = est.string();
+  o.gt = gt.string();
+  o.no_out = true;
+  const auto r = app::run_eval(o);
+  INFO(r.report["warnings"].dump());
+  CHECK(r.report["association"]["n_matched"] == 1601);
+  CHECK(r.report["association"]["n_overlap_max"] == 1601);
+  CHECK_FALSE(any_warning_contains(r.report, "were matched"));
+
+  // Two of three estimate stamps 7 ms late with --max-dt 5 ms: a third of the span matches.
+  std::vector<Timestamp> late = stamps(0, 100'000'000, 101);  // 0 .. 10 s at 10 Hz
+  for (std::size_t i = 0; i < late.size(); ++i)
+    if (i % 3 != 0) late[i] += 7'000'000;
+  write_tum(est, late);
+  o.max_dt_s = 0.005;
+  const auto r2 = app::run_eval(o);
+  INFO(r2.report["warnings"].dump());
+  CHECK(r2.report["association"]["n_matched"] == 34);
+  CHECK(any_warning_contains(r2.report, "only 34 of at most 101 poses were matched"));
+}
+
+TEST_CASE("roe eval: conflicting and invalid options are refused or named", "[app][eval]") {
+  Fixture f("options", false);
+  app::EvalOptions o;
+  o.est = f.run.string();
+  o.gt = f.dataset.string();
+  SECTION("--no-out with --out") {
+    o.no_out = true;
+    o.out = (f.root / "out").string();
+    const std::string m = test::expect_input_error([&] { app::run_eval(o); }).what();
+    CHECK(m.find("--no-out") != std::string::npos);
+    CHECK(m.find("--out") != std::string::npos);
+    CHECK_FALSE(fs::exists(f.root / "out"));
+  }
+  SECTION("format and source values are checked even where they do not apply") {
+    o.no_out = true;
+    o.est_format = "foo";  // a run folder: the format is not used, the value is still wrong
+    std::string m = test::expect_input_error([&] { app::run_eval(o); }).what();
+    CHECK(m.find("--est-format") != std::string::npos);
+    CHECK(m.find("'foo'") != std::string::npos);
+    o.est_format = "auto";
+    o.gt_format = "bar";  // a dataset folder
+    m = test::expect_input_error([&] { app::run_eval(o); }).what();
+    CHECK(m.find("--gt-format") != std::string::npos);
+    o.gt_format = "auto";
+    o.gt = (f.dataset / "mav0/mocap0/data.csv").string();
+    o.gt_source = "baz";  // a ground-truth file
+    m = test::expect_input_error([&] { app::run_eval(o); }).what();
+    CHECK(m.find("--gt-source") != std::string::npos);
+    // valid but unused values: a warning says they are ignored
+    o.gt_source = "mocap";
+    o.est_format = "tum";
+    o.t_offset_s = -f.offset_s;
+    const auto r = app::run_eval(o);
+    CHECK(any_warning_contains(r.report, "--gt-source mocap is ignored"));
+    CHECK(any_warning_contains(r.report, "--est-format tum is ignored"));
+  }
+  SECTION("--n-align with --align origin: a warning, the first pair is used") {
+    o.no_out = true;
+    o.align = "origin";
+    o.n_align = 5;
+    const auto r = app::run_eval(o);
+    CHECK(r.report["alignment"]["n_aligned"] == 1);
+    CHECK(any_warning_contains(r.report, "--n-align 5 is ignored with --align origin"));
+    o.n_align = -1;
+    CHECK_FALSE(any_warning_contains(app::run_eval(o).report, "--n-align"));
+  }
+}
+
+TEST_CASE("roe eval CLI: --summary with an evaluation's options, --no-out with --out", "[app][eval][cli]") {
+  Fixture f("cli_usage", false);
+  app::EvalOptions o;
+  o.est = f.run.string();
+  o.gt = f.dataset.string();
+  app::run_eval(o);  // writes run/eval/report.json
+  const std::string report = (f.run / "eval/report.json").string();
+  auto r = test::run_roe("eval " + f.run.string() + " --gt " + f.dataset.string() + " --summary " + report);
+  INFO(r.out);
+  CHECK(r.code == 2);
+  CHECK(r.out.find("--summary") != std::string::npos);
+  CHECK(r.out.find("--gt") != std::string::npos);
+  r = test::run_roe("eval --summary " + report + " --align none");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("--align") != std::string::npos);
+  r = test::run_roe("eval --summary " + report);
+  CHECK(r.code == 0);
+  r = test::run_roe("eval " + f.run.string() + " --gt " + f.dataset.string() + " --no-out --out " +
+                    (f.root / "x").string());
+  INFO(r.out);
+  CHECK(r.code == 2);
+  CHECK(r.out.find("--no-out") != std::string::npos);
+  CHECK(r.out.find("--out") != std::string::npos);
+  r = test::run_roe("eval " + f.run.string() + " --gt " + f.dataset.string() + " --no-out --est-format foo");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("--est-format") != std::string::npos);
+}
+
+TEST_CASE("roe eval --summary: mixed settings are warned about and listed per run", "[app][eval]") {
+  Fixture f("summary_mixed");
+  const auto eval_to = [&](const std::string& name, const std::string& align, double max_dt) {
+    app::EvalOptions o;
+    o.est = f.run.string();
+    o.gt = f.dataset.string();
+    o.out = (f.root / name).string();
+    o.align = align;
+    o.max_dt_s = max_dt;
+    app::run_eval(o);
+    return (f.root / name / "report.json").string();
+  };
+  const std::string a = eval_to("a", "se3", 0.01), b = eval_to("b", "none", 0.01), c = eval_to("c", "se3", 0.02);
+  app::EvalSummaryOptions so;
+  so.reports = {a, c};
+  so.out = (f.root / "same").string();
+  // same alignment, different max-dt
+  auto s = app::summarize_eval_reports(so);
+  REQUIRE(s.summary["warnings"].size() == 1);
+  CHECK(s.summary["warnings"][0].get<std::string>().find("--max-dt (run 1 0.01, run 2 0.02)") !=
+        std::string::npos);
+  CHECK(s.to_text().find("warning: the reports were made with different --max-dt") != std::string::npos);
+  CHECK(s.summary["settings"]["alignment"] == "se3");
+  CHECK_FALSE(s.summary["settings"].contains("max_dt_s"));
+  // alignment differs too
+  so.reports = {a, b};
+  so.out = (f.root / "mixed.csv").string();
+  s = app::summarize_eval_reports(so);
+  INFO(s.summary["warnings"].dump());
+  REQUIRE(s.summary["warnings"].size() == 1);
+  CHECK(s.summary["warnings"][0].get<std::string>().find("alignment (--align) (run 1 se3, run 2 none)") !=
+        std::string::npos);
+  CHECK(s.summary["runs"][1]["alignment"] == "none");
+  CHECK(s.summary["runs"][0]["max_dt_s"] == 0.01);
+  CHECK(s.summary["runs"][0]["t_offset_s"] == 0.0);
+  CHECK(s.summary["runs"][0]["assoc"] == "nearest");
+  CHECK(s.summary["runs"][0]["n_align"] == -1);
+  const auto js = io::parse_json_file(f.root / "mixed.json");
+  CHECK(js["warnings"].size() == 1);
+  {
+    std::ifstream csv(f.root / "mixed.csv");
+    std::string header, row1, row2;
+    std::getline(csv, header);
+    std::getline(csv, row1);
+    std::getline(csv, row2);
+    CHECK(header.size() > 40);
+    CHECK(header.find(",alignment,n_align,max_dt_s,t_offset_s,assoc") != std::string::npos);
+    CHECK(row1.find(",se3,-1,0.01,0,nearest") != std::string::npos);
+    CHECK(row2.find(",none,-1,0.01,0,nearest") != std::string::npos);
+  }
+  // identical settings: no warning, the settings under the table
+  so.reports = {a, a};
+  so.out.clear();
+  s = app::summarize_eval_reports(so);
+  CHECK(s.summary["warnings"].empty());
+  CHECK(s.markdown.find("Settings of every run: alignment se3") != std::string::npos);
+}
+
+TEST_CASE("roe eval --summary --out: a folder gets summary.*; the input reports are never replaced",
+          "[app][eval]") {
+  Fixture f("summary_out");
+  app::EvalOptions o;
+  o.est = f.run.string();
+  o.gt = f.dataset.string();
+  app::run_eval(o);
+  const fs::path report = f.run / "eval/report.json";
+  const std::string before = io::read_file(report);
+  app::EvalSummaryOptions so;
+  so.reports = {report.string()};
+  SECTION("a path ending in / : created, summary.csv/.json/.md inside, no hidden files") {
+    so.out = (f.root / "sumdir").string() + "/";
+    const auto s = app::summarize_eval_reports(so);
+    for (const char* n : {"summary.csv", "summary.json", "summary.md"}) CHECK(fs::exists(f.root / "sumdir" / n));
+    CHECK_FALSE(fs::exists(f.root / "sumdir/.csv"));
+    CHECK(s.written.size() == 3);
+  }
+  SECTION("an existing folder without the trailing separator") {
+    fs::create_directories(f.root / "existing");
+    so.out = (f.root / "existing").string();
+    app::summarize_eval_reports(so);
+    for (const char* n : {"summary.csv", "summary.json", "summary.md"}) CHECK(fs::exists(f.root / "existing" / n));
+    CHECK_FALSE(fs::exists(f.root / "existing/.csv"));
+  }
+  SECTION("--out naming an input report, even with --force") {
+    so.force = true;
+    so.out = (f.run / "eval/report").string();  // would write eval/report.json
+    const std::string m = test::expect_input_error([&] { app::summarize_eval_reports(so); }).what();
+    CHECK(m.find("input") != std::string::npos);
+    CHECK(io::read_file(report) == before);
+    CHECK_FALSE(fs::exists(f.run / "eval/report.csv"));
+    so.out = (f.run / "eval").string() + "/";  // the folder form is eval/summary.*: fine
+    CHECK_NOTHROW(app::summarize_eval_reports(so));
+    CHECK(io::read_file(report) == before);
+  }
+}
+
+// ROE_PYTHON names an interpreter that exists but cannot import matplotlib: the status says the
+// import failed (with Python's own message), not that python is missing. A bare name is looked up on
+// PATH.
+TEST_CASE("roe eval --plot: interpreter not found vs matplotlib import failure", "[app][eval][plot]") {
+  Fixture f("plot_msg");
+  const fs::path bin = f.root / "bin";
+  fs::create_directories(bin);
+  const fs::path fake = bin / "fakepython";
+  std::ofstream(fake) << "#!/bin/sh\n"
+                         "echo 'Traceback (most recent call last):' >&2\n"
+                         "echo \"ModuleNotFoundError: No module named 'matplotlib'\" >&2\n"
+                         "exit 1\n";
+  fs::permissions(fake, fs::perms::owner_all);
+  app::EvalOptions o;
+  o.est = f.run.string();
+  o.gt = f.dataset.string();
+  o.plot = true;
+  o.force = true;
+  SECTION("a path to an interpreter without matplotlib") {
+    ScopedEnv py("ROE_PYTHON", fake.string());
+    const auto r = app::run_eval(o);
+    INFO(r.plot_status);
+    CHECK(r.report["plots"]["ok"] == false);
+    CHECK(r.plot_status.find("importing matplotlib failed") != std::string::npos);
+    CHECK(r.plot_status.find("No module named 'matplotlib'") != std::string::npos);
+    CHECK(r.plot_status.find("not found") == std::string::npos);
+    CHECK(fs::exists(f.run / "eval/report.json"));  // everything else is written
+    CHECK_FALSE(fs::exists(f.run / "eval/.plot_eval_check.log"));
+  }
+  SECTION("a bare name found on PATH") {
+    ScopedEnv path("PATH", bin.string() + ":" + (std::getenv("PATH") ? std::getenv("PATH") : "/usr/bin:/bin"));
+    ScopedEnv py("ROE_PYTHON", "fakepython");
+    const auto r = app::run_eval(o);
+    INFO(r.plot_status);
+    CHECK(r.plot_status.find("importing matplotlib failed") != std::string::npos);
+    CHECK(r.plot_status.find(fake.string()) != std::string::npos);
+  }
+  SECTION("an interpreter that does not exist") {
+    ScopedEnv py("ROE_PYTHON", "no-such-python-roe");
+    const auto r = app::run_eval(o);
+    INFO(r.plot_status);
+    CHECK(r.plot_status.find("no-such-python-roe was not found on PATH") != std::string::npos);
+    ScopedEnv py2("ROE_PYTHON", (f.root / "nope/python3").string());
+    const auto r2 = app::run_eval(o);
+    CHECK(r2.plot_status.find("was not found") != std::string::npos);
+  }
 }

@@ -4,7 +4,7 @@
 ///
 ///   roe eval RUN_DIR|EST_FILE --gt DATASET|GT_FILE [--align se3|sim3|posyaw|origin|none] [--n-align N]
 ///            [--max-dt S] [--t-offset S] [--assoc nearest|unique] [--out DIR] [--plot]
-///   roe eval --summary REPORT_JSON... [--out FILE]
+///   roe eval --summary REPORT_JSON... [--out FILE|DIR/]
 ///
 /// Estimate: a run folder (trajectory.csv, optional reprojection.csv and states.csv written by
 /// `roe run`) or a trajectory file (TUM, EuRoC, cnspy CSV, csv-ns; io/trajectory_io.hpp).
@@ -84,14 +84,18 @@ struct EvalResult {
   std::string to_text() const;
 };
 
-/// Runs the evaluation and writes the output folder (atomically). InputError for bad options/files,
+/// Runs the evaluation and writes the output folder (atomically). InputError for bad options/files
+/// (every option value is checked, even one that does not apply; --no-out with --out is refused),
 /// or when no pair matches (with explain_no_match's diagnosis); DataError when the alignment is
 /// degenerate.
 EvalResult run_eval(const EvalOptions& options);
 
 struct EvalSummaryOptions {
   std::vector<std::string> reports;  ///< report.json files (or folders containing one)
-  std::string out;                   ///< FILE: writes FILE's stem + .csv, .json and .md; empty = stdout only
+  /// FILE: writes FILE (without a .csv/.json/.md extension) + .csv, .json and .md; a path ending in '/'
+  /// or naming an existing folder: summary.csv/.json/.md inside it; empty = stdout only. An output
+  /// that is one of the input reports is refused, even with force.
+  std::string out;
   bool force = false;
 };
 
@@ -103,14 +107,17 @@ struct EvalSummaryResult {
 };
 
 /// One row per run and mean and population-std rows (the paper's Tables I–III, which use the
-/// population std), as CSV, JSON and Markdown.
+/// population std), as CSV, JSON and Markdown. Each run carries its settings (alignment, n_align,
+/// max_dt_s, t_offset_s, assoc); when they differ between runs, `summary["warnings"]` and the
+/// Markdown say so (a warning, not an error).
 EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& options);
 
 /// The plotting script (scripts/plot_eval.py, embedded at build time).
 const std::string& plot_eval_script();
-/// Renders the PNGs of an eval output folder into DIR/plots with /usr/bin/python3 (or $ROE_PYTHON)
-/// and matplotlib. Returns a status line; `ok` false when python or matplotlib is missing or the
-/// script failed (never throws for that).
+/// Renders the PNGs of an eval output folder into DIR/plots with /usr/bin/python3 (or $ROE_PYTHON: a
+/// path, or a name looked up on PATH) and matplotlib. Returns a status line that tells apart an
+/// interpreter that was not found, one that cannot import matplotlib (with Python's message) and a
+/// failing script; `ok` false then (never throws for that).
 std::string render_eval_plots(const std::filesystem::path& eval_dir, bool& ok);
 
 }  // namespace roe::app
