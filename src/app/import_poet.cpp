@@ -1,5 +1,7 @@
 #include "roe/app/import_poet.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cctype>
 #include <set>
@@ -52,6 +54,17 @@ ClassMapper::ClassMapper(const DatasetManifest& manifest, std::vector<std::strin
   if (!class_map_file.empty()) {
     explicit_ = true;
     explicit_map_ = read_class_map(class_map_file);
+    // A map onto objects roe.json does not declare would only fail later, in roe run.
+    if (!manifest.objects.empty()) {
+      std::set<int> declared;
+      for (const auto& o : manifest.objects) declared.insert(o.id);
+      for (const auto& [cls, id] : explicit_map_)
+        if (!declared.count(id))
+          throw ConfigError(fmt::format("class {} is mapped to object id {}, which {} does not declare (objects: {})",
+                                        cls, id, manifest_file_.empty() ? "roe.json" : manifest_file_,
+                                        fmt::join(declared, ", ")),
+                            {class_map_file, 0, 0, std::to_string(cls)});
+    }
   } else if (!manifest.objects.empty()) {
     by_name_ = true;
   } else {
@@ -179,7 +192,10 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
     warn(std::to_string(s.images_unknown) + " image id(s) of " + results_json.string() + " match no frame and were skipped (" +
          ids + (s.images_unknown > s.unknown_ids.size() ? ", ..." : "") + ")");
   }
-  if (!results.images.empty() && matched.empty())
+  if (results.images.empty())  // images with no detection are kept ("ran, found nothing"); no image at all is not a result
+    throw InputError("the file lists no image: nothing to import (PoET's results.json has one entry per image)",
+                     {results_json.string()});
+  if (matched.empty())
     throw InputError("none of the " + std::to_string(results.images.size()) + " image ids matches a frame of " +
                          (have_frames ? cam_csv.string() : std::string("the dataset (ids must be ns timestamps)")) +
                          " (first: \"" + results.images.front().id + "\")",

@@ -169,9 +169,16 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   if (dets.empty())
     throw DataError(fmt::format("{} has no detections: nothing to fuse with the IMU", det_file), {det_file});
 
-  // Object ids must be declared in roe.json.
+  // Object ids must be declared in roe.json. A dataset that declares none (a RealSense import, whose
+  // detections came from `roe import poet` or `roe infer` with the detector's class ids) takes the ids
+  // of its detections, with a warning; one that declares objects catches a mismatched detection set.
   std::set<int> known;
   for (const auto& o : dataset.manifest.objects) known.insert(o.id);
+  if (known.empty()) {
+    for (const auto& d : dets) known.insert(d.object_id);
+    out.warnings.push_back(fmt::format("roe.json declares no objects: using the {} object id(s) of {} ({})",
+                                       known.size(), det_file, fmt::join(known, ", ")));
+  }
   for (std::size_t i = 0; i < dets.size(); ++i) {
     if (!known.count(dets[i].object_id))
       throw InputError(fmt::format("detection of unknown object id {} (roe.json objects: {}); data row {}",

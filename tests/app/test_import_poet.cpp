@@ -183,7 +183,27 @@ TEST_CASE("class map file, class names file, and datasets without cam0/data.csv"
   o.classes_file.clear();
   o.class_map_file = write(tmp.path, "bad.json", R"({"x": 1})").string();
   CHECK_THROWS_AS(app::import_poet(res, ds, o), ConfigError);
+  // A map onto an object roe.json does not declare: refused here, not later in roe run.
+  o.class_map_file = write(tmp.path, "undeclared.json", R"({"15": 1, "14": 77})").string();
+  try {
+    app::import_poet(res, ds, o);
+    FAIL("no error");
+  } catch (const ConfigError& e) {
+    CHECK(e.context().file == o.class_map_file);
+    CHECK(e.context().key == "14");
+    CHECK_THAT(e.what(), Catch::Contains("object id 77") && Catch::Contains("objects: 1, 2"));
+  }
+  CHECK_FALSE(fs::exists(ds / "detections/bad"));
   o.class_map_file.clear();
+  // A file that lists no image at all is no result (an image without detections is one).
+  o.name = "empty";
+  CHECK_THAT(error_of([&] { app::import_poet(write(tmp.path, "empty.json", "{}"), ds, o); }),
+             Catch::Contains("lists no image"));
+  CHECK_FALSE(fs::exists(ds / "detections/empty"));
+  s = app::import_poet(write(tmp.path, "none.json", "{\"5000\": {}}"), ds, o);
+  CHECK(s.detections_written == 0);
+  CHECK(s.empty_images == 1);
+  o.name = "bad";
   o.rotation = "euler";
   CHECK_THROWS_AS(app::import_poet(res, ds, o), InputError);
   o.rotation = "auto";

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <fstream>
 #include <functional>
+#include <set>
 #include <sstream>
 
 #include "../ekf/filter_support.hpp"
@@ -681,4 +682,25 @@ TEST_CASE("run.json records the IMU noise the filter used", "[app][run]") {
   fs::remove_all(ds);
   fs::remove_all(out);
   fs::remove(cfg);
+}
+
+// A RealSense import declares no objects; `roe import poet` / `roe infer` then write the detector's class
+// ids. roe run takes the detections' ids (warning); a dataset that declares objects still refuses others.
+TEST_CASE("a dataset that declares no objects runs on the ids of its detections, with a warning", "[app][run]") {
+  Dataset d = test::simulate_preset("matched", 3, 3.0);
+  const app::RunOutput ref = app::run_dataset(d, "sim", {});
+  std::set<int> ids;
+  for (const auto& det : d.detections.at("sim")) ids.insert(det.object_id);
+  d.manifest.objects.clear();
+  const app::RunOutput r = app::run_dataset(d, "sim", {});
+  CHECK(r.states.size() == ref.states.size());
+  CHECK(r.states.back().x.p_W_I == ref.states.back().x.p_W_I);  // the same run
+  CHECK(std::count(r.warnings.begin(), r.warnings.end(),
+                   fmt::format("roe.json declares no objects: using the {} object id(s) of "
+                               "detections/sim/detections.csv ({})",
+                               ids.size(), fmt::join(ids, ", "))) == 1);
+  for (const auto& w : ref.warnings) CHECK(w.find("declares no objects") == std::string::npos);
+  // Declared objects that miss one of the detected ids: refused.
+  d.manifest.objects.push_back({*ids.begin(), "x", false});
+  CHECK_THROWS_WITH(app::run_dataset(d, "sim", {}), Catch::Contains("detection of unknown object id"));
 }
