@@ -284,18 +284,40 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   out.summary = ekf::run_filter(dataset.imu, images, fopt, noise, T_I_C, fin);
   out.filter_wall_s = seconds_since(t0);
 
-  // Warnings about what the data allowed.
+  // Warnings about what the data allowed. A rejected_no_main detection either lacks the anchor in its
+  // image or comes before the anchor is initialised (init_min_detections): they are told apart here.
+  std::size_t anchor_pending = 0;
+  for (std::size_t i = 0; i < out.reprojection.size();) {
+    std::size_t j = i;
+    bool has_anchor = false;
+    std::size_t no_main = 0;
+    for (; j < out.reprojection.size() && out.reprojection[j].t_ns == out.reprojection[i].t_ns; ++j) {
+      has_anchor |= out.reprojection[j].object_id == fopt.anchor_id;
+      no_main += out.reprojection[j].outcome.status == ekf::DetectionStatus::kRejectedNoMain;
+    }
+    if (has_anchor) anchor_pending += no_main;
+    i = j;
+  }
   std::size_t no_imu = 0, no_anchor = 0, detections = 0;
   for (const auto& kv : out.counts) {
-    no_imu += kv.second.rejected_no_imu;
-    no_anchor += kv.second.rejected_no_main;
-    detections += kv.second.detections;
-    if (kv.second.initialized == 0 && kv.second.detections > 0)
-      out.warnings.push_back(
-          fmt::format("object {} was detected {} times but never initialised (all its frames "
-                      "lacked the anchor or the IMU)",
-                      kv.first, kv.second.detections));
+    const ObjectCounts& c = kv.second;
+    no_imu += c.rejected_no_imu;
+    no_anchor += c.rejected_no_main;
+    detections += c.detections;
+    if (c.initialized == 0 && c.detections > 0) {
+      std::vector<std::string> why;
+      if (c.pending_init)
+        why.push_back(fmt::format("{} awaited initialisation ({} agreeing consecutive detections needed, "
+                                  "init_min_detections)",
+                                  c.pending_init, fopt.init_min_detections));
+      if (c.rejected_no_main) why.push_back(fmt::format("{} had no initialised anchor in their image", c.rejected_no_main));
+      if (c.rejected_no_imu) why.push_back(fmt::format("{} lay outside the IMU stream", c.rejected_no_imu));
+      if (c.rejected_score) why.push_back(fmt::format("{} scored below min_score", c.rejected_score));
+      out.warnings.push_back(fmt::format("object {} was detected {} times but never initialised: {}", kv.first,
+                                         c.detections, fmt::join(why, "; ")));
+    }
   }
+  no_anchor -= anchor_pending;  // images without the anchor
   if (no_imu > 0)
     out.warnings.push_back(fmt::format("{} detections lie outside the IMU stream and were skipped", no_imu));
   // The paper's rule (require_anchor) wastes most of a recording whose camera leaves the anchor often,
@@ -304,9 +326,11 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
     out.warnings.push_back(fmt::format(
         "{} of {} detections ({:.0f} %) were rejected because their image lacks the anchor object {} "
         "(filter.require_anchor is true, the paper's rule); require_anchor false updates from every "
-        "initialised object",
+        "initialised object{}",
         no_anchor, detections, 100.0 * static_cast<double>(no_anchor) / static_cast<double>(detections),
-        fopt.anchor_id));
+        fopt.anchor_id,
+        anchor_pending ? fmt::format(" ({} more were in images with the anchor, before it was initialised)", anchor_pending)
+                       : std::string()));
   if (out.summary.updates == 0)
     out.warnings.push_back("no update was made: the trajectory is IMU dead reckoning");
   if (!out.summary.gyro_bias_rest_refused.empty())
@@ -525,13 +549,17 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
   const std::string set = choose_detections(dataset, options.detections);
 
   json inputs = {{"dataset", dataset_dir.string()},
+                 {"dataset_abs", io::provenance_path(dataset_dir)},
                  {"detections", set},
                  {"sha256",
                   {{"roe.json", io::sha256_file(io::manifest_path(dataset_dir))},
                    {"mav0/imu0/data.csv", io::sha256_file(io::imu_csv_path(dataset_dir))},
                    {"detections/" + set + "/detections.csv",
                     io::sha256_file(io::detections_dir(dataset_dir, set) / "detections.csv")}}}};
-  if (!options.config_file.empty()) inputs["config"] = options.config_file;
+  if (!options.config_file.empty()) {
+    inputs["config"] = options.config_file;
+    inputs["config_abs"] = io::provenance_path(options.config_file);
+  }
   std::size_t images = 0;
   {
     Timestamp last = std::numeric_limits<Timestamp>::min();
