@@ -1,6 +1,7 @@
 // roe import kalibr: Kalibr camchain-imucam.yaml (+ imu.yaml) → roe.json camera/imu priors + calib/.
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -218,7 +219,8 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
     cam.distortion_model = c.distortion_model;
     cam.distortion = c.distortion_coeffs;
     if (c.distortion_model == "none") cam.distortion.clear();
-    if (have_camera && cam.distortion_model != "none" && m.camera->distortion_model == "none")
+    const bool all_zero = std::all_of(cam.distortion.begin(), cam.distortion.end(), [](double k) { return k == 0.0; });
+    if (have_camera && cam.distortion_model != "none" && !all_zero && m.camera->distortion_model == "none")
       S.warnings.push_back("the Kalibr model has distortion but the dataset's images are undistorted: check that "
                            "Kalibr calibrated the processed images");
     S.intrinsics_written = true;

@@ -176,3 +176,29 @@ TEST_CASE("import kalibr: invalid files are InputErrors naming file, line and ke
                   InputError);
   CHECK_FALSE(fs::exists(ds));
 }
+
+TEST_CASE("import kalibr: distortion over undistorted images is warned about, all-zero coefficients are not",
+          "[app][import][kalibr]") {
+  const auto warnings_for = [](const std::string& coeffs) {
+    TempDir d;
+    const fs::path ds = d.path / "ds";
+    fs::create_directories(ds);
+    DatasetManifest m;
+    m.name = "x";
+    CameraInfo c;
+    c.width = 640;
+    c.height = 480;
+    c.fx = c.fy = 600;
+    c.cx = 320;
+    c.cy = 240;
+    m.camera = c;  // distortion_model "none": undistorted images
+    io::write_manifest(m, io::manifest_path(ds));
+    std::string cc = kCamchain;
+    cc.replace(cc.find("[0.01, -0.02, 0.001, 0.002]"), 27, coeffs);
+    return app::import_kalibr(d.write("cc.yaml", cc), std::nullopt, ds, {}).warnings;
+  };
+  const auto w = warnings_for("[0.01, -0.02, 0.001, 0.002]");
+  REQUIRE(w.size() == 1);
+  CHECK_THAT(w[0], Catch::StartsWith("the Kalibr model has distortion but the dataset's images are undistorted"));
+  CHECK(warnings_for("[0.0, 0.0, 0.0, 0.0]").empty());
+}
