@@ -78,7 +78,11 @@ RunFn setup(CLI::App& sub) {
       so.out = a->opt.out;
       so.force = globals().force;
       const auto r = app::summarize_eval_reports(so);
-      emit(r.summary, r.to_text());
+      nlohmann::json js = r.summary;  // `out`: the table (.csv) when written; `written`: all three files
+      js["out"] = r.written.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.written.front().string());
+      js["written"] = nlohmann::json::array();
+      for (const auto& w : r.written) js["written"].push_back(w.string());
+      emit(js, r.to_text());
       return 0;
     }
     if (a->opt.est.empty())

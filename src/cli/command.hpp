@@ -17,6 +17,7 @@ struct GlobalOptions {
   int verbose = 0;      ///< -v (repeatable): info / debug logging
   bool json = false;    ///< --json: one JSON document on stdout, nothing else on stdout
   bool force = false;   ///< --force: allow replacing existing outputs
+  std::string command;  ///< the command path, e.g. "import mocap" (set by main after parsing)
 };
 const GlobalOptions& globals();
 
@@ -33,7 +34,9 @@ struct Registrar {
 };
 
 /// Prints the command's result: `summary` as one JSON document with --json, otherwise `human`
-/// (unless --quiet). Always to stdout.
+/// (unless --quiet). Always to stdout. Every JSON summary carries `command`, `out` (the folder or file
+/// written: the summary's own `out`, `dataset`, `output` or `outputs.dir`; null when none) and
+/// `warnings` (added empty when the command has none), so that batch scripts read one set of keys.
 void emit(const nlohmann::json& summary, const std::string& human);
 
 /// A progress bar on stderr, drawn only when stderr is a TTY and --quiet is off.

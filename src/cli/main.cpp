@@ -95,7 +95,10 @@ int main(int argc, char** argv) {
 
   // Find the selected leaf command.
   CLI::App* leaf = &app;
-  while (!leaf->get_subcommands().empty()) leaf = leaf->get_subcommands().front();
+  while (!leaf->get_subcommands().empty()) {
+    leaf = leaf->get_subcommands().front();
+    g_globals.command += (g_globals.command.empty() ? "" : " ") + leaf->get_name();
+  }
   auto it = runs.find(leaf);
   if (it == runs.end()) {
     std::cerr << "roe: no command given (see roe --help)\n";

@@ -16,7 +16,23 @@ double now_s() {
 
 void emit(const nlohmann::json& summary, const std::string& human) {
   if (globals().json) {
-    std::cout << summary.dump(2) << "\n";
+    nlohmann::json j = summary;
+    if (j.is_object()) {
+      if (!j.contains("command")) j["command"] = globals().command;
+      if (!j.contains("out")) {
+        nlohmann::json out = nullptr;
+        for (const char* k : {"dataset", "output"})
+          if (j.contains(k) && j[k].is_string()) {
+            out = j[k];
+            break;
+          }
+        if (out.is_null() && j.contains("outputs") && j["outputs"].is_object() && j["outputs"].contains("dir"))
+          out = j["outputs"]["dir"];
+        j["out"] = out;
+      }
+      if (!j.contains("warnings")) j["warnings"] = nlohmann::json::array();
+    }
+    std::cout << j.dump(2) << "\n";
   } else if (!globals().quiet && !human.empty()) {
     std::cout << human;
     if (human.back() != '\n') std::cout << "\n";

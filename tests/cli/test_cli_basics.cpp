@@ -1,5 +1,6 @@
 // End-to-end checks of the roe executable's global behaviour: help, version, exit codes for bad usage.
 #include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "support/test_util.hpp"
@@ -56,4 +57,40 @@ TEST_CASE("verbose: -v logs what simulate and run read and wrote on stderr; -q k
   CHECK(r.out.find("roe: info:") == std::string::npos);
   r = run_roe("-v -q --force run " + ds + " --out " + out);
   CHECK(r.out.find("roe: info:") == std::string::npos);
+}
+
+TEST_CASE("json summaries: every command's summary has command, out and warnings", "[cli]") {
+  roe::test::TempDir d;
+  const std::string ds = (d / "ds").string(), run = (d / "run").string();
+  const auto json_of = [](const std::string& args) {
+    const auto r = run_roe("--json " + args, false);  // stdout only
+    INFO(args << "\n" << r.out);
+    REQUIRE(r.code == 0);
+    return nlohmann::json::parse(r.out);
+  };
+  auto j = json_of("simulate --preset paper-seq4 --duration 1 --out " + ds);
+  CHECK(j.at("command") == "simulate");
+  CHECK(j.at("out") == ds);
+  CHECK(j.at("warnings").is_array());
+  j = json_of("run " + ds + " --out " + run);
+  CHECK(j.at("command") == "run");
+  CHECK(j.at("out") == run);
+  j = json_of("eval " + run + " --gt " + ds);
+  CHECK(j.at("command") == "eval");
+  CHECK(j.at("out") == run + "/eval");
+  j = json_of("eval " + run + " --gt " + ds + " --no-out");
+  CHECK(j.at("out").is_null());
+  j = json_of("eval --summary " + run + "/eval/report.json --out " + (d / "table").string());
+  CHECK(j.at("command") == "eval");
+  CHECK(j.at("out") == (d / "table.csv").string());
+  CHECK(j.at("written").size() == 3);
+  CHECK(j.at("warnings").is_array());
+  const auto tum = d.write("gt.tum", "1.0 0 0 0 0 0 0 1\n1.1 0.1 0 0 0 0 0 1\n1.2 0.2 0 0 0 0 0 1\n");
+  j = json_of("import mocap " + tum.string() + " --format tum --into " + (d / "m").string());
+  CHECK(j.at("command") == "import mocap");
+  CHECK(j.at("out") == (d / "m").string());
+  CHECK(j.at("warnings").is_array());
+  j = json_of("simulate --list-presets");
+  CHECK(j.at("out").is_null());
+  CHECK(j.at("presets").size() >= 11);
 }
