@@ -141,6 +141,9 @@ void apply_base(JsonObject& r, sim::SimConfig& c, int depth) {
   r.get("base", base);
   if (base.empty()) return;
   if (depth > 8) fail(r, "base", "presets nest too deeply (a cycle of \"base\" keys?)");
+  const auto names = list_presets();
+  if (std::find(names.begin(), names.end(), base) == names.end())
+    fail(r, "base", "unknown preset '" + base + "' (available: " + fmt::format("{}", fmt::join(names, ", ")) + ")");
   const std::string& text = preset_text(base);
   apply(io::parse_json_text(text, "preset " + base), "preset " + base, c, depth + 1);
 }

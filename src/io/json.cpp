@@ -1,6 +1,9 @@
 #include "roe/io/json.hpp"
 
 #include <algorithm>
+#include <set>
+#include <string>
+#include <vector>
 
 #include "roe/io/output.hpp"
 
@@ -22,8 +25,43 @@ void line_col(const std::string& text, std::size_t byte, std::int64_t& line, std
 }  // namespace
 
 json parse_json_text(const std::string& text, const std::string& source) {
+  // A key given twice in one object is an error (nlohmann keeps the last one silently, which hides a
+  // mistyped config). Tracked with the parser's events: one key set per open object.
+  std::vector<std::set<std::string>> keys;
+  std::vector<std::string> path;  // the key of each open object/array ("" for an array element / root)
+  std::string last_key;
+  const json::parser_callback_t check = [&](int, json::parse_event_t ev, json& parsed) {
+    switch (ev) {
+      case json::parse_event_t::object_start:
+      case json::parse_event_t::array_start:
+        path.push_back(last_key);
+        last_key.clear();
+        if (ev == json::parse_event_t::object_start) keys.emplace_back();
+        break;
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end:
+        if (ev == json::parse_event_t::object_end && !keys.empty()) keys.pop_back();
+        if (!path.empty()) path.pop_back();
+        last_key.clear();
+        break;
+      case json::parse_event_t::key:
+        last_key = parsed.get<std::string>();
+        if (!keys.empty() && !keys.back().insert(last_key).second) {
+          std::string where;
+          for (const auto& p : path)
+            if (!p.empty()) where += (where.empty() ? "" : ".") + p;
+          where += (where.empty() ? "" : ".") + last_key;
+          throw ConfigError("key \"" + last_key + "\" appears twice in the same object", {source, 0, 0, where});
+        }
+        break;
+      case json::parse_event_t::value:
+        last_key.clear();
+        break;
+    }
+    return true;
+  };
   try {
-    return json::parse(text);
+    return json::parse(text, check);
   } catch (const json::parse_error& e) {
     std::int64_t line = 0, col = 0;
     line_col(text, e.byte > 0 ? e.byte - 1 : 0, line, col);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <functional>
 #include <set>
 
 #include "roe/core/error.hpp"
@@ -50,9 +51,11 @@ void require_prob(double v, const std::string& key) {
 }
 void require_finite_signal(const SmoothSignal& s, const std::string& key) {
   if (!std::isfinite(s.offset) || !std::isfinite(s.rate)) bad(key, "must be finite");
-  for (const auto& t : s.terms) {
-    if (!std::isfinite(t.amplitude) || !std::isfinite(t.phase_rad)) bad(key, "must be finite");
-    require_nonneg(t.frequency_hz, key + ".frequency_hz");
+  for (std::size_t i = 0; i < s.terms.size(); ++i) {
+    const auto& t = s.terms[i];
+    const std::string term = key + ".terms[" + std::to_string(i) + "]";
+    if (!std::isfinite(t.amplitude) || !std::isfinite(t.phase_rad)) bad(term, "must be finite");
+    if (!(std::isfinite(t.frequency_hz) && t.frequency_hz >= 0.0)) bad(term, "frequency must be a finite number >= 0");
   }
 }
 
@@ -157,11 +160,12 @@ std::vector<int> ids_of(const std::vector<TruthObject>& objects) {
   return ids;
 }
 
-void validate_ids(const std::vector<int>& ids, const std::string& key) {
+// `key_of(i)` names the i-th id in the config (e.g. objects.list[2].id).
+void validate_ids(const std::vector<int>& ids, const std::function<std::string(std::size_t)>& key_of) {
   std::set<int> seen;
-  for (int id : ids) {
-    if (id <= 0) bad(key, "object ids must be positive integers (YCB-V classes 1..21)");
-    if (!seen.insert(id).second) bad(key, "object id " + std::to_string(id) + " appears twice");
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (ids[i] <= 0) bad(key_of(i), "object ids must be positive integers (YCB-V uses 1..21)");
+    if (!seen.insert(ids[i]).second) bad(key_of(i), "object id " + std::to_string(ids[i]) + " appears twice");
   }
 }
 }  // namespace
@@ -191,10 +195,10 @@ void validate(const SimConfig& c) {
   require_prob(v.offset_rel, "variation.offset_rel");
   require_nonneg(v.azimuth_start_rad, "variation.azimuth_start_rad");
   const auto& o = c.objects;
-  if (o.objects.empty()) bad("objects.objects", "at least one object is needed");
+  if (o.objects.empty()) bad("objects.list", "at least one object is needed");
   std::vector<int> ids;
   for (const auto& s : o.objects) ids.push_back(s.id);
-  validate_ids(ids, "objects.objects");
+  validate_ids(ids, [](std::size_t i) { return "objects.list[" + std::to_string(i) + "].id"; });
   require_positive(o.area_size_m, "objects.area_size_m");
   require_nonneg(o.min_separation_m, "objects.min_separation_m");
   require_nonneg(o.height_jitter_m, "objects.height_jitter_m");
@@ -564,7 +568,7 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
   validate_detection(config.detection, config.visibility, config.intrinsics, cfg + ".detection",
                      cfg + ".visibility", cfg + ".intrinsics");
   const std::vector<int> ids(config.object_ids.begin(), config.object_ids.begin() + config.num_objects);
-  validate_ids(ids, "objects");
+  validate_ids(ids, [](std::size_t) { return std::string("objects"); });
   if (imu.size() < 2) throw DataError("the IMU stream has fewer than 2 samples");
   if (gt.size() < 2) throw DataError("the ground truth has fewer than 2 poses");
 

@@ -721,3 +721,22 @@ TEST_CASE("output: write_file_atomic and sha256", "[output]") {
   CHECK_THROWS_AS(io::sha256_file(tmp.path / "missing"), InputError);
   CHECK_THROWS_AS(io::read_file(tmp.path / "missing"), InputError);
 }
+
+TEST_CASE("json: a key given twice in one object is an error naming its path", "[io][json]") {
+  const auto key_of = [](const std::string& text) {
+    try {
+      io::parse_json_text(text, "c.json");
+    } catch (const ConfigError& e) {
+      CHECK(e.context().file == "c.json");
+      CHECK_THAT(e.what(), Catch::Contains("appears twice"));
+      return e.context().key;
+    }
+    return std::string("<no error>");
+  };
+  CHECK(key_of(R"({"duration_s": 10, "duration_s": 20})") == "duration_s");
+  CHECK(key_of(R"({"filter": {"a": 1, "b": {"c": 2}, "a": 3}})") == "filter.a");
+  CHECK(key_of(R"({"objects": {"list": [{"id": 1}, {"id": 2, "id": 3}]}})") == "objects.list.id");
+  // The same key in different objects, or in sibling array elements, is fine.
+  CHECK(key_of(R"({"a": {"x": 1}, "b": {"x": 2}, "l": [{"x": 1}, {"x": 2}], "x": [1, {"x": 3}]})") == "<no error>");
+  CHECK(io::parse_json_text(R"({"a": {"x": 1}, "b": [{"x": 2}]})", "c.json")["b"][0]["x"] == 2);
+}

@@ -346,7 +346,16 @@ TEST_CASE("Invalid configs are rejected with the key", "[sim][config]") {
   expect_key(c, "detection.translation_frame");
   c = SimConfig{};
   c.objects.objects = {{3, false, {}}, {3, false, {}}};
-  expect_key(c, "objects.objects");
+  expect_key(c, "objects.list[1].id");
+  c = SimConfig{};
+  c.objects.objects = {{3, false, {}}, {0, false, {}}};
+  expect_key(c, "objects.list[1].id");
+  c = SimConfig{};
+  c.objects.objects.clear();
+  expect_key(c, "objects.list");
+  c = SimConfig{};
+  c.trajectory.radius_m.terms = {{0.1, 0.2, 0.0}, {0.1, -0.5, 0.0}};
+  expect_key(c, "trajectory.radius_m.terms[1]");
   c = SimConfig{};
   c.visibility.max_depth_m = 0.2;
   expect_key(c, "visibility.max_depth_m");
