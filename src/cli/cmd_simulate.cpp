@@ -3,6 +3,7 @@
 // roe simulate --list-presets
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <limits>
 #include <memory>
 
@@ -30,7 +31,13 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("--preset", a->opt.preset, "Built-in preset, e.g. paper-seq4, noise-free, matched");
   sub.add_option("--config", a->opt.config_file, "Simulator config JSON (keys: docs/simulator.md)");
   sub.add_option("--seed", a->seed, "Random seed (integer >= 0): varies the trajectory and all noise")
-      ->check(CLI::Range(std::int64_t{0}, std::numeric_limits<std::int64_t>::max()))
+      ->check(CLI::Validator(
+          [](std::string& s) {
+            const bool digits = !s.empty() && s.size() <= 18 &&
+                                std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+            return digits ? std::string() : "must be an integer >= 0 (at most 18 digits), got '" + s + "'";
+          },
+          "INT>=0"))
       ->capture_default_str();
   a->duration_opt =
       sub.add_option("--duration", a->duration, "Sequence length in seconds (overrides the config)");

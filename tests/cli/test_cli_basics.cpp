@@ -94,3 +94,13 @@ TEST_CASE("json summaries: every command's summary has command, out and warnings
   CHECK(j.at("out").is_null());
   CHECK(j.at("presets").size() >= 11);
 }
+
+TEST_CASE("simulate --seed must be a non-negative integer, and says so", "[cli]") {
+  for (const char* bad : {"1.5", "abc", "-1", "1e3"}) {
+    INFO(bad);
+    const auto r = run_roe(std::string("simulate --preset paper-seq1 --duration 0.1 --out /nonexistent/x --seed ") + bad);
+    CHECK(r.code == 2);
+    CHECK(r.out.find(std::string("--seed: must be an integer >= 0 (at most 18 digits), got '") + bad + "'") !=
+          std::string::npos);
+  }
+}
