@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <opencv2/dnn.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -49,7 +52,177 @@ BoxDetection transform_box(const BoxDetection& b, const cv::Matx33d& H) {
   return o;
 }
 
+// OpenCV's getParam: the value read with operator>> (so "0.5" reads as 0 for an int), else the default.
+template <typename T>
+T cfg_param(const std::map<std::string, std::string>& p, const std::string& key, T def) {
+  const auto it = p.find(key);
+  if (it != p.end()) {
+    std::stringstream ss(it->second);
+    ss >> def;
+  }
+  return def;
+}
+
+// a * b + c without overflow past 2^62 (nullopt beyond: no real network is that big).
+std::optional<std::uint64_t> mul_add(std::uint64_t a, std::uint64_t b, std::uint64_t c) {
+  constexpr std::uint64_t kMax = std::uint64_t{1} << 62;
+  if (a != 0 && b > kMax / a) return std::nullopt;
+  if (a * b > kMax - c) return std::nullopt;
+  return a * b + c;
+}
+
 }  // namespace
+
+std::optional<std::uint64_t> darknet_parameter_count(const std::string& cfg_text) {
+  // Sections as OpenCV's ReadDarknetFromCfgStream reads them: characters outside '!'..'z' are
+  // dropped, '#'/';' lines are comments, only "[net]" is the network section.
+  using Params = std::map<std::string, std::string>;
+  Params net;
+  std::vector<Params> layers;
+  bool in_net = false;
+  std::istringstream in(cfg_text);
+  for (std::string raw; std::getline(in, raw);) {
+    std::string line;
+    for (char c : raw)
+      if (c > ' ' && c <= 'z') line += c;
+    if (line.empty() || line[0] == '#' || line[0] == ';') continue;
+    if (line[0] == '[') {
+      const auto close = line.find(']');
+      if (close == std::string::npos || close < 2) return std::nullopt;
+      in_net = line == "[net]";
+      if (!in_net) layers.push_back({{"layer_type", line.substr(1, close - 1)}});
+      continue;
+    }
+    const auto eq = line.find('=');
+    if (eq == std::string::npos) return std::nullopt;
+    const std::string key = line.substr(0, eq), value = line.substr(eq + 1);
+    if (key.empty() || value.empty()) continue;
+    if (in_net) net[key] = value;
+    else if (layers.empty()) return std::nullopt;
+    else layers.back()[key] = value;
+  }
+  if (layers.empty()) return std::nullopt;
+  const std::int64_t net_c = cfg_param<std::int64_t>(net, "channels", 3), net_w = cfg_param<std::int64_t>(net, "width", 416),
+                     net_h = cfg_param<std::int64_t>(net, "height", 416);
+  if (net_c <= 0 || net_w <= 0 || net_h <= 0) return std::nullopt;
+
+  // Output channels per layer (OpenCV's out_channels_vec), following its shape rules.
+  std::vector<std::int64_t> out_c(layers.size(), 0);
+  std::int64_t c = net_c, w = net_w, h = net_h;
+  for (std::size_t i = 0; i < layers.size(); ++i) {
+    const Params& p = layers[i];
+    const std::string type = p.at("layer_type");
+    if (type == "convolutional") {
+      const std::int64_t k = cfg_param<std::int64_t>(p, "size", -1), stride = cfg_param<std::int64_t>(p, "stride", 1),
+                         filters = cfg_param<std::int64_t>(p, "filters", -1), groups = cfg_param<std::int64_t>(p, "groups", 1);
+      std::int64_t padding = cfg_param<std::int64_t>(p, "padding", 0);
+      if (cfg_param<int>(p, "pad", 0)) padding = k / 2;
+      if (cfg_param<int>(p, "flipped", 0) == 1 || k <= 0 || filters <= 0 || stride <= 0 || groups <= 0 || c <= 0 || c % groups != 0)
+        return std::nullopt;
+      c = filters;
+      w = (w - k + 2 * padding) / stride + 1;
+      h = (h - k + 2 * padding) / stride + 1;
+    } else if (type == "connected") {
+      const std::int64_t output = cfg_param<std::int64_t>(p, "output", 1);
+      if (output <= 0) return std::nullopt;
+      if (i > 0 && w > 1) out_c[i - 1] = c * w * h;
+      c = output;
+      w = h = 1;
+    } else if (type == "maxpool") {
+      const std::int64_t k = cfg_param<std::int64_t>(p, "size", 2), stride = cfg_param<std::int64_t>(p, "stride", 2),
+                         padding = cfg_param<std::int64_t>(p, "padding", k - 1);
+      if (stride <= 0) return std::nullopt;
+      w = (w - k + padding) / stride + 1;
+      h = (h - k + padding) / stride + 1;
+    } else if (type == "avgpool") {
+      w = h = 1;
+    } else if (type == "route") {
+      const auto it = p.find("layers");
+      if (it == p.end()) return std::nullopt;
+      std::stringstream ss(it->second);
+      c = 0;
+      for (std::string item; std::getline(ss, item, ',');) {
+        std::stringstream one(item);
+        std::int64_t idx = 0;
+        if (!(one >> idx)) return std::nullopt;
+        if (idx < 0) idx += static_cast<std::int64_t>(i);
+        if (idx < 0 || idx >= static_cast<std::int64_t>(i)) return std::nullopt;
+        c += out_c[static_cast<std::size_t>(idx)];
+      }
+    } else if (type == "reorg") {
+      const std::int64_t stride = cfg_param<std::int64_t>(p, "stride", 2);
+      if (stride <= 0) return std::nullopt;
+      c *= stride * stride;
+      w /= stride;
+      h /= stride;
+    } else if (type == "upsample") {
+      const std::int64_t stride = cfg_param<std::int64_t>(p, "stride", 1);
+      w *= stride;
+      h *= stride;
+    } else if (type == "softmax" || type == "dropout" || type == "cost" || type == "region" || type == "shortcut" ||
+               type == "scale_channels" || type == "yolo") {
+      // shape unchanged
+    } else {
+      return std::nullopt;  // OpenCV: "Unknown layer type"
+    }
+    if (c <= 0 || c > (std::int64_t{1} << 40)) return std::nullopt;
+    out_c[i] = c;
+  }
+
+  // Parameters in the order OpenCV's ReadDarknetFromWeightsStream reads them.
+  std::uint64_t total = 0;
+  for (std::size_t i = 0; i < layers.size(); ++i) {
+    const Params& p = layers[i];
+    const std::string type = p.at("layer_type");
+    if (type != "convolutional" && type != "connected") continue;
+    const bool bn = cfg_param<int>(p, "batch_normalize", 0) == 1;
+    const std::uint64_t in_c = static_cast<std::uint64_t>(i == 0 ? net_c : out_c[i - 1]);
+    std::uint64_t filters = 0, per_filter = 0;
+    if (type == "convolutional") {
+      const auto k = static_cast<std::uint64_t>(cfg_param<std::int64_t>(p, "size", -1));
+      filters = static_cast<std::uint64_t>(cfg_param<std::int64_t>(p, "filters", -1));
+      const auto groups = static_cast<std::uint64_t>(cfg_param<std::int64_t>(p, "groups", 1));
+      const auto kk = mul_add(k, k, 0);
+      if (!kk) return std::nullopt;
+      const auto pf = mul_add(in_c / groups, *kk, bn ? 4 : 1);  // weights + bias (+ scale, mean, variance)
+      if (!pf) return std::nullopt;
+      per_filter = *pf;
+    } else {
+      filters = static_cast<std::uint64_t>(cfg_param<std::int64_t>(p, "output", 1));
+      const std::uint64_t inputs = i == 0 ? static_cast<std::uint64_t>(net_c * net_w * net_h) : in_c;
+      per_filter = inputs + (bn ? 4 : 1);
+    }
+    const auto t = mul_add(filters, per_filter, total);
+    if (!t) return std::nullopt;
+    total = *t;
+  }
+  return total;
+}
+
+void check_darknet_weights(const fs::path& cfg, const fs::path& weights) {
+  const auto params = darknet_parameter_count(io::read_file(cfg));
+  if (!params) return;  // OpenCV refuses the cfg with its own message
+  std::error_code ec;
+  const std::uintmax_t size = fs::file_size(weights, ec);
+  if (ec) throw InputError("cannot read the Darknet weights file: " + ec.message(), {weights.string()});
+  std::int32_t head[3] = {0, 0, 0};
+  if (size >= sizeof head) {
+    std::ifstream f(weights, std::ios::binary);
+    f.read(reinterpret_cast<char*>(head), sizeof head);
+    if (!f) throw InputError("cannot read the Darknet weights file", {weights.string()});
+  }
+  const std::int64_t major = head[0], minor = head[1];
+  if (major > 1000 || minor > 1000) return;  // transposed weights: OpenCV refuses them itself
+  // Header: major, minor, revision (int32), then "seen" as int64 from version 0.2 on, else int32.
+  const std::uint64_t header = major * 10 + minor >= 2 ? 20 : 16;
+  const std::uint64_t expected = header + 4 * *params;
+  if (size == expected) return;
+  const std::string sizes = "the Darknet weights file has " + std::to_string(size) + " bytes, but the layers of " +
+                            cfg.filename().string() + " need " + std::to_string(expected) + " (a " + std::to_string(header) +
+                            "-byte header + " + std::to_string(*params) + " float32 parameters)";
+  if (size < expected) throw InputError(sizes + ": the file is truncated", {weights.string()});
+  throw InputError(sizes + ": " + std::to_string(size - expected) + " byte(s) too many (weights of another cfg?)", {weights.string()});
+}
 
 nlohmann::json SelfTestReport::to_json() const {
   nlohmann::json d = nlohmann::json::object(), p = nlohmann::json::object();
@@ -117,6 +290,7 @@ PoetModel::PoetModel(PoetBundle bundle, ModelOptions options) : impl_(std::make_
   if (m.opt.warp != "auto" && m.opt.warp != "on" && m.opt.warp != "off")
     throw InputError("--warp must be auto, on or off, got \"" + m.opt.warp + "\"");
   if (m.b.detector == DetectorKind::kDarknet) {
+    check_darknet_weights(m.b.darknet.cfg, m.b.darknet.weights);
     try {
       m.net = cv::dnn::readNetFromDarknet(m.b.darknet.cfg.string(), m.b.darknet.weights.string());
     } catch (const cv::Exception& e) {
@@ -371,7 +545,12 @@ FrameResult PoetModel::infer(const std::string& encoded_image, const std::vector
   std::vector<BoxDetection> boxes;
   std::vector<HostTensor> feats;
   if (external_boxes) {
-    for (const auto& eb : *external_boxes) boxes.push_back(m.warp ? transform_box(eb, m.H) : eb);
+    for (const auto& eb : *external_boxes) {
+      // The pose head indexes class-specific outputs with the class: an unknown one must not reach it.
+      if (m.b.class_name(eb.class_id).empty())
+        throw InputError("box class " + std::to_string(eb.class_id) + " is not a class of model " + m.b.model_id, {source});
+      boxes.push_back(m.warp ? transform_box(eb, m.H) : eb);
+    }
     std::stable_sort(boxes.begin(), boxes.end(), [](const BoxDetection& a, const BoxDetection& b) {
       return a.score > b.score;  // NaN scores compare false: their order is kept
     });

@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -107,6 +108,19 @@ class PoetModel {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// Number of float32 parameters a Darknet weights file holds for `cfg_text`, counted the way
+/// OpenCV's Darknet importer reads them: per [convolutional] layer biases (+ BN scales, means,
+/// variances when batch_normalize=1) and filters x in_channels/groups x size², per [connected]
+/// layer the same with inputs x outputs. Channels are followed through [route], [reorg], ... as
+/// OpenCV does. std::nullopt when the cfg holds something OpenCV's importer would refuse (OpenCV
+/// then gives its own error).
+std::optional<std::uint64_t> darknet_parameter_count(const std::string& cfg_text);
+
+/// roe::InputError naming `weights` when its size differs from the header (16 or 20 bytes, by the
+/// file's version numbers) + 4 bytes per parameter of `cfg` (see darknet_parameter_count): OpenCV
+/// reads a truncated file without complaint (leaving weights undefined) and ignores extra bytes.
+void check_darknet_weights(const fs::path& cfg, const fs::path& weights);
 
 /// The pose head's query inputs for boxes in network pixels (best first): a [Q, 4] float tensor of
 /// normalised cx, cy, w, h and a [Q] int tensor of class ids; rows beyond the boxes are −1 (PoET's
