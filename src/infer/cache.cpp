@@ -52,56 +52,50 @@ CachedFrame frame_from_json(const nlohmann::json& j) {
   return f;
 }
 
-DetectionCache::DetectionCache(std::filesystem::path file, std::string model_id, std::string config_hash) : file_(std::move(file)) {
+DetectionCache::DetectionCache(std::filesystem::path file, std::string model_id, std::string config_hash)
+    : file_(std::move(file)),
+      header_({{"schema", kCacheSchema}, {"model_id", std::move(model_id)}, {"config_hash", std::move(config_hash)}}) {
   std::error_code ec;
-  std::filesystem::create_directories(file_.parent_path(), ec);
-  if (ec) throw InputError("cannot create the cache folder: " + ec.message(), {file_.parent_path().string()});
-  const nlohmann::json header = {{"schema", kCacheSchema}, {"model_id", model_id}, {"config_hash", config_hash}};
-  bool fresh = true;
-  if (std::filesystem::exists(file_)) {
-    const std::string text = io::read_file(file_);
-    std::size_t pos = 0, line_no = 0;
-    bool header_ok = false;
-    while (pos < text.size()) {
-      std::size_t end = text.find('\n', pos);
-      const bool complete = end != std::string::npos;
-      const std::string line = text.substr(pos, complete ? end - pos : std::string::npos);
-      pos = complete ? end + 1 : text.size();
-      ++line_no;
-      if (line.empty()) continue;
-      try {
-        const auto j = nlohmann::json::parse(line);
-        if (line_no == 1) {
-          header_ok = j == header;
-          if (!header_ok) break;
-          continue;
-        }
-        if (!complete) throw std::runtime_error("torn line");
-        CachedFrame f = frame_from_json(j);
-        frames_[f.key] = std::move(f);
-      } catch (const std::exception&) {
-        if (line_no == 1) break;
-        ++ignored_;
+  if (!std::filesystem::exists(file_, ec)) return;  // created by the first append
+  const std::string text = io::read_file(file_);
+  std::size_t pos = 0, line_no = 0;
+  bool header_ok = false;
+  while (pos < text.size()) {
+    std::size_t end = text.find('\n', pos);
+    const bool complete = end != std::string::npos;
+    const std::string line = text.substr(pos, complete ? end - pos : std::string::npos);
+    pos = complete ? end + 1 : text.size();
+    ++line_no;
+    if (line.empty()) continue;
+    try {
+      const auto j = nlohmann::json::parse(line);
+      if (line_no == 1) {
+        header_ok = j == header_;
+        if (!header_ok) break;
+        continue;
       }
-    }
-    fresh = !header_ok;
-    if (fresh) {
-      log::warn("cache {} belongs to another model or configuration (or is damaged): starting it over", file_.string());
-      frames_.clear();
-      ignored_ = 0;
-    } else if (!text.empty() && text.back() != '\n') {
-      // Complete the torn line so that appended lines start on a line of their own.
-      std::ofstream fix(file_, std::ios::app);
-      fix << '\n';
+      if (!complete) throw std::runtime_error("torn line");
+      CachedFrame f = frame_from_json(j);
+      const std::string key = f.key;
+      if (!frames_.count(key)) order_.push_back(key);
+      else ++stale_;  // an older entry of the same frame: the later line wins
+      frames_[key] = std::move(f);
+    } catch (const std::exception&) {
+      if (line_no == 1) break;
+      ++ignored_;
     }
   }
-  out_.open(file_, fresh ? std::ios::trunc : std::ios::app);
-  if (!out_) throw InputError("cannot write the cache file", {file_.string()});
-  if (fresh) {
-    out_ << header.dump() << '\n';
-    out_.flush();
+  if (!header_ok) {
+    log::warn("cache {} belongs to another model or configuration (or is damaged): starting it over", file_.string());
+    frames_.clear();
+    order_.clear();
+    ignored_ = stale_ = 0;
+    restart_ = true;
+  } else {
+    torn_ = !text.empty() && text.back() != '\n';
+    if (ignored_) log::warn("cache {}: {} unreadable line(s) ignored (an interrupted run?)", file_.string(), ignored_);
   }
-  if (ignored_) log::warn("cache {}: {} unreadable line(s) ignored (an interrupted run?)", file_.string(), ignored_);
+  exists_ = true;
 }
 
 const CachedFrame* DetectionCache::find(const std::string& key) const {
@@ -109,11 +103,40 @@ const CachedFrame* DetectionCache::find(const std::string& key) const {
   return it == frames_.end() ? nullptr : &it->second;
 }
 
+void DetectionCache::open_for_append() {
+  if (out_.is_open()) return;
+  std::error_code ec;
+  std::filesystem::create_directories(file_.parent_path(), ec);
+  if (ec) throw InputError("cannot create the cache folder: " + ec.message(), {file_.parent_path().string()});
+  const bool fresh = !exists_ || restart_;
+  out_.open(file_, fresh ? std::ios::trunc : std::ios::app);
+  if (!out_) throw InputError("cannot write the cache file", {file_.string()});
+  if (fresh) out_ << header_.dump() << '\n';
+  else if (torn_) out_ << '\n';  // appended lines start on a line of their own
+  out_.flush();
+  exists_ = true;
+  restart_ = torn_ = false;
+}
+
 void DetectionCache::append(const CachedFrame& frame) {
+  open_for_append();
   out_ << frame_to_json(frame).dump() << '\n';
   out_.flush();
   if (!out_) throw InputError("cannot append to the cache file", {file_.string()});
+  if (frames_.count(frame.key)) ++stale_;
+  else order_.push_back(frame.key);
   frames_[frame.key] = frame;
+}
+
+void DetectionCache::compact() {
+  if (stale_ == 0 && ignored_ == 0) return;
+  if (!exists_ || restart_) return;  // nothing of ours on disk
+  if (out_.is_open()) out_.close();
+  std::string text = header_.dump() + "\n";
+  for (const auto& key : order_) text += frame_to_json(frames_.at(key)).dump() + "\n";
+  io::write_file_atomic(file_, text);
+  stale_ = ignored_ = 0;
+  torn_ = false;
 }
 
 }  // namespace roe::infer

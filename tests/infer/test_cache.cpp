@@ -97,3 +97,80 @@ TEST_CASE("a cache of another model or config starts over", "[cache]") {
   CHECK(c.size() == 0);
   fs::remove_all(d);
 }
+
+TEST_CASE("the cache writes nothing until the first append", "[cache]") {
+  const fs::path d = temp_dir("lazy");
+  const fs::path file = d / "infer/m/h1/frames.jsonl";
+  {
+    DetectionCache c(file, "m", "h1");
+    CHECK(c.size() == 0);
+    CHECK_FALSE(c.find("k1"));
+    c.compact();
+  }
+  CHECK_FALSE(fs::exists(d / "infer"));  // no folder, no file
+  {
+    DetectionCache c(file, "m", "h1");
+    c.append(frame("k1", 1, 0.5));
+  }
+  // A cache of another configuration is started over only when a frame is appended.
+  const std::string before = roe::io::read_file(file);
+  { DetectionCache c(file, "m", "h2"); }
+  CHECK(roe::io::read_file(file) == before);
+  {
+    DetectionCache c(file, "m", "h2");
+    c.append(frame("k2", 2, 0.6));
+  }
+  DetectionCache c(file, "m", "h2");
+  CHECK(c.size() == 1);
+  CHECK(c.find("k2"));
+  fs::remove_all(d);
+}
+
+TEST_CASE("a recomputed frame replaces its entry: one line per key after compact()", "[cache]") {
+  const fs::path d = temp_dir("refresh");
+  const fs::path file = d / "frames.jsonl";
+  auto lines = [&] {
+    std::ifstream f(file);
+    std::size_t n = 0;
+    for (std::string l; std::getline(f, l);) ++n;
+    return n;
+  };
+  {
+    DetectionCache c(file, "m", "h1");
+    c.append(frame("k1", 1, 0.5));
+    c.append(frame("k2", 2, 0.6));
+  }
+  CHECK(lines() == 3);
+  {
+    DetectionCache c(file, "m", "h1");
+    CHECK(c.stale_lines() == 0);
+    c.append(frame("k1", 1, 0.9));  // recomputed (--no-cache)
+    c.append(frame("k1", 1, 0.8));  // the same image again in this run
+    CHECK(c.stale_lines() == 2);
+    CHECK(c.find("k1")->detections[0].T_C_O.p.z() == 0.8);
+    CHECK(lines() == 5);  // appended as it goes: an interrupted run keeps its work
+    c.compact();
+    CHECK(c.stale_lines() == 0);
+    CHECK(lines() == 3);
+    c.append(frame("k3", 3, 0.7));  // appending still works after a compaction
+  }
+  CHECK(lines() == 4);
+  {
+    DetectionCache c(file, "m", "h1");
+    CHECK(c.size() == 3);
+    CHECK(c.stale_lines() == 0);
+    CHECK(c.find("k1")->detections[0].T_C_O.p.z() == 0.8);
+    CHECK(c.find("k2")->detections[0].T_C_O.p.z() == 0.6);
+  }
+  // Duplicates left by an interrupted run: the last line wins and compact() removes the others.
+  {
+    std::ofstream f(file, std::ios::app);
+    f << roe::infer::frame_to_json(frame("k2", 2, 0.1)).dump() << '\n';
+  }
+  DetectionCache c(file, "m", "h1");
+  CHECK(c.stale_lines() == 1);
+  CHECK(c.find("k2")->detections[0].T_C_O.p.z() == 0.1);
+  c.compact();
+  CHECK(lines() == 4);
+  fs::remove_all(d);
+}
