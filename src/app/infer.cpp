@@ -23,7 +23,16 @@ namespace fs = std::filesystem;
 namespace {
 
 // External boxes: timestamp_ns,class,x1,y1,x2,y2,score (pixels of the dataset image; score may be empty).
-std::map<Timestamp, std::vector<infer::BoxDetection>> read_boxes_csv(const fs::path& file) {
+// Classes must be the bundle's: the pose head indexes its class-specific outputs with them.
+std::map<Timestamp, std::vector<infer::BoxDetection>> read_boxes_csv(const fs::path& file, const infer::PoetBundle& bundle) {
+  std::set<int> ids;
+  for (const auto& c : bundle.classes) ids.insert(c.id);
+  std::string known;
+  if (!ids.empty() && *ids.rbegin() - *ids.begin() + 1 == static_cast<int>(ids.size())) {
+    known = std::to_string(*ids.begin()) + ".." + std::to_string(*ids.rbegin());
+  } else {
+    for (int id : ids) known += (known.empty() ? "" : ", ") + std::to_string(id);
+  }
   io::CsvOptions o;
   o.expected_header = {"timestamp_ns|timestamp [ns]|timestamp", "class", "x1", "y1", "x2", "y2", "score"};
   o.stamp_column = 0;
@@ -35,6 +44,9 @@ std::map<Timestamp, std::vector<infer::BoxDetection>> read_boxes_csv(const fs::p
     const Timestamp t = r.get_int64(0);
     b.class_id = r.get_int(1);
     if (b.class_id < 1) throw r.error(1, "class must be a 1-based PoET class id");
+    if (!ids.count(b.class_id))
+      throw r.error(1, "class " + std::to_string(b.class_id) + " is not a class of model " + bundle.model_id + " (its classes: " +
+                           known + ")");
     b.x1 = r.get_double(2);
     b.y1 = r.get_double(3);
     b.x2 = r.get_double(4);
@@ -121,8 +133,62 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
                      "(cmake -DROE_WITH_TORCH=ON), or run PoET's own inference and `roe import poet`");
   if (bundle.detector == infer::DetectorKind::kExternal && opt.boxes_file.empty())
     throw InputError("model " + bundle.model_id + " has an external detector: give the boxes with --boxes FILE");
+
+  // Selection, and everything that can be checked before the model is loaded and a frame computed.
+  const auto [first, last] = parse_frame_range(opt.frames, frames.size());
+  std::vector<std::size_t> sel;
+  for (std::size_t i = first; i < last; i += static_cast<std::size_t>(opt.every)) sel.push_back(i);
+  s.frames_selected = sel.size();
+  const fs::path img_dir = io::cam_image_dir(dataset);
+  {
+    std::size_t missing = 0;
+    const CameraFrame* first_missing = nullptr;
+    std::error_code ec;
+    for (std::size_t i : sel) {
+      if (!frames[i].filename.empty() && fs::is_regular_file(img_dir / frames[i].filename, ec)) continue;
+      if (!missing++) first_missing = &frames[i];
+    }
+    if (missing) {
+      const std::string what = first_missing->filename.empty()
+                                   ? "frame " + std::to_string(first_missing->t_ns) + " has no image file name"
+                                   : "frame " + std::to_string(first_missing->t_ns) + ": " +
+                                         (img_dir / first_missing->filename).string() + " is missing";
+      throw InputError(std::to_string(missing) + " of the " + std::to_string(sel.size()) + " selected frame(s) have no image (" +
+                           what + "); a dataset without images (e.g. from roe simulate) cannot be inferred",
+                       {cam_csv.string()});
+    }
+  }
   std::map<Timestamp, std::vector<infer::BoxDetection>> ext;
-  if (!opt.boxes_file.empty()) ext = read_boxes_csv(opt.boxes_file);
+  if (!opt.boxes_file.empty()) {
+    ext = read_boxes_csv(opt.boxes_file, bundle);
+    std::set<Timestamp> in_dataset, selected;
+    for (const auto& f : frames) in_dataset.insert(f.t_ns);
+    for (std::size_t i : sel) selected.insert(frames[i].t_ns);
+    std::size_t stamps_unknown = 0, rows_unknown = 0, stamps_selected = 0, stamps_elsewhere = 0;
+    for (const auto& [t, b] : ext) {
+      if (selected.count(t)) ++stamps_selected;
+      else if (in_dataset.count(t)) ++stamps_elsewhere;
+      else {
+        ++stamps_unknown;
+        rows_unknown += b.size();
+      }
+    }
+    if (ext.empty()) throw InputError("the boxes file has no rows: no frame would get a detection", {opt.boxes_file});
+    if (stamps_selected == 0) {
+      std::string msg = "none of the " + std::to_string(ext.size()) + " timestamp(s) of the boxes matches " +
+                        (sel.size() < frames.size() ? "a selected frame" : "a frame of the dataset");
+      if (stamps_elsewhere)
+        msg += " (" + std::to_string(stamps_elsewhere) + " match frames outside --frames/--every)";
+      else
+        msg += "; the boxes span " + std::to_string(ext.begin()->first) + ".." + std::to_string(ext.rbegin()->first) +
+               " ns, the frames " + std::to_string(frames.front().t_ns) + ".." + std::to_string(frames.back().t_ns) +
+               " ns (timestamp_ns must equal the stamps of " + cam_csv.filename().string() + ")";
+      throw InputError(msg, {opt.boxes_file});
+    }
+    if (stamps_unknown)
+      warn(std::to_string(rows_unknown) + " box(es) at " + std::to_string(stamps_unknown) + " timestamp(s) of " + opt.boxes_file +
+           " match no frame of the dataset and were ignored");
+  }
 
   infer::ModelOptions mo;
   mo.warp = opt.warp;
@@ -132,18 +198,7 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
   s.selftest = model.selftest_report().to_json();
   s.device = model.device();
 
-  // Selection.
-  const auto [first, last] = parse_frame_range(opt.frames, frames.size());
-  std::vector<std::size_t> sel;
-  for (std::size_t i = first; i < last; i += static_cast<std::size_t>(opt.every)) sel.push_back(i);
-  s.frames_selected = sel.size();
-  for (std::size_t i : sel)
-    if (frames[i].filename.empty())
-      throw InputError("frame " + std::to_string(frames[i].t_ns) + " has no image file (a dataset without images cannot be inferred)",
-                       {cam_csv.string()});
-
   // Camera → warp decision.
-  const fs::path img_dir = io::cam_image_dir(dataset);
   if (manifest.camera && manifest.camera->width > 0) {
     const auto& c = *manifest.camera;
     if (c.distortion_model != "none" && !c.distortion.empty() &&
@@ -249,6 +304,7 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
     per_frame.push_back({{"t_ns", f.t_ns}, {"ms", cf.ms}, {"cached", reused}, {"detections", cf.detections.size()}});
     if (progress) progress(k + 1, sel.size());
   }
+  cache.compact();  // one line per frame: entries recomputed by this run (--no-cache) replace the old ones
   for (const auto& [c, n] : unmapped)
     warn(std::to_string(n) + " detection(s) of class " + std::to_string(c) + " (" + bundle.class_name(c) +
          ") map to no object of roe.json and were dropped");

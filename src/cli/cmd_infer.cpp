@@ -32,7 +32,7 @@ RunFn setup(CLI::App& sub) {
                  "External boxes CSV timestamp_ns,class,x1,y1,x2,y2,score (replaces the detector)");
   sub.add_option("--class-map", a->opt.class_map_file,
                  "JSON {\"<model class>\": <object id>} (default: match class names with roe.json objects)");
-  sub.add_flag("--no-cache", a->no_cache, "Recompute every frame (the cache is refreshed)");
+  sub.add_flag("--no-cache", a->no_cache, "Recompute every selected frame (their cache entries are replaced)");
   return [a]() {
     a->opt.force = globals().force;
     a->opt.use_cache = !a->no_cache;

@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <map>
@@ -229,6 +230,109 @@ TEST_CASE("roe infer with external boxes (PoET's ground-truth box mode)", "[infe
   CHECK(s2.frames_computed == 2);  // frame 0 (other score) and frame 2 (its box is gone)
   io::write_file_atomic(tmp.path / "boxes.csv", "timestamp_ns,class,x1,y1,x2,y2,score\n1000000000,0,18,18,42,42,0.8\n");
   CHECK_THROWS_AS(app::run_infer(ds, o), InputError);
+}
+
+// The message of the InputError `f` throws ("" when it throws none; other exceptions escape).
+template <typename F>
+std::string input_error_of(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::size_t count_lines(const fs::path& file) {
+  std::ifstream f(file);
+  std::size_t n = 0;
+  for (std::string l; std::getline(f, l);) ++n;
+  return n;
+}
+
+TEST_CASE("roe infer: a box class the bundle does not have names file, row and column", "[infer]") {
+  TmpDir tmp("boxclass");
+  const fs::path ds = make_dataset(tmp.path, kFrames);
+  app::InferOptions o;
+  o.model_dir = kTiny.string();
+  o.boxes_file = (tmp.path / "boxes.csv").string();
+  // The tiny bundle has classes 1..3; a larger id used to reach the pose head (TorchScript index error).
+  for (const std::string cls : {"1000000000", "4"}) {
+    io::write_file_atomic(tmp.path / "boxes.csv", "timestamp_ns,class,x1,y1,x2,y2,score\n"
+                                                  "1000000000,1,18,18,42,42,0.9\n"
+                                                  "1200000000," + cls + ",28,38,52,62,1\n");
+    const std::string e = input_error_of([&] { app::run_infer(ds, o); });
+    INFO(e);
+    CHECK(e.find("boxes.csv:3:2:") != std::string::npos);
+    CHECK(e.find("class " + cls + " is not a class of model tiny-poet (its classes: 1..3)") != std::string::npos);
+  }
+  CHECK_FALSE(fs::exists(ds / "cache"));
+  CHECK_FALSE(fs::exists(ds / "detections" / "tiny-poet"));
+}
+
+TEST_CASE("roe infer: boxes whose timestamps match no frame are an error, some unmatched a warning", "[infer]") {
+  TmpDir tmp("boxstamps");
+  const fs::path ds = make_dataset(tmp.path, kFrames);
+  app::InferOptions o;
+  o.model_dir = kTiny.string();
+  o.boxes_file = (tmp.path / "boxes.csv").string();
+  const std::string header = "timestamp_ns,class,x1,y1,x2,y2,score\n";
+  // Stamps in µs instead of ns: nothing matches.
+  io::write_file_atomic(tmp.path / "boxes.csv", header + "1000000,1,18,18,42,42,0.9\n1200000,3,28,38,52,62,0.6\n");
+  std::string e = input_error_of([&] { app::run_infer(ds, o); });
+  CHECK(e.find("none of the 2 timestamp(s) of the boxes matches a frame of the dataset") != std::string::npos);
+  CHECK(e.find("the boxes span 1000000..1200000 ns, the frames 1000000000..1400000000 ns") != std::string::npos);
+  io::write_file_atomic(tmp.path / "boxes.csv", header);
+  CHECK(input_error_of([&] { app::run_infer(ds, o); }).find("the boxes file has no rows") != std::string::npos);
+  // Matching frames outside the selection only.
+  io::write_file_atomic(tmp.path / "boxes.csv", header + "1200000000,3,28,38,52,62,0.6\n");
+  o.frames = "0:2";
+  e = input_error_of([&] { app::run_infer(ds, o); });
+  CHECK(e.find("matches a selected frame (1 match frames outside --frames/--every)") != std::string::npos);
+  CHECK_FALSE(fs::exists(ds / "cache"));
+  // Some rows match: the others are counted in a warning.
+  o.frames = "";
+  io::write_file_atomic(tmp.path / "boxes.csv", header + "1200000000,3,28,38,52,62,0.6\n1250000000,3,28,38,52,62,0.6\n"
+                                                         "1250000000,1,18,18,42,42,0.9\n");
+  const auto s = app::run_infer(ds, o);
+  CHECK(s.detections_written == 1);
+  REQUIRE(s.warnings.size() == 1);
+  CHECK(s.warnings[0].find("2 box(es) at 1 timestamp(s) of " + o.boxes_file + " match no frame of the dataset") !=
+        std::string::npos);
+}
+
+TEST_CASE("roe infer on frames without images writes nothing", "[infer]") {
+  TmpDir tmp("noimg");
+  const fs::path ds = make_dataset(tmp.path, kFrames);
+  fs::remove_all(io::cam_image_dir(ds));  // like a dataset from roe simulate: frames listed, no images
+  app::InferOptions o;
+  o.model_dir = kTiny.string();
+  const std::string e = input_error_of([&] { app::run_infer(ds, o); });
+  CHECK(e.find("5 of the 5 selected frame(s) have no image") != std::string::npos);
+  CHECK(e.find("1000000000.png is missing") != std::string::npos);
+  CHECK_FALSE(fs::exists(ds / "cache"));
+  CHECK_FALSE(fs::exists(ds / "detections"));
+}
+
+TEST_CASE("roe infer --no-cache refreshes the cache without duplicate lines", "[infer]") {
+  TmpDir tmp("nocache");
+  const fs::path ds = make_dataset(tmp.path, kFrames);
+  app::InferOptions o;
+  o.model_dir = kTiny.string();
+  const auto s = app::run_infer(ds, o);
+  REQUIRE(fs::exists(s.cache_file));
+  CHECK(count_lines(s.cache_file) == 6);  // header + 5 frames
+  o.force = true;
+  o.use_cache = false;
+  for (int k = 0; k < 2; ++k) {
+    const auto r = app::run_infer(ds, o);
+    CHECK(r.frames_computed == 5);
+    CHECK(count_lines(s.cache_file) == 6);  // the recomputed frames replaced their lines
+  }
+  o.use_cache = true;
+  const auto r = app::run_infer(ds, o);
+  CHECK(r.frames_reused == 5);
+  CHECK(r.detections_written == s.detections_written);
 }
 
 TEST_CASE("roe infer input errors", "[infer]") {

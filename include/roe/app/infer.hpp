@@ -23,7 +23,7 @@ struct InferOptions {
   std::string device = "auto";    ///< LibTorch device: auto | cpu | cuda
   std::string boxes_file;         ///< external boxes CSV (timestamp_ns,class,x1,y1,x2,y2,score)
   std::string class_map_file;     ///< {"<poet class>": <object id>}; default: by name
-  bool use_cache = true;          ///< false: recompute every frame (the cache is still refreshed)
+  bool use_cache = true;          ///< false: recompute every selected frame (replacing their cache entries)
   bool force = false;             ///< replace an existing detections/<name>
 };
 
