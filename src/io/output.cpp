@@ -108,6 +108,11 @@ OutputDir::OutputDir(fs::path final_dir, bool force, const std::vector<fs::path>
                        {final_.string()});
   }
   fs::path parent = final_.has_parent_path() ? final_.parent_path() : fs::path(".");
+  // The highest folder this constructor creates: removed again (when still empty) if never committed.
+  for (fs::path p = parent; !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
+    created_ = p;
+    if (p == p.parent_path()) break;
+  }
   fs::create_directories(parent, ec);
   if (ec) throw InputError("cannot create folder: " + ec.message(), {parent.string()});
   const std::string base = final_.filename().empty() ? final_.parent_path().filename().string()
@@ -121,6 +126,12 @@ OutputDir::~OutputDir() {
   if (!committed_) {
     std::error_code ec;
     fs::remove_all(tmp_, ec);
+    // Folders created for the output's parent, deepest first, as long as they are empty.
+    if (!created_.empty())
+      for (fs::path p = final_.has_parent_path() ? final_.parent_path() : fs::path(); !p.empty();
+           p = p.parent_path()) {
+        if (!fs::remove(p, ec) || p == created_) break;  // remove() fails on a non-empty folder
+      }
   }
 }
 

@@ -312,6 +312,10 @@ TEST_CASE("roe infer on frames without images writes nothing", "[infer]") {
   CHECK(e.find("1000000000.png is missing") != std::string::npos);
   CHECK_FALSE(fs::exists(ds / "cache"));
   CHECK_FALSE(fs::exists(ds / "detections"));
+  // An existing detection set is refused (without --force) before anything else is looked at.
+  io::write_file_atomic(ds / "detections" / "tiny-poet" / "detections.csv", "x\n");
+  CHECK(input_error_of([&] { app::run_infer(ds, o); }).find("--force") != std::string::npos);
+  CHECK(io::read_file(ds / "detections" / "tiny-poet" / "detections.csv") == "x\n");
 }
 
 TEST_CASE("roe infer --no-cache refreshes the cache without duplicate lines", "[infer]") {

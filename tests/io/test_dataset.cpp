@@ -669,6 +669,28 @@ TEST_CASE("output: OutputDir takes runs/x/ for runs/x, and never replaces an inp
   CHECK_FALSE(fs::exists(tmp.path / "new" / "a.txt"));
   CHECK(std::distance(fs::directory_iterator(tmp.path), fs::directory_iterator()) == 1);
 
+  // Parent folders created for an output that is never committed are removed again (when empty);
+  // existing ones stay.
+  {
+    io::OutputDir o(tmp.path / "p1" / "p2" / "out", false);
+    CHECK(fs::is_directory(tmp.path / "p1" / "p2"));
+  }
+  CHECK_FALSE(fs::exists(tmp.path / "p1"));
+  fs::create_directories(tmp.path / "keep");
+  {
+    io::OutputDir o(tmp.path / "keep" / "p2" / "out", false);
+  }
+  CHECK(fs::is_directory(tmp.path / "keep"));
+  CHECK_FALSE(fs::exists(tmp.path / "keep" / "p2"));
+  fs::remove(tmp.path / "keep");
+  {
+    io::OutputDir o(tmp.path / "p1" / "out", false);
+    write_text(o.file("a.txt"), "a");
+    o.commit();
+  }
+  CHECK(io::read_file(tmp.path / "p1" / "out" / "a.txt") == "a");
+  fs::remove_all(tmp.path / "p1");
+
   // The output is an input, or contains one: refused even with force, nothing touched.
   const fs::path ds = tmp.path / "ds";
   write_text(ds / "mav0" / "imu0" / "data.csv", "imu");

@@ -38,6 +38,7 @@ class OutputDir {
  private:
   fs::path final_;
   fs::path tmp_;
+  fs::path created_;  ///< the highest parent folder the constructor created (empty: none)
   bool force_;
   bool committed_ = false;
 };
