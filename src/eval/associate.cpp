@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <utility>
 
 #include "roe/core/error.hpp"
 
@@ -73,18 +74,24 @@ std::vector<std::size_t> run_ids(const std::vector<Timestamp>& t) {
   return r;
 }
 
-}  // namespace
-
-Association associate(const std::vector<Timestamp>& t_est, const std::vector<Timestamp>& t_gt,
-                      const AssociationOptions& options) {
+// The checks associate() and overlap() share: a valid max_dt, sorted stamps. Returns max_dt and the
+// offset in ns.
+std::pair<Timestamp, Timestamp> checked_inputs(const std::vector<Timestamp>& t_est, const std::vector<Timestamp>& t_gt,
+                                               const AssociationOptions& options) {
   if (!std::isfinite(options.max_dt_s) || options.max_dt_s < 0.0) {
     throw InputError(fmt::format("max_dt must be a finite value ≥ 0, got {}", options.max_dt_s),
                      {"", 0, 0, "max_dt"});
   }
   check_sorted(t_est, "estimate");
   check_sorted(t_gt, "ground-truth");
-  const Timestamp max_dt = seconds_to_ns_checked(options.max_dt_s, "max_dt");
-  const Timestamp offset = seconds_to_ns_checked(options.offset_s, "t_offset");
+  return {seconds_to_ns_checked(options.max_dt_s, "max_dt"), seconds_to_ns_checked(options.offset_s, "t_offset")};
+}
+
+}  // namespace
+
+Association associate(const std::vector<Timestamp>& t_est, const std::vector<Timestamp>& t_gt,
+                      const AssociationOptions& options) {
+  const auto [max_dt, offset] = checked_inputs(t_est, t_gt, options);
 
   Association a;
   a.n_duplicate_est = count_duplicates(t_est);
@@ -147,16 +154,9 @@ Association associate(const std::vector<Timestamp>& t_est, const std::vector<Tim
 
 Overlap overlap(const std::vector<Timestamp>& t_est, const std::vector<Timestamp>& t_gt,
                 const AssociationOptions& options) {
-  if (!std::isfinite(options.max_dt_s) || options.max_dt_s < 0.0) {
-    throw InputError(fmt::format("max_dt must be a finite value ≥ 0, got {}", options.max_dt_s),
-                     {"", 0, 0, "max_dt"});
-  }
-  check_sorted(t_est, "estimate");
-  check_sorted(t_gt, "ground-truth");
+  const auto [max_dt, offset] = checked_inputs(t_est, t_gt, options);
   Overlap o;
   if (t_est.empty() || t_gt.empty()) return o;
-  const Timestamp max_dt = seconds_to_ns_checked(options.max_dt_s, "max_dt");
-  const Timestamp offset = seconds_to_ns_checked(options.offset_s, "t_offset");
   const Timestamp begin = std::max(t_est.front() + offset, t_gt.front()) - max_dt;
   const Timestamp end = std::min(t_est.back() + offset, t_gt.back()) + max_dt;
   if (begin > end) return o;

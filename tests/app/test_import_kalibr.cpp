@@ -48,6 +48,23 @@ std::string replace(std::string s, const std::string& a, const std::string& b) {
   return s.replace(p, a.size(), b);
 }
 
+// A dataset folder whose roe.json has an undistorted pinhole camera of the given size.
+fs::path dataset_with_camera(const TempDir& d, int width, int height, double f) {
+  const fs::path ds = d.path / "ds";
+  fs::create_directories(ds);
+  DatasetManifest m;
+  m.name = "x";
+  CameraInfo c;
+  c.width = width;
+  c.height = height;
+  c.fx = c.fy = f;
+  c.cx = width / 2.0;
+  c.cy = height / 2.0;
+  m.camera = c;  // distortion_model "none": undistorted images
+  io::write_manifest(m, io::manifest_path(ds));
+  return ds;
+}
+
 }  // namespace
 
 TEST_CASE("import kalibr: T_I_C is the inverse of T_cam_imu; noise and time shift", "[app][import][kalibr]") {
@@ -97,18 +114,7 @@ TEST_CASE("import kalibr: T_I_C is the inverse of T_cam_imu; noise and time shif
 
 TEST_CASE("import kalibr: a dataset with other image sizes keeps its intrinsics", "[app][import][kalibr]") {
   TempDir d;
-  const fs::path ds = d.path / "ds";
-  fs::create_directories(ds);
-  DatasetManifest m;
-  m.name = "x";
-  CameraInfo c;
-  c.width = 1280;
-  c.height = 720;
-  c.fx = c.fy = 900;
-  c.cx = 640;
-  c.cy = 360;
-  m.camera = c;
-  io::write_manifest(m, io::manifest_path(ds));
+  const fs::path ds = dataset_with_camera(d, 1280, 720, 900);
   const auto s = app::import_kalibr(d.write("cc.yaml", kCamchain), std::nullopt, ds, {});
   CHECK_FALSE(s.intrinsics_written);
   CHECK_FALSE(s.warnings.empty());
@@ -181,18 +187,7 @@ TEST_CASE("import kalibr: distortion over undistorted images is warned about, al
           "[app][import][kalibr]") {
   const auto warnings_for = [](const std::string& coeffs) {
     TempDir d;
-    const fs::path ds = d.path / "ds";
-    fs::create_directories(ds);
-    DatasetManifest m;
-    m.name = "x";
-    CameraInfo c;
-    c.width = 640;
-    c.height = 480;
-    c.fx = c.fy = 600;
-    c.cx = 320;
-    c.cy = 240;
-    m.camera = c;  // distortion_model "none": undistorted images
-    io::write_manifest(m, io::manifest_path(ds));
+    const fs::path ds = dataset_with_camera(d, 640, 480, 600);
     std::string cc = kCamchain;
     cc.replace(cc.find("[0.01, -0.02, 0.001, 0.002]"), 27, coeffs);
     return app::import_kalibr(d.write("cc.yaml", cc), std::nullopt, ds, {}).warnings;
