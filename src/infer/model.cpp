@@ -149,6 +149,10 @@ std::optional<std::uint64_t> darknet_parameter_count(const std::string& cfg_text
         if (idx < 0 || idx >= static_cast<std::int64_t>(i)) return std::nullopt;
         c += out_c[static_cast<std::size_t>(idx)];
       }
+      // `groups=G group_id=k` (YOLOv4-tiny) passes on one of G channel groups, as OpenCV's importer does.
+      const std::int64_t route_groups = cfg_param<std::int64_t>(p, "groups", 1);
+      if (route_groups <= 0 || c % route_groups != 0) return std::nullopt;
+      c /= route_groups;
     } else if (type == "reorg") {
       const std::int64_t stride = cfg_param<std::int64_t>(p, "stride", 2);
       if (stride <= 0) return std::nullopt;

@@ -111,6 +111,15 @@ TEST_CASE("darknet_parameter_count follows OpenCV's Darknet importer", "[darknet
   CHECK_FALSE(darknet_parameter_count("[net]\nwidth=32\n[deconvolutional]\nfilters=3\nsize=1\n"));
   CHECK_FALSE(darknet_parameter_count("[net]\nwidth=32\n[route]\nlayers=3\n"));
   CHECK_FALSE(darknet_parameter_count("[net]\nwidth=32\n"));
+  // A route with groups (YOLOv4-tiny: groups=2 group_id=1) passes on one group's channels:
+  // conv 8 x 3 x 3x3 + 8, route 8/2 = 4 channels, conv 4 x 4 x 3x3 + 4 = 224 + 148 (as OpenCV 4.6 loads it).
+  const std::string grouped = "[net]\nwidth=32\nheight=32\nchannels=3\n"
+                              "[convolutional]\nfilters=8\nsize=3\nstride=1\npad=1\n"
+                              "[route]\nlayers=-1\ngroups=2\ngroup_id=1\n"
+                              "[convolutional]\nfilters=4\nsize=3\nstride=1\npad=1\n";
+  CHECK(darknet_parameter_count(grouped) == std::optional<std::uint64_t>(224 + 148));
+  CHECK_FALSE(darknet_parameter_count("[net]\nwidth=32\nchannels=3\n[convolutional]\nfilters=3\nsize=1\n"
+                                      "[route]\nlayers=-1\ngroups=2\n"));  // 3 channels in 2 groups
 }
 
 TEST_CASE("a Darknet weights file of the wrong size is refused with both sizes", "[darknet]") {
