@@ -94,7 +94,7 @@ void refuse_overwriting_inputs(const fs::path& out, const std::vector<fs::path>&
 }
 
 OutputDir::OutputDir(fs::path final_dir, bool force, const std::vector<fs::path>& inputs)
-    : final_(without_trailing_separator(final_dir)), force_(force) {
+    : final_(without_trailing_separator(final_dir.lexically_normal())), force_(force) {  // "a/../b/x/." → "b/x"
   std::error_code ec;
   if (final_.empty()) throw InputError("empty output folder name", {final_.string()});
   if (is_same_or_ancestor(resolved(final_), resolved(fs::current_path(ec))))
@@ -108,30 +108,40 @@ OutputDir::OutputDir(fs::path final_dir, bool force, const std::vector<fs::path>
                        {final_.string()});
   }
   fs::path parent = final_.has_parent_path() ? final_.parent_path() : fs::path(".");
-  // The highest folder this constructor creates: removed again (when still empty) if never committed.
+  // The folders this constructor creates (deepest first): removed again, when still empty, if the
+  // output is never committed. `final_` is lexically normal, so its parents are real ancestors.
+  std::vector<fs::path> missing;
   for (fs::path p = parent; !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
-    created_ = p;
+    missing.push_back(p);
     if (p == p.parent_path()) break;
   }
   fs::create_directories(parent, ec);
-  if (ec) throw InputError("cannot create folder: " + ec.message(), {parent.string()});
-  const std::string base = final_.filename().empty() ? final_.parent_path().filename().string()
-                                                     : final_.filename().string();
+  created_ = missing;
+  if (ec) {
+    remove_created_parents();
+    throw InputError("cannot create folder: " + ec.message(), {parent.string()});
+  }
+  const std::string base = final_.filename().string();
   tmp_ = parent / ("." + base + unique_suffix());
   fs::create_directories(tmp_, ec);
-  if (ec) throw InputError("cannot create temporary output folder: " + ec.message(), {tmp_.string()});
+  if (ec) {
+    remove_created_parents();
+    throw InputError("cannot create temporary output folder: " + ec.message(), {tmp_.string()});
+  }
+}
+
+void OutputDir::remove_created_parents() {
+  std::error_code ec;
+  for (const auto& p : created_)
+    if (!fs::remove(p, ec)) break;  // fails on a folder that is no longer empty: keep it and its parents
+  created_.clear();
 }
 
 OutputDir::~OutputDir() {
   if (!committed_) {
     std::error_code ec;
     fs::remove_all(tmp_, ec);
-    // Folders created for the output's parent, deepest first, as long as they are empty.
-    if (!created_.empty())
-      for (fs::path p = final_.has_parent_path() ? final_.parent_path() : fs::path(); !p.empty();
-           p = p.parent_path()) {
-        if (!fs::remove(p, ec) || p == created_) break;  // remove() fails on a non-empty folder
-      }
+    remove_created_parents();
   }
 }
 

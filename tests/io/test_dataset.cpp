@@ -690,6 +690,23 @@ TEST_CASE("output: OutputDir takes runs/x/ for runs/x, and never replaces an inp
   }
   CHECK(io::read_file(tmp.path / "p1" / "out" / "a.txt") == "a");
   fs::remove_all(tmp.path / "p1");
+  // Paths are taken lexically normal: "a/../b/out" never creates "a", and a folder that existed before
+  // ("b", empty) is never removed; "x/." is "x".
+  fs::create_directories(tmp.path / "b");
+  {
+    io::OutputDir o(tmp.path / "a" / ".." / "b" / "out", false);
+    CHECK(o.final_dir() == tmp.path / "b" / "out");
+  }
+  CHECK(fs::is_directory(tmp.path / "b"));
+  CHECK_FALSE(fs::exists(tmp.path / "a"));
+  fs::remove(tmp.path / "b");
+  {
+    io::OutputDir o(tmp.path / "x" / ".", false);
+    write_text(o.file("a.txt"), "a");
+    o.commit();
+  }
+  CHECK(io::read_file(tmp.path / "x" / "a.txt") == "a");
+  fs::remove_all(tmp.path / "x");
 
   // The output is an input, or contains one: refused even with force, nothing touched.
   const fs::path ds = tmp.path / "ds";

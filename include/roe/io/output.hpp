@@ -38,7 +38,8 @@ class OutputDir {
  private:
   fs::path final_;
   fs::path tmp_;
-  fs::path created_;  ///< the highest parent folder the constructor created (empty: none)
+  std::vector<fs::path> created_;  ///< parent folders the constructor created, deepest first
+  void remove_created_parents();
   bool force_;
   bool committed_ = false;
 };
