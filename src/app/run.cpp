@@ -289,13 +289,17 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   std::size_t anchor_pending = 0;
   for (std::size_t i = 0; i < out.reprojection.size();) {
     std::size_t j = i;
-    bool has_anchor = false;
+    bool anchor_pending_here = false;
     std::size_t no_main = 0;
     for (; j < out.reprojection.size() && out.reprojection[j].t_ns == out.reprojection[i].t_ns; ++j) {
-      has_anchor |= out.reprojection[j].object_id == fopt.anchor_id;
+      // The anchor is in the image but not usable yet (awaiting or just getting its initialisation); an
+      // anchor detection below min_score or rejected does not count: that image lacks a usable anchor.
+      const auto st = out.reprojection[j].outcome.status;
+      anchor_pending_here |= out.reprojection[j].object_id == fopt.anchor_id &&
+                             (st == ekf::DetectionStatus::kPendingInit || st == ekf::DetectionStatus::kInitialized);
       no_main += out.reprojection[j].outcome.status == ekf::DetectionStatus::kRejectedNoMain;
     }
-    if (has_anchor) anchor_pending += no_main;
+    if (anchor_pending_here) anchor_pending += no_main;
     i = j;
   }
   std::size_t no_imu = 0, no_anchor = 0, detections = 0;

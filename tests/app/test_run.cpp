@@ -604,7 +604,9 @@ TEST_CASE("a warning when require_anchor rejects a quarter or more of the detect
   const auto rejected_share = [](const app::RunOutput& r, int anchor) {
     std::size_t no_anchor = 0, all = 0;
     std::map<Timestamp, bool> has_anchor;
-    for (const auto& p : r.reprojection) has_anchor[p.t_ns] |= p.object_id == anchor;
+    for (const auto& p : r.reprojection)
+      has_anchor[p.t_ns] |= p.object_id == anchor && (p.outcome.status == ekf::DetectionStatus::kPendingInit ||
+                                                      p.outcome.status == ekf::DetectionStatus::kInitialized);
     for (const auto& p : r.reprojection) {
       ++all;
       no_anchor += p.outcome.status == ekf::DetectionStatus::kRejectedNoMain && !has_anchor[p.t_ns];
@@ -748,4 +750,26 @@ TEST_CASE("never-initialised objects and rejected_no_main: the warnings name the
       }
   }
   CHECK(main_warnings >= 1);
+}
+
+TEST_CASE("an anchor detection below min_score leaves its image without a usable anchor", "[app][run]") {
+  Dataset d = test::simulate_preset("paper-seq4", 1, 3.0);
+  auto& dets = d.detections.at("sim");
+  app::RunConfig cfg;
+  cfg.filter.anchor_id = dets.front().object_id;
+  cfg.filter.min_score = 0.5;
+  for (auto& det : dets) det.score = det.object_id == cfg.filter.anchor_id ? 0.1 : 0.9;
+  const app::RunOutput r = app::run_dataset(d, "sim", cfg);
+  std::size_t others = 0;
+  for (const auto& det : dets) others += det.object_id != cfg.filter.anchor_id;
+  const std::string expect = fmt::format("{} of {} detections", others, dets.size());
+  std::size_t n = 0;
+  for (const auto& w : r.warnings)
+    if (w.find("lacks the anchor") != std::string::npos) {
+      INFO(w);
+      ++n;
+      CHECK(w.rfind(expect, 0) == 0);  // every other detection: its image has no usable anchor
+      CHECK(w.find("more were in images with the anchor") == std::string::npos);
+    }
+  CHECK(n == 1);
 }
