@@ -157,14 +157,21 @@ Overlap overlap(const std::vector<Timestamp>& t_est, const std::vector<Timestamp
   const auto [max_dt, offset] = checked_inputs(t_est, t_gt, options);
   Overlap o;
   if (t_est.empty() || t_gt.empty()) return o;
-  const Timestamp begin = std::max(t_est.front() + offset, t_gt.front()) - max_dt;
-  const Timestamp end = std::min(t_est.back() + offset, t_gt.back()) + max_dt;
+  // In 128 bits: max_dt and the offset may be up to ~9e18 ns and epoch stamps are ~1.7e18 ns, so the
+  // span's ends can lie outside int64 (they are clamped where they are stored or compared).
+  using Wide = __int128;
+  const Wide begin = std::max(Wide{t_est.front()} + offset, Wide{t_gt.front()}) - max_dt;
+  const Wide end = std::min(Wide{t_est.back()} + offset, Wide{t_gt.back()}) + max_dt;
   if (begin > end) return o;
-  o.begin_ns = begin;
-  o.end_ns = end;
-  const auto count = [](const std::vector<Timestamp>& t, Timestamp lo, Timestamp hi) {
-    return static_cast<std::size_t>(std::upper_bound(t.begin(), t.end(), hi) -
-                                    std::lower_bound(t.begin(), t.end(), lo));
+  const auto clamp = [](Wide v) {
+    return static_cast<Timestamp>(std::clamp<Wide>(v, std::numeric_limits<Timestamp>::min(),
+                                                   std::numeric_limits<Timestamp>::max()));
+  };
+  o.begin_ns = clamp(begin);
+  o.end_ns = clamp(end);
+  const auto count = [&](const std::vector<Timestamp>& t, Wide lo, Wide hi) {
+    return static_cast<std::size_t>(std::upper_bound(t.begin(), t.end(), clamp(hi)) -
+                                    std::lower_bound(t.begin(), t.end(), clamp(lo)));
   };
   o.n_est = count(t_est, begin - offset, end - offset);
   o.n_gt = count(t_gt, begin, end);

@@ -1,6 +1,7 @@
 // Association edge cases: evo's nearest-neighbour rule, offsets, gaps, duplicates, the unique
 // policy, and the no-match diagnosis (ns vs s, relative vs absolute time).
 #include <catch2/catch.hpp>
+#include <limits>
 
 #include "roe/core/error.hpp"
 #include "roe/eval/associate.hpp"
@@ -326,4 +327,16 @@ TEST_CASE("overlap: poses of each trajectory inside the common span", "[eval][as
   CHECK(o3.begin_ns > o3.end_ns);
   CHECK(overlap({}, gt, {}).n_max() == 0);
   CHECK_THROWS_AS(overlap(est, gt, {-1.0, 0.0, AssocPolicy::kNearest}), InputError);
+  // Epoch stamps with the largest accepted max_dt / offset: no overflow, everything inside the span.
+  const Timestamp epoch = 1'700'000'000'000'000'000LL;
+  const auto gt_e = seq(epoch, 25 * ms, 100), est_e = seq(epoch, 5 * ms, 500);
+  const Overlap big = overlap(est_e, gt_e, {9e9, 0.0, AssocPolicy::kNearest});
+  CHECK(big.end_ns == std::numeric_limits<Timestamp>::max());
+  CHECK(big.n_est == 500);
+  CHECK(big.n_gt == 100);
+  // Shifted by 9e9 s the estimate starts far after the ground truth, but the 9e9 s window still reaches
+  // it: every ground-truth pose, and the estimate's poses up to the ground truth's end + max_dt − offset.
+  const Overlap shifted = overlap(est_e, gt_e, {9e9, 9e9, AssocPolicy::kNearest});
+  CHECK(shifted.n_gt == 100);
+  CHECK(shifted.n_est == 496);  // est_e[k] ≤ epoch + 99·25 ms for k ≤ 495
 }
