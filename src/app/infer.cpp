@@ -133,8 +133,9 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
                      "(cmake -DROE_WITH_TORCH=ON), or run PoET's own inference and `roe import poet`");
   if (bundle.detector == infer::DetectorKind::kExternal && opt.boxes_file.empty())
     throw InputError("model " + bundle.model_id + " has an external detector: give the boxes with --boxes FILE");
-  // The output set: an existing one is refused (without --force) before any frame is computed.
-  io::OutputDir dir(io::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
+  // The output set: an existing one is refused (without --force) before any frame is computed; the
+  // folder itself is created only at the end (an interrupted run leaves no temporary folder).
+  io::OutputDir::check(io::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
 
   // Selection, and everything that can be checked before the model is loaded and a frame computed.
   const auto [first, last] = parse_frame_range(opt.frames, frames.size());
@@ -317,6 +318,7 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
   for (double v : computed_ms) sum += v;
   s.mean_ms_computed = computed_ms.empty() ? 0.0 : sum / static_cast<double>(computed_ms.size());
 
+  io::OutputDir dir(io::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
   io::write_detections_csv(dir.file("detections.csv"), out);
   nlohmann::json class_map = nlohmann::json::object();
   for (const auto& [c, o] : mapper.used()) class_map[std::to_string(c)] = o;

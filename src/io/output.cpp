@@ -93,20 +93,24 @@ void refuse_overwriting_inputs(const fs::path& out, const std::vector<fs::path>&
   }
 }
 
-OutputDir::OutputDir(fs::path final_dir, bool force, const std::vector<fs::path>& inputs)
-    : final_(without_trailing_separator(final_dir.lexically_normal())), force_(force) {  // "a/../b/x/." → "b/x"
+void OutputDir::check(const fs::path& final_dir, bool force, const std::vector<fs::path>& inputs) {
+  const fs::path out = without_trailing_separator(final_dir.lexically_normal());  // "a/../b/x/." → "b/x"
   std::error_code ec;
-  if (final_.empty()) throw InputError("empty output folder name", {final_.string()});
-  if (is_same_or_ancestor(resolved(final_), resolved(fs::current_path(ec))))
-    throw InputError("output folder is the current folder or contains it: name a folder below it", {final_.string()});
-  refuse_overwriting_inputs(final_, inputs);
-  if (fs::exists(final_, ec)) {
-    if (!fs::is_directory(final_, ec))
-      throw InputError("output exists and is not a folder", {final_.string()});
-    if (!fs::is_empty(final_, ec) && !force_)
-      throw InputError("output folder exists and is not empty (use --force to replace it)",
-                       {final_.string()});
+  if (out.empty()) throw InputError("empty output folder name", {final_dir.string()});
+  if (is_same_or_ancestor(resolved(out), resolved(fs::current_path(ec))))
+    throw InputError("output folder is the current folder or contains it: name a folder below it", {out.string()});
+  refuse_overwriting_inputs(out, inputs);
+  if (fs::exists(out, ec)) {
+    if (!fs::is_directory(out, ec)) throw InputError("output exists and is not a folder", {out.string()});
+    if (!fs::is_empty(out, ec) && !force)
+      throw InputError("output folder exists and is not empty (use --force to replace it)", {out.string()});
   }
+}
+
+OutputDir::OutputDir(fs::path final_dir, bool force, const std::vector<fs::path>& inputs)
+    : final_(without_trailing_separator(final_dir.lexically_normal())), force_(force) {
+  check(final_, force, inputs);
+  std::error_code ec;
   fs::path parent = final_.has_parent_path() ? final_.parent_path() : fs::path(".");
   // The folders this constructor creates (deepest first): removed again, when still empty, if the
   // output is never committed. `final_` is lexically normal, so its parents are real ancestors.

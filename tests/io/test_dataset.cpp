@@ -708,6 +708,16 @@ TEST_CASE("output: OutputDir takes runs/x/ for runs/x, and never replaces an inp
   CHECK(io::read_file(tmp.path / "x" / "a.txt") == "a");
   fs::remove_all(tmp.path / "x");
 
+  // check(): the same refusals, nothing created.
+  CHECK_NOTHROW(io::OutputDir::check(tmp.path / "c1" / "c2", false));
+  CHECK_FALSE(fs::exists(tmp.path / "c1"));
+  write_text(tmp.path / "full" / "f.txt", "f");
+  CHECK_THROWS_WITH(io::OutputDir::check(tmp.path / "full", false), Catch::Contains("--force"));
+  CHECK_NOTHROW(io::OutputDir::check(tmp.path / "full", true));
+  CHECK_THROWS_WITH(io::OutputDir::check(tmp.path / "full", true, {tmp.path / "full" / "f.txt"}),
+                    Catch::Contains("input"));
+  fs::remove_all(tmp.path / "full");
+
   // The output is an input, or contains one: refused even with force, nothing touched.
   const fs::path ds = tmp.path / "ds";
   write_text(ds / "mav0" / "imu0" / "data.csv", "imu");

@@ -22,6 +22,9 @@ class OutputDir {
   /// `inputs` or contains one (replacing it would delete the command's own input, even with force).
   /// Trailing separators are ignored (`runs/x/` is `runs/x`).
   OutputDir(fs::path final_dir, bool force, const std::vector<fs::path>& inputs = {});
+  /// The constructor's refusals alone, creating nothing: for a command that checks its output before a
+  /// long computation but creates the folder only at the end.
+  static void check(const fs::path& final_dir, bool force, const std::vector<fs::path>& inputs = {});
   ~OutputDir();
   OutputDir(const OutputDir&) = delete;
   OutputDir& operator=(const OutputDir&) = delete;
