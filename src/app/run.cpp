@@ -210,6 +210,7 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   } else {
     out.warnings.push_back("roe.json has no camera: T_I_C prior = identity");
   }
+  out.prior_T_I_C = T_I_C;
   const Timestamp offset_ns =
       dataset.manifest.camera ? from_seconds(dataset.manifest.camera->time_offset_s) : 0;
 
@@ -472,10 +473,12 @@ json nis_json(const RunOutput& r) {
           {"fraction_above_gate", static_cast<double>(above) / v.size()}};
 }
 
-// The initial state's IMU-derived parts: the init window and where the gyro bias came from.
-json init_json(const ekf::FilterRunSummary& s) {
+// The initial state: the extrinsics prior, the init window and where the gyro bias came from.
+json init_json(const ekf::FilterRunSummary& s, const Pose& T_I_C_prior) {
   const auto v3 = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
-  json j = {{"window_samples", s.init.samples},
+  json j = {{"T_I_C", {{"p", v3(T_I_C_prior.p)},
+                       {"q", {T_I_C_prior.q.x(), T_I_C_prior.q.y(), T_I_C_prior.q.z(), T_I_C_prior.q.w()}}}},
+            {"window_samples", s.init.samples},
             {"window_s", s.init.duration_s},
             {"accel_mean", v3(s.init.mean_accel)},
             {"accel_std", v3(s.init.std_accel)},
@@ -587,7 +590,7 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
         {"trajectory_rows", r.states.size()},
         {"detections", counts_json(r)}}},
       {"nis", nis_json(r)},
-      {"init", init_json(r.summary)},
+      {"init", init_json(r.summary, r.prior_T_I_C)},
       {"imu_noise",
        {{"gyro_noise_density", r.imu_noise.gyro_noise_density},
         {"gyro_random_walk", r.imu_noise.gyro_random_walk},

@@ -84,6 +84,7 @@ struct RunOutput {
   std::map<int, ObjectCounts> counts;
   ekf::FilterRunSummary summary;
   int anchor_id = -1;
+  Pose prior_T_I_C;  ///< the extrinsics the filter started from (roe.json camera.T_I_C)
   Pose final_T_I_C;
   std::map<int, Pose> final_T_O_W;
   std::vector<std::string> warnings;

@@ -1,0 +1,96 @@
+#pragma once
+/// @file
+/// `roe calib-check`'s checks of a run's self-calibration (docs/calib-check.md): are the camera-IMU
+/// extrinsics and the object poses observed, settled, consistent with their prior, and — when the
+/// dataset knows the truth — accurate; and do the camera stamps agree with the gyro.
+///
+/// Typed data in, typed verdicts out (no I/O). Each check ends as
+///   pass          measured within its limit,
+///   fail          measured beyond its limit (the command exits 1),
+///   inconclusive  the data cannot decide (e.g. a time offset estimated less precisely than its limit),
+///   skipped       not applicable (extrinsics held fixed, no truth, no dataset).
+
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "roe/calib/time_offset.hpp"
+#include "roe/core/types.hpp"
+
+namespace roe::calib {
+
+enum class CheckStatus { kPass, kFail, kInconclusive, kSkipped };
+/// "pass", "fail", "inconclusive", "skipped".
+const char* to_string(CheckStatus s);
+
+struct CheckResult {
+  std::string name;     ///< stable id for scripts, e.g. "extrinsics.sigma"
+  CheckStatus status = CheckStatus::kSkipped;
+  std::string message;  ///< one line: what was measured, against which limit, or why it was not checked
+  /// Measured figures and the limits used, by name (metres, degrees, seconds, or unitless).
+  std::vector<std::pair<std::string, double>> values;
+};
+
+struct CalibReport {
+  std::vector<CheckResult> checks;
+  bool failed() const;         ///< any check failed
+  bool all_decided() const;    ///< no check skipped or inconclusive
+};
+
+/// The extrinsics at one time with their standard deviations [p x y z (m), θ x y z (rad)].
+struct ExtrinsicsSample {
+  Timestamp t_ns = 0;
+  Pose T_I_C;
+  Vector6d sigma = Vector6d::Zero();
+};
+
+/// One object of the run: its final pose T_O_W (absent when it never entered the state) and its
+/// standard deviations relative to the anchor [p x y z (m), θ x y z (rad)].
+struct ObjectEstimate {
+  int id = 0;
+  bool anchor = false;
+  std::optional<Pose> T_O_W;
+  Vector6d sigma_A_O = Vector6d::Zero();
+  std::size_t detections = 0;  ///< detections of the object in the run's detection set
+};
+
+struct CalibInput {
+  bool extrinsics_estimated = true;
+  Pose prior_T_I_C;                          ///< the filter's initial extrinsics
+  Vector6d prior_sigma = Vector6d::Zero();   ///< their standard deviations (m, rad)
+  std::vector<ExtrinsicsSample> extrinsics;  ///< the run's trace, sorted by time (not empty)
+  std::vector<ObjectEstimate> objects;
+  std::optional<Pose> true_T_I_C;            ///< from the dataset's truth (simulation)
+  std::map<int, Pose> true_T_W_O;            ///< from the dataset's truth (simulation)
+  /// The offset estimated from the raw camera stamps (estimate_camera_time_offset); absent = not run.
+  std::optional<TimeOffsetEstimate> time_offset;
+  std::string time_offset_absent_reason;     ///< why it was not run (shown when absent)
+  double declared_time_offset_s = 0.0;       ///< the dataset's camera.time_offset_s (applied by roe run)
+};
+
+/// Limits (defaults and their reasons: docs/calib-check.md §2).
+struct CalibThresholds {
+  double max_sigma_p_m = 0.01;         ///< extrinsics.sigma: largest axis σ of p_I_C
+  double max_sigma_rot_deg = 1.0;      ///< extrinsics.sigma: largest axis σ of θ_I_C
+  double settle_fraction = 0.2;        ///< extrinsics.settled: the last fraction of the run …
+  double settle_min_s = 2.0;           ///< … but at least this long
+  double max_drift_p_m = 0.005;        ///< extrinsics.settled: largest distance from the final p_I_C
+  double max_drift_rot_deg = 0.5;      ///< extrinsics.settled: largest angle from the final q_I_C
+  double prior_confidence = 0.99;      ///< extrinsics.prior: χ²₆ quantile of the shift from the prior
+  double max_object_sigma_p_m = 0.02;  ///< objects.sigma: largest axis σ relative to the anchor
+  double max_object_sigma_rot_deg = 2.0;
+  double max_err_p_m = 0.01;           ///< truth.extrinsics: |p_I_C − truth|
+  double max_err_rot_deg = 1.0;        ///< truth.extrinsics: angle(q_I_C, truth)
+  double max_object_err_p_m = 0.05;    ///< truth.objects: anchor-relative position error
+  double max_object_err_rot_deg = 5.0; ///< truth.objects: anchor-relative rotation error
+  double max_time_offset_s = 0.01;     ///< camera.time_offset: |estimated − declared|
+};
+
+/// Runs every check in a fixed order: extrinsics.sigma, extrinsics.settled, extrinsics.prior,
+/// objects.sigma, truth.extrinsics, truth.objects, camera.time_offset.
+/// roe::InputError for thresholds that are not positive or an empty extrinsics trace.
+CalibReport check_calibration(const CalibInput& in, const CalibThresholds& th = {});
+
+}  // namespace roe::calib

@@ -1,0 +1,66 @@
+#pragma once
+/// @file
+/// Camera–IMU time offset from object detections and the gyro (docs/calib-check.md §3).
+///
+/// A static object's detected rotation R_C_O(t) and the gyro's integrated rotation must tell the same
+/// story once the camera stamps are moved onto the IMU clock: t_imu = t_cam + offset (the convention of
+/// roe.json's `camera.time_offset_s` and of Kalibr's `timeshift_cam_imu`). For a candidate offset δ,
+/// every detection gives the object's orientation in the frame of the IMU at the start of its window,
+///   A_i(δ) = R_I0_I(t_i + δ) · R_I_C · R_C_O(t_i),
+/// which is constant over a window for the right δ (R_I0_I from integrating the bias-corrected gyro).
+/// The cost of δ is the sum over windows (one per object and `window_s` of its detections) of the
+/// squared residual angles of the A_i about a constant rotation plus a linear drift (what a residual
+/// gyro bias leaves), truncated at `truncate_deg` so that outliers and symmetric flips do not pull.
+/// The cost is evaluated on a grid over ±`search_s`; a parabola fitted over ±`fit_halfwidth_s` around
+/// its lowest point gives the offset and, from its curvature, the standard error. R_I_C comes from the
+/// run (its estimate), because the residual axes depend on it.
+///
+/// The precision depends on the motion: an offset δ moves each A_i by about |ω|·δ, so it shows only
+/// while the camera's rate of turn changes. `sigma_s` is the curvature-based standard error, inflated by
+/// (1 + ρ)/(1 − ρ) in variance for the lag-1 correlation ρ of consecutive residuals (detector errors
+/// correlated over time carry fewer independent samples); docs/calib-check.md compares it with the
+/// spread measured over seeds.
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "roe/core/types.hpp"
+
+namespace roe::calib {
+
+struct TimeOffsetOptions {
+  double search_s = 0.1;         ///< search ±search_s around 0 (seconds)
+  double step_s = 0.0005;        ///< grid step (seconds)
+  double window_s = 2.0;         ///< detections of one object grouped in windows this long
+  std::size_t min_window = 5;    ///< windows with fewer detections are not used
+  double truncate_deg = 20.0;    ///< residual angle beyond which a detection costs a constant
+  double min_rate_deg_s = 5.0;   ///< RMS gyro rate below which the offset is not observable
+  std::size_t min_detections = 50;  ///< fewer usable detections: no estimate
+  double fit_halfwidth_s = 0.05; ///< the first parabola fit spans ±this (the second ±3σ of the first)
+};
+
+struct TimeOffsetEstimate {
+  bool valid = false;
+  std::string reason;          ///< why there is no estimate (when !valid)
+  double offset_s = 0.0;       ///< t_imu = t_cam + offset_s
+  double sigma_s = 0.0;        ///< standard error (curvature, inflated for correlated residuals)
+  std::size_t detections = 0;  ///< detections in windows used
+  std::size_t windows = 0;     ///< windows used
+  double rms_rate_deg_s = 0.0; ///< RMS gyro rate over the used detections' times
+  double rms_residual_deg = 0.0;  ///< RMS residual angle at the optimum (untruncated inliers)
+  double residual_correlation = 0.0;  ///< lag-1 correlation of consecutive residuals (clamped to [0, 0.95])
+  std::vector<double> grid_s;  ///< the candidate offsets
+  std::vector<double> cost;    ///< the cost per candidate (deg², truncated)
+};
+
+/// Estimates the offset from `imu` (sorted, gyro in rad/s), a constant `gyro_bias` (rad/s), the
+/// camera-IMU rotation `q_I_C`, and `detections` (T_C_O of static objects, camera clock, any order).
+/// Detections whose shifted stamps fall outside the IMU span for some candidate are left out for all.
+/// Never throws on data: an unusable input gives valid = false with the reason.
+TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu, const Eigen::Vector3d& gyro_bias,
+                                               const Eigen::Quaterniond& q_I_C,
+                                               const std::vector<Detection>& detections,
+                                               const TimeOffsetOptions& options = {});
+
+}  // namespace roe::calib

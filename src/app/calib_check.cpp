@@ -1,0 +1,359 @@
+// roe calib-check: reads a run folder (and its dataset) into calib::CalibInput and reports the checks.
+#include "roe/app/calib_check.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <optional>
+
+#include "roe/core/error.hpp"
+#include "roe/core/log.hpp"
+#include "roe/io/csv.hpp"
+#include "roe/io/dataset.hpp"
+#include "roe/io/json.hpp"
+#include "roe/io/output.hpp"
+
+namespace roe::app {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+/// run.json's value at a dotted key path; InputError naming the file and the key when absent or of
+/// the wrong type.
+class RunJson {
+ public:
+  explicit RunJson(const fs::path& file) : file_(file.string()), j_(io::parse_json_file(file)) {}
+
+  const json& at(const std::string& path) const {
+    const json* v = &j_;
+    std::size_t b = 0;
+    while (b <= path.size()) {
+      const std::size_t e = std::min(path.find('.', b), path.size());
+      const std::string key = path.substr(b, e - b);
+      if (!v->is_object() || !v->contains(key))
+        throw InputError("missing key (is this a run folder written by this version of roe run?)",
+                         {file_, 0, 0, path});
+      v = &(*v)[key];
+      b = e + 1;
+    }
+    return *v;
+  }
+  double number(const std::string& path) const {
+    const json& v = at(path);
+    if (!v.is_number()) throw InputError("expected a number", {file_, 0, 0, path});
+    return v.get<double>();
+  }
+  bool boolean(const std::string& path) const {
+    const json& v = at(path);
+    if (!v.is_boolean()) throw InputError("expected true or false", {file_, 0, 0, path});
+    return v.get<bool>();
+  }
+  std::string string(const std::string& path) const {
+    const json& v = at(path);
+    if (!v.is_string()) throw InputError("expected a string", {file_, 0, 0, path});
+    return v.get<std::string>();
+  }
+  Pose pose(const std::string& path) const {
+    const json& p = at(path + ".p");
+    const json& q = at(path + ".q");
+    const auto vec = [&](const json& a, std::size_t n, const std::string& key) {
+      if (!a.is_array() || a.size() != n || !std::all_of(a.begin(), a.end(), [](const json& x) { return x.is_number(); }))
+        throw InputError(fmt::format("expected an array of {} numbers", n), {file_, 0, 0, key});
+      std::vector<double> v;
+      for (const auto& x : a) v.push_back(x.get<double>());
+      return v;
+    };
+    const auto pv = vec(p, 3, path + ".p");
+    const auto qv = vec(q, 4, path + ".q");
+    const Eigen::Quaterniond qq(qv[3], qv[0], qv[1], qv[2]);
+    if (std::abs(qq.norm() - 1.0) > 1e-3)
+      throw InputError(fmt::format("quaternion norm {:.6g} is not 1", qq.norm()), {file_, 0, 0, path + ".q"});
+    return Pose(qq, Eigen::Vector3d(pv[0], pv[1], pv[2]));
+  }
+  const std::string& file() const { return file_; }
+
+ private:
+  std::string file_;
+  json j_;
+};
+
+struct StatesTrace {
+  std::vector<calib::ExtrinsicsSample> extrinsics;
+  Eigen::Vector3d final_gyro_bias = Eigen::Vector3d::Zero();
+};
+
+StatesTrace read_states(const fs::path& file) {
+  io::CsvOptions o;
+  o.stamp_column = -1;
+  io::CsvReader r(file, o);
+  const std::size_t ct = r.column("timestamp_ns");
+  std::size_t cp[3], cq[4], cs[6], cb[3];
+  const char* ax = "xyz";
+  for (int k = 0; k < 3; ++k) {
+    cp[k] = r.column(fmt::format("p_I_C_{}", ax[k]));
+    cs[k] = r.column(fmt::format("sigma_p_I_C_{}", ax[k]));
+    cs[3 + k] = r.column(fmt::format("sigma_theta_I_C_{}", ax[k]));
+    cb[k] = r.column(fmt::format("b_g_{}", ax[k]));
+  }
+  for (int k = 0; k < 4; ++k) cq[k] = r.column(fmt::format("q_I_C_{}", "xyzw"[k]));
+  StatesTrace t;
+  while (r.next()) {
+    calib::ExtrinsicsSample s;
+    s.t_ns = r.get_int64(ct);
+    if (!t.extrinsics.empty() && s.t_ns < t.extrinsics.back().t_ns)
+      throw r.error(ct, fmt::format("time stamps must not decrease ({} after {})", s.t_ns, t.extrinsics.back().t_ns));
+    Eigen::Vector3d p;
+    for (int k = 0; k < 3; ++k) p(k) = r.get_double(cp[k]);
+    const Eigen::Quaterniond q(r.get_double(cq[3]), r.get_double(cq[0]), r.get_double(cq[1]), r.get_double(cq[2]));
+    if (std::abs(q.norm() - 1.0) > 1e-3) throw r.error(cq[3], fmt::format("quaternion norm {:.6g} is not 1", q.norm()));
+    s.T_I_C = Pose(q, p);
+    for (int k = 0; k < 6; ++k) {
+      s.sigma(k) = r.get_double(cs[k]);
+      if (s.sigma(k) < 0) throw r.error(cs[k], "a standard deviation must not be negative");
+    }
+    for (int k = 0; k < 3; ++k) t.final_gyro_bias(k) = r.get_double(cb[k]);
+    t.extrinsics.push_back(s);
+  }
+  if (t.extrinsics.empty()) throw InputError("no data row", {file.string()});
+  return t;
+}
+
+/// Each object's last row of objects.csv (its final pose and anchor-relative σ).
+std::map<int, calib::ObjectEstimate> read_objects(const fs::path& file) {
+  io::CsvReader r(file, io::CsvOptions{});
+  const std::size_t ct = r.column("timestamp_ns"), cid = r.column("object_id"), ca = r.column("anchor");
+  std::size_t cp[3], cq[4], cs[6];
+  const char* ax = "xyz";
+  for (int k = 0; k < 3; ++k) {
+    cp[k] = r.column(fmt::format("p_O_W_{}", ax[k]));
+    cs[k] = r.column(fmt::format("sigma_p_A_O_{}", ax[k]));
+    cs[3 + k] = r.column(fmt::format("sigma_theta_A_O_{}", ax[k]));
+  }
+  for (int k = 0; k < 4; ++k) cq[k] = r.column(fmt::format("q_O_W_{}", "xyzw"[k]));
+  std::map<int, calib::ObjectEstimate> out;
+  Timestamp last = std::numeric_limits<Timestamp>::min();
+  while (r.next()) {
+    const Timestamp t = r.get_int64(ct);
+    if (t < last) throw r.error(ct, fmt::format("time stamps must not decrease ({} after {})", t, last));
+    last = t;
+    calib::ObjectEstimate o;
+    o.id = r.get_int(cid);
+    const int a = r.get_int(ca);
+    if (a != 0 && a != 1) throw r.error(ca, "expected 0 or 1");
+    o.anchor = a == 1;
+    Eigen::Vector3d p;
+    for (int k = 0; k < 3; ++k) p(k) = r.get_double(cp[k]);
+    const Eigen::Quaterniond q(r.get_double(cq[3]), r.get_double(cq[0]), r.get_double(cq[1]), r.get_double(cq[2]));
+    if (std::abs(q.norm() - 1.0) > 1e-3) throw r.error(cq[3], fmt::format("quaternion norm {:.6g} is not 1", q.norm()));
+    o.T_O_W = Pose(q, p);
+    for (int k = 0; k < 6; ++k) {
+      o.sigma_A_O(k) = r.get_double(cs[k]);
+      if (o.sigma_A_O(k) < 0) throw r.error(cs[k], "a standard deviation must not be negative");
+    }
+    out[o.id] = o;
+  }
+  return out;
+}
+
+/// The dataset files the run hashed, compared with their current contents.
+calib::CheckResult dataset_identity(const RunJson& run, const fs::path& dataset, const std::string& detections) {
+  calib::CheckResult r{"dataset.identity", calib::CheckStatus::kPass, "", {}};
+  const json& sha = run.at("inputs.sha256");
+  std::vector<std::string> changed;
+  std::size_t compared = 0;
+  const std::vector<std::pair<std::string, fs::path>> files = {
+      {"roe.json", io::manifest_path(dataset)},
+      {"mav0/imu0/data.csv", io::imu_csv_path(dataset)},
+      {"detections/" + detections + "/detections.csv", io::detections_dir(dataset, detections) / "detections.csv"}};
+  for (const auto& [key, path] : files) {
+    if (!sha.is_object() || !sha.contains(key) || !sha[key].is_string())
+      throw InputError("missing key", {run.file(), 0, 0, "inputs.sha256." + key});
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) {
+      changed.push_back(key + " (missing)");
+      continue;
+    }
+    ++compared;
+    if (io::sha256_file(path) != sha[key].get<std::string>()) changed.push_back(key);
+  }
+  if (changed.empty()) {
+    r.message = fmt::format("roe.json, the IMU and detections/{} are the files the run read", detections);
+  } else {
+    r.status = calib::CheckStatus::kFail;
+    r.message = "differs from the files the run read: ";
+    for (std::size_t i = 0; i < changed.size(); ++i) r.message += (i ? ", " : "") + changed[i];
+    r.message += " (another dataset, or changed since the run; the truth and time-offset checks are not made)";
+  }
+  r.values = {{"files_changed", static_cast<double>(changed.size())}};
+  return r;
+}
+
+}  // namespace
+
+int CalibCheckResult::exit_code() const {
+  if (report.failed()) return 1;
+  if (strict && !report.all_decided()) return 1;
+  return 0;
+}
+
+json CalibCheckResult::to_json() const {
+  json checks = json::array();
+  std::map<std::string, int> counts = {{"pass", 0}, {"fail", 0}, {"inconclusive", 0}, {"skipped", 0}};
+  for (const auto& c : report.checks) {
+    json values = json::object();
+    for (const auto& [k, v] : c.values) values[k] = v;
+    checks.push_back({{"name", c.name}, {"status", calib::to_string(c.status)}, {"message", c.message},
+                      {"values", values}});
+    ++counts[calib::to_string(c.status)];
+  }
+  return {{"command", "calib-check"},
+          {"out", nullptr},
+          {"run", run_dir.string()},
+          {"dataset", dataset.empty() ? json(nullptr) : json(dataset)},
+          {"dataset_from", dataset_from.empty() ? json(nullptr) : json(dataset_from)},
+          {"detections", detections},
+          {"strict", strict},
+          {"passed", exit_code() == 0},
+          {"counts", counts},
+          {"checks", checks},
+          {"warnings", warnings}};
+}
+
+std::string CalibCheckResult::to_text() const {
+  std::string s = fmt::format("calib-check {}", run_dir.string());
+  s += dataset.empty() ? " (no dataset)\n"
+                       : fmt::format(" (dataset {}{}, detections {})\n", dataset,
+                                     dataset_from == "run.json" ? ", named in run.json" : "", detections);
+  std::size_t width = 0;
+  for (const auto& c : report.checks) width = std::max(width, c.name.size());
+  std::map<std::string, int> counts;
+  for (const auto& c : report.checks) {
+    const std::string st = calib::to_string(c.status);
+    ++counts[st];
+    s += fmt::format("  {:<12} {:<{}}  {}\n", st, c.name, width, c.message);
+  }
+  s += fmt::format("{}: {} passed, {} failed, {} inconclusive, {} skipped{}\n",
+                   exit_code() == 0 ? "PASS" : "FAIL", counts["pass"], counts["fail"], counts["inconclusive"],
+                   counts["skipped"], strict ? " (--strict: skipped and inconclusive count as failures)" : "");
+  return s;
+}
+
+CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions& opt) {
+  const fs::path run_dir = io::without_trailing_separator(run_dir_in);
+  std::error_code ec;
+  if (!fs::is_directory(run_dir, ec)) throw InputError("not a folder (expected a run folder written by roe run)", {run_dir.string()});
+  if (!fs::is_regular_file(run_dir / "run.json", ec))
+    throw InputError("not a run folder: run.json is missing", {run_dir.string()});
+  if (opt.no_dataset && !opt.dataset.empty()) throw InputError("--dataset and --no-dataset exclude each other");
+
+  CalibCheckResult res;
+  res.run_dir = run_dir;
+  res.strict = opt.strict;
+  const RunJson run(run_dir / "run.json");
+  calib::CalibInput in;
+  in.extrinsics_estimated = run.boolean("config.filter.estimate_extrinsics");
+  const double sp = run.number("config.filter.extrinsics_sigma_p_m");
+  const double sr = run.number("config.filter.extrinsics_sigma_rot_deg") * kDeg;
+  in.prior_sigma << sp, sp, sp, sr, sr, sr;
+  in.prior_T_I_C = run.pose("init.T_I_C");
+  const double min_score = run.number("config.filter.min_score");
+  res.detections = run.string("inputs.detections");
+
+  StatesTrace states = read_states(run_dir / "states.csv");
+  in.extrinsics = std::move(states.extrinsics);
+  auto objects = read_objects(run_dir / "objects.csv");
+  const json& per_object = run.at("counts.detections.per_object");
+  if (!per_object.is_object())
+    throw InputError("expected an object", {run.file(), 0, 0, "counts.detections.per_object"});
+  for (const auto& [key, v] : per_object.items()) {
+    int id = 0;
+    try {
+      std::size_t used = 0;
+      id = std::stoi(key, &used);
+      if (used != key.size()) throw std::invalid_argument(key);
+    } catch (const std::exception&) {
+      throw InputError("expected an object id", {run.file(), 0, 0, "counts.detections.per_object." + key});
+    }
+    if (!v.is_object() || !v.contains("detections") || !v["detections"].is_number_unsigned())
+      throw InputError("missing key", {run.file(), 0, 0, "counts.detections.per_object." + key + ".detections"});
+    const auto n = v["detections"].get<std::size_t>();
+    auto it = objects.find(id);
+    if (it == objects.end()) {
+      calib::ObjectEstimate o;
+      o.id = id;
+      o.detections = n;
+      objects[id] = o;  // never entered the state
+    } else {
+      it->second.detections = n;
+    }
+  }
+  for (const auto& [id, o] : objects) in.objects.push_back(o);
+
+  // The dataset: --dataset, else the one the run read when it is still there.
+  fs::path dataset;
+  if (!opt.no_dataset) {
+    if (!opt.dataset.empty()) {
+      dataset = io::without_trailing_separator(opt.dataset);
+      res.dataset_from = "option";
+      if (!fs::is_regular_file(io::manifest_path(dataset), ec))
+        throw InputError("not a dataset folder: roe.json is missing", {dataset.string()});
+    } else {
+      const fs::path named = run.string("inputs.dataset_abs");
+      if (fs::is_regular_file(io::manifest_path(named), ec)) {
+        dataset = named;
+        res.dataset_from = "run.json";
+      } else {
+        in.time_offset_absent_reason = fmt::format("the run's dataset {} is not there (give --dataset)", named.string());
+        res.warnings.push_back(in.time_offset_absent_reason + ": the truth and time-offset checks are skipped");
+      }
+    }
+  } else {
+    in.time_offset_absent_reason = "--no-dataset";
+  }
+
+  std::optional<calib::CheckResult> identity;
+  if (!dataset.empty()) {
+    res.dataset = dataset.string();
+    identity = dataset_identity(run, dataset, res.detections);
+    if (identity->status == calib::CheckStatus::kPass) {
+      const DatasetManifest man = io::read_manifest(dataset);
+      if (man.truth) {
+        in.true_T_I_C = man.truth->T_I_C;
+        for (const auto& o : man.truth->objects) in.true_T_W_O[o.id] = o.T_W_O;
+      }
+      in.declared_time_offset_s = man.camera ? man.camera->time_offset_s : 0.0;
+      log::info("estimating the camera-IMU time offset from {} and the gyro", res.detections);
+      const auto imu = io::read_imu_csv(io::imu_csv_path(dataset));
+      auto dets = io::read_detections_csv(io::detections_dir(dataset, res.detections) / "detections.csv");
+      if (min_score > 0)
+        dets.erase(std::remove_if(dets.begin(), dets.end(),
+                                  [&](const Detection& d) { return !(d.score >= min_score); }),
+                   dets.end());
+      in.time_offset = calib::estimate_camera_time_offset(imu, states.final_gyro_bias, in.extrinsics.back().T_I_C.q,
+                                                          dets, opt.time_offset);
+    } else {
+      in.time_offset_absent_reason = "the dataset is not the one the run read (dataset.identity)";
+    }
+  }
+
+  res.report = calib::check_calibration(in, opt.thresholds);
+  if (identity) {
+    if (identity->status != calib::CheckStatus::kPass)
+      for (auto& c : res.report.checks)
+        if (c.name.rfind("truth.", 0) == 0) {
+          c.status = calib::CheckStatus::kSkipped;
+          c.values.clear();
+          c.message = "the dataset is not the one the run read (dataset.identity)";
+        }
+    res.report.checks.insert(res.report.checks.begin(), *identity);
+  }
+  return res;
+}
+
+}  // namespace roe::app

@@ -1,0 +1,293 @@
+#include "roe/calib/time_offset.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <map>
+#include <optional>
+
+#include "roe/math/so3.hpp"
+
+namespace roe::calib {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+/// The gyro's integrated rotation R_I0_I(t) at the IMU stamps (midpoint rule), slerped in between.
+class GyroRotation {
+ public:
+  GyroRotation(const std::vector<ImuSample>& imu, const Eigen::Vector3d& bias) : imu_(imu) {
+    q_.reserve(imu.size());
+    q_.push_back(Eigen::Quaterniond::Identity());
+    for (std::size_t k = 0; k + 1 < imu.size(); ++k) {
+      const double dt = dt_seconds(imu[k].t_ns, imu[k + 1].t_ns);
+      const Eigen::Vector3d w = 0.5 * (imu[k].gyro + imu[k + 1].gyro) - bias;
+      q_.push_back((q_.back() * math::exp_quat(w * dt)).normalized());
+    }
+  }
+  Timestamp begin() const { return imu_.front().t_ns; }
+  Timestamp end() const { return imu_.back().t_ns; }
+  /// R_I0_I at t (inside [begin, end]).
+  Eigen::Quaterniond at(Timestamp t) const {
+    auto it = std::upper_bound(imu_.begin(), imu_.end(), t,
+                               [](Timestamp a, const ImuSample& s) { return a < s.t_ns; });
+    std::size_t k = it == imu_.begin() ? 0 : static_cast<std::size_t>(it - imu_.begin()) - 1;
+    if (k + 1 >= imu_.size()) return q_.back();
+    const double span = dt_seconds(imu_[k].t_ns, imu_[k + 1].t_ns);
+    const double u = span > 0 ? dt_seconds(imu_[k].t_ns, t) / span : 0.0;
+    return q_[k].slerp(u, q_[k + 1]);
+  }
+  /// |ω − b| at the IMU sample nearest to t.
+  double rate(Timestamp t, const Eigen::Vector3d& bias) const {
+    auto it = std::lower_bound(imu_.begin(), imu_.end(), t,
+                               [](const ImuSample& s, Timestamp a) { return s.t_ns < a; });
+    if (it == imu_.end()) --it;
+    return (it->gyro - bias).norm();
+  }
+
+ private:
+  const std::vector<ImuSample>& imu_;
+  std::vector<Eigen::Quaterniond> q_;
+};
+
+/// Mean of unit quaternions (chordal, signs aligned with the first) over the entries flagged in use.
+Eigen::Quaterniond mean_rotation(const std::vector<Eigen::Quaterniond>& q, const std::vector<char>& use) {
+  Eigen::Vector4d s = Eigen::Vector4d::Zero();
+  const Eigen::Quaterniond* ref = nullptr;
+  for (std::size_t i = 0; i < q.size(); ++i) {
+    if (!use[i]) continue;
+    if (!ref) ref = &q[i];
+    const double sign = ref->coeffs().dot(q[i].coeffs()) < 0 ? -1.0 : 1.0;
+    s += sign * q[i].coeffs();
+  }
+  if (!ref || s.norm() < 1e-12) return ref ? *ref : Eigen::Quaterniond::Identity();
+  Eigen::Quaterniond m;
+  m.coeffs() = s.normalized();
+  return m;
+}
+
+struct Window {
+  std::vector<const Detection*> dets;
+};
+
+/// Cost terms of one candidate offset: truncated sum of squared angles [deg²], and the untruncated
+/// inlier sum and count (for the residual RMS and the curvature-based standard error).
+struct Cost {
+  double truncated = 0.0, inlier_sum = 0.0;
+  std::size_t inliers = 0;
+  double lag1_num = 0.0, lag1_den = 0.0;  ///< Σ e_i·e_{i+1} and Σ |e_i|² over consecutive inlier pairs
+};
+
+Cost evaluate(const GyroRotation& gyro, const Eigen::Quaterniond& q_I_C, const std::vector<Window>& windows,
+              Timestamp shift, double truncate_deg) {
+  Cost c;
+  const double trunc2 = truncate_deg * truncate_deg;
+  std::vector<Eigen::Quaterniond> A;
+  std::vector<char> use;
+  std::vector<Eigen::Vector3d> phi;
+  std::vector<double> tau;
+  for (const auto& w : windows) {
+    A.clear();
+    tau.clear();
+    for (const Detection* d : w.dets) {
+      A.push_back(gyro.at(d->t_ns + shift) * q_I_C * d->T_C_O.q);
+      tau.push_back(dt_seconds(w.dets.front()->t_ns, d->t_ns));
+    }
+    const std::size_t n = A.size();
+    use.assign(n, 1);
+    phi.assign(n, Eigen::Vector3d::Zero());
+    // The window's mean orientation, then again over the detections within the truncation of it.
+    Eigen::Quaterniond m = mean_rotation(A, use);
+    for (std::size_t i = 0; i < n; ++i) use[i] = math::angle_between(m, A[i]) * kRadToDeg <= truncate_deg;
+    if (std::find(use.begin(), use.end(), 1) != use.end()) m = mean_rotation(A, use);
+    for (std::size_t i = 0; i < n; ++i) phi[i] = math::log_quat(m.conjugate() * A[i]) * kRadToDeg;
+    // A constant plus a linear drift per window (a residual gyro bias), fitted twice over the inliers.
+    Eigen::Vector3d c0 = Eigen::Vector3d::Zero(), beta = Eigen::Vector3d::Zero();
+    for (int pass = 0; pass < 2; ++pass) {
+      double s0 = 0, s1 = 0, s2 = 0;
+      Eigen::Vector3d y0 = Eigen::Vector3d::Zero(), y1 = Eigen::Vector3d::Zero();
+      for (std::size_t i = 0; i < n; ++i) {
+        if (!use[i]) continue;
+        s0 += 1;
+        s1 += tau[i];
+        s2 += tau[i] * tau[i];
+        y0 += phi[i];
+        y1 += tau[i] * phi[i];
+      }
+      const double det = s0 * s2 - s1 * s1;
+      if (s0 >= 3 && det > 1e-12 * s0 * s0) {
+        c0 = (s2 * y0 - s1 * y1) / det;
+        beta = (s0 * y1 - s1 * y0) / det;
+      } else if (s0 > 0) {
+        c0 = y0 / s0;
+        beta.setZero();
+      }
+      for (std::size_t i = 0; i < n; ++i) use[i] = (phi[i] - c0 - beta * tau[i]).squaredNorm() <= trunc2;
+    }
+    Eigen::Vector3d prev = Eigen::Vector3d::Zero();
+    bool prev_in = false;
+    for (std::size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d e = phi[i] - c0 - beta * tau[i];
+      const double a2 = e.squaredNorm();
+      c.truncated += std::min(a2, trunc2);
+      const bool in = a2 <= trunc2;
+      if (in) {
+        c.inlier_sum += a2;
+        ++c.inliers;
+        if (prev_in) {
+          c.lag1_num += prev.dot(e);
+          c.lag1_den += 0.5 * (prev.squaredNorm() + a2);
+        }
+        prev = e;
+      }
+      prev_in = in;
+    }
+  }
+  return c;
+}
+
+}  // namespace
+
+TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu, const Eigen::Vector3d& gyro_bias,
+                                               const Eigen::Quaterniond& q_I_C,
+                                               const std::vector<Detection>& detections,
+                                               const TimeOffsetOptions& o) {
+  TimeOffsetEstimate e;
+  if (!(o.search_s > 0) || !(o.step_s > 0) || o.step_s > o.search_s || !(o.window_s > 0) ||
+      !(o.truncate_deg > 0) || !(o.fit_halfwidth_s > 0)) {
+    e.reason = "invalid options (search, step, window and truncation must be positive, step <= search)";
+    return e;
+  }
+  if (imu.size() < 2) {
+    e.reason = "fewer than 2 IMU samples";
+    return e;
+  }
+  const GyroRotation gyro(imu, gyro_bias);
+  const Timestamp margin = from_seconds(o.search_s) + 1;
+
+  // Windows per object over the detections whose every shifted stamp lies inside the IMU span.
+  std::map<int, std::vector<const Detection*>> per_object;
+  for (const auto& d : detections)
+    if (d.t_ns - margin >= gyro.begin() && d.t_ns + margin <= gyro.end()) per_object[d.object_id].push_back(&d);
+  std::vector<Window> windows;
+  const Timestamp win = from_seconds(o.window_s);
+  double rate2 = 0.0;
+  for (auto& [id, v] : per_object) {
+    std::stable_sort(v.begin(), v.end(), [](const Detection* a, const Detection* b) { return a->t_ns < b->t_ns; });
+    std::size_t i = 0;
+    while (i < v.size()) {
+      Window w;
+      const Timestamp start = v[i]->t_ns;
+      while (i < v.size() && v[i]->t_ns - start < win) w.dets.push_back(v[i++]);
+      if (w.dets.size() < o.min_window) continue;
+      for (const Detection* d : w.dets) {
+        const double r = gyro.rate(d->t_ns, gyro_bias);
+        rate2 += r * r;
+      }
+      e.detections += w.dets.size();
+      windows.push_back(std::move(w));
+    }
+  }
+  e.windows = windows.size();
+  if (e.detections < o.min_detections) {
+    e.reason = fmt::format("{} detection(s) in windows of >= {} inside the IMU span; at least {} are needed",
+                           e.detections, o.min_window, o.min_detections);
+    return e;
+  }
+  e.rms_rate_deg_s = std::sqrt(rate2 / static_cast<double>(e.detections)) * kRadToDeg;
+  if (e.rms_rate_deg_s < o.min_rate_deg_s) {
+    e.reason = fmt::format("the camera hardly turns while it sees objects (RMS gyro rate {:.1f} deg/s < {:.1f}): "
+                           "the offset is not observable",
+                           e.rms_rate_deg_s, o.min_rate_deg_s);
+    return e;
+  }
+
+  const auto n = static_cast<int>(std::llround(o.search_s / o.step_s));
+  std::vector<Cost> costs;
+  for (int k = -n; k <= n; ++k) {
+    const double d = k * o.step_s;
+    e.grid_s.push_back(d);
+    costs.push_back(evaluate(gyro, q_I_C, windows, from_seconds(d), o.truncate_deg));
+    e.cost.push_back(costs.back().truncated);
+  }
+  const auto best = static_cast<std::size_t>(std::min_element(e.cost.begin(), e.cost.end()) - e.cost.begin());
+  if (best == 0 || best + 1 == e.cost.size()) {
+    e.reason = fmt::format("the cost is lowest at the edge of the search (±{} s): the offset may be larger",
+                           o.search_s);
+    e.offset_s = e.grid_s[best];
+    return e;
+  }
+  // The cost is rough on the scale of the grid step (inlier sets change, the gyro is sampled), so the
+  // minimum and the curvature come from a parabola fitted to it. The window is re-centred on the fitted
+  // minimum until it stays, and its half-width is ±3σ of a first fit over ±fit_halfwidth_s (at least
+  // ten grid steps): wide enough to average the roughness, narrow enough that the cost's departure
+  // from a parabola (it is not quadratic over tens of ms when the motion is fast) does not bias the
+  // vertex.
+  const auto fit = [&](double centre, double half, double& curv) {
+    for (int iter = 0; iter < 8; ++iter) {
+      Eigen::Matrix3d N = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d r = Eigen::Vector3d::Zero();
+      for (std::size_t k = 0; k < e.grid_s.size(); ++k) {
+        const double x = e.grid_s[k] - centre;
+        if (std::abs(x) > half + 1e-12) continue;
+        const Eigen::Vector3d f(1.0, x, x * x);
+        N += f * f.transpose();
+        r += f * (e.cost[k] - e.cost[best]);
+      }
+      const Eigen::Vector3d abc = N.ldlt().solve(r);
+      curv = 2.0 * abc(2);  // d²cost/dδ² [deg²/s²]
+      if (!(curv > 0)) return centre;
+      const double next = centre - abc(1) / curv;
+      const bool settled = std::abs(next - centre) < 0.25 * o.step_s;
+      centre = next;
+      if (settled || std::abs(centre) > o.search_s) break;
+    }
+    return centre;
+  };
+  // Residual statistics at a grid point: their RMS, and their lag-1 correlation between consecutive
+  // detections of a window (detector errors correlated in time carry fewer independent samples). Per
+  // scalar residual (3 per detection; 6 per window absorbed by the constant and the drift):
+  // var(δ) = 2 s² / cost'', inflated by (1 + ρ)/(1 − ρ) for AR(1)-correlated residuals.
+  const auto sigma_at = [&](double offset, double curv, Cost& cb) {
+    const auto at = std::min(static_cast<std::size_t>(std::max(0.0, std::round((offset + o.search_s) / o.step_s))),
+                             e.grid_s.size() - 1);
+    cb = evaluate(gyro, q_I_C, windows, from_seconds(e.grid_s[at]), o.truncate_deg);
+    const double dof = 3.0 * static_cast<double>(cb.inliers) - 6.0 * static_cast<double>(windows.size()) - 1.0;
+    if (dof <= 0 || !(curv > 0)) return -1.0;
+    const double rho = cb.lag1_den > 0 ? std::clamp(cb.lag1_num / cb.lag1_den, 0.0, 0.95) : 0.0;
+    return std::sqrt(2.0 * (cb.inlier_sum / dof) / curv * (1.0 + rho) / (1.0 - rho));
+  };
+  const auto not_observable = [&]() {
+    e.reason = "the cost has no minimum near its lowest point: the offset is not observable from this motion";
+    return e;
+  };
+  double curv = 0.0;
+  Cost cb;
+  double centre = fit(e.grid_s[best], o.fit_halfwidth_s, curv);
+  if (!(curv > 0)) return not_observable();
+  const double sigma1 = sigma_at(centre, curv, cb);
+  if (sigma1 < 0) {
+    e.reason = "too few inlier detections per window for an estimate";
+    return e;
+  }
+  const double half = std::clamp(3.0 * sigma1, 10.0 * o.step_s, o.fit_halfwidth_s);
+  centre = fit(centre, half, curv);
+  if (!(curv > 0)) return not_observable();
+  e.offset_s = centre;
+  if (std::abs(e.offset_s) > o.search_s) {
+    e.reason = fmt::format("the fitted minimum lies outside the search (±{} s): the offset may be larger",
+                           o.search_s);
+    return e;
+  }
+  e.sigma_s = sigma_at(centre, curv, cb);
+  if (e.sigma_s < 0) {
+    e.reason = "too few inlier detections per window for an estimate";
+    return e;
+  }
+  e.rms_residual_deg = cb.inliers ? std::sqrt(cb.inlier_sum / static_cast<double>(cb.inliers)) : 0.0;
+  e.residual_correlation = cb.lag1_den > 0 ? std::clamp(cb.lag1_num / cb.lag1_den, 0.0, 0.95) : 0.0;
+  e.valid = true;
+  return e;
+}
+
+}  // namespace roe::calib

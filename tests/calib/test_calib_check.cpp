@@ -1,0 +1,258 @@
+// The verdicts of calib/calib_check.hpp on hand-made inputs: each check's limit from both sides,
+// what is skipped when, and the anchor-relative (gauge-free) object comparison.
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "roe/calib/calib_check.hpp"
+#include "roe/core/error.hpp"
+#include "roe/math/so3.hpp"
+
+using namespace roe;
+using calib::CheckStatus;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+const Timestamp kT0 = 5'000'000'000;
+
+/// A converged run: 30 s of extrinsics at the truth with σ 2 mm / 0.2°, three objects.
+calib::CalibInput good_input() {
+  calib::CalibInput in;
+  in.prior_T_I_C = Pose(math::exp_quat(Eigen::Vector3d(0.01, 0.02, -0.01)), Eigen::Vector3d(0.02, -0.01, 0.03));
+  in.prior_sigma << 0.02, 0.02, 0.02, 2 * kDeg, 2 * kDeg, 2 * kDeg;
+  for (int k = 0; k <= 300; ++k) {
+    calib::ExtrinsicsSample s;
+    s.t_ns = kT0 + Timestamp{k} * 100'000'000;
+    s.T_I_C = in.prior_T_I_C;
+    s.sigma << 0.002, 0.002, 0.002, 0.2 * kDeg, 0.2 * kDeg, 0.2 * kDeg;
+    in.extrinsics.push_back(s);
+  }
+  const Pose T_W_O[3] = {Pose(math::exp_quat(Eigen::Vector3d(0, 0, 0.5)), Eigen::Vector3d(1, 0, 0)),
+                         Pose(math::exp_quat(Eigen::Vector3d(0.2, 0, -1)), Eigen::Vector3d(0, 2, 0.1)),
+                         Pose(math::exp_quat(Eigen::Vector3d(0, 0.3, 2)), Eigen::Vector3d(-1, 1, 0))};
+  for (int i = 0; i < 3; ++i) {
+    calib::ObjectEstimate o;
+    o.id = i + 1;
+    o.anchor = i == 0;
+    o.T_O_W = T_W_O[i].inverse();
+    if (!o.anchor) o.sigma_A_O << 0.005, 0.005, 0.005, 0.5 * kDeg, 0.5 * kDeg, 0.5 * kDeg;
+    o.detections = 100;
+    in.objects.push_back(o);
+    in.true_T_W_O[o.id] = T_W_O[i];
+  }
+  in.true_T_I_C = in.prior_T_I_C;
+  calib::TimeOffsetEstimate e;
+  e.valid = true;
+  e.offset_s = 0.002;
+  e.sigma_s = 0.001;
+  e.detections = 500;
+  in.time_offset = e;
+  return in;
+}
+
+const calib::CheckResult& get(const calib::CalibReport& r, const std::string& name) {
+  for (const auto& c : r.checks)
+    if (c.name == name) return c;
+  FAIL("no check " << name);
+  throw std::logic_error("unreachable");
+}
+
+double value(const calib::CheckResult& c, const std::string& key) {
+  for (const auto& [k, v] : c.values)
+    if (k == key) return v;
+  FAIL("no value " << key << " in " << c.name);
+  return 0.0;
+}
+
+}  // namespace
+
+TEST_CASE("calib-check: a converged run passes all seven checks, in the documented order", "[calib]") {
+  const auto r = calib::check_calibration(good_input());
+  const std::vector<std::string> names = {"extrinsics.sigma", "extrinsics.settled", "extrinsics.prior",
+                                          "objects.sigma",    "truth.extrinsics",   "truth.objects",
+                                          "camera.time_offset"};
+  REQUIRE(r.checks.size() == names.size());
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    INFO(r.checks[i].name << ": " << r.checks[i].message);
+    CHECK(r.checks[i].name == names[i]);
+    CHECK(r.checks[i].status == CheckStatus::kPass);
+  }
+  CHECK_FALSE(r.failed());
+  CHECK(r.all_decided());
+}
+
+TEST_CASE("calib-check: extrinsics.sigma fails on either axis group beyond its limit", "[calib]") {
+  auto in = good_input();
+  in.extrinsics.back().sigma(1) = 0.0101;  // p_y
+  CHECK(get(calib::check_calibration(in), "extrinsics.sigma").status == CheckStatus::kFail);
+  in.extrinsics.back().sigma(1) = 0.0099;
+  CHECK(get(calib::check_calibration(in), "extrinsics.sigma").status == CheckStatus::kPass);
+  in.extrinsics.back().sigma(5) = 1.01 * kDeg;  // θ_z
+  const auto c = get(calib::check_calibration(in), "extrinsics.sigma");
+  CHECK(c.status == CheckStatus::kFail);
+  CHECK(value(c, "sigma_rot_z_deg") == Approx(1.01));
+  // A translation σ that stayed near the prior is named for what it is.
+  in = good_input();
+  in.extrinsics.back().sigma(0) = 0.015;
+  CHECK_THAT(get(calib::check_calibration(in), "extrinsics.sigma").message, Catch::Contains("hardly observed"));
+}
+
+TEST_CASE("calib-check: extrinsics.settled looks only at the last 20 % (at least 2 s)", "[calib]") {
+  auto in = good_input();  // 30 s: the window is the last 6 s
+  // A jump of 6 mm 7 s before the end is outside the window ...
+  in.extrinsics[300 - 70].T_I_C.p.x() += 0.006;
+  auto c = get(calib::check_calibration(in), "extrinsics.settled");
+  CHECK(c.status == CheckStatus::kPass);
+  CHECK(value(c, "window_s") == Approx(6.0));
+  // ... 5 s before the end it is inside.
+  in.extrinsics[300 - 50].T_I_C.p.x() += 0.006;
+  CHECK(get(calib::check_calibration(in), "extrinsics.settled").status == CheckStatus::kFail);
+  // A rotation of 0.6° inside the window fails too; 0.4° does not.
+  in = good_input();
+  in.extrinsics[290].T_I_C.q = in.extrinsics[290].T_I_C.q * math::exp_quat(Eigen::Vector3d(0, 0.4 * kDeg, 0));
+  CHECK(get(calib::check_calibration(in), "extrinsics.settled").status == CheckStatus::kPass);
+  in.extrinsics[290].T_I_C.q = in.extrinsics[290].T_I_C.q * math::exp_quat(Eigen::Vector3d(0, 0.2 * kDeg, 0));
+  CHECK(get(calib::check_calibration(in), "extrinsics.settled").status == CheckStatus::kFail);
+  // A run shorter than twice the minimum window is not judged.
+  in = good_input();
+  in.extrinsics.resize(31);  // 3 s
+  CHECK(get(calib::check_calibration(in), "extrinsics.settled").status == CheckStatus::kSkipped);
+}
+
+TEST_CASE("calib-check: extrinsics.prior is the 6-dof Mahalanobis distance against chi2 at 99 %", "[calib]") {
+  auto in = good_input();
+  // 4 σ on p_x alone: d² = 16 < 16.81 passes; 4.2 σ: 17.64 fails.
+  in.extrinsics.back().T_I_C.p.x() += 4.0 * 0.02;
+  auto c = get(calib::check_calibration(in), "extrinsics.prior");
+  CHECK(value(c, "d2") == Approx(16.0).epsilon(1e-9));
+  CHECK(value(c, "limit_d2") == Approx(16.8119).epsilon(1e-4));
+  CHECK(c.status == CheckStatus::kPass);
+  in.extrinsics.back().T_I_C.p.x() += 0.2 * 0.02;
+  CHECK(get(calib::check_calibration(in), "extrinsics.prior").status == CheckStatus::kFail);
+  // The rotation counts in the prior's frame: 3σ about y and 3σ about z give d² = 18.
+  in = good_input();
+  in.extrinsics.back().T_I_C.q = in.prior_T_I_C.q * math::exp_quat(Eigen::Vector3d(0, 6 * kDeg, 6 * kDeg));
+  c = get(calib::check_calibration(in), "extrinsics.prior");
+  CHECK(value(c, "d2") == Approx(18.0).epsilon(1e-6));
+  CHECK(c.status == CheckStatus::kFail);
+  calib::CalibThresholds loose;
+  loose.prior_confidence = 0.999;  // χ²₆ = 22.46
+  CHECK(get(calib::check_calibration(in, loose), "extrinsics.prior").status == CheckStatus::kPass);
+}
+
+TEST_CASE("calib-check: extrinsics held fixed skip the extrinsics checks but not the truth", "[calib]") {
+  auto in = good_input();
+  in.extrinsics_estimated = false;
+  in.extrinsics.back().T_I_C.p.x() += 0.02;  // the (fixed) prior is 2 cm off the truth
+  in.true_T_I_C = in.prior_T_I_C;
+  in.true_T_I_C->p.x() -= 0.02;
+  const auto r = calib::check_calibration(in);
+  for (const char* n : {"extrinsics.sigma", "extrinsics.settled", "extrinsics.prior"})
+    CHECK(get(r, n).status == CheckStatus::kSkipped);
+  const auto& t = get(r, "truth.extrinsics");
+  CHECK(t.status == CheckStatus::kFail);
+  CHECK_THAT(t.message, Catch::Contains("prior's error"));
+  CHECK_FALSE(r.all_decided());
+}
+
+TEST_CASE("calib-check: objects.sigma checks initialised non-anchor objects and lists the others", "[calib]") {
+  auto in = good_input();
+  calib::ObjectEstimate never;
+  never.id = 9;
+  never.detections = 2;
+  in.objects.push_back(never);
+  auto c = get(calib::check_calibration(in), "objects.sigma");
+  CHECK(c.status == CheckStatus::kPass);
+  CHECK_THAT(c.message, Catch::Contains("9 (2 detection(s))"));
+  CHECK(value(c, "never_initialised") == 1.0);
+  in.objects[2].sigma_A_O(4) = 2.1 * kDeg;
+  c = get(calib::check_calibration(in), "objects.sigma");
+  CHECK(c.status == CheckStatus::kFail);
+  CHECK_THAT(c.message, Catch::Contains("object 3"));
+  // Only the anchor in the state: nothing to judge.
+  in.objects.resize(1);
+  CHECK(get(calib::check_calibration(in), "objects.sigma").status == CheckStatus::kSkipped);
+}
+
+TEST_CASE("calib-check: truth.objects compares poses relative to the anchor, whatever W is", "[calib]") {
+  auto in = good_input();
+  // The filter's W is the truth's W moved by an arbitrary rigid transform: T_O_W' = T_O_W · T_W_W'.
+  const Pose T_W_Wp(math::exp_quat(Eigen::Vector3d(0.3, -0.2, 1.1)), Eigen::Vector3d(4, -2, 1));
+  for (auto& o : in.objects) o.T_O_W = *o.T_O_W * T_W_Wp;
+  auto c = get(calib::check_calibration(in), "truth.objects");
+  CHECK(c.status == CheckStatus::kPass);
+  CHECK(value(c, "error_p_max_m") < 1e-9);
+  // Object 3 moved by 6 cm in its own frame relative to the truth: fails (limit 5 cm); 4 cm passes.
+  auto moved = in;
+  moved.objects[2].T_O_W = Pose(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.06, 0, 0)) * *moved.objects[2].T_O_W;
+  c = get(calib::check_calibration(moved), "truth.objects");
+  CHECK(value(c, "error_p_max_m") == Approx(0.06).epsilon(1e-6));
+  CHECK(c.status == CheckStatus::kFail);
+  moved = in;
+  moved.objects[2].T_O_W = Pose(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 0.04, 0)) * *moved.objects[2].T_O_W;
+  CHECK(get(calib::check_calibration(moved), "truth.objects").status == CheckStatus::kPass);
+  // Without a true pose for the anchor, nothing can be compared.
+  in.true_T_W_O.erase(1);
+  CHECK(get(calib::check_calibration(in), "truth.objects").status == CheckStatus::kSkipped);
+  in.true_T_W_O.clear();
+  in.true_T_I_C.reset();
+  const auto r = calib::check_calibration(in);
+  CHECK(get(r, "truth.objects").status == CheckStatus::kSkipped);
+  CHECK(get(r, "truth.extrinsics").status == CheckStatus::kSkipped);
+}
+
+TEST_CASE("calib-check: truth.extrinsics limits and NEES", "[calib]") {
+  auto in = good_input();
+  in.extrinsics.back().T_I_C.p.z() += 0.011;
+  auto c = get(calib::check_calibration(in), "truth.extrinsics");
+  CHECK(c.status == CheckStatus::kFail);
+  CHECK(value(c, "nees_diag") == Approx(std::pow(0.011 / 0.002, 2)).epsilon(1e-6));
+  in = good_input();
+  in.extrinsics.back().T_I_C.q = in.extrinsics.back().T_I_C.q * math::exp_quat(Eigen::Vector3d(0.9 * kDeg, 0, 0));
+  CHECK(get(calib::check_calibration(in), "truth.extrinsics").status == CheckStatus::kPass);
+  in.extrinsics.back().T_I_C.q = in.extrinsics.back().T_I_C.q * math::exp_quat(Eigen::Vector3d(0.2 * kDeg, 0, 0));
+  CHECK(get(calib::check_calibration(in), "truth.extrinsics").status == CheckStatus::kFail);
+}
+
+TEST_CASE("calib-check: camera.time_offset fails only beyond the limit and 3 sigma, passes only when precise",
+          "[calib]") {
+  auto in = good_input();
+  const auto status = [&](double est, double sigma, double declared) {
+    in.time_offset->offset_s = est;
+    in.time_offset->sigma_s = sigma;
+    in.declared_time_offset_s = declared;
+    return get(calib::check_calibration(in), "camera.time_offset").status;
+  };
+  CHECK(status(0.009, 0.001, 0.0) == CheckStatus::kPass);
+  CHECK(status(0.011, 0.001, 0.0) == CheckStatus::kFail);
+  CHECK(status(0.041, 0.001, 0.03) == CheckStatus::kFail);          // relative to the declared offset
+  CHECK(status(0.035, 0.001, 0.03) == CheckStatus::kPass);
+  CHECK(status(0.025, 0.009, 0.0) == CheckStatus::kInconclusive);   // beyond the limit, but < 3σ
+  CHECK(status(0.030, 0.009, 0.0) == CheckStatus::kFail);           // beyond both
+  CHECK(status(0.002, 0.012, 0.0) == CheckStatus::kInconclusive);   // within, but σ > limit
+  in.time_offset->valid = false;
+  in.time_offset->reason = "the camera hardly turns";
+  const auto& c = get(calib::check_calibration(in), "camera.time_offset");
+  CHECK(c.status == CheckStatus::kInconclusive);
+  CHECK_THAT(c.message, Catch::Contains("hardly turns"));
+  in.time_offset.reset();
+  in.time_offset_absent_reason = "--no-dataset";
+  const auto r = calib::check_calibration(in);
+  CHECK(get(r, "camera.time_offset").status == CheckStatus::kSkipped);
+  CHECK(get(r, "camera.time_offset").message == "--no-dataset");
+}
+
+TEST_CASE("calib-check: thresholds must be positive and the trace must not be empty", "[calib]") {
+  calib::CalibThresholds t;
+  t.max_err_p_m = 0.0;
+  CHECK_THROWS_AS(calib::check_calibration(good_input(), t), InputError);
+  t = {};
+  t.settle_fraction = 1.5;
+  CHECK_THROWS_AS(calib::check_calibration(good_input(), t), InputError);
+  t = {};
+  t.prior_confidence = 1.0;
+  CHECK_THROWS_AS(calib::check_calibration(good_input(), t), InputError);
+  auto in = good_input();
+  in.extrinsics.clear();
+  CHECK_THROWS_AS(calib::check_calibration(in), InputError);
+}
