@@ -1,6 +1,7 @@
 // roe calib-check end to end in the library: simulate → write → roe run → calib_check, on a
 // calibration motion (matched-calib, 40 s) where every check can be decided.
 #include <catch2/catch.hpp>
+#include "../calib/check_lookup.hpp"
 #include <fstream>
 
 #include "../ekf/filter_support.hpp"
@@ -38,18 +39,9 @@ const Dataset& calibration_dataset() {
 }
 
 const calib::CheckResult& get(const app::CalibCheckResult& r, const std::string& name) {
-  for (const auto& c : r.report.checks)
-    if (c.name == name) return c;
-  FAIL("no check " << name);
-  throw std::logic_error("unreachable");
+  return test::check_named(r.report, name);
 }
-
-double value(const calib::CheckResult& c, const std::string& key) {
-  for (const auto& [k, v] : c.values)
-    if (k == key) return v;
-  FAIL("no value " << key << " in " << c.name);
-  return 0.0;
-}
+double value(const calib::CheckResult& c, const std::string& key) { return test::check_value(c, key); }
 
 std::string describe(const app::CalibCheckResult& r) { return r.to_text(); }
 

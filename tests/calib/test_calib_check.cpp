@@ -1,6 +1,7 @@
 // The verdicts of calib/calib_check.hpp on hand-made inputs: each check's limit from both sides,
 // what is skipped when, and the anchor-relative (gauge-free) object comparison.
 #include <catch2/catch.hpp>
+#include "check_lookup.hpp"
 #include <cmath>
 
 #include "roe/calib/calib_check.hpp"
@@ -51,18 +52,9 @@ calib::CalibInput good_input() {
 }
 
 const calib::CheckResult& get(const calib::CalibReport& r, const std::string& name) {
-  for (const auto& c : r.checks)
-    if (c.name == name) return c;
-  FAIL("no check " << name);
-  throw std::logic_error("unreachable");
+  return test::check_named(r, name);
 }
-
-double value(const calib::CheckResult& c, const std::string& key) {
-  for (const auto& [k, v] : c.values)
-    if (k == key) return v;
-  FAIL("no value " << key << " in " << c.name);
-  return 0.0;
-}
+double value(const calib::CheckResult& c, const std::string& key) { return test::check_value(c, key); }
 
 }  // namespace
 
