@@ -331,9 +331,9 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
       log::info("estimating the camera-IMU time offset from {} and the gyro", res.detections);
       const auto imu = io::read_imu_csv(io::imu_csv_path(dataset));
       auto dets = io::read_detections_csv(io::detections_dir(dataset, res.detections) / "detections.csv");
-      if (min_score > 0)
+      if (min_score > 0)  // as the filter does: detections without a score are kept
         dets.erase(std::remove_if(dets.begin(), dets.end(),
-                                  [&](const Detection& d) { return !(d.score >= min_score); }),
+                                  [&](const Detection& d) { return std::isfinite(d.score) && d.score < min_score; }),
                    dets.end());
       in.time_offset = calib::estimate_camera_time_offset(imu, states.final_gyro_bias, in.extrinsics.back().T_I_C.q,
                                                           dets, opt.time_offset);
