@@ -132,8 +132,12 @@ class LenientParser {
       std::string key = string_token();
       auto it = seen.find(key);
       if (it != seen.end()) {
-        throw InputError("duplicate key \"" + key + "\" (first at line " + std::to_string(it->second.first) +
-                             "); in a PoET results.json this means two images with the same id",
+        // What a duplicate means depends on the level: image ids, then detection indices per image.
+        const char* meaning = depth == 0   ? "; in a PoET results.json this means two images with the same id"
+                              : depth == 1 ? "; in a PoET results.json this means two detections with the same index"
+                                           : "";
+        throw InputError("duplicate key \"" + key + "\" (first at line " + std::to_string(it->second.first) + ")" +
+                             meaning,
                          {source_, kl, kc, key});
       }
       seen.emplace(key, std::make_pair(kl, kc));

@@ -113,8 +113,15 @@ TEST_CASE("colliding image ids (duplicate keys) are reported, not silently overw
   const std::string e = expect_error("{\"17\": {},\n \"17\": {}}");
   CHECK(e.find("duplicate key \"17\"") != std::string::npos);
   CHECK(e.find("results.json:2:2") != std::string::npos);
-  CHECK(expect_error(R"({"a": {"0": {"t": [0,0,1], "rot": [1,0,0,0], "class": 1}, "0": {"t": [0,0,1], "rot": [1,0,0,0], "class": 2}}})")
-            .find("duplicate key") != std::string::npos);
+  CHECK(e.find("two images with the same id") != std::string::npos);
+  const std::string e1 = expect_error(
+      R"({"a": {"0": {"t": [0,0,1], "rot": [1,0,0,0], "class": 1}, "0": {"t": [0,0,1], "rot": [1,0,0,0], "class": 2}}})");
+  CHECK(e1.find("duplicate key \"0\"") != std::string::npos);
+  CHECK(e1.find("two detections with the same index") != std::string::npos);
+  const std::string e2 = expect_error(R"({"a": {"0": {"t": [0,0,1], "t": [0,0,2], "rot": [1,0,0,0], "class": 1}}})");
+  CHECK(e2.find("duplicate key \"t\"") != std::string::npos);
+  CHECK(e2.find("results.json:1:28") != std::string::npos);
+  CHECK(e2.find("same") == std::string::npos);
 }
 
 TEST_CASE("detections are sorted by their index (score rank)", "[poet_results]") {
