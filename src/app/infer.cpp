@@ -279,11 +279,12 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
       cf.t_ns = f.t_ns;
       cf.ms = r.timings.total_ms;
       cf.detections = r.detections;
-      s.dropped_invalid += r.dropped_invalid;
+      cf.dropped_invalid = r.dropped_invalid;
       cache.append(cf);
       computed_ms.push_back(cf.ms);
       ++s.frames_computed;
     }
+    s.dropped_invalid += cf.dropped_invalid;
     std::set<int> seen;
     for (const auto& d : cf.detections) {
       const auto obj = mapper.object_of(d.class_id);
@@ -311,6 +312,9 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
   for (const auto& [c, n] : unmapped)
     warn(std::to_string(n) + " detection(s) of class " + std::to_string(c) + " (" + bundle.class_name(c) +
          ") map to no object of roe.json and were dropped");
+  if (s.dropped_invalid)
+    warn(std::to_string(s.dropped_invalid) +
+         " pose(s) the model returned with a degenerate rotation or a non-finite translation were dropped");
   if (s.dropped_duplicate)
     warn(std::to_string(s.dropped_duplicate) + " repeated detection(s) of an object in one frame dropped (the highest score is kept)");
   s.detections_written = out.size();

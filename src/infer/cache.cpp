@@ -21,7 +21,9 @@ nlohmann::json frame_to_json(const CachedFrame& f) {
     if (d.sigma) j["sigma"] = std::vector<double>(d.sigma->data(), d.sigma->data() + 6);
     dets.push_back(j);
   }
-  return {{"key", f.key}, {"t_ns", f.t_ns}, {"ms", f.ms}, {"detections", dets}};
+  nlohmann::json j = {{"key", f.key}, {"t_ns", f.t_ns}, {"ms", f.ms}, {"detections", dets}};
+  if (f.dropped_invalid) j["dropped_invalid"] = f.dropped_invalid;
+  return j;
 }
 
 CachedFrame frame_from_json(const nlohmann::json& j) {
@@ -29,6 +31,7 @@ CachedFrame frame_from_json(const nlohmann::json& j) {
   f.key = j.at("key").get<std::string>();
   f.t_ns = j.at("t_ns").get<Timestamp>();
   f.ms = j.at("ms").get<double>();
+  f.dropped_invalid = j.value("dropped_invalid", std::size_t{0});
   for (const auto& d : j.at("detections")) {
     PoseDetection p;
     p.class_id = d.at("class").get<int>();

@@ -250,6 +250,43 @@ std::size_t count_lines(const fs::path& file) {
   return n;
 }
 
+TEST_CASE("roe infer: non-finite poses are dropped, counted and warned about, also when reused", "[infer]") {
+  TmpDir tmp("invalid");
+  const fs::path ds = make_dataset(tmp.path, kFrames);
+  // A copy of the tiny bundle whose input scale overflows float32: the features, and so every pose
+  // the head returns, are non-finite. External boxes bypass the detector, which would find nothing.
+  const fs::path bundle = tmp.path / "bundle";
+  fs::copy(kTiny, bundle, fs::copy_options::recursive);
+  auto meta = io::parse_json_file(bundle / "poet_bundle.json");
+  meta["image"]["scale"] = 1e300;
+  meta["detector"].erase("selftest");  // it would (rightly) refuse the bundle
+  io::write_file_atomic(bundle / "poet_bundle.json", meta.dump(2));
+  io::write_file_atomic(tmp.path / "boxes.csv", "timestamp_ns,class,x1,y1,x2,y2,score\n"
+                                                "1000000000,1,18,18,42,42,0.9\n"
+                                                "1000000000,2,78,48,102,72,0.8\n"
+                                                "1200000000,3,28,38,52,62,0.6\n");
+  app::InferOptions o;
+  o.model_dir = bundle.string();
+  o.boxes_file = (tmp.path / "boxes.csv").string();
+  const auto s = app::run_infer(ds, o);
+  CHECK(s.frames_computed == 5);
+  CHECK(s.dropped_invalid == 3);
+  CHECK(s.detections_written == 0);
+  auto warned = [](const app::InferSummary& x) {
+    for (const auto& w : x.warnings)
+      if (w.find("3 pose(s) the model returned with a degenerate rotation") != std::string::npos) return true;
+    return false;
+  };
+  CHECK(warned(s));
+  CHECK(s.to_json()["dropped_invalid_pose"] == 3);
+  // The second run takes every frame from the cache and still reports what the model returned.
+  o.force = true;
+  const auto s2 = app::run_infer(ds, o);
+  CHECK(s2.frames_reused == 5);
+  CHECK(s2.dropped_invalid == 3);
+  CHECK(warned(s2));
+}
+
 TEST_CASE("roe infer: a box class the bundle does not have names file, row and column", "[infer]") {
   TmpDir tmp("boxclass");
   const fs::path ds = make_dataset(tmp.path, kFrames);

@@ -27,6 +27,7 @@ struct CachedFrame {
   std::string key;
   Timestamp t_ns = 0;  ///< informational (the same image may appear at several stamps)
   double ms = 0.0;     ///< time it took to compute
+  std::size_t dropped_invalid = 0;  ///< poses the model returned degenerate (absent in older lines: 0)
   std::vector<PoseDetection> detections;
 };
 
