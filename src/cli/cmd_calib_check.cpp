@@ -1,11 +1,31 @@
 // roe calib-check RUN_DIR [--dataset DATASET | --no-dataset] [--strict] [thresholds]
 #include <memory>
+#include <stdexcept>
+#include <string>
 
 #include "command.hpp"
 #include "roe/app/calib_check.hpp"
 
 namespace roe::cli {
 namespace {
+
+// A number in (0, 1), or (0, 1] with `one_allowed`; CLI::Range can only show closed intervals.
+CLI::Validator fraction(bool one_allowed) {
+  const std::string interval = one_allowed ? "(0, 1]" : "(0, 1)";
+  return CLI::Validator(
+      [one_allowed, interval](std::string& s) {
+        std::size_t used = 0;
+        double v = 0.0;
+        try {
+          v = std::stod(s, &used);
+        } catch (const std::exception&) {
+          used = 0;
+        }
+        const bool ok = used == s.size() && used > 0 && v > 0.0 && (one_allowed ? v <= 1.0 : v < 1.0);
+        return ok ? std::string() : "must be a number in " + interval + ", got '" + s + "'";
+      },
+      "FLOAT in " + interval);
+}
 
 struct Args {
   std::string run_dir;
@@ -32,7 +52,7 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("--settle-fraction", t.settle_fraction,
                  "extrinsics.settled: the last fraction of the run examined (0, 1]")
       ->capture_default_str()
-      ->check(CLI::Range(1e-9, 1.0))->group("Thresholds");
+      ->check(fraction(true))->group("Thresholds");
   sub.add_option("--settle-min", t.settle_min_s, "extrinsics.settled: … but at least this long [s]")
       ->capture_default_str()
       ->check(pos)->group("Thresholds");
@@ -46,7 +66,7 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("--prior-confidence", t.prior_confidence,
                  "extrinsics.prior: χ²₆ quantile for the shift from the prior")
       ->capture_default_str()
-      ->check(CLI::Range(1e-9, 1.0 - 1e-12))->group("Thresholds");
+      ->check(fraction(false))->group("Thresholds");
   sub.add_option("--max-object-sigma-p", t.max_object_sigma_p_m,
                  "objects.sigma: largest axis σ relative to the anchor [m]")
       ->capture_default_str()

@@ -55,6 +55,14 @@ TEST_CASE("roe calib-check: exit codes 0/1/2, --json, --strict, thresholds", "[c
   r = roe::test::run_roe("calib-check " + q(run) + " --max-time-offset 0");
   CHECK(r.code == 2);
   CHECK_THAT(r.out, Catch::Contains("--max-time-offset"));
+  // A confidence of 1 has no χ² quantile; a fraction of 1 is the whole run.
+  r = roe::test::run_roe("calib-check " + q(run) + " --prior-confidence 1");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains("--prior-confidence: must be a number in (0, 1), got '1'"));
+  r = roe::test::run_roe("calib-check --no-dataset " + q(run) + " --settle-fraction 1");
+  CHECK(r.code == 1);  // the whole run includes the convergence from the prior
+  CHECK_THAT(r.out, Catch::Contains("over the last 40.0 s"));
+  CHECK(roe::test::run_roe("calib-check -q " + q(run) + " --settle-fraction 0").code == 2);
   r = roe::test::run_roe("calib-check " + q(run) + " --no-dataset --dataset " + q(ds));
   CHECK(r.code == 2);
   r = roe::test::run_roe("calib-check " + q(ds));
