@@ -198,7 +198,7 @@ calib::CheckResult dataset_identity(const RunJson& run, const fs::path& dataset,
 
 int CalibCheckResult::exit_code() const {
   if (report.failed()) return 1;
-  if (strict && !report.all_decided()) return 1;
+  if (strict && report.undecided()) return 1;
   return 0;
 }
 
@@ -240,7 +240,7 @@ std::string CalibCheckResult::to_text() const {
   }
   s += fmt::format("{}: {} passed, {} failed, {} inconclusive, {} skipped{}\n",
                    exit_code() == 0 ? "PASS" : "FAIL", counts["pass"], counts["fail"], counts["inconclusive"],
-                   counts["skipped"], strict ? " (--strict: skipped and inconclusive count as failures)" : "");
+                   counts["skipped"], strict ? " (--strict: inconclusive checks count as failures)" : "");
   return s;
 }
 
@@ -258,6 +258,11 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
   const RunJson run(run_dir / "run.json");
   calib::CalibInput in;
   in.extrinsics_estimated = run.boolean("config.filter.estimate_extrinsics");
+  {
+    const json& a = run.at("anchor_id");
+    if (!a.is_null() && !a.is_number_integer()) throw InputError("expected an object id or null", {run.file(), 0, 0, "anchor_id"});
+    in.anchor_id = a.is_null() ? 0 : a.get<int>();
+  }
   const double sp = run.number("config.filter.extrinsics_sigma_p_m");
   const double sr = run.number("config.filter.extrinsics_sigma_rot_deg") * kDeg;
   in.prior_sigma << sp, sp, sp, sr, sr, sr;
@@ -287,6 +292,7 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
     if (it == objects.end()) {
       calib::ObjectEstimate o;
       o.id = id;
+      o.anchor = id == in.anchor_id;
       o.detections = n;
       objects[id] = o;  // never entered the state
     } else {
@@ -295,8 +301,10 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
   }
   for (const auto& [id, o] : objects) in.objects.push_back(o);
 
-  // The dataset: --dataset, else the one the run read when it is still there.
+  // The dataset: --dataset, else the one the run read when it is still there. dataset.identity is
+  // skipped with --no-dataset and inconclusive when the run's dataset is gone (--strict fails then).
   fs::path dataset;
+  calib::CheckResult identity{"dataset.identity", calib::CheckStatus::kSkipped, "--no-dataset", {}};
   if (!opt.no_dataset) {
     if (!opt.dataset.empty()) {
       dataset = io::without_trailing_separator(opt.dataset);
@@ -309,19 +317,21 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
         dataset = named;
         res.dataset_from = "run.json";
       } else {
-        in.time_offset_absent_reason = fmt::format("the run's dataset {} is not there (give --dataset)", named.string());
-        res.warnings.push_back(in.time_offset_absent_reason + ": the truth and time-offset checks are skipped");
+        identity.status = calib::CheckStatus::kInconclusive;
+        identity.message = fmt::format("the run's dataset {} is not there (give --dataset, or --no-dataset)",
+                                       named.string());
+        in.dataset_absent_reason = in.time_offset_absent_reason = "no dataset (dataset.identity)";
+        res.warnings.push_back(identity.message + ": the truth and time-offset checks are skipped");
       }
     }
   } else {
-    in.time_offset_absent_reason = "--no-dataset";
+    in.dataset_absent_reason = in.time_offset_absent_reason = "--no-dataset";
   }
 
-  std::optional<calib::CheckResult> identity;
   if (!dataset.empty()) {
     res.dataset = dataset.string();
     identity = dataset_identity(run, dataset, res.detections);
-    if (identity->status == calib::CheckStatus::kPass) {
+    if (identity.status == calib::CheckStatus::kPass) {
       const DatasetManifest man = io::read_manifest(dataset);
       if (man.truth) {
         in.true_T_I_C = man.truth->T_I_C;
@@ -335,24 +345,18 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
         dets.erase(std::remove_if(dets.begin(), dets.end(),
                                   [&](const Detection& d) { return std::isfinite(d.score) && d.score < min_score; }),
                    dets.end());
+      calib::TimeOffsetOptions to = opt.time_offset;
+      to.centre_s = in.declared_time_offset_s;  // search around what the dataset declares
       in.time_offset = calib::estimate_camera_time_offset(imu, states.final_gyro_bias, in.extrinsics.back().T_I_C.q,
-                                                          dets, opt.time_offset);
+                                                          dets, to);
     } else {
-      in.time_offset_absent_reason = "the dataset is not the one the run read (dataset.identity)";
+      in.dataset_absent_reason = in.time_offset_absent_reason =
+          "the dataset is not the one the run read (dataset.identity)";
     }
   }
 
   res.report = calib::check_calibration(in, opt.thresholds);
-  if (identity) {
-    if (identity->status != calib::CheckStatus::kPass)
-      for (auto& c : res.report.checks)
-        if (c.name.rfind("truth.", 0) == 0) {
-          c.status = calib::CheckStatus::kSkipped;
-          c.values.clear();
-          c.message = "the dataset is not the one the run read (dataset.identity)";
-        }
-    res.report.checks.insert(res.report.checks.begin(), *identity);
-  }
+  res.report.checks.insert(res.report.checks.begin(), identity);
   return res;
 }
 

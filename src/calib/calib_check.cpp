@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <fmt/format.h>
 
 #include "roe/core/error.hpp"
@@ -46,34 +47,68 @@ CheckResult extrinsics_sigma(const CalibInput& in, const CalibThresholds& th) {
   return r;
 }
 
+CheckResult inconclusive(std::string name, std::string why) {
+  return {std::move(name), CheckStatus::kInconclusive, std::move(why), {}};
+}
+
+/// Σ d_k² / v_k over the axes; an axis with v_k <= 0 and d_k != 0 makes it infinite.
+double mahalanobis2(const Vector6d& d, const Vector6d& v) {
+  double d2 = 0.0;
+  for (int k = 0; k < 6; ++k) {
+    if (v(k) > 0) d2 += d(k) * d(k) / v(k);
+    else if (d(k) != 0.0) return std::numeric_limits<double>::infinity();
+  }
+  return d2;
+}
+
 CheckResult extrinsics_settled(const CalibInput& in, const CalibThresholds& th) {
   const std::string name = "extrinsics.settled";
   if (!in.extrinsics_estimated) return skipped(name, "extrinsics held fixed (estimate_extrinsics: false)");
   const auto& tr = in.extrinsics;
   const double duration = dt_seconds(tr.front().t_ns, tr.back().t_ns);
   if (duration < 2.0 * th.settle_min_s)
-    return skipped(name, fmt::format("the run is {:.1f} s long, shorter than twice the settle window ({:.1f} s)",
-                                     duration, th.settle_min_s));
+    return inconclusive(name, fmt::format("the run is {:.1f} s long, shorter than twice the settle window ({:.1f} s)",
+                                          duration, th.settle_min_s));
   const double window = std::min(duration, std::max(th.settle_min_s, th.settle_fraction * duration));
   const Timestamp from = tr.back().t_ns - from_seconds(window);
-  const Pose& fin = tr.back().T_I_C;
-  double dp = 0.0, dr = 0.0;
+  const auto& fin = tr.back();
+  const double limit_d2 = ekf::chi2_quantile(th.confidence, 6.0);
+  // A consistent filter's estimate moves from time s to the end by an amount of covariance
+  // P_s − P_end (the information gained in between): a move beyond the limits is a drift only
+  // when it is also beyond that.
+  double dp = 0.0, dr = 0.0, d2_beyond = 0.0;
+  bool beyond = false, drift = false;
+  const Vector6d v_end = fin.sigma.cwiseProduct(fin.sigma);
   for (const auto& s : tr) {
     if (s.t_ns < from) continue;
-    dp = std::max(dp, (s.T_I_C.p - fin.p).norm());
-    dr = std::max(dr, math::angle_between(s.T_I_C.q, fin.q) * kDeg);
+    const Vector6d d = math::pose_difference(fin.T_I_C, s.T_I_C);
+    const double p = d.head<3>().norm(), r = d.tail<3>().norm() * kDeg;
+    dp = std::max(dp, p);
+    dr = std::max(dr, r);
+    if (p <= th.max_drift_p_m && r <= th.max_drift_rot_deg) continue;
+    beyond = true;
+    const double d2 = mahalanobis2(d, s.sigma.cwiseProduct(s.sigma) - v_end);
+    d2_beyond = std::max(d2_beyond, d2);
+    drift = drift || d2 > limit_d2;
   }
-  CheckResult r{name, CheckStatus::kPass, "", {}};
-  r.status = dp <= th.max_drift_p_m && dr <= th.max_drift_rot_deg ? CheckStatus::kPass : CheckStatus::kFail;
+  CheckResult r{name, drift ? CheckStatus::kFail : CheckStatus::kPass, "", {}};
   r.message = fmt::format("over the last {:.1f} s the estimate stays within {:.1f} mm / {:.2f}° of its final value, "
                           "limits {:.1f} mm / {:.2f}°",
                           window, dp * 1e3, dr, th.max_drift_p_m * 1e3, th.max_drift_rot_deg);
-  if (r.status == CheckStatus::kFail) r.message += ": still moving at the end of the run";
+  if (drift)
+    r.message += fmt::format(": it moved further than its σ shrank (d² = {:.1f} > χ²₆({}) = {:.2f}), a drift",
+                             d2_beyond, th.confidence, limit_d2);
+  else if (beyond)
+    r.message += fmt::format(": beyond the limits, but no further than its σ shrank (d² = {:.1f} <= {:.2f}): still "
+                             "converging, see extrinsics.sigma",
+                             d2_beyond, limit_d2);
   r.values = {{"window_s", window},
               {"drift_p_m", dp},
               {"drift_rot_deg", dr},
               {"limit_p_m", th.max_drift_p_m},
-              {"limit_rot_deg", th.max_drift_rot_deg}};
+              {"limit_rot_deg", th.max_drift_rot_deg},
+              {"d2", d2_beyond},
+              {"limit_d2", limit_d2}};
   return r;
 }
 
@@ -82,26 +117,37 @@ CheckResult extrinsics_prior(const CalibInput& in, const CalibThresholds& th) {
   if (!in.extrinsics_estimated) return skipped(name, "extrinsics held fixed (estimate_extrinsics: false)");
   if (!(in.prior_sigma.array() > 0).all())
     return skipped(name, "the prior has a zero standard deviation on some axis");
-  const Pose& fin = in.extrinsics.back().T_I_C;
-  Vector6d d;
-  d.head<3>() = fin.p - in.prior_T_I_C.p;
-  d.tail<3>() = math::log_quat(in.prior_T_I_C.q.conjugate() * fin.q);
-  const Vector6d z = d.cwiseQuotient(in.prior_sigma);
-  const double d2 = z.squaredNorm();
-  const double limit = ekf::chi2_quantile(th.prior_confidence, 6.0);
-  CheckResult r{name, CheckStatus::kPass, "", {}};
-  r.status = d2 <= limit ? CheckStatus::kPass : CheckStatus::kFail;
-  Eigen::Index worst = 0;
-  z.cwiseAbs().maxCoeff(&worst);
+  const auto& fin = in.extrinsics.back();
+  const Vector6d d = math::pose_difference(in.prior_T_I_C, fin.T_I_C);
+  // A consistent filter moves from the prior by an amount of covariance P_prior − P_final (per axis
+  // here); axes the data hardly informed (final σ above ~95 % of the prior's) are left out.
+  double d2 = 0.0, worst_z = 0.0;
+  int dof = 0, worst = -1;
+  for (int k = 0; k < 6; ++k) {
+    const double v0 = in.prior_sigma(k) * in.prior_sigma(k);
+    const double v = v0 - fin.sigma(k) * fin.sigma(k);
+    if (v < 0.1 * v0) continue;
+    const double z = d(k) / std::sqrt(v);
+    d2 += z * z;
+    ++dof;
+    if (worst < 0 || std::abs(z) > worst_z) worst_z = std::abs(z), worst = k;
+  }
+  const std::string moved = fmt::format("moved {:.1f} mm / {:.2f}° from the prior", d.head<3>().norm() * 1e3,
+                                        d.tail<3>().norm() * kDeg);
+  if (dof == 0)
+    return inconclusive(name, moved + "; the data hardly informed the extrinsics (σ above 95 % of the prior's on "
+                                      "every axis), so the shift says nothing");
+  const double limit = ekf::chi2_quantile(th.confidence, dof);
+  CheckResult r{name, d2 <= limit ? CheckStatus::kPass : CheckStatus::kFail, "", {}};
   static const char* axes[6] = {"p_x", "p_y", "p_z", "θ_x", "θ_y", "θ_z"};
-  r.message = fmt::format("moved {:.1f} mm / {:.2f}° from the prior, Mahalanobis d² = {:.2f} (largest {} at {:.1f} σ), "
-                          "limit χ²₆({}) = {:.2f}",
-                          d.head<3>().norm() * 1e3, d.tail<3>().norm() * kDeg, d2, axes[worst], std::abs(z(worst)),
-                          th.prior_confidence, limit);
+  static const char* sub[7] = {"₀", "₁", "₂", "₃", "₄", "₅", "₆"};
+  r.message = fmt::format("{}, d² = {:.2f} against P_prior − P_final over {} axes (largest {} at {:.1f} σ), "
+                          "limit χ²{}({}) = {:.2f}",
+                          moved, d2, dof, axes[worst], worst_z, sub[dof], th.confidence, limit);
   if (r.status == CheckStatus::kFail)
     r.message += ": the data disagree with the prior calibration (a wrong camchain, frame or camera?)";
   r.values = {{"shift_p_m", d.head<3>().norm()}, {"shift_rot_deg", d.tail<3>().norm() * kDeg}, {"d2", d2},
-              {"limit_d2", limit}};
+              {"dof", static_cast<double>(dof)}, {"limit_d2", limit}};
   return r;
 }
 
@@ -134,6 +180,10 @@ CheckResult objects_sigma(const CalibInput& in, const CalibThresholds& th) {
   }
   const std::string not_in = never.empty() ? "" : "; never entered the state (not checked): " + id_list(never);
   if (checked == 0) return skipped(name, "no object besides the anchor entered the state" + not_in);
+  if (!find_anchor(in))
+    return inconclusive(name, (in.anchor_id ? fmt::format("the anchor (object {}) never entered the state", in.anchor_id)
+                                            : std::string("the run has no anchor")) +
+                                  ", so there is no σ relative to it" + not_in);
   CheckResult r{name, over.empty() ? CheckStatus::kPass : CheckStatus::kFail, "", {}};
   r.message = over.empty() ? fmt::format("{} object(s) relative to the anchor: largest σ {:.1f} mm / {:.2f}°, limits "
                                          "{:.1f} mm / {:.2f}°",
@@ -153,39 +203,48 @@ CheckResult objects_sigma(const CalibInput& in, const CalibThresholds& th) {
 
 CheckResult truth_extrinsics(const CalibInput& in, const CalibThresholds& th) {
   const std::string name = "truth.extrinsics";
+  if (!in.dataset_absent_reason.empty()) return skipped(name, in.dataset_absent_reason);
   if (!in.true_T_I_C) return skipped(name, "the dataset has no true T_I_C (roe.json truth)");
   const auto& last = in.extrinsics.back();
-  Vector6d e;
-  e.head<3>() = last.T_I_C.p - in.true_T_I_C->p;
-  e.tail<3>() = math::log_quat(in.true_T_I_C->q.conjugate() * last.T_I_C.q);
+  const Vector6d e = math::pose_difference(*in.true_T_I_C, last.T_I_C);
   const double ep = e.head<3>().norm(), er = e.tail<3>().norm() * kDeg;
-  CheckResult r{name, ep <= th.max_err_p_m && er <= th.max_err_rot_deg ? CheckStatus::kPass : CheckStatus::kFail,
-                "", {}};
-  double nees = 0.0;
-  bool have_sigma = (last.sigma.array() > 0).all();
-  if (have_sigma) nees = e.cwiseQuotient(last.sigma).squaredNorm();
+  const bool beyond = ep > th.max_err_p_m || er > th.max_err_rot_deg;
+  // Beyond the limits fails only when beyond the σ too (NEES over the per-axis σ); without σ (the
+  // extrinsics held fixed) the limits alone decide.
+  const bool have_sigma = (last.sigma.array() > 0).all();
+  const double nees = have_sigma ? e.cwiseQuotient(last.sigma).squaredNorm() : 0.0;
+  const double limit_nees = ekf::chi2_quantile(th.confidence, 6.0);
+  const bool fail = beyond && (!have_sigma || nees > limit_nees);
+  CheckResult r{name, fail ? CheckStatus::kFail : CheckStatus::kPass, "", {}};
   r.message = fmt::format("error {:.1f} mm / {:.2f}°, limits {:.1f} mm / {:.2f}°", ep * 1e3, er, th.max_err_p_m * 1e3,
                           th.max_err_rot_deg);
-  if (have_sigma) r.message += fmt::format(" (NEES {:.1f} with the per-axis σ, 6 dof)", nees);
+  if (have_sigma) r.message += fmt::format(", NEES {:.1f} (per-axis σ; χ²₆({}) = {:.2f})", nees, th.confidence, limit_nees);
+  if (beyond && !fail) r.message += ": beyond the limits but within its σ (see extrinsics.sigma)";
+  if (fail && have_sigma) r.message += ": beyond the limits and its σ";
   if (!in.extrinsics_estimated) r.message += "; extrinsics held fixed, so this is the prior's error";
   r.values = {{"error_p_m", ep}, {"error_rot_deg", er}, {"limit_p_m", th.max_err_p_m},
               {"limit_rot_deg", th.max_err_rot_deg}};
-  if (have_sigma) r.values.emplace_back("nees_diag", nees);
+  if (have_sigma) {
+    r.values.emplace_back("nees_diag", nees);
+    r.values.emplace_back("limit_nees", limit_nees);
+  }
   return r;
 }
 
 CheckResult truth_objects(const CalibInput& in, const CalibThresholds& th) {
   const std::string name = "truth.objects";
+  if (!in.dataset_absent_reason.empty()) return skipped(name, in.dataset_absent_reason);
   if (in.true_T_W_O.empty()) return skipped(name, "the dataset has no true object poses (roe.json truth)");
   const ObjectEstimate* anchor = find_anchor(in);
-  if (!anchor) return skipped(name, "the run has no initialised anchor");
+  if (!anchor) return inconclusive(name, "the run has no initialised anchor to compare relative to");
   const auto ta = in.true_T_W_O.find(anchor->id);
   if (ta == in.true_T_W_O.end())
     return skipped(name, fmt::format("the truth has no pose for the anchor (object {})", anchor->id));
   const Pose T_A_W = *anchor->T_O_W;
   std::vector<std::string> over, missing;
-  std::size_t checked = 0;
+  std::size_t checked = 0, explained = 0;
   double wp = 0.0, wr = 0.0;
+  const double limit_nees = ekf::chi2_quantile(th.confidence, 6.0);
   for (const auto& o : in.objects) {
     if (o.anchor || !o.T_O_W) continue;
     const auto t = in.true_T_W_O.find(o.id);
@@ -196,11 +255,19 @@ CheckResult truth_objects(const CalibInput& in, const CalibThresholds& th) {
     ++checked;
     const Pose est = relative_to_anchor(T_A_W, *o.T_O_W);
     const Pose tru = ta->second.inverse() * t->second;
-    const double ep = (est.p - tru.p).norm(), er = math::angle_between(est.q, tru.q) * kDeg;
+    const Vector6d e = math::pose_difference(tru, est);
+    const double ep = e.head<3>().norm(), er = e.tail<3>().norm() * kDeg;
     wp = std::max(wp, ep);
     wr = std::max(wr, er);
-    if (ep > th.max_object_err_p_m || er > th.max_object_err_rot_deg)
-      over.push_back(fmt::format("object {}: {:.1f} mm / {:.2f}°", o.id, ep * 1e3, er));
+    if (ep <= th.max_object_err_p_m && er <= th.max_object_err_rot_deg) continue;
+    const bool have_sigma = (o.sigma_A_O.array() > 0).all();
+    const double nees = have_sigma ? e.cwiseQuotient(o.sigma_A_O).squaredNorm() : 0.0;
+    if (have_sigma && nees <= limit_nees) {
+      ++explained;
+      continue;
+    }
+    over.push_back(have_sigma ? fmt::format("object {}: {:.1f} mm / {:.2f}° (NEES {:.1f})", o.id, ep * 1e3, er, nees)
+                              : fmt::format("object {}: {:.1f} mm / {:.2f}°", o.id, ep * 1e3, er));
   }
   const std::string no_truth = missing.empty() ? "" : "; no true pose for object(s) " + id_list(missing);
   if (checked == 0) return skipped(name, "no initialised object besides the anchor has a true pose" + no_truth);
@@ -209,11 +276,15 @@ CheckResult truth_objects(const CalibInput& in, const CalibThresholds& th) {
                   ? fmt::format("{} object(s) relative to the anchor: largest error {:.1f} mm / {:.2f}°, limits "
                                 "{:.1f} mm / {:.2f}°",
                                 checked, wp * 1e3, wr, th.max_object_err_p_m * 1e3, th.max_object_err_rot_deg)
-                  : fmt::format("error relative to the anchor beyond {:.1f} mm / {:.2f}°: {}",
-                                th.max_object_err_p_m * 1e3, th.max_object_err_rot_deg, id_list(over));
+                  : fmt::format("error relative to the anchor beyond {:.1f} mm / {:.2f}° and its σ (χ²₆({}) = {:.2f}): {}",
+                                th.max_object_err_p_m * 1e3, th.max_object_err_rot_deg, th.confidence, limit_nees,
+                                id_list(over));
+  if (explained)
+    r.message += fmt::format("; {} object(s) beyond the limits but within their σ (see objects.sigma)", explained);
   r.message += no_truth;
   r.values = {{"objects", static_cast<double>(checked)}, {"error_p_max_m", wp}, {"error_rot_max_deg", wr},
-              {"limit_p_m", th.max_object_err_p_m}, {"limit_rot_deg", th.max_object_err_rot_deg}};
+              {"limit_p_m", th.max_object_err_p_m}, {"limit_rot_deg", th.max_object_err_rot_deg},
+              {"beyond_limits_within_sigma", static_cast<double>(explained)}, {"limit_nees", limit_nees}};
   return r;
 }
 
@@ -224,30 +295,46 @@ CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) 
   const TimeOffsetEstimate& e = *in.time_offset;
   CheckResult r{name, CheckStatus::kInconclusive, "", {}};
   if (!e.valid) {
+    // The cost still falling at the edge of the search, with a likelihood ratio against the
+    // declared offset beyond χ²₁: the offset is more than the search away from it.
+    const double limit_lr = ekf::chi2_quantile(th.confidence, 1.0);
+    if (e.at_edge && e.edge_evidence > limit_lr) {
+      r.status = CheckStatus::kFail;
+      r.message = fmt::format("the cost is lowest at the edge of the search, {:+.1f} ms, and far lower than at the "
+                              "declared {:+.1f} ms (likelihood ratio {:.1f} > χ²₁({}) = {:.2f}): the offset lies "
+                              "beyond the search (widen --time-offset-search to estimate it)",
+                              e.edge_offset_s * 1e3, in.declared_time_offset_s * 1e3, e.edge_evidence, th.confidence,
+                              limit_lr);
+      r.values = {{"edge_s", e.edge_offset_s}, {"declared_s", in.declared_time_offset_s},
+                  {"edge_evidence", e.edge_evidence}, {"limit_evidence", limit_lr}};
+      return r;
+    }
     r.message = "no estimate: " + e.reason;
     return r;
   }
   const double d = e.offset_s - in.declared_time_offset_s;
   const double lim = th.max_time_offset_s;
-  // Fail only on a difference both beyond the limit and significant (3σ); pass only when the
-  // estimate is precise enough (σ within the limit) and within it.
-  if (std::abs(d) > lim && std::abs(d) > 3.0 * e.sigma_s)
+  // Decided only with `confidence` (one-sided): fail when |d| − zσ is beyond the limit, pass when
+  // |d| + zσ is within it; in between the estimate is too uncertain.
+  const double z = std::sqrt(ekf::chi2_quantile(2.0 * th.confidence - 1.0, 1.0));
+  if (std::abs(d) - z * e.sigma_s > lim)
     r.status = CheckStatus::kFail;
-  else if (std::abs(d) <= lim && e.sigma_s <= lim)
+  else if (std::abs(d) + z * e.sigma_s <= lim)
     r.status = CheckStatus::kPass;
   r.message = fmt::format("estimated {:+.1f} ± {:.1f} ms from {} detections (dataset declares {:+.1f} ms): "
-                          "difference {:+.1f} ms, limit {:.1f} ms",
+                          "difference {:+.1f} ± {:.1f} ms ({:.2f} σ for confidence {}), limit {:.1f} ms",
                           e.offset_s * 1e3, e.sigma_s * 1e3, e.detections, in.declared_time_offset_s * 1e3, d * 1e3,
-                          lim * 1e3);
+                          z * e.sigma_s * 1e3, z, th.confidence, lim * 1e3);
   if (r.status == CheckStatus::kFail)
     r.message += fmt::format(": the camera stamps disagree with the gyro (set camera.time_offset_s to {:.4f} s?)",
                              e.offset_s);
   else if (r.status == CheckStatus::kInconclusive)
-    r.message += ": the estimate is too uncertain to decide (more rotation, or less noisy detections, would tell)";
+    r.message += ": too uncertain to decide (more rotation, or less noisy detections, would tell)";
   r.values = {{"estimate_s", e.offset_s},         {"sigma_s", e.sigma_s},
+              {"sigma_curvature_s", e.sigma_curvature_s}, {"sigma_cluster_s", e.sigma_cluster_s},
               {"declared_s", in.declared_time_offset_s}, {"difference_s", d},
-              {"limit_s", lim},                   {"rms_rate_deg_s", e.rms_rate_deg_s},
-              {"residual_correlation", e.residual_correlation}};
+              {"limit_s", lim},                   {"z", z},
+              {"rms_rate_deg_s", e.rms_rate_deg_s}, {"residual_correlation", e.residual_correlation}};
   return r;
 }
 
@@ -271,10 +358,9 @@ bool CalibReport::failed() const {
   return std::any_of(checks.begin(), checks.end(), [](const CheckResult& c) { return c.status == CheckStatus::kFail; });
 }
 
-bool CalibReport::all_decided() const {
-  return std::all_of(checks.begin(), checks.end(), [](const CheckResult& c) {
-    return c.status == CheckStatus::kPass || c.status == CheckStatus::kFail;
-  });
+bool CalibReport::undecided() const {
+  return std::any_of(checks.begin(), checks.end(),
+                     [](const CheckResult& c) { return c.status == CheckStatus::kInconclusive; });
 }
 
 CalibReport check_calibration(const CalibInput& in, const CalibThresholds& th) {
@@ -292,8 +378,8 @@ CalibReport check_calibration(const CalibInput& in, const CalibThresholds& th) {
   require_positive(th.max_time_offset_s, "max_time_offset_s");
   if (!(th.settle_fraction > 0 && th.settle_fraction <= 1))
     throw InputError(fmt::format("settle_fraction must be in (0, 1] (got {})", th.settle_fraction));
-  if (!(th.prior_confidence > 0 && th.prior_confidence < 1))
-    throw InputError(fmt::format("prior_confidence must be in (0, 1) (got {})", th.prior_confidence));
+  if (!(th.confidence >= 0.5 && th.confidence < 1))
+    throw InputError(fmt::format("confidence must be in [0.5, 1) (got {})", th.confidence));
   if (in.extrinsics.empty()) throw InputError("the run has no extrinsics trace (states.csv has no row)");
   CalibReport rep;
   rep.checks.push_back(extrinsics_sigma(in, th));

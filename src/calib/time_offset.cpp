@@ -70,10 +70,12 @@ struct Window {
   std::vector<const Detection*> dets;
 };
 
-/// Cost terms of one candidate offset: truncated sum of squared angles [deg²], and the untruncated
-/// inlier sum and count (for the residual RMS and the curvature-based standard error).
+/// Cost terms of one candidate offset: truncated sum of squared angles [deg²] (in total and per
+/// window), and the untruncated inlier sum and count (for the residual RMS and the curvature-based
+/// standard error).
 struct Cost {
   double truncated = 0.0, inlier_sum = 0.0;
+  std::vector<double> per_window;
   std::size_t inliers = 0;
   double lag1_num = 0.0, lag1_den = 0.0;  ///< Σ e_i·e_{i+1} and Σ |e_i|² over consecutive inlier pairs
 };
@@ -86,7 +88,9 @@ Cost evaluate(const GyroRotation& gyro, const Eigen::Quaterniond& q_I_C, const s
   std::vector<char> use;
   std::vector<Eigen::Vector3d> phi;
   std::vector<double> tau;
+  c.per_window.reserve(windows.size());
   for (const auto& w : windows) {
+    const double before = c.truncated;
     A.clear();
     tau.clear();
     for (const Detection* d : w.dets) {
@@ -142,6 +146,7 @@ Cost evaluate(const GyroRotation& gyro, const Eigen::Quaterniond& q_I_C, const s
       }
       prev_in = in;
     }
+    c.per_window.push_back(c.truncated - before);
   }
   return c;
 }
@@ -162,13 +167,17 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
     e.reason = "fewer than 2 IMU samples";
     return e;
   }
+  if (!std::isfinite(o.centre_s) || std::abs(o.centre_s) > 10.0) {
+    e.reason = fmt::format("the declared offset {} s is not a plausible camera-IMU offset", o.centre_s);
+    return e;
+  }
   const GyroRotation gyro(imu, gyro_bias);
-  const Timestamp margin = from_seconds(o.search_s) + 1;
+  const Timestamp lo = from_seconds(o.centre_s - o.search_s) - 1, hi = from_seconds(o.centre_s + o.search_s) + 1;
 
   // Windows per object over the detections whose every shifted stamp lies inside the IMU span.
   std::map<int, std::vector<const Detection*>> per_object;
   for (const auto& d : detections)
-    if (d.t_ns - margin >= gyro.begin() && d.t_ns + margin <= gyro.end()) per_object[d.object_id].push_back(&d);
+    if (d.t_ns + lo >= gyro.begin() && d.t_ns + hi <= gyro.end()) per_object[d.object_id].push_back(&d);
   std::vector<Window> windows;
   const Timestamp win = from_seconds(o.window_s);
   double rate2 = 0.0;
@@ -203,18 +212,38 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   }
 
   const auto n = static_cast<int>(std::llround(o.search_s / o.step_s));
-  std::vector<Cost> costs;
+  std::vector<std::vector<double>> per_window;  // [grid point][window]
   for (int k = -n; k <= n; ++k) {
-    const double d = k * o.step_s;
+    const double d = o.centre_s + k * o.step_s;
     e.grid_s.push_back(d);
-    costs.push_back(evaluate(gyro, q_I_C, windows, from_seconds(d), o.truncate_deg));
-    e.cost.push_back(costs.back().truncated);
+    Cost c = evaluate(gyro, q_I_C, windows, from_seconds(d), o.truncate_deg);
+    e.cost.push_back(c.truncated);
+    per_window.push_back(std::move(c.per_window));
   }
   const auto best = static_cast<std::size_t>(std::min_element(e.cost.begin(), e.cost.end()) - e.cost.begin());
+  // Residual variance per scalar residual at a grid point (3 per detection; 6 per window absorbed by
+  // the constant and the drift) and the variance inflation (1 + ρ)/(1 − ρ) for their lag-1
+  // correlation ρ between consecutive detections of a window. False when there are too few residuals.
+  const auto residual_stats = [&](std::size_t at, Cost& cb, double& s2, double& inflation) {
+    cb = evaluate(gyro, q_I_C, windows, from_seconds(e.grid_s[at]), o.truncate_deg);
+    const double dof = 3.0 * static_cast<double>(cb.inliers) - 6.0 * static_cast<double>(windows.size()) - 1.0;
+    if (dof <= 0) return false;
+    const double rho = cb.lag1_den > 0 ? std::clamp(cb.lag1_num / cb.lag1_den, 0.0, 0.95) : 0.0;
+    s2 = cb.inlier_sum / dof;
+    inflation = (1.0 + rho) / (1.0 - rho);
+    return true;
+  };
   if (best == 0 || best + 1 == e.cost.size()) {
-    e.reason = fmt::format("the cost is lowest at the edge of the search (±{} s): the offset may be larger",
-                           o.search_s);
+    e.reason = fmt::format("the cost is lowest at the edge of the search ({:+.1f} ms ± {:.1f} ms): the offset may "
+                           "lie beyond it",
+                           o.centre_s * 1e3, o.search_s * 1e3);
     e.offset_s = e.grid_s[best];
+    e.at_edge = true;
+    e.edge_offset_s = e.grid_s[best];
+    Cost cb;
+    double s2 = 0.0, inflation = 1.0;
+    if (residual_stats(best, cb, s2, inflation) && s2 > 0)
+      e.edge_evidence = (e.cost[static_cast<std::size_t>(n)] - e.cost[best]) / (s2 * inflation);
     return e;
   }
   // The cost is rough on the scale of the grid step (inlier sets change, the gyro is sampled), so the
@@ -240,22 +269,38 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
       const double next = centre - abc(1) / curv;
       const bool settled = std::abs(next - centre) < 0.25 * o.step_s;
       centre = next;
-      if (settled || std::abs(centre) > o.search_s) break;
+      if (settled || std::abs(centre - o.centre_s) > o.search_s) break;
     }
     return centre;
   };
-  // Residual statistics at a grid point: their RMS, and their lag-1 correlation between consecutive
-  // detections of a window (detector errors correlated in time carry fewer independent samples). Per
-  // scalar residual (3 per detection; 6 per window absorbed by the constant and the drift):
-  // var(δ) = 2 s² / cost'', inflated by (1 + ρ)/(1 − ρ) for AR(1)-correlated residuals.
+  // The curvature-based standard error at an offset: var(δ) = 2 s² / cost'', inflated for the
+  // residuals' lag-1 correlation; −1 when there are too few residuals.
   const auto sigma_at = [&](double offset, double curv, Cost& cb) {
-    const auto at = std::min(static_cast<std::size_t>(std::max(0.0, std::round((offset + o.search_s) / o.step_s))),
-                             e.grid_s.size() - 1);
-    cb = evaluate(gyro, q_I_C, windows, from_seconds(e.grid_s[at]), o.truncate_deg);
-    const double dof = 3.0 * static_cast<double>(cb.inliers) - 6.0 * static_cast<double>(windows.size()) - 1.0;
-    if (dof <= 0 || !(curv > 0)) return -1.0;
-    const double rho = cb.lag1_den > 0 ? std::clamp(cb.lag1_num / cb.lag1_den, 0.0, 0.95) : 0.0;
-    return std::sqrt(2.0 * (cb.inlier_sum / dof) / curv * (1.0 + rho) / (1.0 - rho));
+    const double u = std::round((offset - o.centre_s + o.search_s) / o.step_s);
+    const auto at = std::min(static_cast<std::size_t>(std::max(0.0, u)), e.grid_s.size() - 1);
+    double s2 = 0.0, inflation = 1.0;
+    if (!residual_stats(at, cb, s2, inflation) || !(curv > 0)) return -1.0;
+    return std::sqrt(2.0 * s2 / curv * inflation);
+  };
+  // The cluster-robust standard error: each window's slope at the vertex, from the same least-squares
+  // parabola as the total (the fit is linear in the costs, so the windows' slopes add up to the
+  // total's, ≈ 0 at its vertex); var(δ) = G/(G−1) Σ_w slope_w² / cost''².
+  const auto cluster_sigma = [&](double centre, double half, double curv) {
+    const std::size_t G = windows.size();
+    if (G < 2 || !(curv > 0)) return 0.0;
+    Eigen::Matrix3d N = Eigen::Matrix3d::Zero();
+    std::vector<Eigen::Vector3d> r(G, Eigen::Vector3d::Zero());
+    for (std::size_t k = 0; k < e.grid_s.size(); ++k) {
+      const double x = e.grid_s[k] - centre;
+      if (std::abs(x) > half + 1e-12) continue;
+      const Eigen::Vector3d f(1.0, x, x * x);
+      N += f * f.transpose();
+      for (std::size_t w = 0; w < G; ++w) r[w] += f * per_window[k][w];
+    }
+    const auto ldlt = N.ldlt();
+    double sum2 = 0.0;
+    for (std::size_t w = 0; w < G; ++w) sum2 += std::pow(ldlt.solve(r[w])(1), 2);
+    return std::sqrt(static_cast<double>(G) / static_cast<double>(G - 1) * sum2) / curv;
   };
   const auto not_observable = [&]() {
     e.reason = "the cost has no minimum near its lowest point: the offset is not observable from this motion";
@@ -270,20 +315,24 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
     e.reason = "too few inlier detections per window for an estimate";
     return e;
   }
-  const double half = std::clamp(3.0 * sigma1, 10.0 * o.step_s, o.fit_halfwidth_s);
+  const double half = std::clamp(3.0 * std::max(sigma1, cluster_sigma(centre, o.fit_halfwidth_s, curv)),
+                                 10.0 * o.step_s, o.fit_halfwidth_s);
   centre = fit(centre, half, curv);
   if (!(curv > 0)) return not_observable();
   e.offset_s = centre;
-  if (std::abs(e.offset_s) > o.search_s) {
-    e.reason = fmt::format("the fitted minimum lies outside the search (±{} s): the offset may be larger",
-                           o.search_s);
+  if (std::abs(e.offset_s - o.centre_s) > o.search_s) {
+    e.reason = fmt::format("the fitted minimum lies outside the search ({:+.1f} ms ± {:.1f} ms): the offset may "
+                           "lie beyond it",
+                           o.centre_s * 1e3, o.search_s * 1e3);
     return e;
   }
-  e.sigma_s = sigma_at(centre, curv, cb);
-  if (e.sigma_s < 0) {
+  e.sigma_curvature_s = sigma_at(centre, curv, cb);
+  if (e.sigma_curvature_s < 0) {
     e.reason = "too few inlier detections per window for an estimate";
     return e;
   }
+  e.sigma_cluster_s = cluster_sigma(centre, half, curv);
+  e.sigma_s = std::max(e.sigma_curvature_s, e.sigma_cluster_s);
   e.rms_residual_deg = cb.inliers ? std::sqrt(cb.inlier_sum / static_cast<double>(cb.inliers)) : 0.0;
   e.residual_correlation = cb.lag1_den > 0 ? std::clamp(cb.lag1_num / cb.lag1_den, 0.0, 0.95) : 0.0;
   e.valid = true;

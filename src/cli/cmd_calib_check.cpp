@@ -9,11 +9,11 @@
 namespace roe::cli {
 namespace {
 
-// A number in (0, 1), or (0, 1] with `one_allowed`; CLI::Range can only show closed intervals.
-CLI::Validator fraction(bool one_allowed) {
-  const std::string interval = one_allowed ? "(0, 1]" : "(0, 1)";
+// A number in (0, 1] (a fraction) or [0.5, 1) (a confidence); CLI::Range can only show closed intervals.
+CLI::Validator fraction(bool confidence) {
+  const std::string interval = confidence ? "[0.5, 1)" : "(0, 1]";
   return CLI::Validator(
-      [one_allowed, interval](std::string& s) {
+      [confidence, interval](std::string& s) {
         std::size_t used = 0;
         double v = 0.0;
         try {
@@ -21,7 +21,7 @@ CLI::Validator fraction(bool one_allowed) {
         } catch (const std::exception&) {
           used = 0;
         }
-        const bool ok = used == s.size() && used > 0 && v > 0.0 && (one_allowed ? v <= 1.0 : v < 1.0);
+        const bool ok = used == s.size() && used > 0 && (confidence ? v >= 0.5 && v < 1.0 : v > 0.0 && v <= 1.0);
         return ok ? std::string() : "must be a number in " + interval + ", got '" + s + "'";
       },
       "FLOAT in " + interval);
@@ -52,7 +52,7 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("--settle-fraction", t.settle_fraction,
                  "extrinsics.settled: the last fraction of the run examined (0, 1]")
       ->capture_default_str()
-      ->check(fraction(true))->group("Thresholds");
+      ->check(fraction(false))->group("Thresholds");
   sub.add_option("--settle-min", t.settle_min_s, "extrinsics.settled: … but at least this long [s]")
       ->capture_default_str()
       ->check(pos)->group("Thresholds");
@@ -63,10 +63,10 @@ RunFn setup(CLI::App& sub) {
                  "extrinsics.settled: largest angle from the final q_I_C [deg]")
       ->capture_default_str()
       ->check(pos)->group("Thresholds");
-  sub.add_option("--prior-confidence", t.prior_confidence,
-                 "extrinsics.prior: χ²₆ quantile for the shift from the prior")
+  sub.add_option("--confidence", t.confidence,
+                 "the χ² tests (extrinsics.prior, extrinsics.settled, truth.*) and the time offset's verdict")
       ->capture_default_str()
-      ->check(fraction(false))->group("Thresholds");
+      ->check(fraction(true))->group("Thresholds");
   sub.add_option("--max-object-sigma-p", t.max_object_sigma_p_m,
                  "objects.sigma: largest axis σ relative to the anchor [m]")
       ->capture_default_str()

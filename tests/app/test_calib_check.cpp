@@ -10,6 +10,7 @@
 #include "roe/app/run.hpp"
 #include "roe/core/error.hpp"
 #include "roe/io/dataset.hpp"
+#include "roe/io/json.hpp"
 #include "roe/math/so3.hpp"
 
 using namespace roe;
@@ -118,19 +119,21 @@ TEST_CASE("calib-check: camera stamps 30 ms early fail camera.time_offset; decla
 TEST_CASE("calib-check: the dataset is the run's, another one given, none, or changed since", "[app][calib]") {
   const test::TempDir tmp("roe_calib");
   const fs::path run = write_and_run(calibration_dataset(), tmp, "ds");
-  SECTION("--no-dataset: only the run folder's checks; --strict turns the skipped ones into a failure") {
+  SECTION("--no-dataset: only the run folder's checks, the others skipped, which --strict accepts") {
     app::CalibCheckOptions o;
     o.no_dataset = true;
     auto r = app::calib_check(run, o);
     INFO(describe(r));
-    CHECK(r.report.checks.size() == 7);
-    CHECK(get(r, "truth.extrinsics").status == CheckStatus::kSkipped);
-    CHECK(get(r, "camera.time_offset").status == CheckStatus::kSkipped);
+    REQUIRE(r.report.checks.size() == 8);
+    for (const char* n : {"dataset.identity", "truth.extrinsics", "truth.objects", "camera.time_offset"}) {
+      CHECK(get(r, n).status == CheckStatus::kSkipped);
+      CHECK(get(r, n).message == "--no-dataset");
+    }
     CHECK(get(r, "extrinsics.sigma").status == CheckStatus::kPass);
     CHECK(r.exit_code() == 0);
     o.strict = true;
     r = app::calib_check(run, o);
-    CHECK(r.exit_code() == 1);
+    CHECK(r.exit_code() == 0);
     CHECK_THAT(r.to_text(), Catch::Contains("--strict"));
   }
   SECTION("a changed detection file fails dataset.identity and the truth is not used") {
@@ -144,15 +147,21 @@ TEST_CASE("calib-check: the dataset is the run's, another one given, none, or ch
     CHECK(get(r, "camera.time_offset").status == CheckStatus::kSkipped);
     CHECK(r.exit_code() == 1);
   }
-  SECTION("the run's dataset moved away: a warning, the dataset checks skipped; --dataset finds it") {
+  SECTION("the run's dataset moved away: a warning, identity inconclusive (--strict fails); --dataset finds it") {
     fs::rename(tmp / "ds", tmp / "moved");
     auto r = app::calib_check(run, {});
     INFO(describe(r));
     REQUIRE(r.warnings.size() == 1);
     CHECK_THAT(r.warnings[0], Catch::Contains("give --dataset"));
     CHECK(r.dataset.empty());
+    CHECK(get(r, "dataset.identity").status == CheckStatus::kInconclusive);
+    CHECK(get(r, "truth.extrinsics").status == CheckStatus::kSkipped);
+    CHECK_THAT(get(r, "truth.extrinsics").message, Catch::Contains("no dataset"));
     CHECK(r.exit_code() == 0);
     app::CalibCheckOptions o;
+    o.strict = true;
+    CHECK(app::calib_check(run, o).exit_code() == 1);
+    o.strict = false;
     o.dataset = (tmp / "moved").string();
     r = app::calib_check(run, o);
     CHECK(r.dataset_from == "option");
@@ -182,6 +191,13 @@ TEST_CASE("calib-check: a broken run folder is an input error naming the file, r
     const auto e = test::expect_input_error([&] { app::calib_check(run, {}); });
     CHECK(e.context().key == "init.T_I_C.p");
     CHECK_THAT(e.what(), Catch::Contains("run.json"));
+  }
+  SECTION("an anchor_id that is not an object id") {
+    auto j = io::parse_json_file(run / "run.json");
+    j["anchor_id"] = "five";
+    std::ofstream(run / "run.json") << j.dump();
+    const auto e = test::expect_input_error([&] { app::calib_check(run, {}); });
+    CHECK(e.context().key == "anchor_id");
   }
   SECTION("a malformed states.csv value") {
     std::string text;

@@ -70,7 +70,7 @@ TEST_CASE("calib-check: a converged run passes all seven checks, in the document
     CHECK(r.checks[i].status == CheckStatus::kPass);
   }
   CHECK_FALSE(r.failed());
-  CHECK(r.all_decided());
+  CHECK_FALSE(r.undecided());
 }
 
 TEST_CASE("calib-check: extrinsics.sigma fails on either axis group beyond its limit", "[calib]") {
@@ -105,31 +105,75 @@ TEST_CASE("calib-check: extrinsics.settled looks only at the last 20 % (at least
   CHECK(get(calib::check_calibration(in), "extrinsics.settled").status == CheckStatus::kPass);
   in.extrinsics[290].T_I_C.q = in.extrinsics[290].T_I_C.q * math::exp_quat(Eigen::Vector3d(0, 0.2 * kDeg, 0));
   CHECK(get(calib::check_calibration(in), "extrinsics.settled").status == CheckStatus::kFail);
-  // A run shorter than twice the minimum window is not judged.
+  // A run shorter than twice the minimum window cannot be judged.
   in = good_input();
   in.extrinsics.resize(31);  // 3 s
-  CHECK(get(calib::check_calibration(in), "extrinsics.settled").status == CheckStatus::kSkipped);
+  CHECK(get(calib::check_calibration(in), "extrinsics.settled").status == CheckStatus::kInconclusive);
 }
 
-TEST_CASE("calib-check: extrinsics.prior is the 6-dof Mahalanobis distance against chi2 at 99 %", "[calib]") {
+TEST_CASE("calib-check: extrinsics.settled fails a move beyond the limits only when beyond its shrinking σ too",
+          "[calib]") {
+  // 5 s before the end σ was 10 mm on p_x (2 mm at the end): a consistent filter may still move by
+  // ~9.8 mm (σ of P_s − P_end) from there. 6 mm is beyond the 5 mm limit but explained (d² 0.37);
+  // 45 mm is not (d² 21 > χ²₆(0.99) = 16.8).
   auto in = good_input();
-  // 4 σ on p_x alone: d² = 16 < 16.81 passes; 4.2 σ: 17.64 fails.
-  in.extrinsics.back().T_I_C.p.x() += 4.0 * 0.02;
+  in.extrinsics[250].sigma(0) = 0.010;
+  in.extrinsics[250].T_I_C.p.x() += 0.006;
+  auto c = get(calib::check_calibration(in), "extrinsics.settled");
+  CHECK(c.status == CheckStatus::kPass);
+  CHECK(value(c, "d2") == Approx(0.036 / (0.1 - 0.004)).epsilon(1e-6));
+  CHECK_THAT(c.message, Catch::Contains("still converging"));
+  in.extrinsics[250].T_I_C.p.x() += 0.039;
+  c = get(calib::check_calibration(in), "extrinsics.settled");
+  CHECK(c.status == CheckStatus::kFail);
+  CHECK_THAT(c.message, Catch::Contains("a drift"));
+  // A lower confidence makes the χ² limit tighter (χ²₆(0.9) = 10.6): 35 mm (d² 12.8) fails there only.
+  in.extrinsics[250].T_I_C.p.x() -= 0.010;
+  CHECK(get(calib::check_calibration(in), "extrinsics.settled").status == CheckStatus::kPass);
+  calib::CalibThresholds t;
+  t.confidence = 0.9;
+  CHECK(get(calib::check_calibration(in, t), "extrinsics.settled").status == CheckStatus::kFail);
+}
+
+TEST_CASE("calib-check: extrinsics.prior is the Mahalanobis distance over P_prior - P_final against chi2 at 99 %",
+          "[calib]") {
+  auto in = good_input();  // prior σ 20 mm / 2°, final 2 mm / 0.2°
+  // 80 mm on p_x: d² = 0.08² / (0.02² − 0.002²) = 16.16 < 16.81 passes; 84 mm: 17.82 fails.
+  in.extrinsics.back().T_I_C.p.x() += 0.08;
   auto c = get(calib::check_calibration(in), "extrinsics.prior");
-  CHECK(value(c, "d2") == Approx(16.0).epsilon(1e-9));
+  CHECK(value(c, "d2") == Approx(0.0064 / 0.000396).epsilon(1e-9));
+  CHECK(value(c, "dof") == 6.0);
   CHECK(value(c, "limit_d2") == Approx(16.8119).epsilon(1e-4));
   CHECK(c.status == CheckStatus::kPass);
-  in.extrinsics.back().T_I_C.p.x() += 0.2 * 0.02;
+  in.extrinsics.back().T_I_C.p.x() += 0.004;
   CHECK(get(calib::check_calibration(in), "extrinsics.prior").status == CheckStatus::kFail);
-  // The rotation counts in the prior's frame: 3σ about y and 3σ about z give d² = 18.
+  // The rotation counts in the prior's frame: 6° about y and 6° about z give d² = 2 · 36/3.96.
   in = good_input();
   in.extrinsics.back().T_I_C.q = in.prior_T_I_C.q * math::exp_quat(Eigen::Vector3d(0, 6 * kDeg, 6 * kDeg));
   c = get(calib::check_calibration(in), "extrinsics.prior");
-  CHECK(value(c, "d2") == Approx(18.0).epsilon(1e-6));
+  CHECK(value(c, "d2") == Approx(72.0 / 3.96).epsilon(1e-6));
   CHECK(c.status == CheckStatus::kFail);
   calib::CalibThresholds loose;
-  loose.prior_confidence = 0.999;  // χ²₆ = 22.46
+  loose.confidence = 0.999;  // χ²₆ = 22.46
   CHECK(get(calib::check_calibration(in, loose), "extrinsics.prior").status == CheckStatus::kPass);
+  // The shift a consistent filter makes shrinks with the information it gained: with the final σ at
+  // 18 mm of 20 (little learnt) the same 80 mm is d² = 0.0064 / (0.0004 − 0.000324) = 84.
+  in = good_input();
+  in.extrinsics.back().sigma.head<3>().setConstant(0.018);
+  in.extrinsics.back().T_I_C.p.x() += 0.08;
+  c = get(calib::check_calibration(in), "extrinsics.prior");
+  CHECK(value(c, "d2") == Approx(0.0064 / 0.000076).epsilon(1e-6));
+  CHECK(c.status == CheckStatus::kFail);
+  // Axes the data hardly informed (σ above ~95 % of the prior's) are left out; none informed: no verdict.
+  in.extrinsics.back().sigma.head<3>().setConstant(0.0196);
+  c = get(calib::check_calibration(in), "extrinsics.prior");
+  CHECK(value(c, "dof") == 3.0);
+  CHECK(value(c, "limit_d2") == Approx(11.3449).epsilon(1e-4));
+  CHECK(c.status == CheckStatus::kPass);
+  in.extrinsics.back().sigma.tail<3>().setConstant(1.96 * kDeg);
+  c = get(calib::check_calibration(in), "extrinsics.prior");
+  CHECK(c.status == CheckStatus::kInconclusive);
+  CHECK_THAT(c.message, Catch::Contains("hardly informed"));
 }
 
 TEST_CASE("calib-check: extrinsics held fixed skip the extrinsics checks but not the truth", "[calib]") {
@@ -144,7 +188,7 @@ TEST_CASE("calib-check: extrinsics held fixed skip the extrinsics checks but not
   const auto& t = get(r, "truth.extrinsics");
   CHECK(t.status == CheckStatus::kFail);
   CHECK_THAT(t.message, Catch::Contains("prior's error"));
-  CHECK_FALSE(r.all_decided());
+  CHECK_FALSE(r.undecided());  // not applicable is not undecided: --strict does not fail on it
 }
 
 TEST_CASE("calib-check: objects.sigma checks initialised non-anchor objects and lists the others", "[calib]") {
@@ -161,6 +205,14 @@ TEST_CASE("calib-check: objects.sigma checks initialised non-anchor objects and 
   c = get(calib::check_calibration(in), "objects.sigma");
   CHECK(c.status == CheckStatus::kFail);
   CHECK_THAT(c.message, Catch::Contains("object 3"));
+  // An anchor that never entered the state leaves no σ relative to it (objects.csv then has zeros).
+  auto no_anchor = in;
+  no_anchor.anchor_id = 1;
+  no_anchor.objects[0].T_O_W.reset();
+  c = get(calib::check_calibration(no_anchor), "objects.sigma");
+  CHECK(c.status == CheckStatus::kInconclusive);
+  CHECK_THAT(c.message, Catch::Contains("the anchor (object 1) never entered the state"));
+  CHECK(get(calib::check_calibration(no_anchor), "truth.objects").status == CheckStatus::kInconclusive);
   // Only the anchor in the state: nothing to judge.
   in.objects.resize(1);
   CHECK(get(calib::check_calibration(in), "objects.sigma").status == CheckStatus::kSkipped);
@@ -180,6 +232,11 @@ TEST_CASE("calib-check: truth.objects compares poses relative to the anchor, wha
   c = get(calib::check_calibration(moved), "truth.objects");
   CHECK(value(c, "error_p_max_m") == Approx(0.06).epsilon(1e-6));
   CHECK(c.status == CheckStatus::kFail);
+  // ... unless its σ explains it: 6 cm with σ 3 cm per axis is NEES 4.
+  moved.objects[2].sigma_A_O.head<3>().setConstant(0.03);
+  c = get(calib::check_calibration(moved), "truth.objects");
+  CHECK(c.status == CheckStatus::kPass);
+  CHECK(value(c, "beyond_limits_within_sigma") == 1.0);
   moved = in;
   moved.objects[2].T_O_W = Pose(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 0.04, 0)) * *moved.objects[2].T_O_W;
   CHECK(get(calib::check_calibration(moved), "truth.objects").status == CheckStatus::kPass);
@@ -191,14 +248,27 @@ TEST_CASE("calib-check: truth.objects compares poses relative to the anchor, wha
   const auto r = calib::check_calibration(in);
   CHECK(get(r, "truth.objects").status == CheckStatus::kSkipped);
   CHECK(get(r, "truth.extrinsics").status == CheckStatus::kSkipped);
+  CHECK_THAT(get(r, "truth.extrinsics").message, Catch::Contains("no true T_I_C"));
+  // Without a dataset the reason is that, not a missing truth.
+  in = good_input();
+  in.dataset_absent_reason = "--no-dataset";
+  for (const char* n : {"truth.extrinsics", "truth.objects"}) {
+    CHECK(get(calib::check_calibration(in), n).status == CheckStatus::kSkipped);
+    CHECK(get(calib::check_calibration(in), n).message == "--no-dataset");
+  }
 }
 
-TEST_CASE("calib-check: truth.extrinsics limits and NEES", "[calib]") {
+TEST_CASE("calib-check: truth.extrinsics fails beyond the limits and the sigma", "[calib]") {
   auto in = good_input();
   in.extrinsics.back().T_I_C.p.z() += 0.011;
   auto c = get(calib::check_calibration(in), "truth.extrinsics");
   CHECK(c.status == CheckStatus::kFail);
   CHECK(value(c, "nees_diag") == Approx(std::pow(0.011 / 0.002, 2)).epsilon(1e-6));
+  // The same error with σ 6 mm (NEES 3.4): beyond the limit but consistent, so a pass that says so.
+  in.extrinsics.back().sigma.head<3>().setConstant(0.006);
+  c = get(calib::check_calibration(in), "truth.extrinsics");
+  CHECK(c.status == CheckStatus::kPass);
+  CHECK_THAT(c.message, Catch::Contains("within its σ"));
   in = good_input();
   in.extrinsics.back().T_I_C.q = in.extrinsics.back().T_I_C.q * math::exp_quat(Eigen::Vector3d(0.9 * kDeg, 0, 0));
   CHECK(get(calib::check_calibration(in), "truth.extrinsics").status == CheckStatus::kPass);
@@ -206,7 +276,7 @@ TEST_CASE("calib-check: truth.extrinsics limits and NEES", "[calib]") {
   CHECK(get(calib::check_calibration(in), "truth.extrinsics").status == CheckStatus::kFail);
 }
 
-TEST_CASE("calib-check: camera.time_offset fails only beyond the limit and 3 sigma, passes only when precise",
+TEST_CASE("calib-check: camera.time_offset decides only with confidence: |d| - z sigma fails, |d| + z sigma passes",
           "[calib]") {
   auto in = good_input();
   const auto status = [&](double est, double sigma, double declared) {
@@ -215,18 +285,39 @@ TEST_CASE("calib-check: camera.time_offset fails only beyond the limit and 3 sig
     in.declared_time_offset_s = declared;
     return get(calib::check_calibration(in), "camera.time_offset").status;
   };
-  CHECK(status(0.009, 0.001, 0.0) == CheckStatus::kPass);
-  CHECK(status(0.011, 0.001, 0.0) == CheckStatus::kFail);
-  CHECK(status(0.041, 0.001, 0.03) == CheckStatus::kFail);          // relative to the declared offset
+  // Limit 10 ms, z = 2.326 at the default confidence 0.99 (one-sided).
+  CHECK(status(0.007, 0.001, 0.0) == CheckStatus::kPass);           // 7 + 2.3 <= 10
+  CHECK(status(0.009, 0.001, 0.0) == CheckStatus::kInconclusive);   // 9 + 2.3 > 10: could be beyond
+  CHECK(status(0.011, 0.001, 0.0) == CheckStatus::kInconclusive);   // 11 − 2.3 < 10: could be within
+  CHECK(status(-0.013, 0.001, 0.0) == CheckStatus::kFail);          // 13 − 2.3 > 10, either sign
+  CHECK(status(0.043, 0.001, 0.03) == CheckStatus::kFail);          // relative to the declared offset
   CHECK(status(0.035, 0.001, 0.03) == CheckStatus::kPass);
-  CHECK(status(0.025, 0.009, 0.0) == CheckStatus::kInconclusive);   // beyond the limit, but < 3σ
-  CHECK(status(0.030, 0.009, 0.0) == CheckStatus::kFail);           // beyond both
-  CHECK(status(0.002, 0.012, 0.0) == CheckStatus::kInconclusive);   // within, but σ > limit
+  CHECK(status(0.030, 0.009, 0.0) == CheckStatus::kInconclusive);   // 30 − 20.9 < 10
+  CHECK(status(0.035, 0.009, 0.0) == CheckStatus::kFail);           // 35 − 20.9 > 10
+  CHECK(status(0.002, 0.003, 0.0) == CheckStatus::kPass);           // 2 + 7.0 <= 10
+  CHECK(status(0.002, 0.0035, 0.0) == CheckStatus::kInconclusive);  // 2 + 8.1 > 10
+  CHECK(value(get(calib::check_calibration(in), "camera.time_offset"), "z") == Approx(2.3263).epsilon(1e-4));
+  calib::CalibThresholds t95;
+  t95.confidence = 0.95;  // z = 1.645
+  in.time_offset->offset_s = 0.008;
+  in.time_offset->sigma_s = 0.001;
+  CHECK(get(calib::check_calibration(in), "camera.time_offset").status == CheckStatus::kInconclusive);
+  CHECK(get(calib::check_calibration(in, t95), "camera.time_offset").status == CheckStatus::kPass);
   in.time_offset->valid = false;
   in.time_offset->reason = "the camera hardly turns";
-  const auto& c = get(calib::check_calibration(in), "camera.time_offset");
+  auto c = get(calib::check_calibration(in), "camera.time_offset");
   CHECK(c.status == CheckStatus::kInconclusive);
   CHECK_THAT(c.message, Catch::Contains("hardly turns"));
+  // Lowest at the edge of the search: fails when the evidence against the declared offset is beyond
+  // χ²₁(0.99) = 6.63, else no verdict.
+  in.time_offset->at_edge = true;
+  in.time_offset->edge_offset_s = 0.1;
+  in.time_offset->edge_evidence = 7.0;
+  c = get(calib::check_calibration(in), "camera.time_offset");
+  CHECK(c.status == CheckStatus::kFail);
+  CHECK_THAT(c.message, Catch::Contains("lies beyond the search"));
+  in.time_offset->edge_evidence = 6.0;
+  CHECK(get(calib::check_calibration(in), "camera.time_offset").status == CheckStatus::kInconclusive);
   in.time_offset.reset();
   in.time_offset_absent_reason = "--no-dataset";
   const auto r = calib::check_calibration(in);
@@ -242,7 +333,9 @@ TEST_CASE("calib-check: thresholds must be positive and the trace must not be em
   t.settle_fraction = 1.5;
   CHECK_THROWS_AS(calib::check_calibration(good_input(), t), InputError);
   t = {};
-  t.prior_confidence = 1.0;
+  t.confidence = 1.0;
+  CHECK_THROWS_AS(calib::check_calibration(good_input(), t), InputError);
+  t.confidence = 0.4;
   CHECK_THROWS_AS(calib::check_calibration(good_input(), t), InputError);
   auto in = good_input();
   in.extrinsics.clear();

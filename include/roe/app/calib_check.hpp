@@ -10,7 +10,7 @@
 /// (simulated datasets) and the camera–IMU time offset estimated from the run's detection set and
 /// the gyro; its files are compared with the hashes in run.json first. Writes nothing.
 /// Exit status (DESIGN §1): 0 when no check failed, 1 when one did (or, with --strict, when one was
-/// skipped or inconclusive), 2 for unreadable or malformed input.
+/// inconclusive), 2 for unreadable or malformed input.
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -25,7 +25,7 @@ namespace roe::app {
 struct CalibCheckOptions {
   std::string dataset;       ///< --dataset; empty = run.json's inputs.dataset_abs when it exists
   bool no_dataset = false;   ///< --no-dataset: only the checks that need the run folder alone
-  bool strict = false;       ///< --strict: skipped and inconclusive checks fail too
+  bool strict = false;       ///< --strict: inconclusive checks fail too
   calib::CalibThresholds thresholds;
   calib::TimeOffsetOptions time_offset;
 };
@@ -35,11 +35,11 @@ struct CalibCheckResult {
   std::string dataset;          ///< the dataset used ("" when none)
   std::string dataset_from;     ///< "option", "run.json" or "" (none)
   std::string detections;       ///< the run's detection set
-  calib::CalibReport report;    ///< the library's checks, after "dataset.identity" when a dataset was read
+  calib::CalibReport report;    ///< "dataset.identity", then the library's checks
   bool strict = false;
   std::vector<std::string> warnings;
 
-  /// 0 pass, 1 a failed check (or, strict, an undecided one).
+  /// 0 pass, 1 a failed check (or, strict, an inconclusive one).
   int exit_code() const;
   nlohmann::json to_json() const;
   std::string to_text() const;

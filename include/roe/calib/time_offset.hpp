@@ -11,15 +11,20 @@
 /// The cost of δ is the sum over windows (one per object and `window_s` of its detections) of the
 /// squared residual angles of the A_i about a constant rotation plus a linear drift (what a residual
 /// gyro bias leaves), truncated at `truncate_deg` so that outliers and symmetric flips do not pull.
-/// The cost is evaluated on a grid over ±`search_s`; a parabola fitted over ±`fit_halfwidth_s` around
-/// its lowest point gives the offset and, from its curvature, the standard error. R_I_C comes from the
-/// run (its estimate), because the residual axes depend on it.
+/// The cost is evaluated on a grid over `centre_s` ± `search_s` (centre: the offset the dataset
+/// declares); a parabola fitted over ±`fit_halfwidth_s` around its lowest point gives the offset and,
+/// from its curvature, the standard error. R_I_C comes from the run (its estimate), because the
+/// residual axes depend on it.
 ///
 /// The precision depends on the motion: an offset δ moves each A_i by about |ω|·δ, so it shows only
-/// while the camera's rate of turn changes. `sigma_s` is the curvature-based standard error, inflated by
-/// (1 + ρ)/(1 − ρ) in variance for the lag-1 correlation ρ of consecutive residuals (detector errors
-/// correlated over time carry fewer independent samples); docs/calib-check.md compares it with the
-/// spread measured over seeds.
+/// while the camera's rate of turn changes. Detector errors correlated over frames carry fewer
+/// independent samples than detections, so `sigma_s` is the larger of two standard errors:
+///   - the curvature-based one, inflated by (1 + ρ)/(1 − ρ) in variance for the lag-1 correlation ρ of
+///     consecutive residuals (which the per-window fit partly hides: too small alone), and
+///   - the cluster-robust (sandwich) one, var = G/(G−1) · Σ_w C_w'(δ̂)² / C''(δ̂)² over the G windows,
+///     which holds whatever the correlation within a window, as long as windows are independent
+///     (noisy when there are few).
+/// docs/calib-check.md §3 compares σ with the spread measured over seeds.
 
 #include <cstddef>
 #include <string>
@@ -30,7 +35,8 @@
 namespace roe::calib {
 
 struct TimeOffsetOptions {
-  double search_s = 0.1;         ///< search ±search_s around 0 (seconds)
+  double centre_s = 0.0;         ///< search around this offset (the declared one) …
+  double search_s = 0.1;         ///< … ± this (seconds)
   double step_s = 0.0005;        ///< grid step (seconds)
   double window_s = 2.0;         ///< detections of one object grouped in windows this long
   std::size_t min_window = 5;    ///< windows with fewer detections are not used
@@ -44,12 +50,20 @@ struct TimeOffsetEstimate {
   bool valid = false;
   std::string reason;          ///< why there is no estimate (when !valid)
   double offset_s = 0.0;       ///< t_imu = t_cam + offset_s
-  double sigma_s = 0.0;        ///< standard error (curvature, inflated for correlated residuals)
+  double sigma_s = 0.0;        ///< standard error: max(sigma_curvature_s, sigma_cluster_s)
+  double sigma_curvature_s = 0.0;  ///< from the curvature, inflated for the residuals' lag-1 correlation
+  double sigma_cluster_s = 0.0;    ///< cluster-robust over windows (0 with fewer than 2 windows)
   std::size_t detections = 0;  ///< detections in windows used
   std::size_t windows = 0;     ///< windows used
   double rms_rate_deg_s = 0.0; ///< RMS gyro rate over the used detections' times
   double rms_residual_deg = 0.0;  ///< RMS residual angle at the optimum (untruncated inliers)
   double residual_correlation = 0.0;  ///< lag-1 correlation of consecutive residuals (clamped to [0, 0.95])
+  /// When the cost is lowest at the edge of the search (valid = false): that edge, and the evidence
+  /// for it against the centre, ΔC / (s² (1+ρ)/(1−ρ)), a likelihood-ratio statistic (χ²₁ when the
+  /// centre is the true offset).
+  bool at_edge = false;
+  double edge_offset_s = 0.0;
+  double edge_evidence = 0.0;
   std::vector<double> grid_s;  ///< the candidate offsets
   std::vector<double> cost;    ///< the cost per candidate (deg², truncated)
 };
