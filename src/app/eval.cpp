@@ -9,6 +9,7 @@
 #include <map>
 
 #include "roe/core/error.hpp"
+#include "roe/io/json.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/output.hpp"
 #include "roe/math/euler.hpp"
@@ -484,12 +485,12 @@ EvalResult run_eval(const EvalOptions& o) {
       put("per_object.csv", p.str());
     }
     report["outputs"] = {{"dir", out.string()}, {"files", files}};
-    put("report.json", report.dump(2) + "\n");
+    put("report.json", io::dump_json(report, 2) + "\n");
     if (o.plot) {
       bool ok = false;
       res.plot_status = render_eval_plots(dir.tmp(), ok);
       report["plots"] = {{"ok", ok}, {"status", res.plot_status}};
-      io::write_file_atomic(dir.file("report.json"), report.dump(2) + "\n");
+      io::write_file_atomic(dir.file("report.json"), io::dump_json(report, 2) + "\n");
     }
     dir.commit();
     res.out = out;

@@ -52,7 +52,7 @@ std::string setting_text(const json& v) {
   if (v.is_null()) return "unknown";
   if (v.is_string()) return v.get<std::string>();
   if (v.is_number_float()) return fmt::format("{}", v.get<double>());
-  return v.dump();
+  return io::dump_json(v);
 }
 
 std::string vec3(const std::vector<double>& v, int first, int decimals) {
@@ -227,7 +227,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
       if (ec) throw InputError("cannot create folder: " + ec.message(), {base.parent_path().string()});
     }
     io::write_file_atomic(csv, w.str());
-    io::write_file_atomic(js_path, res.summary.dump(2) + "\n");
+    io::write_file_atomic(js_path, io::dump_json(res.summary, 2) + "\n");
     io::write_file_atomic(md_path, md);
     res.written = {csv, js_path, md_path};
   }

@@ -265,7 +265,7 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
       {"frames_processed", s.images_matched},
       {"summary", s.to_json()}};
   meta["summary"].erase("output");
-  io::write_file_atomic(dir.file("meta.json"), meta.dump(2) + "\n");
+  io::write_file_atomic(dir.file("meta.json"), io::dump_json(meta, 2) + "\n");
   dir.commit();
   s.output_dir = dir.final_dir();
 

@@ -225,7 +225,7 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
   s.warp = model.warping();
 
   // Config hash: every file of the bundle that shapes the output, the camera/warp and the device.
-  nlohmann::json cfg = {{"bundle_manifest_sha256", io::sha256_hex(bundle.manifest.dump())},
+  nlohmann::json cfg = {{"bundle_manifest_sha256", io::sha256_hex(io::dump_json(bundle.manifest))},
                         {"pose_head_sha256", io::sha256_file(bundle.pose.file)},
                         {"camera", model.camera_json()},
                         {"device", opt.device == "auto" ? std::string("auto") : opt.device},
@@ -235,7 +235,7 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
     cfg["detector_cfg_sha256"] = io::sha256_file(bundle.darknet.cfg);
     cfg["detector_weights_sha256"] = io::sha256_file(bundle.darknet.weights);
   }
-  s.config_hash = io::sha256_hex(cfg.dump()).substr(0, 16);
+  s.config_hash = io::sha256_hex(io::dump_json(cfg)).substr(0, 16);
   infer::DetectionCache cache(dataset / "cache" / "infer" / bundle.model_id / s.config_hash / "frames.jsonl", bundle.model_id,
                               s.config_hash);
   s.cache_file = cache.file();
@@ -349,7 +349,7 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
       {"score", "detector confidence (objectness x class probability) of the box the pose belongs to"},
       {"per_frame", per_frame},
       {"warnings", s.warnings}};
-  io::write_file_atomic(dir.file("meta.json"), meta.dump(2) + "\n");
+  io::write_file_atomic(dir.file("meta.json"), io::dump_json(meta, 2) + "\n");
   dir.commit();
   s.output_dir = dir.final_dir();
   return s;

@@ -618,7 +618,7 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
                         {"filter", r.filter_wall_s},
                         {"write", seconds_since(t_write)},
                         {"total", seconds_since(t_start)}};
-  io::write_file_atomic(dir.file("run.json"), report.dump(2) + "\n");
+  io::write_file_atomic(dir.file("run.json"), io::dump_json(report, 2) + "\n");
   dir.commit();
   log::info("wrote {} ({} trajectory rows)", out_dir.string(), r.states.size());
   res.report = report;

@@ -462,7 +462,7 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
     }
     src.options["duration_s"] = fmt::format("{}", cfg.duration_s);
     const json eff = sim_config_to_json(cfg);
-    src.options["config_sha256"] = io::sha256_hex(eff.dump());
+    src.options["config_sha256"] = io::sha256_hex(io::dump_json(eff));
     if (effective) *effective = eff;
   }
   run.dataset.manifest.sources.push_back(src);
@@ -483,7 +483,7 @@ SimulateResult simulate(const SimulateOptions& opt, const std::filesystem::path&
                      {"frames_processed", run.stats.frames},
                      {"detections", run.stats.detections},
                      {"config", effective}};
-  io::write_file_atomic(dir.file("detections/sim/meta.json"), meta.dump(2) + "\n");
+  io::write_file_atomic(dir.file("detections/sim/meta.json"), io::dump_json(meta, 2) + "\n");
   dir.commit();
   log::info("wrote {}", out.string());
 

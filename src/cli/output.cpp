@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <iostream>
 
+#include "roe/io/json.hpp"
 #include "command.hpp"
 
 namespace roe::cli {
@@ -32,7 +33,7 @@ void emit(const nlohmann::json& summary, const std::string& human) {
       }
       if (!j.contains("warnings")) j["warnings"] = nlohmann::json::array();
     }
-    std::cout << j.dump(2) << "\n";
+    std::cout << roe::io::dump_json(j, 2) << "\n";
   } else if (!globals().quiet && !human.empty()) {
     std::cout << human;
     if (human.back() != '\n') std::cout << "\n";

@@ -114,7 +114,7 @@ void DetectionCache::open_for_append() {
   const bool fresh = !exists_ || restart_;
   out_.open(file_, fresh ? std::ios::trunc : std::ios::app);
   if (!out_) throw InputError("cannot write the cache file", {file_.string()});
-  if (fresh) out_ << header_.dump() << '\n';
+  if (fresh) out_ << io::dump_json(header_) << '\n';
   else if (torn_) out_ << '\n';  // appended lines start on a line of their own
   out_.flush();
   exists_ = true;
@@ -123,7 +123,7 @@ void DetectionCache::open_for_append() {
 
 void DetectionCache::append(const CachedFrame& frame) {
   open_for_append();
-  out_ << frame_to_json(frame).dump() << '\n';
+  out_ << io::dump_json(frame_to_json(frame)) << '\n';
   out_.flush();
   if (!out_) throw InputError("cannot append to the cache file", {file_.string()});
   if (frames_.count(frame.key)) ++stale_;
@@ -135,8 +135,8 @@ void DetectionCache::compact() {
   if (stale_ == 0 && ignored_ == 0) return;
   if (!exists_ || restart_) return;  // nothing of ours on disk
   if (out_.is_open()) out_.close();
-  std::string text = header_.dump() + "\n";
-  for (const auto& key : order_) text += frame_to_json(frames_.at(key)).dump() + "\n";
+  std::string text = io::dump_json(header_) + "\n";
+  for (const auto& key : order_) text += io::dump_json(frame_to_json(frames_.at(key))) + "\n";
   io::write_file_atomic(file_, text);
   stale_ = ignored_ = 0;
   torn_ = false;

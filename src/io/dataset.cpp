@@ -290,7 +290,7 @@ void print_json(const json& j, int indent, std::string& out) {
                      [](const std::string& a, const std::string& b) { return key_rank(a) < key_rank(b); });
     out += "{\n";
     for (std::size_t i = 0; i < keys.size(); ++i) {
-      out += pad + json(keys[i]).dump() + ": ";
+      out += pad + dump_json(json(keys[i])) + ": ";
       print_json(j.at(keys[i]), indent + 2, out);
       out += i + 1 < keys.size() ? ",\n" : "\n";
     }
@@ -303,7 +303,7 @@ void print_json(const json& j, int indent, std::string& out) {
     const bool flat = std::none_of(j.begin(), j.end(), [](const json& e) { return e.is_structured(); });
     if (flat) {
       out += "[";
-      for (std::size_t i = 0; i < j.size(); ++i) out += (i ? ", " : "") + j[i].dump();
+      for (std::size_t i = 0; i < j.size(); ++i) out += (i ? ", " : "") + dump_json(j[i]);
       out += "]";
       return;
     }
@@ -315,7 +315,7 @@ void print_json(const json& j, int indent, std::string& out) {
     }
     out += std::string(static_cast<std::size_t>(indent), ' ') + "]";
   } else {
-    out += j.dump();
+    out += dump_json(j);
   }
 }
 

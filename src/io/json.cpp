@@ -1,6 +1,7 @@
 #include "roe/io/json.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <set>
 #include <string>
 #include <vector>
@@ -26,35 +27,48 @@ void line_col(const std::string& text, std::size_t byte, std::int64_t& line, std
 
 json parse_json_text(const std::string& text, const std::string& source) {
   // A key given twice in one object is an error (nlohmann keeps the last one silently, which hides a
-  // mistyped config). Tracked with the parser's events: one key set per open object.
-  std::vector<std::set<std::string>> keys;
-  std::vector<std::string> path;  // the key of each open object/array ("" for an array element / root)
+  // mistyped config). Tracked with the parser's events: one frame per open object or array, with the
+  // keys seen (objects) or the index of the next element (arrays), for the key path of the error.
+  struct Frame {
+    bool array = false;
+    std::string segment;  ///< "name" under an object, "[i]" under an array, "" for the root
+    int next = 0;         ///< arrays: index of the next element
+    std::set<std::string> keys;
+  };
+  std::vector<Frame> open;
   std::string last_key;
+  const auto path_of = [&](const std::string& key) {
+    std::string where;
+    for (const auto& f : open) {
+      if (f.segment.empty()) continue;
+      where += (where.empty() || f.segment[0] == '[' ? "" : ".") + f.segment;
+    }
+    return where + (where.empty() ? "" : ".") + key;
+  };
   const json::parser_callback_t check = [&](int, json::parse_event_t ev, json& parsed) {
     switch (ev) {
       case json::parse_event_t::object_start:
-      case json::parse_event_t::array_start:
-        path.push_back(last_key);
+      case json::parse_event_t::array_start: {
+        Frame f;
+        f.array = ev == json::parse_event_t::array_start;
+        if (!open.empty()) f.segment = open.back().array ? "[" + std::to_string(open.back().next++) + "]" : last_key;
+        open.push_back(std::move(f));
         last_key.clear();
-        if (ev == json::parse_event_t::object_start) keys.emplace_back();
         break;
+      }
       case json::parse_event_t::object_end:
       case json::parse_event_t::array_end:
-        if (ev == json::parse_event_t::object_end && !keys.empty()) keys.pop_back();
-        if (!path.empty()) path.pop_back();
+        if (!open.empty()) open.pop_back();
         last_key.clear();
         break;
       case json::parse_event_t::key:
         last_key = parsed.get<std::string>();
-        if (!keys.empty() && !keys.back().insert(last_key).second) {
-          std::string where;
-          for (const auto& p : path)
-            if (!p.empty()) where += (where.empty() ? "" : ".") + p;
-          where += (where.empty() ? "" : ".") + last_key;
-          throw ConfigError("key \"" + last_key + "\" appears twice in the same object", {source, 0, 0, where});
-        }
+        if (!open.empty() && !open.back().keys.insert(last_key).second)
+          throw ConfigError("key \"" + last_key + "\" appears twice in the same object",
+                            {source, 0, 0, path_of(last_key)});
         break;
       case json::parse_event_t::value:
+        if (!open.empty() && open.back().array) ++open.back().next;
         last_key.clear();
         break;
     }
@@ -62,6 +76,24 @@ json parse_json_text(const std::string& text, const std::string& source) {
   };
   try {
     return json::parse(text, check);
+  } catch (const json::out_of_range& e) {
+    // A number beyond double's range (1e999): nlohmann names the token but not its position; the
+    // first place it appears as a number is where it is.
+    std::string msg = e.what();
+    const auto a = msg.find('\''), b = msg.rfind('\'');
+    std::int64_t line = 0, col = 0;
+    if (a != std::string::npos && b > a + 1) {
+      const std::string token = msg.substr(a + 1, b - a - 1);
+      for (std::size_t at = text.find(token); at != std::string::npos; at = text.find(token, at + 1)) {
+        const char before = at ? text[at - 1] : ' ';
+        if (before == ':' || before == ',' || before == '[' || std::isspace(static_cast<unsigned char>(before))) {
+          line_col(text, at, line, col);
+          break;
+        }
+      }
+      throw InputError("number out of range: " + token, {source, line, col});
+    }
+    throw InputError("invalid JSON: " + msg, {source});
   } catch (const json::parse_error& e) {
     std::int64_t line = 0, col = 0;
     line_col(text, e.byte > 0 ? e.byte - 1 : 0, line, col);
@@ -70,6 +102,10 @@ json parse_json_text(const std::string& text, const std::string& source) {
     throw InputError("invalid JSON: " + (pos == std::string::npos ? msg : msg.substr(pos)),
                      {source, line, col});
   }
+}
+
+std::string dump_json(const json& j, int indent) {
+  return j.dump(indent, ' ', false, json::error_handler_t::replace);
 }
 
 json parse_json_file(const std::filesystem::path& path) {

@@ -55,3 +55,19 @@ TEST_CASE("eval does not depend on ekf; math does not depend on higher areas", "
   CHECK(violations({"eval"}, {"roe/ekf/", "roe/sim/"}).empty());
   CHECK(violations({"math"}, {"roe/ekf/", "roe/sim/", "roe/eval/", "roe/calib/"}).empty());
 }
+
+TEST_CASE("JSON is serialised only through io::dump_json (invalid UTF-8 must not throw)", "[layering]") {
+  // nlohmann's dump() throws on a string that is not UTF-8 (a path, a body name from a cp1252 file);
+  // io::dump_json replaces such bytes. A plain .dump( anywhere else would bring the crash back.
+  std::vector<std::string> out;
+  const std::regex dump(R"(\.dump\s*\()");
+  for (const auto& e : fs::recursive_directory_iterator(fs::path(ROE_SOURCE_DIR) / "src")) {
+    if (!e.is_regular_file() || e.path().filename() == "json.cpp") continue;
+    std::ifstream in(e.path());
+    std::string line;
+    for (int n = 1; std::getline(in, line); ++n)
+      if (std::regex_search(line, dump)) out.push_back(e.path().string() + ":" + std::to_string(n));
+  }
+  for (const auto& s : out) UNSCOPED_INFO(s);
+  CHECK(out.empty());
+}

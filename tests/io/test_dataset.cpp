@@ -784,8 +784,31 @@ TEST_CASE("json: a key given twice in one object is an error naming its path", "
   };
   CHECK(key_of(R"({"duration_s": 10, "duration_s": 20})") == "duration_s");
   CHECK(key_of(R"({"filter": {"a": 1, "b": {"c": 2}, "a": 3}})") == "filter.a");
-  CHECK(key_of(R"({"objects": {"list": [{"id": 1}, {"id": 2, "id": 3}]}})") == "objects.list.id");
+  CHECK(key_of(R"({"objects": {"list": [{"id": 1}, {"id": 2, "id": 3}]}})") == "objects.list[1].id");
+  CHECK(key_of(R"({"l": [1, [2, 3], "x", {"a": [{}, {"k": 1, "k": 2}]}]})") == "l[3].a[1].k");
+  CHECK(key_of(R"([{"a": 1}, {"a": 1, "a": 2}])") == "[1].a");
   // The same key in different objects, or in sibling array elements, is fine.
   CHECK(key_of(R"({"a": {"x": 1}, "b": {"x": 2}, "l": [{"x": 1}, {"x": 2}], "x": [1, {"x": 3}]})") == "<no error>");
   CHECK(io::parse_json_text(R"({"a": {"x": 1}, "b": [{"x": 2}]})", "c.json")["b"][0]["x"] == 2);
+}
+
+TEST_CASE("json: a number beyond double's range is an input error at its line and column", "[io][json]") {
+  try {
+    io::parse_json_text("{\"a\": 1,\n \"b\": [2, 1e999]}", "c.json");
+    FAIL("no error");
+  } catch (const InputError& e) {
+    CHECK(e.context().file == "c.json");
+    CHECK(e.context().line == 2);
+    CHECK(e.context().column == 11);
+    CHECK_THAT(e.what(), Catch::Contains("number out of range: 1e999"));
+  }
+}
+
+TEST_CASE("json: text that is not UTF-8 is written with U+FFFD, not an exception", "[io][json]") {
+  const io::json j = {{"body", std::string("K\xf6rper 1")}};
+  CHECK_THROWS(j.dump());  // what nlohmann does by default
+  const std::string text = io::dump_json(j);
+  CHECK(text == "{\"body\":\"K\xef\xbf\xbdrper 1\"}");
+  CHECK(io::parse_json_text(text, "t")["body"] == "K\xef\xbf\xbdrper 1");
+  CHECK(io::dump_json(j, 2).find('\n') != std::string::npos);
 }

@@ -25,6 +25,10 @@ using json = nlohmann::json;
 json parse_json_file(const std::filesystem::path& path);
 /// Parses JSON text; `source` names it in errors.
 json parse_json_text(const std::string& text, const std::string& source);
+/// Serialises `j` (indent < 0: one line). Strings that are not valid UTF-8 — a path or a name from a
+/// file in a legacy encoding — are written with U+FFFD in place of the invalid bytes instead of
+/// throwing, so that no output or summary fails on them.
+std::string dump_json(const json& j, int indent = -1);
 
 class JsonObject {
  public:
