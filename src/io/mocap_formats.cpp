@@ -2,6 +2,7 @@
 #include "roe/io/mocap_formats.hpp"
 
 #include <algorithm>
+#include <fstream>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -17,6 +18,16 @@
 
 namespace roe::io {
 namespace {
+
+/// Whether the file's last byte is a line end (an empty file counts as ended).
+bool ends_with_newline(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary | std::ios::ate);
+  if (!in || in.tellg() <= 0) return true;
+  in.seekg(-1, std::ios::end);
+  char c = 0;
+  in.get(c);
+  return c == '\n' || c == '\r';
+}
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
@@ -87,6 +98,14 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
   for (std::size_t i = 0; i + 1 < r.size(); i += 2) info[std::string(r.field(i))] = std::string(r.field(i + 1));
   if (!info.count("Format Version"))
     throw InputError("not a Motive CSV export: line 1 has no \"Format Version\"", {src, r.line()});
+  {
+    // Exports of Motive 2.x and 3.x write 1.2x (1.21, 1.22, 1.23, 1.24); an older or newer layout may
+    // differ, so say so (the columns are still found by their header rows).
+    const std::string& v = info["Format Version"];
+    if (v.rfind("1.2", 0) != 0)
+      out.warnings.push_back("Motive CSV Format Version " + v +
+                             " has not been checked (roe knows 1.2x, the exports of Motive 2.x and 3.x)");
+  }
   // Header rows up to the axis row ("Frame", ...).
   std::vector<std::vector<std::string>> hdr;
   std::int64_t axis_line = 0;
@@ -166,11 +185,17 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
     const auto v = parse_seconds_ns(info[rate_key]);  // a decimal number; reuse the exact parser
     if (v) out.rate_hz = static_cast<double>(*v) * 1e-9;
   }
-  // Data rows.
+  // Data rows. Motive may end a row early when its last cells are empty (occluded markers), so a
+  // short row is read as occlusion; only a short last line without its line end says that the file
+  // itself was cut (an export or copy interrupted).
   bool have_prev = false;
   Timestamp prev = 0;
+  std::size_t last_cells = 0;
+  std::int64_t last_line = 0;
   while (r.next()) {
     if (r.size() == 0) continue;
+    last_cells = r.size();
+    last_line = r.line();
     ++out.rows;
     (void)r.get_int64(0);  // the frame number must be an integer
     if (cell_empty(r, time_col)) throw r.error(time_col, "empty time cell");
@@ -201,6 +226,10 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
     out.poses.push_back({*t, Pose(q, p * scale)});
   }
   if (out.rows == 0) throw InputError("the Motive file has no data rows", {src});
+  if (last_cells < axis.size() && !ends_with_newline(file))
+    out.warnings.push_back(fmt::format("{}:{}: the last row has {} of {} cells and no line end: the file looks "
+                                       "truncated (its missing cells were read as occluded)",
+                                       src, last_line, last_cells, axis.size()));
   return out;
 }
 

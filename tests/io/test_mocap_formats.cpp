@@ -124,6 +124,31 @@ TEST_CASE("motive: malformed rows and non-unit quaternions name line and column"
   CHECK_THROWS_WITH(io::read_motive_csv(d.write("u.csv", unit), "cam"), Catch::Contains("Furlongs"));
 }
 
+TEST_CASE("motive: a file cut inside its last row, and an unknown Format Version, are warned about", "[io][mocap]") {
+  TempDir d;
+  const auto has = [](const io::MocapData& m, const std::string& what) {
+    for (const auto& w : m.warnings)
+      if (w.find(what) != std::string::npos) return true;
+    return false;
+  };
+  // Intact: no warning.
+  CHECK(io::read_motive_csv(d.write("ok.csv", kMotive3), "cam").warnings.empty());
+  // Cut after the 5th cell of the last row, no line end: the row counts as occluded, with a warning.
+  std::string cut = kMotive3;
+  cut.resize(cut.rfind("12,22,32"));
+  cut.pop_back();  // the comma
+  const auto m = io::read_motive_csv(d.write("cut.csv", cut), "cam");
+  CHECK(m.occluded == 2);
+  CHECK(has(m, "cut.csv:11: the last row has 10 of 17 cells and no line end"));
+  // A short last row that ends its line is an ordinary occlusion (Motive drops trailing empty cells).
+  const auto s = io::read_motive_csv(d.write("short.csv", cut + "\n"), "cam");
+  CHECK(s.occluded == 2);
+  CHECK_FALSE(has(s, "truncated"));
+  std::string v = kMotive3;
+  v.replace(v.find("1.24"), 4, "9.99");
+  CHECK(has(io::read_motive_csv(d.write("v.csv", v), "cam"), "Format Version 9.99 has not been checked"));
+}
+
 TEST_CASE("vicon: Tracker-style Objects section", "[io][mocap]") {
   TempDir d;
   const std::string text =
