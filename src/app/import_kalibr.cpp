@@ -183,6 +183,16 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
   if (!opt.force && (fs::exists(cam_out) || (imu_yaml && fs::exists(imu_out))))
     throw InputError("the dataset already has a Kalibr calibration (use --force to replace it)",
                      {fs::exists(cam_out) ? cam_out.string() : imu_out.string()});
+  // The dataset is changed as one (calib files staged, roe.json last) under its lock.
+  std::error_code ec;
+  if (fs::exists(dataset, ec) && !fs::is_directory(dataset, ec))
+    throw InputError("dataset path exists and is not a folder", {dataset.string()});
+  io::StagedFiles staged;
+  staged.ensure_folder(dataset);
+  const io::FolderLock lock(dataset);
+  if (!opt.force && (fs::exists(cam_out, ec) || (imu_yaml && fs::exists(imu_out, ec))))
+    throw InputError("the dataset already has a Kalibr calibration (use --force to replace it)",
+                     {fs::exists(cam_out, ec) ? cam_out.string() : imu_out.string()});
   bool created = false;
   DatasetManifest m = open_or_create_manifest(dataset, created);
   S.created_manifest = created;
@@ -262,8 +272,7 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
   sc.options["copied_to"] = "calib/camchain-imucam.yaml";
   sc.options["T_I_C"] = "inverse of T_cam_imu";
   m.sources.push_back(sc);
-  fs::create_directories(calib_dir);
-  io::write_file_atomic(cam_out, io::read_file(camchain));
+  io::write_file_atomic(staged.stage(cam_out), io::read_file(camchain));
   if (imu_yaml) {
     SourceRecord si;
     si.kind = "kalibr-imu";
@@ -271,9 +280,10 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
     si.sha256 = io::sha256_file(*imu_yaml);
     si.options["copied_to"] = "calib/imu.yaml";
     m.sources.push_back(si);
-    io::write_file_atomic(imu_out, io::read_file(*imu_yaml));
+    io::write_file_atomic(staged.stage(imu_out), io::read_file(*imu_yaml));
   }
-  io::write_manifest(m, io::manifest_path(dataset));
+  io::write_manifest(m, staged.stage(io::manifest_path(dataset)));
+  staged.commit();
   for (const auto& w : S.warnings) log::warn("{}", w);
   return S;
 }

@@ -60,10 +60,9 @@ DatasetManifest open_or_create_manifest(const fs::path& dataset, bool& created) 
   created = false;
   std::error_code ec;
   if (fs::exists(io::manifest_path(dataset), ec)) return io::read_manifest(dataset);
-  if (fs::exists(dataset, ec) && !fs::is_directory(dataset, ec))
-    throw InputError("dataset path exists and is not a folder", {dataset.string()});
-  fs::create_directories(dataset, ec);
-  if (ec) throw InputError("cannot create the dataset folder: " + ec.message(), {dataset.string()});
+  if (!fs::is_directory(dataset, ec))
+    throw InputError(fs::exists(dataset, ec) ? "dataset path exists and is not a folder" : "no such dataset folder",
+                     {dataset.string()});
   DatasetManifest m;
   m.name = fs::absolute(dataset).lexically_normal().filename().string();
   if (m.name.empty()) m.name = fs::absolute(dataset).lexically_normal().parent_path().filename().string();
@@ -272,6 +271,16 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
     const Pose T_Z_Y(R_Z_Y, Eigen::Vector3d::Zero());
     for (auto& p : d.poses) p.T = T_Z_Y * p.T;
   }
+  // From here on the dataset is changed as one: the folder (when new) and the data staged, roe.json
+  // last, under a lock so that a concurrent import cannot slip its roe.json in between.
+  std::error_code ec;
+  if (fs::exists(dataset, ec) && !fs::is_directory(dataset, ec))
+    throw InputError("dataset path exists and is not a folder", {dataset.string()});
+  io::StagedFiles staged;
+  staged.ensure_folder(dataset);
+  const io::FolderLock lock(dataset);
+  if (fs::exists(S.csv, ec) && !opt.force)
+    throw InputError("the dataset already has mocap data (use --force to replace it)", {S.csv.string()});
   bool created = false;
   DatasetManifest m = open_or_create_manifest(dataset, created);
   S.created_manifest = created;
@@ -300,8 +309,7 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   S.poses = d.poses.size();
 
   // Write the poses (file clock; the offset goes into roe.json) and the manifest.
-  fs::create_directories(S.csv.parent_path());
-  io::write_mocap_csv(S.csv, d.poses);
+  io::write_mocap_csv(staged.stage(S.csv), d.poses);
   SourceRecord src;
   src.kind = source_kind(d.format);
   src.path = io::provenance_path(file);
@@ -334,7 +342,8 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
     mi.time_offset_s = offset;
     m.mocap = mi;
   }
-  io::write_manifest(m, io::manifest_path(dataset));
+  io::write_manifest(m, staged.stage(io::manifest_path(dataset)));
+  staged.commit();
   for (const auto& w : S.warnings) log::warn("{}", w);
   return S;
 }

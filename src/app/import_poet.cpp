@@ -122,7 +122,10 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
   if (opt.name.empty() || opt.name.find('/') != std::string::npos || opt.name == "." || opt.name == "..")
     throw InputError("--name must be a plain folder name, got \"" + opt.name + "\"");
   const auto rot_format = io::parse_poet_rotation_format(opt.rotation, "--rotation");
-  DatasetManifest manifest = io::read_manifest(dataset);
+  DatasetManifest manifest = io::read_manifest(dataset);  // checks that the dataset is there
+  // roe.json is read again under the dataset's lock before it is changed (a concurrent import).
+  const io::FolderLock lock(dataset);
+  manifest = io::read_manifest(dataset);
   const io::PoetResults results = io::read_poet_results(results_json, rot_format);
 
   ImportPoetSummary s;
@@ -266,8 +269,6 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
       {"summary", s.to_json()}};
   meta["summary"].erase("output");
   io::write_file_atomic(dir.file("meta.json"), io::dump_json(meta, 2) + "\n");
-  dir.commit();
-  s.output_dir = dir.final_dir();
 
   // Record the import in roe.json (replacing an earlier import into the same detections name).
   SourceRecord rec;
@@ -285,7 +286,13 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
                            }),
             src.end());
   src.push_back(rec);
-  io::write_manifest(manifest, io::manifest_path(dataset));
+  // The detections folder and roe.json change together: roe.json is written (staged) first, so a
+  // failure there leaves both as they were; then the folder is moved into place and roe.json after it.
+  io::StagedFiles staged;
+  io::write_manifest(manifest, staged.stage(io::manifest_path(dataset)));
+  dir.commit();
+  s.output_dir = dir.final_dir();
+  staged.commit();
   return s;
 }
 

@@ -1,10 +1,13 @@
 #include "roe/io/output.hpp"
 
+#include <fcntl.h>
 #include <openssl/evp.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <array>
 #include <atomic>
+#include <cerrno>
 #include <cstdio>
 #include <fstream>
 #include <random>
@@ -132,6 +135,58 @@ OutputDir::OutputDir(fs::path final_dir, bool force, const std::vector<fs::path>
     remove_created_parents();
     throw InputError("cannot create temporary output folder: " + ec.message(), {tmp_.string()});
   }
+}
+
+FolderLock::FolderLock(const fs::path& dir) {
+  fd_ = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd_ < 0) throw InputError("cannot open folder to lock it", {dir.string()});
+  while (::flock(fd_, LOCK_EX) != 0) {
+    if (errno == EINTR) continue;
+    ::close(fd_);
+    fd_ = -1;
+    throw InputError("cannot lock folder", {dir.string()});
+  }
+}
+
+FolderLock::~FolderLock() {
+  if (fd_ >= 0) ::close(fd_);  // releases the lock
+}
+
+void StagedFiles::ensure_folder(const fs::path& dir) {
+  std::error_code ec;
+  std::vector<fs::path> missing;  // deepest first
+  for (fs::path p = dir.lexically_normal(); !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
+    missing.push_back(p);
+    if (p == p.parent_path()) break;
+  }
+  if (missing.empty()) return;
+  fs::create_directories(dir, ec);
+  if (ec) throw InputError("cannot create folder: " + ec.message(), {dir.string()});
+  created_.insert(created_.end(), missing.rbegin(), missing.rend());
+}
+
+fs::path StagedFiles::stage(const fs::path& final_path) {
+  if (final_path.has_parent_path()) ensure_folder(final_path.parent_path());
+  fs::path tmp = final_path.parent_path() / ("." + final_path.filename().string() + unique_suffix());
+  files_.emplace_back(tmp, final_path);
+  return tmp;
+}
+
+void StagedFiles::commit() {
+  std::error_code ec;
+  for (const auto& [tmp, fin] : files_) {
+    fs::rename(tmp, fin, ec);
+    if (ec) throw InputError("cannot rename temporary file into place: " + ec.message(), {fin.string()});
+  }
+  committed_ = true;
+}
+
+StagedFiles::~StagedFiles() {
+  if (committed_) return;
+  std::error_code ec;
+  for (const auto& f : files_) fs::remove(f.first, ec);
+  for (auto it = created_.rbegin(); it != created_.rend(); ++it)
+    if (!fs::remove(*it, ec)) break;  // no longer empty: keep it and its parents
 }
 
 void OutputDir::remove_created_parents() {

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <set>
 #include <string>
 
 #include "support/test_util.hpp"
@@ -142,4 +143,58 @@ TEST_CASE("roe import kalibr: valid and invalid files", "[cli][import]") {
   CHECK(r.out.find("orthonormal") != std::string::npos);
   r = run("import kalibr " + d / "cc.yaml " + d.write("imu.yaml", "accelerometer_noise_density: 0\n") + " --into " + d / "ds3");
   CHECK(r.code == 2);
+}
+
+TEST_CASE("roe import mocap and kalibr into one dataset at once: both are recorded", "[cli][import]") {
+  // Each import reads roe.json, adds its record and writes it back; without the dataset's lock the
+  // second writer silently dropped the first one's record (9 of 20 runs before the lock existed).
+  TempDir d;
+  const std::string cc =
+      "cam0:\n  T_cam_imu:\n  - [1.0, 0.0, 0.0, 0.1]\n  - [0.0, 1.0, 0.0, 0.0]\n  - [0.0, 0.0, 1.0, 0.0]\n"
+      "  - [0.0, 0.0, 0.0, 1.0]\n  camera_model: pinhole\n  distortion_coeffs: [0, 0, 0, 0]\n"
+      "  distortion_model: radtan\n  intrinsics: [600, 600, 320, 240]\n  resolution: [640, 480]\n"
+      "  timeshift_cam_imu: -0.01\n";
+  const auto cc_file = d.write("cc.yaml", cc);
+  std::string tum;
+  for (int k = 0; k < 200; ++k) tum += std::to_string(1000.0 + 0.01 * k) + " 0.1 0.2 0.3 0 0 0 1\n";
+  const auto tum_file = d.write("gt.txt", tum);
+  const std::string roe = ROE_BINARY;
+  for (int i = 0; i < 12; ++i) {
+    const std::string ds = d / ("ds" + std::to_string(i));
+    const std::string cmd = "( '" + roe + "' -q import mocap '" + tum_file + "' --format tum --into '" + ds +
+                            "' & '" + roe + "' -q import kalibr '" + cc_file + "' --into '" + ds + "' & wait ) 2>/dev/null";
+    REQUIRE(std::system(cmd.c_str()) == 0);
+    std::ifstream in(ds + "/roe.json");
+    const auto j = nlohmann::json::parse(in);
+    std::set<std::string> kinds;
+    for (const auto& s : j["sources"]) kinds.insert(s["kind"].get<std::string>());
+    INFO("run " << i);
+    CHECK(kinds.count("tum") == 1);
+    CHECK(kinds.count("kalibr-camchain") == 1);
+    CHECK(j.contains("camera"));
+    CHECK(j.contains("mocap"));
+  }
+}
+
+TEST_CASE("roe import: a failure before roe.json is written leaves the dataset as it was", "[cli][import]") {
+  TempDir d;
+  std::string tum;
+  for (int k = 0; k < 200; ++k) tum += std::to_string(1000.0 + 0.01 * k) + " 0.1 0.2 0.3 0 0 0 1\n";
+  const auto tum_file = d.write("gt.txt", tum);
+  // --estimate-offset into a new folder without an IMU: exit 2 and no folder left behind.
+  auto r = run("import mocap " + tum_file + " --format tum --estimate-offset --into " + d / "new");
+  CHECK(r.code == 2);
+  CHECK_FALSE(fs::exists(d / "new"));
+  // A Kalibr import whose camchain fails validation after nothing was staged leaves no calib/ and
+  // an unchanged roe.json (the staging itself: io/StagedFiles in tests/io).
+  REQUIRE(run("import mocap " + tum_file + " --format tum --into " + d / "ds -q").code == 0);
+  const std::string before = [&] {
+    std::ifstream in(d / "ds/roe.json");
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }();
+  r = run("import kalibr " + d.write("bad.yaml", "cam0:\n  camera_model: pinhole\n") + " --into " + d / "ds");
+  CHECK(r.code == 2);
+  CHECK_FALSE(fs::exists(d / "ds/calib"));
+  std::ifstream in(d / "ds/roe.json");
+  CHECK(std::string(std::istreambuf_iterator<char>(in), {}) == before);
 }

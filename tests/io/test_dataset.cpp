@@ -752,6 +752,48 @@ TEST_CASE("output: OutputDir takes runs/x/ for runs/x, and never replaces an inp
   CHECK_NOTHROW(io::OutputDir("sub", false));
 }
 
+TEST_CASE("output: StagedFiles puts files in place only at commit, and cleans up otherwise", "[output]") {
+  TempDir tmp("staged");
+  const fs::path ds = tmp.path / "ds";
+  io::write_file_atomic(ds / "roe.json", "old");
+  const auto listing = [](const fs::path& dir) {
+    std::vector<std::string> names;
+    for (const auto& e : fs::recursive_directory_iterator(dir)) names.push_back(e.path().lexically_relative(dir).string());
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  const auto before = listing(tmp.path);
+  {  // an exception after staging: nothing changed, the folders it made are gone
+    io::StagedFiles st;
+    st.ensure_folder(tmp.path / "new");
+    io::write_file_atomic(st.stage(ds / "mav0/mocap0/data.csv"), "poses");
+    io::write_file_atomic(st.stage(ds / "roe.json"), "new");
+    CHECK(io::read_file(ds / "roe.json") == "old");
+    CHECK_FALSE(fs::exists(ds / "mav0/mocap0/data.csv"));
+  }
+  CHECK(listing(tmp.path) == before);
+  {
+    io::StagedFiles st;
+    io::write_file_atomic(st.stage(ds / "mav0/mocap0/data.csv"), "poses");
+    io::write_file_atomic(st.stage(ds / "roe.json"), "new");
+    st.commit();
+  }
+  CHECK(io::read_file(ds / "roe.json") == "new");
+  CHECK(io::read_file(ds / "mav0/mocap0/data.csv") == "poses");
+  CHECK(listing(ds) == std::vector<std::string>{"mav0", "mav0/mocap0", "mav0/mocap0/data.csv", "roe.json"});
+  // A folder that gained other files meanwhile is kept.
+  {
+    io::StagedFiles st;
+    io::write_file_atomic(st.stage(ds / "calib/a.yaml"), "a");
+    io::write_file_atomic(ds / "calib/other.txt", "someone else's");
+  }
+  CHECK(fs::exists(ds / "calib/other.txt"));
+  CHECK(listing(ds / "calib") == std::vector<std::string>{"other.txt"});
+  // The lock needs the folder.
+  CHECK_THROWS_AS(io::FolderLock(tmp.path / "missing"), InputError);
+  CHECK_NOTHROW(io::FolderLock(ds));
+}
+
 TEST_CASE("output: write_file_atomic and sha256", "[output]") {
   TempDir tmp("atomic");
   const fs::path f = tmp.path / "a" / "b.txt";

@@ -47,6 +47,45 @@ class OutputDir {
   bool committed_ = false;
 };
 
+/// An exclusive advisory lock (flock) on a folder, held for the object's lifetime. The imports that
+/// read, change and rewrite a dataset's roe.json take it first, so two imports into one dataset at
+/// once run one after the other instead of one silently losing the other's change. The folder must
+/// exist; nothing is created in it.
+class FolderLock {
+ public:
+  explicit FolderLock(const fs::path& dir);
+  ~FolderLock();
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+/// Files that belong together (an import's data and the roe.json that records it), written under
+/// temporary names beside their final paths and renamed into place by commit() in the order they
+/// were staged (stage roe.json last). Until commit(), nothing the reader sees has changed; if it is
+/// never reached (an error, an exception), the destructor removes the temporaries and the folders
+/// that ensure_folder() and stage() created, so the dataset stays as it was.
+class StagedFiles {
+ public:
+  StagedFiles() = default;
+  ~StagedFiles();
+  StagedFiles(const StagedFiles&) = delete;
+  StagedFiles& operator=(const StagedFiles&) = delete;
+  /// Creates `dir` (and missing parents) unless it exists, remembering what it created.
+  void ensure_folder(const fs::path& dir);
+  /// The temporary path to write `final_path` to (creating its parent folders).
+  fs::path stage(const fs::path& final_path);
+  /// Renames every staged file into place, in order; roe::InputError when one cannot be.
+  void commit();
+
+ private:
+  std::vector<std::pair<fs::path, fs::path>> files_;  ///< (temporary, final)
+  std::vector<fs::path> created_;                      ///< folders created, in creation order
+  bool committed_ = false;
+};
+
 /// `path` without trailing separators ("runs/x/" → "runs/x"; "/" stays "/").
 fs::path without_trailing_separator(const fs::path& path);
 
