@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include <fmt/format.h>
 
@@ -15,13 +16,40 @@
 namespace roe::app {
 namespace {
 
+/// A key given twice in one mapping is an error. yaml-cpp keeps both and `node[key]` returns the
+/// first, while PyYAML (Kalibr's own reader) keeps the last: silently taking either would differ from
+/// what Kalibr meant for somebody.
+void refuse_duplicate_keys(const fs::path& file, const YAML::Node& n, const std::string& path) {
+  if (n.IsSequence()) {
+    for (std::size_t i = 0; i < n.size(); ++i) refuse_duplicate_keys(file, n[i], fmt::format("{}[{}]", path, i));
+    return;
+  }
+  if (!n.IsMap()) return;
+  std::map<std::string, YAML::Mark> seen;
+  for (const auto& kv : n) {
+    const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string("?");
+    const std::string here = path.empty() ? key : path + "." + key;
+    const auto m = kv.first.Mark();
+    const auto [it, fresh] = seen.emplace(key, m);
+    if (!fresh)
+      throw InputError(fmt::format("key \"{}\" appears twice in the same mapping (first at line {}); Kalibr would "
+                                   "take the last one, roe refuses to guess",
+                                   key, it->second.line + 1),
+                       {file.string(), m.line + 1, m.column + 1, here});
+    refuse_duplicate_keys(file, kv.second, here);
+  }
+}
+
 YAML::Node load_yaml(const fs::path& file) {
   if (!fs::exists(file)) throw InputError("no such file", {file.string()});
+  YAML::Node root;
   try {
-    return YAML::LoadFile(file.string());
+    root = YAML::LoadFile(file.string());
   } catch (const YAML::Exception& e) {
     throw InputError("YAML syntax error: " + e.msg, {file.string(), e.mark.line + 1, e.mark.column + 1});
   }
+  refuse_duplicate_keys(file, root, "");
+  return root;
 }
 
 ErrorContext at(const fs::path& file, const YAML::Node& n, const std::string& key) {

@@ -166,6 +166,12 @@ TEST_CASE("import kalibr: invalid files are InputErrors naming file, line and ke
   // omni: [xi, fu, fv, pu, pv]; the focal lengths are the 2nd and 3rd value.
   const std::string omni = replace(replace(kCamchain, "pinhole", "omni"), "[612.0, 611.0", "[0.9, 612.0, 611.0");
   CHECK_NOTHROW(app::read_kalibr_camchain(d.write("omni.yaml", omni)));
+  // A key twice in one mapping (PyYAML would keep the last, yaml-cpp the first): refused, naming both lines.
+  std::string dup = kCamchain;
+  dup += "  intrinsics: [1.0, 2.0, 3.0, 4.0]\n";
+  CHECK_THROWS_WITH(app::read_kalibr_camchain(d.write("dup.yaml", dup)),
+                    Catch::Contains("dup.yaml:15:3") && Catch::Contains("\"intrinsics\" appears twice") &&
+                        Catch::Contains("first at line 11"));
   fails(replace(omni, "612.0, 611.0", "612.0, -611.0"), "focal");
   fails(replace(omni, "[0.9, 612.0", "[0.9, -612.0"), "focal");
   fails(replace(kCamchain, "radtan", "kannala"), "unknown distortion_model");
