@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "command.hpp"
+#include "roe/io/output.hpp"
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
 #include "roe/version.hpp"
@@ -42,6 +43,7 @@ Registrar::Registrar(const char* parent, const char* name, const char* descripti
 
 int main(int argc, char** argv) {
   using namespace roe::cli;
+  roe::io::remove_temporaries_on_signals();
   CLI::App app{"roe: AI-based, object-relative visual-inertial state estimation (offline toolkit)",
                "roe"};
   app.require_subcommand(1);

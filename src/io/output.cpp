@@ -2,13 +2,16 @@
 
 #include <fcntl.h>
 #include <openssl/evp.h>
+#include <signal.h>
 #include <sys/file.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <array>
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -17,6 +20,61 @@
 
 namespace roe::io {
 namespace {
+
+// Temporaries to remove if a signal ends the process: fixed slots the handler can read without
+// allocating (a path is copied in before its flag is set).
+constexpr int kSlots = 64;
+constexpr std::size_t kPathMax = 4096;
+char g_temp_paths[kSlots][kPathMax];
+std::atomic<bool> g_temp_claimed[kSlots];  // the slot is taken (by register_temporary)
+std::atomic<bool> g_temp_used[kSlots];     // its path is complete (what the handler reads)
+
+int register_temporary(const fs::path& p) {
+  const std::string s = p.string();
+  if (s.size() >= kPathMax) return -1;
+  for (int i = 0; i < kSlots; ++i) {
+    if (g_temp_claimed[i].exchange(true)) continue;
+    std::memcpy(g_temp_paths[i], s.c_str(), s.size() + 1);
+    g_temp_used[i].store(true, std::memory_order_release);
+    return i;
+  }
+  return -1;  // more than kSlots at once: not cleaned up on a signal, nothing worse
+}
+
+void unregister_temporary(int slot) {
+  if (slot < 0) return;
+  g_temp_used[slot].store(false, std::memory_order_release);
+  g_temp_claimed[slot].store(false, std::memory_order_release);
+}
+
+extern "C" void remove_temporaries_and_die(int sig) {
+  for (int i = 0; i < kSlots; ++i) {
+    if (!g_temp_used[i].load(std::memory_order_acquire)) continue;
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      ::execl("/bin/rm", "rm", "-rf", "--", g_temp_paths[i], static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    if (pid > 0) ::waitpid(pid, nullptr, 0);
+  }
+  ::signal(sig, SIG_DFL);
+  ::raise(sig);
+}
+
+/// Blocks the signals above for its lifetime: a rename sequence is not cut in half.
+class BlockSignals {
+ public:
+  BlockSignals() {
+    sigset_t s;
+    sigemptyset(&s);
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&s, sig);
+    ::sigprocmask(SIG_BLOCK, &s, &old_);
+  }
+  ~BlockSignals() { ::sigprocmask(SIG_SETMASK, &old_, nullptr); }
+
+ private:
+  sigset_t old_;
+};
 
 std::string unique_suffix() {
   static std::atomic<unsigned> counter{0};
@@ -130,11 +188,21 @@ OutputDir::OutputDir(fs::path final_dir, bool force, const std::vector<fs::path>
   }
   const std::string base = final_.filename().string();
   tmp_ = parent / ("." + base + unique_suffix());
+  slot_ = register_temporary(tmp_);
   fs::create_directories(tmp_, ec);
   if (ec) {
+    unregister_temporary(slot_);
     remove_created_parents();
     throw InputError("cannot create temporary output folder: " + ec.message(), {tmp_.string()});
   }
+}
+
+void remove_temporaries_on_signals() {
+  struct sigaction sa {};
+  sa.sa_handler = remove_temporaries_and_die;
+  sigemptyset(&sa.sa_mask);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&sa.sa_mask, sig);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(sig, &sa, nullptr);
 }
 
 FolderLock::FolderLock(const fs::path& dir) {
@@ -169,19 +237,23 @@ fs::path StagedFiles::stage(const fs::path& final_path) {
   if (final_path.has_parent_path()) ensure_folder(final_path.parent_path());
   fs::path tmp = final_path.parent_path() / ("." + final_path.filename().string() + unique_suffix());
   files_.emplace_back(tmp, final_path);
+  slots_.push_back(register_temporary(tmp));
   return tmp;
 }
 
 void StagedFiles::commit() {
+  const BlockSignals block;
   std::error_code ec;
   for (const auto& [tmp, fin] : files_) {
     fs::rename(tmp, fin, ec);
     if (ec) throw InputError("cannot rename temporary file into place: " + ec.message(), {fin.string()});
   }
   committed_ = true;
+  for (int s : slots_) unregister_temporary(s);
 }
 
 StagedFiles::~StagedFiles() {
+  for (int s : slots_) unregister_temporary(s);
   if (committed_) return;
   std::error_code ec;
   for (const auto& f : files_) fs::remove(f.first, ec);
@@ -197,6 +269,7 @@ void OutputDir::remove_created_parents() {
 }
 
 OutputDir::~OutputDir() {
+  unregister_temporary(slot_);
   if (!committed_) {
     std::error_code ec;
     fs::remove_all(tmp_, ec);
@@ -214,6 +287,7 @@ fs::path OutputDir::file(const fs::path& rel) const {
 
 void OutputDir::commit() {
   if (committed_) return;
+  const BlockSignals block;  // not between moving the old output aside and the new one in
   std::error_code ec;
   fs::path old;
   if (fs::exists(final_, ec)) {
@@ -229,6 +303,8 @@ void OutputDir::commit() {
     throw InputError("cannot move the output folder into place: " + ec.message(), {final_.string()});
   }
   committed_ = true;
+  unregister_temporary(slot_);
+  slot_ = -1;
   if (!old.empty()) fs::remove_all(old, ec);
 }
 

@@ -1,10 +1,17 @@
 // End-to-end checks of the roe executable's global behaviour: help, version, exit codes for bad usage.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <catch2/catch.hpp>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "support/test_util.hpp"
 
+namespace fs = std::filesystem;
 using roe::test::run_roe;
 
 TEST_CASE("roe --version prints the version and exits 0", "[cli]") {
@@ -102,5 +109,40 @@ TEST_CASE("simulate --seed must be a non-negative integer, and says so", "[cli]"
     CHECK(r.code == 2);
     CHECK(r.out.find(std::string("--seed: must be an integer >= 0 (at most 18 digits), got '") + bad + "'") !=
           std::string::npos);
+  }
+}
+
+TEST_CASE("roe: SIGTERM or SIGINT during a long command leaves no temporary output behind", "[cli]") {
+  // `timeout`, Ctrl-C and batch schedulers end commands with these; the hidden .NAME.tmp-* folder of
+  // the output in progress (80 MB after 2 s of this simulation) must go with the process.
+  roe::test::TempDir tmp("roe_cli_signal");
+  for (const int sig : {SIGTERM, SIGINT}) {
+    const std::string name = "big" + std::to_string(sig);
+    const fs::path out = tmp.path / name;
+    const pid_t pid = ::fork();
+    REQUIRE(pid >= 0);
+    if (pid == 0) {
+      const int null = ::open("/dev/null", O_WRONLY);
+      ::dup2(null, 1);
+      ::dup2(null, 2);
+      ::execl(ROE_BINARY, "roe", "simulate", "--preset", "paper-seq4", "--duration", "3000", "--out", out.c_str(),
+              static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    const auto temporaries = [&] {
+      int n = 0;
+      for (const auto& e : fs::directory_iterator(tmp.path))
+        if (e.path().filename().string().rfind("." + name, 0) == 0) ++n;
+      return n;
+    };
+    for (int i = 0; i < 600 && temporaries() == 0; ++i) ::usleep(100'000);  // at most 60 s
+    REQUIRE(temporaries() == 1);
+    ::kill(pid, sig);
+    int status = 0;
+    REQUIRE(::waitpid(pid, &status, 0) == pid);
+    CHECK(WIFSIGNALED(status));
+    CHECK(WTERMSIG(status) == sig);
+    CHECK(temporaries() == 0);
+    CHECK_FALSE(fs::exists(out));
   }
 }

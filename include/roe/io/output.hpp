@@ -45,7 +45,15 @@ class OutputDir {
   void remove_created_parents();
   bool force_;
   bool committed_ = false;
+  int slot_ = -1;  ///< signal-cleanup registration of tmp_
 };
+
+/// Makes SIGINT, SIGTERM and SIGHUP (Ctrl-C, `timeout`, a batch scheduler's cancel) remove the
+/// temporary outputs in progress (OutputDir's folder, StagedFiles' files) before the process dies
+/// of the signal, so an interrupted command leaves no hidden `.NAME.tmp-*` behind. The handler only
+/// forks `rm -rf` (async-signal-safe); SIGKILL cannot be caught and still leaves them. Called once
+/// by the executable's main.
+void remove_temporaries_on_signals();
 
 /// An exclusive advisory lock (flock) on a folder, held for the object's lifetime. The imports that
 /// read, change and rewrite a dataset's roe.json take it first, so two imports into one dataset at
@@ -82,6 +90,7 @@ class StagedFiles {
 
  private:
   std::vector<std::pair<fs::path, fs::path>> files_;  ///< (temporary, final)
+  std::vector<int> slots_;                             ///< their signal-cleanup registrations
   std::vector<fs::path> created_;                      ///< folders created, in creation order
   bool committed_ = false;
 };
