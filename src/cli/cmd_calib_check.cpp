@@ -1,31 +1,11 @@
 // roe calib-check RUN_DIR [--dataset DATASET | --no-dataset] [--strict] [thresholds]
 #include <memory>
-#include <stdexcept>
-#include <string>
 
 #include "command.hpp"
 #include "roe/app/calib_check.hpp"
 
 namespace roe::cli {
 namespace {
-
-// A number in (0, 1] (a fraction) or [0.5, 1) (a confidence); CLI::Range can only show closed intervals.
-CLI::Validator fraction(bool confidence) {
-  const std::string interval = confidence ? "[0.5, 1)" : "(0, 1]";
-  return CLI::Validator(
-      [confidence, interval](std::string& s) {
-        std::size_t used = 0;
-        double v = 0.0;
-        try {
-          v = std::stod(s, &used);
-        } catch (const std::exception&) {
-          used = 0;
-        }
-        const bool ok = used == s.size() && used > 0 && (confidence ? v >= 0.5 && v < 1.0 : v > 0.0 && v <= 1.0);
-        return ok ? std::string() : "must be a number in " + interval + ", got '" + s + "'";
-      },
-      "FLOAT in " + interval);
-}
 
 struct Args {
   std::string run_dir;
@@ -42,7 +22,7 @@ RunFn setup(CLI::App& sub) {
                             "when it is still there)");
   sub.add_flag("--no-dataset", a->opt.no_dataset, "Only the checks that need the run folder alone")->excludes(ds);
   sub.add_flag("--strict", a->opt.strict, "Skipped and inconclusive checks fail too (exit 1)");
-  const auto pos = CLI::PositiveNumber;
+  const auto pos = number_in("positive");
   sub.add_option("--max-sigma-p", t.max_sigma_p_m, "extrinsics.sigma: largest axis σ of p_I_C [m]")
       ->capture_default_str()
       ->check(pos)->group("Thresholds");
@@ -52,7 +32,7 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("--settle-fraction", t.settle_fraction,
                  "extrinsics.settled: the last fraction of the run examined (0, 1]")
       ->capture_default_str()
-      ->check(fraction(false))->group("Thresholds");
+      ->check(number_in("fraction"))->group("Thresholds");
   sub.add_option("--settle-min", t.settle_min_s, "extrinsics.settled: … but at least this long [s]")
       ->capture_default_str()
       ->check(pos)->group("Thresholds");
@@ -66,7 +46,7 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("--confidence", t.confidence,
                  "the χ² tests (extrinsics.prior, extrinsics.settled, truth.*) and the time offset's verdict")
       ->capture_default_str()
-      ->check(fraction(true))->group("Thresholds");
+      ->check(number_in("confidence"))->group("Thresholds");
   sub.add_option("--max-object-sigma-p", t.max_object_sigma_p_m,
                  "objects.sigma: largest axis σ relative to the anchor [m]")
       ->capture_default_str()

@@ -1,5 +1,6 @@
 // roe eval RUN_DIR|EST_FILE --gt DATASET|GT_FILE [--align ...] [--max-dt S] [--t-offset S] [--out DIR]
 // [--plot] roe eval --summary REPORT_JSON... [--out FILE]
+#include <filesystem>
 #include <fmt/format.h>
 
 #include <memory>
@@ -9,6 +10,7 @@
 #include "roe/core/error.hpp"
 
 namespace roe::cli {
+namespace fs = std::filesystem;
 namespace {
 
 struct Args {
@@ -78,8 +80,12 @@ RunFn setup(CLI::App& sub) {
       so.out = a->opt.out;
       so.force = globals().force;
       const auto r = app::summarize_eval_reports(so);
-      nlohmann::json js = r.summary;  // `out`: the table (.csv) when written; `written`: all three files
+      // `out`: the file --out named when it is one of those written (t.md), else the table (.csv);
+      // `written`: all three files.
+      nlohmann::json js = r.summary;
       js["out"] = r.written.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.written.front().string());
+      for (const auto& w : r.written)
+        if (!so.out.empty() && fs::path(so.out).lexically_normal() == w.lexically_normal()) js["out"] = w.string();
       js["written"] = nlohmann::json::array();
       for (const auto& w : r.written) js["written"].push_back(w.string());
       emit(js, r.to_text());

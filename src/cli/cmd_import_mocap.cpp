@@ -34,7 +34,7 @@ RunFn setup(CLI::App& sub) {
                "Estimate the offset by correlating |gyro| with the mocap angular rate (needs mav0/imu0)");
   sub.add_option("--max-offset", a->opt.max_offset_s, "Search range of --estimate-offset in s")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(number_in("positive"));
   sub.add_flag("--salvage", a->opt.salvage, "ROS bag: import the intact part of a truncated/corrupt bag");
   sub.add_option("--name", a->opt.mocap_name, "Folder under mav0/ (mocap0 = the camera body)")->capture_default_str();
   return [a]() {

@@ -21,7 +21,7 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("--model", a->opt.model_dir, "Model bundle folder (poet_bundle.json; see scripts/export_poet.py)")->required();
   sub.add_option("--name", a->opt.name, "Detections set name: DATASET/detections/NAME (default: the model id)");
   sub.add_option("--frames", a->opt.frames, "Frame index range A:B (0-based, B exclusive), A:, :B or A");
-  sub.add_option("--every", a->opt.every, "Use every N-th frame of the range")->capture_default_str()->check(CLI::PositiveNumber);
+  sub.add_option("--every", a->opt.every, "Use every N-th frame of the range")->capture_default_str()->check(number_in("integer>=1"));
   sub.add_option("--warp", a->opt.warp, "Virtual-camera warp to the training intrinsics: auto, on, off")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "on", "off"}));

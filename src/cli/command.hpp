@@ -33,6 +33,11 @@ struct Registrar {
   Registrar(const char* parent, const char* name, const char* description, int order, SetupFn setup);
 };
 
+/// Option validators whose messages read well ("--every: must be an integer >= 1, got '0'");
+/// CLI11's PositiveNumber prints its range up to DBL_MAX in full. `kind` of number_in():
+///   "positive" (> 0), "non-negative" (>= 0), "integer>=1", "fraction" ((0, 1]), "confidence" ([0.5, 1)).
+CLI::Validator number_in(const std::string& kind);
+
 /// Prints the command's result: `summary` as one JSON document with --json, otherwise `human`
 /// (unless --quiet). Always to stdout. Every JSON summary carries `command`, `out` (the folder or file
 /// written: the summary's own `out`, `dataset`, `output` or `outputs.dir`; null when none) and

@@ -82,9 +82,32 @@ int main(int argc, char** argv) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
     // Bad usage: the same "roe: error:" prefix as every other error, and where to read about the command.
     std::string path = "roe";
-    for (CLI::App* a = &app; !a->get_subcommands().empty();) {
-      a = a->get_subcommands().front();
-      path += " " + a->get_name();
+    CLI::App* level = &app;
+    while (!level->get_subcommands().empty()) {
+      level = level->get_subcommands().front();
+      path += " " + level->get_name();
+    }
+    // "A subcommand is required" after a word that is none: name the word and the commands.
+    if (dynamic_cast<const CLI::RequiredError*>(&e) && !level->get_subcommands({}).empty()) {
+      std::string names;
+      for (const CLI::App* c : level->get_subcommands({})) names += (names.empty() ? "" : ", ") + c->get_name();
+      std::string word;
+      bool after = level == &app;
+      for (int i = 1; i < argc; ++i) {
+        const std::string t = argv[i];
+        if (!after) {
+          after = t == level->get_name();
+          continue;
+        }
+        if (!t.empty() && t[0] != '-') {
+          word = t;
+          break;
+        }
+      }
+      std::cerr << "roe: error: " << (word.empty() ? "a command is required" : "unknown command '" + word + "'")
+                << " (" << (level == &app ? "commands" : "subcommands of " + path.substr(4)) << ": " << names
+                << ")\n(see " << path << " --help)\n";
+      return 2;
     }
     std::cerr << "roe: error: " << e.what() << "\n(see " << path << " --help)\n";
     return 2;  // DESIGN §1: bad usage is exit code 2

@@ -7,7 +7,38 @@
 #include "roe/io/json.hpp"
 #include "command.hpp"
 
+#include <cmath>
+#include <stdexcept>
+
 namespace roe::cli {
+
+CLI::Validator number_in(const std::string& kind) {
+  std::string shown = kind == "positive"       ? "NUMBER>0"
+                      : kind == "non-negative" ? "NUMBER>=0"
+                      : kind == "integer>=1"   ? "INT>=1"
+                      : kind == "fraction"     ? "FLOAT in (0, 1]"
+                      : kind == "confidence"   ? "FLOAT in [0.5, 1)"
+                                               : throw std::logic_error("number_in: unknown kind " + kind);
+  return CLI::Validator(
+      [kind](std::string& s) {
+        std::size_t used = 0;
+        double v = 0.0;
+        try {
+          v = std::stod(s, &used);
+        } catch (const std::exception&) {
+          used = 0;
+        }
+        bool ok = used > 0 && used == s.size() && std::isfinite(v);
+        std::string want;
+        if (kind == "positive") ok = ok && v > 0, want = "a positive number";
+        else if (kind == "non-negative") ok = ok && v >= 0, want = "a number >= 0";
+        else if (kind == "integer>=1") ok = ok && v >= 1 && v == std::floor(v), want = "an integer >= 1";
+        else if (kind == "fraction") ok = ok && v > 0 && v <= 1, want = "a number in (0, 1]";
+        else ok = ok && v >= 0.5 && v < 1, want = "a number in [0.5, 1)";
+        return ok ? std::string() : "must be " + want + ", got '" + s + "'";
+      },
+      shown);
+}
 namespace {
 double now_s() {
   using namespace std::chrono;

@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "support/test_util.hpp"
 
@@ -92,6 +94,9 @@ TEST_CASE("json summaries: every command's summary has command, out and warnings
   CHECK(j.at("out") == (d / "table.csv").string());
   CHECK(j.at("written").size() == 3);
   CHECK(j.at("warnings").is_array());
+  // --out naming one of the three files: `out` is that file.
+  j = json_of("--force eval --summary " + run + "/eval/report.json --out " + (d / "table.md").string());
+  CHECK(j.at("out") == (d / "table.md").string());
   const auto tum = d.write("gt.tum", "1.0 0 0 0 0 0 0 1\n1.1 0.1 0 0 0 0 0 1\n1.2 0.2 0 0 0 0 0 1\n");
   j = json_of("import mocap " + tum.string() + " --format tum --into " + (d / "m").string());
   CHECK(j.at("command") == "import mocap");
@@ -145,4 +150,35 @@ TEST_CASE("roe: SIGTERM or SIGINT during a long command leaves no temporary outp
     CHECK(temporaries() == 0);
     CHECK_FALSE(fs::exists(out));
   }
+}
+
+TEST_CASE("roe: a number option out of range says what it must be, briefly", "[cli]") {
+  // CLI11's own PositiveNumber printed its range up to DBL_MAX in full (300 digits).
+  for (const auto& [args, what] : std::vector<std::pair<std::string, std::string>>{
+           {"infer ds --model m --every 0", "--every: must be an integer >= 1, got '0'"},
+           {"infer ds --model m --every 2.5", "--every: must be an integer >= 1, got '2.5'"},
+           {"import mocap f --into d --max-offset -1", "--max-offset: must be a positive number, got '-1'"},
+           {"import realsense b --out d --crop-width -5", "--crop-width: must be a number >= 0, got '-5'"},
+           {"calib-check r --max-sigma-p nan", "--max-sigma-p: must be a positive number, got 'nan'"},
+           {"calib-check r --settle-fraction 0", "--settle-fraction: must be a number in (0, 1], got '0'"}}) {
+    const auto r = run_roe(args);
+    INFO(args << "\n" << r.out);
+    CHECK(r.code == 2);
+    CHECK(r.out.find(what) != std::string::npos);
+    CHECK(r.out.size() < 200);
+  }
+}
+
+TEST_CASE("roe: an unknown command is named, with the commands there are", "[cli]") {
+  auto r = run_roe("bogus");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("unknown command 'bogus' (commands: import, simulate, run, infer, eval, calib-check)") !=
+        std::string::npos);
+  r = run_roe("-q import bogus x");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("unknown command 'bogus' (subcommands of import: realsense, mocap, kalibr, poet)") !=
+        std::string::npos);
+  r = run_roe("");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("a command is required") != std::string::npos);
 }
