@@ -554,11 +554,21 @@ void write_manifest(const DatasetManifest& m, const fs::path& file) {
 std::vector<ImuSample> read_imu_csv(const fs::path& file) {
   CsvReader r(file, stream_options(with_stamp_alternatives(imu_header())));
   std::vector<ImuSample> out;
+  // Readings no MEMS IMU can give (a corrupt cell, a unit mix-up by 10⁶) are input errors here,
+  // not a filter divergence later: the limits are ~30× the largest ranges of consumer and tactical
+  // IMUs (±2000 °/s = 35 rad/s, ±16 g = 157 m/s²; 1000 rad/s, 5000 m/s²).
+  constexpr double kMaxGyro = 1000.0, kMaxAccel = 5000.0;
   while (r.next()) {
     ImuSample s;
     s.t_ns = r.get_int64(0);
     s.gyro = read_vec3(r, 1);
     s.accel = read_vec3(r, 4);
+    for (int k = 0; k < 3; ++k) {
+      if (std::abs(s.gyro(k)) > kMaxGyro)
+        throw r.error(1 + k, fmt::format("angular rate {} rad/s is beyond any IMU's range (|w| <= {})", s.gyro(k), kMaxGyro));
+      if (std::abs(s.accel(k)) > kMaxAccel)
+        throw r.error(4 + k, fmt::format("acceleration {} m/s^2 is beyond any IMU's range (|a| <= {})", s.accel(k), kMaxAccel));
+    }
     out.push_back(s);
   }
   return out;

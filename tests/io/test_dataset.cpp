@@ -427,6 +427,18 @@ TEST_CASE("dataset: stream readers reject malformed rows with line and column", 
   CHECK(e.context().line == 3);
   CHECK(e.context().column == 1);
 
+  // Readings beyond any IMU's range (a corrupt cell): the cell is named, not a filter divergence later.
+  write_text(f, imu_h + "1,0,0,0,0,0,9.81\n2,0,1e300,0,0,0,9.81\n");
+  e = expect_input_error([&] { io::read_imu_csv(f); });
+  CHECK(e.context().line == 3);
+  CHECK(e.context().column == 3);
+  CHECK(std::string(e.what()).find("beyond any IMU's range") != std::string::npos);
+  write_text(f, imu_h + "1,0,0,0,0,0,9810\n");
+  e = expect_input_error([&] { io::read_imu_csv(f); });
+  CHECK(e.context().column == 7);
+  write_text(f, imu_h + "1,-999,0,0,0,0,-4999\n");
+  CHECK(io::read_imu_csv(f).size() == 1);
+
   write_text(f, "#timestamp [ns],w_RS_S_x [rad s^-1]\n1,0\n");
   e = expect_input_error([&] { io::read_imu_csv(f); });
   CHECK(e.context().line == 1);
