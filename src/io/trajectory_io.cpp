@@ -172,6 +172,11 @@ Timestamp read_seconds(const CsvReader& r, std::size_t col) {
 Pose read_pose(const CsvReader& r, const std::array<std::size_t, 3>& p,
                const std::array<std::size_t, 4>& q_xyzw) {
   const Eigen::Vector3d pos(r.get_double(p[0]), r.get_double(p[1]), r.get_double(p[2]));
+  // Beyond a million km no trajectory is meant (ECEF and UTM stay below 1e7 m); squares of such
+  // values overflow the alignment, which would blame the geometry instead of the cell.
+  for (int k = 0; k < 3; ++k)
+    if (std::abs(pos(k)) > 1e9)
+      throw r.error(p[k], fmt::format("position {} m is beyond any trajectory's range (|p| <= 1e9 m)", pos(k)));
   const Eigen::Quaterniond q(r.get_double(q_xyzw[3]), r.get_double(q_xyzw[0]), r.get_double(q_xyzw[1]),
                              r.get_double(q_xyzw[2]));
   const double n = q.norm();

@@ -86,6 +86,9 @@ TEST_CASE("TUM reader: malformed input names line and column", "[io][trajectory]
   check_error_at([] { parse_trajectory("1 0 0 0 0 0 0 1\n2 0 nan 0 0 0 0 1\n", "f"); }, 2, 3, "");
   check_error_at([] { parse_trajectory("1 0 0 0 0 0 0 1\n0.5 0 0 0 0 0 0 1\n", "f"); }, 2, 1,
                  "must not decrease");
+  check_error_at([] { parse_trajectory("1 0 0 0 0 0 0 1\n2 0 0 1e300 0 0 0 1\n", "f"); }, 2, 4,
+                 "beyond any trajectory's range");
+  CHECK(parse_trajectory("1 6.4e6 -1e9 0 0 0 0 1\n", "f").poses.size() == 1);
   check_error_at([] { parse_trajectory("1 0 0 0 0 0 0 2\n", "f"); }, 1, 8, "quaternion norm");
   check_error_at([] { parse_trajectory("1 0 0 0 0 0 0 0\n", "f"); }, 1, 8, "quaternion norm");
   check_error_at([] { parse_trajectory("1403715524907143168 0 0 0 0 0 0 1\n", "f"); }, 1, 1,
