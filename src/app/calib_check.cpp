@@ -261,7 +261,7 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
   {
     const json& a = run.at("anchor_id");
     if (!a.is_null() && !a.is_number_integer()) throw InputError("expected an object id or null", {run.file(), 0, 0, "anchor_id"});
-    in.anchor_id = a.is_null() ? 0 : a.get<int>();
+    if (!a.is_null()) in.anchor_id = a.get<int>();
   }
   const double sp = run.number("config.filter.extrinsics_sigma_p_m");
   const double sr = run.number("config.filter.extrinsics_sigma_rot_deg") * kDeg;
@@ -292,7 +292,7 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
     if (it == objects.end()) {
       calib::ObjectEstimate o;
       o.id = id;
-      o.anchor = id == in.anchor_id;
+      o.anchor = in.anchor_id && id == *in.anchor_id;
       o.detections = n;
       objects[id] = o;  // never entered the state
     } else {

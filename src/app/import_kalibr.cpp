@@ -217,7 +217,7 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
     throw InputError("dataset path exists and is not a folder", {dataset.string()});
   io::StagedFiles staged;
   staged.ensure_folder(dataset);
-  const io::FolderLock lock(dataset);
+  staged.lock(dataset);
   if (!opt.force && (fs::exists(cam_out, ec) || (imu_yaml && fs::exists(imu_out, ec))))
     throw InputError("the dataset already has a Kalibr calibration (use --force to replace it)",
                      {fs::exists(cam_out, ec) ? cam_out.string() : imu_out.string()});

@@ -278,7 +278,7 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
     throw InputError("dataset path exists and is not a folder", {dataset.string()});
   io::StagedFiles staged;
   staged.ensure_folder(dataset);
-  const io::FolderLock lock(dataset);
+  staged.lock(dataset);
   if (fs::exists(S.csv, ec) && !opt.force)
     throw InputError("the dataset already has mocap data (use --force to replace it)", {S.csv.string()});
   bool created = false;

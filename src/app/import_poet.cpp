@@ -290,9 +290,12 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
   // failure there leaves both as they were; then the folder is moved into place and roe.json after it.
   io::StagedFiles staged;
   io::write_manifest(manifest, staged.stage(io::manifest_path(dataset)));
-  dir.commit();
+  {
+    const io::DeferSignals defer;  // a Ctrl-C waits until both are in place
+    dir.commit();
+    staged.commit();
+  }
   s.output_dir = dir.final_dir();
-  staged.commit();
   return s;
 }
 

@@ -181,7 +181,7 @@ CheckResult objects_sigma(const CalibInput& in, const CalibThresholds& th) {
   const std::string not_in = never.empty() ? "" : "; never entered the state (not checked): " + id_list(never);
   if (checked == 0) return skipped(name, "no object besides the anchor entered the state" + not_in);
   if (!find_anchor(in))
-    return inconclusive(name, (in.anchor_id ? fmt::format("the anchor (object {}) never entered the state", in.anchor_id)
+    return inconclusive(name, (in.anchor_id ? fmt::format("the anchor (object {}) never entered the state", *in.anchor_id)
                                             : std::string("the run has no anchor")) +
                                   ", so there is no σ relative to it" + not_in);
   CheckResult r{name, over.empty() ? CheckStatus::kPass : CheckStatus::kFail, "", {}};
@@ -297,8 +297,10 @@ CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) 
   if (!e.valid) {
     // The cost still falling at the edge of the search, with a likelihood ratio against the
     // declared offset beyond χ²₁: the offset is more than the search away from it.
+    // Only when the search reaches beyond the limit does "beyond the search" mean "beyond the limit".
     const double limit_lr = ekf::chi2_quantile(th.confidence, 1.0);
-    if (e.at_edge && e.edge_evidence > limit_lr) {
+    if (e.at_edge && e.edge_evidence > limit_lr &&
+        std::abs(e.edge_offset_s - in.declared_time_offset_s) > th.max_time_offset_s) {
       r.status = CheckStatus::kFail;
       r.message = fmt::format("the cost is lowest at the edge of the search, {:+.1f} ms, and far lower than at the "
                               "declared {:+.1f} ms (likelihood ratio {:.1f} > χ²₁({}) = {:.2f}): the offset lies "
@@ -378,8 +380,8 @@ CalibReport check_calibration(const CalibInput& in, const CalibThresholds& th) {
   require_positive(th.max_time_offset_s, "max_time_offset_s");
   if (!(th.settle_fraction > 0 && th.settle_fraction <= 1))
     throw InputError(fmt::format("settle_fraction must be in (0, 1] (got {})", th.settle_fraction));
-  if (!(th.confidence >= 0.5 && th.confidence < 1))
-    throw InputError(fmt::format("confidence must be in [0.5, 1) (got {})", th.confidence));
+  if (!(th.confidence > 0.5 && th.confidence < 1))
+    throw InputError(fmt::format("confidence must be in (0.5, 1) (got {})", th.confidence));
   if (in.extrinsics.empty()) throw InputError("the run has no extrinsics trace (states.csv has no row)");
   CalibReport rep;
   rep.checks.push_back(extrinsics_sigma(in, th));

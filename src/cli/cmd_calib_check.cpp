@@ -21,7 +21,7 @@ RunFn setup(CLI::App& sub) {
                             "Dataset for the truth and time-offset checks (default: the one named in run.json, "
                             "when it is still there)");
   sub.add_flag("--no-dataset", a->opt.no_dataset, "Only the checks that need the run folder alone")->excludes(ds);
-  sub.add_flag("--strict", a->opt.strict, "Skipped and inconclusive checks fail too (exit 1)");
+  sub.add_flag("--strict", a->opt.strict, "Inconclusive checks fail too (exit 1); skipped ones (not applicable) do not");
   const auto pos = number_in("positive");
   sub.add_option("--max-sigma-p", t.max_sigma_p_m, "extrinsics.sigma: largest axis σ of p_I_C [m]")
       ->capture_default_str()

@@ -20,13 +20,13 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("BAG", a->bag, "RealSense Viewer/rs-record .bag, or a realsense-ros rosbag")->required();
   sub.add_option("--out", a->out, "New dataset folder (refused if non-empty unless --force)")->required();
   sub.add_option("--crop-width", a->opt.crop_width, "Centred crop of the undistorted image (0 = full width)")
-      ->capture_default_str()->check(number_in("non-negative"));
+      ->capture_default_str()->check(number_in("integer>=0"));
   sub.add_option("--crop-height", a->opt.crop_height, "Centred crop height (0 = full height)")
-      ->capture_default_str()->check(number_in("non-negative"));
+      ->capture_default_str()->check(number_in("integer>=0"));
   sub.add_option("--out-width", a->opt.out_width, "Resize the crop to this width (0 = no resize)")
-      ->capture_default_str()->check(number_in("non-negative"));
+      ->capture_default_str()->check(number_in("integer>=0"));
   sub.add_option("--out-height", a->opt.out_height, "Resize the crop to this height (0 = no resize)")
-      ->capture_default_str()->check(number_in("non-negative"));
+      ->capture_default_str()->check(number_in("integer>=0"));
   sub.add_flag("--no-undistort", a->no_undistort, "Keep the lens distortion (crop/resize only)");
   sub.add_flag("--no-images", a->no_images, "Import IMU and calibration only");
   sub.add_flag("--salvage", a->opt.salvage, "Import the intact part of a truncated/corrupt bag (else exit 2)");

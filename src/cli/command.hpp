@@ -35,7 +35,8 @@ struct Registrar {
 
 /// Option validators whose messages read well ("--every: must be an integer >= 1, got '0'");
 /// CLI11's PositiveNumber prints its range up to DBL_MAX in full. `kind` of number_in():
-///   "positive" (> 0), "non-negative" (>= 0), "integer>=1", "fraction" ((0, 1]), "confidence" ([0.5, 1)).
+///   "positive" (> 0), "non-negative" (>= 0), "integer>=1", "integer>=0" (digits only, at most 9),
+///   "fraction" ((0, 1]), "confidence" ((0.5, 1)).
 CLI::Validator number_in(const std::string& kind);
 
 /// Prints the command's result: `summary` as one JSON document with --json, otherwise `human`

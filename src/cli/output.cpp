@@ -7,6 +7,7 @@
 #include "roe/io/json.hpp"
 #include "command.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -16,8 +17,9 @@ CLI::Validator number_in(const std::string& kind) {
   std::string shown = kind == "positive"       ? "NUMBER>0"
                       : kind == "non-negative" ? "NUMBER>=0"
                       : kind == "integer>=1"   ? "INT>=1"
+                      : kind == "integer>=0"   ? "INT>=0"
                       : kind == "fraction"     ? "FLOAT in (0, 1]"
-                      : kind == "confidence"   ? "FLOAT in [0.5, 1)"
+                      : kind == "confidence"   ? "FLOAT in (0.5, 1)"
                                                : throw std::logic_error("number_in: unknown kind " + kind);
   return CLI::Validator(
       [kind](std::string& s) {
@@ -29,12 +31,16 @@ CLI::Validator number_in(const std::string& kind) {
           used = 0;
         }
         bool ok = used > 0 && used == s.size() && std::isfinite(v);
+        // Integers: digits only (no 2.0, no 1e20) and within int.
+        const bool digits = !s.empty() && s.size() <= 9 &&
+                            std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
         std::string want;
         if (kind == "positive") ok = ok && v > 0, want = "a positive number";
         else if (kind == "non-negative") ok = ok && v >= 0, want = "a number >= 0";
-        else if (kind == "integer>=1") ok = ok && v >= 1 && v == std::floor(v), want = "an integer >= 1";
+        else if (kind == "integer>=1") ok = digits && v >= 1, want = "an integer >= 1";
+        else if (kind == "integer>=0") ok = digits, want = "an integer >= 0";
         else if (kind == "fraction") ok = ok && v > 0 && v <= 1, want = "a number in (0, 1]";
-        else ok = ok && v >= 0.5 && v < 1, want = "a number in [0.5, 1)";
+        else ok = ok && v > 0.5 && v < 1, want = "a number in (0.5, 1)";
         return ok ? std::string() : "must be " + want + ", got '" + s + "'";
       },
       shown);

@@ -84,11 +84,24 @@ json parse_json_text(const std::string& text, const std::string& source) {
     std::int64_t line = 0, col = 0;
     if (a != std::string::npos && b > a + 1) {
       const std::string token = msg.substr(a + 1, b - a - 1);
-      for (std::size_t at = text.find(token); at != std::string::npos; at = text.find(token, at + 1)) {
-        const char before = at ? text[at - 1] : ' ';
-        if (before == ':' || before == ',' || before == '[' || std::isspace(static_cast<unsigned char>(before))) {
-          line_col(text, at, line, col);
-          break;
+      bool in_string = false;
+      for (std::size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (in_string) {
+          if (c == '\\') ++i;  // skip the escaped character
+          else if (c == '"') in_string = false;
+          continue;
+        }
+        if (c == '"') {
+          in_string = true;
+          continue;
+        }
+        if (text.compare(i, token.size(), token) == 0) {
+          const char before = i ? text[i - 1] : ' ';
+          if (before == ':' || before == ',' || before == '[' || std::isspace(static_cast<unsigned char>(before))) {
+            line_col(text, i, line, col);
+            break;
+          }
         }
       }
       throw InputError("number out of range: " + token, {source, line, col});

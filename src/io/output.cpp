@@ -47,12 +47,17 @@ void unregister_temporary(int slot) {
   g_temp_claimed[slot].store(false, std::memory_order_release);
 }
 
+// Only async-signal-safe calls: _Fork (unlike fork, it runs no atfork handlers and takes no
+// malloc or stdio lock, so it cannot deadlock a multi-threaded roe), execve, waitpid, _exit.
 extern "C" void remove_temporaries_and_die(int sig) {
+  static char rm[] = "rm", rf[] = "-rf", dashes[] = "--";
   for (int i = 0; i < kSlots; ++i) {
     if (!g_temp_used[i].load(std::memory_order_acquire)) continue;
-    const pid_t pid = ::fork();
+    const pid_t pid = ::_Fork();
     if (pid == 0) {
-      ::execl("/bin/rm", "rm", "-rf", "--", g_temp_paths[i], static_cast<char*>(nullptr));
+      char* argv[] = {rm, rf, dashes, g_temp_paths[i], nullptr};
+      char* envp[] = {nullptr};
+      ::execve("/bin/rm", argv, envp);
       ::_exit(127);
     }
     if (pid > 0) ::waitpid(pid, nullptr, 0);
@@ -60,21 +65,6 @@ extern "C" void remove_temporaries_and_die(int sig) {
   ::signal(sig, SIG_DFL);
   ::raise(sig);
 }
-
-/// Blocks the signals above for its lifetime: a rename sequence is not cut in half.
-class BlockSignals {
- public:
-  BlockSignals() {
-    sigset_t s;
-    sigemptyset(&s);
-    for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&s, sig);
-    ::sigprocmask(SIG_BLOCK, &s, &old_);
-  }
-  ~BlockSignals() { ::sigprocmask(SIG_SETMASK, &old_, nullptr); }
-
- private:
-  sigset_t old_;
-};
 
 std::string unique_suffix() {
   static std::atomic<unsigned> counter{0};
@@ -202,8 +192,22 @@ void remove_temporaries_on_signals() {
   sa.sa_handler = remove_temporaries_and_die;
   sigemptyset(&sa.sa_mask);
   for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&sa.sa_mask, sig);
-  for (int sig : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(sig, &sa, nullptr);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP}) {
+    // A signal the caller ignores stays ignored (nohup, a script's background job and SIGINT).
+    struct sigaction old {};
+    if (::sigaction(sig, nullptr, &old) == 0 && old.sa_handler == SIG_IGN) continue;
+    ::sigaction(sig, &sa, nullptr);
+  }
 }
+
+DeferSignals::DeferSignals() {
+  sigset_t s;
+  sigemptyset(&s);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&s, sig);
+  ::pthread_sigmask(SIG_BLOCK, &s, &old_);
+}
+
+DeferSignals::~DeferSignals() { ::pthread_sigmask(SIG_SETMASK, &old_, nullptr); }
 
 FolderLock::FolderLock(const fs::path& dir) {
   fd_ = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
@@ -242,7 +246,7 @@ fs::path StagedFiles::stage(const fs::path& final_path) {
 }
 
 void StagedFiles::commit() {
-  const BlockSignals block;
+  const DeferSignals defer;
   std::error_code ec;
   for (const auto& [tmp, fin] : files_) {
     fs::rename(tmp, fin, ec);
@@ -252,7 +256,10 @@ void StagedFiles::commit() {
   for (int s : slots_) unregister_temporary(s);
 }
 
+void StagedFiles::lock(const fs::path& dir) { lock_.emplace(dir); }
+
 StagedFiles::~StagedFiles() {
+  // Runs before lock_ is released: a waiting import never finds a folder this one removes.
   for (int s : slots_) unregister_temporary(s);
   if (committed_) return;
   std::error_code ec;
@@ -287,7 +294,7 @@ fs::path OutputDir::file(const fs::path& rel) const {
 
 void OutputDir::commit() {
   if (committed_) return;
-  const BlockSignals block;  // not between moving the old output aside and the new one in
+  const DeferSignals defer;  // not between moving the old output aside and the new one in
   std::error_code ec;
   fs::path old;
   if (fs::exists(final_, ec)) {
@@ -314,6 +321,10 @@ void write_file_atomic(const fs::path& path, std::string_view content, bool over
     throw InputError("file exists (use --force to replace it)", {path.string()});
   if (path.has_parent_path()) fs::create_directories(path.parent_path(), ec);
   const fs::path tmp = path.parent_path() / ("." + path.filename().string() + unique_suffix());
+  struct Registered {  // removed by the signal handler while it exists
+    int slot;
+    ~Registered() { unregister_temporary(slot); }
+  } registered{register_temporary(tmp)};
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) throw InputError("cannot write file", {tmp.string()});

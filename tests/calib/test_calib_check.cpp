@@ -208,6 +208,7 @@ TEST_CASE("calib-check: objects.sigma checks initialised non-anchor objects and 
   // An anchor that never entered the state leaves no σ relative to it (objects.csv then has zeros).
   auto no_anchor = in;
   no_anchor.anchor_id = 1;
+  // (An anchor id 0 is an object id like any other.)
   no_anchor.objects[0].T_O_W.reset();
   c = get(calib::check_calibration(no_anchor), "objects.sigma");
   CHECK(c.status == CheckStatus::kInconclusive);
@@ -318,6 +319,10 @@ TEST_CASE("calib-check: camera.time_offset decides only with confidence: |d| - z
   CHECK_THAT(c.message, Catch::Contains("lies beyond the search"));
   in.time_offset->edge_evidence = 6.0;
   CHECK(get(calib::check_calibration(in), "camera.time_offset").status == CheckStatus::kInconclusive);
+  // A search narrower than the limit (edge at 5 ms): strong evidence, but not of an offset beyond it.
+  in.time_offset->edge_offset_s = 0.005;
+  in.time_offset->edge_evidence = 50.0;
+  CHECK(get(calib::check_calibration(in), "camera.time_offset").status == CheckStatus::kInconclusive);
   in.time_offset.reset();
   in.time_offset_absent_reason = "--no-dataset";
   const auto r = calib::check_calibration(in);
@@ -335,7 +340,7 @@ TEST_CASE("calib-check: thresholds must be positive and the trace must not be em
   t = {};
   t.confidence = 1.0;
   CHECK_THROWS_AS(calib::check_calibration(good_input(), t), InputError);
-  t.confidence = 0.4;
+  t.confidence = 0.5;  // z = 0: no decision possible
   CHECK_THROWS_AS(calib::check_calibration(good_input(), t), InputError);
   auto in = good_input();
   in.extrinsics.clear();

@@ -61,7 +61,7 @@ TEST_CASE("roe calib-check: exit codes 0/1/2, --json, --strict, thresholds", "[c
   // A confidence of 1 has no χ² quantile; a fraction of 1 is the whole run.
   r = roe::test::run_roe("calib-check " + q(run) + " --confidence 1");
   CHECK(r.code == 2);
-  CHECK_THAT(r.out, Catch::Contains("--confidence: must be a number in [0.5, 1), got '1'"));
+  CHECK_THAT(r.out, Catch::Contains("--confidence: must be a number in (0.5, 1), got '1'"));
   r = roe::test::run_roe("calib-check --no-dataset " + q(run) + " --settle-fraction 1");
   CHECK(r.code == 0);  // the whole run: the convergence from the prior, explained by its shrinking σ
   CHECK_THAT(r.out, Catch::Contains("over the last 40.0 s"));

@@ -152,13 +152,41 @@ TEST_CASE("roe: SIGTERM or SIGINT during a long command leaves no temporary outp
   }
 }
 
+TEST_CASE("roe: a signal the caller ignores stays ignored (nohup, background jobs)", "[cli]") {
+  roe::test::TempDir tmp("roe_cli_sigign");
+  const fs::path out = tmp.path / "big";
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    ::signal(SIGHUP, SIG_IGN);  // as nohup does; kept across exec
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1);
+    ::dup2(null, 2);
+    ::execl(ROE_BINARY, "roe", "simulate", "--preset", "paper-seq4", "--duration", "3000", "--out", out.c_str(),
+            static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  ::usleep(300'000);
+  ::kill(pid, SIGHUP);
+  ::usleep(300'000);
+  int status = 0;
+  CHECK(::waitpid(pid, &status, WNOHANG) == 0);  // still running
+  ::kill(pid, SIGTERM);
+  REQUIRE(::waitpid(pid, &status, 0) == pid);
+  CHECK(WIFSIGNALED(status));
+  CHECK(WTERMSIG(status) == SIGTERM);
+}
+
 TEST_CASE("roe: a number option out of range says what it must be, briefly", "[cli]") {
   // CLI11's own PositiveNumber printed its range up to DBL_MAX in full (300 digits).
   for (const auto& [args, what] : std::vector<std::pair<std::string, std::string>>{
            {"infer ds --model m --every 0", "--every: must be an integer >= 1, got '0'"},
            {"infer ds --model m --every 2.5", "--every: must be an integer >= 1, got '2.5'"},
            {"import mocap f --into d --max-offset -1", "--max-offset: must be a positive number, got '-1'"},
-           {"import realsense b --out d --crop-width -5", "--crop-width: must be a number >= 0, got '-5'"},
+           {"import realsense b --out d --crop-width -5", "--crop-width: must be an integer >= 0, got '-5'"},
+           {"import realsense b --out d --crop-width 1.5", "--crop-width: must be an integer >= 0, got '1.5'"},
+           {"infer ds --model m --every 1e20", "--every: must be an integer >= 1, got '1e20'"},
+           {"calib-check r --confidence 0.5", "--confidence: must be a number in (0.5, 1), got '0.5'"},
            {"calib-check r --max-sigma-p nan", "--max-sigma-p: must be a positive number, got 'nan'"},
            {"calib-check r --settle-fraction 0", "--settle-fraction: must be a number in (0, 1], got '0'"}}) {
     const auto r = run_roe(args);

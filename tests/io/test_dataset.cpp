@@ -856,6 +856,13 @@ TEST_CASE("json: a number beyond double's range is an input error at its line an
     CHECK(e.context().column == 11);
     CHECK_THAT(e.what(), Catch::Contains("number out of range: 1e999"));
   }
+  try {  // the same text inside a string earlier does not mislead the position
+    io::parse_json_text("{\"s\": \"see 1e999 \\\" 1e999\",\n \"a\":\n 1e999}", "c.json");
+    FAIL("no error");
+  } catch (const InputError& e) {
+    CHECK(e.context().line == 3);
+    CHECK(e.context().column == 2);
+  }
 }
 
 TEST_CASE("json: text that is not UTF-8 is written with U+FFFD, not an exception", "[io][json]") {

@@ -62,7 +62,7 @@ struct ObjectEstimate {
 
 struct CalibInput {
   bool extrinsics_estimated = true;
-  int anchor_id = 0;                         ///< the run's anchor object (0 = none chosen)
+  std::optional<int> anchor_id;              ///< the run's anchor object (none: run.json anchor_id null)
   Pose prior_T_I_C;                          ///< the filter's initial extrinsics
   Vector6d prior_sigma = Vector6d::Zero();   ///< their standard deviations (m, rad)
   std::vector<ExtrinsicsSample> extrinsics;  ///< the run's trace, sorted by time (not empty)

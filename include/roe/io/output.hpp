@@ -6,7 +6,10 @@
 ///    replaced only at commit time). If commit() is never reached the temporary folder is removed.
 ///  - write_file_atomic: one file via a temporary name in the same folder + rename.
 
+#include <signal.h>
+
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -55,6 +58,19 @@ class OutputDir {
 /// by the executable's main.
 void remove_temporaries_on_signals();
 
+/// Defers SIGINT, SIGTERM and SIGHUP in this thread for its lifetime (they arrive when it ends):
+/// a sequence of renames that belong together is not cut in half.
+class DeferSignals {
+ public:
+  DeferSignals();
+  ~DeferSignals();
+  DeferSignals(const DeferSignals&) = delete;
+  DeferSignals& operator=(const DeferSignals&) = delete;
+
+ private:
+  sigset_t old_;
+};
+
 /// An exclusive advisory lock (flock) on a folder, held for the object's lifetime. The imports that
 /// read, change and rewrite a dataset's roe.json take it first, so two imports into one dataset at
 /// once run one after the other instead of one silently losing the other's change. The folder must
@@ -85,10 +101,14 @@ class StagedFiles {
   void ensure_folder(const fs::path& dir);
   /// The temporary path to write `final_path` to (creating its parent folders).
   fs::path stage(const fs::path& final_path);
-  /// Renames every staged file into place, in order; roe::InputError when one cannot be.
+  /// Takes `dir`'s FolderLock and holds it until after the destructor's clean-up.
+  void lock(const fs::path& dir);
+  /// Renames every staged file into place, in order; roe::InputError when one cannot be (the files
+  /// renamed before it stay in place: renames within a folder fail only on a broken file system).
   void commit();
 
  private:
+  std::optional<FolderLock> lock_;  ///< declared first: released last
   std::vector<std::pair<fs::path, fs::path>> files_;  ///< (temporary, final)
   std::vector<int> slots_;                             ///< their signal-cleanup registrations
   std::vector<fs::path> created_;                      ///< folders created, in creation order
