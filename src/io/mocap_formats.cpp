@@ -36,9 +36,41 @@ std::string lower(std::string s) {
   return s;
 }
 
-std::vector<std::string> row_strings(const CsvReader& r) {
+bool valid_utf8(const std::string& s) {
+  for (std::size_t i = 0; i < s.size();) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    const std::size_t n = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;
+    if (n == 0 || i + n > s.size()) return false;
+    for (std::size_t k = 1; k < n; ++k)
+      if ((static_cast<unsigned char>(s[i + k]) >> 6) != 0x2) return false;
+    i += n;
+  }
+  return true;
+}
+
+/// The cells of the current row. Motive and Vicon run on Windows and may write names in the
+/// Windows code page (cp1252, Latin-1 for letters such as ö): a cell that is not UTF-8 is read as
+/// Latin-1, so that `--body "Körper 1"` typed in a UTF-8 terminal finds it, and counted.
+std::vector<std::string> row_strings(const CsvReader& r, std::size_t* transcoded = nullptr) {
   std::vector<std::string> v;
-  for (std::size_t i = 0; i < r.size(); ++i) v.emplace_back(r.field(i));
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    std::string cell(r.field(i));
+    if (!valid_utf8(cell)) {
+      std::string u;
+      for (const char ch : cell) {
+        const auto c = static_cast<unsigned char>(ch);
+        if (c < 0x80) {
+          u += ch;
+        } else {
+          u += static_cast<char>(0xC0 | (c >> 6));
+          u += static_cast<char>(0x80 | (c & 0x3F));
+        }
+      }
+      cell = std::move(u);
+      if (transcoded) ++*transcoded;
+    }
+    v.push_back(std::move(cell));
+  }
   return v;
 }
 
@@ -109,8 +141,9 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
   // Header rows up to the axis row ("Frame", ...).
   std::vector<std::vector<std::string>> hdr;
   std::int64_t axis_line = 0;
+  std::size_t transcoded = 0;
   while (r.next()) {
-    hdr.push_back(row_strings(r));
+    hdr.push_back(row_strings(r, &transcoded));
     if (!hdr.back().empty() && hdr.back()[0] == "Frame") {
       axis_line = r.line();
       break;
@@ -132,6 +165,9 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
       time_col = i;
       break;
     }
+  if (transcoded)
+    out.warnings.push_back(fmt::format("{} header cell(s) are not UTF-8: read as Latin-1 (the Windows code page)",
+                                       transcoded));
   // Rigid bodies.
   std::set<std::string> seen;
   for (std::size_t i = 0; i < type.size(); ++i)
@@ -262,7 +298,11 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
   out.rate_hz = r.get_double(0);
   if (!(out.rate_hz > 0)) throw r.error(0, "frame rate must be > 0");
   if (!r.next()) throw InputError("truncated Vicon section (no names row)", {src, r.line()});
-  const auto names = row_strings(r);
+  std::size_t transcoded = 0;
+  const auto names = row_strings(r, &transcoded);
+  if (transcoded)
+    out.warnings.push_back(fmt::format("{} name cell(s) are not UTF-8: read as Latin-1 (the Windows code page)",
+                                       transcoded));
   if (!r.next()) throw InputError("truncated Vicon section (no column row)", {src, r.line()});
   const auto cols = row_strings(r);
   const std::int64_t cols_line = r.line();

@@ -144,6 +144,15 @@ TEST_CASE("motive: a file cut inside its last row, and an unknown Format Version
   const auto s = io::read_motive_csv(d.write("short.csv", cut + "\n"), "cam");
   CHECK(s.occluded == 2);
   CHECK_FALSE(has(s, "truncated"));
+  // A body name in the Windows code page (cp1252 "ö" = 0xF6) is read as Latin-1: found by its
+  // UTF-8 spelling, and said so.
+  std::string cp = kMotive3;
+  for (std::size_t at = cp.find(",cam"); at != std::string::npos; at = cp.find(",cam", at + 1))
+    cp.replace(at, 4, ",k\xf6rper");
+  const auto k = io::read_motive_csv(d.write("cp.csv", cp), "k\xc3\xb6rper");
+  CHECK(k.body == "k\xc3\xb6rper");
+  CHECK(k.poses.size() == 3);
+  CHECK(has(k, "not UTF-8: read as Latin-1"));
   std::string v = kMotive3;
   v.replace(v.find("1.24"), 4, "9.99");
   CHECK(has(io::read_motive_csv(d.write("v.csv", v), "cam"), "Format Version 9.99 has not been checked"));
