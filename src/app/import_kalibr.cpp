@@ -212,12 +212,9 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
     throw InputError("the dataset already has a Kalibr calibration (use --force to replace it)",
                      {fs::exists(cam_out) ? cam_out.string() : imu_out.string()});
   // The dataset is changed as one (calib files staged, roe.json last) under its lock.
-  std::error_code ec;
-  if (fs::exists(dataset, ec) && !fs::is_directory(dataset, ec))
-    throw InputError("dataset path exists and is not a folder", {dataset.string()});
   io::StagedFiles staged;
-  staged.ensure_folder(dataset);
-  staged.lock(dataset);
+  begin_dataset_change(staged, dataset);
+  std::error_code ec;
   if (!opt.force && (fs::exists(cam_out, ec) || (imu_yaml && fs::exists(imu_out, ec))))
     throw InputError("the dataset already has a Kalibr calibration (use --force to replace it)",
                      {fs::exists(cam_out, ec) ? cam_out.string() : imu_out.string()});

@@ -56,6 +56,14 @@ std::string source_kind(const std::string& format) {
 
 }  // namespace
 
+void begin_dataset_change(io::StagedFiles& staged, const fs::path& dataset) {
+  std::error_code ec;
+  if (fs::exists(dataset, ec) && !fs::is_directory(dataset, ec))
+    throw InputError("dataset path exists and is not a folder", {dataset.string()});
+  staged.ensure_folder(dataset);
+  staged.lock(dataset);
+}
+
 DatasetManifest open_or_create_manifest(const fs::path& dataset, bool& created) {
   created = false;
   std::error_code ec;
@@ -271,14 +279,10 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
     const Pose T_Z_Y(R_Z_Y, Eigen::Vector3d::Zero());
     for (auto& p : d.poses) p.T = T_Z_Y * p.T;
   }
-  // From here on the dataset is changed as one: the folder (when new) and the data staged, roe.json
-  // last, under a lock so that a concurrent import cannot slip its roe.json in between.
-  std::error_code ec;
-  if (fs::exists(dataset, ec) && !fs::is_directory(dataset, ec))
-    throw InputError("dataset path exists and is not a folder", {dataset.string()});
+  // From here on the dataset is changed as one, under its lock.
   io::StagedFiles staged;
-  staged.ensure_folder(dataset);
-  staged.lock(dataset);
+  begin_dataset_change(staged, dataset);
+  std::error_code ec;
   if (fs::exists(S.csv, ec) && !opt.force)
     throw InputError("the dataset already has mocap data (use --force to replace it)", {S.csv.string()});
   bool created = false;

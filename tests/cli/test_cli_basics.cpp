@@ -117,6 +117,21 @@ TEST_CASE("simulate --seed must be a non-negative integer, and says so", "[cli]"
   }
 }
 
+namespace {
+/// Starts `roe simulate` of 3000 s (about a minute) into `out`, silenced; the caller ends it.
+pid_t spawn_long_simulation(const fs::path& out, bool ignore_hup) {
+  const pid_t pid = ::fork();
+  if (pid != 0) return pid;
+  if (ignore_hup) ::signal(SIGHUP, SIG_IGN);  // kept across exec
+  const int null = ::open("/dev/null", O_WRONLY);
+  ::dup2(null, 1);
+  ::dup2(null, 2);
+  ::execl(ROE_BINARY, "roe", "simulate", "--preset", "paper-seq4", "--duration", "3000", "--out", out.c_str(),
+          static_cast<char*>(nullptr));
+  ::_exit(127);
+}
+}  // namespace
+
 TEST_CASE("roe: SIGTERM or SIGINT during a long command leaves no temporary output behind", "[cli]") {
   // `timeout`, Ctrl-C and batch schedulers end commands with these; the hidden .NAME.tmp-* folder of
   // the output in progress (80 MB after 2 s of this simulation) must go with the process.
@@ -124,16 +139,8 @@ TEST_CASE("roe: SIGTERM or SIGINT during a long command leaves no temporary outp
   for (const int sig : {SIGTERM, SIGINT}) {
     const std::string name = "big" + std::to_string(sig);
     const fs::path out = tmp.path / name;
-    const pid_t pid = ::fork();
+    const pid_t pid = spawn_long_simulation(out, false);
     REQUIRE(pid >= 0);
-    if (pid == 0) {
-      const int null = ::open("/dev/null", O_WRONLY);
-      ::dup2(null, 1);
-      ::dup2(null, 2);
-      ::execl(ROE_BINARY, "roe", "simulate", "--preset", "paper-seq4", "--duration", "3000", "--out", out.c_str(),
-              static_cast<char*>(nullptr));
-      ::_exit(127);
-    }
     const auto temporaries = [&] {
       int n = 0;
       for (const auto& e : fs::directory_iterator(tmp.path))
@@ -155,17 +162,8 @@ TEST_CASE("roe: SIGTERM or SIGINT during a long command leaves no temporary outp
 TEST_CASE("roe: a signal the caller ignores stays ignored (nohup, background jobs)", "[cli]") {
   roe::test::TempDir tmp("roe_cli_sigign");
   const fs::path out = tmp.path / "big";
-  const pid_t pid = ::fork();
+  const pid_t pid = spawn_long_simulation(out, true);  // SIGHUP ignored, as nohup does
   REQUIRE(pid >= 0);
-  if (pid == 0) {
-    ::signal(SIGHUP, SIG_IGN);  // as nohup does; kept across exec
-    const int null = ::open("/dev/null", O_WRONLY);
-    ::dup2(null, 1);
-    ::dup2(null, 2);
-    ::execl(ROE_BINARY, "roe", "simulate", "--preset", "paper-seq4", "--duration", "3000", "--out", out.c_str(),
-            static_cast<char*>(nullptr));
-    ::_exit(127);
-  }
   ::usleep(300'000);
   ::kill(pid, SIGHUP);
   ::usleep(300'000);

@@ -32,6 +32,20 @@ struct TempDir {
   std::string operator/(const std::string& rel) const { return (dir.path / rel).string(); }
 };
 
+// A valid Kalibr camchain (identity rotation, 10 cm lever arm, −10 ms time shift).
+const std::string cc =
+    "cam0:\n  T_cam_imu:\n  - [1.0, 0.0, 0.0, 0.1]\n  - [0.0, 1.0, 0.0, 0.0]\n  - [0.0, 0.0, 1.0, 0.0]\n"
+    "  - [0.0, 0.0, 0.0, 1.0]\n  camera_model: pinhole\n  distortion_coeffs: [0, 0, 0, 0]\n"
+    "  distortion_model: radtan\n  intrinsics: [600, 600, 320, 240]\n  resolution: [640, 480]\n"
+    "  timeshift_cam_imu: -0.01\n";
+
+// 2 s of TUM poses at 100 Hz.
+std::string tum_poses() {
+  std::string tum;
+  for (int k = 0; k < 200; ++k) tum += std::to_string(1000.0 + 0.01 * k) + " 0.1 0.2 0.3 0 0 0 1\n";
+  return tum;
+}
+
 std::string small_d435i(const std::string& compression) {
   roe::testing::D435iBagSpec s;
   s.compression = compression;
@@ -126,11 +140,6 @@ TEST_CASE("roe import mocap: malformed rows and non-unit quaternions exit 2 nami
 
 TEST_CASE("roe import kalibr: valid and invalid files", "[cli][import]") {
   TempDir d;
-  const std::string cc =
-      "cam0:\n  T_cam_imu:\n  - [1.0, 0.0, 0.0, 0.1]\n  - [0.0, 1.0, 0.0, 0.0]\n  - [0.0, 0.0, 1.0, 0.0]\n"
-      "  - [0.0, 0.0, 0.0, 1.0]\n  camera_model: pinhole\n  distortion_coeffs: [0, 0, 0, 0]\n"
-      "  distortion_model: radtan\n  intrinsics: [600, 600, 320, 240]\n  resolution: [640, 480]\n"
-      "  timeshift_cam_imu: -0.01\n";
   auto r = run("import kalibr " + d.write("cc.yaml", cc) + " --into " + d / "ds" + " --json", false);
   REQUIRE(r.code == 0);
   const auto j = nlohmann::json::parse(r.out);
@@ -149,14 +158,8 @@ TEST_CASE("roe import mocap and kalibr into one dataset at once: both are record
   // Each import reads roe.json, adds its record and writes it back; without the dataset's lock the
   // second writer silently dropped the first one's record (9 of 20 runs before the lock existed).
   TempDir d;
-  const std::string cc =
-      "cam0:\n  T_cam_imu:\n  - [1.0, 0.0, 0.0, 0.1]\n  - [0.0, 1.0, 0.0, 0.0]\n  - [0.0, 0.0, 1.0, 0.0]\n"
-      "  - [0.0, 0.0, 0.0, 1.0]\n  camera_model: pinhole\n  distortion_coeffs: [0, 0, 0, 0]\n"
-      "  distortion_model: radtan\n  intrinsics: [600, 600, 320, 240]\n  resolution: [640, 480]\n"
-      "  timeshift_cam_imu: -0.01\n";
   const auto cc_file = d.write("cc.yaml", cc);
-  std::string tum;
-  for (int k = 0; k < 200; ++k) tum += std::to_string(1000.0 + 0.01 * k) + " 0.1 0.2 0.3 0 0 0 1\n";
+  const std::string tum = tum_poses();
   const auto tum_file = d.write("gt.txt", tum);
   const std::string roe = ROE_BINARY;
   for (int i = 0; i < 12; ++i) {
@@ -178,8 +181,7 @@ TEST_CASE("roe import mocap and kalibr into one dataset at once: both are record
 
 TEST_CASE("roe import: a failure before roe.json is written leaves the dataset as it was", "[cli][import]") {
   TempDir d;
-  std::string tum;
-  for (int k = 0; k < 200; ++k) tum += std::to_string(1000.0 + 0.01 * k) + " 0.1 0.2 0.3 0 0 0 1\n";
+  const std::string tum = tum_poses();
   const auto tum_file = d.write("gt.txt", tum);
   // --estimate-offset into a new folder without an IMU: exit 2 and no folder left behind.
   auto r = run("import mocap " + tum_file + " --format tum --estimate-offset --into " + d / "new");

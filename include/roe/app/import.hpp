@@ -15,6 +15,7 @@
 #include "roe/core/dataset.hpp"
 #include "roe/core/types.hpp"
 #include "roe/io/mocap_formats.hpp"
+#include "roe/io/output.hpp"
 
 namespace roe::app {
 
@@ -184,7 +185,13 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
 // ---------------------------------------------------------------------------------------------
 
 /// Reads DATASET/roe.json, or — when the folder has none — returns a minimal manifest (schema and
-/// name = the folder's name) and sets `created`. The folder is created when absent.
+/// name = the folder's name) and sets `created`. The folder must exist (begin_dataset_change).
 DatasetManifest open_or_create_manifest(const fs::path& dataset, bool& created);
+
+/// Starts an import's change of DATASET: refuses a path that is a file, creates the folder when
+/// absent (removed again by `staged` if the import fails) and takes its lock in `staged`, so that
+/// the files staged next and roe.json (staged last) change together and no concurrent import's
+/// roe.json slips in between.
+void begin_dataset_change(io::StagedFiles& staged, const fs::path& dataset);
 
 }  // namespace roe::app
