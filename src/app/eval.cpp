@@ -145,6 +145,17 @@ EvalResult run_eval(const EvalOptions& o) {
   (void)parse_format_option(o.est_format, "--est-format");
   (void)parse_format_option(o.gt_format, "--gt-format");
   check_gt_source(o.gt_source);
+  std::vector<eval::RpeOptions> rpe_options;
+  for (double d : o.rpe_delta) {
+    eval::RpeOptions r;
+    r.delta = d;
+    r.unit = eval::parse_delta_unit(o.rpe_unit);
+    r.all_pairs = o.rpe_all_pairs;
+    r.pairs_from = eval::parse_pairs_from(o.rpe_pairs_from);
+    r.rel_tol = o.rpe_tol;
+    eval::check_rpe_options(r);
+    rpe_options.push_back(r);
+  }
   if (o.n_align != -1 && (align == eval::AlignType::kOrigin || align == eval::AlignType::kNone)) {
     // evo ignores --n_to_align with --align_origin; say so instead.
     warnings.push_back(fmt::format("--n-align {} is ignored with --align {}: {}", o.n_align, o.align,
@@ -228,6 +239,27 @@ EvalResult run_eval(const EvalOptions& o) {
   }
   if (align == eval::AlignType::kNone)
     warnings.push_back("no alignment: the results depend on the arbitrary world frames of both trajectories");
+
+  // Relative pose error of the aligned pairs (only a Sim(3) scale changes it), one block per delta.
+  std::vector<eval::RpeResult> rpe;
+  json rpe_json = json::array();
+  for (const eval::RpeOptions& ro : rpe_options) {
+    rpe.push_back(eval::compute_rpe(pe_aligned, pg, t_e, t_g, ro));
+    const eval::RpeResult& r = rpe.back();
+    if (r.pairs.empty())
+      warnings.push_back(fmt::format("RPE delta {} {}: no pair of matched poses is that far apart{}", ro.delta,
+                                     eval::to_string(ro.unit),
+                                     ro.all_pairs ? fmt::format(" (within {} %)", 100.0 * ro.rel_tol) : ""));
+    rpe_json.push_back({{"delta", ro.delta},
+                        {"unit", eval::to_string(ro.unit)},
+                        {"all_pairs", ro.all_pairs},
+                        {"pairs_from", eval::to_string(ro.pairs_from)},
+                        {"rel_tol", ro.rel_tol},
+                        {"n_pairs", r.pairs.size()},
+                        {"trans_m", r.pairs.empty() ? json(nullptr) : stats_json(r.trans_m)},
+                        {"rot_deg", r.pairs.empty() ? json(nullptr) : stats_json(r.rot_deg)},
+                        {"drift_pct", r.trans_pct.n == 0 ? json(nullptr) : stats_json(r.trans_pct)}});
+  }
 
   // Per-object reprojection traces.
   json per_object = json::array();
@@ -352,6 +384,10 @@ EvalResult run_eval(const EvalOptions& o) {
         {"definition",
          "NEES_p = e_p^T P_p^-1 e_p (e_p = p_gt - p_est, P_p rotated by the alignment); "
          "NEES_R = dtheta^T P_theta^-1 dtheta, dtheta = Log(R_est^T R_gt)"}}},
+      {"rpe", rpe_json},
+      {"rpe_definition",
+       "E_ij = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j), Q ground truth, P aligned estimate (evo RPE); trans_m = |trans(E)|, "
+       "rot_deg = angle of rot(E), drift_pct = 100 trans_m / ground-truth path length from i to j"},
       {"per_object", per_object},
       {"path_length_m", {{"est", L_est}, {"gt", L_gt}}},
       {"options",
@@ -362,7 +398,12 @@ EvalResult run_eval(const EvalOptions& o) {
         {"assoc", o.assoc},
         {"est_format", o.est_format},
         {"gt_format", o.gt_format},
-        {"gt_source", o.gt_source}}},
+        {"gt_source", o.gt_source},
+        {"rpe_delta", o.rpe_delta},
+        {"rpe_unit", o.rpe_unit},
+        {"rpe_all_pairs", o.rpe_all_pairs},
+        {"rpe_pairs_from", o.rpe_pairs_from},
+        {"rpe_tol", o.rpe_tol}}},
       {"warnings", warnings}};
 
   EvalResult res;
@@ -452,6 +493,44 @@ EvalResult run_eval(const EvalOptions& o) {
       w.end_row();
       put("summary.csv", w.str());
     }
+    if (!rpe.empty()) {
+      io::CsvWriter w;
+      w.header({"delta", "unit", "t_i", "t_j", "dt_s", "path_gt_m", "trans_m", "rot_deg", "drift_pct"});
+      for (const eval::RpeResult& r : rpe) {
+        for (const eval::RpePair& p : r.pairs) {
+          w.add(r.options.delta).add(eval::to_string(r.options.unit)).add_seconds(t_g[p.i]).add_seconds(t_g[p.j]);
+          w.add(dt_seconds(t_g[p.i], t_g[p.j])).add(p.path_gt_m).add(p.trans_m).add(p.rot_deg);
+          if (std::isfinite(p.trans_pct))
+            w.add(p.trans_pct);
+          else
+            w.add_empty();
+          w.end_row();
+        }
+      }
+      put("rpe.csv", w.str());
+      io::CsvWriter sw;
+      sw.header({"delta", "unit", "all_pairs", "pairs_from", "n_pairs", "trans_rmse_m", "trans_mean_m",
+                "trans_median_m", "trans_std_m", "trans_min_m", "trans_max_m", "rot_rmse_deg", "rot_mean_deg",
+                "rot_median_deg", "rot_std_deg", "rot_min_deg", "rot_max_deg", "drift_mean_pct",
+                "drift_median_pct"});
+      for (const eval::RpeResult& r : rpe) {
+        sw.add(r.options.delta).add(eval::to_string(r.options.unit)).add(r.options.all_pairs ? "true" : "false");
+        sw.add(eval::to_string(r.options.pairs_from)).add(static_cast<std::int64_t>(r.pairs.size()));
+        for (const eval::Stats* st : {&r.trans_m, &r.rot_deg}) {
+          if (r.pairs.empty()) {
+            for (int k = 0; k < 6; ++k) sw.add_empty();
+            continue;
+          }
+          sw.add(st->rmse).add(st->mean).add(st->median).add(st->std).add(st->min).add(st->max);
+        }
+        if (r.trans_pct.n == 0)
+          sw.add_empty().add_empty();
+        else
+          sw.add(r.trans_pct.mean).add(r.trans_pct.median);
+        sw.end_row();
+      }
+      put("rpe_summary.csv", sw.str());
+    }
     if (est.have_reprojection) {
       io::CsvWriter w;
       w.header({"timestamp_ns", "object_id", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "status", "nis"});
@@ -526,6 +605,25 @@ std::string EvalResult::to_text() const {
     s += fmt::format("  {:<10} {:9.4f} {:9.4f} {:9.4f} {:9.4f} {:9.4f} {:9.4f}\n", name,
                      st["rmse"].get<double>(), st["mean"].get<double>(), st["median"].get<double>(),
                      st["std"].get<double>(), st["min"].get<double>(), st["max"].get<double>());
+  }
+  if (!r["rpe"].empty()) {
+    s += "\n  RPE            pairs  trans rmse [m]   mean    median   |  rot rmse [deg]   mean   |  drift [%]\n";
+    for (const auto& e : r["rpe"]) {
+      const std::string what = fmt::format("{} {}{}{}", e["delta"].get<double>(), e["unit"].get<std::string>(),
+                                           e["all_pairs"].get<bool>() ? ", all" : "",
+                                           e["pairs_from"].get<std::string>() == "gt" ? ", gt" : "");
+      if (e["n_pairs"].get<std::size_t>() == 0) {
+        s += fmt::format("  {:<13} {:>6}  (none)\n", what, 0);
+        continue;
+      }
+      const auto& tr = e["trans_m"];
+      const auto& ro = e["rot_deg"];
+      s += fmt::format("  {:<13} {:>6}  {:13.4f} {:8.4f} {:8.4f}   | {:14.3f} {:7.3f}   | {:8}\n", what,
+                       e["n_pairs"].get<std::size_t>(), tr["rmse"].get<double>(), tr["mean"].get<double>(),
+                       tr["median"].get<double>(), ro["rmse"].get<double>(), ro["mean"].get<double>(),
+                       e["drift_pct"].is_null() ? std::string("-")
+                                                : fmt::format("{:.2f}", e["drift_pct"]["mean"].get<double>()));
+    }
   }
   if (r["consistency"]["available"].get<bool>()) {
     s += fmt::format("\n  ANEES position {:.3f}, orientation {:.3f} (expected 3 for a consistent filter)\n",

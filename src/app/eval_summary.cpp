@@ -1,6 +1,7 @@
 // roe eval --summary: one row per run + mean and population std, in the paper's table layout.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iterator>
 
@@ -55,6 +56,22 @@ std::string setting_text(const json& v) {
   return io::dump_json(v);
 }
 
+/// The RPE blocks of a report, by a key naming delta, unit and mode ("1m", "0.5m_all_gt"), with their
+/// translation and rotation RMSE; blocks without pairs are left out.
+std::vector<std::pair<std::string, std::pair<double, double>>> rpe_blocks(const json& j) {
+  std::vector<std::pair<std::string, std::pair<double, double>>> out;
+  if (!j.contains("rpe") || !j["rpe"].is_array()) return out;
+  for (const auto& e : j["rpe"]) {
+    if (!e.contains("trans_m") || !e["trans_m"].is_object() || !e.contains("rot_deg") || !e["rot_deg"].is_object())
+      continue;
+    std::string key = fmt::format("{}{}", e.at("delta").get<double>(), e.at("unit").get<std::string>());
+    if (e.value("all_pairs", false)) key += "_all";
+    if (e.value("pairs_from", std::string("est")) == "gt") key += "_gt";
+    out.push_back({key, {e["trans_m"].at("rmse").get<double>(), e["rot_deg"].at("rmse").get<double>()}});
+  }
+  return out;
+}
+
 std::string vec3(const std::vector<double>& v, int first, int decimals) {
   return fmt::format("[{:.{}f}, {:.{}f}, {:.{}f}]", v[first], decimals, v[first + 1], decimals, v[first + 2],
                      decimals);
@@ -69,6 +86,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     std::size_t n_objects = 0, n_matched = 0;
     std::vector<double> v;
     json settings = json::object();
+    std::vector<std::pair<std::string, std::pair<double, double>>> rpe;
   };
   std::vector<Row> rows;
   for (const auto& r : o.reports) {
@@ -94,18 +112,13 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
                pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>(),
                num(j, row.file, "ape_trans_m", "rmse"),   num(j, row.file, "ape_rot_deg", "rmse")};
       for (const Setting& st : kSettings) row.settings[st.key] = setting_value(j, st);
+      row.rpe = rpe_blocks(j);
     } catch (const json::exception& e) {
       throw InputError(std::string("not a roe eval report: ") + e.what(), {f.string()});
     }
     rows.push_back(std::move(row));
   }
-  std::vector<double> mean(kNumCols, 0.0), sd(kNumCols, 0.0);
-  const double n = static_cast<double>(rows.size());
-  for (const auto& r : rows)
-    for (int k = 0; k < kNumCols; ++k) mean[k] += r.v[k] / n;
-  for (const auto& r : rows)
-    for (int k = 0; k < kNumCols; ++k) sd[k] += (r.v[k] - mean[k]) * (r.v[k] - mean[k]) / n;
-  for (double& s : sd) s = std::sqrt(s);  // population std, as in the paper's tables
+  const double n = static_cast<double>(rows.size());  // mean and population std, as the paper's tables
 
   // Mixed settings: a warning (the table is still written; comparing settings can be the point).
   std::vector<std::string> warnings;
@@ -125,6 +138,46 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
         st.name, list));
   }
 
+  // RPE: the blocks every report has (same delta, unit and mode), as two more columns each.
+  std::vector<std::string> cols(std::begin(kCols), std::end(kCols));
+  {
+    std::vector<std::string> common_keys, partial;
+    for (const auto& [key, val] : rows.front().rpe) {
+      bool everywhere = true;
+      for (const auto& r : rows) {
+        bool found = false;
+        for (const auto& b : r.rpe) found = found || b.first == key;
+        everywhere = everywhere && found;
+      }
+      (everywhere ? common_keys : partial).push_back(key);
+    }
+    for (const auto& r : rows)
+      for (const auto& b : r.rpe)
+        if (std::find(common_keys.begin(), common_keys.end(), b.first) == common_keys.end() &&
+            std::find(partial.begin(), partial.end(), b.first) == partial.end())
+          partial.push_back(b.first);
+    for (const auto& key : partial)
+      warnings.push_back(fmt::format("RPE {} is not in every report (or has no pairs in some): not summarised", key));
+    for (const auto& key : common_keys) {
+      cols.push_back("rpe_" + key + "_trans_rmse_m");
+      cols.push_back("rpe_" + key + "_rot_rmse_deg");
+      for (auto& r : rows)
+        for (const auto& b : r.rpe)
+          if (b.first == key) {
+            r.v.push_back(b.second.first);
+            r.v.push_back(b.second.second);
+            break;
+          }
+    }
+  }
+  const int n_cols = static_cast<int>(cols.size());
+  std::vector<double> mean(n_cols, 0.0), sd(n_cols, 0.0);
+  for (const auto& r : rows)
+    for (int k = 0; k < n_cols; ++k) mean[k] += r.v[k] / n;
+  for (const auto& r : rows)
+    for (int k = 0; k < n_cols; ++k) sd[k] += (r.v[k] - mean[k]) * (r.v[k] - mean[k]) / n;
+  for (double& x : sd) x = std::sqrt(x);
+
   EvalSummaryResult res;
   json runs = json::array();
   for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -133,14 +186,14 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
                {"report", rows[i].file},
                {"n_objects", rows[i].n_objects},
                {"n_matched", rows[i].n_matched}};
-    for (int k = 0; k < kNumCols; ++k) jr[kCols[k]] = rows[i].v[k];
+    for (int k = 0; k < n_cols; ++k) jr[cols[k]] = rows[i].v[k];
     for (const Setting& st : kSettings) jr[st.key] = rows[i].settings[st.key];
     runs.push_back(jr);
   }
   json jm, js;
-  for (int k = 0; k < kNumCols; ++k) {
-    jm[kCols[k]] = mean[k];
-    js[kCols[k]] = sd[k];
+  for (int k = 0; k < n_cols; ++k) {
+    jm[cols[k]] = mean[k];
+    js[cols[k]] = sd[k];
   }
   res.summary = {{"runs", runs},
                  {"mean", jm},
@@ -158,6 +211,26 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
                       vec3(rows[i].v, 0, 3), vec3(rows[i].v, 3, 2));
   md += fmt::format("| mean | | - | {} | {} |\n", vec3(mean, 0, 3), vec3(mean, 3, 2));
   md += fmt::format("| ± std | | | ± {} | ± {} |\n", vec3(sd, 0, 3), vec3(sd, 3, 2));
+  if (n_cols > kNumCols) {
+    md += "\n| Run | Label |";
+    std::string sep = "|---|---|";
+    for (int k = kNumCols; k < n_cols; k += 2) {
+      const std::string key = cols[k].substr(4, cols[k].size() - 4 - std::string("_trans_rmse_m").size());
+      md += fmt::format(" RPE {} trans RMSE [m] | RPE {} rot RMSE [deg] |", key, key);
+      sep += "---|---|";
+    }
+    md += "\n" + sep + "\n";
+    const auto rpe_row = [&](const std::string& a, const std::string& b, const std::vector<double>& v,
+                             const char* prefix) {
+      std::string line = fmt::format("| {} | {} |", a, b);
+      for (int k = kNumCols; k < n_cols; k += 2)
+        line += fmt::format(" {}{:.4f} | {}{:.3f} |", prefix, v[k], prefix, v[k + 1]);
+      return line + "\n";
+    };
+    for (std::size_t i = 0; i < rows.size(); ++i) md += rpe_row(std::to_string(i + 1), rows[i].label, rows[i].v, "");
+    md += rpe_row("mean", "", mean, "");
+    md += rpe_row("± std", "", sd, "± ");
+  }
   if (warnings.empty()) {
     md += fmt::format(
         "\nSettings of every run: alignment {}, --n-align {}, --max-dt {} s, --t-offset {} s, "
@@ -186,7 +259,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     }
     io::CsvWriter w;
     std::vector<std::string> h = {"run", "label", "report", "n_objects", "n_matched"};
-    for (const char* c : kCols) h.push_back(c);
+    for (const auto& c : cols) h.push_back(c);
     for (const Setting& st : kSettings) h.push_back(st.key);
     w.header(h);
     for (std::size_t i = 0; i < rows.size(); ++i) {

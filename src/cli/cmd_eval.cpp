@@ -1,5 +1,5 @@
 // roe eval RUN_DIR|EST_FILE --gt DATASET|GT_FILE [--align ...] [--max-dt S] [--t-offset S] [--out DIR]
-// [--plot] roe eval --summary REPORT_JSON... [--out FILE]
+// [--plot] [--rpe-delta D[,D...] --rpe-unit m|s|f|deg|rad ...] roe eval --summary REPORT_JSON... [--out FILE]
 #include <filesystem>
 #include <fmt/format.h>
 
@@ -59,10 +59,45 @@ RunFn setup(CLI::App& sub) {
       sub.add_option("--label", a->opt.label, "Name of this run in reports and summaries"));
   a->eval_only.push_back(sub.add_flag(
       "--plot", a->opt.plot, "Render PNG plots with /usr/bin/python3 + matplotlib (scripts/plot_eval.py)"));
+  auto* rpe_delta =
+      sub.add_option("--rpe-delta", a->opt.rpe_delta,
+                     "Relative pose error over this delta (several: 1,2,5); unit from --rpe-unit")
+          ->delimiter(',')
+          ->group("Relative pose error");
+  a->eval_only.push_back(rpe_delta);
+  std::vector<CLI::Option*> rpe_only;
+  rpe_only.push_back(sub.add_option("--rpe-unit", a->opt.rpe_unit,
+                                    "Unit of --rpe-delta: m (path length), s, f (matched poses), deg or rad "
+                                    "(rotation); evo's default is f")
+                         ->capture_default_str()
+                         ->group("Relative pose error"));
+  rpe_only.push_back(sub.add_flag("--rpe-all-pairs", a->opt.rpe_all_pairs,
+                                  "Every pose pair at the delta (evo --all_pairs), not consecutive ones")
+                         ->group("Relative pose error"));
+  rpe_only.push_back(sub.add_option("--rpe-pairs-from", a->opt.rpe_pairs_from,
+                                    "Choose the pairs on the estimate (est, evo's default) or the ground "
+                                    "truth (gt, evo --pairs_from_reference)")
+                         ->capture_default_str()
+                         ->group("Relative pose error"));
+  rpe_only.push_back(sub.add_option("--rpe-tol", a->opt.rpe_tol,
+                                    "With --rpe-all-pairs: accept pairs within this fraction of the delta")
+                         ->capture_default_str()
+                         ->check(number_in("non-negative"))
+                         ->group("Relative pose error"));
+  a->eval_only.insert(a->eval_only.end(), rpe_only.begin(), rpe_only.end());
   sub.add_option("--summary", a->summary,
                  "Summarise report.json files: mean and std over runs (paper table layout)")
       ->expected(1, -1);
-  return [a]() {
+  return [a, rpe_delta, rpe_only]() {
+    if (rpe_delta->count() == 0) {
+      // The RPE settings do nothing without a delta: say so instead of ignoring them.
+      for (const CLI::Option* op : rpe_only)
+        if (op->count() > 0)
+          throw InputError(fmt::format("{} needs --rpe-delta (the relative pose error is computed only for the "
+                                       "deltas given)",
+                                       op->get_name()),
+                           {"", 0, 0, op->get_name().substr(2)});
+    }
     if (!a->summary.empty()) {
       // --summary only reads existing reports: options of an evaluation would be silently ignored.
       std::string given;

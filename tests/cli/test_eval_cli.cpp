@@ -139,3 +139,74 @@ TEST_CASE("roe eval: a run folder writes RUN_DIR/eval", "[cli][eval]") {
   CHECK(fs::exists(dir / "run/eval/report.json"));
   fs::remove_all(dir);
 }
+
+TEST_CASE("roe eval: --rpe-delta adds the relative pose error to the report, files and summary", "[cli][eval][rpe]") {
+  const fs::path dir = fs::temp_directory_path() / "roe_cli_eval_rpe";
+  fs::remove_all(dir);
+  write_pair(dir);
+  const std::string est = (dir / "est.tum").string(), gt = (dir / "gt.csv").string();
+  // The estimate's z error alternates ±2 cm from pose to pose: over one matched pose the relative error
+  // is 4 cm, over two it cancels.
+  const auto r = run("--json eval " + est + " --gt " + gt + " --rpe-delta 1,2 --rpe-unit f --out " +
+                         (dir / "out").string(),
+                     false);
+  REQUIRE(r.code == 0);
+  const auto j = nlohmann::json::parse(r.out);
+  REQUIRE(j["rpe"].size() == 2);
+  CHECK(j["rpe"][0]["unit"] == "f");
+  CHECK(j["rpe"][0]["n_pairs"] == 189);
+  CHECK(j["rpe"][0]["trans_m"]["rmse"].get<double>() == Approx(0.04).epsilon(1e-3));
+  CHECK(j["rpe"][0]["trans_m"]["min"].get<double>() == Approx(0.04).epsilon(1e-3));
+  CHECK(j["rpe"][0]["rot_deg"]["max"].get<double>() < 1e-6);
+  CHECK(j["rpe"][1]["n_pairs"] == 94);
+  CHECK(j["rpe"][1]["trans_m"]["max"].get<double>() < 1e-5);  // 9-digit TUM values
+  CHECK(j["options"]["rpe_delta"] == nlohmann::json::array({1.0, 2.0}));
+  for (const char* f : {"rpe.csv", "rpe_summary.csv"}) CHECK(fs::exists(dir / "out" / f));
+  {
+    std::ifstream f(dir / "out/rpe.csv");
+    std::string header, line;
+    std::getline(f, header);
+    CHECK(header == "delta,unit,t_i,t_j,dt_s,path_gt_m,trans_m,rot_deg,drift_pct");
+    int rows = 0;
+    while (std::getline(f, line)) ++rows;
+    CHECK(rows == 189 + 94);
+  }
+  // Without --rpe-delta: no RPE files, an empty list.
+  const auto none = run("--json eval " + est + " --gt " + gt + " --no-out", false);
+  REQUIRE(none.code == 0);
+  CHECK(nlohmann::json::parse(none.out)["rpe"].empty());
+
+  // A delta longer than the trajectory: a warning, not an error.
+  const auto far = run("--json eval " + est + " --gt " + gt + " --no-out --rpe-delta 1000", false);
+  REQUIRE(far.code == 0);
+  const auto jf = nlohmann::json::parse(far.out);
+  CHECK(jf["rpe"][0]["n_pairs"] == 0);
+  CHECK(jf["rpe"][0]["trans_m"].is_null());
+  CHECK(jf["warnings"].dump().find("RPE delta 1000 m") != std::string::npos);
+
+  // Usage errors (exit 2): settings without a delta, bad deltas and units, RPE options with --summary.
+  CHECK(run("eval " + est + " --gt " + gt + " --no-out --rpe-unit s").code == 2);
+  CHECK(run("eval " + est + " --gt " + gt + " --no-out --rpe-all-pairs").code == 2);
+  CHECK(run("eval " + est + " --gt " + gt + " --no-out --rpe-delta 0").code == 2);
+  CHECK(run("eval " + est + " --gt " + gt + " --no-out --rpe-delta 1.5 --rpe-unit f").code == 2);
+  CHECK(run("eval " + est + " --gt " + gt + " --no-out --rpe-delta 1 --rpe-unit km").code == 2);
+  CHECK(run("eval " + est + " --gt " + gt + " --no-out --rpe-delta 1 --rpe-pairs-from both").code == 2);
+  CHECK(run("eval --summary " + (dir / "out").string() + " --rpe-delta 1").code == 2);
+
+  // --summary: RPE columns for the blocks every report has; a block in only some is named in a warning.
+  REQUIRE(run("eval " + est + " --gt " + gt + " --rpe-delta 1 --rpe-unit f --out " + (dir / "out2").string())
+              .code == 0);
+  const auto s = run("--json eval --summary " + (dir / "out").string() + " " + (dir / "out2").string() +
+                         " --out " + (dir / "table.csv").string(),
+                     false);
+  REQUIRE(s.code == 0);
+  const auto js = nlohmann::json::parse(s.out);
+  CHECK(js["mean"]["rpe_1f_trans_rmse_m"].get<double>() == Approx(0.04).epsilon(1e-3));
+  CHECK(!js["mean"].contains("rpe_2f_trans_rmse_m"));
+  CHECK(js["warnings"].dump().find("RPE 2f is not in every report") != std::string::npos);
+  std::ifstream t(dir / "table.csv");
+  std::string header;
+  std::getline(t, header);
+  CHECK(header.find("rpe_1f_trans_rmse_m,rpe_1f_rot_rmse_deg") != std::string::npos);
+  fs::remove_all(dir);
+}

@@ -10,6 +10,7 @@
 #include "roe/eval/align.hpp"
 #include "roe/eval/associate.hpp"
 #include "roe/eval/metrics.hpp"
+#include "roe/eval/rpe.hpp"
 #include "roe/io/trajectory_io.hpp"
 
 using namespace roe;
@@ -85,4 +86,59 @@ TEST_CASE("evo reference: TUM fr1/xyz and EuRoC V1_02", "[eval][reference][real]
     }
   }
   CHECK(checked == 24);
+}
+
+TEST_CASE("evo reference: RPE on TUM fr1/xyz and EuRoC V1_02", "[eval][reference][real][rpe]") {
+  const fs::path data = fs::path(ROE_SHARED_DATA_DIR) / "eval";
+  if (!fs::exists(data)) {
+    WARN("skipped: " << data << " is absent");
+    return;
+  }
+  std::ifstream f(fs::path(ROE_SOURCE_DIR) / "tests/eval/data/evo_reference.json");
+  REQUIRE(f.good());
+  const nlohmann::json ref = nlohmann::json::parse(f);
+  int checked = 0;
+  for (const auto& [key, pair] : ref["pairs"].items()) {
+    const io::Trajectory gt = io::read_trajectory(data / pair["gt"].get<std::string>());
+    const io::Trajectory est = io::read_trajectory(data / pair["est"].get<std::string>());
+    const Association a = associate(est.t_ns, gt.t_ns, {0.01, 0.0, AssocPolicy::kNearest});
+    std::vector<Pose> e0, g;
+    std::vector<Timestamp> te, tg;
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      e0.push_back(est.poses[a.est_index[k]]);
+      g.push_back(gt.poses[a.gt_index[k]]);
+      te.push_back(est.t_ns[a.est_index[k]]);
+      tg.push_back(gt.t_ns[a.gt_index[k]]);
+    }
+    for (const auto& [name, c] : pair["rpe"].items()) {
+      INFO(key << " rpe " << name);
+      std::vector<Pose> e = e0;
+      const std::string align = c["align"].get<std::string>();
+      if (align != "none") apply_alignment(compute_alignment(parse_align_type(align), e, g, -1), e);
+      RpeOptions o;
+      o.delta = c["delta"].get<double>();
+      o.unit = parse_delta_unit(c["unit"].get<std::string>());
+      o.all_pairs = c["all_pairs"].get<bool>();
+      o.pairs_from = parse_pairs_from(c["pairs_from"].get<std::string>());
+      const RpeResult r = compute_rpe(e, g, te, tg, o);
+      // The same index pairs as evo's id_pairs_from_delta ...
+      REQUIRE(r.pairs.size() == c["n_pairs"].get<std::size_t>());
+      const auto first = c["first_pairs"].get<std::vector<std::vector<std::size_t>>>();
+      const auto last = c["last_pairs"].get<std::vector<std::vector<std::size_t>>>();
+      for (std::size_t k = 0; k < first.size(); ++k) {
+        CHECK(r.pairs[k].i == first[k][0]);
+        CHECK(r.pairs[k].j == first[k][1]);
+      }
+      for (std::size_t k = 0; k < last.size(); ++k) {
+        const RpePair& p = r.pairs[r.pairs.size() - last.size() + k];
+        CHECK(p.i == last[k][0]);
+        CHECK(p.j == last[k][1]);
+      }
+      // ... and evo's statistics of translation_part (m) and rotation_angle_deg.
+      check_stats(r.trans_m, c["trans_m"], 1e-9);
+      check_stats(r.rot_deg, c["rot_deg"], 1e-6);
+      ++checked;
+    }
+  }
+  CHECK(checked == 22);
 }

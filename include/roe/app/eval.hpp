@@ -11,8 +11,9 @@
 /// Ground truth: a dataset folder (state_groundtruth_estimate0 = the IMU pose, or mocap0 with
 /// roe.json's mocap T_B_I and time offset: T_M_I = T_M_B · T_B_I at t_mocap + time_offset_s), a plain
 /// EuRoC mav0 folder, or a trajectory file. The pipeline is association (eval/associate.hpp) →
-/// alignment (eval/align.hpp) → APE metrics (eval/metrics.hpp); for a run folder also the per-object
-/// reprojection traces (each raw detection's implied IMU pose, aligned with the same transform).
+/// alignment (eval/align.hpp) → APE metrics (eval/metrics.hpp), and with --rpe-delta the relative pose
+/// error (eval/rpe.hpp) of the aligned pairs; for a run folder also the per-object reprojection traces
+/// (each raw detection's implied IMU pose, aligned with the same transform).
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -24,6 +25,7 @@
 #include "roe/eval/align.hpp"
 #include "roe/eval/associate.hpp"
 #include "roe/eval/metrics.hpp"
+#include "roe/eval/rpe.hpp"
 #include "roe/io/trajectory_io.hpp"
 
 namespace roe::app {
@@ -44,6 +46,12 @@ struct EvalOptions {
   std::string label;                ///< --label (default: the run folder's or file's name)
   bool plot = false;                ///< --plot
   bool force = false;               ///< --force
+  /// --rpe-delta D[,D...]: relative pose error for each delta (none: no RPE), eval/rpe.hpp.
+  std::vector<double> rpe_delta;
+  std::string rpe_unit = "m";       ///< --rpe-unit f|m|s|deg|rad
+  bool rpe_all_pairs = false;       ///< --rpe-all-pairs
+  std::string rpe_pairs_from = "est";  ///< --rpe-pairs-from est|gt
+  double rpe_tol = 0.1;             ///< --rpe-tol: all-pairs tolerance relative to the delta
 };
 
 /// One row of a run folder's reprojection.csv: the IMU pose T_W_I implied by one raw detection.

@@ -11,6 +11,12 @@ put it on PYTHONPATH (evo.core needs only numpy + scipy; Debian's python3-numpy/
 evo.tools.file_interface is not used (it needs rosbags); the files are parsed here the same way it
 parses them (TUM: 8 space-separated floats; EuRoC: ns / 1e9, quaternion w first).
 
+RPE ("rpe" per pair, nearest-neighbour pairs): evo's metrics.RPE (translation_part in m and
+rotation_angle_deg) on the matched trajectories after the given alignment (only Sim(3) changes it), for
+several deltas, units (f, m, deg), consecutive and all pairs, and pairs chosen on the estimate (evo's
+default) or on the reference; with the index pairs from metrics.id_pairs_from_delta (count, first and
+last five).
+
 Per pair and alignment the JSON holds: the matched pairs as (estimate row, ground-truth row) indices
 (evo.core.sync.matching_time_indices, max_diff 0.01 s, offset 0), the alignment (R, t, s) from
 PoseTrajectory3D.align / align_origin, evo's APE statistics for translation_part (m) and
@@ -19,6 +25,7 @@ R_est^T R_gt (scipy as_euler('ZYX'), each wrapped to [-180, 180)).  The "unique"
 cnspy's duplicate rule (cnspy_timestamp_association: after nearest-neighbour matching keep only the
 first occurrence of every matched stamp on both sides) to evo's pairs, then the same evo metrics.
 """
+import contextlib
 import copy
 import json
 import os
@@ -116,6 +123,53 @@ def evaluate(ref, est, i_est, i_ref, align, n_align=-1):
     return out
 
 
+RPE_CASES = [
+    # (name, delta, unit, all_pairs, pairs_from_reference, align)
+    ("f1", 1, "f", False, False, "se3"),
+    ("f10_all", 10, "f", True, False, "se3"),
+    ("f10", 10, "f", False, False, "se3"),
+    ("m0.5", 0.5, "m", False, False, "se3"),
+    ("m0.5_all", 0.5, "m", True, False, "se3"),
+    ("m0.5_ref", 0.5, "m", False, True, "se3"),
+    ("m0.5_all_ref", 0.5, "m", True, True, "se3"),
+    ("m1_sim3", 1.0, "m", False, False, "sim3"),
+    ("deg10", 10.0, "deg", False, False, "se3"),
+    ("deg10_all", 10.0, "deg", True, False, "se3"),
+    ("rad0.2_ref", 0.2, "rad", False, True, "none"),
+]
+
+
+def rpe_cases(ref, est, i_est, i_ref):
+    units = {"f": metrics.Unit.frames, "m": metrics.Unit.meters, "deg": metrics.Unit.degrees,
+             "rad": metrics.Unit.radians}
+    out = {}
+    for name, delta, unit, all_pairs, from_ref, align in RPE_CASES:
+        r = copy.deepcopy(ref)
+        e = copy.deepcopy(est)
+        r.reduce_to_ids(i_ref)
+        e.reduce_to_ids(i_est)
+        if align in ("se3", "sim3"):
+            e.align(r, correct_scale=(align == "sim3"))
+        entry = {"delta": delta, "unit": unit, "all_pairs": all_pairs,
+                 "pairs_from": "gt" if from_ref else "est", "align": align}
+        # evo prints a progress line on stdout for angles in all-pairs mode: keep the JSON clean.
+        with contextlib.redirect_stdout(sys.stderr):
+            pairs = metrics.id_pairs_from_delta((r if from_ref else e).poses_se3, delta, units[unit],
+                                                0.1, all_pairs=all_pairs)
+        entry["n_pairs"] = len(pairs)
+        entry["first_pairs"] = [list(map(int, q)) for q in pairs[:5]]
+        entry["last_pairs"] = [list(map(int, q)) for q in pairs[-5:]]
+        for key, rel in (("trans_m", metrics.PoseRelation.translation_part),
+                         ("rot_deg", metrics.PoseRelation.rotation_angle_deg)):
+            rpe = metrics.RPE(rel, delta, units[unit], 0.1, all_pairs=all_pairs,
+                              pairs_from_reference=from_ref)
+            with contextlib.redirect_stdout(sys.stderr):
+                rpe.process_data((r, e))
+            entry[key] = {k: float(v) for k, v in rpe.get_all_statistics().items()}
+        out[name] = entry
+    return out
+
+
 def main():
     data = sys.argv[1]
     import evo
@@ -141,6 +195,7 @@ def main():
                 entry["results"][f"{policy}/{align}"] = evaluate(ref, est, ie, ig, align)
             entry["results"][f"{policy}/se3_n100"] = evaluate(ref, est, ie, ig, "se3", n_align=100)
             entry["results"][f"{policy}/sim3_n100"] = evaluate(ref, est, ie, ig, "sim3", n_align=100)
+        entry["rpe"] = rpe_cases(ref, est, i_est, i_ref)
         result["pairs"][key] = entry
     json.dump(result, sys.stdout, indent=1)
     sys.stdout.write("\n")
