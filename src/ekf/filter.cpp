@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <type_traits>
 
 #include "roe/core/error.hpp"
@@ -609,6 +610,12 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
   usable.assign(dets.size(), 1);
   for (std::size_t i = 0; i < dets.size(); ++i) {
     res.detections[i].object_id = dets[i].object_id;
+    // One detection per object and image: a second one would enter the state as a second object with
+    // the same id (the dataset readers refuse such files; this guards the library API).
+    for (std::size_t k = 0; k < i; ++k)
+      if (dets[k].object_id == dets[i].object_id)
+        throw InputError(fmt::format("two detections of object {} in the image at {}: one per object and image",
+                                     dets[i].object_id, when()));
     if (std::isfinite(dets[i].score) && dets[i].score < opt_.min_score) {
       res.detections[i].status = DetectionStatus::kRejectedScore;
       usable[i] = 0;
@@ -717,6 +724,14 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
             fmt::format("filter failed at {}: innovation covariance of object {} is not "
                         "positive definite",
                         when(), dets[b.det].object_id));
+      if (!b.r.allFinite()) {
+        // Only the orientation residual 2 q_v / q_w can be non-finite with a finite state and detection:
+        // a detection exactly 180° from the prediction (q_w = 0), e.g. a symmetric object's flip. It is
+        // an outlier like any other far-off detection, gate or no gate; the run goes on.
+        res.detections[b.det].nis = std::numeric_limits<double>::infinity();
+        res.detections[b.det].status = DetectionStatus::kRejectedChi2;
+        continue;
+      }
       const double nis = b.r.dot(ldlt.solve(b.r));
       if (!std::isfinite(nis))
         throw NumericError(
