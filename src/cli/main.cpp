@@ -109,6 +109,26 @@ int main(int argc, char** argv) {
                 << ")\n(see " << path << " --help)\n";
       return 2;
     }
+    // An unknown option before the command's name is a global one: point to `roe --help`, not to the
+    // command's help (`roe --bogus run ...`).
+    if (dynamic_cast<const CLI::ExtrasError*>(&e) && level != &app) {
+      const std::string first = app.get_subcommands().front()->get_name();
+      const auto known = [&](const std::string& name) { return app.get_option_no_throw(name) != nullptr; };
+      for (int i = 1; i < argc && argv[i] != first; ++i) {
+        const std::string t = argv[i];
+        if (t.size() < 2 || t[0] != '-' || t == "--") continue;
+        bool ok = true;
+        if (t[1] == '-') {
+          ok = known(t.substr(0, t.find('=')));
+        } else {
+          for (std::size_t k = 1; k < t.size() && ok; ++k) ok = known(std::string("-") + t[k]);
+        }
+        if (!ok) {
+          path = "roe";
+          break;
+        }
+      }
+    }
     std::cerr << "roe: error: " << e.what() << "\n(see " << path << " --help)\n";
     return 2;  // DESIGN §1: bad usage is exit code 2
   }

@@ -49,7 +49,17 @@ void unregister_temporary(int slot) {
 
 // Only async-signal-safe calls: _Fork (unlike fork, it runs no atfork handlers and takes no
 // malloc or stdio lock, so it cannot deadlock a multi-threaded roe), execve, waitpid, _exit.
+// DeferSignals in any thread: a signal that arrives meanwhile, in whichever thread, is only recorded,
+// and raised again when the last DeferSignals ends (lock-free atomics are async-signal-safe).
+std::atomic<int> g_defer_depth{0};
+std::atomic<int> g_deferred_signal{0};
+
 extern "C" void remove_temporaries_and_die(int sig) {
+  if (g_defer_depth.load(std::memory_order_acquire) > 0) {
+    int none = 0;
+    g_deferred_signal.compare_exchange_strong(none, sig);
+    return;
+  }
   static char rm[] = "rm", rf[] = "-rf", dashes[] = "--";
   for (int i = 0; i < kSlots; ++i) {
     if (!g_temp_used[i].load(std::memory_order_acquire)) continue;
@@ -205,9 +215,17 @@ DeferSignals::DeferSignals() {
   sigemptyset(&s);
   for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&s, sig);
   ::pthread_sigmask(SIG_BLOCK, &s, &old_);
+  g_defer_depth.fetch_add(1, std::memory_order_acq_rel);
 }
 
-DeferSignals::~DeferSignals() { ::pthread_sigmask(SIG_SETMASK, &old_, nullptr); }
+DeferSignals::~DeferSignals() {
+  const bool last = g_defer_depth.fetch_sub(1, std::memory_order_acq_rel) == 1;
+  ::pthread_sigmask(SIG_SETMASK, &old_, nullptr);  // one blocked here arrives now, with nothing deferred
+  if (last) {
+    // One that another thread took meanwhile: deliver it now (cleanup and exit by that signal).
+    if (const int sig = g_deferred_signal.exchange(0)) ::raise(sig);
+  }
+}
 
 FolderLock::FolderLock(const fs::path& dir) {
   fd_ = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);

@@ -208,3 +208,21 @@ TEST_CASE("roe: an unknown command is named, with the commands there are", "[cli
   CHECK(r.code == 2);
   CHECK(r.out.find("a command is required") != std::string::npos);
 }
+
+TEST_CASE("roe: an unknown option points to the help of the level it was given at", "[cli]") {
+  // Before the command: a global option, so `roe --help`.
+  auto r = run_roe("--bogus-flag eval x --gt y");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("--bogus-flag") != std::string::npos);
+  CHECK(r.out.find("(see roe --help)") != std::string::npos);
+  r = run_roe("-qz eval x --gt y");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("(see roe --help)") != std::string::npos);
+  // After it: the command's own help; known global flags before it do not change that.
+  r = run_roe("-q --json eval x --gt y --bogus-flag");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("(see roe eval --help)") != std::string::npos);
+  r = run_roe("-qv import mocap --bogus-flag");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("(see roe import mocap --help)") != std::string::npos);
+}

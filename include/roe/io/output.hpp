@@ -58,8 +58,10 @@ class OutputDir {
 /// by the executable's main.
 void remove_temporaries_on_signals();
 
-/// Defers SIGINT, SIGTERM and SIGHUP in this thread for its lifetime (they arrive when it ends):
-/// a sequence of renames that belong together is not cut in half.
+/// Defers SIGINT, SIGTERM and SIGHUP for its lifetime, in every thread (they arrive when it ends): a
+/// sequence of renames that belong together is not cut in half. This thread blocks them; a signal that
+/// another thread takes meanwhile (LibTorch's or std::async's) is recorded by the handler of
+/// remove_temporaries_on_signals() and raised again when the last DeferSignals ends.
 class DeferSignals {
  public:
   DeferSignals();
