@@ -29,116 +29,115 @@ void check_stats(const Stats& s, const nlohmann::json& ref, double tol) {
   CHECK(std::abs(s.sse - ref["sse"].get<double>()) <= tol * std::max(1.0, ref["sse"].get<double>()));
 }
 
-}  // namespace
-
-TEST_CASE("evo reference: TUM fr1/xyz and EuRoC V1_02", "[eval][reference][real]") {
-  const fs::path data = fs::path(ROE_SHARED_DATA_DIR) / "eval";
-  if (!fs::exists(data)) {
-    WARN("skipped: " << data << " is absent");
-    return;
-  }
+/// tests/eval/data/evo_reference.json (evo v1.36.5's numbers).
+nlohmann::json load_reference() {
   std::ifstream f(fs::path(ROE_SOURCE_DIR) / "tests/eval/data/evo_reference.json");
   REQUIRE(f.good());
-  const nlohmann::json ref = nlohmann::json::parse(f);
+  nlohmann::json ref = nlohmann::json::parse(f);
   REQUIRE(ref["evo_version"] == "v1.36.5");
-  int checked = 0;
-  for (const auto& [key, pair] : ref["pairs"].items()) {
-    const io::Trajectory gt = io::read_trajectory(data / pair["gt"].get<std::string>());
-    const io::Trajectory est = io::read_trajectory(data / pair["est"].get<std::string>());
-    REQUIRE(gt.size() == pair["n_gt"].get<std::size_t>());
-    REQUIRE(est.size() == pair["n_est"].get<std::size_t>());
-    for (const auto& [name, res] : pair["results"].items()) {
-      INFO(key << " " << name);
-      const std::string policy = name.substr(0, name.find('/'));
-      std::string align = name.substr(name.find('/') + 1);
-      int n_align = -1;
-      if (align.size() > 5 && align.substr(align.size() - 5) == "_n100") {
-        n_align = 100;
-        align = align.substr(0, align.size() - 5);
-      }
-      const Association a = associate(est.t_ns, gt.t_ns, {0.01, 0.0, parse_assoc_policy(policy)});
-      // matched pairs exact
-      const auto& m = pair["matches"][policy];
-      REQUIRE(a.size() == res["n_matched"].get<std::size_t>());
-      CHECK(a.est_index == m["est_index"].get<std::vector<std::size_t>>());
-      CHECK(a.gt_index == m["gt_index"].get<std::vector<std::size_t>>());
-      std::vector<Pose> e, g;
-      for (std::size_t k = 0; k < a.size(); ++k) {
-        e.push_back(est.poses[a.est_index[k]]);
-        g.push_back(gt.poses[a.gt_index[k]]);
-      }
-      const Alignment al = compute_alignment(parse_align_type(align), e, g, n_align);
-      CHECK(std::abs(al.s - res["alignment"]["s"].get<double>()) <= 1e-6);
-      for (int r = 0; r < 3; ++r) {
-        CHECK(std::abs(al.t(r) - res["alignment"]["t"][r].get<double>()) <= 1e-6);
-        for (int c = 0; c < 3; ++c)
-          CHECK(std::abs(al.R(r, c) - res["alignment"]["R"][r][c].get<double>()) <= 1e-9);
-      }
-      apply_alignment(al, e);
-      const ApeResult ape = compute_ape(e, g);
-      check_stats(ape.trans_m, res["ape_trans_m"], 1e-6);
-      check_stats(ape.rot_deg, res["ape_rot_deg"], 1e-4);
-      for (int k = 0; k < 3; ++k) {
-        CHECK(std::abs(ape.pos_rmse_m(k) - res["pos_rmse_m"][k].get<double>()) <= 1e-6);
-        CHECK(std::abs(ape.rpy_rmse_deg(k) - res["rpy_rmse_deg"][k].get<double>()) <= 1e-4);
-      }
-      ++checked;
-    }
-  }
-  CHECK(checked == 24);
+  return ref;
 }
 
-TEST_CASE("evo reference: RPE on TUM fr1/xyz and EuRoC V1_02", "[eval][reference][real][rpe]") {
+}  // namespace
+
+TEST_CASE("evo reference: APE and RPE on TUM fr1/xyz and EuRoC V1_02", "[eval][reference][real][rpe]") {
   const fs::path data = fs::path(ROE_SHARED_DATA_DIR) / "eval";
   if (!fs::exists(data)) {
     WARN("skipped: " << data << " is absent");
     return;
   }
-  std::ifstream f(fs::path(ROE_SOURCE_DIR) / "tests/eval/data/evo_reference.json");
-  REQUIRE(f.good());
-  const nlohmann::json ref = nlohmann::json::parse(f);
-  int checked = 0;
-  for (const auto& [key, pair] : ref["pairs"].items()) {
-    const io::Trajectory gt = io::read_trajectory(data / pair["gt"].get<std::string>());
-    const io::Trajectory est = io::read_trajectory(data / pair["est"].get<std::string>());
-    const Association a = associate(est.t_ns, gt.t_ns, {0.01, 0.0, AssocPolicy::kNearest});
-    std::vector<Pose> e0, g;
-    std::vector<Timestamp> te, tg;
-    for (std::size_t k = 0; k < a.size(); ++k) {
-      e0.push_back(est.poses[a.est_index[k]]);
-      g.push_back(gt.poses[a.gt_index[k]]);
-      te.push_back(est.t_ns[a.est_index[k]]);
-      tg.push_back(gt.t_ns[a.gt_index[k]]);
-    }
-    for (const auto& [name, c] : pair["rpe"].items()) {
-      INFO(key << " rpe " << name);
-      std::vector<Pose> e = e0;
-      const std::string align = c["align"].get<std::string>();
-      if (align != "none") apply_alignment(compute_alignment(parse_align_type(align), e, g, -1), e);
-      RpeOptions o;
-      o.delta = c["delta"].get<double>();
-      o.unit = parse_delta_unit(c["unit"].get<std::string>());
-      o.all_pairs = c["all_pairs"].get<bool>();
-      o.pairs_from = parse_pairs_from(c["pairs_from"].get<std::string>());
-      const RpeResult r = compute_rpe(e, g, te, tg, o);
-      // The same index pairs as evo's id_pairs_from_delta ...
-      REQUIRE(r.pairs.size() == c["n_pairs"].get<std::size_t>());
-      const auto first = c["first_pairs"].get<std::vector<std::vector<std::size_t>>>();
-      const auto last = c["last_pairs"].get<std::vector<std::vector<std::size_t>>>();
-      for (std::size_t k = 0; k < first.size(); ++k) {
-        CHECK(r.pairs[k].i == first[k][0]);
-        CHECK(r.pairs[k].j == first[k][1]);
+  const nlohmann::json ref = load_reference();
+  SECTION("APE: pairs, alignment, statistics, per-axis RMSE") {
+    int checked = 0;
+    for (const auto& [key, pair] : ref["pairs"].items()) {
+      const io::Trajectory gt = io::read_trajectory(data / pair["gt"].get<std::string>());
+      const io::Trajectory est = io::read_trajectory(data / pair["est"].get<std::string>());
+      REQUIRE(gt.size() == pair["n_gt"].get<std::size_t>());
+      REQUIRE(est.size() == pair["n_est"].get<std::size_t>());
+      for (const auto& [name, res] : pair["results"].items()) {
+        INFO(key << " " << name);
+        const std::string policy = name.substr(0, name.find('/'));
+        std::string align = name.substr(name.find('/') + 1);
+        int n_align = -1;
+        if (align.size() > 5 && align.substr(align.size() - 5) == "_n100") {
+          n_align = 100;
+          align = align.substr(0, align.size() - 5);
+        }
+        const Association a = associate(est.t_ns, gt.t_ns, {0.01, 0.0, parse_assoc_policy(policy)});
+        // matched pairs exact
+        const auto& m = pair["matches"][policy];
+        REQUIRE(a.size() == res["n_matched"].get<std::size_t>());
+        CHECK(a.est_index == m["est_index"].get<std::vector<std::size_t>>());
+        CHECK(a.gt_index == m["gt_index"].get<std::vector<std::size_t>>());
+        std::vector<Pose> e, g;
+        for (std::size_t k = 0; k < a.size(); ++k) {
+          e.push_back(est.poses[a.est_index[k]]);
+          g.push_back(gt.poses[a.gt_index[k]]);
+        }
+        const Alignment al = compute_alignment(parse_align_type(align), e, g, n_align);
+        CHECK(std::abs(al.s - res["alignment"]["s"].get<double>()) <= 1e-6);
+        for (int r = 0; r < 3; ++r) {
+          CHECK(std::abs(al.t(r) - res["alignment"]["t"][r].get<double>()) <= 1e-6);
+          for (int c = 0; c < 3; ++c)
+            CHECK(std::abs(al.R(r, c) - res["alignment"]["R"][r][c].get<double>()) <= 1e-9);
+        }
+        apply_alignment(al, e);
+        const ApeResult ape = compute_ape(e, g);
+        check_stats(ape.trans_m, res["ape_trans_m"], 1e-6);
+        check_stats(ape.rot_deg, res["ape_rot_deg"], 1e-4);
+        for (int k = 0; k < 3; ++k) {
+          CHECK(std::abs(ape.pos_rmse_m(k) - res["pos_rmse_m"][k].get<double>()) <= 1e-6);
+          CHECK(std::abs(ape.rpy_rmse_deg(k) - res["rpy_rmse_deg"][k].get<double>()) <= 1e-4);
+        }
+        ++checked;
       }
-      for (std::size_t k = 0; k < last.size(); ++k) {
-        const RpePair& p = r.pairs[r.pairs.size() - last.size() + k];
-        CHECK(p.i == last[k][0]);
-        CHECK(p.j == last[k][1]);
-      }
-      // ... and evo's statistics of translation_part (m) and rotation_angle_deg.
-      check_stats(r.trans_m, c["trans_m"], 1e-9);
-      check_stats(r.rot_deg, c["rot_deg"], 1e-6);
-      ++checked;
     }
+    CHECK(checked == 24);
   }
-  CHECK(checked == 22);
+  SECTION("RPE: index pairs and statistics") {
+    int checked = 0;
+    for (const auto& [key, pair] : ref["pairs"].items()) {
+      const io::Trajectory gt = io::read_trajectory(data / pair["gt"].get<std::string>());
+      const io::Trajectory est = io::read_trajectory(data / pair["est"].get<std::string>());
+      const Association a = associate(est.t_ns, gt.t_ns, {0.01, 0.0, AssocPolicy::kNearest});
+      std::vector<Pose> e0, g;
+      std::vector<Timestamp> te, tg;
+      for (std::size_t k = 0; k < a.size(); ++k) {
+        e0.push_back(est.poses[a.est_index[k]]);
+        g.push_back(gt.poses[a.gt_index[k]]);
+        te.push_back(est.t_ns[a.est_index[k]]);
+        tg.push_back(gt.t_ns[a.gt_index[k]]);
+      }
+      for (const auto& [name, c] : pair["rpe"].items()) {
+        INFO(key << " rpe " << name);
+        std::vector<Pose> e = e0;
+        const std::string align = c["align"].get<std::string>();
+        if (align != "none") apply_alignment(compute_alignment(parse_align_type(align), e, g, -1), e);
+        RpeOptions o;
+        o.delta = c["delta"].get<double>();
+        o.unit = parse_delta_unit(c["unit"].get<std::string>());
+        o.all_pairs = c["all_pairs"].get<bool>();
+        o.pairs_from = parse_pairs_from(c["pairs_from"].get<std::string>());
+        const RpeResult r = compute_rpe(e, g, te, tg, o);
+        // The same index pairs as evo's id_pairs_from_delta ...
+        REQUIRE(r.pairs.size() == c["n_pairs"].get<std::size_t>());
+        const auto first = c["first_pairs"].get<std::vector<std::vector<std::size_t>>>();
+        const auto last = c["last_pairs"].get<std::vector<std::vector<std::size_t>>>();
+        for (std::size_t k = 0; k < first.size(); ++k) {
+          CHECK(r.pairs[k].i == first[k][0]);
+          CHECK(r.pairs[k].j == first[k][1]);
+        }
+        for (std::size_t k = 0; k < last.size(); ++k) {
+          const RpePair& p = r.pairs[r.pairs.size() - last.size() + k];
+          CHECK(p.i == last[k][0]);
+          CHECK(p.j == last[k][1]);
+        }
+        // ... and evo's statistics of translation_part (m) and rotation_angle_deg.
+        check_stats(r.trans_m, c["trans_m"], 1e-9);
+        check_stats(r.rot_deg, c["rot_deg"], 1e-6);
+        ++checked;
+      }
+    }
+    CHECK(checked == 22);
+  }
 }
