@@ -4,6 +4,8 @@
 ///
 ///   roe eval RUN_DIR|EST_FILE --gt DATASET|GT_FILE [--align se3|sim3|posyaw|origin|none] [--n-align N]
 ///            [--max-dt S] [--t-offset S] [--assoc nearest|unique] [--out DIR] [--plot]
+///            [--rpe-delta D[,D...] [--rpe-unit m|s|f|deg|rad] [--rpe-all-pairs] [--rpe-pairs-from est|gt]
+///             [--rpe-tol FRACTION]]
 ///   roe eval --summary REPORT_JSON... [--out FILE|DIR/]
 ///
 /// Estimate: a run folder (trajectory.csv, optional reprojection.csv and states.csv written by
