@@ -11,6 +11,8 @@ writes into EVAL_DIR/plots (or --out):
   rpy.png             roll, pitch, yaw (ZYX, deg) over time, same curves (unwrapped: continuous
                       across +-180 deg, every curve on the ground truth's branch)
   errors.png          position error per axis and norm, rotation error per axis (R_est^T R_gt) over time
+  rpe.png             only when rpe.csv is there (roe eval --rpe-delta): relative pose error per
+                      delta, translation and rotation, as box plots (evo_res style) and over time
 Exit code 0 on success, 2 on bad input, 3 when matplotlib is missing.
 """
 import argparse
@@ -102,6 +104,48 @@ def traj(cols, t_key="t"):
     return {"t": t, "x": x, "y": y, "z": z, "roll": roll, "pitch": pitch, "yaw": yaw}
 
 
+def plot_rpe(rpe, rpe_sum, rel, path):
+    """Relative pose error per delta: box plots of translation and rotation (one box per delta, as
+    evo_res draws them) and both over time (at the pair's first stamp). A delta listed in
+    rpe_summary.csv without pairs gets an empty slot labelled 'no pairs'. Returns False when no delta
+    has a pair."""
+    blocks = {}
+    for i, (delta, unit) in enumerate(zip(rpe["delta"], rpe["unit"])):
+        b = blocks.setdefault((float(delta), unit), {"t": [], "trans": [], "rot": []})
+        b["t"].append(float(rpe["t_i"][i]))
+        b["trans"].append(float(rpe["trans_m"][i]))
+        b["rot"].append(float(rpe["rot_deg"][i]))
+    if not blocks:
+        return False
+    if rpe_sum is not None:
+        for delta, unit in zip(rpe_sum["delta"], rpe_sum["unit"]):
+            blocks.setdefault((float(delta), unit), {"t": [], "trans": [], "rot": []})
+    keys = sorted(blocks)
+    labels = [f"{d:g} {u}" + ("" if blocks[(d, u)]["t"] else "\n(no pairs)") for d, u in keys]
+    fig, axs = plt.subplots(2, 2, figsize=(10, 7), gridspec_kw={"height_ratios": [1, 1]})
+    for col, (k, unit) in enumerate((("trans", "m"), ("rot", "deg"))):
+        ax = axs[0][col]
+        ax.boxplot([blocks[key][k] or [float("nan")] for key in keys], labels=labels, showfliers=True,
+                   flierprops={"markersize": 3})
+        ax.set_ylabel(f"RPE {'translation' if k == 'trans' else 'rotation'} [{unit}]")
+        ax.set_xlabel("delta")
+        ax.grid(True, axis="y", alpha=0.3)
+        ax = axs[1][col]
+        for key, lab in zip(keys, labels):
+            if not blocks[key]["t"]:
+                continue
+            ax.plot(rel(blocks[key]["t"]), blocks[key][k], lw=1.0, marker=".", markersize=3, label=lab)
+        ax.set_ylabel(f"RPE {'translation' if k == 'trans' else 'rotation'} [{unit}]")
+        ax.set_xlabel("time of the pair's first pose [s]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8)
+    fig.suptitle("Relative pose error (|trans(E)|, angle(rot(E)); E = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j))", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
+    return True
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("eval_dir")
@@ -116,6 +160,10 @@ def main():
         err = read_csv(os.path.join(d, "errors.csv"))
         rep_path = os.path.join(d, "reprojection_aligned.csv")
         rep = read_csv(rep_path) if os.path.exists(rep_path) else None
+        rpe_path = os.path.join(d, "rpe.csv")
+        rpe = read_csv(rpe_path) if os.path.exists(rpe_path) else None
+        rpe_sum_path = os.path.join(d, "rpe_summary.csv")
+        rpe_sum = read_csv(rpe_sum_path) if os.path.exists(rpe_sum_path) else None
     except (OSError, ValueError, KeyError) as e:
         sys.stderr.write(f"plot_eval.py: {e}\n")
         return 2
@@ -201,7 +249,10 @@ def main():
     fig.tight_layout()
     fig.savefig(os.path.join(out, f"errors.{a.format}"), dpi=150)
     plt.close(fig)
-    print(f"wrote {out}: trajectory_top, xyz, rpy, errors (.{a.format})")
+    written = ["trajectory_top", "xyz", "rpy", "errors"]
+    if rpe is not None and plot_rpe(rpe, rpe_sum, rel, os.path.join(out, f"rpe.{a.format}")):
+        written.append("rpe")
+    print(f"wrote {out}: {', '.join(written)} (.{a.format})")
     return 0
 
 

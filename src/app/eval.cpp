@@ -154,6 +154,9 @@ EvalResult run_eval(const EvalOptions& o) {
     r.pairs_from = eval::parse_pairs_from(o.rpe_pairs_from);
     r.rel_tol = o.rpe_tol;
     eval::check_rpe_options(r);
+    for (const eval::RpeOptions& prev : rpe_options)
+      if (prev.delta == d)  // two identical blocks would collide in rpe.csv and in --summary's columns
+        throw InputError(fmt::format("--rpe-delta lists {} twice", d), {"", 0, 0, "rpe-delta"});
     rpe_options.push_back(r);
   }
   if (o.n_align != -1 && (align == eval::AlignType::kOrigin || align == eval::AlignType::kNone)) {

@@ -112,7 +112,12 @@ std::string render_eval_plots(const fs::path& eval_dir, bool& ok) {
   fs::remove(log, ec);
   if (rc != 0) return fmt::format("not rendered: plot_eval.py failed (exit {}): {}", rc, detail);
   ok = true;
-  return "plots/trajectory_top.png, plots/xyz.png, plots/rpy.png, plots/errors.png";
+  std::string written;  // rpe.png only exists with --rpe-delta
+  for (const char* name : {"trajectory_top", "xyz", "rpy", "errors", "rpe"}) {
+    const std::string f = fmt::format("plots/{}.png", name);
+    if (fs::exists(eval_dir / f)) written += (written.empty() ? "" : ", ") + f;
+  }
+  return written;
 }
 
 }  // namespace roe::app

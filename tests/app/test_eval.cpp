@@ -409,7 +409,18 @@ TEST_CASE("roe eval --plot renders PNGs when matplotlib is available", "[app][ev
   }
   for (const char* p : {"trajectory_top.png", "xyz.png", "rpy.png", "errors.png"})
     CHECK(fs::file_size(f.run / "eval/plots" / p) > 10000);
+  CHECK_FALSE(fs::exists(f.run / "eval/plots/rpe.png"));  // only with --rpe-delta
+  CHECK(r.plot_status.find("rpe") == std::string::npos);
   CHECK_FALSE(fs::exists(f.run / "eval/.plot_eval.py"));
+
+  // With --rpe-delta: the RPE figure too, and the status names it.
+  o.rpe_delta = {1.0, 2.0};
+  o.rpe_unit = "s";
+  o.force = true;
+  const auto r2 = app::run_eval(o);
+  REQUIRE(r2.report["plots"]["ok"] == true);
+  CHECK(fs::file_size(f.run / "eval/plots/rpe.png") > 10000);
+  CHECK(r2.plot_status.find("plots/rpe.png") != std::string::npos);
 }
 
 namespace {

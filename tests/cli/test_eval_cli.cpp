@@ -191,6 +191,9 @@ TEST_CASE("roe eval: --rpe-delta adds the relative pose error to the report, fil
   CHECK(run("eval " + est + " --gt " + gt + " --no-out --rpe-delta 1.5 --rpe-unit f").code == 2);
   CHECK(run("eval " + est + " --gt " + gt + " --no-out --rpe-delta 1 --rpe-unit km").code == 2);
   CHECK(run("eval " + est + " --gt " + gt + " --no-out --rpe-delta 1 --rpe-pairs-from both").code == 2);
+  const auto twice = run("eval " + est + " --gt " + gt + " --no-out --rpe-delta 1,2,1.0");
+  CHECK(twice.code == 2);
+  CHECK(twice.out.find("--rpe-delta lists 1 twice") != std::string::npos);
   CHECK(run("eval --summary " + (dir / "out").string() + " --rpe-delta 1").code == 2);
 
   // --summary: RPE columns for the blocks every report has; a block in only some is named in a warning.
