@@ -265,13 +265,52 @@ fs::path StagedFiles::stage(const fs::path& final_path) {
 
 void StagedFiles::commit() {
   const DeferSignals defer;
+  // Each file a rename replaces is first hard-linked (or, where the file system has no hard links,
+  // copied) to a backup name, so a failure part-way puts back what the earlier renames replaced and
+  // removes what they added. The rename itself stays atomic: a reader never finds a final path missing.
+  struct Done {
+    fs::path fin, backup;  // backup empty: the final path did not exist
+  };
+  std::vector<Done> done;
+  const auto undo = [&done] {
+    std::error_code uec;
+    for (auto it = done.rbegin(); it != done.rend(); ++it) {
+      if (it->backup.empty())
+        fs::remove(it->fin, uec);
+      else
+        fs::rename(it->backup, it->fin, uec);
+    }
+  };
   std::error_code ec;
   for (const auto& [tmp, fin] : files_) {
+    Done d{fin, {}};
+    if (fs::is_regular_file(fs::symlink_status(fin, ec))) {
+      d.backup = fin.parent_path() / ("." + fin.filename().string() + unique_suffix() + ".bak");
+      fs::create_hard_link(fin, d.backup, ec);
+      if (ec) {
+        ec.clear();
+        fs::copy_file(fin, d.backup, ec);
+      }
+      if (ec) {
+        const std::string why = ec.message();
+        fs::remove(d.backup, ec);
+        undo();
+        throw InputError("cannot keep a copy of the file about to be replaced: " + why, {fin.string()});
+      }
+    }
     fs::rename(tmp, fin, ec);
-    if (ec) throw InputError("cannot rename temporary file into place: " + ec.message(), {fin.string()});
+    if (ec) {
+      const std::string why = ec.message();
+      if (!d.backup.empty()) fs::remove(d.backup, ec);
+      undo();
+      throw InputError("cannot rename temporary file into place (nothing was changed): " + why, {fin.string()});
+    }
+    done.push_back(std::move(d));
   }
   committed_ = true;
   for (int s : slots_) unregister_temporary(s);
+  for (const Done& d : done)
+    if (!d.backup.empty()) fs::remove(d.backup, ec);
 }
 
 void StagedFiles::lock(const fs::path& dir) { lock_.emplace(dir); }

@@ -801,6 +801,34 @@ TEST_CASE("output: StagedFiles puts files in place only at commit, and cleans up
   }
   CHECK(fs::exists(ds / "calib/other.txt"));
   CHECK(listing(ds / "calib") == std::vector<std::string>{"other.txt"});
+  // A rename that fails part-way (the last final path is a non-empty folder): the earlier renames are
+  // undone, the replaced file is back, the added file gone, and no temporary or backup is left.
+  {
+    io::write_file_atomic(ds / "blocked/inside.txt", "x");
+    const auto before_fail = listing(ds);
+    {
+      io::StagedFiles st;
+      io::write_file_atomic(st.stage(ds / "mav0/mocap0/data.csv"), "poses 2");
+      io::write_file_atomic(st.stage(ds / "mav0/mocap0/extra.csv"), "extra");
+      io::write_file_atomic(st.stage(ds / "blocked"), "a file where a folder is");
+      const auto e = expect_input_error([&] { st.commit(); });
+      CHECK_THAT(e.what(), Catch::Contains("nothing was changed"));
+      CHECK_THAT(e.what(), Catch::Contains("blocked"));
+    }
+    CHECK(io::read_file(ds / "mav0/mocap0/data.csv") == "poses");
+    CHECK(io::read_file(ds / "roe.json") == "new");
+    CHECK(listing(ds) == before_fail);
+    fs::remove_all(ds / "blocked");
+  }
+  // A successful commit over an existing file leaves no backup behind.
+  const auto before_ok = listing(ds);
+  {
+    io::StagedFiles st;
+    io::write_file_atomic(st.stage(ds / "roe.json"), "newer");
+    st.commit();
+  }
+  CHECK(io::read_file(ds / "roe.json") == "newer");
+  CHECK(listing(ds) == before_ok);
   // The lock needs the folder.
   CHECK_THROWS_AS(io::FolderLock(tmp.path / "missing"), InputError);
   CHECK_NOTHROW(io::FolderLock(ds));

@@ -105,8 +105,10 @@ class StagedFiles {
   fs::path stage(const fs::path& final_path);
   /// Takes `dir`'s FolderLock and holds it until after the destructor's clean-up.
   void lock(const fs::path& dir);
-  /// Renames every staged file into place, in order; roe::InputError when one cannot be (the files
-  /// renamed before it stay in place: renames within a folder fail only on a broken file system).
+  /// Renames every staged file into place, in order; roe::InputError when one cannot be (e.g. its
+  /// final path is a folder). Then the earlier renames are undone: the files they replaced are put
+  /// back (from hard-linked or copied backups taken just before each rename) and the files they added
+  /// removed, so the dataset is as it was.
   void commit();
 
  private:
