@@ -76,12 +76,43 @@ extern "C" void remove_temporaries_and_die(int sig) {
   ::raise(sig);
 }
 
+// 32-bit FNV-1a of this machine's host name: temporaries carry it, so a later run only ever sweeps
+// the ones a dead process of this machine left (a shared file system may hold other hosts' runs).
+unsigned host_tag() {
+  static const unsigned tag = [] {
+    char name[256] = {};
+    if (::gethostname(name, sizeof name - 1) != 0) name[0] = '\0';
+    unsigned h = 2166136261u;
+    for (const char* c = name; *c; ++c) h = (h ^ static_cast<unsigned char>(*c)) * 16777619u;
+    return h;
+  }();
+  return tag;
+}
+
+// ".tmp-HOST-PID-COUNTER-RANDOM" (HOST and RANDOM 8 hex digits, PID and COUNTER decimal).
 std::string unique_suffix() {
   static std::atomic<unsigned> counter{0};
   std::random_device rd;
-  char buf[64];
-  std::snprintf(buf, sizeof buf, ".tmp-%d-%u-%08x", static_cast<int>(getpid()), counter++, rd());
+  char buf[80];
+  std::snprintf(buf, sizeof buf, ".tmp-%08x-%d-%u-%08x", host_tag(), static_cast<int>(getpid()), counter++,
+                rd());
   return buf;
+}
+
+// The PID of `name` when it is exactly "." + base + unique_suffix() written on this host; else 0.
+long temporary_owner(const std::string& name, const std::string& base) {
+  const std::string head = "." + base + ".tmp-";
+  if (name.compare(0, head.size(), head) != 0) return 0;
+  const std::string rest = name.substr(head.size());
+  unsigned host = 0, counter = 0, random = 0;
+  long pid = 0;
+  int used = 0;
+  if (std::sscanf(rest.c_str(), "%8x-%ld-%u-%8x%n", &host, &pid, &counter, &random, &used) != 4) return 0;
+  char canonical[80];
+  std::snprintf(canonical, sizeof canonical, "%08x-%ld-%u-%08x", host, pid, counter, random);
+  if (static_cast<std::size_t>(used) != rest.size() || rest != canonical || host != host_tag() || pid <= 0)
+    return 0;
+  return pid;
 }
 
 std::string to_hex(const unsigned char* d, unsigned n) {
@@ -187,6 +218,7 @@ OutputDir::OutputDir(fs::path final_dir, bool force, const std::vector<fs::path>
     throw InputError("cannot create folder: " + ec.message(), {parent.string()});
   }
   const std::string base = final_.filename().string();
+  stale_removed_ = remove_stale_temporaries(final_);
   tmp_ = parent / ("." + base + unique_suffix());
   slot_ = register_temporary(tmp_);
   fs::create_directories(tmp_, ec);
@@ -195,6 +227,28 @@ OutputDir::OutputDir(fs::path final_dir, bool force, const std::vector<fs::path>
     remove_created_parents();
     throw InputError("cannot create temporary output folder: " + ec.message(), {tmp_.string()});
   }
+}
+
+std::vector<fs::path> remove_stale_temporaries(const fs::path& final_path) {
+  std::vector<fs::path> removed;
+  const fs::path p = without_trailing_separator(final_path.lexically_normal());
+  const std::string base = p.filename().string();
+  if (base.empty() || base == "." || base == "..") return removed;
+  const fs::path parent = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  std::error_code ec;
+  fs::directory_iterator it(parent, ec), end;
+  std::vector<fs::path> stale;
+  for (; !ec && it != end; it.increment(ec)) {
+    const long pid = temporary_owner(it->path().filename().string(), base);
+    if (pid == 0 || pid == static_cast<long>(::getpid())) continue;
+    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive, or not ours to judge
+    stale.push_back(it->path());
+  }
+  for (const fs::path& s : stale) {
+    std::error_code rec;
+    if (fs::remove_all(s, rec) != static_cast<std::uintmax_t>(-1) && !rec) removed.push_back(s);
+  }
+  return removed;
 }
 
 void remove_temporaries_on_signals() {
@@ -257,6 +311,7 @@ void StagedFiles::ensure_folder(const fs::path& dir) {
 
 fs::path StagedFiles::stage(const fs::path& final_path) {
   if (final_path.has_parent_path()) ensure_folder(final_path.parent_path());
+  (void)remove_stale_temporaries(final_path);
   fs::path tmp = final_path.parent_path() / ("." + final_path.filename().string() + unique_suffix());
   files_.emplace_back(tmp, final_path);
   slots_.push_back(register_temporary(tmp));

@@ -40,9 +40,12 @@ class OutputDir {
   fs::path file(const fs::path& rel) const;
   /// Moves the finished folder into place (replacing an existing one when forced).
   void commit();
+  /// Temporaries of this output that killed runs left behind, removed by the constructor.
+  const std::vector<fs::path>& stale_removed() const { return stale_removed_; }
 
  private:
   fs::path final_;
+  std::vector<fs::path> stale_removed_;
   fs::path tmp_;
   std::vector<fs::path> created_;  ///< parent folders the constructor created, deepest first
   void remove_created_parents();
@@ -50,6 +53,14 @@ class OutputDir {
   bool committed_ = false;
   int slot_ = -1;  ///< signal-cleanup registration of tmp_
 };
+
+/// Removes the temporaries of `final_path` (its hidden siblings `.NAME.tmp-*`, folders or files) that
+/// a process of this machine left when it was killed with SIGKILL (the OOM killer, a scheduler's
+/// hard kill), and returns them. A temporary is removed only when its name is exactly one roe writes,
+/// it carries this host's tag and its PID is not a live process; another host's (on a shared file
+/// system) or a running process's is never touched. The backup of a replaced output (`.old`) is
+/// never removed. Called by OutputDir's constructor and StagedFiles::stage.
+std::vector<fs::path> remove_stale_temporaries(const fs::path& final_path);
 
 /// Makes SIGINT, SIGTERM and SIGHUP (Ctrl-C, `timeout`, a batch scheduler's cancel) remove the
 /// temporary outputs in progress (OutputDir's folder, StagedFiles' files) before the process dies
