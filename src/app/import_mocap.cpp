@@ -1,5 +1,6 @@
 // roe import mocap: Motive / Vicon / EuRoC / TUM / cnspy / ROS bag poses → DATASET/mav0/mocap0.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -88,7 +89,8 @@ io::MocapData read_mocap(const fs::path& file, const ImportMocapOptions& opt) {
     d = io::read_vicon_csv(file, opt.body);
   } else if (format == "rosbag") {
     d = io::read_bag_poses(file, opt.topic, opt.body, opt.salvage);  // an empty topic throws, listing the pose topics
-  } else if (format == "tum" || format == "euroc" || format == "csv" || format == "cnspy" || format == "auto-trajectory") {
+  } else if (format == "tum" || format == "euroc" || format == "csv" || format == "cnspy" || format == "csv-ns" ||
+             format == "auto-trajectory") {
     const io::TrajectoryFormat tf = format == "auto-trajectory" ? io::TrajectoryFormat::kAuto
                                                                 : io::parse_trajectory_format(format);
     io::Trajectory t = io::read_trajectory(file, tf);
@@ -106,7 +108,8 @@ io::MocapData read_mocap(const fs::path& file, const ImportMocapOptions& opt) {
     }
     if (d.duplicates) d.warnings.push_back(fmt::format("{} pose(s) with a repeated stamp dropped", d.duplicates));
   } else {
-    throw InputError("unknown mocap format \"" + opt.format + "\" (auto, motive, vicon, euroc, tum, csv, rosbag)");
+    throw InputError("unknown mocap format \"" + opt.format +
+                     "\" (auto, motive, vicon, euroc, tum, csv, csv-ns, rosbag)");
   }
   if (d.rate_hz <= 0) d.rate_hz = median_rate(d.poses);
   return d;
@@ -241,9 +244,17 @@ nlohmann::json ImportMocapSummary::to_json() const {
 ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, const ImportMocapOptions& opt) {
   ImportMocapSummary S;
   S.dataset = dataset;
-  if (opt.mocap_name.empty() || opt.mocap_name.find('/') != std::string::npos || opt.mocap_name == "." ||
-      opt.mocap_name == "..")
-    throw InputError("invalid mocap folder name \"" + opt.mocap_name + "\"");
+  // "mocap" + letters, digits, '_' or '-': never one of the dataset's other streams (imu0, cam0,
+  // state_groundtruth_estimate0), which a forced import would otherwise overwrite.
+  const bool name_ok =
+      opt.mocap_name.rfind("mocap", 0) == 0 &&
+      std::all_of(opt.mocap_name.begin(), opt.mocap_name.end(),
+                  [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-'; });
+  if (!name_ok)
+    throw InputError("invalid mocap folder name \"" + opt.mocap_name +
+                         "\": it must start with \"mocap\" and have only letters, digits, '_' and '-' (mocap0, "
+                         "mocap1, mocap_box)",
+                     {"", 0, 0, "name"});
   if (opt.up != "auto" && opt.up != "y" && opt.up != "z") throw InputError("--up must be auto, y or z");
   // Up to ~127 years: enough to move a take's relative clock onto epoch time, and stamps stay in int64 ns.
   constexpr double kMaxOffsetS = 4e9;
@@ -332,6 +343,8 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   src.options["duplicate_stamps"] = std::to_string(d.duplicates);
   if (!d.length_unit.empty()) src.options["length_unit"] = d.length_unit;
   if (!d.rotation_type.empty()) src.options["rotation_type"] = d.rotation_type;
+  if (!d.capture_start_time.empty())  // Motive: the take's wall-clock start, local time without a zone
+    src.options["capture_start_time"] = d.capture_start_time;
   // A forced re-import replaces the record of the same folder.
   m.sources.erase(std::remove_if(m.sources.begin(), m.sources.end(),
                                  [&](const SourceRecord& r) {
@@ -342,6 +355,13 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   m.sources.push_back(src);
   if (opt.mocap_name == "mocap0") {
     MocapInfo mi = m.mocap.value_or(MocapInfo{});
+    // T_B_I belongs to one body: a re-import of another body starts again from identity.
+    if (m.mocap && mi.body != d.body && (mi.T_B_I.p != Eigen::Vector3d::Zero() || math::angle_between(mi.T_B_I.q, Eigen::Quaterniond::Identity()) > 0.0)) {
+      S.warnings.push_back(fmt::format("mocap.T_B_I was set for body \"{}\"; the body is now \"{}\", so T_B_I is reset "
+                                       "to identity (set it again for the new body)",
+                                       mi.body, d.body));
+      mi.T_B_I = Pose();
+    }
     mi.body = d.body;
     mi.time_offset_s = offset;
     m.mocap = mi;

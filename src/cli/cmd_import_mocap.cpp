@@ -23,7 +23,7 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("--into", a->dataset, "Dataset folder (roe.json is created when missing)")->required();
   sub.add_option("--format", a->opt.format, "File format")
       ->capture_default_str()
-      ->check(CLI::IsMember({"auto", "motive", "vicon", "euroc", "tum", "csv", "cnspy", "rosbag"}));
+      ->check(CLI::IsMember({"auto", "motive", "vicon", "euroc", "tum", "csv", "cnspy", "csv-ns", "rosbag"}));
   sub.add_option("--body", a->opt.body, "Rigid body (Motive/Vicon) or child frame (tf topics)");
   sub.add_option("--topic", a->opt.topic, "ROS bag: PoseStamped/TransformStamped/Odometry/TFMessage topic");
   sub.add_option("--up", a->opt.up, "Up axis of the file's world: auto (y for Motive), y or z")
@@ -49,8 +49,11 @@ RunFn setup(CLI::App& sub) {
       human += fmt::format("  estimated time offset {:.6f} s (t_imu = t_mocap + offset), correlation {:.3f}, "
                            "peak ratio {:.2f}, {} samples\n",
                            s.estimate->offset_s, s.estimate->correlation, s.estimate->peak_ratio, s.estimate->samples);
-    else
+    else if (s.csv.parent_path().filename() == "mocap0")
       human += fmt::format("  time offset {} s recorded in roe.json (mocap.time_offset_s)\n", s.time_offset_s);
+    else  // only mocap0 (the camera body) has the mocap section
+      human += fmt::format("  time offset {} s recorded in roe.json (this import's sources[].options.time_offset_s)\n",
+                           s.time_offset_s);
     if (s.created_manifest) human += "  created a new roe.json\n";
     emit(s.to_json(), human);
     return 0;

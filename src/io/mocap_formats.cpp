@@ -92,7 +92,8 @@ Eigen::Matrix3d axis_rotation(char axis, double angle) {
   return Eigen::AngleAxisd(angle, a).toRotationMatrix();
 }
 
-double length_scale(const std::string& unit, const std::string& file, std::vector<std::string>& warnings) {
+double length_scale(const std::string& unit, const std::string& file, std::int64_t line,
+                    std::vector<std::string>& warnings) {
   const std::string u = lower(unit);
   if (u.empty()) {
     warnings.push_back("no length unit in the file: assuming metres");
@@ -101,7 +102,7 @@ double length_scale(const std::string& unit, const std::string& file, std::vecto
   if (u == "meters" || u == "metres" || u == "m") return 1.0;
   if (u == "centimeters" || u == "centimetres" || u == "cm") return 0.01;
   if (u == "millimeters" || u == "millimetres" || u == "mm") return 0.001;
-  throw InputError("unknown length unit \"" + unit + "\" (Meters, Centimeters, Millimeters, m, cm, mm)", {file});
+  throw InputError("unknown length unit \"" + unit + "\" (Meters, Centimeters, Millimeters, m, cm, mm)", {file, line});
 }
 
 void check_time(const CsvReader& r, std::size_t col, Timestamp t, bool have_prev, Timestamp prev) {
@@ -215,23 +216,27 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
     if (!pos_cols.count(a))
       throw InputError("rigid body \"" + chosen + "\" has no Position " + std::string(a) + " column", {src, axis_line});
   out.length_unit = info.count("Length Units") ? info["Length Units"] : "";
-  const double scale = length_scale(out.length_unit, src, out.warnings);
+  const double scale = length_scale(out.length_unit, src, 1, out.warnings);  // "Length Units" is on line 1
   const std::string rate_key = info.count("Export Frame Rate") ? "Export Frame Rate" : "Capture Frame Rate";
+  if (info.count("Capture Start Time")) out.capture_start_time = info["Capture Start Time"];
   if (info.count(rate_key)) {
     const auto v = parse_seconds_ns(info[rate_key]);  // a decimal number; reuse the exact parser
     if (v) out.rate_hz = static_cast<double>(*v) * 1e-9;
   }
   // Data rows. Motive may end a row early when its last cells are empty (occluded markers), so a
   // short row is read as occlusion; only a short last line without its line end says that the file
-  // itself was cut (an export or copy interrupted).
+  // itself was cut (an export or copy interrupted): that row is dropped, since its last cell may be a
+  // number cut short ("0.0764" → "0.").
   bool have_prev = false;
   Timestamp prev = 0;
   std::size_t last_cells = 0;
   std::int64_t last_line = 0;
+  bool last_occluded = false;
   while (r.next()) {
     if (r.size() == 0) continue;
     last_cells = r.size();
     last_line = r.line();
+    last_occluded = false;
     ++out.rows;
     (void)r.get_int64(0);  // the frame number must be an integer
     if (cell_empty(r, time_col)) throw r.error(time_col, "empty time cell");
@@ -245,6 +250,7 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
     for (const auto& [a, c] : pos_cols) missing = missing || cell_empty(r, c);
     if (missing) {
       ++out.occluded;
+      last_occluded = true;
       continue;
     }
     Eigen::Quaterniond q;
@@ -261,11 +267,17 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
     const Eigen::Vector3d p(r.get_double(pos_cols["X"]), r.get_double(pos_cols["Y"]), r.get_double(pos_cols["Z"]));
     out.poses.push_back({*t, Pose(q, p * scale)});
   }
-  if (out.rows == 0) throw InputError("the Motive file has no data rows", {src});
-  if (last_cells < axis.size() && !ends_with_newline(file))
+  if (out.rows > 0 && last_cells < axis.size() && !ends_with_newline(file)) {
+    if (last_occluded)
+      --out.occluded;
+    else
+      out.poses.pop_back();
+    --out.rows;
     out.warnings.push_back(fmt::format("{}:{}: the last row has {} of {} cells and no line end: the file looks "
-                                       "truncated (its missing cells were read as occluded)",
+                                       "truncated; that row was dropped",
                                        src, last_line, last_cells, axis.size()));
+  }
+  if (out.rows == 0) throw InputError("the Motive file has no data rows", {src});
   return out;
 }
 
@@ -337,10 +349,21 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
     }
     g = &groups.front();
   } else {
-    for (const auto& gr : groups)
-      if (gr.name == body || (gr.name.size() > body.size() && gr.name.compare(gr.name.size() - body.size() - 1,
-                                                                              std::string::npos, ":" + body) == 0))
-        g = &gr;
+    // An exact name first; else "Subject:Segment" by its segment, which must then be unique (Nexus
+    // subjects built on one model share segment names).
+    std::vector<const Group*> by_segment;
+    for (const auto& gr : groups) {
+      if (gr.name == body) g = &gr;
+      if (gr.name.size() > body.size() &&
+          gr.name.compare(gr.name.size() - body.size() - 1, std::string::npos, ":" + body) == 0)
+        by_segment.push_back(&gr);
+    }
+    if (!g && by_segment.size() > 1) {
+      std::string list;
+      for (const Group* gr : by_segment) list += " \"" + gr->name + "\"";
+      throw InputError("object \"" + body + "\" matches several objects; choose one with --body:" + list, {src});
+    }
+    if (!g && !by_segment.empty()) g = by_segment.front();
     if (!g) {
       std::string list;
       for (const auto& b : out.bodies) list += " \"" + b + "\"";
@@ -354,7 +377,7 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
   if (rot_scale < 0) throw InputError("unknown rotation unit \"" + ru + "\" (deg or rad)", {src, r.line()});
   if (ru.empty()) out.warnings.push_back("no rotation unit: assuming degrees");
   out.length_unit = unit_at(g->c0 + 3).empty() ? "mm" : unit_at(g->c0 + 3);
-  const double len_scale = length_scale(out.length_unit, src, out.warnings);
+  const double len_scale = length_scale(out.length_unit, src, r.line(), out.warnings);
   bool have_first = false, have_prev = false;
   std::int64_t first_frame = 0;
   Timestamp prev = 0;

@@ -296,3 +296,53 @@ TEST_CASE("import mocap: --time-offset and --max-offset are checked before anyth
   CHECK(s.time_offset_s == 1.7e9);
   CHECK(io::read_manifest(d.path / "ds").mocap->time_offset_s == 1.7e9);
 }
+
+TEST_CASE("import mocap: --name cannot land on another stream; T_B_I follows its body; Motive's start time is kept",
+          "[app][import]") {
+  TempDir d;
+  const fs::path v = d.path / "tracker.csv";
+  std::ofstream(v) << "Objects\n100\n,,Global Angle cam:cam,,,,,,Global Angle obj:obj,,,,,\n"
+                      "Frame,Sub Frame,RX,RY,RZ,TX,TY,TZ,RX,RY,RZ,TX,TY,TZ\n,,rad,rad,rad,mm,mm,mm,rad,rad,rad,mm,mm,mm\n"
+                      "1,0,0,0,0,1000,0,0,0,0,0,0,0,0\n2,0,0,0,0,1000,0,0,0,0,0,0,0,0\n";
+  const fs::path ds = d.path / "ds";
+  for (const char* bad : {"imu0", "cam0", "state_groundtruth_estimate0", "mocap/../imu0", "mocap 1", "..", ""}) {
+    INFO(bad);
+    app::ImportMocapOptions o;
+    o.body = "cam";
+    o.mocap_name = bad;
+    o.force = true;
+    CHECK_THROWS_WITH(app::import_mocap(v, ds, o), Catch::Contains("must start with \"mocap\""));
+    CHECK_FALSE(fs::exists(ds));
+  }
+  app::ImportMocapOptions o;
+  o.body = "obj";
+  o.mocap_name = "mocap_box-1";
+  CHECK(app::import_mocap(v, ds, o).poses == 2);
+  CHECK_FALSE(io::read_manifest(ds).mocap);  // only mocap0 fills the mocap section
+
+  // mocap0 of body "cam" with a hand-set T_B_I; a forced re-import of the same body keeps it ...
+  o.mocap_name = "mocap0";
+  o.body = "cam";
+  app::import_mocap(v, ds, o);
+  auto m = io::read_manifest(ds);
+  m.mocap->T_B_I = Pose(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.1, 0, 0));
+  io::write_manifest(m, io::manifest_path(ds));
+  o.force = true;
+  CHECK(app::import_mocap(v, ds, o).warnings.empty());
+  CHECK(io::read_manifest(ds).mocap->T_B_I.p.x() == 0.1);
+  // ... one of another body resets it, with a warning.
+  o.body = "obj";
+  const auto s = app::import_mocap(v, ds, o);
+  REQUIRE(s.warnings.size() == 1);
+  CHECK_THAT(s.warnings[0], Catch::Contains("T_B_I is reset to identity"));
+  CHECK(io::read_manifest(ds).mocap->body == "obj");
+  CHECK(io::read_manifest(ds).mocap->T_B_I.p.isZero());
+
+  // Motive's "Capture Start Time" is recorded with the import.
+  const fs::path f = fs::path(ROE_SHARED_DATA_DIR) / "mocap/sample_optitrack_take_v1.21.csv";
+  if (fs::exists(f)) {
+    app::import_mocap(f, d.path / "motive", {});
+    const auto mm = io::read_manifest(d.path / "motive");
+    CHECK(mm.sources.at(0).options.at("capture_start_time") == "2016-01-05 03.49.50.755 PM");
+  }
+}

@@ -136,6 +136,18 @@ TEST_CASE("roe import mocap: malformed rows and non-unit quaternions exit 2 nami
   r = run("import mocap " + d / "ok.csv" + " --into " + d / "ds5 --estimate-offset");
   CHECK(r.code == 2);
   CHECK(r.out.find("imu0") != std::string::npos);
+  // --name: only mocap* folders (exit 2 naming the option), and the summary says where the offset went.
+  r = run("--force import mocap " + d / "ok.csv" + " --into " + d / "ds --name imu0");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("must start with \"mocap\"") != std::string::npos);
+  r = run("import mocap " + d / "ok.csv" + " --into " + d / "ds --name mocap1 --time-offset 5");
+  CHECK(r.code == 0);
+  CHECK(r.out.find("time offset 5 s recorded in roe.json (this import's sources[].options.time_offset_s)") !=
+        std::string::npos);
+  // csv-ns (roe's own trajectory.csv) is a --format choice.
+  r = run("import mocap " + d.write("t.csv", "timestamp_ns,tx,ty,tz,qx,qy,qz,qw\n0,1,2,3,0,0,0,1\n10000000,1,2,3,0,0,0,1\n") +
+          " --format csv-ns --into " + d / "ds6");
+  CHECK(r.code == 0);
 }
 
 TEST_CASE("roe import kalibr: valid and invalid files", "[cli][import]") {

@@ -121,7 +121,8 @@ TEST_CASE("motive: malformed rows and non-unit quaternions name line and column"
   CHECK_THROWS_WITH(io::read_motive_csv(d.write("notmotive.csv", "a,b\n1,2\n")), Catch::Contains("Format Version"));
   std::string unit = kMotive3;
   unit.replace(unit.find("Millimeters"), 11, "Furlongs");
-  CHECK_THROWS_WITH(io::read_motive_csv(d.write("u.csv", unit), "cam"), Catch::Contains("Furlongs"));
+  CHECK_THROWS_WITH(io::read_motive_csv(d.write("u.csv", unit), "cam"),
+                    Catch::Contains("Furlongs") && Catch::Contains("u.csv:1"));
 }
 
 TEST_CASE("motive: a file cut inside its last row, and an unknown Format Version, are warned about", "[io][mocap]") {
@@ -133,17 +134,31 @@ TEST_CASE("motive: a file cut inside its last row, and an unknown Format Version
   };
   // Intact: no warning.
   CHECK(io::read_motive_csv(d.write("ok.csv", kMotive3), "cam").warnings.empty());
-  // Cut after the 5th cell of the last row, no line end: the row counts as occluded, with a warning.
+  // Cut after the 5th cell of the last row, no line end: the row is dropped, with a warning.
   std::string cut = kMotive3;
   cut.resize(cut.rfind("12,22,32"));
   cut.pop_back();  // the comma
   const auto m = io::read_motive_csv(d.write("cut.csv", cut), "cam");
-  CHECK(m.occluded == 2);
-  CHECK(has(m, "cut.csv:11: the last row has 10 of 17 cells and no line end"));
+  CHECK(m.occluded == 1);
+  CHECK(m.rows == 3);
+  CHECK(m.poses.size() == 2);
+  CHECK(has(m, "cut.csv:11: the last row has 10 of 17 cells and no line end: the file looks truncated; that row "
+               "was dropped"));
+  // Cut inside a number of the body's own cells (z = 32 mm → "3"): dropped too, never a 3 mm pose.
+  std::string mid = kMotive3;
+  mid.resize(mid.rfind("12,22,32") + 7);
+  const auto c = io::read_motive_csv(d.write("mid.csv", mid), "cam");
+  CHECK(c.rows == 3);
+  CHECK(c.occluded == 1);
+  REQUIRE(c.poses.size() == 2);
+  CHECK(c.poses.back().T.p.x() == Approx(0.011));
+  CHECK(has(c, "mid.csv:11: the last row has 13 of 17 cells"));
   // A short last row that ends its line is an ordinary occlusion (Motive drops trailing empty cells).
   const auto s = io::read_motive_csv(d.write("short.csv", cut + "\n"), "cam");
   CHECK(s.occluded == 2);
+  CHECK(s.rows == 4);
   CHECK_FALSE(has(s, "truncated"));
+  CHECK(s.capture_start_time == "2024-01-01 01.02.03.004 P.M.");
   // A body name in the Windows code page (cp1252 "ö" = 0xF6) is read as Latin-1: found by its
   // UTF-8 spelling, and said so.
   std::string cp = kMotive3;
@@ -215,6 +230,22 @@ TEST_CASE("vicon: Nexus-style Segments section, a body by its segment name, full
   // Only a whole segment name after the ':' matches.
   for (const char* part : {"ip", "Wand", "d:tip", "base:"})
     CHECK_THROWS_WITH(io::read_vicon_csv(f, part), Catch::Contains("is not in the file"));
+  // Two subjects of one model share segment names: the segment alone is ambiguous and refused; the
+  // whole label, or a label that is exactly the name, is not.
+  const fs::path two = d.write("two.csv",
+                               "Segments\n200\n,,S1:Root,,,,,,S2:Root,,,,,,Root,,,,,\n"
+                               "Frame,Sub Frame,RX,RY,RZ,TX,TY,TZ,RX,RY,RZ,TX,TY,TZ,RX,RY,RZ,TX,TY,TZ\n"
+                               ",,rad,rad,rad,m,m,m,rad,rad,rad,m,m,m,rad,rad,rad,m,m,m\n"
+                               "5,0,0,0,0,1,1,1,0,0,0,2,2,2,0,0,0,3,3,3\n");
+  const fs::path two_only = d.write("two_only.csv",
+                                    "Segments\n200\n,,S1:Root,,,,,,S2:Root,,,,,\n"
+                                    "Frame,Sub Frame,RX,RY,RZ,TX,TY,TZ,RX,RY,RZ,TX,TY,TZ\n"
+                                    ",,rad,rad,rad,m,m,m,rad,rad,rad,m,m,m\n"
+                                    "5,0,0,0,0,1,1,1,0,0,0,2,2,2\n");
+  CHECK_THROWS_WITH(io::read_vicon_csv(two_only, "Root"),
+                    Catch::Contains("matches several objects") && Catch::Contains("\"S1:Root\" \"S2:Root\""));
+  CHECK(io::read_vicon_csv(two_only, "S2:Root").poses.at(0).T.p.x() == 2);
+  CHECK(io::read_vicon_csv(two, "Root").poses.at(0).T.p.x() == 3);  // the exact name wins
 }
 
 TEST_CASE("bag poses: PoseStamped, TransformStamped, Odometry and TF topics", "[io][mocap]") {

@@ -33,6 +33,7 @@ struct MocapData {
   bool y_up = false;               ///< world M is Y-up (Motive's default world)
   std::string length_unit;         ///< as given in the file
   std::string rotation_type;       ///< "Quaternion", an Euler order ("XYZ", degrees), "helical"
+  std::string capture_start_time;  ///< Motive's "Capture Start Time" as written (local time, no zone)
   std::vector<std::string> warnings;
 };
 
