@@ -164,7 +164,8 @@ def main():
     ap.add_argument("--out", required=True, help="bundle folder to create")
     ap.add_argument("--model-id", required=True, help="roe model id (letters, digits, . _ -)")
     ap.add_argument("--ops-dir", help="Deformable-DETR models/ops folder, if its package is not installed")
-    ap.add_argument("--darknet-cfg", help="the detector cfg (default: PoET's configs/ycbv_yolov4-csp.cfg)")
+    ap.add_argument("--darknet-cfg", help="the detector cfg (default: the checkpoint's backbone_cfg, relative to "
+                                          "--poet-dir, else PoET's configs/ycbv_yolov4-csp.cfg)")
     ap.add_argument("--feature-layers", default="mish_143,mish_158,mish_173",
                     help="OpenCV names of the YOLO layers PoET taps (YOLOv4-CSP: Darknet 142/157/172)")
     ap.add_argument("--intrinsics", required=True, help="training camera fx,fy,cx,cy (pixels)")
@@ -224,6 +225,11 @@ def main():
     with torch.no_grad():
         features, _, preds = model.backbone(NestedTensor(x, mask))
     feats = [f.tensors if hasattr(f, "tensors") else f.decompose()[0] for f in features]
+
+    # The wrapper's detections after NMS (x1, y1, x2, y2, conf, class + 1): roe's decoding and NMS must
+    # reproduce them (detector.selftest.detections).
+    p_all = preds[0] if preds and preds[0] is not None else torch.zeros((0, 6))
+    np.save(os.path.join(a.out, "selftest", "detections.npy"), p_all.detach().numpy().astype(np.float32).reshape(-1, 6))
 
     boxes = torch.full((q, 4), -1.0)
     classes = torch.full((q,), -1, dtype=torch.int64)
@@ -285,7 +291,12 @@ def main():
         outputs.append(fn)
 
     # Detector: the user's cfg and the backbone's weights in Darknet format (the wrapper's converter).
-    cfg = a.darknet_cfg or os.path.join(poet_dir, "configs", "ycbv_yolov4-csp.cfg")
+    cfg = a.darknet_cfg
+    if not cfg:
+        trained = getattr(args, "backbone_cfg", "") or "configs/ycbv_yolov4-csp.cfg"
+        cfg = trained if os.path.isabs(trained) else os.path.join(poet_dir, trained)
+    if not os.path.exists(cfg):
+        sys.exit(f"error: the detector cfg {cfg} does not exist (give it with --darknet-cfg)")
     shutil.copyfile(cfg, os.path.join(a.out, "detector.cfg"))
     darknet = next((m for m in model.backbone.modules() if hasattr(m, "save_weights")), None)
     if darknet is None:
@@ -319,8 +330,11 @@ def main():
             "kind": "darknet", "cfg": "detector.cfg", "weights": "detector.weights",
             "conf_thresh": float(getattr(args, "backbone_conf_thresh", 0.4)),
             "iou_thresh": float(getattr(args, "backbone_iou_thresh", 0.5)),
-            "max_detections": 300, "multi_label": True, "class_offset": 1, "feature_layers": layers,
-            "selftest": {"image": "selftest/detector_input.png", "outputs": det_refs, "atol": 1e-4},
+            "max_detections": 300, "multi_label": len(class_names) > 1,
+            "class_aware": not bool(getattr(args, "backbone_agnostic_nms", False)), "class_offset": 1,
+            "feature_layers": layers,
+            "selftest": {"image": "selftest/detector_input.png", "outputs": det_refs, "atol": 1e-4,
+                         "detections": "selftest/detections.npy"},
         },
         "pose": {"file": "pose_head.ts", "torch_version": torch.__version__.split("+")[0], "inputs": "features",
                  "aleatoric": bool(getattr(model, "aleatoric", False))},

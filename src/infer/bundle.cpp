@@ -186,6 +186,7 @@ PoetBundle bundle_from_json(const nlohmann::json& j, const fs::path& dir, const 
           const fs::path f = existing_file(outs, it.key().c_str(), dir, true);
           s.selftest_outputs.emplace_back(it.key(), f);
         }
+        if (st.has("detections")) s.selftest_detections = existing_file(st, "detections", dir, true);
         st.get("atol", s.selftest_atol);
         if (!(s.selftest_atol > 0)) bad(st, "atol", "must be positive");
         st.finish();

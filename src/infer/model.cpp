@@ -71,14 +71,11 @@ std::optional<std::uint64_t> mul_add(std::uint64_t a, std::uint64_t b, std::uint
   return a * b + c;
 }
 
-}  // namespace
+using Params = std::map<std::string, std::string>;
 
-std::optional<std::uint64_t> darknet_parameter_count(const std::string& cfg_text) {
-  // Sections as OpenCV's ReadDarknetFromCfgStream reads them: characters outside '!'..'z' are
-  // dropped, '#'/';' lines are comments, only "[net]" is the network section.
-  using Params = std::map<std::string, std::string>;
-  Params net;
-  std::vector<Params> layers;
+// Sections as OpenCV's ReadDarknetFromCfgStream reads them: characters outside '!'..'z' are
+// dropped, '#'/';' lines are comments, only "[net]" is the network section. False on a malformed cfg.
+bool parse_cfg_sections(const std::string& cfg_text, Params& net, std::vector<Params>& layers) {
   bool in_net = false;
   std::istringstream in(cfg_text);
   for (std::string raw; std::getline(in, raw);) {
@@ -88,20 +85,72 @@ std::optional<std::uint64_t> darknet_parameter_count(const std::string& cfg_text
     if (line.empty() || line[0] == '#' || line[0] == ';') continue;
     if (line[0] == '[') {
       const auto close = line.find(']');
-      if (close == std::string::npos || close < 2) return std::nullopt;
+      if (close == std::string::npos || close < 2) return false;
       in_net = line == "[net]";
       if (!in_net) layers.push_back({{"layer_type", line.substr(1, close - 1)}});
       continue;
     }
     const auto eq = line.find('=');
-    if (eq == std::string::npos) return std::nullopt;
+    if (eq == std::string::npos) return false;
     const std::string key = line.substr(0, eq), value = line.substr(eq + 1);
     if (key.empty() || value.empty()) continue;
     if (in_net) net[key] = value;
-    else if (layers.empty()) return std::nullopt;
+    else if (layers.empty()) return false;
     else layers.back()[key] = value;
   }
-  if (layers.empty()) return std::nullopt;
+  return !layers.empty();
+}
+
+// "1,2, 3" → numbers (nullopt when one is not a number).
+template <typename T>
+std::optional<std::vector<T>> cfg_list(const Params& p, const std::string& key) {
+  std::vector<T> out;
+  const auto it = p.find(key);
+  if (it == p.end()) return out;
+  std::stringstream ss(it->second);
+  for (std::string item; std::getline(ss, item, ',');) {
+    std::stringstream one(item);
+    T v{};
+    if (!(one >> v)) return std::nullopt;
+    out.push_back(v);
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<YoloHead> darknet_yolo_heads(const std::string& cfg_text, const std::string& source) {
+  Params net;
+  std::vector<Params> layers;
+  if (!parse_cfg_sections(cfg_text, net, layers)) throw InputError("malformed Darknet cfg", {source});
+  std::vector<YoloHead> heads;
+  for (const Params& p : layers) {
+    if (p.at("layer_type") != "yolo") continue;
+    const std::string which = "[yolo] #" + std::to_string(heads.size() + 1);
+    const auto anchors = cfg_list<float>(p, "anchors");
+    const auto mask = cfg_list<int>(p, "mask");
+    if (!anchors || !mask || anchors->empty() || anchors->size() % 2 != 0)
+      throw InputError(which + ": anchors must be a list of w,h pairs, mask a list of indices", {source});
+    YoloHead h;
+    h.classes = cfg_param<int>(p, "classes", 0);
+    if (h.classes <= 0) throw InputError(which + ": classes must be a positive number", {source});
+    std::vector<int> m = *mask;
+    if (m.empty())  // Darknet: no mask = every anchor
+      for (std::size_t k = 0; k < anchors->size() / 2; ++k) m.push_back(static_cast<int>(k));
+    for (int k : m) {
+      if (k < 0 || static_cast<std::size_t>(k) >= anchors->size() / 2)
+        throw InputError(which + ": mask index " + std::to_string(k) + " has no anchor", {source});
+      h.anchors.push_back({(*anchors)[2 * static_cast<std::size_t>(k)], (*anchors)[2 * static_cast<std::size_t>(k) + 1]});
+    }
+    heads.push_back(std::move(h));
+  }
+  return heads;
+}
+
+std::optional<std::uint64_t> darknet_parameter_count(const std::string& cfg_text) {
+  Params net;
+  std::vector<Params> layers;
+  if (!parse_cfg_sections(cfg_text, net, layers)) return std::nullopt;
   const std::int64_t net_c = cfg_param<std::int64_t>(net, "channels", 3), net_w = cfg_param<std::int64_t>(net, "width", 416),
                      net_h = cfg_param<std::int64_t>(net, "height", 416);
   if (net_c <= 0 || net_w <= 0 || net_h <= 0) return std::nullopt;
@@ -239,7 +288,8 @@ struct PoetModel::Impl {
   PoetBundle b;
   ModelOptions opt;
   cv::dnn::Net net;
-  std::vector<std::string> yolo_outputs;
+  std::vector<std::string> yolo_outputs;  ///< OpenCV names of the convolutions feeding the [yolo] layers
+  std::vector<YoloHead> yolo_heads;       ///< their anchors and classes, same order
   std::unique_ptr<PoseHead> head;
   SelfTestReport report;
   // camera
@@ -303,12 +353,30 @@ PoetModel::PoetModel(PoetBundle bundle, ModelOptions options) : impl_(std::make_
     if (m.net.empty()) throw InputError("OpenCV loaded an empty Darknet network", {m.b.darknet.cfg.string()});
     m.net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
     m.net.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
+    // The boxes are decoded from the raw convolution before each [yolo] layer with PoET's rule
+    // (decode_yolo_head), not taken from OpenCV's Region layer, which decodes them differently.
     for (const auto& name : m.net.getLayerNames()) {
       const int id = m.net.getLayerId(name);
-      if (m.net.getLayer(id)->type == "Region") m.yolo_outputs.push_back(name);
+      if (m.net.getLayer(id)->type != "Region") continue;
+      // OpenCV's importer feeds the Region layer a Permute (to NHWC) of the convolution, and the
+      // network input (for the image size): take the convolution itself, in NCHW.
+      auto inputs = m.net.getLayerInputs(id);
+      if (!inputs.empty() && inputs[0] && inputs[0]->type == "Permute")
+        inputs = m.net.getLayerInputs(m.net.getLayerId(inputs[0]->name));
+      // A linear convolution (PoET's heads), or its batch norm: the raw values PoET's decoding takes.
+      if (inputs.empty() || !inputs[0] || (inputs[0]->type != "Convolution" && inputs[0]->type != "BatchNorm"))
+        throw InputError("the [yolo] layer " + name + " does not follow a convolution with activation=linear" +
+                             (inputs.empty() || !inputs[0] ? std::string() : " (it follows " + inputs[0]->type + ")"),
+                         {m.b.darknet.cfg.string()});
+      m.yolo_outputs.push_back(inputs[0]->name);
     }
+    m.yolo_heads = darknet_yolo_heads(io::read_file(m.b.darknet.cfg), m.b.darknet.cfg.string());
     if (m.yolo_outputs.empty())
       throw InputError("the Darknet cfg has no [yolo] layer", {m.b.darknet.cfg.string()});
+    if (m.yolo_heads.size() != m.yolo_outputs.size())
+      throw InputError("OpenCV made " + std::to_string(m.yolo_outputs.size()) + " [yolo] layer(s) of the cfg's " +
+                           std::to_string(m.yolo_heads.size()),
+                       {m.b.darknet.cfg.string()});
     for (const auto& f : m.b.darknet.feature_layers)
       if (m.net.getLayerId(f) < 0)
         throw ConfigError("OpenCV's network has no layer \"" + f + "\" (names look like conv_12, mish_143, pool_2, shortcut_20)",
@@ -324,8 +392,10 @@ PoetModel::PoetModel(PoetBundle bundle, ModelOptions options) : impl_(std::make_
     const std::string src = (m.b.dir / kBundleManifest).string();
     for (const auto& [k, v] : m.report.detector)
       if (!(v <= m.report.detector_atol))
-        throw InputError("bundle self-test failed: detector layer " + k + " differs from its reference by " + std::to_string(v) +
-                             " (atol " + std::to_string(m.report.detector_atol) + ")",
+        throw InputError("bundle self-test failed: detector " +
+                             (k == "detections after NMS" ? "detections after NMS differ from PoET's (count, class or value)"
+                                                          : "layer " + k + " differs from its reference") +
+                             " by " + std::to_string(v) + " (atol " + std::to_string(m.report.detector_atol) + ")",
                          {src, 0, 0, "detector.selftest"});
     for (const auto& [k, v] : m.report.pose)
       if (!(v <= m.report.pose_atol))
@@ -360,6 +430,28 @@ SelfTestReport PoetModel::run_selftest() {
       double scale = 1.0;
       for (float v : ref.f) scale = std::max(scale, static_cast<double>(std::abs(v)));
       r.detector.emplace_back(names[k], max_abs_diff(mat_to_tensor(outs[k]), ref) / scale);
+    }
+    if (!m.b.darknet.selftest_detections.empty()) {
+      // The boxes after NMS against PoET's own: same count and classes, coordinates and scores within
+      // the tolerance (scaled by the largest coordinate, as above); infinite when they do not pair up.
+      const HostTensor ref = read_npy(m.b.darknet.selftest_detections);
+      const auto boxes = run_detector(blob).first;
+      double d = std::numeric_limits<double>::infinity();
+      if (!ref.is_int && ref.shape.size() == 2 && ref.shape[1] == 6 &&
+          static_cast<std::size_t>(ref.shape[0]) == boxes.size()) {
+        double scale = 1.0, diff = 0.0;
+        for (float v : ref.f) scale = std::max(scale, static_cast<double>(std::abs(v)));
+        for (std::size_t k = 0; k < boxes.size(); ++k) {
+          const float* e = ref.f.data() + 6 * k;
+          const BoxDetection& b = boxes[k];
+          if (static_cast<double>(e[5]) != b.class_id) diff = std::numeric_limits<double>::infinity();
+          for (const auto& [x, y] : {std::pair<double, float>{b.x1, e[0]}, {b.y1, e[1]}, {b.x2, e[2]}, {b.y2, e[3]}})
+            diff = std::max(diff, std::abs(x - y) / scale);
+          diff = std::max(diff, std::abs(b.score - e[4]));
+        }
+        d = diff;
+      }
+      r.detector.emplace_back("detections after NMS", d);
     }
   }
   std::vector<HostTensor> in;
@@ -446,10 +538,22 @@ std::pair<std::vector<BoxDetection>, std::vector<HostTensor>> PoetModel::run_det
   const auto outs = m.forward_net(blob, names);
   std::vector<BoxDetection> cand;
   for (std::size_t k = 0; k < m.yolo_outputs.size(); ++k) {
-    cv::Mat y = outs[k].isContinuous() ? outs[k] : outs[k].clone();
-    if (y.dims != 2 || y.type() != CV_32F) throw DataError("unexpected YOLO output layout from OpenCV");
-    auto c = yolo_candidates(y.ptr<float>(), static_cast<std::size_t>(y.rows), static_cast<std::size_t>(y.cols), m.b.image.width,
-                             m.b.image.height, m.b.darknet.nms);
+    const cv::Mat y = outs[k].isContinuous() ? outs[k] : outs[k].clone();
+    const YoloHead& head = m.yolo_heads[k];
+    const int no = 5 + head.classes;
+    if (y.dims != 4 || y.type() != CV_32F || y.size[0] != 1 ||
+        y.size[1] != static_cast<int>(head.anchors.size()) * no)
+      throw InputError("the convolution before [yolo] #" + std::to_string(k + 1) + " (" + m.yolo_outputs[k] +
+                           ") does not give anchors × (5 + classes) = " +
+                           std::to_string(head.anchors.size() * static_cast<std::size_t>(no)) + " channels",
+                       {m.b.darknet.cfg.string()});
+    const int ny = y.size[2], nx = y.size[3];
+    // The stride of the grid: the power of two nearest input / grid (PoET's backbone fixes 8, 16, 32
+    // for its three heads; input sides that are not multiples of 32 round the grid up).
+    const float stride = std::exp2(std::round(std::log2(static_cast<double>(m.b.image.width) / nx)));
+    const auto rows = decode_yolo_head(y.ptr<float>(), head, ny, nx, stride);
+    auto c = yolo_candidates(rows.data(), rows.size() / static_cast<std::size_t>(no), static_cast<std::size_t>(no), 1, 1,
+                             m.b.darknet.nms);
     cand.insert(cand.end(), c.begin(), c.end());
   }
   std::vector<HostTensor> feats;
@@ -555,9 +659,11 @@ FrameResult PoetModel::infer(const std::string& encoded_image, const std::vector
         throw InputError("box class " + std::to_string(eb.class_id) + " is not a class of model " + m.b.model_id, {source});
       boxes.push_back(m.warp ? transform_box(eb, m.H) : eb);
     }
-    std::stable_sort(boxes.begin(), boxes.end(), [](const BoxDetection& a, const BoxDetection& b) {
-      return a.score > b.score;  // NaN scores compare false: their order is kept
-    });
+    // Best first; a box without a score (NaN) ranks below every scored one, in file order (NaN in
+    // the comparison itself would break the sort's ordering and mix up the scored boxes).
+    const auto rank = [](double s) { return std::isnan(s) ? -std::numeric_limits<double>::infinity() : s; };
+    std::stable_sort(boxes.begin(), boxes.end(),
+                     [&](const BoxDetection& a, const BoxDetection& b) { return rank(a.score) > rank(b.score); });
     // A pose head on detector features still needs the detector's feature maps.
     if (m.b.pose.inputs == PoseInputs::kFeatures) feats = run_detector(blob).second;
   } else if (m.b.detector == DetectorKind::kDarknet) {

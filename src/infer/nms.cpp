@@ -1,6 +1,7 @@
 #include "roe/infer/nms.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
 namespace roe::infer {
@@ -13,6 +14,36 @@ double box_iou(const BoxDetection& a, const BoxDetection& b) {
   if (iw <= 0 || ih <= 0) return 0.0;
   const double inter = iw * ih;
   return inter / (aw * ah + bw * bh - inter);
+}
+
+std::vector<float> decode_yolo_head(const float* raw, const YoloHead& head, int ny, int nx, float stride) {
+  const std::size_t A = head.anchors.size();
+  const std::size_t no = 5 + static_cast<std::size_t>(std::max(head.classes, 0));
+  std::vector<float> rows;
+  if (A == 0 || ny <= 0 || nx <= 0 || head.classes <= 0) return rows;
+  const std::size_t plane = static_cast<std::size_t>(ny) * static_cast<std::size_t>(nx);
+  rows.resize(A * plane * no);
+  const auto sigmoid = [](float v) { return 1.0f / (1.0f + std::exp(-v)); };
+  std::size_t r = 0;
+  for (std::size_t a = 0; a < A; ++a) {
+    // PyTorch: anchor_wh = anchors / stride, then w = (2σ)² · anchor_wh · stride.
+    const float aw = head.anchors[a][0] / stride, ah = head.anchors[a][1] / stride;
+    const float* base = raw + a * no * plane;
+    for (int y = 0; y < ny; ++y) {
+      for (int x = 0; x < nx; ++x, ++r) {
+        const std::size_t at = static_cast<std::size_t>(y) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(x);
+        float* row = rows.data() + r * no;
+        for (std::size_t c = 0; c < no; ++c) row[c] = sigmoid(base[c * plane + at]);
+        row[0] = (row[0] * 2.0f - 0.5f + static_cast<float>(x)) * stride;
+        row[1] = (row[1] * 2.0f - 0.5f + static_cast<float>(y)) * stride;
+        const float tw = row[2] * 2.0f, th = row[3] * 2.0f;
+        row[2] = tw * tw * aw * stride;
+        row[3] = th * th * ah * stride;
+        for (std::size_t c = 5; c < no; ++c) row[c] *= row[4];
+      }
+    }
+  }
+  return rows;
 }
 
 std::vector<BoxDetection> yolo_candidates(const float* rows, std::size_t n, std::size_t cols, int width, int height,

@@ -32,8 +32,15 @@ PoseHead::PoseHead(const std::filesystem::path& file, const std::string& device)
     impl_->module.eval();
   } catch (const c10::Error& e) {
     std::string msg = e.what_without_backtrace();
-    throw InputError("cannot load the TorchScript pose head (exported with a newer torch than LibTorch " +
-                         runtime_version() + "?): " + msg.substr(0, 400),
+    // A file that is not a readable zip archive is damaged (or not TorchScript at all); anything else
+    // that fails to load is most often TorchScript from a newer torch.
+    const bool not_archive = msg.find("PytorchStreamReader") != std::string::npos ||
+                             msg.find("zip archive") != std::string::npos ||
+                             msg.find("file not found") != std::string::npos;
+    throw InputError(std::string("cannot load the TorchScript pose head (") +
+                         (not_archive ? "not a readable TorchScript archive: damaged, truncated or another kind of file?"
+                                      : "exported with a newer torch than LibTorch " + runtime_version() + "?") +
+                         "): " + msg.substr(0, 400),
                      {file.string()});
   }
 }

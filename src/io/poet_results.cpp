@@ -475,14 +475,14 @@ PoetResults read_poet_results(const std::filesystem::path& file, PoetRotationFor
 
 std::string poet_image_id(const std::string& filename) {
   const std::string name = std::filesystem::path(filename).filename().string();
-  const auto dot = name.rfind('.');
-  const std::string stem = dot == std::string::npos ? name : name.substr(0, dot);
+  // Python's name[name.find('_') + 1 : name.rfind('.')] (PoET's inference_engine.py): find gives −1
+  // without an underscore (the slice starts at 0), rfind −1 without a dot (the slice ends one
+  // character before the end), and an end before the start gives "".
   const auto us = name.find('_');
-  if (us == std::string::npos) return stem;
-  // Python's name[name.find('_') + 1 : name.rfind('.')]: empty when the underscore is after the dot.
-  if (dot == std::string::npos) return name.substr(us + 1, name.size() - 1 - (us + 1));
-  if (dot <= us) return "";
-  return name.substr(us + 1, dot - us - 1);
+  const auto dot = name.rfind('.');
+  const std::size_t start = us == std::string::npos ? 0 : us + 1;
+  const std::size_t end = dot == std::string::npos ? (name.empty() ? 0 : name.size() - 1) : dot;
+  return end <= start ? std::string() : name.substr(start, end - start);
 }
 
 const std::vector<std::string>& ycbv_class_names() {

@@ -232,6 +232,28 @@ TEST_CASE("roe infer with external boxes (PoET's ground-truth box mode)", "[infe
   CHECK_THROWS_AS(app::run_infer(ds, o), InputError);
 }
 
+TEST_CASE("roe infer --boxes: a box without a score ranks last and leaves the others in score order", "[infer]") {
+  TmpDir tmp("boxes_nan");
+  const fs::path ds = make_dataset(tmp.path, kFrames);
+  // Two boxes of class 1 (0.5, then 0.9) around a box without a score: the 0.9 one is the best of
+  // object 11 and is kept (one detection per object, the highest score).
+  io::write_file_atomic(tmp.path / "boxes.csv",
+                        "timestamp_ns,class,x1,y1,x2,y2,score\n"
+                        "1000000000,1,18,18,42,42,0.5\n"
+                        "1000000000,2,78,48,102,72,\n"
+                        "1000000000,1,19,19,43,43,0.9\n");
+  app::InferOptions o;
+  o.model_dir = kTiny.string();
+  o.boxes_file = (tmp.path / "boxes.csv").string();
+  app::run_infer(ds, o);
+  const auto dets = io::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
+  REQUIRE(dets.size() == 2);
+  std::map<int, double> score;
+  for (const auto& d : dets) score[d.object_id] = d.score;
+  CHECK(score.at(11) == Approx(0.9));
+  CHECK(std::isnan(score.at(12)));
+}
+
 // The message of the InputError `f` throws ("" when it throws none; other exceptions escape).
 template <typename F>
 std::string input_error_of(F&& f) {

@@ -181,3 +181,29 @@ TEST_CASE("external boxes of a class the bundle lacks are an InputError, not a p
   CHECK(model.infer(img, &ok).detections.size() == 1);
 }
 #endif
+
+TEST_CASE("the [yolo] heads of a cfg: anchors picked by mask, classes, errors naming the cfg", "[darknet]") {
+  const std::string net = "[net]\nwidth=64\nheight=64\nchannels=3\n[convolutional]\nfilters=8\nsize=1\nactivation=linear\n";
+  // PoET's layout: nine anchors, each head takes three by its mask.
+  const auto heads = darknet_yolo_heads(net +
+                                            "[yolo]\nmask = 0,1,2\nanchors = 12, 16, 19, 36, 40, 28, 36, 75, 76, 55, 72, "
+                                            "146, 142, 110, 192, 243, 459, 401\nclasses=21\nscale_x_y = 1.05\n"
+                                            "[convolutional]\nfilters=8\nsize=1\nactivation=linear\n"
+                                            "[yolo]\nmask = 6,7,8\nanchors = 12, 16, 19, 36, 40, 28, 36, 75, 76, 55, "
+                                            "72, 146, 142, 110, 192, 243, 459, 401\nclasses=21\n",
+                                        "y.cfg");
+  REQUIRE(heads.size() == 2);
+  CHECK(heads[0].classes == 21);
+  CHECK(heads[0].anchors == std::vector<std::array<float, 2>>{{12, 16}, {19, 36}, {40, 28}});
+  CHECK(heads[1].anchors == std::vector<std::array<float, 2>>{{142, 110}, {192, 243}, {459, 401}});
+  // No mask: every anchor.
+  CHECK(darknet_yolo_heads(net + "[yolo]\nanchors=1,2,3,4\nclasses=2\n", "y.cfg")[0].anchors.size() == 2);
+  CHECK_THROWS_WITH(darknet_yolo_heads(net + "[yolo]\nmask=2\nanchors=1,2,3,4\nclasses=2\n", "y.cfg"),
+                    Catch::Contains("y.cfg") && Catch::Contains("mask index 2 has no anchor"));
+  CHECK_THROWS_WITH(darknet_yolo_heads(net + "[yolo]\nmask=0\nanchors=1,2,3\nclasses=2\n", "y.cfg"),
+                    Catch::Contains("w,h pairs"));
+  CHECK_THROWS_WITH(darknet_yolo_heads(net + "[yolo]\nmask=0\nanchors=1,x\nclasses=2\n", "y.cfg"),
+                    Catch::Contains("w,h pairs"));
+  CHECK_THROWS_WITH(darknet_yolo_heads(net + "[yolo]\nmask=0\nanchors=1,2\n", "y.cfg"),
+                    Catch::Contains("classes must be a positive number"));
+}

@@ -183,7 +183,8 @@ TEST_CASE("PoET's image id rule without an extension, and class-name files", "[p
   // character is dropped. roe reproduces it, so ids match what PoET wrote.
   CHECK(poet_image_id("rgb_17") == "1");
   CHECK(poet_image_id("cam_rgb_170") == "rgb_17");
-  CHECK(poet_image_id("frame17") == "frame17");
+  CHECK(poet_image_id("frame17") == "frame1");  // no '_' and no '.': [0:-1]
+  CHECK(poet_image_id("x").empty());
   CHECK(poet_image_id("a.b_c.png") == "c");   // from the first '_' to the last '.'
   CHECK(poet_image_id("x.y_z.png") == "z");
   CHECK(poet_image_id("x_y.z_w") == "y");

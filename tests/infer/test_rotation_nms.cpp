@@ -2,6 +2,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "roe/infer/nms.hpp"
 #include "roe/infer/rotation.hpp"
@@ -68,6 +69,58 @@ TEST_CASE("quaternion (w first) and matrix outputs → R", "[rotation]") {
   CHECK(parse_rotation_format("6d") == RotationFormat::k6d);
   CHECK_FALSE(parse_rotation_format("euler"));
   CHECK(rotation_size(RotationFormat::kMatrix) == 9);
+}
+
+TEST_CASE("YOLO head decoding follows PoET's detector (Scaled-YOLOv4), not Darknet's exp() rule", "[nms]") {
+  // One anchor (10 x 10 px), one class, a 1 x 1 grid at stride 8: tx, ty, tw, th = 1, 0.5, 1, −0.5,
+  // objectness logit 0, class logit −1.
+  YoloHead head;
+  head.anchors = {{10.0f, 10.0f}};
+  head.classes = 1;
+  const float raw[6] = {1.0f, 0.5f, 1.0f, -0.5f, 0.0f, -1.0f};
+  const auto rows = decode_yolo_head(raw, head, 1, 1, 8.0f);
+  REQUIRE(rows.size() == 6);
+  const auto sig = [](double v) { return 1.0 / (1.0 + std::exp(-v)); };
+  CHECK(rows[0] == Approx((2 * sig(1.0) - 0.5) * 8));   // 7.697 (Darknet: 5.85 + ... with exp rule)
+  CHECK(rows[1] == Approx((2 * sig(0.5) - 0.5) * 8));   // 5.959
+  CHECK(rows[2] == Approx(std::pow(2 * sig(1.0), 2) * 10));   // 21.38 (Darknet: e·10 = 27.18)
+  CHECK(rows[3] == Approx(std::pow(2 * sig(-0.5), 2) * 10));  // 5.70
+  CHECK(rows[4] == Approx(0.5));
+  CHECK(rows[5] == Approx(0.5 * sig(-1.0)));  // 0.134: kept with a low threshold (OpenCV zeroes ≤ 0.2)
+  NmsOptions low;
+  low.conf_thresh = 0.1;
+  const auto c = yolo_candidates(rows.data(), 1, 6, 1, 1, low);
+  REQUIRE(c.size() == 1);
+  CHECK(c[0].x1 == Approx(rows[0] - rows[2] / 2));
+  CHECK(c[0].score == Approx(0.5 * sig(-1.0)));
+
+  // Two anchors on a 2 x 3 grid: rows in PyTorch's order (anchor, row, column), each cell offset by
+  // its column and row, each anchor with its own size.
+  YoloHead two;
+  two.anchors = {{4.0f, 6.0f}, {20.0f, 10.0f}};
+  two.classes = 2;
+  const int ny = 2, nx = 3, no = 7;
+  std::vector<float> in(2 * no * ny * nx, 0.0f);  // all logits 0: σ = 0.5
+  const auto r2 = decode_yolo_head(in.data(), two, ny, nx, 16.0f);
+  REQUIRE(r2.size() == static_cast<std::size_t>(2 * ny * nx * no));
+  for (int a = 0; a < 2; ++a)
+    for (int y = 0; y < ny; ++y)
+      for (int x = 0; x < nx; ++x) {
+        const float* row = r2.data() + ((a * ny + y) * nx + x) * no;
+        INFO(a << " " << y << " " << x);
+        CHECK(row[0] == Approx((0.5 + x) * 16));
+        CHECK(row[1] == Approx((0.5 + y) * 16));
+        CHECK(row[2] == Approx(two.anchors[a][0]));
+        CHECK(row[3] == Approx(two.anchors[a][1]));
+        CHECK(row[5] == Approx(0.25));
+        CHECK(row[6] == Approx(0.25));
+      }
+  // A channel-major input: the value of channel c at (y, x) is read from c·ny·nx + y·nx + x.
+  in[0 * ny * nx + 1 * nx + 2] = 2.0f;  // tx of anchor 0 at row 1, column 2
+  const auto r3 = decode_yolo_head(in.data(), two, ny, nx, 16.0f);
+  CHECK(r3[(1 * nx + 2) * no] == Approx((2 * sig(2.0) - 0.5 + 2) * 16));
+  CHECK(r3[0] == Approx(0.5 * 16));
+  CHECK(decode_yolo_head(in.data(), YoloHead{}, ny, nx, 16.0f).empty());
 }
 
 TEST_CASE("YOLO rows → candidates: objectness gate, multi-label, pixels", "[nms]") {

@@ -111,11 +111,56 @@ TEST_CASE("tiny bundle: self-test within tolerance (pose head 1e-5, Darknet taps
     INFO(k);
     CHECK(v <= 1e-5);
   }
-  REQUIRE(r.detector.size() == 2);
+  REQUIRE(r.detector.size() == 3);  // two taps and PoET's detections after NMS
+  CHECK(r.detector[2].first == "detections after NMS");
   for (const auto& [k, v] : r.detector) {
     INFO(k);
     CHECK(v <= 1e-4);
   }
+}
+
+TEST_CASE("a damaged pose head is called damaged, not a torch version problem", "[model][torch]") {
+  const fs::path dir = fs::temp_directory_path() / ("roe_bad_ts_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::copy(kTiny, dir, fs::copy_options::recursive);
+  const std::string ts = roe::io::read_file(dir / "pose_head.ts");
+  for (const std::string& content : {ts.substr(0, ts.size() / 2), std::string("not a zip file at all")}) {
+    roe::io::write_file_atomic(dir / "pose_head.ts", content);
+    try {
+      PoetModel model(read_bundle(dir));
+      FAIL("loaded a damaged pose head");
+    } catch (const roe::InputError& e) {
+      const std::string what = e.what();
+      INFO(what);
+      CHECK(what.find("not a readable TorchScript archive") != std::string::npos);
+      CHECK(what.find("pose_head.ts") != std::string::npos);
+    }
+  }
+  fs::remove_all(dir);
+}
+
+TEST_CASE("a bundle whose detections after NMS are not PoET's is refused", "[model][torch]") {
+  const fs::path dir = fs::temp_directory_path() / ("roe_bad_dets_" + std::to_string(::getpid()));
+  for (int what = 0; what < 3; ++what) {
+    fs::remove_all(dir);
+    fs::copy(kTiny, dir, fs::copy_options::recursive);
+    HostTensor d = read_npy(dir / "selftest/detections.npy");
+    if (what == 0) d.f[2] += 0.5f;  // a box corner half a pixel off
+    if (what == 1) d.f[5] = 2.0f;   // another class
+    if (what == 2) {                // one detection missing
+      d.shape[0] -= 1;
+      d.f.resize(d.f.size() - 6);
+    }
+    write_npy(dir / "selftest/detections.npy", d);
+    INFO("case " << what);
+    try {
+      PoetModel model(read_bundle(dir));
+      FAIL("accepted a bundle with wrong reference detections");
+    } catch (const roe::InputError& e) {
+      CHECK(std::string(e.what()).find("detections after NMS differ from PoET's") != std::string::npos);
+    }
+  }
+  fs::remove_all(dir);
 }
 
 TEST_CASE("tiny pose head through LibTorch matches the reference outputs", "[model][torch]") {
@@ -148,7 +193,10 @@ TEST_CASE("tiny detector finds the rendered squares with PoET's NMS", "[model][t
     classes.insert(b.class_id);
     CHECK(std::abs((b.x1 + b.x2) / 2 - cx[b.class_id]) <= 2.0);
     CHECK(std::abs((b.y1 + b.y2) / 2 - cy[b.class_id]) <= 2.0);
+    // A 12 px anchor with size logits 0.8814: PoET's (2σ)² doubles it to 24 px (Darknet's exp() rule,
+    // OpenCV's Region layer, would give 29 px).
     CHECK(b.x2 - b.x1 == Approx(24.0));
+    CHECK(b.y2 - b.y1 == Approx(24.0));
     CHECK(b.score > 0.4);
   }
   CHECK(classes.size() == 3);

@@ -19,8 +19,12 @@ of three pure colours (red = class 1, green = 2, blue = 3) in a 128x96 RGB image
   conv 29x29 /4       box filter (24x24 window centred on each YOLO cell centre) = coverage R_k
   maxpool 2/2         (a second, stride-8 feature level for the pose head)
   maxpool 3/1         local maximum of R
-  conv 1x1            objectness = high only where R is a local maximum; class = R_k
-  yolo                one 24x24 anchor
+  conv 1x1            objectness = high only where R is a local maximum; class = R_k;
+                      box-size logits ln(√½/(1 − √½)) = 0.8814
+  yolo                one 12x12 anchor: PoET's rule w = (2σ(tw))²·anchor doubles it to 24 px
+                      (Darknet's exp() rule, OpenCV's Region layer, would give 29 px)
+The detector self-test also stores the detections after NMS that PoET's detector code gives
+(poet_detections: the aau-cns/yolov4 YOLOLayer decoding and Scaled-YOLOv4's NMS, re-written here).
 The tiny pose head adds a pinhole prior to t (depth from the box width for a 0.06 m square, at the
 bundle's training intrinsics) so its outputs are plausible; the transformer adds a bounded term.
 """
@@ -366,9 +370,59 @@ def tiny_detector(width, height, obj_size, stride):
         w6[5 + c, c, 0, 0] = 20.0  # class logits 20 R_k − 10
         b6[5 + c] = -10.0
     b6[4] = -5.0
+    b6[2] = b6[3] = math.log(math.sqrt(0.5) / (1.0 - math.sqrt(0.5)))  # σ = √½, so (2σ)² = 2
     d.conv(8, 1, 1, False, "linear", w6, b6)
-    d.yolo([(obj_size, obj_size)], 3)
+    d.yolo([(obj_size // 2, obj_size // 2)], 3)
     return d
+
+
+def poet_detections(raw, anchors, stride, conf_thresh, iou_thresh, class_offset=1, agnostic=False, max_det=300):
+    """PoET's detections after NMS from the raw output [A*(5+C), ny, nx] of the convolution before a
+    [yolo] layer, in float32 as PyTorch computes them: the YOLOLayer of aau-cns/yolov4 (inference)
+    and Scaled-YOLOv4's non_max_suppression (multi-label when C > 1, greedy NMS by score with
+    class-aware suppression). Rows x1, y1, x2, y2, score, class + class_offset, best first."""
+    a_n = len(anchors)
+    no = raw.shape[0] // a_n
+    ny, nx = raw.shape[1:]
+    p = raw.reshape(a_n, no, ny, nx).transpose(0, 2, 3, 1).astype(np.float32)
+    io = (1.0 / (1.0 + np.exp(-p))).astype(np.float32)
+    gy, gx = np.meshgrid(np.arange(ny, dtype=np.float32), np.arange(nx, dtype=np.float32), indexing="ij")
+    anc = np.asarray(anchors, np.float32) / np.float32(stride)
+    io[..., 0] = (io[..., 0] * 2 - 0.5 + gx) * stride
+    io[..., 1] = (io[..., 1] * 2 - 0.5 + gy) * stride
+    io[..., 2] = (io[..., 2] * 2) ** 2 * anc[:, 0, None, None] * stride
+    io[..., 3] = (io[..., 3] * 2) ** 2 * anc[:, 1, None, None] * stride
+    x = io.reshape(-1, no)
+    x = x[x[:, 4] > conf_thresh]
+    x[:, 5:] *= x[:, 4:5]
+    box = np.stack([x[:, 0] - x[:, 2] / 2, x[:, 1] - x[:, 3] / 2, x[:, 0] + x[:, 2] / 2, x[:, 1] + x[:, 3] / 2], 1)
+    if no - 5 > 1:
+        i, j = np.nonzero(x[:, 5:] > conf_thresh)
+        det = np.concatenate([box[i], x[i, j + 5, None], j[:, None].astype(np.float32)], 1)
+    else:
+        det = np.concatenate([box, x[:, 5:6], np.zeros((len(x), 1), np.float32)], 1)[x[:, 5] > conf_thresh]
+    order = np.argsort(-det[:, 4], kind="stable")
+    kept = []
+    for k in order:
+        b = det[k]
+        ok = True
+        for m in kept:
+            if not agnostic and m[5] != b[5]:
+                continue
+            iw = min(m[2], b[2]) - max(m[0], b[0])
+            ih = min(m[3], b[3]) - max(m[1], b[1])
+            inter = max(iw, 0) * max(ih, 0)
+            union = (m[2] - m[0]) * (m[3] - m[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
+            if inter / union > iou_thresh:
+                ok = False
+                break
+        if ok:
+            kept.append(b)
+        if len(kept) >= max_det:
+            break
+    out = np.asarray(kept, np.float32).reshape(-1, 6)
+    out[:, 5] += class_offset
+    return out
 
 
 def full_detector(width, height, classes, rng):
@@ -477,6 +531,12 @@ def main():
         np.save(os.path.join(out, fn), layer_outs[i].numpy().astype(np.float32))
         det_refs[det.cv_names[i]] = fn
     feats = [layer_outs[i].float() for i in taps]
+    if not full:  # PoET's detections on the image (the conv before [yolo] is layer 6, stride 4)
+        dets = poet_detections(layer_outs[6][0].numpy().astype(np.float32), [(obj_size // 2, obj_size // 2)], stride,
+                               0.4, 0.5)
+        if len(dets) != len(test_objects):
+            sys.exit(f"the tiny detector finds {len(dets)} squares, not {len(test_objects)}")
+        np.save(os.path.join(out, "selftest", "detections.npy"), dets)
 
     # Pose-head self-test on the reference features and hand-made boxes (one placeholder row).
     boxes = torch.full((q, 4), -1.0)
@@ -529,7 +589,8 @@ def main():
             "multi_label": True,
             "class_offset": 1,
             "feature_layers": [det.cv_names[i] for i in taps],
-            "selftest": {"image": "selftest/detector_input.png", "outputs": det_refs, "atol": 1e-4},
+            "selftest": {"image": "selftest/detector_input.png", "outputs": det_refs, "atol": 1e-4,
+                         **({} if full else {"detections": "selftest/detections.npy"})},
         },
         "pose": {"file": "pose_head.ts", "torch_version": torch.__version__.split("a")[0].split("+")[0],
                  "inputs": "features", "aleatoric": False},

@@ -52,6 +52,9 @@ struct DarknetSpec {
   /// Optional self-test: an image and the expected outputs of named layers.
   fs::path selftest_image;
   std::vector<std::pair<std::string, fs::path>> selftest_outputs;
+  /// Optional: the detections after NMS that PoET's own detector gives on the image, float32
+  /// [N, 6] rows x1, y1, x2, y2 (pixels), score, class (after class_offset), best first.
+  fs::path selftest_detections;
   double selftest_atol = 1e-4;
 };
 

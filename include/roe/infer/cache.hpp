@@ -21,7 +21,9 @@
 
 namespace roe::infer {
 
-inline constexpr const char* kCacheSchema = "roe-infer-cache/1";
+/// Version 2: the YOLO boxes are decoded with PoET's rule (decode_yolo_head); frames cached by
+/// version 1 (OpenCV's Region decoding) are computed again.
+inline constexpr const char* kCacheSchema = "roe-infer-cache/2";
 
 struct CachedFrame {
   std::string key;

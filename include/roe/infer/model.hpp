@@ -117,6 +117,10 @@ class PoetModel {
 /// then gives its own error).
 std::optional<std::uint64_t> darknet_parameter_count(const std::string& cfg_text);
 
+/// The [yolo] heads of a Darknet cfg, in cfg order (= the order of OpenCV's Region layers):
+/// anchors picked by `mask`, classes. roe::InputError naming `source` on a malformed section.
+std::vector<YoloHead> darknet_yolo_heads(const std::string& cfg_text, const std::string& source);
+
 /// roe::InputError naming `weights` when its size differs from the header (16 or 20 bytes, by the
 /// file's version numbers) + 4 bytes per parameter of `cfg` (see darknet_parameter_count): OpenCV
 /// reads a truncated file without complaint (leaving weights undefined) and ignores extra bytes.

@@ -11,6 +11,7 @@
 ///  5. class ids shifted by class_offset (PoET: +1, 0 = background).
 /// Unlike PoET, which drops the score after the cut, roe keeps it for detections.csv.
 
+#include <array>
 #include <cstddef>
 #include <vector>
 
@@ -35,10 +36,29 @@ struct NmsOptions {
 /// IoU of two boxes (0 when either has no area).
 double box_iou(const BoxDetection& a, const BoxDetection& b);
 
-/// One YOLO row as OpenCV's Darknet region layer writes it: cx, cy, w, h (normalised to the network
-/// input), objectness, then per class objectness × class probability.
-/// Steps 1-2 on `rows` (n x (5 + classes), row-major float) → candidates in pixels of a
-/// width x height image, in row order.
+/// One [yolo] head of a Darknet cfg: its anchors in pixels (the cfg's `anchors` picked by `mask`,
+/// in mask order) and its number of classes.
+struct YoloHead {
+  std::vector<std::array<float, 2>> anchors;
+  int classes = 0;
+};
+
+/// Decodes the raw output of the convolution that feeds a [yolo] layer (float32 [A·(5 + C), ny, nx],
+/// row-major) the way PoET's detector does: the YOLOLayer of aau-cns/yolov4 in inference (the
+/// Scaled-YOLOv4 rule). Every channel goes through the logistic function σ, then
+///   cx = (2σ(tx) − 0.5 + column)·stride,  cy = (2σ(ty) − 0.5 + row)·stride,
+///   w = (2σ(tw))²·anchor_w,  h = (2σ(th))²·anchor_h,  objectness σ(to),
+///   class confidence σ(tc)·σ(to) (Scaled-YOLOv4's non_max_suppression multiplies them),
+/// whatever the cfg's scale_x_y or new_coords say (that code ignores them; OpenCV's Region layer
+/// follows them, with Darknet's exp() rule, and gives other boxes). Rows come in PyTorch's order
+/// (anchor, row, column), computed in float32 as PyTorch does: cx, cy, w, h in pixels, objectness,
+/// then the C class confidences, the input of yolo_candidates with width = height = 1.
+/// Returns an empty vector when A·(5 + C) rows do not fit (the caller checks the shape).
+std::vector<float> decode_yolo_head(const float* raw, const YoloHead& head, int ny, int nx, float stride);
+
+/// Steps 1-2 on `rows` (n x (5 + classes), row-major float: cx, cy, w, h, objectness, then per class
+/// objectness × class probability) → candidates, in row order. The box columns are multiplied by
+/// width and height: 1 for pixel rows (decode_yolo_head), the image size for normalised ones.
 std::vector<BoxDetection> yolo_candidates(const float* rows, std::size_t n, std::size_t cols, int width, int height,
                                           const NmsOptions& opt);
 

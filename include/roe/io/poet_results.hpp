@@ -62,9 +62,10 @@ PoetResults parse_poet_results(const std::string& text, const std::string& sourc
 PoetResults read_poet_results(const std::filesystem::path& file,
                               PoetRotationFormat format = PoetRotationFormat::kAuto);
 
-/// PoET's image id of a file name: the text between the first '_' and the last '.'; without an
-/// underscore, the stem. "1662634121000000000.png" → "1662634121000000000", "rgb_000123.png" →
-/// "000123", "cam_rgb_17.png" → "rgb_17".
+/// PoET's image id of a file name, Python's name[name.find('_') + 1 : name.rfind('.')]: the text
+/// between the first '_' and the last '.'; without an underscore, the stem. "1662634121000000000.png"
+/// → "1662634121000000000", "rgb_000123.png" → "000123", "cam_rgb_17.png" → "rgb_17"; without a dot
+/// the slice drops the last character ("frame17" → "frame1"), as PoET does.
 std::string poet_image_id(const std::string& filename);
 
 /// YCB-V class names, index = 1-based PoET class id (index 0 = "background"); 22 entries.
