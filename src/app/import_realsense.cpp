@@ -93,6 +93,39 @@ double median_rate(const std::vector<Vec3Stamped>& v) {
   return median_rate_hz(v, [](const Vec3Stamped& x) { return x.first; });
 }
 
+/// "a, b, c", or "none".
+std::string join_or_none(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s.empty() ? "none" : s;
+}
+
+/// realsense-ros namespace of an image topic: what precedes its last two names
+/// ("/d455/color/image_raw" → "/d455", "/color/image_raw" → "").
+std::string ros_namespace_of(const std::string& image_topic) {
+  const std::size_t p = image_topic.rfind('/');
+  if (p == std::string::npos || p == 0) return {};
+  const std::size_t q = image_topic.rfind('/', p - 1);
+  return q == std::string::npos ? std::string() : image_topic.substr(0, q);
+}
+
+/// "byte N: what; K problem(s)", naming the most specific damage (bag::Reader::damage).
+std::string damage_text(const bag::Reader& r) {
+  const auto d = r.damage();
+  if (d.empty()) return {};
+  return fmt::format("byte {}: {}; {} problem(s)", d.front().offset, d.front().message, d.size());
+}
+
+/// Every damage on its own line, in file order, when there are several (else "").
+std::string damage_list(const bag::Reader& r) {
+  const auto d = r.damage();
+  if (d.size() < 2) return {};
+  std::string s = "\nproblems found:";
+  for (const auto& w : r.warnings())
+    if (w.damage) s += fmt::format("\n  byte {}: {}", w.offset, w.message);
+  return s;
+}
+
 void write_xyz_csv(const fs::path& file, const std::vector<Vec3Stamped>& v, const char* unit) {
   io::CsvWriter w;
   w.header({"timestamp [ns]", std::string("x [") + unit + "]", std::string("y [") + unit + "]",
@@ -148,6 +181,7 @@ nlohmann::json ImportRealsenseSummary::to_json() const {
           {"accel_rate_hz", accel_rate_hz},
           {"gyro_rate_hz", gyro_rate_hz},
           {"timestamp_domain", timestamp_domain},
+          {"imu_timestamp_domain", imu_timestamp_domain},
           {"source_camera",
            {{"width", source_width},
             {"height", source_height},
@@ -180,6 +214,37 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
   const auto& conns = reader.connections();
   std::set<std::string> topics;
   for (const auto& c : conns) topics.insert(c.topic);
+  const auto type_of = [&](const std::string& t) { return reader.topic_type(t); };
+  const auto is_image = [&](const std::string& t) {
+    return type_of(t) == "sensor_msgs/Image" || type_of(t) == "sensor_msgs/CompressedImage";
+  };
+  std::vector<std::string> image_topics, imu_typed_topics;
+  for (const auto& t : topics) {
+    if (is_image(t)) image_topics.push_back(t);
+    if (type_of(t) == "sensor_msgs/Imu") imu_typed_topics.push_back(t);
+  }
+  // Without --salvage a damaged bag is refused as soon as the damage is known: right after the scan
+  // (a truncated bag), after the static pass, and after the images, never after writing everything.
+  const auto fail_if_damaged = [&]() {
+    if (reader.damaged() && !opt.salvage)
+      throw InputError("the bag is damaged (" + damage_text(reader) +
+                           "); use --salvage to import the part that is intact" + damage_list(reader),
+                       {reader.name()});
+  };
+  // An explicitly chosen IMU topic must exist and be a sensor_msgs/Imu topic.
+  const auto check_imu_option = [&](const std::string& t, const char* option) {
+    if (t.empty()) return;
+    if (!topics.count(t))
+      throw InputError(fmt::format("{} \"{}\" is not in the bag (sensor_msgs/Imu topics in the bag: {})", option, t,
+                                   join_or_none(imu_typed_topics)),
+                       {reader.name()});
+    if (type_of(t) != "sensor_msgs/Imu")
+      throw InputError(fmt::format("{} \"{}\" has type {}, expected sensor_msgs/Imu", option, t, type_of(t)),
+                       {reader.name()});
+  };
+  check_imu_option(opt.accel_topic, "--accel-topic");
+  check_imu_option(opt.gyro_topic, "--gyro-topic");
+  check_imu_option(opt.imu_topic, "--imu-topic");
 
   // ---- Layout and topics ----------------------------------------------------------------------
   std::map<std::string, std::string> sensor_names;  // "/device_0/sensor_1" → "RGB Camera"
@@ -201,6 +266,7 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
   }
   std::string camera_info_topic, color_info_topic, color_tf_topic, accel_tf_topic, metadata_topic;
   std::string accel_info_topic, gyro_info_topic, accel_intr_topic, gyro_intr_topic;
+  std::string accel_meta_topic, gyro_meta_topic;  // recorder: imu/metadata (timestamp_domain)
   if (recorder) {
     S.layout = "recorder";
     // Streams by kind; prefer the sensor with the expected name, else the lowest index.
@@ -216,16 +282,23 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
       });
       return cands.empty() ? std::optional<RsStream>() : std::optional<RsStream>(cands.front());
     };
+    // A chosen IMU topic of the recorder layout: its stream's info, intrinsics and tf/0 come with it.
+    auto imu_stream = [&](const std::string& t) {
+      const auto s = recorder_stream(t);
+      return s && t == s->prefix + "/imu/data" ? s : std::optional<RsStream>();
+    };
     std::optional<RsStream> color;
     if (!opt.color_topic.empty()) {
       color = recorder_stream(opt.color_topic);
       if (!color || !topics.count(color->prefix + "/image/data"))
-        throw InputError("colour topic \"" + opt.color_topic + "\" is not an image stream of this bag", {reader.name()});
+        throw InputError("colour topic \"" + opt.color_topic + "\" is not an image stream of this bag (image topics: " +
+                             join_or_none(image_topics) + ")",
+                         {reader.name()});
     } else {
       color = pick("Color", "RGB Camera", "/image/data");
     }
-    const auto accel = pick("Accel", "Motion Module", "/imu/data");
-    const auto gyro = pick("Gyro", "Motion Module", "/imu/data");
+    const auto accel = opt.accel_topic.empty() ? pick("Accel", "Motion Module", "/imu/data") : imu_stream(opt.accel_topic);
+    const auto gyro = opt.gyro_topic.empty() ? pick("Gyro", "Motion Module", "/imu/data") : imu_stream(opt.gyro_topic);
     if (color) {
       S.color_topic = color->prefix + "/image/data";
       camera_info_topic = color->prefix + "/info/camera_info";
@@ -233,70 +306,139 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
       color_tf_topic = color->prefix + "/tf/0";
       metadata_topic = color->prefix + "/image/metadata";
     }
+    S.accel_topic = opt.accel_topic;
+    S.gyro_topic = opt.gyro_topic;
+    S.imu_topic = opt.imu_topic;
     if (accel) {
       S.accel_topic = accel->prefix + "/imu/data";
       accel_tf_topic = accel->prefix + "/tf/0";
       accel_info_topic = accel->prefix + "/info";
       accel_intr_topic = accel->prefix + "/imu_intrinsic";
+      accel_meta_topic = accel->prefix + "/imu/metadata";
     }
     if (gyro) {
       S.gyro_topic = gyro->prefix + "/imu/data";
       gyro_info_topic = gyro->prefix + "/info";
       gyro_intr_topic = gyro->prefix + "/imu_intrinsic";
+      gyro_meta_topic = gyro->prefix + "/imu/metadata";
     }
   } else {
     S.layout = "realsense-ros";
-    auto first_of = [&](std::initializer_list<const char*> names) {
-      for (const char* n : names)
-        if (topics.count(n)) return std::string(n);
-      return std::string();
-    };
-    S.color_topic = !opt.color_topic.empty() ? opt.color_topic
-                                             : first_of({"/camera/color/image_raw", "/camera/color/image_raw/compressed",
-                                                         "/camera/color/image_rect_raw", "/camera/color/image_rect_raw/compressed"});
-    if (!opt.color_topic.empty() && !topics.count(opt.color_topic))
-      throw InputError("colour topic \"" + opt.color_topic + "\" is not in the bag", {reader.name()});
+    // Colour: an Image/CompressedImage topic <ns>/color/image_raw (or image_rect_raw, or their
+    // /compressed), any namespace: /camera first, then in name order; raw before compressed.
+    std::string color_ns;
+    if (!opt.color_topic.empty()) {
+      if (!topics.count(opt.color_topic))
+        throw InputError("colour topic \"" + opt.color_topic + "\" is not in the bag (image topics: " +
+                             join_or_none(image_topics) + ")",
+                         {reader.name()});
+      S.color_topic = opt.color_topic;
+    } else {
+      struct Cand {
+        std::string topic, ns;
+        int rank;
+      };
+      std::vector<Cand> cands;
+      for (const auto& t : image_topics) {
+        const bool compressed = ends_with(t, "/compressed");
+        const std::string base = compressed ? t.substr(0, t.size() - 11) : t;
+        for (const auto& [leaf, rank] : {std::pair{"/color/image_raw", 0}, std::pair{"/color/image_rect_raw", 1}})
+          if (ends_with(base, leaf))
+            cands.push_back({t, base.substr(0, base.size() - std::string(leaf).size()), rank + (compressed ? 2 : 0)});
+      }
+      std::stable_sort(cands.begin(), cands.end(), [](const Cand& a, const Cand& b) {
+        if (a.ns != b.ns) return a.ns == "/camera" || (b.ns != "/camera" && a.ns < b.ns);
+        return a.rank < b.rank;
+      });
+      if (!cands.empty()) {
+        S.color_topic = cands.front().topic;
+        std::set<std::string> others;
+        for (const auto& c : cands)
+          if (c.ns != cands.front().ns) others.insert(c.topic);
+        if (!others.empty())
+          S.warnings.push_back(fmt::format("colour images of several cameras: using {} (others: {}); choose with "
+                                           "--color-topic",
+                                           S.color_topic, join_or_none({others.begin(), others.end()})));
+      }
+    }
     if (!S.color_topic.empty()) {
       std::string base = S.color_topic;
       if (ends_with(base, "/compressed")) base = base.substr(0, base.size() - 11);
       camera_info_topic = base.substr(0, base.rfind('/')) + "/camera_info";
       if (!topics.count(camera_info_topic)) camera_info_topic.clear();
+      color_ns = ros_namespace_of(base);
     }
-    S.imu_topic = first_of({"/camera/imu"});
-    S.accel_topic = first_of({"/camera/accel/sample"});
-    S.gyro_topic = first_of({"/camera/gyro/sample"});
-    accel_intr_topic = first_of({"/camera/accel/imu_info"});
-    gyro_intr_topic = first_of({"/camera/gyro/imu_info"});
+    // IMU: sensor_msgs/Imu topics <ns>/accel/sample, <ns>/gyro/sample, <ns>/imu (unite_imu_method),
+    // all from one namespace: the colour topic's when it has IMU topics, else /camera, else the first.
+    std::map<std::string, std::map<std::string, std::string>> imu_by_ns;  // ns → {accel|gyro|imu → topic}
+    for (const auto& t : imu_typed_topics)
+      for (const auto& [leaf, kind] : {std::pair{"/accel/sample", "accel"}, std::pair{"/gyro/sample", "gyro"},
+                                       std::pair{"/imu", "imu"}})
+        if (ends_with(t, leaf)) imu_by_ns[t.substr(0, t.size() - std::string(leaf).size())][kind] = t;
+    std::string imu_ns;
+    if (!imu_by_ns.empty()) {
+      imu_ns = imu_by_ns.count(color_ns) && !S.color_topic.empty() ? color_ns
+               : imu_by_ns.count("/camera")                       ? std::string("/camera")
+                                                                  : imu_by_ns.begin()->first;
+      if (imu_by_ns.size() > 1 && (opt.accel_topic.empty() || opt.gyro_topic.empty()) && opt.imu_topic.empty()) {
+        std::vector<std::string> nss;
+        for (const auto& kv : imu_by_ns) nss.push_back(kv.first.empty() ? "/" : kv.first);
+        S.warnings.push_back(fmt::format("IMU topics under several namespaces ({}): using those of {}; choose with "
+                                         "--imu-topic or --accel-topic and --gyro-topic",
+                                         join_or_none(nss), imu_ns.empty() ? "/" : imu_ns));
+      }
+      auto& found = imu_by_ns[imu_ns];
+      S.accel_topic = found["accel"];
+      S.gyro_topic = found["gyro"];
+      S.imu_topic = found["imu"];
+    }
+    if (!opt.accel_topic.empty()) S.accel_topic = opt.accel_topic;
+    if (!opt.gyro_topic.empty()) S.gyro_topic = opt.gyro_topic;
+    if (!opt.imu_topic.empty()) S.imu_topic = opt.imu_topic;
+    // realsense2_camera/IMUInfo beside the chosen topics (<ns>/accel/imu_info, <ns>/gyro/imu_info).
+    auto info_beside = [&](const std::string& t, const char* sample_leaf, const char* info_leaf) {
+      std::string info;
+      if (ends_with(t, sample_leaf)) info = t.substr(0, t.size() - std::string(sample_leaf).size()) + info_leaf;
+      else if (ends_with(t, "/imu")) info = t.substr(0, t.size() - 4) + info_leaf;
+      return topics.count(info) ? info : std::string();
+    };
+    accel_intr_topic = info_beside(!S.accel_topic.empty() ? S.accel_topic : S.imu_topic, "/accel/sample", "/accel/imu_info");
+    gyro_intr_topic = info_beside(!S.gyro_topic.empty() ? S.gyro_topic : S.imu_topic, "/gyro/sample", "/gyro/imu_info");
   }
   if (S.color_topic.empty() && S.gyro_topic.empty() && S.imu_topic.empty()) {
     if (reader.damaged())  // e.g. cut inside its first chunk: the topics are in the part that is lost
-      throw InputError("the bag is damaged (" + reader.first_damage() +
+      throw InputError("the bag is damaged (" + damage_text(reader) +
                            ") and its intact part has no colour image and no IMU stream: nothing to import, "
-                           "even with --salvage",
+                           "even with --salvage" + damage_list(reader),
                        {reader.name()});
     std::string list;
-    for (const auto& t : topics) list += "\n  " + t;
+    for (const auto& t : topics) list += "\n  " + t + " (" + type_of(t) + ")";
     throw InputError("no colour image and no IMU stream found (RealSense recorder layout /device_0/sensor_N/Color_0/"
-                     "image/data, or realsense-ros /camera/color/image_raw, /camera/imu, /camera/gyro/sample); "
-                     "topics in the bag:" + list, {reader.name()});
+                     "image/data, or realsense-ros <ns>/color/image_raw, <ns>/imu, <ns>/gyro/sample); image topics: " +
+                         join_or_none(image_topics) + " (choose one with --color-topic); sensor_msgs/Imu topics: " +
+                         join_or_none(imu_typed_topics) + " (choose with --imu-topic or --accel-topic and "
+                         "--gyro-topic); topics in the bag:" + list,
+                     {reader.name()});
   }
-  if (!S.color_topic.empty() && reader.topic_type(S.color_topic) != "sensor_msgs/Image" &&
-      reader.topic_type(S.color_topic) != "sensor_msgs/CompressedImage")
-    throw InputError("topic " + S.color_topic + " has type " + reader.topic_type(S.color_topic) +
+  if (!S.color_topic.empty() && !is_image(S.color_topic))
+    throw InputError("topic " + S.color_topic + " has type " + type_of(S.color_topic) +
                      ", expected sensor_msgs/Image or CompressedImage", {reader.name()});
+  if (S.color_topic.empty())
+    S.warnings.push_back("no colour image stream found: cam0 not written; image topics in the bag: " +
+                         join_or_none(image_topics) + (image_topics.empty() ? "" : " (choose one with --color-topic)"));
+  fail_if_damaged();
 
   // ---- Pass 1: everything but images ----------------------------------------------------------
   std::optional<ros::CameraInfo> cam_info;
   std::vector<Vec3Stamped> accel, gyro;
   std::vector<ImuSample> united;
-  std::map<std::string, std::string> meta;
-  std::map<std::string, std::string> src_options;
+  std::map<std::string, std::string> domain_of;  // metadata topic → its first timestamp_domain
   std::optional<ros::ImuIntrinsic> accel_intr, gyro_intr;
   std::uint32_t color_fps = 0, accel_fps = 0, gyro_fps = 0;
   std::map<std::string, ros::Transform> tfs;  // label → tf/0
-  std::set<std::string> pass1 = {camera_info_topic, color_info_topic, metadata_topic, S.accel_topic,
+  std::set<std::string> pass1 = {camera_info_topic, color_info_topic, metadata_topic,   S.accel_topic,
                                  S.gyro_topic,      S.imu_topic,      accel_info_topic, gyro_info_topic,
-                                 accel_intr_topic,  gyro_intr_topic};
+                                 accel_intr_topic,  gyro_intr_topic,  accel_meta_topic, gyro_meta_topic};
   pass1.erase("");
   reader.for_each(
       [&](const bag::Connection& c) {
@@ -310,22 +452,20 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
         const std::string w = where_msg(reader, m);
         if (t == camera_info_topic) {
           if (!cam_info) cam_info = ros::decode_camera_info(m.data, w);
+        } else if (t == S.imu_topic) {  // before accel/gyro: a united topic given as one of them too
+          const auto imu = ros::decode_imu(m.data, w);
+          united.push_back({imu.header.stamp_ns, imu.angular_velocity, imu.linear_acceleration});
         } else if (t == S.accel_topic || t == S.gyro_topic) {
           const auto imu = ros::decode_imu(m.data, w);
           if (t == S.accel_topic) accel.emplace_back(imu.header.stamp_ns, imu.linear_acceleration);
-          else gyro.emplace_back(imu.header.stamp_ns, imu.angular_velocity);
-        } else if (t == S.imu_topic) {
-          const auto imu = ros::decode_imu(m.data, w);
-          united.push_back({imu.header.stamp_ns, imu.angular_velocity, imu.linear_acceleration});
-        } else if (t == metadata_topic) {
+          if (t == S.gyro_topic) gyro.emplace_back(imu.header.stamp_ns, imu.angular_velocity);
+        } else if (t == metadata_topic || t == accel_meta_topic || t == gyro_meta_topic) {
           const auto kv = ros::decode_key_value(m.data, w);
-          if (!meta.count(kv.key)) meta[kv.key] = kv.value;
+          if (kv.key == "timestamp_domain" && !domain_of.count(t)) domain_of[t] = kv.value;
         } else if (t == color_info_topic) {
           color_fps = ros::decode_stream_info(m.data, w).fps;
-        } else if (t == accel_info_topic) {
-          accel_fps = ros::decode_stream_info(m.data, w).fps;
-        } else if (t == gyro_info_topic) {
-          gyro_fps = ros::decode_stream_info(m.data, w).fps;
+        } else if (t == accel_info_topic || t == gyro_info_topic) {
+          (t == accel_info_topic ? accel_fps : gyro_fps) = ros::decode_stream_info(m.data, w).fps;
         } else if (t == accel_intr_topic || t == gyro_intr_topic) {
           const auto ii = m.connection->type == "realsense_msgs/ImuIntrinsic" ? ros::decode_rs_imu_intrinsic(m.data, w)
                                                                                : ros::decode_rs2_imu_info(m.data, w);
@@ -336,45 +476,92 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
         }
         return true;
       });
-  S.timestamp_domain = meta.count("timestamp_domain") ? meta["timestamp_domain"] : "";
+  fail_if_damaged();
 
   // ---- IMU --------------------------------------------------------------------------------------
   std::vector<ImuSample> imu;
+  const bool used_united = !united.empty();
   std::size_t dup = 0;
   sort_unique(accel, dup);
   sort_unique(gyro, dup);
-  if (dup) S.warnings.push_back(fmt::format("{} IMU samples with a repeated stamp dropped", dup));
   S.accel_samples = accel.size();
   S.gyro_samples = gyro.size();
   S.accel_rate_hz = accel_fps ? accel_fps : median_rate(accel);
   S.gyro_rate_hz = gyro_fps ? gyro_fps : median_rate(gyro);
   if (!united.empty()) {
     std::stable_sort(united.begin(), united.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
+    const std::size_t n = united.size();
     united.erase(std::unique(united.begin(), united.end(), [](const auto& a, const auto& b) { return a.t_ns == b.t_ns; }),
                  united.end());
+    dup += n - united.size();
+    // The united topic carries the gyro stamps (realsense-ros unite_imu_method): its rate is the gyro's.
+    if (gyro.empty()) S.gyro_rate_hz = median_rate_hz(united, [](const ImuSample& x) { return x.t_ns; });
     imu = std::move(united);
   } else if (!accel.empty() && !gyro.empty()) {
     imu = merge_accel_gyro(accel, gyro, &S.gyro_outside_accel);
   } else if (!accel.empty() || !gyro.empty()) {
     S.warnings.push_back("only one of accel/gyro is present: imu0 not written (raw stream kept in imu0_raw)");
+  } else if (!S.accel_topic.empty() || !S.gyro_topic.empty() || !S.imu_topic.empty()) {
+    S.warnings.push_back(fmt::format(
+        "the bag has no IMU stream with samples (no message on {}): imu0 not written, so roe run cannot use this "
+        "dataset",
+        join_or_none([&] {
+          std::vector<std::string> v;
+          for (const auto* t : {&S.imu_topic, &S.accel_topic, &S.gyro_topic})
+            if (!t->empty()) v.push_back(*t);
+          return v;
+        }())));
+  } else if (!imu_typed_topics.empty()) {
+    S.warnings.push_back(
+        "the bag has no IMU stream that roe recognises (realsense-ros <ns>/imu, <ns>/accel/sample and "
+        "<ns>/gyro/sample; recorder Accel_N/Gyro_N of the Motion Module); sensor_msgs/Imu topics in the bag: " +
+        join_or_none(imu_typed_topics) +
+        ": choose with --imu-topic or --accel-topic and --gyro-topic; imu0 not written, so roe run cannot use this "
+        "dataset");
   } else {
     S.warnings.push_back(
-        "the bag has no IMU stream (no accel/gyro messages; record with the motion module enabled): imu0 not "
+        "the bag has no IMU stream (no sensor_msgs/Imu topic; record with the motion module enabled): imu0 not "
         "written, so roe run cannot use this dataset");
   }
+  if (dup) S.warnings.push_back(fmt::format("{} IMU samples with a repeated stamp dropped", dup));
   S.imu_samples = imu.size();
   for (const auto& s : imu)
     if (!s.gyro.allFinite() || !s.accel.allFinite())
       throw InputError(fmt::format("non-finite IMU sample at stamp {} ns", s.t_ns), {reader.name()});
 
+  // ---- Clocks: each stream's timestamp_domain -----------------------------------------------------
+  const auto domain = [&](const std::string& t) { return domain_of.count(t) ? domain_of.at(t) : std::string(); };
+  const std::string color_domain = domain(metadata_topic);
+  const std::string accel_domain = domain(accel_meta_topic), gyro_domain = domain(gyro_meta_topic);
+  S.imu_timestamp_domain = !gyro_domain.empty() ? gyro_domain : accel_domain;
+  if (!accel_domain.empty() && !gyro_domain.empty() && accel_domain != gyro_domain)
+    S.warnings.push_back(fmt::format("the accelerometer's header.stamp is in \"{}\" but the gyro's in \"{}\": the "
+                                     "merged IMU samples mix two clocks",
+                                     accel_domain, gyro_domain));
+  S.timestamp_domain = !S.color_topic.empty() ? color_domain : S.imu_timestamp_domain;
+  const bool have_imu_stream = !imu.empty() || !accel.empty() || !gyro.empty();
+  if (!S.color_topic.empty() && have_imu_stream && !color_domain.empty() && !S.imu_timestamp_domain.empty() &&
+      color_domain != S.imu_timestamp_domain)
+    S.warnings.push_back(fmt::format(
+        "the colour frames are stamped in \"{}\" and the IMU samples in \"{}\": the two clocks are not comparable, "
+        "so camera and IMU are not synchronised in this dataset (record with the same timestamp domain, e.g. "
+        "global time, or calibrate the offset)",
+        color_domain, S.imu_timestamp_domain));
+
   // ---- Camera model and frame processor ---------------------------------------------------------
   std::optional<image::FrameProcessor> proc;
+  // Only reached with --salvage when the bag is damaged: the CameraInfo may be in the part that is lost.
+  const std::string lost = reader.damaged() ? " in the intact part of the bag: the bag is damaged (" +
+                                                  damage_text(reader) + ")"
+                                            : std::string();
   if (!S.color_topic.empty() && !cam_info && !opt.images) {
-    S.warnings.push_back("no CameraInfo for the colour stream: no camera section written");
+    S.warnings.push_back("no CameraInfo for the colour stream" + lost + ": no camera section written");
   } else if (!S.color_topic.empty()) {
     if (!cam_info)
       throw InputError("no CameraInfo for the colour stream (expected on " +
-                           (camera_info_topic.empty() ? std::string("<color>/camera_info") : camera_info_topic) + ")",
+                           (camera_info_topic.empty() ? std::string("<color>/camera_info") : camera_info_topic) + ")" +
+                           lost + (lost.empty() ? "" : "; --no-images imports the IMU without it") +
+                           damage_list(reader),
                        {reader.name()});
     image::CameraModel cm;
     cm.width = static_cast<int>(cam_info->width);
@@ -446,7 +633,7 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
             }
             const std::string name = std::to_string(stamp) + ".png";
             image::RawImage raw{static_cast<int>(im.width), static_cast<int>(im.height), im.encoding, im.step, im.data};
-            if (im.is_bigendian && (im.encoding == "mono16" || im.encoding == "16UC1"))
+            if (im.is_bigendian && (image::canonical_encoding(im.encoding) == "mono16" || im.encoding == "16UC1"))
               throw InputError(w + ": big-endian 16-bit images are not supported");
             proc->process_to_png(raw, img_dir / name, w);
             frames.push_back({stamp, name});
@@ -458,12 +645,7 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
     if (dup_frames) S.warnings.push_back(fmt::format("{} colour frames with a repeated header.stamp skipped", dup_frames));
   }
   S.frames = frames.size();
-  if (reader.damaged() && !opt.salvage)
-    throw InputError("the bag is damaged (" + reader.first_damage() + "; " +
-                         std::to_string(std::count_if(reader.warnings().begin(), reader.warnings().end(),
-                                                      [](const bag::Warning& w) { return w.damage; })) +
-                         " problem(s)); use --salvage to import the part that is intact",
-                     {reader.name()});
+  fail_if_damaged();
   for (const auto& w : reader.warnings())
     S.warnings.push_back(fmt::format("{}: byte {}: {}", reader.name(), w.offset, w.message));
   if (S.frames == 0 && imu.empty())
@@ -498,6 +680,8 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
   if (!S.imu_topic.empty()) src.options["imu_topic"] = S.imu_topic;
   src.options["timestamps"] = "header.stamp";
   src.options["timestamp_domain"] = S.timestamp_domain.empty() ? "unknown" : S.timestamp_domain;
+  if (have_imu_stream)
+    src.options["imu_timestamp_domain"] = S.imu_timestamp_domain.empty() ? "unknown" : S.imu_timestamp_domain;
   if (proc) {
     src.options["source_width"] = std::to_string(S.source_width);
     src.options["source_height"] = std::to_string(S.source_height);
@@ -521,16 +705,16 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
   if (gyro_intr) src.options["gyro_intrinsic"] = fmt_vec({gyro_intr->data.begin(), gyro_intr->data.end()});
   if (gyro_intr) src.options["gyro_noise_variances"] = fmt_vec({gyro_intr->noise_variances.begin(), gyro_intr->noise_variances.end()});
   if (!imu.empty()) {
-    src.options["imu_merge"] = S.imu_topic.empty() ? "accel linearly interpolated at gyro stamps" : "united topic";
-    src.options["accel_rate_hz"] = io::format_double(S.accel_rate_hz);
-    src.options["gyro_rate_hz"] = io::format_double(S.gyro_rate_hz);
+    src.options["imu_merge"] = used_united ? "united topic" : "accel linearly interpolated at gyro stamps";
+    if (S.accel_rate_hz > 0) src.options["accel_rate_hz"] = io::format_double(S.accel_rate_hz);
+    if (S.gyro_rate_hz > 0) src.options["gyro_rate_hz"] = io::format_double(S.gyro_rate_hz);
   }
   m.sources.push_back(src);
   if (!imu.empty()) {
     ImuInfo ii;
     std::vector<Vec3Stamped> g;
     for (const auto& s : imu) g.emplace_back(s.t_ns, s.gyro);
-    ii.rate_hz = S.imu_topic.empty() && S.gyro_rate_hz > 0 ? S.gyro_rate_hz : median_rate(g);
+    ii.rate_hz = S.gyro_rate_hz > 0 ? S.gyro_rate_hz : median_rate(g);
     if (!(ii.rate_hz > 0)) ii.rate_hz = 1.0;
     m.imu = ii;
     S.warnings.push_back(

@@ -31,6 +31,12 @@ RunFn setup(CLI::App& sub) {
   sub.add_flag("--no-images", a->no_images, "Import IMU and calibration only");
   sub.add_flag("--salvage", a->opt.salvage, "Import the intact part of a truncated/corrupt bag (else exit 2)");
   sub.add_option("--color-topic", a->opt.color_topic, "Colour image topic (default: found automatically)");
+  sub.add_option("--accel-topic", a->opt.accel_topic,
+                 "Accelerometer sensor_msgs/Imu topic (default: found by type and name, e.g. <ns>/accel/sample)");
+  sub.add_option("--gyro-topic", a->opt.gyro_topic,
+                 "Gyroscope sensor_msgs/Imu topic (default: found by type and name, e.g. <ns>/gyro/sample)");
+  sub.add_option("--imu-topic", a->opt.imu_topic,
+                 "United IMU topic, gyro and accel in every message (default: found by type and name, e.g. <ns>/imu)");
   sub.add_option("--max-frames", a->opt.max_frames, "Import at most N frames (0 = all)")->capture_default_str();
   sub.add_option("--png-compression", a->opt.png_compression, "PNG compression level 0-9")
       ->capture_default_str()->check(CLI::Range(0, 9));
@@ -52,10 +58,16 @@ RunFn setup(CLI::App& sub) {
           s.frames, s.color_topic, s.source_width, s.source_height, s.source_fx, s.source_fy, s.source_cx,
           s.source_cy, s.source_distortion, s.camera.width, s.camera.height, s.camera.fx, s.camera.fy, s.camera.cx,
           s.camera.cy, s.camera.distortion_model, s.timestamp_domain.empty() ? "unknown" : s.timestamp_domain);
-    if (s.imu_samples)
-      human += fmt::format("  imu0: {} samples (accel {} @ {} Hz, gyro {} @ {} Hz, {} gyro sample(s) outside the accel range)\n",
-                           s.imu_samples, s.accel_samples, s.accel_rate_hz, s.gyro_samples, s.gyro_rate_hz,
-                           s.gyro_outside_accel);
+    const std::string imu_domain = s.imu_timestamp_domain.empty() ? "unknown" : s.imu_timestamp_domain;
+    if (s.imu_samples && s.accel_samples == 0 && s.gyro_samples == 0)
+      human += fmt::format("  imu0: {} samples from the united topic {} @ {} Hz, domain \"{}\"\n", s.imu_samples,
+                           s.imu_topic, s.gyro_rate_hz, imu_domain);
+    else if (s.imu_samples)
+      human += fmt::format(
+          "  imu0: {} samples (accel {} @ {} Hz, gyro {} @ {} Hz, {} gyro sample(s) outside the accel range), domain "
+          "\"{}\"\n",
+          s.imu_samples, s.accel_samples, s.accel_rate_hz, s.gyro_samples, s.gyro_rate_hz, s.gyro_outside_accel,
+          imu_domain);
     for (const auto& [k, T] : s.extrinsics)
       human += fmt::format("  tf/0 {}: p=[{:.6f} {:.6f} {:.6f}] q_xyzw=[{:.6f} {:.6f} {:.6f} {:.6f}]\n", k, T.p.x(),
                            T.p.y(), T.p.z(), T.q.x(), T.q.y(), T.q.z(), T.q.w());

@@ -8,25 +8,38 @@
 #include "roe/io/output.hpp"
 
 namespace roe::image {
+
+std::string canonical_encoding(const std::string& e) {
+  // rs2_format_to_string names (librealsense src/types.cpp), written by the recorder when its
+  // rs2 format → ROS encoding table has no entry (YUYV on current SDKs) or by older SDKs.
+  static const std::pair<const char*, const char*> kRs2[] = {
+      {"YUYV", "yuyv"},   {"UYVY", "uyvy"},   {"RGB8", "rgb8"}, {"BGR8", "bgr8"}, {"RGBA8", "rgba8"},
+      {"BGRA8", "bgra8"}, {"Y8", "mono8"},    {"RAW8", "mono8"}, {"Y16", "mono16"}, {"Z16", "mono16"}};
+  for (const auto& [rs, ros] : kRs2)
+    if (e == rs) return ros;
+  return e;
+}
+
 namespace {
 
 /// Wraps a raw frame as a cv::Mat (no copy) and converts it to what PNG stores (BGR / gray / 16-bit).
 cv::Mat to_png_layout(const RawImage& f, const std::string& where) {
   if (f.width <= 0 || f.height <= 0) throw InputError(where + ": image has no pixels");
   int type = 0, bytes_pp = 0;
-  const std::string& e = f.encoding;
+  const std::string e = canonical_encoding(f.encoding);
   if (e == "rgb8" || e == "bgr8") type = CV_8UC3, bytes_pp = 3;
   else if (e == "rgba8" || e == "bgra8") type = CV_8UC4, bytes_pp = 4;
   else if (e == "mono8" || e == "8UC1") type = CV_8UC1, bytes_pp = 1;
   else if (e == "mono16" || e == "16UC1") type = CV_16UC1, bytes_pp = 2;
   else if (e == "yuv422" || e == "uyvy" || e == "yuv422_yuy2" || e == "yuyv") type = CV_8UC2, bytes_pp = 2;
   else
-    throw InputError(where + ": unsupported image encoding \"" + e +
-                     "\" (supported: rgb8 bgr8 rgba8 bgra8 mono8 8UC1 mono16 16UC1 yuv422 yuyv)");
+    throw InputError(where + ": unsupported image encoding \"" + f.encoding +
+                     "\" (supported: rgb8 bgr8 rgba8 bgra8 mono8 8UC1 mono16 16UC1 yuv422/uyvy yuyv, and the "
+                     "librealsense names YUYV UYVY RGB8 BGR8 RGBA8 BGRA8 Y8 RAW8 Y16 Z16)");
   const std::size_t row = static_cast<std::size_t>(f.width) * bytes_pp;
   if (f.step < row || f.data.size() < f.step * static_cast<std::size_t>(f.height - 1) + row)
     throw InputError(where + ": image data too short for " + std::to_string(f.width) + "x" +
-                     std::to_string(f.height) + " " + e);
+                     std::to_string(f.height) + " " + f.encoding);
   cv::Mat m(f.height, f.width, type, const_cast<char*>(f.data.data()), f.step);
   cv::Mat out;
   if (e == "rgb8") cv::cvtColor(m, out, cv::COLOR_RGB2BGR);

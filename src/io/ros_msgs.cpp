@@ -112,6 +112,9 @@ Image decode_image(std::string_view msg, const std::string& where) {
   m.is_bigendian = c.u8();
   m.step = c.u32();
   m.data = c.byte_array();
+  // librealsense >= 2.49: header.version "1" (in the frame_id slot) appends float32 depth_units.
+  // Exactly those 4 bytes are accepted; any other trailing bytes are still refused by finish().
+  if (m.header.frame_id == kRealsenseImageVersion1 && c.remaining() == 4) m.depth_units = c.f32();
   c.finish();
   if (static_cast<std::uint64_t>(m.step) * m.height > m.data.size())
     c.fail("image data has " + std::to_string(m.data.size()) + " bytes, step x height = " +
@@ -338,6 +341,7 @@ Writer& Writer::quat_xyzw(const Eigen::Quaterniond& q) { return f64(q.x()).f64(q
 std::string encode_image(const Image& m) {
   Writer w;
   w.header(m.header).u32(m.height).u32(m.width).str(m.encoding).u8(m.is_bigendian).u32(m.step).byte_array(m.data);
+  if (m.header.frame_id == kRealsenseImageVersion1) w.f32(m.depth_units);  // librealsense >= 2.49
   return w.bytes();
 }
 std::string encode_compressed_image(const CompressedImage& m) {

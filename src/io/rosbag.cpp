@@ -311,8 +311,25 @@ Reader& Reader::operator=(Reader&&) noexcept = default;
 std::uint64_t Reader::file_size() const { return src_->size(); }
 
 void Reader::warn(std::uint64_t offset, std::string message, bool damage) {
+  // A damaged chunk is met again by every iteration that reads it: one problem, one warning.
+  for (const auto& w : warnings_)
+    if (w.offset == offset && w.message == message) return;
   log::debug("{}: byte {}: {}", name_, offset, message);
   warnings_.push_back({offset, std::move(message), damage});
+}
+
+void Reader::warn_fallback(std::uint64_t offset, std::string message) {
+  warn(offset, message);
+  for (auto& w : warnings_)
+    if (w.offset == offset && w.message == message) w.index_fallback = true;
+}
+
+std::vector<Warning> Reader::damage() const {
+  std::vector<Warning> d;
+  for (const auto& w : warnings_)
+    if (w.damage) d.push_back(w);
+  std::stable_partition(d.begin(), d.end(), [](const Warning& w) { return !w.index_fallback; });
+  return d;
 }
 
 bool Reader::damaged() const {
@@ -374,7 +391,7 @@ void Reader::open() {
   std::uint64_t index_pos = 0;
   std::uint32_t chunk_count = 0;
   if (!why.empty() || h.op() != kOpBagHeader) {
-    warn(kMagicLen, why.empty() ? "first record is not a bag header" : "bag header: " + why);
+    warn_fallback(kMagicLen, why.empty() ? "first record is not a bag header" : "bag header: " + why);
   } else {
     h.u64("index_pos", index_pos);
     h.u32("chunk_count", chunk_count);
@@ -388,7 +405,7 @@ void Reader::open() {
     if (index_pos == 0)
       warn(kMagicLen, "bag is not indexed (index_pos = 0); scanning the records sequentially", false);
     else if (index_pos >= src_->size())
-      warn(kMagicLen, "index position " + std::to_string(index_pos) +
+      warn_fallback(kMagicLen, "index position " + std::to_string(index_pos) +
                           " is past the end of the file (truncated bag?); scanning the records sequentially");
   }
   connections_.clear();
@@ -408,7 +425,7 @@ bool Reader::read_index(std::uint64_t index_pos, std::int32_t chunk_count) {
     std::uint64_t dpos = 0;
     const std::string why = read_file_record_header(*src_, pos, hbuf, h, dlen, dpos);
     if (!why.empty()) {
-      warn(pos, "index section: " + why + "; scanning the records sequentially");
+      warn_fallback(pos, "index section: " + why + "; scanning the records sequentially");
       return false;
     }
     dbuf.resize(dlen);
@@ -416,7 +433,7 @@ bool Reader::read_index(std::uint64_t index_pos, std::int32_t chunk_count) {
     if (h.op() == kOpConnection) {
       Connection c;
       if (!parse_connection(h, dbuf, c)) {
-        warn(pos, "index section: malformed connection record; scanning the records sequentially");
+        warn_fallback(pos, "index section: malformed connection record; scanning the records sequentially");
         return false;
       }
       add_connection(std::move(c));
@@ -425,21 +442,21 @@ bool Reader::read_index(std::uint64_t index_pos, std::int32_t chunk_count) {
       std::uint32_t n = 0;
       if (!h.u64("chunk_pos", ci.offset) || !h.time("start_time", ci.start_ns) ||
           !h.time("end_time", ci.end_ns) || !h.u32("count", n) || dlen < 8ull * n) {
-        warn(pos, "index section: malformed chunk info record; scanning the records sequentially");
+        warn_fallback(pos, "index section: malformed chunk info record; scanning the records sequentially");
         return false;
       }
       for (std::uint32_t i = 0; i < n; ++i) ci.counts[le32(dbuf.data() + 8 * i)] = le32(dbuf.data() + 8 * i + 4);
       ci.times_known = true;
       chunks.push_back(std::move(ci));
     } else {
-      warn(pos, "index section: unexpected record (op " + std::to_string(h.op()) +
+      warn_fallback(pos, "index section: unexpected record (op " + std::to_string(h.op()) +
                     "); scanning the records sequentially");
       return false;
     }
     pos = dpos + dlen;
   }
   if (chunk_count >= 0 && chunks.size() != static_cast<std::size_t>(chunk_count)) {
-    warn(index_pos, "index section lists " + std::to_string(chunks.size()) + " chunks, bag header says " +
+    warn_fallback(index_pos, "index section lists " + std::to_string(chunks.size()) + " chunks, bag header says " +
                         std::to_string(chunk_count) + "; scanning the records sequentially");
     return false;
   }
@@ -450,7 +467,7 @@ bool Reader::read_index(std::uint64_t index_pos, std::int32_t chunk_count) {
     const std::string why = read_file_record_header(*src_, c.offset, hbuf, h, dlen, dpos);
     std::uint32_t usize = 0;
     if (!why.empty() || h.op() != kOpChunk || !h.u32("size", usize)) {
-      warn(c.offset, "chunk listed in the index is unreadable (" + (why.empty() ? "not a chunk record" : why) +
+      warn_fallback(c.offset, "chunk listed in the index is unreadable (" + (why.empty() ? "not a chunk record" : why) +
                          "); scanning the records sequentially");
       return false;
     }

@@ -5,7 +5,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <map>
 #include <random>
+#include <sstream>
 
 #include "support/test_util.hpp"
 #include "fixtures/gen_d435i_bag.hpp"
@@ -14,8 +17,10 @@
 #include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/json.hpp"
+#include "roe/io/rosbag.hpp"
 
 namespace fs = std::filesystem;
+namespace bag = roe::io::bag;
 using namespace roe;
 
 namespace {
@@ -314,5 +319,315 @@ TEST_CASE("import realsense: a stream label without an index is not a stream", "
                        "only one of accel/gyro is present: imu0 not written (raw stream kept in imu0_raw)") == 1);
       CHECK_FALSE(fs::exists(d.path / "ds/mav0/imu0/data.csv"));
     }
+  }
+}
+
+namespace {
+/// Every file of a dataset folder (relative path → bytes), roe.json without the lines that name the
+/// bag (path, sha256, name).
+std::map<std::string, std::string> dataset_files(const fs::path& ds) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(ds)) {
+    if (!e.is_regular_file()) continue;
+    std::ifstream f(e.path(), std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    const std::string rel = fs::relative(e.path(), ds).generic_string();
+    if (rel == "roe.json") {
+      std::string kept, line;
+      std::istringstream in(bytes);
+      while (std::getline(in, line))
+        if (line.find("\"sha256\"") == std::string::npos && line.find("\"path\"") == std::string::npos &&
+            line.find("\"name\"") == std::string::npos)
+          kept += line + "\n";
+      bytes = kept;
+    }
+    files[rel] = bytes;
+  }
+  return files;
+}
+
+std::size_t count_prefix(const std::vector<std::string>& v, const std::string& prefix) {
+  return static_cast<std::size_t>(
+      std::count_if(v.begin(), v.end(), [&](const std::string& w) { return w.compare(0, prefix.size(), prefix) == 0; }));
+}
+
+testing::D435iBagSpec ros_spec() {
+  testing::D435iBagSpec spec;
+  spec.layout = testing::D435iBagSpec::Layout::kRealsenseRos;
+  spec.n_frames = 2;
+  spec.imu_duration_s = 0.5;
+  spec.coeffs = {0, 0, 0, 0, 0};
+  return spec;
+}
+
+/// The bytes with every occurrence of `a` replaced by `b` of the same length (a topic name inside
+/// the connection records of an uncompressed bag).
+std::string rename_in_bag(std::string bytes, const std::string& a, const std::string& b) {
+  REQUIRE(a.size() == b.size());
+  for (std::size_t p = bytes.find(a); p != std::string::npos; p = bytes.find(a, p + b.size())) bytes.replace(p, a.size(), b);
+  return bytes;
+}
+}  // namespace
+
+TEST_CASE("import realsense: librealsense >= 2.49 bags (depth_units after every image) import as the old layout",
+          "[app][import]") {
+  for (const char* comp : {"lz4", "none"}) {
+    INFO(comp);
+    TempDir d;
+    testing::D435iBagSpec spec;
+    spec.compression = comp;
+    spec.n_frames = 3;
+    testing::D435iBagTruth truth;
+    const std::string old_bytes = testing::generate_d435i_bag(spec, &truth);
+    spec.modern_image_header = true;
+    const std::string new_bytes = testing::generate_d435i_bag(spec);
+    REQUIRE(new_bytes != old_bytes);
+    const auto s_old = app::import_realsense(write_bag(d, "old.bag", old_bytes), d.path / "old", {});
+    const auto s_new = app::import_realsense(write_bag(d, "new.bag", new_bytes), d.path / "new", {});
+    CHECK(s_new.frames == 3);
+    check_against_truth(d.path / "new", spec, truth, s_new);
+    CHECK(s_new.warnings == s_old.warnings);
+    // Byte for byte the same dataset (PNGs, CSVs, roe.json but for the bag's name and hash).
+    const auto a = dataset_files(d.path / "old"), b = dataset_files(d.path / "new");
+    REQUIRE(a.size() == b.size());
+    for (const auto& [rel, bytes] : a) {
+      INFO(rel);
+      REQUIRE(b.count(rel));
+      CHECK((b.at(rel) == bytes));
+    }
+  }
+}
+
+TEST_CASE("import realsense: colour in librealsense's format names (YUYV, RGB8) imports as yuyv, rgb8",
+          "[app][import]") {
+  for (const auto& [rs, ros] : {std::pair{"YUYV", "yuyv"}, std::pair{"RGB8", "rgb8"}}) {
+    INFO(rs);
+    TempDir d;
+    testing::D435iBagSpec spec;
+    spec.n_frames = 2;
+    spec.imu_duration_s = 0.3;
+    spec.color_encoding = rs;
+    const auto s_rs = app::import_realsense(write_bag(d, "rs.bag", testing::generate_d435i_bag(spec)), d.path / "rs", {});
+    spec.color_encoding = ros;
+    const auto s_ros = app::import_realsense(write_bag(d, "ros.bag", testing::generate_d435i_bag(spec)), d.path / "ros", {});
+    CHECK(s_rs.frames == 2);
+    const auto a = dataset_files(d.path / "rs"), b = dataset_files(d.path / "ros");
+    REQUIRE(a.size() == b.size());
+    for (const auto& [rel, bytes] : a) {
+      INFO(rel);
+      CHECK((b.at(rel) == bytes));
+    }
+  }
+}
+
+TEST_CASE("import realsense: realsense-ros IMU topics are found by type under any namespace", "[app][import]") {
+  TempDir d;
+  auto spec = ros_spec();
+  spec.ros_namespace = "/d455";
+  testing::D435iBagTruth truth;
+  const fs::path b = write_bag(d, "d455.bag", testing::generate_d435i_bag(spec, &truth));
+  const auto s = app::import_realsense(b, d.path / "ds", {});
+  CHECK(s.color_topic == "/d455/color/image_raw");
+  CHECK(s.accel_topic == "/d455/accel/sample");
+  CHECK(s.gyro_topic == "/d455/gyro/sample");
+  CHECK(count_prefix(s.warnings, "the bag has no IMU stream") == 0);
+  check_against_truth(d.path / "ds", spec, truth, s);
+
+  // Two cameras' IMUs: the colour topic's namespace wins (/a_cam sorts first), with a warning.
+  spec.ros_extra_imu_namespaces = {"/a_cam"};
+  const fs::path two = write_bag(d, "two.bag", testing::generate_d435i_bag(spec, &truth));
+  const auto s2 = app::import_realsense(two, d.path / "ds2", {});
+  CHECK(s2.gyro_topic == "/d455/gyro/sample");
+  CHECK(count_prefix(s2.warnings, "IMU topics under several namespaces (/a_cam, /d455): using those of /d455") == 1);
+  // --accel-topic/--gyro-topic choose other ones; a wrong name or type is an error naming the bag.
+  app::ImportRealsenseOptions o;
+  o.accel_topic = "/a_cam/accel/sample";
+  o.gyro_topic = "/a_cam/gyro/sample";
+  const auto s3 = app::import_realsense(two, d.path / "ds3", o);
+  CHECK(s3.accel_topic == "/a_cam/accel/sample");
+  CHECK(s3.gyro_topic == "/a_cam/gyro/sample");
+  CHECK(count_prefix(s3.warnings, "IMU topics under several namespaces") == 0);
+  check_against_truth(d.path / "ds3", spec, truth, s3);
+  app::ImportRealsenseOptions bad;
+  bad.imu_topic = "/camera/imu";
+  CHECK_THROWS_WITH(app::import_realsense(two, d.path / "ds4", bad),
+                    Catch::Contains("two.bag") && Catch::Contains("--imu-topic \"/camera/imu\" is not in the bag") &&
+                        Catch::Contains("/a_cam/accel/sample, /a_cam/gyro/sample, /d455/accel/sample"));
+  bad.imu_topic = "/d455/color/image_raw";
+  CHECK_THROWS_WITH(app::import_realsense(two, d.path / "ds4", bad),
+                    Catch::Contains("has type sensor_msgs/Image, expected sensor_msgs/Imu"));
+  CHECK_FALSE(fs::exists(d.path / "ds4"));
+
+  // Imu topics with names roe does not know: the warning lists them; the options import them.
+  spec.ros_extra_imu_namespaces.clear();
+  spec.compression = "none";
+  std::string odd = testing::generate_d435i_bag(spec, &truth);
+  odd = rename_in_bag(rename_in_bag(odd, "/accel/sample", "/accel/raw_xx"), "/gyro/sample", "/gyro/raw_xx");
+  const fs::path oddb = write_bag(d, "odd.bag", odd);
+  const auto s5 = app::import_realsense(oddb, d.path / "ds5", {});
+  CHECK(s5.imu_samples == 0);
+  CHECK(count_prefix(s5.warnings, "the bag has no IMU stream that roe recognises") == 1);
+  CHECK(std::count_if(s5.warnings.begin(), s5.warnings.end(), [](const std::string& w) {
+          return w.find("sensor_msgs/Imu topics in the bag: /d455/accel/raw_xx, /d455/gyro/raw_xx") != std::string::npos;
+        }) == 1);
+  o.accel_topic = "/d455/accel/raw_xx";
+  o.gyro_topic = "/d455/gyro/raw_xx";
+  const auto s6 = app::import_realsense(oddb, d.path / "ds6", o);
+  check_against_truth(d.path / "ds6", spec, truth, s6);
+}
+
+TEST_CASE("import realsense: a united realsense-ros IMU topic: repeated stamps counted, its rate recorded",
+          "[app][import]") {
+  TempDir d;
+  auto spec = ros_spec();
+  spec.ros_namespace = "/d455";
+  spec.ros_united_imu = true;
+  spec.repeated_imu = 3;
+  testing::D435iBagTruth truth;
+  const fs::path b = write_bag(d, "united.bag", testing::generate_d435i_bag(spec, &truth));
+  const auto s = app::import_realsense(b, d.path / "ds", {});
+  CHECK(s.imu_topic == "/d455/imu");
+  CHECK(s.accel_topic.empty());
+  std::vector<Timestamp> expect;
+  for (Timestamp t : truth.gyro_stamps)
+    if (t >= truth.accel_stamps.front() && t <= truth.accel_stamps.back()) expect.push_back(t);
+  const auto imu = io::read_imu_csv(io::imu_csv_path(d.path / "ds"));
+  REQUIRE(imu.size() == expect.size());
+  for (std::size_t k = 0; k < imu.size(); ++k) {
+    CHECK(imu[k].t_ns == expect[k]);
+    const double t = static_cast<double>(imu[k].t_ns - truth.t0_ns) * 1e-9;
+    CHECK((imu[k].accel - testing::D435iBagTruth::accel_at(t)).cwiseAbs().maxCoeff() < 1e-12);
+    CHECK((imu[k].gyro - testing::D435iBagTruth::gyro_at(t)).cwiseAbs().maxCoeff() < 1e-12);
+  }
+  CHECK(std::count(s.warnings.begin(), s.warnings.end(), "3 IMU samples with a repeated stamp dropped") == 1);
+  // The united topic carries the gyro stamps: its rate is the gyro's; the accelerometer's is unknown.
+  CHECK(s.gyro_rate_hz == Approx(spec.gyro_hz).epsilon(1e-6));
+  CHECK(s.accel_rate_hz == 0);
+  const auto m = io::read_manifest(d.path / "ds");
+  REQUIRE(m.imu);
+  CHECK(m.imu->rate_hz == Approx(spec.gyro_hz).epsilon(1e-6));
+  const auto& opt = m.sources.at(0).options;
+  CHECK(opt.at("imu_merge") == "united topic");
+  CHECK(std::stod(opt.at("gyro_rate_hz")) == Approx(spec.gyro_hz).epsilon(1e-6));
+  CHECK_FALSE(opt.count("accel_rate_hz"));
+}
+
+TEST_CASE("import realsense: a bag with infrared images only names its image topics", "[app][import]") {
+  TempDir d;
+  auto spec = ros_spec();
+  spec.ros_image = "infra1/image_rect_raw";
+  const fs::path b = write_bag(d, "infra.bag", testing::generate_d435i_bag(spec));
+  // With an IMU: the IMU is imported, and the warning says why there is no cam0 and what to choose.
+  const auto s = app::import_realsense(b, d.path / "ds", {});
+  CHECK(s.frames == 0);
+  CHECK(s.imu_samples > 0);
+  CHECK(std::count(s.warnings.begin(), s.warnings.end(),
+                   "no colour image stream found: cam0 not written; image topics in the bag: "
+                   "/camera/infra1/image_rect_raw (choose one with --color-topic)") == 1);
+  CHECK_FALSE(fs::exists(d.path / "ds/mav0/cam0"));
+  // --color-topic takes it (its camera_info is beside it).
+  app::ImportRealsenseOptions o;
+  o.color_topic = "/camera/infra1/image_rect_raw";
+  CHECK(app::import_realsense(b, d.path / "ds2", o).frames == 2);
+  // Without an IMU: an error that lists the image topics.
+  spec.imu_duration_s = 0;
+  const fs::path b2 = write_bag(d, "infra_only.bag", testing::generate_d435i_bag(spec));
+  CHECK_THROWS_WITH(app::import_realsense(b2, d.path / "ds3", {}),
+                    Catch::Contains("no colour image and no IMU stream found") &&
+                        Catch::Contains("image topics: /camera/infra1/image_rect_raw (choose one with --color-topic)"));
+  CHECK_FALSE(fs::exists(d.path / "ds3"));
+}
+
+TEST_CASE("import realsense: each stream's timestamp domain is recorded, different clocks warned", "[app][import]") {
+  TempDir d;
+  // IMU only (no colour frame): the IMU's domain, not "unknown".
+  testing::D435iBagSpec spec;
+  spec.n_frames = 0;
+  spec.imu_duration_s = 0.3;
+  spec.imu_domain = "Global Time";
+  const auto s = app::import_realsense(write_bag(d, "imu.bag", testing::generate_d435i_bag(spec)), d.path / "ds", {});
+  CHECK(s.imu_samples > 0);
+  CHECK(s.timestamp_domain == "Global Time");
+  CHECK(s.imu_timestamp_domain == "Global Time");
+  const auto m = io::read_manifest(d.path / "ds");
+  CHECK(m.sources.at(0).options.at("timestamp_domain") == "Global Time");
+  CHECK(m.sources.at(0).options.at("imu_timestamp_domain") == "Global Time");
+  // Colour and IMU in different clocks: both recorded, and a warning.
+  spec.n_frames = 2;
+  spec.color_domain = "Hardware Clock";
+  const auto s2 = app::import_realsense(write_bag(d, "mixed.bag", testing::generate_d435i_bag(spec)), d.path / "ds2", {});
+  CHECK(s2.timestamp_domain == "Hardware Clock");
+  CHECK(s2.imu_timestamp_domain == "Global Time");
+  CHECK(count_prefix(s2.warnings, "the colour frames are stamped in \"Hardware Clock\" and the IMU samples in "
+                                  "\"Global Time\": the two clocks are not comparable") == 1);
+  const auto m2 = io::read_manifest(d.path / "ds2");
+  CHECK(m2.sources.at(0).options.at("timestamp_domain") == "Hardware Clock");
+  CHECK(m2.sources.at(0).options.at("imu_timestamp_domain") == "Global Time");
+  // The same clock: no warning.
+  spec.color_domain = "Global Time";
+  const auto s3 = app::import_realsense(write_bag(d, "same.bag", testing::generate_d435i_bag(spec)), d.path / "ds3", {});
+  CHECK(count_prefix(s3.warnings, "the colour frames are stamped in") == 0);
+}
+
+TEST_CASE("import realsense: a truncated bag fails before any frame is decoded, naming the truncation",
+          "[app][import]") {
+  TempDir d;
+  testing::D435iBagSpec spec;
+  spec.compression = "none";
+  spec.n_frames = 4;
+  const std::string bytes = testing::generate_d435i_bag(spec);
+  const fs::path cut = write_bag(d, "cut.bag", bytes.substr(0, bytes.size() * 6 / 10));
+  std::size_t frames_done = 0;
+  std::string msg;
+  try {
+    app::import_realsense(cut, d.path / "ds", {}, [&](std::size_t, std::size_t) { ++frames_done; });
+  } catch (const InputError& e) {
+    msg = e.what();
+  }
+  CHECK(frames_done == 0);  // no PNG was decoded or written before the failure
+  CHECK_FALSE(fs::exists(d.path / "ds"));
+  // The first problem cited is the truncated record, not the index that points past the end.
+  const std::size_t open = msg.find("the bag is damaged (byte ");
+  REQUIRE(open != std::string::npos);
+  const std::string cited = msg.substr(open, msg.find("problem(s)", open) - open);
+  CHECK(cited.find("truncated record") != std::string::npos);
+  CHECK(cited.find("index position") == std::string::npos);
+  CHECK(msg.find("; 2 problem(s)); use --salvage") != std::string::npos);
+  // Every problem is listed.
+  CHECK(msg.find("\nproblems found:\n  byte 13: index position") != std::string::npos);
+}
+
+TEST_CASE("import realsense: a corrupt first chunk (CameraInfo) is reported as damage with its offset",
+          "[app][import]") {
+  for (bool recorder : {true, false}) {
+    INFO((recorder ? "recorder" : "realsense-ros"));
+    TempDir d;
+    testing::D435iBagSpec spec = recorder ? testing::D435iBagSpec() : ros_spec();
+    spec.compression = "lz4";
+    spec.n_frames = 3;
+    std::string bytes = testing::generate_d435i_bag(spec);
+    const bag::ChunkInfo first = [&] {
+      bag::Reader r(bytes, "x");
+      REQUIRE(r.chunks().size() > 2);
+      return r.chunks()[0];
+    }();
+    for (std::size_t i = 8; i < std::min<std::size_t>(first.data_size, 200); ++i) bytes[first.data_offset + i] ^= 0x5A;
+    const fs::path b = write_bag(d, "bad.bag", bytes);
+    // One problem, although the recorder layout reads the chunk twice (sensor names, then the streams).
+    const std::string at = "the bag is damaged (byte " + std::to_string(first.offset) +
+                           ": LZ4 chunk fails to decompress; chunk skipped; 1 problem(s))";
+    // Without --salvage: damaged, use --salvage.
+    CHECK_THROWS_WITH(app::import_realsense(b, d.path / "ds", {}), Catch::Contains(at) && Catch::Contains("--salvage"));
+    // With it: the CameraInfo was in the lost chunk, and the error says so.
+    app::ImportRealsenseOptions salv;
+    salv.salvage = true;
+    CHECK_THROWS_WITH(app::import_realsense(b, d.path / "ds", salv),
+                      Catch::Contains("no CameraInfo for the colour stream") &&
+                          Catch::Contains("in the intact part of the bag: " + at) && Catch::Contains("--no-images"));
+    CHECK_FALSE(fs::exists(d.path / "ds"));
+    salv.images = false;
+    const auto s = app::import_realsense(b, d.path / "ds", salv);
+    CHECK(s.imu_samples > 0);
+    CHECK(count_prefix(s.warnings, "no CameraInfo for the colour stream in the intact part of the bag: " + at) == 1);
   }
 }

@@ -103,6 +103,43 @@ TEST_CASE("roe import realsense: corrupt bags exit 2 with the byte offset", "[cl
   CHECK(run("import realsense " + d / "missing.bag" + " --out " + d / "o4").code == 2);
 }
 
+TEST_CASE("roe import realsense: IMU topics by type (--accel-topic, --gyro-topic, --imu-topic), 2.49+ bags",
+          "[cli][import]") {
+  TempDir d;
+  roe::testing::D435iBagSpec s;
+  s.layout = roe::testing::D435iBagSpec::Layout::kRealsenseRos;
+  s.ros_namespace = "/d455";
+  s.ros_extra_imu_namespaces = {"/t265"};
+  s.n_frames = 2;
+  s.imu_duration_s = 0.3;
+  const auto bag = d.write("ns.bag", roe::testing::generate_d435i_bag(s));
+  auto r = run("import realsense " + bag + " --out " + d / "a" + " --json", false);
+  REQUIRE(r.code == 0);
+  auto j = nlohmann::json::parse(r.out);
+  CHECK(j["topics"]["gyro"] == "/d455/gyro/sample");
+  CHECK(j["imu_samples"].get<int>() > 0);
+  r = run("import realsense " + bag + " --out " + d / "b" + " --json --accel-topic /t265/accel/sample --gyro-topic "
+          "/t265/gyro/sample", false);
+  REQUIRE(r.code == 0);
+  j = nlohmann::json::parse(r.out);
+  CHECK(j["topics"]["accel"] == "/t265/accel/sample");
+  CHECK(j["topics"]["gyro"] == "/t265/gyro/sample");
+  r = run("import realsense " + bag + " --out " + d / "c" + " --imu-topic /camera/imu");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("ns.bag") != std::string::npos);
+  CHECK(r.out.find("--imu-topic \"/camera/imu\" is not in the bag") != std::string::npos);
+  CHECK_FALSE(fs::exists(d / "c"));
+  // A librealsense >= 2.49 recorder bag (float32 depth_units after every image): exit 0.
+  roe::testing::D435iBagSpec m;
+  m.modern_image_header = true;
+  m.n_frames = 2;
+  m.imu_duration_s = 0.3;
+  r = run("import realsense " + d.write("modern.bag", roe::testing::generate_d435i_bag(m)) + " --out " + d / "m");
+  CHECK(r.code == 0);
+  CHECK(r.out.find("colour: 2 frame(s)") != std::string::npos);
+  CHECK(r.out.find("domain \"Global Time\"") != std::string::npos);
+}
+
 TEST_CASE("roe import mocap: malformed rows and non-unit quaternions exit 2 naming line:column", "[cli][import]") {
   TempDir d;
   const std::string motive =

@@ -174,3 +174,33 @@ TEST_CASE("FrameProcessor: crop geometry, errors, encodings", "[io][image]") {
   CHECK(d.depth_bytes == 2);
   CHECK(d.width == 640);
 }
+
+TEST_CASE("PNG encoding: librealsense format names (YUYV, Y8, RGB8, ...) convert as their ROS encodings",
+          "[io][image]") {
+  // The recorder writes rs2_format_to_string names where its ROS table has no entry (YUYV).
+  const int w = 6, h = 4;
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> byte(0, 255);
+  struct Case {
+    const char *rs, *ros;
+    int bytes_pp;
+  };
+  for (const Case& c : {Case{"YUYV", "yuyv", 2}, Case{"UYVY", "uyvy", 2}, Case{"RGB8", "rgb8", 3},
+                        Case{"BGR8", "bgr8", 3}, Case{"RGBA8", "rgba8", 4}, Case{"BGRA8", "bgra8", 4},
+                        Case{"Y8", "mono8", 1}, Case{"RAW8", "mono8", 1}, Case{"Y16", "mono16", 2},
+                        Case{"Z16", "mono16", 2}}) {
+    INFO(c.rs);
+    CHECK(image::canonical_encoding(c.rs) == c.ros);
+    std::string data(static_cast<std::size_t>(w * h * c.bytes_pp), '\0');
+    for (auto& b : data) b = static_cast<char>(byte(rng));
+    const std::size_t step = static_cast<std::size_t>(w) * c.bytes_pp;
+    const std::string a = image::encode_png({w, h, c.rs, step, data}, "rs.bag");
+    const std::string b = image::encode_png({w, h, c.ros, step, data}, "ros.bag");
+    CHECK(a == b);
+  }
+  CHECK(image::canonical_encoding("rgb8") == "rgb8");
+  CHECK(image::canonical_encoding("MJPEG") == "MJPEG");
+  const std::string px(16, '\0');
+  CHECK_THROWS_WITH(image::encode_png({2, 2, "MJPEG", 8, px}, "x.bag: /color"),
+                    Catch::Contains("x.bag: /color") && Catch::Contains("unsupported image encoding \"MJPEG\""));
+}

@@ -370,3 +370,54 @@ TEST_CASE("rosbag: the evo example bag (uncompressed, PoseStamped)", "[io][rosba
   CHECK(r.message_count("S-PTAM") == 5439);
   for (const auto& c : r.chunks()) CHECK(c.compression == "none");
 }
+
+TEST_CASE("ros_msgs: librealsense >= 2.49 images (header.version \"1\") end with 4 bytes of depth_units",
+          "[io][rosbag]") {
+  // third-party/realsense-file/rosbag/msgs/sensor_msgs/Image.h: when header.version (serialized in the
+  // frame_id slot) is "1", a float32 depth_units follows the data, for colour frames too.
+  ros::Image im;
+  im.header = {7, 1'700'000'000'123'456'789LL, "1"};
+  im.width = 2;
+  im.height = 1;
+  im.step = 6;
+  im.encoding = "rgb8";
+  const std::string px = "\x01\x02\x03\x04\x05\x06";
+  im.data = px;
+  im.depth_units = 0.001f;
+  const std::string modern = ros::encode_image(im);
+  ros::Image old = im;
+  old.header.frame_id = "0";
+  const std::string old_bytes = ros::encode_image(old);
+  REQUIRE(modern.size() == old_bytes.size() + 4);
+  const auto back = ros::decode_image(modern, "modern.bag: /image");
+  CHECK(back.depth_units == 0.001f);
+  CHECK(back.data == px);
+  CHECK(back.header.stamp_ns == im.header.stamp_ns);
+  CHECK(ros::decode_image(old_bytes, "t").depth_units == 0.0f);
+  // Other trailing bytes are still malformed: 4 bytes after an old-layout image, or more than 4.
+  CHECK_THROWS_WITH(ros::decode_image(old_bytes + std::string(4, '\0'), "old.bag: /image"),
+                    Catch::Contains("old.bag: /image") && Catch::Contains("4 unexpected trailing bytes"));
+  CHECK_THROWS_WITH(ros::decode_image(modern + "x", "t"), Catch::Contains("5 unexpected trailing bytes"));
+  CHECK_THROWS_WITH(ros::decode_image(modern + "abcd", "t"), Catch::Contains("8 unexpected trailing bytes"));
+  CHECK_THROWS_AS(ros::decode_image(modern.substr(0, modern.size() - 2), "t"), InputError);
+}
+
+TEST_CASE("rosbag: damage() names the most specific problem first, the index fallback after it", "[io][rosbag]") {
+  const std::string full = small_bag("none");
+  const std::size_t cut = full.size() / 2;
+  bag::Reader r(full.substr(0, cut), "cut.bag");
+  const auto d = r.damage();
+  REQUIRE(d.size() == 2);
+  // The scan's truncated record (where the data ends) before "index position past the end of the file".
+  CHECK_FALSE(d[0].index_fallback);
+  CHECK(d[0].message.find("truncated record") == 0);
+  CHECK(d[0].offset > 13);
+  CHECK(d[0].offset <= cut);
+  CHECK(d[1].index_fallback);
+  CHECK(d[1].message.find("index position") == 0);
+  CHECK(d[1].offset == 13);
+  CHECK(r.first_damage().find("byte 13: index position") == 0);  // file order is kept there
+  // An intact bag has none; an unindexed one only a note, not damage.
+  CHECK(bag::Reader(full, "ok.bag").damage().empty());
+  CHECK(bag::Reader(small_bag("none", false), "unindexed.bag").damage().empty());
+}

@@ -32,6 +32,10 @@ struct ImportRealsenseOptions {
   bool undistort = true;
   int png_compression = 3;
   std::string color_topic;                  ///< "" = find the colour stream automatically
+  /// sensor_msgs/Imu topics; "" = found by message type and name (realsense-ros: <ns>/accel/sample,
+  /// <ns>/gyro/sample, <ns>/imu, preferring the colour topic's namespace; recorder: Accel_*/Gyro_*
+  /// of the Motion Module). imu_topic is a united topic (gyro and accel in every message).
+  std::string accel_topic, gyro_topic, imu_topic;
   std::size_t max_frames = 0;               ///< 0 = all
   bool images = true;                       ///< false: IMU and calibration only (no PNGs)
   std::string name;                         ///< dataset name (default: the bag's stem)
@@ -49,8 +53,14 @@ struct ImportRealsenseSummary {
   std::size_t accel_samples = 0, gyro_samples = 0;
   std::size_t imu_samples = 0;              ///< merged samples in imu0
   std::size_t gyro_outside_accel = 0;       ///< gyro samples dropped: no accel sample on both sides
+  /// StreamInfo.fps, else the median interval. On a united IMU topic without separate gyro messages
+  /// gyro_rate_hz is the united stream's rate (it carries the gyro stamps) and accel_rate_hz is 0
+  /// (unknown) unless the accel topic was recorded too.
   double accel_rate_hz = 0, gyro_rate_hz = 0;
-  std::string timestamp_domain;             ///< per-frame metadata (recorder bags), "" if unknown
+  /// Clock of header.stamp (per-frame metadata of recorder bags, "" if unknown): the colour stream's,
+  /// or the IMU's when the bag has no colour stream.
+  std::string timestamp_domain;
+  std::string imu_timestamp_domain;         ///< clock of the IMU's header.stamp (gyro, else accel), "" if unknown
   std::string source_distortion;            ///< device model name
   std::vector<double> source_coeffs;
   double source_fx = 0, source_fy = 0, source_cx = 0, source_cy = 0;

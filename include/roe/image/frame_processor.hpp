@@ -25,7 +25,10 @@ namespace roe::image {
 namespace fs = std::filesystem;
 
 /// A raw image in memory with a ROS encoding ("rgb8", "bgr8", "rgba8", "bgra8", "mono8", "8UC1",
-/// "mono16", "16UC1", "yuv422"/"uyvy", "yuv422_yuy2"/"yuyv"). `step` is the row stride in bytes.
+/// "mono16", "16UC1", "yuv422"/"uyvy", "yuv422_yuy2"/"yuyv") or a librealsense format name as
+/// recorder bags write it for formats without a ROS equivalent (rs2_format_to_string: "YUYV", "UYVY",
+/// "RGB8", "BGR8", "RGBA8", "BGRA8", "Y8", "RAW8", "Y16", "Z16"); see canonical_encoding.
+/// `step` is the row stride in bytes.
 struct RawImage {
   int width = 0, height = 0;
   std::string encoding;
@@ -76,6 +79,12 @@ class FrameProcessor {
   ProcessOptions options_;
   std::unique_ptr<Impl> impl_;
 };
+
+/// The ROS name of an image encoding: librealsense format names map to the ROS encoding with the same
+/// memory layout ("YUYV" → "yuyv", "UYVY" → "uyvy", "RGB8" → "rgb8", "BGR8" → "bgr8", "RGBA8" →
+/// "rgba8", "BGRA8" → "bgra8", "Y8"/"RAW8" → "mono8", "Y16"/"Z16" → "mono16"); any other name is
+/// returned unchanged (whether it is supported is decided when a frame is converted).
+std::string canonical_encoding(const std::string& encoding);
 
 /// Writes a raw image unchanged as PNG (colour converted to OpenCV's BGR order).
 void write_png(const RawImage& frame, const fs::path& png, const std::string& where);

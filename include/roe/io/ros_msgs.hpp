@@ -30,6 +30,11 @@ struct Header {
 };
 
 /// sensor_msgs/Image (data is a view into the message).
+///
+/// librealsense >= 2.49 extends it in its recorder bags: when header.version (serialized in the
+/// frame_id slot) is "1", a float32 `depth_units` follows `data` in every video frame, colour
+/// included (third-party/realsense-file/rosbag/msgs/sensor_msgs/Image.h). decode_image reads it;
+/// encode_image writes it for frame_id "1", as the SDK does.
 struct Image {
   Header header;
   std::uint32_t height = 0, width = 0;
@@ -37,7 +42,11 @@ struct Image {
   std::uint8_t is_bigendian = 0;
   std::uint32_t step = 0;
   std::string_view data;
+  float depth_units = 0.0f;  ///< librealsense header.version "1" only (0 otherwise)
 };
+
+/// header.version of librealsense's extended sensor_msgs/Image (see Image).
+inline constexpr const char* kRealsenseImageVersion1 = "1";
 
 /// sensor_msgs/CompressedImage.
 struct CompressedImage {

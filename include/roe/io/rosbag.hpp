@@ -60,6 +60,10 @@ struct Warning {
   std::uint64_t offset = 0;
   std::string message;
   bool damage = true;  ///< false for notes that do not mean lost data (e.g. "bag is not indexed")
+  /// The bag header or index section was unusable, so the reader scanned the records instead ("index
+  /// position ... past the end of the file"): the symptom of a damage that the scan's own warnings
+  /// (a truncated record, ...) name more precisely when it finds one.
+  bool index_fallback = false;
 };
 
 /// Summary of one chunk (from the index, or from the sequential scan).
@@ -116,12 +120,17 @@ class Reader {
   std::size_t message_count(const std::string& topic) const;
   /// Total number of messages.
   std::size_t message_count() const;
-  /// Problems skipped while opening and reading (grows while iterating).
+  /// Problems skipped while opening and reading (grows while iterating; a damaged chunk read by
+  /// several iterations is listed once).
   const std::vector<Warning>& warnings() const { return warnings_; }
   /// Whether any warning reports damage (data that could not be read).
   bool damaged() const;
   /// "byte N: message" of the first damage warning (empty when none).
   std::string first_damage() const;
+  /// The damage warnings, the most specific first: problems found in the records themselves (a
+  /// truncated record, a chunk that fails to decompress) before the index-level ones that only made
+  /// the reader fall back to a sequential scan (Warning::index_fallback); otherwise in the order found.
+  std::vector<Warning> damage() const;
 
   /// Calls `fn` for every message whose topic passes `select`, in record-time order (ties keep
   /// file order). `fn` may return false to stop early. Damaged chunks are skipped with a warning.
@@ -137,6 +146,8 @@ class Reader {
   bool read_index(std::uint64_t index_pos, std::int32_t chunk_count);
   void scan();
   void warn(std::uint64_t offset, std::string message, bool damage = true);
+  /// A damage warning that makes the reader fall back to the sequential scan (Warning::index_fallback).
+  void warn_fallback(std::uint64_t offset, std::string message);
   /// Decompressed chunk bytes; empty + warning on failure.
   bool load_chunk(const ChunkInfo& c, std::string& out);
   void add_connection(Connection c);
