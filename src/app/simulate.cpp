@@ -400,7 +400,7 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
     throw InputError("give exactly one of --preset NAME, --config FILE or --from-groundtruth DIR",
                      {"roe simulate"});
   if (opt.duration_s && !(std::isfinite(*opt.duration_s) && *opt.duration_s > 0.0))
-    throw InputError("--duration must be a positive number of seconds", {"--duration"});
+    throw InputError("must be a positive number of seconds", {"--duration"});
 
   SourceRecord src;
   src.kind = "simulate";
@@ -457,8 +457,15 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
       run = sim::simulate_run(cfg, opt.seed);
     } catch (const ConfigError& e) {
       ErrorContext ctx = e.context();
+      if (opt.duration_s && ctx.key == "duration_s") {  // the command line's value, not the file's
+        throw InputError(e.bare_message(), {"--duration"});
+      }
       ctx.file = source;
       throw ConfigError(e.bare_message(), ctx);
+    } catch (const NumericError& e) {
+      // A trajectory the config makes degenerate (the camera straight above its look-at point): bad
+      // input, named by its key, not a failure of the data.
+      throw ConfigError(e.bare_message(), {source, 0, 0, "trajectory"});
     }
     src.options["duration_s"] = fmt::format("{}", cfg.duration_s);
     const json eff = sim_config_to_json(cfg);

@@ -6,6 +6,8 @@
 #include <functional>
 #include <set>
 
+#include <fmt/format.h>
+
 #include "roe/core/error.hpp"
 #include "roe/math/so3.hpp"
 
@@ -214,8 +216,24 @@ void validate(const SimConfig& c) {
   require_nonneg(imu.accel_bias_sigma, "imu.accel_bias_sigma");
   require_positive(c.camera.rate_hz, "camera.rate_hz");
   if (c.camera.rate_hz > imu.rate_hz) bad("camera.rate_hz", "must not exceed imu.rate_hz");
-  validate_detection(c.detection, c.visibility, c.camera.intrinsics, "detection", "visibility", "camera");
+  validate_detection(c.detection, c.visibility, c.camera.intrinsics, "detection", "visibility", "camera.intrinsics");
   require_positive(c.mocap.rate_hz, "mocap.rate_hz");
+  if (c.mocap.rate_hz > 10000.0) bad("mocap.rate_hz", "must be at most 10000");
+  // Enough samples to run a filter on, and not so many that memory runs out (each stream is held in
+  // memory): at least two camera frames and ten IMU samples, at most 1e8 samples per stream.
+  if (c.duration_s * c.camera.rate_hz < 2.0 || c.duration_s * imu.rate_hz < 10.0)
+    bad("duration_s", fmt::format("{} s gives fewer than two camera frames or ten IMU samples", c.duration_s));
+  constexpr double kMaxSamples = 1e8;
+  for (const auto& [rate, key] : {std::pair<double, const char*>{imu.rate_hz, "imu.rate_hz"},
+                                  {c.camera.rate_hz, "camera.rate_hz"},
+                                  {c.mocap.rate_hz, "mocap.rate_hz"}})
+    if (c.duration_s * rate > kMaxSamples)
+      bad(key, fmt::format("{} Hz over duration_s {} s is {:.3g} samples; at most {:g} per stream (lower the "
+                           "rate or shorten the run)",
+                           rate, c.duration_s, c.duration_s * rate, kMaxSamples));
+  // The last stamp must fit in int64 nanoseconds.
+  if (c.start_time_ns > std::numeric_limits<std::int64_t>::max() - from_seconds(c.duration_s) - 1'000'000'000)
+    bad("start_time_ns", "too large: start_time_ns + duration_s does not fit in 64-bit nanoseconds");
   require_nonneg(c.mocap.position_sigma_m, "mocap.position_sigma_m");
   require_nonneg(c.mocap.rotation_sigma_deg, "mocap.rotation_sigma_deg");
 }

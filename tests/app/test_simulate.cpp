@@ -198,6 +198,29 @@ TEST_CASE("simulate: config files are strict and layered on presets", "[app][sim
   neg.preset = "paper-seq1";
   neg.duration_s = -1.0;
   CHECK_THROWS_AS(app::simulate(neg, dir / "out"), InputError);
+  // A --duration out of range is named as the option, not as the preset's key.
+  app::SimulateOptions huge;
+  huge.preset = "paper-seq4";
+  huge.duration_s = 1e30;
+  try {
+    app::simulate(huge, dir / "out");
+    FAIL("a --duration of 1e30 s accepted");
+  } catch (const InputError& e) {
+    CHECK(e.context().file == "--duration");
+    CHECK(std::string(e.what()).find("paper-seq4") == std::string::npos);
+  }
+  // A trajectory the config makes degenerate (the camera above its look-at point) is bad input naming
+  // `trajectory`, not a failure of the data (exit 1).
+  std::ofstream(cfg) << R"({"trajectory": {"radius_m": {"offset": 1e-6}}})";
+  try {
+    app::simulate(opt, dir / "out");
+    FAIL("degenerate trajectory accepted");
+  } catch (const ConfigError& e) {
+    CHECK(e.context().file == cfg.string());
+    CHECK(e.context().key == "trajectory");
+    CHECK(std::string(e.what()).find("straight up or down") != std::string::npos);
+  }
+  CHECK_FALSE(fs::exists(dir / "out"));
   fs::remove_all(dir);
 }
 

@@ -3,6 +3,8 @@
 #include <catch2/catch.hpp>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 
 #include "roe/core/error.hpp"
 #include "roe/math/so3.hpp"
@@ -362,6 +364,32 @@ TEST_CASE("Invalid configs are rejected with the key", "[sim][config]") {
   c = SimConfig{};
   c.camera.rate_hz = 500;
   expect_key(c, "camera.rate_hz");
+  c = SimConfig{};
+  c.camera.intrinsics.width = 0;
+  expect_key(c, "camera.intrinsics.width");
+  c = SimConfig{};
+  c.camera.intrinsics.fx = -1;
+  expect_key(c, "camera.intrinsics.fx");
+  c = SimConfig{};
+  c.mocap.rate_hz = 1e12;  // used to run out of memory (std::bad_alloc, exit 3)
+  expect_key(c, "mocap.rate_hz");
+  c = SimConfig{};
+  c.mocap.rate_hz = 5000;  // a valid rate, but over a day 4.3e8 samples
+  c.duration_s = 24 * 3600.0;
+  expect_key(c, "mocap.rate_hz");
+  c = SimConfig{};
+  c.imu.rate_hz = 2000;
+  c.duration_s = 24 * 3600.0;  // 1.7e8 IMU samples
+  expect_key(c, "imu.rate_hz");
+  c = SimConfig{};
+  c.duration_s = 0.001;  // no camera frame
+  expect_key(c, "duration_s");
+  c = SimConfig{};
+  c.duration_s = 2.0 / c.camera.rate_hz;  // exactly two frames: fine
+  CHECK_NOTHROW(validate(c));
+  c = SimConfig{};
+  c.start_time_ns = std::numeric_limits<std::int64_t>::max() - 1'000'000'000;  // would overflow
+  expect_key(c, "start_time_ns");
   c = SimConfig{};
   c.objects.area_size_m = 0.1;
   c.objects.min_separation_m = 0.5;
