@@ -51,34 +51,41 @@ CheckResult inconclusive(std::string name, std::string why) {
   return {std::move(name), CheckStatus::kInconclusive, std::move(why), {}};
 }
 
-/// Σ d_k² / v_k over the axes; an axis with v_k <= 0 and d_k != 0 makes it infinite.
-double mahalanobis2(const Vector6d& d, const Vector6d& v) {
-  double d2 = 0.0;
-  for (int k = 0; k < 6; ++k) {
-    if (v(k) > 0) d2 += d(k) * d(k) / v(k);
-    else if (d(k) != 0.0) return std::numeric_limits<double>::infinity();
-  }
-  return d2;
-}
-
 CheckResult extrinsics_settled(const CalibInput& in, const CalibThresholds& th) {
   const std::string name = "extrinsics.settled";
   if (!in.extrinsics_estimated) return skipped(name, "extrinsics held fixed (estimate_extrinsics: false)");
   const auto& tr = in.extrinsics;
   const double duration = dt_seconds(tr.front().t_ns, tr.back().t_ns);
+  // The run must leave a settle window of at least --settle-min before its last --settle-min (a larger
+  // --settle-fraction deliberately examines more of the run, up to all of it).
   if (duration < 2.0 * th.settle_min_s)
-    return inconclusive(name, fmt::format("the run is {:.1f} s long, shorter than twice the settle window ({:.1f} s)",
+    return inconclusive(name, fmt::format("the run is {:.1f} s long, shorter than twice the minimum settle window "
+                                          "(--settle-min {:.1f} s)",
                                           duration, th.settle_min_s));
   const double window = std::min(duration, std::max(th.settle_min_s, th.settle_fraction * duration));
   const Timestamp from = tr.back().t_ns - from_seconds(window);
   const auto& fin = tr.back();
-  const double limit_d2 = ekf::chi2_quantile(th.confidence, 6.0);
-  // A consistent filter's estimate moves from time s to the end by an amount of covariance
-  // P_s − P_end (the information gained in between): a move beyond the limits is a drift only
-  // when it is also beyond that.
-  double dp = 0.0, dr = 0.0, d2_beyond = 0.0;
-  bool beyond = false, drift = false;
+  // A consistent filter's estimate of a constant is a Gaussian martingale: its moves over disjoint
+  // intervals are independent, and from time s to the end it moves by an amount of covariance
+  // P_s − P_end (the information gained in between). Per axis k, the move back from the end, d_k(s),
+  // is then a sum of independent symmetric steps, and Lévy's inequality bounds its largest excursion
+  // over the window by twice the chance of its last value: P(max_s |d_k(s)| ≥ c) ≤ 2 P(|d_k(start)| ≥ c),
+  // with variance v_k = P_start,k − P_end,k (here the largest over the window, which is the start's
+  // for a filter whose σ only shrinks). Over six axes, whatever their correlations (states.csv has
+  // no cross terms), the false-alarm rate of max_k max_s |d_k(s)| / √v_k > z stays below
+  // α = 1 − confidence when P(|N(0,1)| > z) = α / 12 (6 axes, times 2 for the excursion): z = 3.34
+  // at 0.99. One test for the whole window, so the many samples in it do not multiply the false
+  // alarms (the earlier rule, a χ²₆ per sample, failed 3 of 40 consistent runs).
+  Vector6d v = Vector6d::Zero();
   const Vector6d v_end = fin.sigma.cwiseProduct(fin.sigma);
+  for (const auto& s : tr)
+    if (s.t_ns >= from) v = v.cwiseMax(s.sigma.cwiseProduct(s.sigma) - v_end);
+  const double alpha = 1.0 - th.confidence;
+  const double limit_z = std::sqrt(ekf::chi2_quantile(1.0 - alpha / 12.0, 1.0));
+  double dp = 0.0, dr = 0.0, z_beyond = 0.0;
+  int worst = -1;
+  double worst_t = 0.0;
+  bool beyond = false;
   for (const auto& s : tr) {
     if (s.t_ns < from) continue;
     const Vector6d d = math::pose_difference(fin.T_I_C, s.T_I_C);
@@ -87,28 +94,33 @@ CheckResult extrinsics_settled(const CalibInput& in, const CalibThresholds& th) 
     dr = std::max(dr, r);
     if (p <= th.max_drift_p_m && r <= th.max_drift_rot_deg) continue;
     beyond = true;
-    const double d2 = mahalanobis2(d, s.sigma.cwiseProduct(s.sigma) - v_end);
-    d2_beyond = std::max(d2_beyond, d2);
-    drift = drift || d2 > limit_d2;
+    for (int k = 0; k < 6; ++k) {
+      const double z = v(k) > 0 ? std::abs(d(k)) / std::sqrt(v(k))
+                                : (d(k) != 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
+      if (worst < 0 || z > z_beyond) z_beyond = z, worst = k, worst_t = dt_seconds(s.t_ns, fin.t_ns);
+    }
   }
+  const bool drift = beyond && z_beyond > limit_z;
+  static const char* axes[6] = {"p_x", "p_y", "p_z", "θ_x", "θ_y", "θ_z"};
   CheckResult r{name, drift ? CheckStatus::kFail : CheckStatus::kPass, "", {}};
   r.message = fmt::format("over the last {:.1f} s the estimate stays within {:.1f} mm / {:.2f}° of its final value, "
                           "limits {:.1f} mm / {:.2f}°",
                           window, dp * 1e3, dr, th.max_drift_p_m * 1e3, th.max_drift_rot_deg);
   if (drift)
-    r.message += fmt::format(": it moved further than its σ shrank (d² = {:.1f} > χ²₆({}) = {:.2f}), a drift",
-                             d2_beyond, th.confidence, limit_d2);
+    r.message += fmt::format(": it moved further than its σ shrank ({} {:.1f} s before the end at {:.1f} σ of "
+                             "P_start − P_end > {:.2f}, the bound for confidence {} over 6 axes), a drift",
+                             axes[worst], worst_t, z_beyond, limit_z, th.confidence);
   else if (beyond)
-    r.message += fmt::format(": beyond the limits, but no further than its σ shrank (d² = {:.1f} <= {:.2f}): still "
-                             "converging, see extrinsics.sigma",
-                             d2_beyond, limit_d2);
+    r.message += fmt::format(": beyond the limits, but no further than its σ shrank (largest {:.1f} σ of P_start − "
+                             "P_end <= {:.2f}): still converging, see extrinsics.sigma",
+                             z_beyond, limit_z);
   r.values = {{"window_s", window},
               {"drift_p_m", dp},
               {"drift_rot_deg", dr},
               {"limit_p_m", th.max_drift_p_m},
               {"limit_rot_deg", th.max_drift_rot_deg},
-              {"d2", d2_beyond},
-              {"limit_d2", limit_d2}};
+              {"z", z_beyond},
+              {"limit_z", limit_z}};
   return r;
 }
 
@@ -294,12 +306,14 @@ CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) 
     return skipped(name, in.time_offset_absent_reason.empty() ? "not estimated" : in.time_offset_absent_reason);
   const TimeOffsetEstimate& e = *in.time_offset;
   CheckResult r{name, CheckStatus::kInconclusive, "", {}};
+  const std::string left_out =
+      e.symmetric_excluded ? fmt::format(" ({} detections of symmetric objects left out)", e.symmetric_excluded) : "";
   if (!e.valid) {
     // The cost still falling at the edge of the search, with a likelihood ratio against the
     // declared offset beyond χ²₁: the offset is more than the search away from it.
     // Only when the search reaches beyond the limit does "beyond the search" mean "beyond the limit".
     const double limit_lr = ekf::chi2_quantile(th.confidence, 1.0);
-    if (e.at_edge && e.edge_evidence > limit_lr &&
+    if (e.at_edge && e.edge_stable && e.edge_evidence > limit_lr &&
         std::abs(e.edge_offset_s - in.declared_time_offset_s) > th.max_time_offset_s) {
       r.status = CheckStatus::kFail;
       r.message = fmt::format("the cost is lowest at the edge of the search, {:+.1f} ms, and far lower than at the "
@@ -311,7 +325,7 @@ CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) 
                   {"edge_evidence", e.edge_evidence}, {"limit_evidence", limit_lr}};
       return r;
     }
-    r.message = "no estimate: " + e.reason;
+    r.message = "no estimate: " + e.reason + left_out;
     return r;
   }
   const double d = e.offset_s - in.declared_time_offset_s;
@@ -323,10 +337,10 @@ CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) 
     r.status = CheckStatus::kFail;
   else if (std::abs(d) + z * e.sigma_s <= lim)
     r.status = CheckStatus::kPass;
-  r.message = fmt::format("estimated {:+.1f} ± {:.1f} ms from {} detections (dataset declares {:+.1f} ms): "
+  r.message = fmt::format("estimated {:+.1f} ± {:.1f} ms from {} detections{} (dataset declares {:+.1f} ms): "
                           "difference {:+.1f} ± {:.1f} ms ({:.2f} σ for confidence {}), limit {:.1f} ms",
-                          e.offset_s * 1e3, e.sigma_s * 1e3, e.detections, in.declared_time_offset_s * 1e3, d * 1e3,
-                          z * e.sigma_s * 1e3, z, th.confidence, lim * 1e3);
+                          e.offset_s * 1e3, e.sigma_s * 1e3, e.detections, left_out, in.declared_time_offset_s * 1e3,
+                          d * 1e3, z * e.sigma_s * 1e3, z, th.confidence, lim * 1e3);
   if (r.status == CheckStatus::kFail)
     r.message += fmt::format(": the camera stamps disagree with the gyro (set camera.time_offset_s to {:.4f} s?)",
                              e.offset_s);
@@ -334,6 +348,7 @@ CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) 
     r.message += ": too uncertain to decide (more rotation, or less noisy detections, would tell)";
   r.values = {{"estimate_s", e.offset_s},         {"sigma_s", e.sigma_s},
               {"sigma_curvature_s", e.sigma_curvature_s}, {"sigma_cluster_s", e.sigma_cluster_s},
+              {"sigma_jackknife_s", e.sigma_jackknife_s}, {"symmetric_excluded", static_cast<double>(e.symmetric_excluded)},
               {"declared_s", in.declared_time_offset_s}, {"difference_s", d},
               {"limit_s", lim},                   {"z", z},
               {"rms_rate_deg_s", e.rms_rate_deg_s}, {"residual_correlation", e.residual_correlation}};

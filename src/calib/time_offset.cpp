@@ -12,6 +12,8 @@ namespace roe::calib {
 namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
+/// Blocks of windows of the delete-a-block jackknife (fewer when there are fewer windows).
+constexpr std::size_t kJackknifeBlocks = 10;
 
 /// The gyro's integrated rotation R_I0_I(t) at the IMU stamps (midpoint rule), slerped in between.
 class GyroRotation {
@@ -50,17 +52,17 @@ class GyroRotation {
   std::vector<Eigen::Quaterniond> q_;
 };
 
-/// Mean of unit quaternions (chordal, signs aligned with the first) over the entries flagged in use.
-Eigen::Quaterniond mean_rotation(const std::vector<Eigen::Quaterniond>& q, const std::vector<char>& use) {
+/// Mean of unit quaternions (chordal) over the entries flagged in use, each sign aligned with `ref`
+/// (a point of the cluster, so that no entry is near-orthogonal to it).
+Eigen::Quaterniond mean_rotation(const std::vector<Eigen::Quaterniond>& q, const std::vector<char>& use,
+                                 const Eigen::Quaterniond& ref) {
   Eigen::Vector4d s = Eigen::Vector4d::Zero();
-  const Eigen::Quaterniond* ref = nullptr;
   for (std::size_t i = 0; i < q.size(); ++i) {
     if (!use[i]) continue;
-    if (!ref) ref = &q[i];
-    const double sign = ref->coeffs().dot(q[i].coeffs()) < 0 ? -1.0 : 1.0;
+    const double sign = ref.coeffs().dot(q[i].coeffs()) < 0 ? -1.0 : 1.0;
     s += sign * q[i].coeffs();
   }
-  if (!ref || s.norm() < 1e-12) return ref ? *ref : Eigen::Quaterniond::Identity();
+  if (s.norm() < 1e-12) return ref;
   Eigen::Quaterniond m;
   m.coeffs() = s.normalized();
   return m;
@@ -68,7 +70,27 @@ Eigen::Quaterniond mean_rotation(const std::vector<Eigen::Quaterniond>& q, const
 
 struct Window {
   std::vector<const Detection*> dets;
+  /// The detection the window's mean starts from: the one with the most others within the truncation
+  /// angle at the centre of the search (a robust point of the cluster, never an outlier when most
+  /// detections agree). Fixed for every candidate offset, so that the cost does not jump when the
+  /// start would change.
+  std::size_t ref = 0;
 };
+
+/// The index of the window's detection with the most others within `truncate_deg` of it at the offset
+/// `shift` (the first such on ties).
+std::size_t robust_start(const GyroRotation& gyro, const Eigen::Quaterniond& q_I_C, const Window& w, Timestamp shift,
+                         double truncate_deg) {
+  std::vector<Eigen::Quaterniond> A;
+  for (const Detection* d : w.dets) A.push_back(gyro.at(d->t_ns + shift) * q_I_C * d->T_C_O.q);
+  std::size_t best = 0, most = 0;
+  for (std::size_t i = 0; i < A.size(); ++i) {
+    std::size_t k = 0;
+    for (std::size_t j = 0; j < A.size(); ++j) k += math::angle_between(A[i], A[j]) * kRadToDeg <= truncate_deg;
+    if (k > most) best = i, most = k;
+  }
+  return best;
+}
 
 /// Cost terms of one candidate offset: truncated sum of squared angles [deg²] (in total and per
 /// window), and the untruncated inlier sum and count (for the residual RMS and the curvature-based
@@ -100,10 +122,13 @@ Cost evaluate(const GyroRotation& gyro, const Eigen::Quaterniond& q_I_C, const s
     const std::size_t n = A.size();
     use.assign(n, 1);
     phi.assign(n, Eigen::Vector3d::Zero());
-    // The window's mean orientation, then again over the detections within the truncation of it.
-    Eigen::Quaterniond m = mean_rotation(A, use);
-    for (std::size_t i = 0; i < n; ++i) use[i] = math::angle_between(m, A[i]) * kRadToDeg <= truncate_deg;
-    if (std::find(use.begin(), use.end(), 1) != use.end()) m = mean_rotation(A, use);
+    // The window's mean orientation: from its robust start, the mean of the detections within the
+    // truncation of it, then again over those within the truncation of that mean.
+    Eigen::Quaterniond m = A[w.ref];
+    for (int pass = 0; pass < 2; ++pass) {
+      for (std::size_t i = 0; i < n; ++i) use[i] = math::angle_between(m, A[i]) * kRadToDeg <= truncate_deg;
+      if (std::find(use.begin(), use.end(), 1) != use.end()) m = mean_rotation(A, use, A[w.ref]);
+    }
     for (std::size_t i = 0; i < n; ++i) phi[i] = math::log_quat(m.conjugate() * A[i]) * kRadToDeg;
     // A constant plus a linear drift per window (a residual gyro bias), fitted twice over the inliers.
     Eigen::Vector3d c0 = Eigen::Vector3d::Zero(), beta = Eigen::Vector3d::Zero();
@@ -175,11 +200,18 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   const Timestamp lo = from_seconds(o.centre_s - o.search_s) - 1, hi = from_seconds(o.centre_s + o.search_s) + 1;
 
   // Windows per object over the detections whose every shifted stamp lies inside the IMU span.
+  // Symmetric objects are left out (docs/calib-check.md §3): their rotation is known only up to a
+  // symmetry the dataset does not describe.
   std::map<int, std::vector<const Detection*>> per_object;
-  for (const auto& d : detections)
+  for (const auto& d : detections) {
+    if (std::find(o.symmetric_ids.begin(), o.symmetric_ids.end(), d.object_id) != o.symmetric_ids.end()) {
+      ++e.symmetric_excluded;
+      continue;
+    }
     if (d.t_ns + lo >= gyro.begin() && d.t_ns + hi <= gyro.end()) per_object[d.object_id].push_back(&d);
+  }
   std::vector<Window> windows;
-  const Timestamp win = from_seconds(o.window_s);
+  const Timestamp win = from_seconds(o.window_s), declared = from_seconds(o.centre_s);
   double rate2 = 0.0;
   for (auto& [id, v] : per_object) {
     std::stable_sort(v.begin(), v.end(), [](const Detection* a, const Detection* b) { return a->t_ns < b->t_ns; });
@@ -190,9 +222,10 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
       while (i < v.size() && v[i]->t_ns - start < win) w.dets.push_back(v[i++]);
       if (w.dets.size() < o.min_window) continue;
       for (const Detection* d : w.dets) {
-        const double r = gyro.rate(d->t_ns, gyro_bias);
+        const double r = gyro.rate(d->t_ns + declared, gyro_bias);
         rate2 += r * r;
       }
+      w.ref = robust_start(gyro, q_I_C, w, declared, o.truncate_deg);
       e.detections += w.dets.size();
       windows.push_back(std::move(w));
     }
@@ -233,6 +266,27 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
     inflation = (1.0 + rho) / (1.0 - rho);
     return true;
   };
+  // The blocks of the delete-a-block jackknife: K blocks of windows, contiguous in time (so that
+  // windows of objects seen together go together); cost_b is the cost without block b.
+  const std::size_t G = windows.size(), K = std::min<std::size_t>(kJackknifeBlocks, G);
+  std::vector<std::size_t> order(G);
+  for (std::size_t w = 0; w < G; ++w) order[w] = w;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return windows[a].dets.front()->t_ns < windows[b].dets.front()->t_ns;
+  });
+  std::vector<double> cost_b(e.cost.size());
+  const auto block_cost = [&](std::size_t b) {
+    for (std::size_t k = 0; k < e.cost.size(); ++k) {
+      cost_b[k] = e.cost[k];
+      for (std::size_t j = b * G / K; j < (b + 1) * G / K; ++j) cost_b[k] -= per_window[k][order[j]];
+    }
+  };
+  const auto block_text = [&](std::size_t b) {
+    const std::size_t w0 = b * G / K, w1 = (b + 1) * G / K;
+    return fmt::format("without the windows from {:.1f} s to {:.1f} s (block {} of {})",
+                       dt_seconds(gyro.begin(), windows[order[w0]].dets.front()->t_ns),
+                       dt_seconds(gyro.begin(), windows[order[w1 - 1]].dets.back()->t_ns), b + 1, K);
+  };
   if (best == 0 || best + 1 == e.cost.size()) {
     e.reason = fmt::format("the cost is lowest at the edge of the search ({:+.1f} ms ± {:.1f} ms): the offset may "
                            "lie beyond it",
@@ -244,6 +298,16 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
     double s2 = 0.0, inflation = 1.0;
     if (residual_stats(best, cb, s2, inflation) && s2 > 0)
       e.edge_evidence = (e.cost[static_cast<std::size_t>(n)] - e.cost[best]) / (s2 * inflation);
+    // The edge is evidence only when no part of the data carries it alone: without any one block the
+    // cost must still be lowest there.
+    e.edge_stable = true;
+    for (std::size_t b = 0; K >= 2 && b < K && e.edge_stable; ++b) {
+      block_cost(b);
+      if (std::min_element(cost_b.begin(), cost_b.end()) - cost_b.begin() != static_cast<std::ptrdiff_t>(best)) {
+        e.edge_stable = false;
+        e.reason += "; but not stably: " + block_text(b) + " it is lowest elsewhere";
+      }
+    }
     return e;
   }
   // The cost is rough on the scale of the grid step (inlier sets change, the gyro is sampled), so the
@@ -252,7 +316,8 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   // ten grid steps): wide enough to average the roughness, narrow enough that the cost's departure
   // from a parabola (it is not quadratic over tens of ms when the motion is fast) does not bias the
   // vertex.
-  const auto fit = [&](double centre, double half, double& curv) {
+  const auto fit = [&](const std::vector<double>& cost, double centre, double half, double& curv) {
+    const double base = *std::min_element(cost.begin(), cost.end());
     for (int iter = 0; iter < 8; ++iter) {
       Eigen::Matrix3d N = Eigen::Matrix3d::Zero();
       Eigen::Vector3d r = Eigen::Vector3d::Zero();
@@ -261,7 +326,7 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
         if (std::abs(x) > half + 1e-12) continue;
         const Eigen::Vector3d f(1.0, x, x * x);
         N += f * f.transpose();
-        r += f * (e.cost[k] - e.cost[best]);
+        r += f * (cost[k] - base);
       }
       const Eigen::Vector3d abc = N.ldlt().solve(r);
       curv = 2.0 * abc(2);  // d²cost/dδ² [deg²/s²]
@@ -272,6 +337,15 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
       if (settled || std::abs(centre - o.centre_s) > o.search_s) break;
     }
     return centre;
+  };
+  // The whole estimate (lowest grid point, a fit over ±fit_halfwidth_s, then over ±`half`) of a cost;
+  // false when it has no minimum inside the search.
+  const auto estimate = [&](const std::vector<double>& cost, double half, double& offset) {
+    const auto lowest = static_cast<std::size_t>(std::min_element(cost.begin(), cost.end()) - cost.begin());
+    if (lowest == 0 || lowest + 1 == cost.size()) return false;
+    double c = 0.0;
+    offset = fit(cost, fit(cost, e.grid_s[lowest], o.fit_halfwidth_s, c), half, c);
+    return c > 0 && std::abs(offset - o.centre_s) <= o.search_s;
   };
   // The curvature-based standard error at an offset: var(δ) = 2 s² / cost'', inflated for the
   // residuals' lag-1 correlation; −1 when there are too few residuals.
@@ -308,7 +382,7 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   };
   double curv = 0.0;
   Cost cb;
-  double centre = fit(e.grid_s[best], o.fit_halfwidth_s, curv);
+  double centre = fit(e.cost, e.grid_s[best], o.fit_halfwidth_s, curv);
   if (!(curv > 0)) return not_observable();
   const double sigma1 = sigma_at(centre, curv, cb);
   if (sigma1 < 0) {
@@ -317,7 +391,7 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   }
   const double half = std::clamp(3.0 * std::max(sigma1, cluster_sigma(centre, o.fit_halfwidth_s, curv)),
                                  10.0 * o.step_s, o.fit_halfwidth_s);
-  centre = fit(centre, half, curv);
+  centre = fit(e.cost, centre, half, curv);
   if (!(curv > 0)) return not_observable();
   e.offset_s = centre;
   if (std::abs(e.offset_s - o.centre_s) > o.search_s) {
@@ -332,7 +406,31 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
     return e;
   }
   e.sigma_cluster_s = cluster_sigma(centre, half, curv);
-  e.sigma_s = std::max(e.sigma_curvature_s, e.sigma_cluster_s);
+  // The delete-a-block jackknife: the whole estimate again with each of K blocks of windows (contiguous
+  // in time, so that windows of objects seen together go together) left out. Both standard errors
+  // above are local to the vertex; when the cost is jagged (a dip made by a few windows, inlier sets
+  // that change with the offset) they can be far too small, and the replicates show it by moving.
+  // var(δ) = (K−1)/K Σ_b (δ_b − δ̄)². A replicate without a minimum inside the search means the
+  // minimum rests on a part of the data: no estimate.
+  {
+    std::vector<double> replicate;
+    for (std::size_t b = 0; K >= 2 && b < K; ++b) {
+      block_cost(b);
+      double offset = 0.0;
+      if (!estimate(cost_b, half, offset)) {
+        e.reason = "the minimum is not stable: " + block_text(b) + " the cost has no minimum inside the search";
+        return e;
+      }
+      replicate.push_back(offset);
+    }
+    if (replicate.size() >= 2) {
+      double mean = 0.0, ss = 0.0;
+      for (double r : replicate) mean += r / static_cast<double>(replicate.size());
+      for (double r : replicate) ss += (r - mean) * (r - mean);
+      e.sigma_jackknife_s = std::sqrt((static_cast<double>(K) - 1.0) / static_cast<double>(K) * ss);
+    }
+  }
+  e.sigma_s = std::max({e.sigma_curvature_s, e.sigma_cluster_s, e.sigma_jackknife_s});
   e.rms_residual_deg = cb.inliers ? std::sqrt(cb.inlier_sum / static_cast<double>(cb.inliers)) : 0.0;
   e.residual_correlation = cb.lag1_den > 0 ? std::clamp(cb.lag1_num / cb.lag1_den, 0.0, 0.95) : 0.0;
   e.valid = true;

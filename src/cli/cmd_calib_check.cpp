@@ -44,7 +44,7 @@ RunFn setup(CLI::App& sub) {
       ->capture_default_str()
       ->check(pos)->group("Thresholds");
   sub.add_option("--confidence", t.confidence,
-                 "the χ² tests (extrinsics.prior, extrinsics.settled, truth.*) and the time offset's verdict")
+                 "the σ tests (extrinsics.prior, extrinsics.settled, truth.*) and the time offset's verdict")
       ->capture_default_str()
       ->check(number_in("confidence"))->group("Thresholds");
   sub.add_option("--max-object-sigma-p", t.max_object_sigma_p_m,

@@ -11,7 +11,8 @@
 ///                 a run too short, a dataset that is not there); `--strict` fails on it,
 ///   skipped       not applicable (extrinsics held fixed, no truth, --no-dataset); never a failure.
 /// The error checks (extrinsics.settled, truth.*) fail only when an error exceeds both the absolute
-/// limit and what the filter's own σ explains (a χ² test at `confidence`): a consistent filter that
+/// limit and what the filter's own σ explains (a test at `confidence`: χ² for truth.*, a bound on the
+/// largest per-axis excursion over the window for .settled): a consistent filter that
 /// is still imprecise is caught by the σ checks, not twice.
 
 #include <map>
@@ -85,7 +86,7 @@ struct CalibThresholds {
   double settle_min_s = 2.0;           ///< … but at least this long
   double max_drift_p_m = 0.005;        ///< extrinsics.settled: largest distance from the final p_I_C
   double max_drift_rot_deg = 0.5;      ///< extrinsics.settled: largest angle from the final q_I_C
-  double confidence = 0.99;            ///< of the χ² tests (extrinsics.prior, .settled, truth.*) and the time offset
+  double confidence = 0.99;            ///< of the tests (extrinsics.prior, .settled, truth.*) and the time offset
   double max_object_sigma_p_m = 0.02;  ///< objects.sigma: largest axis σ relative to the anchor
   double max_object_sigma_rot_deg = 2.0;
   double max_err_p_m = 0.01;           ///< truth.extrinsics: |p_I_C − truth|

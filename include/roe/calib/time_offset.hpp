@@ -10,7 +10,12 @@
 /// which is constant over a window for the right δ (R_I0_I from integrating the bias-corrected gyro).
 /// The cost of δ is the sum over windows (one per object and `window_s` of its detections) of the
 /// squared residual angles of the A_i about a constant rotation plus a linear drift (what a residual
-/// gyro bias leaves), truncated at `truncate_deg` so that outliers and symmetric flips do not pull.
+/// gyro bias leaves), truncated at `truncate_deg` so that outliers and flips do not pull. The
+/// window's constant starts from a robust point, the detection with the most others within
+/// `truncate_deg` at the search's centre (the same one for every δ), so that a flip or an outlier
+/// cannot make the mean, its quaternion signs and the inlier set jump as δ moves. Objects listed in
+/// `symmetric_ids` are left out: their rotation is defined only up to a symmetry the dataset does
+/// not describe.
 /// The cost is evaluated on a grid over `centre_s` ± `search_s` (centre: the offset the dataset
 /// declares); a parabola fitted over ±`fit_halfwidth_s` around its lowest point gives the offset and,
 /// from its curvature, the standard error. R_I_C comes from the run (its estimate), because the
@@ -18,12 +23,17 @@
 ///
 /// The precision depends on the motion: an offset δ moves each A_i by about |ω|·δ, so it shows only
 /// while the camera's rate of turn changes. Detector errors correlated over frames carry fewer
-/// independent samples than detections, so `sigma_s` is the larger of two standard errors:
+/// independent samples than detections, so `sigma_s` is the largest of three standard errors:
 ///   - the curvature-based one, inflated by (1 + ρ)/(1 − ρ) in variance for the lag-1 correlation ρ of
-///     consecutive residuals (which the per-window fit partly hides: too small alone), and
+///     consecutive residuals (which the per-window fit partly hides: too small alone),
 ///   - the cluster-robust (sandwich) one, var = G/(G−1) · Σ_w C_w'(δ̂)² / C''(δ̂)² over the G windows,
 ///     which holds whatever the correlation within a window, as long as windows are independent
-///     (noisy when there are few).
+///     (noisy when there are few), and
+///   - the delete-a-block jackknife: the whole estimate again without each of 10 blocks of windows
+///     (contiguous in time), var = (K−1)/K · Σ_b (δ_b − δ̄)². The first two are local to the minimum
+///     and miss a minimum that rests on a part of the run (a jagged cost); this one does not. A block
+///     without which the cost has no minimum inside the search gives no estimate ("not stable"), and
+///     an edge minimum that some block alone makes is marked `edge_stable` = false.
 /// docs/calib-check.md §3 compares σ with the spread measured over seeds.
 
 #include <cstddef>
@@ -44,16 +54,21 @@ struct TimeOffsetOptions {
   double min_rate_deg_s = 5.0;   ///< RMS gyro rate below which the offset is not observable
   std::size_t min_detections = 50;  ///< fewer usable detections: no estimate
   double fit_halfwidth_s = 0.05; ///< the first parabola fit spans ±this (the second ±3σ of the first)
+  /// Objects left out: a symmetric object's detected rotation is defined only up to its symmetry
+  /// (PoET returns either of the equivalent poses), which the dataset does not describe.
+  std::vector<int> symmetric_ids;
 };
 
 struct TimeOffsetEstimate {
   bool valid = false;
   std::string reason;          ///< why there is no estimate (when !valid)
   double offset_s = 0.0;       ///< t_imu = t_cam + offset_s
-  double sigma_s = 0.0;        ///< standard error: max(sigma_curvature_s, sigma_cluster_s)
+  double sigma_s = 0.0;        ///< standard error: the largest of the three below
   double sigma_curvature_s = 0.0;  ///< from the curvature, inflated for the residuals' lag-1 correlation
   double sigma_cluster_s = 0.0;    ///< cluster-robust over windows (0 with fewer than 2 windows)
+  double sigma_jackknife_s = 0.0;  ///< delete-a-block jackknife over windows (0 with fewer than 2 windows)
   std::size_t detections = 0;  ///< detections in windows used
+  std::size_t symmetric_excluded = 0;  ///< detections of symmetric objects left out
   std::size_t windows = 0;     ///< windows used
   double rms_rate_deg_s = 0.0; ///< RMS gyro rate over the used detections' times
   double rms_residual_deg = 0.0;  ///< RMS residual angle at the optimum (untruncated inliers)
@@ -64,6 +79,9 @@ struct TimeOffsetEstimate {
   bool at_edge = false;
   double edge_offset_s = 0.0;
   double edge_evidence = 0.0;
+  /// Whether the cost stays lowest at that edge with any one of the jackknife's blocks of windows left
+  /// out (false: the edge rests on a part of the data, and is no evidence).
+  bool edge_stable = false;
   std::vector<double> grid_s;  ///< the candidate offsets
   std::vector<double> cost;    ///< the cost per candidate (deg², truncated)
 };
