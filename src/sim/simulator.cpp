@@ -219,10 +219,11 @@ void validate(const SimConfig& c) {
   validate_detection(c.detection, c.visibility, c.camera.intrinsics, "detection", "visibility", "camera.intrinsics");
   require_positive(c.mocap.rate_hz, "mocap.rate_hz");
   if (c.mocap.rate_hz > 10000.0) bad("mocap.rate_hz", "must be at most 10000");
-  // Enough samples to run a filter on, and not so many that memory runs out (each stream is held in
-  // memory): at least two camera frames and ten IMU samples, at most 1e8 samples per stream.
-  if (c.duration_s * c.camera.rate_hz < 2.0 || c.duration_s * imu.rate_hz < 10.0)
-    bad("duration_s", fmt::format("{} s gives fewer than two camera frames or ten IMU samples", c.duration_s));
+  // At least one IMU interval (two samples; the first image comes at the start), and not so many
+  // samples that memory runs out (each stream is held in memory): at most 1e8 per stream.
+  if (c.duration_s * imu.rate_hz < 1.0)
+    bad("duration_s", fmt::format("{} s is shorter than one IMU period (1/{} s): nothing to run a filter on",
+                                  c.duration_s, imu.rate_hz));
   constexpr double kMaxSamples = 1e8;
   for (const auto& [rate, key] : {std::pair<double, const char*>{imu.rate_hz, "imu.rate_hz"},
                                   {c.camera.rate_hz, "camera.rate_hz"},

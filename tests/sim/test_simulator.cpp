@@ -382,10 +382,10 @@ TEST_CASE("Invalid configs are rejected with the key", "[sim][config]") {
   c.duration_s = 24 * 3600.0;  // 1.7e8 IMU samples
   expect_key(c, "imu.rate_hz");
   c = SimConfig{};
-  c.duration_s = 0.001;  // no camera frame
+  c.duration_s = 0.001;  // not one IMU interval
   expect_key(c, "duration_s");
   c = SimConfig{};
-  c.duration_s = 2.0 / c.camera.rate_hz;  // exactly two frames: fine
+  c.duration_s = 1.0 / c.imu.rate_hz;  // two IMU samples and the first image: fine
   CHECK_NOTHROW(validate(c));
   c = SimConfig{};
   c.start_time_ns = std::numeric_limits<std::int64_t>::max() - 1'000'000'000;  // would overflow
