@@ -55,7 +55,8 @@ Vec3 initial_gyro_bias(const InitWindow& w, const FilterOptions& options, std::s
 
 FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,
                             const FilterOptions& options, const ImuNoiseParams& noise,
-                            const Pose& T_I_C_prior, FilterObserver& observer) {
+                            const Pose& T_I_C_prior, FilterObserver& observer,
+                            FilterRecording* recording) {
   if (imu.size() < 2) throw DataError(fmt::format("need at least 2 IMU samples, got {}", imu.size()));
   for (std::size_t k = 1; k < imu.size(); ++k)
     if (imu[k].t_ns <= imu[k - 1].t_ns)
@@ -76,6 +77,7 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
   summary.gyro_bias_from_rest = options.init_gyro_bias_from_rest && summary.gyro_bias_rest_refused.empty();
 
   Filter filter(options, noise, T_I_C_prior);
+  filter.set_recording(recording);
   filter.initialize(t0, imu.front().gyro, imu.front().accel, summary.init.mean_accel, &summary.init_gyro_bias);
   observer.on_imu(filter);
   std::size_t j = 0;
@@ -114,6 +116,7 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
     }
   }
   while (j < images.size()) reject_no_imu(images[j++]);
+  filter.finish_recording();
   summary.updates = filter.n_updates();
   return summary;
 }

@@ -140,7 +140,52 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
   phi_pending_ = false;
   initialized_ = true;
   check_covariance(true, "initialisation");
+  if (rec_) {
+    rec_->steps.clear();
+    rec_->nodes.clear();
+    rec_PhiT_.setIdentity();
+    push_node(RecordedNode::Kind::kInit);
+  }
 }
+
+StateEstimate Filter::snapshot() const {
+  StateEstimate s;
+  s.t_ns = t_ns_;
+  s.x = x_;
+  s.T_I_C = T_I_C_;
+  s.extr_offset = extr_offset_;
+  s.dim = n_;
+  s.objects.reserve(objects_.size());
+  for (const auto& o : objects_) s.objects.push_back({o.id, o.T_O_W, o.offset, o.dim});
+  return s;
+}
+
+RecordedNode& Filter::push_node(RecordedNode::Kind kind) {
+  sync_cross_covariance();
+  RecordedNode& nd = rec_->nodes.emplace_back();
+  nd.kind = kind;
+  nd.x = snapshot();
+  nd.P = P_;
+  nd.steps = rec_->steps.size();
+  nd.first_step = nd.steps;
+  return nd;
+}
+
+void Filter::close_segment() {
+  if (rec_ == nullptr || rec_->nodes.empty()) return;
+  const std::size_t first = rec_->nodes.back().steps;
+  if (rec_->steps.size() == first) return;
+  RecordedNode& nd = rec_->nodes.emplace_back();
+  nd.kind = RecordedNode::Kind::kPropagate;
+  nd.x = snapshot();
+  nd.steps = rec_->steps.size();
+  nd.first_step = first;
+  nd.Phi = rec_PhiT_.transpose();
+  nd.P_cc = P_.topLeftCorner<15, 15>();
+  rec_PhiT_.setIdentity();
+}
+
+void Filter::finish_recording() { close_segment(); }
 
 const ObjectEntry* Filter::object(int id) const {
   for (const auto& o : objects_)
@@ -192,6 +237,10 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   t_ns_ = t;
   gyro_ = gyro;
   accel_ = accel;
+  if (rec_) {
+    rec_->steps.push_back({t, x_, F});
+    accumulate_transition(F, rec_PhiT_);
+  }
 
   // P_cc ← F P_cc Fᵀ + Q with every product on columns (contiguous): C = P_cc Fᵀ changes only the
   // columns p, v, θ (F's rows b_g, b_a are the identity), and B = F C = Cᵀ Fᵀ (symmetric) needs only
@@ -313,25 +362,12 @@ Mat6 Filter::object_covariance_relative_to_anchor(const ObjectEntry& o) const {
 
 void Filter::boxplus(const Eigen::VectorXd& dx) {
   ROE_CHECK(dx.size() == n_, "boxplus: wrong size");
-  x_.p_W_I += dx.segment<3>(kP);
-  x_.v_W_I += dx.segment<3>(kV);
-  x_.q_W_I = (x_.q_W_I * exp_quat(dx.segment<3>(kTheta))).normalized();
-  x_.b_g += dx.segment<3>(kBg);
-  x_.b_a += dx.segment<3>(kBa);
-  if (extr_offset_ >= 0) {
-    T_I_C_.p += dx.segment<3>(extr_offset_);
-    T_I_C_.q = (T_I_C_.q * exp_quat(dx.segment<3>(extr_offset_ + 3))).normalized();
-  }
-  for (auto& o : objects_) {
-    if (o.dim == 6) {
-      o.T_O_W.p += dx.segment<3>(o.offset);
-      o.T_O_W.q = (o.T_O_W.q * exp_quat(dx.segment<3>(o.offset + 3))).normalized();
-    } else if (o.dim > 0) {  // anchor: the first o.dim components of δθ_O_W
-      Vec3 dth = Vec3::Zero();
-      dth.head(o.dim) = dx.segment(o.offset, o.dim);
-      o.T_O_W.q = (o.T_O_W.q * exp_quat(dth)).normalized();
-    }
-  }
+  // One definition of ⊞ (smoother.hpp), applied to a snapshot and written back.
+  StateEstimate s = snapshot();
+  ekf::boxplus(s, dx);
+  x_ = s.x;
+  T_I_C_ = s.T_I_C;
+  for (std::size_t i = 0; i < objects_.size(); ++i) objects_[i].T_O_W = s.objects[i].T_O_W;
 }
 
 Pose Filter::predict(int object_id) const {
@@ -488,29 +524,11 @@ Mat6 Filter::measurement_covariance(const Detection& d, bool object_frame) const
   return cov_C;
 }
 
-Eigen::MatrixXd Filter::gauge_generator() const {
-  // x_W = Exp(φ) x_W' + t, i.e. T_W_W' = (Exp(φ), t). To first order:
-  //   p' = Exp(−φ)(p − t):  δp' = δp − t + [p]× φ      v' = Exp(−φ) v:  δv' = δv + [v]× φ
-  //   R' = Exp(−φ) R:       δθ' = δθ − Rᵀ φ
-  //   T_O_W' = T_O_W T_W_W':  δp_O' = δp_O + R_O_W t,  δθ_O' = δθ_O + φ
-  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n_, 6);
-  G.block<3, 3>(kP, 0) = -Mat3::Identity();
-  G.block<3, 3>(kP, 3) = skew(x_.p_W_I);
-  G.block<3, 3>(kV, 3) = skew(x_.v_W_I);
-  G.block<3, 3>(kTheta, 3) = -x_.q_W_I.toRotationMatrix().transpose();
-  for (const auto& o : objects_) {
-    if (o.dim == 6) {
-      G.block<3, 3>(o.offset, 0) = o.T_O_W.R();
-      G.block<3, 3>(o.offset + 3, 3) = Mat3::Identity();
-    } else if (o.dim > 0) {
-      G.block(o.offset, 3, o.dim, o.dim).setIdentity();
-    }
-  }
-  return G;
-}
+Eigen::MatrixXd Filter::gauge_generator() const { return ekf::gauge_generator(snapshot()); }
 
 void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor) {
   sync_cross_covariance();
+  close_segment();
   const ObjectInit in = init_object(x_, T_I_C_, z);
   // Compact J_x (6 x nc) over the columns it touches.
   Eigen::Matrix<double, 6, 12> Jx;
@@ -555,6 +573,7 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
     objects_.push_back(o);
     check_state("object initialisation");
     check_covariance(true, "object initialisation");
+    if (rec_) push_node(RecordedNode::Kind::kAugment).append_only = true;
     return;
   }
 
@@ -592,6 +611,7 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   for (int k = 0; k < keep; ++k) M(n_ + k, n_ + 3 + k) = 1.0;
   Eigen::MatrixXd P_new = M * P_aug * M.transpose();
   P_new = 0.5 * (P_new + P_new.transpose()).eval();
+  const int n_old = n_;
   o.offset = keep > 0 ? n_ : -1;
   o.dim = keep;
   P_.swap(P_new);
@@ -599,6 +619,15 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   objects_.push_back(o);
   check_state("anchor initialisation");
   check_covariance(true, "anchor initialisation");
+  if (rec_) {
+    // The link for the smoother: δy = M [δu; J_x δu + J_z n] = B δu + noise.
+    Eigen::MatrixXd Jx_full = Eigen::MatrixXd::Zero(6, n_old);
+    for (int j = 0; j < nc; ++j) Jx_full.col(idx[j]) = Jx.col(j);
+    RecordedNode& nd = push_node(RecordedNode::Kind::kAugment);
+    nd.append_only = false;
+    nd.anchor = true;
+    nd.B = M.leftCols(n_old) + M.rightCols(6) * Jx_full;
+  }
 }
 
 FrameResult Filter::update(const std::vector<Detection>& dets) {
@@ -747,6 +776,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
 
     const int ni = static_cast<int>(inliers.size());
     if (ni > 0) {
+      close_segment();
       const int m = 6 * ni;
       // Inliers' P Hᵀ compacted to the left (in place: inliers[a] ≥ a), residuals stacked.
       Eigen::VectorXd& r = ws_r_;
@@ -813,6 +843,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       ++n_updates_;
       check_state("update");
       check_covariance(opt_.pd_check_every > 0 && n_updates_ % opt_.pd_check_every == 0, "update");
+      if (rec_) push_node(RecordedNode::Kind::kUpdate);
     }
   }
 

@@ -60,9 +60,11 @@ struct FilterRunSummary {
 };
 
 /// Runs the whole stream. Throws roe::DataError when the IMU stream is too short or not strictly
-/// increasing, or the images are not sorted; roe::NumericError when the filter diverges.
+/// increasing, or the images are not sorted; roe::NumericError when the filter diverges. With
+/// `recording`, the filter records what smooth() (smoother.hpp) needs.
 FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,
                             const FilterOptions& options, const ImuNoiseParams& noise,
-                            const Pose& T_I_C_prior, FilterObserver& observer);
+                            const Pose& T_I_C_prior, FilterObserver& observer,
+                            FilterRecording* recording = nullptr);
 
 }  // namespace roe::ekf

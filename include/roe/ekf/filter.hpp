@@ -45,6 +45,7 @@
 #include "roe/ekf/imu.hpp"
 #include "roe/ekf/measurement.hpp"
 #include "roe/ekf/options.hpp"
+#include "roe/ekf/smoother.hpp"
 
 namespace roe::ekf {
 
@@ -134,6 +135,14 @@ class Filter {
   const FilterOptions& options() const { return opt_; }
   std::size_t n_updates() const { return n_updates_; }
 
+  /// From now on, records into `rec` what the RTS smoother needs (smoother.hpp): call before
+  /// initialize(), and finish_recording() after the last propagate(). nullptr stops recording.
+  void set_recording(FilterRecording* rec) { rec_ = rec; }
+  /// Closes the recording's last propagation segment.
+  void finish_recording();
+  /// The nominal state with its error-state layout.
+  StateEstimate snapshot() const;
+
   // --- Lower-level access (tests, diagnostics) ---
   /// x ← x ⊞ δx with the error-state definition above (the correction step of update()).
   void boxplus(const Eigen::VectorXd& dx);
@@ -166,6 +175,10 @@ class Filter {
   };
 
   void sync_cross_covariance();
+  /// Recording: ends the propagation segment since the last node (a kPropagate node) if it has steps.
+  void close_segment();
+  /// Recording: a node of the given kind with the current state and (synchronised) covariance.
+  RecordedNode& push_node(RecordedNode::Kind kind);
   void build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) const;
   void initialize_object(int id, const Pose& z, const Mat6& R, bool anchor);
   /// Records a first-sight candidate; true when init_min_detections consecutive candidates agree.
@@ -208,6 +221,8 @@ class Filter {
   std::vector<std::pair<int, Pending>> pending_;
   double gate_ = 0.0;
   std::size_t n_updates_ = 0;
+  FilterRecording* rec_ = nullptr;
+  Mat15 rec_PhiT_ = Mat15::Identity();  // Φᵀ of the recording's open propagation segment
 };
 
 }  // namespace roe::ekf
