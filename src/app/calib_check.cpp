@@ -270,7 +270,10 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
   const double min_score = run.number("config.filter.min_score");
   res.detections = run.string("inputs.detections");
 
-  StatesTrace states = read_states(run_dir / "states.csv");
+  // The filter's own (causal) history: with "smoother": "rts" states.csv holds the smoothed estimate, whose
+  // constant states carry their final value and σ at every time, and the filter's is in states_filter.csv.
+  const fs::path filter_states = run_dir / "states_filter.csv";
+  StatesTrace states = read_states(fs::is_regular_file(filter_states, ec) ? filter_states : run_dir / "states.csv");
   in.extrinsics = std::move(states.extrinsics);
   auto objects = read_objects(run_dir / "objects.csv");
   const json& per_object = run.at("counts.detections.per_object");

@@ -11,6 +11,7 @@
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
 #include "roe/ekf/chi2.hpp"
+#include "roe/ekf/smoother.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/output.hpp"
@@ -282,8 +283,27 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   } fin;
   fin.rec = &rec;
   fin.out = &out;
-  out.summary = ekf::run_filter(dataset.imu, images, fopt, noise, T_I_C, fin);
+  const bool smooth = config.smoother == "rts";
+  ekf::FilterRecording recording;
+  out.summary = ekf::run_filter(dataset.imu, images, fopt, noise, T_I_C, fin, smooth ? &recording : nullptr);
   out.filter_wall_s = seconds_since(t0);
+  if (smooth) {
+    // Every state row is at the filter's initial time or at the end of a propagation step.
+    const auto t1 = Clock::now();
+    const ekf::SmootherResult sm = ekf::smooth(recording, noise);
+    out.filter_states = out.states;
+    for (StateRow& row : out.states) {
+      const auto it = std::lower_bound(sm.states.begin(), sm.states.end(), row.t_ns,
+                                       [](const ekf::SmoothedState& s, Timestamp t) { return s.t_ns < t; });
+      ROE_CHECK(it != sm.states.end() && it->t_ns == row.t_ns, "smoother: a state row without a smoothed state");
+      row.x = it->x;
+      row.T_I_C = it->T_I_C;
+      row.sigma = it->sigma;
+      row.pose_cov = it->pose_cov;
+    }
+    out.smoothed = true;
+    out.smoother_wall_s = seconds_since(t1);
+  }
 
   // Warnings about what the data allowed. A rejected_no_main detection either lacks the anchor in its
   // image or comes before the anchor is initialised (init_min_detections): they are told apart here.
@@ -346,43 +366,46 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
 
 namespace {
 
-void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
+// trajectory.csv/.tum and states.csv (with a suffix: trajectory_filter.csv, ...) from state rows.
+void write_states(const std::vector<StateRow>& rows, const io::OutputDir& dir, const std::string& suffix) {
   std::vector<Timestamp> t;
   std::vector<Pose> poses;
-  t.reserve(r.states.size());
-  poses.reserve(r.states.size());
-  for (const auto& s : r.states) {
+  t.reserve(rows.size());
+  poses.reserve(rows.size());
+  for (const auto& s : rows) {
     t.push_back(s.t_ns);
     poses.push_back(Pose(s.x.q_W_I, s.x.p_W_I));
   }
-  io::write_trajectory(dir.file("trajectory.csv"), t, poses, io::TrajectoryFormat::kCsv);
-  io::write_trajectory(dir.file("trajectory.tum"), t, poses, io::TrajectoryFormat::kTum);
-
-  {
-    io::CsvWriter w;
-    std::vector<std::string> h = {"timestamp_ns", "p_W_I_x", "p_W_I_y", "p_W_I_z", "v_W_I_x", "v_W_I_y",
-                                  "v_W_I_z",      "q_W_I_x", "q_W_I_y", "q_W_I_z", "q_W_I_w", "b_g_x",
-                                  "b_g_y",        "b_g_z",   "b_a_x",   "b_a_y",   "b_a_z",   "p_I_C_x",
-                                  "p_I_C_y",      "p_I_C_z", "q_I_C_x", "q_I_C_y", "q_I_C_z", "q_I_C_w"};
-    for (const char* g : {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a", "p_I_C", "theta_I_C"})
-      for (const char* a : {"x", "y", "z"}) h.push_back(fmt::format("sigma_{}_{}", g, a));
-    w.header(h);
-    for (const auto& s : r.states) {
-      w.add(s.t_ns);
-      for (int i = 0; i < 3; ++i) w.add(s.x.p_W_I(i));
-      for (int i = 0; i < 3; ++i) w.add(s.x.v_W_I(i));
-      const Eigen::Quaterniond q = math::canonical(s.x.q_W_I);
-      w.add(q.x()).add(q.y()).add(q.z()).add(q.w());
-      for (int i = 0; i < 3; ++i) w.add(s.x.b_g(i));
-      for (int i = 0; i < 3; ++i) w.add(s.x.b_a(i));
-      for (int i = 0; i < 3; ++i) w.add(s.T_I_C.p(i));
-      const Eigen::Quaterniond qc = math::canonical(s.T_I_C.q);
-      w.add(qc.x()).add(qc.y()).add(qc.z()).add(qc.w());
-      for (int i = 0; i < 21; ++i) w.add(s.sigma(i));
-      w.end_row();
-    }
-    w.write(dir.file("states.csv"));
+  io::write_trajectory(dir.file("trajectory" + suffix + ".csv"), t, poses, io::TrajectoryFormat::kCsv);
+  io::write_trajectory(dir.file("trajectory" + suffix + ".tum"), t, poses, io::TrajectoryFormat::kTum);
+  io::CsvWriter w;
+  std::vector<std::string> h = {"timestamp_ns", "p_W_I_x", "p_W_I_y", "p_W_I_z", "v_W_I_x", "v_W_I_y",
+                                "v_W_I_z",      "q_W_I_x", "q_W_I_y", "q_W_I_z", "q_W_I_w", "b_g_x",
+                                "b_g_y",        "b_g_z",   "b_a_x",   "b_a_y",   "b_a_z",   "p_I_C_x",
+                                "p_I_C_y",      "p_I_C_z", "q_I_C_x", "q_I_C_y", "q_I_C_z", "q_I_C_w"};
+  for (const char* g : {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a", "p_I_C", "theta_I_C"})
+    for (const char* a : {"x", "y", "z"}) h.push_back(fmt::format("sigma_{}_{}", g, a));
+  w.header(h);
+  for (const auto& s : rows) {
+    w.add(s.t_ns);
+    for (int i = 0; i < 3; ++i) w.add(s.x.p_W_I(i));
+    for (int i = 0; i < 3; ++i) w.add(s.x.v_W_I(i));
+    const Eigen::Quaterniond q = math::canonical(s.x.q_W_I);
+    w.add(q.x()).add(q.y()).add(q.z()).add(q.w());
+    for (int i = 0; i < 3; ++i) w.add(s.x.b_g(i));
+    for (int i = 0; i < 3; ++i) w.add(s.x.b_a(i));
+    for (int i = 0; i < 3; ++i) w.add(s.T_I_C.p(i));
+    const Eigen::Quaterniond qc = math::canonical(s.T_I_C.q);
+    w.add(qc.x()).add(qc.y()).add(qc.z()).add(qc.w());
+    for (int i = 0; i < 21; ++i) w.add(s.sigma(i));
+    w.end_row();
   }
+  w.write(dir.file("states" + suffix + ".csv"));
+}
+
+void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
+  write_states(r.states, dir, "");
+  if (r.smoothed) write_states(r.filter_states, dir, "_filter");
   {
     io::CsvWriter w;
     w.header({"timestamp_ns", "object_id", "anchor", "p_O_W_x", "p_O_W_y", "p_O_W_z", "q_O_W_x", "q_O_W_y",
@@ -616,6 +639,7 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
   report["final"]["objects"] = objs;
   report["timing_s"] = {{"read", read_s},
                         {"filter", r.filter_wall_s},
+                        {"smoother", r.smoother_wall_s},
                         {"write", seconds_since(t_write)},
                         {"total", seconds_since(t_start)}};
   io::write_file_atomic(dir.file("run.json"), io::dump_json(report, 2) + "\n");

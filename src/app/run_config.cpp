@@ -118,6 +118,8 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
       fail(out, "rate", "must be \"imu\" or \"images\"");
     out.finish();
   }
+  root.get("smoother", c.smoother);
+  if (c.smoother != "none" && c.smoother != "rts") fail(root, "smoother", "must be \"none\" or \"rts\"");
   root.get("description", c.description);
   root.finish();
   return c;
@@ -174,7 +176,7 @@ json run_config_to_json(const RunConfig& c) {
       {"max_accel_bias", o.max_accel_bias},
       {"pd_check_every", o.pd_check_every},
   };
-  json j = {{"filter", f}, {"output", {{"rate", c.output_rate}}}};
+  json j = {{"filter", f}, {"output", {{"rate", c.output_rate}}}, {"smoother", c.smoother}};
   if (!c.description.empty()) j["description"] = c.description;
   return j;
 }

@@ -17,6 +17,7 @@
 #include "roe/eval/associate.hpp"
 #include "roe/eval/metrics.hpp"
 #include "roe/io/dataset.hpp"
+#include "roe/app/calib_check.hpp"
 #include "roe/io/json.hpp"
 
 namespace fs = std::filesystem;
@@ -251,6 +252,47 @@ TEST_CASE("run.json's detection counts and NIS statistics agree with the reproje
   fs::remove(out.string() + ".json");
 }
 
+// "smoother": "rts": trajectory.csv/.tum and states.csv hold the smoothed estimate (what roe eval reads),
+// the filter's own estimate is kept in the *_filter files, byte for byte what a run without the
+// smoother writes, and roe calib-check reads the filter's history, so its verdicts do not change.
+TEST_CASE("roe run with the RTS smoother: smoothed outputs, the filter's in *_filter files", "[app][run][smoother]") {
+  const fs::path ds = make_dataset("smoother", 12.0);
+  const fs::path plain = temp_dir("smoother_plain"), smoothed = temp_dir("smoother_rts");
+  const fs::path cfg = temp_dir("smoother_cfg.json");
+  {
+    std::ofstream(cfg) << R"({"smoother": "rts"})";
+  }
+  app::RunOptions opt;
+  app::run(ds, plain, opt);
+  opt.config_file = cfg.string();
+  const auto r = app::run(ds, smoothed, opt);
+  for (const char* f : {"trajectory_filter.csv", "trajectory_filter.tum", "states_filter.csv"}) {
+    CHECK(fs::exists(smoothed / f));
+    CHECK_FALSE(fs::exists(plain / f));
+  }
+  CHECK(slurp(smoothed / "trajectory_filter.csv") == slurp(plain / "trajectory.csv"));
+  CHECK(slurp(smoothed / "trajectory_filter.tum") == slurp(plain / "trajectory.tum"));
+  CHECK(slurp(smoothed / "states_filter.csv") == slurp(plain / "states.csv"));
+  CHECK(slurp(smoothed / "trajectory.csv") != slurp(plain / "trajectory.csv"));
+  CHECK(slurp(smoothed / "objects.csv") == slurp(plain / "objects.csv"));  // the filter's history
+  const auto j = io::parse_json_file(smoothed / "run.json");
+  CHECK(j.at("config").at("smoother") == "rts");
+  CHECK(io::parse_json_file(plain / "run.json").at("config").at("smoother") == "none");
+  CHECK(j.at("timing_s").at("smoother").get<double>() > 0.0);
+  CHECK(j.at("counts").at("trajectory_rows").get<std::size_t>() == r.output.states.size());
+  // calib-check: the same checks with the same numbers on both runs.
+  const auto ca = app::calib_check(plain, {}).to_json(), cb = app::calib_check(smoothed, {}).to_json();
+  CHECK(ca.at("checks") == cb.at("checks"));
+  // A bad value names the key.
+  try {
+    app::run_config_from_json(io::json::parse(R"({"smoother": "rtss"})"), "cfg.json");
+    FAIL("no error");
+  } catch (const ConfigError& e) {
+    CHECK(std::string(e.what()).find("smoother") != std::string::npos);
+  }
+  for (const auto& p : {ds, plain, smoothed, cfg}) fs::remove_all(p);
+}
+
 TEST_CASE("run config: strict keys, shipped configs load, defaults round-trip", "[app][run]") {
   const std::string src = ROE_SOURCE_DIR;
   const app::RunConfig def = app::run_config_from_file(src + "/configs/default.json");
@@ -405,13 +447,14 @@ TEST_CASE("bad input gives clear errors", "[app][run]") {
 // Real IMU (EuRoC V1_02, ADIS16448) with synthetic detections of 4 objects (docs/RESULTS.md §5).
 namespace {
 
-// roe eval's pipeline on a run of the EuRoC snippet: nearest association within 10 ms, SE(3) Umeyama
-// alignment and APE over every matched row of the whole recording. Returns the worst axis (m, deg).
-std::pair<double, double> euroc_worst_axis(const Dataset& d, const app::RunConfig& cfg, std::uint64_t seed) {
-  const app::RunOutput r = app::run_dataset(d, "sim", cfg);
+// roe eval's pipeline on state rows of a run of the EuRoC snippet: nearest association within 10 ms,
+// SE(3) Umeyama alignment and APE over every matched row of the whole recording. Returns the worst axis
+// (m, deg).
+std::pair<double, double> euroc_worst_axis(const Dataset& d, const std::vector<app::StateRow>& states,
+                                           std::uint64_t seed, const char* what) {
   std::vector<Timestamp> t_est, t_gt;
   std::vector<Pose> est_all, gt_all;
-  for (const auto& st : r.states) {
+  for (const auto& st : states) {
     t_est.push_back(st.t_ns);
     est_all.push_back(Pose(st.x.q_W_I, st.x.p_W_I));
   }
@@ -428,12 +471,17 @@ std::pair<double, double> euroc_worst_axis(const Dataset& d, const app::RunConfi
   const eval::Alignment al = eval::compute_alignment(eval::AlignType::kSe3, est, gt);
   eval::apply_alignment(al, est);
   const eval::ApeResult ape = eval::compute_ape(est, gt);
-  WARN("EuRoC real IMU, seed " << seed << ": " << a.size() << " matched rows (whole run); position RMSE "
+  WARN("EuRoC real IMU, " << what << ", seed " << seed << ": " << a.size() << " matched rows (whole run); position RMSE "
                                << ape.pos_rmse_m.transpose() << " m; Euler RMSE " << ape.rpy_rmse_deg.transpose()
                                << " deg");
   // Every ground-truth row inside the IMU span is matched (40 Hz ground truth, 39 s overlap).
   CHECK(a.size() >= 1500);
   return {ape.pos_rmse_m.maxCoeff(), ape.rpy_rmse_deg.maxCoeff()};
+}
+
+std::pair<double, double> euroc_worst_axis(const Dataset& d, const app::RunConfig& cfg, std::uint64_t seed) {
+  const app::RunOutput r = app::run_dataset(d, "sim", cfg);
+  return euroc_worst_axis(d, r.states, seed, cfg.smoother == "rts" ? "smoothed" : "filter");
 }
 
 app::RunConfig euroc_flight_config() {
@@ -456,24 +504,33 @@ TEST_CASE("real IMU: EuRoC snippet with 4 objects", "[app][run][euroc]") {
   // roe's defaults with require_anchor false (the anchor is in view in ~30 % of the frames), the
   // ADIS16448's in-flight noise densities (docs/simulator.md §9), the ray-aligned, depth-dependent
   // detection σ (docs/filter.md §3) and the gyro bias from the init window at rest (docs/filter.md §4).
-  // Target ≤ 0.10 m and ≤ 5° per axis: the Euler target is met on every seed; the position target is NOT
-  // met with the simulator's PoET-like errors (0.3 s correlated): measured worst axis 0.108, 0.152,
-  // 0.194, 0.111, 0.118 m and 2.7, 2.6, 4.0, 3.7, 1.7° (docs/RESULTS.md §5).
+  // The config also smooths ("smoother": "rts", docs/filter.md §10). Target ≤ 0.10 m and ≤ 5° per axis
+  // on every seed, for the smoothed estimate (what trajectory.csv holds): measured worst axis 0.036,
+  // 0.084, 0.061, 0.040, 0.057 m and 1.7, 3.3, 1.0, 2.5, 0.7° (docs/RESULTS.md §5). The filter's own
+  // causal estimate (trajectory_filter.csv) does not meet the position target with the simulator's
+  // PoET-like errors (0.3 s correlated): 0.108, 0.152, 0.194, 0.111, 0.118 m and 2.7, 2.6, 4.0, 3.7,
+  // 1.7°; its bounds below guard it against regressions.
   const app::RunConfig cfg = euroc_flight_config();
+  REQUIRE(cfg.smoother == "rts");
   std::vector<double> worst_p, worst_r;
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
     app::SimulateOptions so;
     so.from_groundtruth = mav0.string();
     so.objects = 4;
     so.seed = seed;
-    const auto w = euroc_worst_axis(app::simulate_dataset(so).dataset, cfg, seed);
-    worst_p.push_back(w.first);
-    worst_r.push_back(w.second);
+    const Dataset d = app::simulate_dataset(so).dataset;
+    const app::RunOutput r = app::run_dataset(d, "sim", cfg);
+    const auto s = euroc_worst_axis(d, r.states, seed, "smoothed");
+    CHECK(s.first <= 0.10);  // the issue's target, every seed
+    CHECK(s.second <= 5.0);
+    const auto f = euroc_worst_axis(d, r.filter_states, seed, "filter");
+    worst_p.push_back(f.first);
+    worst_r.push_back(f.second);
   }
   std::sort(worst_p.begin(), worst_p.end());
   std::sort(worst_r.begin(), worst_r.end());
   CHECK(worst_r.back() <= 5.0);  // every seed
-  CHECK(worst_p[2] <= 0.13);     // median over the seeds (target 0.10: not met)
+  CHECK(worst_p[2] <= 0.13);     // median over the seeds (target 0.10: not met by the causal filter)
   CHECK(worst_p.back() <= 0.21);
 }
 
@@ -489,7 +546,8 @@ void check_target_on_seeds_1_to_5(const DetectionNoiseConfigEdit& errors) {
     WARN("skipped: ../shared/data/euroc_v102_snippet absent");
     return;
   }
-  const app::RunConfig cfg = euroc_flight_config();
+  app::RunConfig cfg = euroc_flight_config();
+  cfg.smoother = "none";  // the causal filter: these bound the filter's own estimate
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
     sim::FromGroundtruthConfig c;
     c.num_objects = 4;

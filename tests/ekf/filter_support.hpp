@@ -2,12 +2,15 @@
 // Shared helpers of the filter accuracy/consistency tests: simulated datasets from the sim library,
 // association of the estimate with the ground truth, SE(3) alignment (roe::eval), and the true state
 // expressed in the filter's gauge (for NEES).
+#include <catch2/catch.hpp>
+
 #include <Eigen/Core>
 #include <map>
 #include <vector>
 
 #include "roe/app/run.hpp"
 #include "roe/app/simulate.hpp"
+#include "roe/ekf/chi2.hpp"
 #include "roe/eval/align.hpp"
 #include "roe/math/euler.hpp"
 #include "roe/math/so3.hpp"
@@ -88,6 +91,65 @@ inline Pose gauge_position_yaw(const Pose& T_O_W_est, const Pose& T_Wt_O_true) {
   const Eigen::Vector3d t = T_O_Wt.R().transpose() * (T_O_W_est.p - T_O_Wt.p);
   const Pose T_Wt_Wp(Rz, t);
   return T_Wt_Wp.inverse();
+}
+
+inline const TruthObject& truth_object(const Dataset& d, int id) {
+  for (const auto& o : d.manifest.truth->objects)
+    if (o.id == id) return o;
+  FAIL("object " << id << " not in truth");
+  return d.manifest.truth->objects.front();
+}
+
+struct MonteCarlo {
+  double anees = 0.0;         ///< time-averaged NEES of the IMU pose (6 dof)
+  double lo = 0.0, hi = 0.0;  ///< two-sided 95 % bounds of the time-averaged NEES
+  double rejection_rate = 0.0;
+  std::size_t gated = 0;
+  double pos_rms_m = 0.0;  ///< RMS of the IMU position error in the filter's gauge, over runs and rows
+};
+
+/// N runs of `preset` (seeds 100..100+N−1) with the per-detection σ the simulator wrote (configured
+/// noise = simulated noise); NEES of the IMU pose in the filter's gauge, after skip_s. `smoother` is
+/// RunConfig::smoother ("rts": the smoothed estimate and its covariance).
+inline MonteCarlo monte_carlo(const std::string& preset, int N, double duration, double skip_s,
+                              const std::string& smoother = "none") {
+  app::RunConfig cfg;
+  cfg.filter.use_detection_sigmas = true;
+  cfg.filter.init_sigma_v_mps = 1.0;
+  cfg.smoother = smoother;
+  std::vector<double> nees_sum;  // per time step, summed over runs
+  std::size_t rejected = 0, rows = 0;
+  double sq = 0.0;
+  MonteCarlo mc;
+  for (int run = 0; run < N; ++run) {
+    const Dataset d = simulate_preset(preset, 100 + run, duration);
+    const app::RunOutput r = app::run_dataset(d, "sim", cfg);
+    for (double nis : r.nis) {
+      ++mc.gated;
+      if (nis > r.gate) ++rejected;
+    }
+    const Pose T_Wp_Wt = gauge_position_yaw(r.final_T_O_W.at(r.anchor_id), truth_object(d, r.anchor_id).T_W_O);
+    const auto m = match(r, d, skip_s);
+    if (nees_sum.empty()) nees_sum.assign(m.est.size(), 0.0);
+    REQUIRE(m.est.size() >= nees_sum.size() - 2);
+    for (std::size_t k = 0; k < nees_sum.size() && k < m.est.size(); ++k) {
+      const Pose T_true = T_Wp_Wt * m.gt[k]->T_W_I;
+      const auto& s = *m.est[k];
+      Eigen::Matrix<double, 6, 1> e;
+      e.head<3>() = T_true.p - s.x.p_W_I;
+      e.tail<3>() = math::log_quat(s.x.q_W_I.conjugate() * T_true.q);
+      nees_sum[k] += e.dot(s.pose_cov.ldlt().solve(e));
+      sq += e.head<3>().squaredNorm();
+      ++rows;
+    }
+  }
+  for (double v : nees_sum) mc.anees += v / N;
+  mc.anees /= nees_sum.size();
+  mc.lo = ekf::chi2_quantile(0.025, 6.0 * N) / N;
+  mc.hi = ekf::chi2_quantile(0.975, 6.0 * N) / N;
+  mc.rejection_rate = static_cast<double>(rejected) / mc.gated;
+  mc.pos_rms_m = std::sqrt(sq / rows);
+  return mc;
 }
 
 }  // namespace roe::test

@@ -15,16 +15,9 @@ using ekf::Vec6;
 using roe::test::accuracy;
 using roe::test::match;
 
-namespace {
-
-const TruthObject& truth_object(const Dataset& d, int id) {
-  for (const auto& o : d.manifest.truth->objects)
-    if (o.id == id) return o;
-  FAIL("object " << id << " not in truth");
-  return d.manifest.truth->objects.front();
-}
-
-}  // namespace
+using roe::test::truth_object;
+using roe::test::monte_carlo;
+using roe::test::MonteCarlo;
 
 TEST_CASE("noise-free preset: the estimate converges to the truth", "[ekf][sim]") {
   const Dataset d = test::simulate_preset("noise-free", 1, 30.0);
@@ -68,54 +61,6 @@ TEST_CASE("noise-free preset: the estimate converges to the truth", "[ekf][sim]"
   }
 }
 
-namespace {
-
-struct MonteCarlo {
-  double anees = 0.0;       ///< time-averaged NEES of the IMU pose (6 dof)
-  double lo = 0.0, hi = 0.0;  ///< two-sided 95 % bounds of the time-averaged NEES
-  double rejection_rate = 0.0;
-  std::size_t gated = 0;
-};
-
-// N runs of `preset` (seeds 100..100+N−1) with the per-detection σ the simulator wrote (configured
-// noise = simulated noise); NEES of the IMU pose in the filter's gauge, after skip_s.
-MonteCarlo monte_carlo(const std::string& preset, int N, double duration, double skip_s) {
-  app::RunConfig cfg;
-  cfg.filter.use_detection_sigmas = true;
-  cfg.filter.init_sigma_v_mps = 1.0;
-  std::vector<double> nees_sum;  // per time step, summed over runs
-  std::size_t rejected = 0;
-  MonteCarlo mc;
-  for (int run = 0; run < N; ++run) {
-    const Dataset d = test::simulate_preset(preset, 100 + run, duration);
-    const app::RunOutput r = app::run_dataset(d, "sim", cfg);
-    for (double nis : r.nis) {
-      ++mc.gated;
-      if (nis > r.gate) ++rejected;
-    }
-    const Pose T_Wp_Wt =
-        test::gauge_position_yaw(r.final_T_O_W.at(r.anchor_id), truth_object(d, r.anchor_id).T_W_O);
-    const auto m = match(r, d, skip_s);
-    if (nees_sum.empty()) nees_sum.assign(m.est.size(), 0.0);
-    REQUIRE(m.est.size() >= nees_sum.size() - 2);
-    for (std::size_t k = 0; k < nees_sum.size() && k < m.est.size(); ++k) {
-      const Pose T_true = T_Wp_Wt * m.gt[k]->T_W_I;
-      const auto& s = *m.est[k];
-      Vec6 e;
-      e.head<3>() = T_true.p - s.x.p_W_I;
-      e.tail<3>() = math::log_quat(s.x.q_W_I.conjugate() * T_true.q);
-      nees_sum[k] += e.dot(s.pose_cov.ldlt().solve(e));
-    }
-  }
-  for (double v : nees_sum) mc.anees += v / N;
-  mc.anees /= nees_sum.size();
-  mc.lo = ekf::chi2_quantile(0.025, 6.0 * N) / N;
-  mc.hi = ekf::chi2_quantile(0.975, 6.0 * N) / N;
-  mc.rejection_rate = static_cast<double>(rejected) / mc.gated;
-  return mc;
-}
-
-}  // namespace
 
 // Consistency: with the configured noise equal to the simulated noise (the `matched` preset writes
 // its per-detection σ), the time-averaged NEES of the IMU pose over N Monte-Carlo runs must lie in the

@@ -33,6 +33,10 @@ struct RunConfig {
   /// Rows of trajectory.csv/.tum and states.csv: "imu" (every IMU sample) or "images" (after each
   /// image update).
   std::string output_rate = "imu";
+  /// "none": the outputs are the filter's (causal) estimate; "rts": trajectory.csv/.tum and states.csv
+  /// hold the fixed-interval RTS smoothed estimate (ekf/smoother.hpp) and the filter's estimate goes to
+  /// trajectory_filter.csv/.tum and states_filter.csv.
+  std::string smoother = "none";
   std::string description;  ///< free text (configs/*.json say what they are for)
 };
 
@@ -78,7 +82,11 @@ struct ObjectCounts {
 
 /// The result of a run in memory (what the files hold).
 struct RunOutput {
-  std::vector<StateRow> states;
+  std::vector<StateRow> states;  ///< the estimate (smoothed with RunConfig::smoother "rts")
+  /// With the smoother: the filter's estimate at the same times as `states`; empty otherwise.
+  std::vector<StateRow> filter_states;
+  bool smoothed = false;
+  double smoother_wall_s = 0.0;
   std::vector<ObjectRow> objects;
   std::vector<ReprojectionRow> reprojection;
   std::map<int, ObjectCounts> counts;
