@@ -524,7 +524,26 @@ Mat6 Filter::measurement_covariance(const Detection& d, bool object_frame) const
   return cov_C;
 }
 
-Eigen::MatrixXd Filter::gauge_generator() const { return ekf::gauge_generator(snapshot()); }
+Eigen::MatrixXd Filter::gauge_generator() const {
+  // x_W = Exp(φ) x_W' + t, i.e. T_W_W' = (Exp(φ), t). To first order:
+  //   p' = Exp(−φ)(p − t):  δp' = δp − t + [p]× φ      v' = Exp(−φ) v:  δv' = δv + [v]× φ
+  //   R' = Exp(−φ) R:       δθ' = δθ − Rᵀ φ
+  //   T_O_W' = T_O_W T_W_W':  δp_O' = δp_O + R_O_W t,  δθ_O' = δθ_O + φ
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n_, 6);
+  G.block<3, 3>(kP, 0) = -Mat3::Identity();
+  G.block<3, 3>(kP, 3) = skew(x_.p_W_I);
+  G.block<3, 3>(kV, 3) = skew(x_.v_W_I);
+  G.block<3, 3>(kTheta, 3) = -x_.q_W_I.toRotationMatrix().transpose();
+  for (const auto& o : objects_) {
+    if (o.dim == 6) {
+      G.block<3, 3>(o.offset, 0) = o.T_O_W.R();
+      G.block<3, 3>(o.offset + 3, 3) = Mat3::Identity();
+    } else if (o.dim > 0) {
+      G.block(o.offset, 3, o.dim, o.dim).setIdentity();
+    }
+  }
+  return G;
+}
 
 void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor) {
   sync_cross_covariance();

@@ -11,7 +11,6 @@ namespace roe::ekf {
 
 using math::exp_quat;
 using math::log_quat;
-using math::skew;
 using MatX = Eigen::MatrixXd;
 using VecX = Eigen::VectorXd;
 using Vec15 = Eigen::Matrix<double, 15, 1>;
@@ -74,27 +73,6 @@ Eigen::VectorXd boxminus(const StateEstimate& a, const StateEstimate& b) {
     }
   }
   return d;
-}
-
-Eigen::MatrixXd gauge_generator(const StateEstimate& s) {
-  // x_W = Exp(φ) x_W' + t, i.e. T_W_W' = (Exp(φ), t). To first order:
-  //   p' = Exp(−φ)(p − t):  δp' = δp − t + [p]× φ      v' = Exp(−φ) v:  δv' = δv + [v]× φ
-  //   R' = Exp(−φ) R:       δθ' = δθ − Rᵀ φ
-  //   T_O_W' = T_O_W T_W_W':  δp_O' = δp_O + R_O_W t,  δθ_O' = δθ_O + φ
-  MatX G = MatX::Zero(s.dim, 6);
-  G.block<3, 3>(kP, 0) = -Mat3::Identity();
-  G.block<3, 3>(kP, 3) = skew(s.x.p_W_I);
-  G.block<3, 3>(kV, 3) = skew(s.x.v_W_I);
-  G.block<3, 3>(kTheta, 3) = -s.x.q_W_I.toRotationMatrix().transpose();
-  for (const auto& o : s.objects) {
-    if (o.dim == 6) {
-      G.block<3, 3>(o.offset, 0) = o.T_O_W.R();
-      G.block<3, 3>(o.offset + 3, 3) = Mat3::Identity();
-    } else if (o.dim > 0) {
-      G.block(o.offset, 3, o.dim, o.dim).setIdentity();
-    }
-  }
-  return G;
 }
 
 namespace {
@@ -250,8 +228,6 @@ SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise) {
       }
     }
   }
-  res.first = xs;
-  res.first_P = Ps;
   res.states[0] = make_state(xs.t_ns, xs.x, xs.T_I_C, Ps.topLeftCorner<kCore, kCore>(), Ps, xs.extr_offset);
 
   // The states before the anchor's first sight into the new W (a rigid change of frame).

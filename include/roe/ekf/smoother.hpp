@@ -63,9 +63,6 @@ struct StateEstimate {
 void boxplus(StateEstimate& x, const Eigen::VectorXd& dx);
 /// δ = a ⊟ b with a = b ⊞ δ; a and b must have the same layout.
 Eigen::VectorXd boxminus(const StateEstimate& a, const StateEstimate& b);
-/// The generator G (dim x 6) of an infinitesimal change of W, γ = [t; φ] (x_W = Exp(φ) x_W' + t), acting
-/// on the error state of x: δx' = δx + G γ (Filter::gauge_generator).
-Eigen::MatrixXd gauge_generator(const StateEstimate& x);
 
 struct RecordedStep {
   Timestamp t_ns = 0;
@@ -111,9 +108,6 @@ struct SmoothedState {
 struct SmootherResult {
   /// The initial time, then one entry per recorded IMU step (strictly increasing times).
   std::vector<SmoothedState> states;
-  /// The smoothed state and covariance at the first node (the filter's initial time).
-  StateEstimate first;
-  Eigen::MatrixXd first_P;
   /// T_Wnew_Wold: the change of frame applied to the states before the anchor's first sight (identity
   /// without an anchor).
   Pose gauge_shift;
