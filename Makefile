@@ -5,7 +5,7 @@ JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
 ROE := $(BUILD)/roe
 
-.PHONY: all deps configure build test demo sample bench format clean
+.PHONY: all deps configure build test demo sample bench format clean install
 
 all: build
 
@@ -24,13 +24,22 @@ test: deps
 	$(MAKE) build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
+# The demo needs the roe executable only: no tests, benchmarks or image helpers (issue 24: make demo <= 8 min).
 demo: deps
-	$(MAKE) build
+	$(MAKE) configure
+	cmake --build $(BUILD) -j $(JOBS) --target roe
 	scripts/demo.sh $(ROE)
 
 # Regenerates the embedded default dataset datasets/sample.
 sample: build
 	scripts/make-sample.sh $(ROE)
+
+# Installs roe into PREFIX (bin/roe, libexec/roe/, share/roe/); PREFIX=$$HOME/.local needs no root.
+PREFIX ?= /usr/local
+install: deps
+	$(MAKE) configure
+	cmake --build $(BUILD) -j $(JOBS) --target roe roe-image roe-infer
+	cmake --install $(BUILD) --prefix $(PREFIX)
 
 bench: build
 	scripts/bench.sh $(BUILD)

@@ -12,4 +12,6 @@ for src in tests/bench/*.cpp; do
   echo "== $(basename "$exe")"
   if [ -x "$exe" ]; then "$exe" || status=1; else echo "not built: $exe"; status=1; fi
 done
+echo "== whole process (scripts/bench-process.sh)"
+scripts/bench-process.sh "$BUILD/roe" || status=1
 exit $status

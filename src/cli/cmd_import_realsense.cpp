@@ -77,7 +77,7 @@ RunFn setup(CLI::App& sub) {
   };
 }
 
-const Registrar reg("import", "realsense", "Import a RealSense recording (.bag): colour frames, IMU, intrinsics", 10,
+const Registrar reg(kImportRealsenseCommand.parent, kImportRealsenseCommand.name, kImportRealsenseCommand.description, kImportRealsenseCommand.order,
                     &setup);
 
 }  // namespace

@@ -50,7 +50,7 @@ RunFn setup(CLI::App& sub) {
   };
 }
 
-const Registrar reg("", "infer", "Run a PoET model bundle on a dataset's images (LibTorch + OpenCV), cached per frame", 50,
+const Registrar reg(kInferCommand.parent, kInferCommand.name, kInferCommand.description, kInferCommand.order,
                     &setup);
 
 }  // namespace

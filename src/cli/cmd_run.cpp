@@ -1,8 +1,12 @@
-// roe run DATASET [--config FILE] [--detections NAME] --out RUN_DIR
+// roe run DATASET [--config NAME|FILE] [--detections NAME] --out RUN_DIR
+// roe run --list-configs
+#include <fmt/format.h>
+
 #include <memory>
 
 #include "command.hpp"
 #include "roe/app/run.hpp"
+#include "roe/app/shipped_configs.hpp"
 #include "roe/core/error.hpp"
 
 namespace roe::cli {
@@ -12,19 +16,32 @@ struct Args {
   std::string dataset;
   std::string out;
   app::RunOptions opt;
+  bool list = false;
 };
 
 RunFn setup(CLI::App& sub) {
   auto a = std::make_shared<Args>();
-  sub.add_option("DATASET", a->dataset, "Dataset folder (roe.json, mav0/imu0, detections/<name>/)")
-      ->required();
-  sub.add_option(
-      "--config", a->opt.config_file,
-      "Run config JSON: {\"filter\": {...}, \"output\": {...}} (configs/default.json, configs/paper.json)");
+  sub.add_option("DATASET", a->dataset, "Dataset folder (roe.json, mav0/imu0, detections/<name>/)");
+  sub.add_option("--config", a->opt.config_file,
+                 "Run config: a shipped name (default, paper, euroc-flight; see --list-configs) or a JSON file "
+                 "{\"filter\": {...}, \"output\": {...}}");
+  sub.add_flag("--list-configs", a->list, "List the shipped run configs and exit");
   sub.add_option("--detections", a->opt.detections, "Detection set detections/NAME (default: the only one)");
   sub.add_option("--out", a->out, "Output run folder (must not exist or be empty, unless --force)");
   return [a]() {
+    if (a->list) {
+      nlohmann::json j = nlohmann::json::array();
+      std::string human;
+      for (const auto& c : app::shipped_run_configs()) {
+        j.push_back({{"name", c.name}, {"path", c.path.string()}, {"description", c.description}});
+        human += fmt::format("{:<14} {}\n{:<14} {}\n", c.name, c.summary, "", c.path.string());
+      }
+      emit({{"configs", j}}, human);
+      return 0;
+    }
+    if (a->dataset.empty()) throw InputError("DATASET is required", {"roe run"});
     if (a->out.empty()) throw InputError("--out RUN_DIR is required", {"roe run"});
+    if (!a->opt.config_file.empty()) a->opt.config_file = app::resolve_run_config(a->opt.config_file).string();
     a->opt.force = globals().force;
     const auto r = app::run(a->dataset, a->out, a->opt);
     emit(r.to_json(), r.to_text());

@@ -33,6 +33,29 @@ struct Registrar {
   Registrar(const char* parent, const char* name, const char* description, int order, SetupFn setup);
 };
 
+/// A command that runs in a helper executable beside `roe` (it needs OpenCV or LibTorch, which `roe`
+/// itself never loads): `roe` lists it in its help and replaces itself with the helper when it is asked
+/// for (forward.cpp). The command's own file registers it with the same name, description and order.
+struct ForwardedCommand {
+  const char* parent;
+  const char* name;
+  const char* description;
+  int order;
+  const char* helper;  ///< executable name, found beside roe or in ../libexec/roe
+};
+inline constexpr ForwardedCommand kImportRealsenseCommand{
+    "import", "realsense", "Import a RealSense recording (.bag): colour frames, IMU, intrinsics", 10,
+    "roe-image"};
+inline constexpr ForwardedCommand kInferCommand{
+    "", "infer", "Run a PoET model bundle on a dataset's images (LibTorch + OpenCV), cached per frame", 50,
+    "roe-infer"};
+inline constexpr ForwardedCommand kForwardedCommands[] = {kImportRealsenseCommand, kInferCommand};
+
+/// In `roe`: when argv names a forwarded command, execs its helper with the same arguments and does not
+/// return; returns an exit code (3) when the helper cannot be started, and -1 when argv names no
+/// forwarded command. Global flags take no values, so the command is the first word not starting with '-'.
+int forward_to_helper(int argc, char** argv);
+
 /// Option validators whose messages read well ("--every: must be an integer >= 1, got '0'");
 /// CLI11's PositiveNumber prints its range up to DBL_MAX in full. `kind` of number_in():
 ///   "positive" (> 0), "non-negative" (>= 0), "integer>=1", "integer>=0" (digits only, at most 9),

@@ -43,6 +43,10 @@ Registrar::Registrar(const char* parent, const char* name, const char* descripti
 
 int main(int argc, char** argv) {
   using namespace roe::cli;
+#ifdef ROE_CLI_FORWARDS
+  // Before anything else (signal handlers included: exec keeps only ignored signals ignored).
+  if (const int code = forward_to_helper(argc, argv); code >= 0) return code;
+#endif
   roe::io::remove_temporaries_on_signals();
   CLI::App app{"roe: AI-based, object-relative visual-inertial state estimation (offline toolkit)",
                "roe"};

@@ -71,3 +71,20 @@ TEST_CASE("JSON is serialised only through io::dump_json (invalid UTF-8 must not
   for (const auto& s : out) UNSCOPED_INFO(s);
   CHECK(out.empty());
 }
+
+TEST_CASE("only the image commands' app files reach OpenCV or LibTorch (roe starts without them)", "[layering]") {
+  // CMakeLists.txt links src/app/import_realsense*.cpp and src/app/infer*.cpp into the helper executables
+  // roe-image and roe-infer; every other app file is in `roe`, which must not map OpenCV or LibTorch.
+  std::vector<std::string> out;
+  const std::regex inc(R"(^\s*#\s*include\s*[<"](roe/image/|roe/infer/|opencv|torch)[^>"]*[>"])");
+  for (const auto& e : fs::directory_iterator(fs::path(ROE_SOURCE_DIR) / "src/app")) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("import_realsense", 0) == 0 || name.rfind("infer", 0) == 0) continue;
+    std::ifstream in(e.path());
+    std::string line;
+    for (int n = 1; std::getline(in, line); ++n)
+      if (std::regex_search(line, inc)) out.push_back(e.path().string() + ":" + std::to_string(n));
+  }
+  for (const auto& s : out) UNSCOPED_INFO(s);
+  CHECK(out.empty());
+}

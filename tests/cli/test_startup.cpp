@@ -1,0 +1,93 @@
+// Start-up cost (issue 24): `roe` itself maps neither OpenCV nor LibTorch; the two commands that need them
+// run in helper executables that `roe` replaces itself with, transparently for the caller.
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <string>
+
+#include "support/test_util.hpp"
+
+namespace fs = std::filesystem;
+using roe::test::run_roe;
+
+namespace {
+
+/// Runs a shell command and returns its stdout.
+std::string shell(const std::string& cmd) {
+  FILE* p = popen(cmd.c_str(), "r");
+  REQUIRE(p != nullptr);
+  std::string out;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+  pclose(p);
+  return out;
+}
+
+/// The shared libraries the dynamic loader maps for `exe` (ldd's list: the whole closure of DT_NEEDED).
+std::string loaded_libraries(const fs::path& exe) {
+  const std::string out = shell("ldd '" + exe.string() + "' 2>&1");
+  REQUIRE(out.find("libc.so") != std::string::npos);  // ldd worked
+  return out;
+}
+
+const fs::path kRoe = ROE_BINARY;
+
+}  // namespace
+
+TEST_CASE("roe maps neither OpenCV nor LibTorch, and cannot load them later", "[cli][startup]") {
+  const std::string libs = loaded_libraries(kRoe);
+  INFO(libs);
+  CHECK(libs.find("libopencv") == std::string::npos);
+  CHECK(libs.find("libtorch") == std::string::npos);
+  CHECK(libs.find("libc10") == std::string::npos);
+  CHECK(libs.find("libgdal") == std::string::npos);
+  // No dlopen import: what ldd lists is all that roe ever maps (glibc >= 2.34 exports dlopen from libc).
+  const std::string dyn = shell("nm -D --undefined-only '" + kRoe.string() + "' 2>&1");
+  REQUIRE(dyn.find("execv") != std::string::npos);  // nm worked, and the forwarder is linked in
+  CHECK(dyn.find("dlopen") == std::string::npos);
+}
+
+TEST_CASE("the image helper maps OpenCV but not LibTorch", "[cli][startup]") {
+  const std::string libs = loaded_libraries(kRoe.parent_path() / "roe-image");
+  INFO(libs);
+  CHECK(libs.find("libopencv_imgcodecs") != std::string::npos);
+  CHECK(libs.find("libopencv_dnn") == std::string::npos);
+  CHECK(libs.find("libtorch") == std::string::npos);
+}
+
+TEST_CASE("roe lists the helpers' commands and hands them over with their arguments and exit codes",
+          "[cli][startup]") {
+  auto r = run_roe("--help");
+  CHECK(r.out.find("infer") != std::string::npos);
+  r = run_roe("import --help");
+  CHECK(r.out.find("realsense") != std::string::npos);
+  // The helper parses: its own options in the help, its own usage errors (exit 2) under roe's name.
+  r = run_roe("infer --help");
+  CHECK(r.code == 0);
+  CHECK(r.out.find("--model") != std::string::npos);
+  r = run_roe("-q import realsense --help");
+  CHECK(r.code == 0);
+  CHECK(r.out.find("--png-compression") != std::string::npos);
+  r = run_roe("infer no-such-dataset");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("(see roe infer --help)") != std::string::npos);
+  roe::test::TempDir d;
+  r = run_roe("import realsense /no/such.bag --out " + (d / "ds").string());
+  CHECK(r.code == 2);
+  CHECK(r.out.find("/no/such.bag: cannot open bag") != std::string::npos);
+  // A command's argument that happens to be a helper's command name is not forwarded.
+  r = run_roe("run infer --out " + (d / "run").string());
+  CHECK(r.code == 2);
+  CHECK(r.out.find("infer: dataset folder not found") != std::string::npos);
+}
+
+TEST_CASE("a missing helper is an internal error that says what to do", "[cli][startup]") {
+  roe::test::TempDir d;
+  const fs::path lone = d / "roe";
+  fs::copy_file(kRoe, lone);
+  const std::string out = shell("'" + lone.string() + "' infer x --model y 2>&1; echo \"exit=$?\"");
+  CHECK(out.find("helper roe-infer, which is not installed") != std::string::npos);
+  CHECK(out.find("exit=3") != std::string::npos);
+  // Every other command works without the helpers.
+  CHECK(shell("'" + lone.string() + "' --version").find("roe 0.") != std::string::npos);
+}
