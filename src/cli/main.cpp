@@ -60,7 +60,9 @@ int main(int argc, char** argv) {
 
   auto& entries = registry();
   std::stable_sort(entries.begin(), entries.end(),
-                   [](const Entry& a, const Entry& b) { return a.order < b.order; });
+                   [](const Entry& a, const Entry& b) {  // ties by name: independent of the link order
+                     return a.order != b.order ? a.order < b.order : a.name < b.name;
+                   });
   std::map<CLI::App*, RunFn> runs;
   std::map<std::string, CLI::App*> groups;
   for (const auto& e : entries) {

@@ -1,7 +1,9 @@
 #include "roe/io/csv.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <charconv>
 #include <climits>
 #include <cmath>
@@ -377,12 +379,30 @@ std::optional<std::int64_t> parse_seconds_ns(std::string_view s) {
   return negative ? -v : v;
 }
 
-std::string format_seconds_ns(std::int64_t t_ns) {
-  // Split on the magnitude so INT64_MIN and negative stamps keep their sign once.
+namespace {
+// Writes `t_ns` as seconds with exactly 9 decimals into `out` (at least 32 chars); returns the end.
+// Split on the magnitude so INT64_MIN and negative stamps keep their sign once.
+char* write_seconds_ns(char* out, std::int64_t t_ns) {
   const bool negative = t_ns < 0;
   const std::uint64_t mag =
       negative ? 0 - static_cast<std::uint64_t>(t_ns) : static_cast<std::uint64_t>(t_ns);
-  return fmt::format("{}{}.{:09d}", negative ? "-" : "", mag / 1'000'000'000ULL, mag % 1'000'000'000ULL);
+  if (negative) *out++ = '-';
+  out = std::to_chars(out, out + 24, mag / 1'000'000'000ULL).ptr;
+  *out++ = '.';
+  std::uint64_t frac = mag % 1'000'000'000ULL;
+  for (int i = 8; i >= 0; --i, frac /= 10) out[i] = static_cast<char>('0' + frac % 10);
+  return out + 9;
+}
+
+// Shortest round-trip text of a finite double, exactly as fmt's "{}" writes it (the format the run
+// files have always had), into `out` (at least 32 chars; the longest is 24); returns the end. A char
+// buffer and a compiled format spare fmt's growing-buffer path, the bulk of the writer's time.
+char* write_double(char* out, double v) { return fmt::format_to(out, FMT_COMPILE("{}"), v); }
+}  // namespace
+
+std::string format_seconds_ns(std::int64_t t_ns) {
+  char buf[32];
+  return std::string(buf, write_seconds_ns(buf, t_ns));
 }
 
 // -------------------------------------------------------------------------------------------------
@@ -421,10 +441,12 @@ void CsvWriter::sep() {
 
 CsvWriter& CsvWriter::add(double v) {
   sep();
-  if (std::isfinite(v))
-    fmt::format_to(std::back_inserter(out_), "{}", v);  // no temporary string
-  else
+  if (std::isfinite(v)) {
+    char buf[32];
+    out_.append(buf, write_double(buf, v));
+  } else {
     out_.append(format_double(v));
+  }
   return *this;
 }
 
@@ -440,7 +462,8 @@ CsvWriter& CsvWriter::add(int v) { return add(static_cast<std::int64_t>(v)); }
 
 CsvWriter& CsvWriter::add(std::string_view s) {
   sep();
-  const bool needs_quotes = s.find_first_of(std::string("\"\n\r") + delim_) != std::string_view::npos ||
+  const bool needs_quotes = std::any_of(s.begin(), s.end(),
+                                        [&](char c) { return c == '"' || c == '\n' || c == '\r' || c == delim_; }) ||
                             (!s.empty() && (is_space(s.front()) || is_space(s.back())));
   if (!needs_quotes) {
     out_.append(s);
@@ -469,7 +492,8 @@ CsvWriter& CsvWriter::add_fixed(double v, int decimals) {
 
 CsvWriter& CsvWriter::add_seconds(std::int64_t t_ns) {
   sep();
-  out_.append(format_seconds_ns(t_ns));
+  char buf[32];
+  out_.append(buf, write_seconds_ns(buf, t_ns));
   return *this;
 }
 

@@ -403,7 +403,7 @@ std::string format_trajectory(const std::vector<Timestamp>& t_ns, const std::vec
     if (format == TrajectoryFormat::kEuroc || format == TrajectoryFormat::kCsvNs) {
       w.add(static_cast<std::int64_t>(t_ns[i]));
     } else {
-      w.add(std::string_view(format_seconds_ns(t_ns[i])));
+      w.add_seconds(t_ns[i]);
     }
     w.add(T.p.x()).add(T.p.y()).add(T.p.z());
     if (format == TrajectoryFormat::kEuroc) {
