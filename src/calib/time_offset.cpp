@@ -1,10 +1,14 @@
 #include "roe/calib/time_offset.hpp"
 
+#include <sched.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <fmt/format.h>
 #include <map>
 #include <optional>
+#include <thread>
 
 #include "roe/math/so3.hpp"
 
@@ -26,6 +30,22 @@ class GyroRotation {
       const Eigen::Vector3d w = 0.5 * (imu[k].gyro + imu[k + 1].gyro) - bias;
       q_.push_back((q_.back() * math::exp_quat(w * dt)).normalized());
     }
+    // The parts of Eigen's slerp between neighbours that do not depend on the interpolation parameter,
+    // computed once instead of at every call (at() is called for every detection at every candidate
+    // offset); at() then gives bit for bit what q_[k].slerp(u, q_[k + 1]) gives.
+    arc_.reserve(q_.size());
+    const double one = 1.0 - Eigen::NumTraits<double>::epsilon();
+    for (std::size_t k = 0; k + 1 < q_.size(); ++k) {
+      Arc a;
+      const double d = q_[k].dot(q_[k + 1]);
+      a.negative = d < 0.0;
+      a.linear = std::abs(d) >= one;
+      if (!a.linear) {
+        a.theta = std::acos(std::abs(d));
+        a.sin_theta = std::sin(a.theta);
+      }
+      arc_.push_back(a);
+    }
   }
   Timestamp begin() const { return imu_.front().t_ns; }
   Timestamp end() const { return imu_.back().t_ns; }
@@ -37,7 +57,14 @@ class GyroRotation {
     if (k + 1 >= imu_.size()) return q_.back();
     const double span = dt_seconds(imu_[k].t_ns, imu_[k + 1].t_ns);
     const double u = span > 0 ? dt_seconds(imu_[k].t_ns, t) / span : 0.0;
-    return q_[k].slerp(u, q_[k + 1]);
+    const Arc& a = arc_[k];
+    double scale0 = 1.0 - u, scale1 = u;
+    if (!a.linear) {
+      scale0 = std::sin((1.0 - u) * a.theta) / a.sin_theta;
+      scale1 = std::sin(u * a.theta) / a.sin_theta;
+    }
+    if (a.negative) scale1 = -scale1;
+    return Eigen::Quaterniond(scale0 * q_[k].coeffs() + scale1 * q_[k + 1].coeffs());
   }
   /// |ω − b| at the IMU sample nearest to t.
   double rate(Timestamp t, const Eigen::Vector3d& bias) const {
@@ -48,9 +75,41 @@ class GyroRotation {
   }
 
  private:
+  struct Arc {
+    bool linear = false, negative = false;
+    double theta = 0.0, sin_theta = 0.0;
+  };
   const std::vector<ImuSample>& imu_;
   std::vector<Eigen::Quaterniond> q_;
+  std::vector<Arc> arc_;  ///< arc_[k]: from q_[k] to q_[k + 1]
 };
+
+/// The CPUs this process may run on (its affinity mask: what taskset, Slurm or a container grants).
+unsigned available_cpus() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof set, &set) != 0) return 1;
+  return static_cast<unsigned>(std::max(1, CPU_COUNT(&set)));
+}
+
+/// Runs fn(i) for i in [0, n) on up to `threads` threads; each i exactly once, results by index, so the
+/// outcome does not depend on the thread count.
+template <typename Fn>
+void parallel_for(std::size_t n, unsigned threads, Fn&& fn) {
+  threads = static_cast<unsigned>(std::min<std::size_t>(std::max(1u, threads), n));
+  if (threads <= 1) {
+    for (std::size_t i = 0; i < n; ++i) fn(i);
+    return;
+  }
+  std::atomic<std::size_t> next{0};
+  const auto work = [&] {
+    for (std::size_t i = next++; i < n; i = next++) fn(i);
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+}
 
 /// Mean of unit quaternions (chordal) over the entries flagged in use, each sign aligned with `ref`
 /// (a point of the cluster, so that no entry is near-orthogonal to it).
@@ -245,14 +304,15 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   }
 
   const auto n = static_cast<int>(std::llround(o.search_s / o.step_s));
-  std::vector<std::vector<double>> per_window;  // [grid point][window]
-  for (int k = -n; k <= n; ++k) {
-    const double d = o.centre_s + k * o.step_s;
-    e.grid_s.push_back(d);
-    Cost c = evaluate(gyro, q_I_C, windows, from_seconds(d), o.truncate_deg);
-    e.cost.push_back(c.truncated);
-    per_window.push_back(std::move(c.per_window));
-  }
+  for (int k = -n; k <= n; ++k) e.grid_s.push_back(o.centre_s + k * o.step_s);
+  // The grid points are independent: evaluated in parallel, each into its own slot.
+  e.cost.assign(e.grid_s.size(), 0.0);
+  std::vector<std::vector<double>> per_window(e.grid_s.size());  // [grid point][window]
+  parallel_for(e.grid_s.size(), o.threads ? o.threads : available_cpus(), [&](std::size_t k) {
+    Cost c = evaluate(gyro, q_I_C, windows, from_seconds(e.grid_s[k]), o.truncate_deg);
+    e.cost[k] = c.truncated;
+    per_window[k] = std::move(c.per_window);
+  });
   const auto best = static_cast<std::size_t>(std::min_element(e.cost.begin(), e.cost.end()) - e.cost.begin());
   // Residual variance per scalar residual at a grid point (3 per detection; 6 per window absorbed by
   // the constant and the drift) and the variance inflation (1 + ρ)/(1 − ρ) for their lag-1

@@ -54,6 +54,8 @@ struct TimeOffsetOptions {
   double min_rate_deg_s = 5.0;   ///< RMS gyro rate below which the offset is not observable
   std::size_t min_detections = 50;  ///< fewer usable detections: no estimate
   double fit_halfwidth_s = 0.05; ///< the first parabola fit spans ±this (the second ±3σ of the first)
+  /// Threads for the grid (0: every CPU the process may use). The result does not depend on it.
+  unsigned threads = 0;
   /// Objects left out: a symmetric object's detected rotation is defined only up to its symmetry
   /// (PoET returns either of the equivalent poses), which the dataset does not describe.
   std::vector<int> symmetric_ids;
