@@ -1,0 +1,76 @@
+// End-to-end: ROS 2 bags (the real ones in ../shared/data/rosbag2) through `roe import mocap` and
+// `roe eval`. Skipped when ../shared is absent.
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "support/test_util.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+fs::path shared(const char* rel) { return fs::path(ROE_SHARED_DATA_DIR) / rel; }
+std::size_t data_rows(const fs::path& csv) {
+  std::ifstream f(csv);
+  std::string line;
+  std::size_t n = 0;
+  while (std::getline(f, line))
+    if (!line.empty() && line[0] != '#') ++n;
+  return n;
+}
+}  // namespace
+
+TEST_CASE("roe import mocap: the TurtleBot /odom (MCAP) and the SQLite /tf import, and roe eval accepts them",
+          "[cli][import][ros2][real]") {
+  const fs::path mcap = shared("rosbag2/nav2_turtlebot.mcap"), folder = shared("rosbag2/tf_example");
+  if (!fs::exists(mcap)) {
+    WARN("skipped: " << mcap << " absent");
+    return;
+  }
+  roe::test::TempDir tmp("roe_test_ros2_cli");
+  const std::string odom_ds = (tmp / "odom").string(), tf_ds = (tmp / "tf").string();
+  fs::create_directories(odom_ds);
+  fs::create_directories(tf_ds);
+
+  // nav_msgs/msg/Odometry from the MCAP.
+  auto r = roe::test::run_roe("--json import mocap " + mcap.string() + " --into " + odom_ds + " --topic /odom", false);
+  REQUIRE(r.code == 0);
+  auto j = nlohmann::json::parse(r.out);
+  CHECK(j["format"] == "rosbag2");
+  CHECK(j["rows"] == 2639);
+  CHECK(j["poses"].get<int>() > 2600);
+  CHECK(data_rows(fs::path(odom_ds) / "mav0/mocap0/data.csv") == j["poses"].get<std::size_t>());
+  const auto man = nlohmann::json::parse(std::ifstream(fs::path(odom_ds) / "roe.json"));
+  CHECK(man["sources"][0]["kind"] == "ros2-bag");
+  CHECK(man["sources"][0]["options"]["parent_frame"] == "odom");
+
+  // /tf from the SQLite folder: odom -> base_footprint, named by --parent and --child.
+  r = roe::test::run_roe("--json import mocap " + folder.string() + " --into " + tf_ds +
+                             " --topic /tf --parent odom --child base_footprint",
+                         false);
+  REQUIRE(r.code == 0);
+  j = nlohmann::json::parse(r.out);
+  CHECK(j["body"] == "base_footprint");
+  CHECK(j["rows"] == 517);
+  CHECK(j["poses"] == 517);
+  // A frame pair that is not on the topic lists those that are.
+  r = roe::test::run_roe("--force import mocap " + folder.string() + " --into " + tf_ds + " --topic /tf --parent map");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("odom -> base_footprint") != std::string::npos);
+  // A topic roe cannot use lists the bag's topics with their types.
+  r = roe::test::run_roe("--force import mocap " + mcap.string() + " --into " + tf_ds + " --topic /nope");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("/amcl_pose (geometry_msgs/PoseWithCovarianceStamped)") != std::string::npos);
+
+  // roe eval accepts both trajectories (the dataset as ground truth, its own poses as estimate).
+  for (const auto& ds : {odom_ds, tf_ds}) {
+    const std::string est = (fs::path(ds) / "mav0/mocap0/data.csv").string();
+    r = roe::test::run_roe("--json eval " + est + " --gt " + ds + " --no-out", false);
+    REQUIRE(r.code == 0);
+    j = nlohmann::json::parse(r.out);
+    CHECK(j["association"]["n_matched"].get<int>() > 500);
+    CHECK(j["ape_trans_m"]["rmse"].get<double>() < 1e-6);
+  }
+}
