@@ -294,6 +294,17 @@ std::string encode_imu(const ros::Imu& m) {
   return w.bytes();
 }
 
+std::string encode_camera_info(const ros::CameraInfo& m) {
+  Writer w;
+  w.header(m.header).u32(m.height).u32(m.width).str(m.distortion_model).u32(static_cast<std::uint32_t>(m.D.size()));
+  for (double d : m.D) w.f64(d);
+  for (double d : m.K) w.f64(d);
+  for (double d : m.R) w.f64(d);
+  for (double d : m.P) w.f64(d);
+  w.u32(m.binning_x).u32(m.binning_y).u32(m.roi_x).u32(m.roi_y).u32(m.roi_height).u32(m.roi_width);
+  return w.u8(m.roi_do_rectify ? 1 : 0).bytes();
+}
+
 std::string encode_pose_stamped(const ros::StampedTransform& m) {
   Writer w;
   w.header(m.header).vec3(m.transform.t).quat_xyzw(m.transform.q);

@@ -74,3 +74,29 @@ TEST_CASE("roe import mocap: the TurtleBot /odom (MCAP) and the SQLite /tf impor
     CHECK(j["ape_trans_m"]["rmse"].get<double>() < 1e-6);
   }
 }
+
+TEST_CASE("roe eval: BAG:TOPIC for the estimate and --gt, ROS 2 and ROS 1", "[cli][eval][ros2][real]") {
+  const fs::path mcap = shared("rosbag2/nav2_turtlebot.mcap"), ros1 = shared("rosbag/evo_ROS_example.bag");
+  if (!fs::exists(mcap) || !fs::exists(ros1)) {
+    WARN("skipped: " << mcap << " or " << ros1 << " absent");
+    return;
+  }
+  // /odom against the same transform on /tf (odom -> base_link, evo's PARENT.CHILD form): identical.
+  auto r = roe::test::run_roe(
+      "--json eval " + mcap.string() + ":/odom --gt " + mcap.string() + ":/tf:odom.base_link --no-out", false);
+  REQUIRE(r.code == 0);
+  auto j = nlohmann::json::parse(r.out);
+  CHECK(j["association"]["n_matched"].get<int>() > 2600);
+  CHECK(j["ape_trans_m"]["rmse"].get<double>() < 1e-9);
+  // A ROS 1 bag: ORB-SLAM against the ground truth of evo's example bag.
+  r = roe::test::run_roe("--json eval " + ros1.string() + ":ORB-SLAM --gt " + ros1.string() + ":groundtruth --no-out",
+                         false);
+  REQUIRE(r.code == 0);
+  j = nlohmann::json::parse(r.out);
+  CHECK(j["association"]["n_matched"].get<int>() > 1000);
+  CHECK(j["ape_trans_m"]["rmse"].get<double>() < 1.0);
+  // A topic the bag lacks: exit 2 listing its pose topics.
+  r = roe::test::run_roe("eval " + mcap.string() + ":/nope --gt " + mcap.string() + ":/odom --no-out");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("/amcl_pose [geometry_msgs/PoseWithCovarianceStamped]") != std::string::npos);
+}

@@ -90,6 +90,7 @@ class Writer {
 };
 
 std::string encode_imu(const ros::Imu& m);
+std::string encode_camera_info(const ros::CameraInfo& m);
 std::string encode_pose_stamped(const ros::StampedTransform& m);
 std::string encode_tf_message(const std::vector<ros::StampedTransform>& m);
 
