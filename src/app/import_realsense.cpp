@@ -262,7 +262,7 @@ void check_clocks(const StreamData& d, const io::RealsenseStreams& st, bool have
 std::optional<image::FrameProcessor> make_frame_processor(const StreamData& d, const io::RealsenseStreams& st,
                                                           const ImportRealsenseOptions& opt,
                                                           const io::MessageBag& bag, ImportRealsenseSummary& S) {
-  if (st.color_topic.empty()) return std::nullopt;
+  if (st.color_topic.empty() && (st.camera_info_topic.empty() || !d.cam_info)) return std::nullopt;
   // Only reached with --salvage when the bag is damaged: the CameraInfo may be in the part that is lost.
   const std::string lost =
       bag.damaged() ? " in the intact part of the bag: the bag is damaged (" + damage_text(bag) + ")" : std::string();
@@ -569,7 +569,7 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
   std::optional<image::FrameProcessor> proc = make_frame_processor(d, st, opt, *bag, S);
 
   std::vector<CameraFrame> frames;
-  if (proc && opt.images)
+  if (proc && opt.images && !st.color_topic.empty())
     frames = write_images(*bag, st.color_topic, *proc, out.file("mav0/cam0/data/x").parent_path(), opt, progress, S);
   S.frames = frames.size();
   fail_if_damaged(*bag, opt.salvage);

@@ -193,6 +193,14 @@ void discover_ros(const Context& c, RealsenseStreams& S) {
   S.accel_intr_topic = info_beside(!S.accel_topic.empty() ? S.accel_topic : S.imu_topic, "/accel/sample", "/accel/imu_info");
   S.gyro_intr_topic = info_beside(!S.gyro_topic.empty() ? S.gyro_topic : S.imu_topic, "/gyro/sample", "/gyro/imu_info");
   if (c.has("/tf_static") && c.type.at("/tf_static") == "tf2_msgs/TFMessage") S.tf_static_topic = "/tf_static";
+  // No colour image (recorded without images): the colour CameraInfo beside the IMU still gives the
+  // camera model and, with /tf_static, T_I_C.
+  const std::string& imu_any = !S.imu_topic.empty() ? S.imu_topic : S.gyro_topic;
+  if (S.color_topic.empty() && !imu_any.empty()) {
+    const std::size_t cut = imu_any.rfind(imu_any == S.imu_topic ? "/imu" : "/gyro/sample");
+    const std::string info = imu_any.substr(0, cut) + "/color/camera_info";
+    if (c.has(info) && c.type.at(info) == "sensor_msgs/CameraInfo") S.camera_info_topic = info;
+  }
 }
 
 }  // namespace

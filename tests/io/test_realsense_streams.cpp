@@ -114,3 +114,14 @@ TEST_CASE("static_transform: chains to a common root, nullopt when unconnected",
   CHECK_FALSE(io::static_transform(tfs, "b", "y"));
   CHECK_FALSE(io::static_transform(tfs, "b", "unknown"));
 }
+
+TEST_CASE("realsense streams: without images, the colour CameraInfo beside the IMU is still found",
+          "[io][realsense][streams]") {
+  const auto s = io::discover_realsense_streams({{"/camera/camera/color/camera_info", kInfo},
+                                                 {"/camera/camera/imu", kImu},
+                                                 {"/tf_static", "tf2_msgs/TFMessage"}},
+                                                {});
+  CHECK(s.color_topic.empty());
+  CHECK(s.camera_info_topic == "/camera/camera/color/camera_info");
+  CHECK(s.imu_topic == "/camera/camera/imu");
+}
