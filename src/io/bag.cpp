@@ -392,8 +392,8 @@ std::unique_ptr<MessageBag> open_bag(const fs::path& path, const BagOpenOptions&
     return std::make_unique<FolderBag>(path, std::vector<fs::path>{path}, "FILE", o, "zstd-compressed rosbag2 file",
                                        nullptr);
   if (kind.empty())
-    throw InputError("not a bag roe reads (by its first bytes: not a ROS 1 bag, MCAP, rosbag2 SQLite database or "
-                     "zstd-compressed rosbag2 file)",
+    throw InputError("not a bag roe reads (wrong magic at byte 0: not a ROS 1 bag \"#ROSBAG V2.0\", MCAP, rosbag2 "
+                     "SQLite database or zstd-compressed rosbag2 file)",
                      {path.string()});
   return open_file(path, o, kind);
 }

@@ -115,17 +115,20 @@ bool parse_message(std::string_view content, MessageHead& m) {
   return r.ok();
 }
 
-const std::array<std::uint32_t, 256>& crc_table() {
-  static const auto table = [] {
-    std::array<std::uint32_t, 256> t{};
+/// Slicing-by-8 tables of the reflected CRC-32 polynomial 0xEDB88320 (8 bytes per step).
+const std::array<std::array<std::uint32_t, 256>, 8>& crc_tables() {
+  static const auto tables = [] {
+    std::array<std::array<std::uint32_t, 256>, 8> t{};
     for (std::uint32_t i = 0; i < 256; ++i) {
       std::uint32_t c = i;
       for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      t[i] = c;
+      t[0][i] = c;
     }
+    for (std::uint32_t i = 0; i < 256; ++i)
+      for (int k = 1; k < 8; ++k) t[k][i] = (t[k - 1][i] >> 8) ^ t[0][t[k - 1][i] & 0xFFu];
     return t;
   }();
-  return table;
+  return tables;
 }
 
 std::string op_name(int op) { return fmt::format("0x{:02x}", op); }
@@ -133,9 +136,21 @@ std::string op_name(int op) { return fmt::format("0x{:02x}", op); }
 }  // namespace
 
 std::uint32_t crc32(std::string_view data, std::uint32_t crc) {
-  const auto& t = crc_table();
+  const auto& t = crc_tables();
   crc = ~crc;
-  for (unsigned char b : data) crc = t[(crc ^ b) & 0xFFu] ^ (crc >> 8);
+  const auto* p = reinterpret_cast<const unsigned char*>(data.data());
+  std::size_t n = data.size();
+  while (n >= 8) {  // little-endian host (as everywhere roe runs)
+    std::uint32_t lo, hi;
+    std::memcpy(&lo, p, 4);
+    std::memcpy(&hi, p + 4, 4);
+    lo ^= crc;
+    crc = t[7][lo & 0xFF] ^ t[6][(lo >> 8) & 0xFF] ^ t[5][(lo >> 16) & 0xFF] ^ t[4][lo >> 24] ^ t[3][hi & 0xFF] ^
+          t[2][(hi >> 8) & 0xFF] ^ t[1][(hi >> 16) & 0xFF] ^ t[0][hi >> 24];
+    p += 8;
+    n -= 8;
+  }
+  while (n--) crc = t[0][(crc ^ *p++) & 0xFFu] ^ (crc >> 8);
   return ~crc;
 }
 
@@ -468,13 +483,15 @@ void Reader::scan() {
       c.channels_known = true;
       continue;
     }
-    if (!load_chunk(c, buf)) continue;
-    learn_records(buf, c.offset, indexed[k] ? nullptr : &c);
+    std::size_t begin = 0;
+    if (!load_chunk(c, buf, begin)) continue;
+    learn_records(std::string_view(buf).substr(begin), c.offset, indexed[k] ? nullptr : &c);
     c.channels_known = true;
   }
 }
 
-bool Reader::load_chunk(const ChunkInfo& c, std::string& out) {
+bool Reader::load_chunk(const ChunkInfo& c, std::string& out, std::size_t& begin) {
+  begin = 0;
   const std::uint64_t size = src_->size();
   char pre[kRecordPrefix];
   if (c.offset > size || size - c.offset < kRecordPrefix || src_->read_at(c.offset, pre, kRecordPrefix) != kRecordPrefix ||
@@ -523,7 +540,9 @@ bool Reader::load_chunk(const ChunkInfo& c, std::string& out) {
                                  usize, records.size()));
       return false;
     }
-    out.assign(records.data(), records.size());
+    // The records are used where they lie in the record buffer: no copy of the chunk.
+    begin = static_cast<std::size_t>(records.data() - raw.data());
+    out = std::move(raw);
   } else if (compression == "zstd") {
     if (!zstd_decompress(records, static_cast<std::size_t>(usize), out)) {
       warn(c.offset, "zstd chunk fails to decompress to its announced size; chunk skipped");
@@ -539,7 +558,7 @@ bool Reader::load_chunk(const ChunkInfo& c, std::string& out) {
     return false;
   }
   if (crc != 0) {
-    const std::uint32_t got = crc32(out);
+    const std::uint32_t got = crc32(std::string_view(out).substr(begin));
     if (got != crc) {
       warn(c.offset, fmt::format("chunk CRC mismatch (stored {:08x}, computed {:08x}); chunk skipped", crc, got));
       return false;
@@ -604,8 +623,8 @@ void Reader::for_each(const std::function<bool(const Channel&)>& select,
         push(m, buf, c.offset);
       else
         warn(c.offset, "message record unreadable; skipped");
-    } else if (load_chunk(c, *buf)) {
-      const std::string_view records(*buf);
+    } else if (std::size_t begin = 0; load_chunk(c, *buf, begin)) {
+      const std::string_view records = std::string_view(*buf).substr(begin);
       std::uint64_t p = 0;
       while (p < records.size()) {
         Rd r(records.substr(static_cast<std::size_t>(p)));

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -41,7 +42,7 @@ std::uint64_t write_bag(const fs::path& file, bool zstd, double message_mb) {
   std::uint64_t payload = 0;
   for (int k = 0; payload < message_mb * 1e6; ++k) {
     // A smooth gradient with sensor-like noise: compresses about as well as a real colour frame.
-    for (std::size_t i = 0; i < pixels.size(); ++i) pixels[i] = static_cast<char>((i / 3 % 640) / 3 + k + (rng() & 7));
+    for (std::size_t i = 0; i < pixels.size(); ++i) pixels[i] = static_cast<char>((i / 3 % 640) / 3 + k + ((i % 61 == 0) ? (rng() & 3) : 0));
     io::cdr::Writer im;
     im.header({0, t0 + k * 33'333'333LL, "camera_color_optical_frame"}).u32(480).u32(640).str("rgb8").u8(0).u32(1920)
         .byte_sequence(pixels);
@@ -57,14 +58,27 @@ std::uint64_t write_bag(const fs::path& file, bool zstd, double message_mb) {
     }
   }
   w.finish();
-  std::printf("  wrote %s: %.1f MB file, largest chunk record %.1f MB\n", file.c_str(), fs::file_size(file) / 1e6,
+  std::printf("  wrote %s: %.1f MB file, largest chunk %.1f MB uncompressed\n", file.c_str(), fs::file_size(file) / 1e6,
               w.largest_chunk() / 1e6);
   return payload;
 }
 
-/// The child: read every message, print "messages bytes seconds".
+/// Peak resident memory of this process image (VmHWM: reset by exec, unlike getrusage's ru_maxrss,
+/// which would include the parent's pages at fork time), in MB.
+double status_mb(const char* key) {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind(key, 0) == 0) return std::atof(line.c_str() + std::strlen(key)) / 1024.0;
+  return -1;
+}
+
+/// The child: read every message, print "messages bytes wall_s cpu_s peak_rss_mb".
 int read_child(const char* file) {
+  // The program links all of roe (OpenCV, LibTorch): its image alone is resident before any read.
+  const double base = status_mb("VmHWM:");
   const double t0 = now();
+  const std::clock_t c0 = std::clock();
   io::mcap::Reader r{fs::path(file)};
   std::size_t n = 0, bytes = 0, touch = 0;
   r.for_each([](const io::mcap::Channel&) { return true; },
@@ -74,7 +88,8 @@ int read_child(const char* file) {
                touch += static_cast<unsigned char>(m.data[m.data.size() / 2]);
                return true;
              });
-  std::printf("%zu %zu %.6f %zu\n", n, bytes, now() - t0, touch & 1);
+  const double cpu = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
+  std::printf("%zu %zu %.6f %.6f %.2f %.2f %zu\n", n, bytes, now() - t0, cpu, status_mb("VmHWM:"), base, touch & 1);
   return r.damaged() ? 1 : 0;
 }
 
@@ -96,13 +111,16 @@ void measure(const char* self, const fs::path& file, const char* label) {
     rusage ru{};
     wait4(pid, &status, 0, &ru);
     std::size_t n = 0, bytes = 0, touch = 0;
-    double s = 0;
-    if (got <= 0 || std::sscanf(buf, "%zu %zu %lf %zu", &n, &bytes, &s, &touch) != 4 || status != 0) {
+    double s = 0, cpu = 0, rss = 0, base = 0;
+    if (got <= 0 || std::sscanf(buf, "%zu %zu %lf %lf %lf %lf %zu", &n, &bytes, &s, &cpu, &rss, &base, &touch) != 7 ||
+        status != 0) {
       std::printf("%s: child failed (status %d)\n", label, status);
       return;
     }
-    std::printf("%-22s run %d: %zu msgs, %.1f MB of message data in %.3f s = %7.1f MB/s, peak RSS %.1f MB\n", label,
-                rep + 1, n, bytes / 1e6, s, bytes / 1e6 / s, ru.ru_maxrss / 1024.0);
+    (void)ru;
+    std::printf("%-18s run %d: %zu msgs, %.1f MB of message data: %.3f s wall = %6.1f MB/s, %.3f s CPU = %6.1f MB/s "
+                "per CPU second, peak RSS %.1f MB = %.1f MB before reading + %.1f MB\n",
+                label, rep + 1, n, bytes / 1e6, s, bytes / 1e6 / s, cpu, bytes / 1e6 / cpu, rss, base, rss - base);
   }
 }
 

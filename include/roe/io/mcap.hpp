@@ -120,8 +120,9 @@ class Reader {
   bool read_summary();
   void scan();
   void warn(std::uint64_t offset, std::string message, bool damage = true, bool index_fallback = false);
-  /// The chunk's uncompressed records; false + warning when unreadable.
-  bool load_chunk(const ChunkInfo& c, std::string& out);
+  /// The chunk's uncompressed records, from out[begin] on (uncompressed chunks stay in their record
+  /// buffer: no copy); false + warning when unreadable.
+  bool load_chunk(const ChunkInfo& c, std::string& out, std::size_t& begin);
   /// Adds the schema/channel records found in a record block (a chunk's records).
   void learn_records(std::string_view records, std::uint64_t where, ChunkInfo* count_into);
 
