@@ -101,3 +101,24 @@ TEST_CASE("roe eval: BAG:TOPIC for the estimate and --gt, ROS 2 and ROS 1", "[cl
   CHECK(r.code == 2);
   CHECK(r.out.find("/amcl_pose [geometry_msgs/PoseWithCovarianceStamped]") != std::string::npos);
 }
+
+TEST_CASE("roe import realsense: a truncated ROS 2 bag exits 2 naming the byte offset, --salvage keeps the rest",
+          "[cli][import][ros2]") {
+  const fs::path src = fs::path(ROE_SOURCE_DIR) / "tests/fixtures/ros2/rs_zstd.mcap";
+  roe::test::TempDir tmp("roe_test_ros2_cut");
+  std::ifstream f(src, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(f)), {});
+  const fs::path cut = tmp.write("cut.mcap", bytes.substr(0, bytes.size() * 2 / 3));
+  const std::string args = " --out " + (tmp / "ds").string() + " --crop-width 32 --crop-height 24";
+  auto r = roe::test::run_roe("import realsense " + cut.string() + args);
+  CHECK(r.code == 2);
+  CHECK(r.out.find("cut.mcap") != std::string::npos);
+  CHECK(r.out.find("damaged (byte ") != std::string::npos);
+  CHECK_FALSE(fs::exists(tmp / "ds"));
+  r = roe::test::run_roe("--json import realsense " + cut.string() + args + " --salvage", false);
+  REQUIRE(r.code == 0);
+  const auto j = nlohmann::json::parse(r.out);
+  CHECK(j["frames"].get<int>() > 0);
+  CHECK(j["frames"].get<int>() < 6);
+  CHECK(j["warnings"].dump().find("byte ") != std::string::npos);
+}
