@@ -344,3 +344,25 @@ TEST_CASE("rosbag2: message-level zstd compression (SQLite) decompresses each me
   CHECK(k == plain.size());
   CHECK_FALSE(b->damaged());
 }
+
+TEST_CASE("rosbag2: a folder without metadata.yaml and a lone zstd-compressed MCAP are read by content",
+          "[io][rosbag2][ros2]") {
+  test::TempDir d;
+  fs::create_directories(d.path / "nometa");
+  for (const char* f : {"rs_split_0.mcap", "rs_split_1.mcap"}) fs::copy_file(kDir / "rs_split" / f, d.path / "nometa" / f);
+  const auto plain = io::open_bag(kDir / "rs_split");
+  const auto nometa = io::open_bag(d.path / "nometa");
+  CHECK(nometa->format() == "rosbag2 folder without metadata.yaml");
+  CHECK(nometa->message_count("/camera/camera/imu") == plain->message_count("/camera/camera/imu"));
+  CHECK(nometa->message_count("/camera/camera/imu") == 120);
+  const fs::path z = d.write("recording.zst", io::zstd_compress(slurp(kDir / "rs_zstd.mcap"), 3));
+  CHECK(io::detect_bag_kind(z) == "zstd");
+  const auto zb = io::open_bag(z);
+  CHECK(zb->message_count("/camera/camera/color/image_raw") == 6);
+  std::size_t n = 0;
+  zb->for_each({"/camera/camera/imu"}, [&](const io::BagMessage& m) {
+    n += io::decode_imu(m).header.frame_id == "camera_imu_optical_frame";
+    return true;
+  });
+  CHECK(n == 120);
+}
