@@ -49,6 +49,10 @@ Estimate load_estimate(const EvalOptions& o, std::vector<std::string>& warnings)
   Estimate e;
   e.in.path = o.est;
   if (o.est.empty()) throw InputError("an estimate (RUN_DIR or EST_FILE) is required", {"roe eval"});
+  if (auto bag = load_bag_trajectory(o.est, warnings)) {  // BAG:TOPIC
+    e.in = std::move(*bag);
+    return e;
+  }
   if (!fs::exists(e.in.path)) throw InputError("estimate not found", {o.est});
   if (fs::is_directory(e.in.path)) {
     const fs::path traj = e.in.path / "trajectory.csv";

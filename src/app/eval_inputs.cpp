@@ -8,7 +8,9 @@
 #include "roe/app/eval.hpp"
 #include "roe/core/error.hpp"
 #include "roe/io/csv.hpp"
+#include "roe/io/bag.hpp"
 #include "roe/io/dataset.hpp"
+#include "roe/io/mocap_formats.hpp"
 
 namespace roe::app {
 
@@ -134,7 +136,47 @@ std::vector<std::optional<eval::PoseCovariance>> read_states_covariance(const fs
   return out;
 }
 
+std::optional<EvalInput> load_bag_trajectory(const std::string& spec, std::vector<std::string>& warnings) {
+  std::error_code ec;
+  if (spec.empty() || fs::exists(spec, ec)) return std::nullopt;  // a real path is never BAG:TOPIC
+  // The longest prefix before a ':' that is a bag (by content): "run.mcap:/odom", "rec/:/tf:map.base".
+  for (std::size_t colon = spec.rfind(':'); colon != std::string::npos && colon > 0;
+       colon = spec.rfind(':', colon - 1)) {
+    const fs::path bag = spec.substr(0, colon);
+    if (!fs::exists(bag, ec) || io::detect_bag_kind(bag).empty()) continue;
+    std::string topic = spec.substr(colon + 1), parent, child;
+    // tf topics as evo writes them: /tf:PARENT.CHILD
+    if (const std::size_t c = topic.find(':'); c != std::string::npos) {
+      const std::string frames = topic.substr(c + 1);
+      topic = topic.substr(0, c);
+      const std::size_t dot = frames.find('.');
+      if (dot == std::string::npos || dot == 0 || dot + 1 == frames.size())
+        throw InputError("a tf topic is given as BAG:TOPIC:PARENT.CHILD (e.g. run.mcap:/tf:map.base_link), got \"" +
+                         spec + "\"");
+      parent = frames.substr(0, dot);
+      child = frames.substr(dot + 1);
+    }
+    const io::MocapData d = io::read_bag_poses(bag, topic, child, false, parent);
+    EvalInput in;
+    in.kind = "bag";
+    in.path = bag;
+    for (const auto& p : d.poses) {
+      in.traj.t_ns.push_back(p.t_ns);
+      in.traj.poses.push_back(p.T);
+      in.traj.lines.push_back(0);
+    }
+    in.traj.source = spec;
+    in.description = fmt::format("{} topic {} ({} poses{}{})", bag.string(), topic, d.poses.size(),
+                                 d.parent_frame.empty() ? "" : ", frame " + d.parent_frame,
+                                 child.empty() ? "" : " -> " + child);
+    for (const auto& w : d.warnings) warnings.push_back(bag.string() + ": " + w);
+    return in;
+  }
+  return std::nullopt;
+}
+
 EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warnings) {
+  if (auto bag = load_bag_trajectory(o.gt, warnings)) return std::move(*bag);
   EvalInput in;
   in.path = o.gt;
   if (o.gt.empty()) throw InputError("--gt DATASET|GT_FILE is required", {"roe eval"});

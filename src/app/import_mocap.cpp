@@ -10,6 +10,7 @@
 #include "roe/app/import.hpp"
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
+#include "roe/io/bag.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/mocap_formats.hpp"
@@ -30,8 +31,8 @@ std::string first_line(const fs::path& file) {
 }
 
 std::string detect_format(const fs::path& file) {
+  if (!io::detect_bag_kind(file).empty()) return "rosbag";  // ROS 1 or ROS 2, by content
   const std::string l = first_line(file);
-  if (l.rfind("#ROSBAG", 0) == 0) return "rosbag";
   if (l.rfind("Format Version", 0) == 0) return "motive";
   const std::string cell0 = l.substr(0, l.find(','));
   auto trimmed = cell0;
@@ -50,6 +51,7 @@ std::string source_kind(const std::string& format) {
   if (format == "motive") return "motive-csv";
   if (format == "vicon") return "vicon-csv";
   if (format == "rosbag") return "ros1-bag";
+  if (format == "rosbag2") return "ros2-bag";
   if (format == "euroc") return "euroc-csv";
   if (format == "tum") return "tum";
   return "cnspy-csv";
@@ -87,8 +89,11 @@ io::MocapData read_mocap(const fs::path& file, const ImportMocapOptions& opt) {
     d = io::read_motive_csv(file, opt.body);
   } else if (format == "vicon") {
     d = io::read_vicon_csv(file, opt.body);
-  } else if (format == "rosbag") {
-    d = io::read_bag_poses(file, opt.topic, opt.body, opt.salvage);  // an empty topic throws, listing the pose topics
+  } else if (format == "rosbag" || format == "rosbag2") {
+    if (!opt.child.empty() && !opt.body.empty() && opt.child != opt.body)
+      throw InputError("--child \"" + opt.child + "\" and --body \"" + opt.body + "\" disagree (they are the same option)");
+    // An empty topic throws, listing the pose topics.
+    d = io::read_bag_poses(file, opt.topic, opt.child.empty() ? opt.body : opt.child, opt.salvage, opt.parent);
   } else if (format == "tum" || format == "euroc" || format == "csv" || format == "cnspy" || format == "csv-ns" ||
              format == "auto-trajectory") {
     const io::TrajectoryFormat tf = format == "auto-trajectory" ? io::TrajectoryFormat::kAuto
@@ -109,7 +114,7 @@ io::MocapData read_mocap(const fs::path& file, const ImportMocapOptions& opt) {
     if (d.duplicates) d.warnings.push_back(fmt::format("{} pose(s) with a repeated stamp dropped", d.duplicates));
   } else {
     throw InputError("unknown mocap format \"" + opt.format +
-                     "\" (auto, motive, vicon, euroc, tum, csv, csv-ns, rosbag)");
+                     "\" (auto, motive, vicon, euroc, tum, csv, csv-ns, rosbag, rosbag2)");
   }
   if (d.rate_hz <= 0) d.rate_hz = median_rate(d.poses);
   return d;
@@ -328,11 +333,12 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   SourceRecord src;
   src.kind = source_kind(d.format);
   src.path = io::provenance_path(file);
-  src.sha256 = io::sha256_file(file);
+  src.sha256 = io::bag_sha256(file);  // a file, or a rosbag2 folder
   src.options["format"] = d.format;
   src.options["folder"] = "mav0/" + opt.mocap_name;
   if (!d.body.empty()) src.options["body"] = d.body;
   if (!opt.topic.empty()) src.options["topic"] = opt.topic;
+  if (!d.parent_frame.empty()) src.options["parent_frame"] = d.parent_frame;
   src.options["up"] = S.up;
   if (y_up) src.options["axis_conversion"] = "Y-up to Z-up: x_Z = x_Y, y_Z = -z_Y, z_Z = y_Y";
   src.options["time_offset_s"] = io::format_double(offset);

@@ -1,4 +1,4 @@
-// roe eval RUN_DIR|EST_FILE --gt DATASET|GT_FILE [--align ...] [--max-dt S] [--t-offset S] [--out DIR]
+// roe eval RUN_DIR|EST_FILE|BAG:TOPIC --gt DATASET|GT_FILE|BAG:TOPIC [--align ...] [--max-dt S] [--t-offset S] [--out DIR]
 // [--plot] [--rpe-delta D[,D...] --rpe-unit m|s|f|deg|rad ...] roe eval --summary REPORT_JSON... [--out FILE]
 #include <filesystem>
 #include <fmt/format.h>
@@ -22,10 +22,10 @@ struct Args {
 RunFn setup(CLI::App& sub) {
   auto a = std::make_shared<Args>();
   sub.add_option("estimate", a->opt.est,
-                 "Run folder (trajectory.csv [+ reprojection.csv, states.csv]) or trajectory file");
+                 "Run folder (trajectory.csv [+ reprojection.csv, states.csv]), trajectory file, or BAG:TOPIC (ROS 1/2 bag)");
   a->eval_only.push_back(sub.add_option(
       "--gt", a->opt.gt,
-      "Ground truth: dataset folder (state_groundtruth_estimate0 or mocap0) or trajectory file"));
+      "Ground truth: dataset folder (state_groundtruth_estimate0 or mocap0), trajectory file, or BAG:TOPIC"));
   a->eval_only.push_back(
       sub.add_option("--align", a->opt.align, "Alignment: se3, sim3, posyaw, origin or none")
           ->capture_default_str());

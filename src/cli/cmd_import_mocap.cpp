@@ -25,7 +25,9 @@ RunFn setup(CLI::App& sub) {
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "motive", "vicon", "euroc", "tum", "csv", "cnspy", "csv-ns", "rosbag"}));
   sub.add_option("--body", a->opt.body, "Rigid body (Motive/Vicon) or child frame (tf topics)");
-  sub.add_option("--topic", a->opt.topic, "ROS bag: PoseStamped/TransformStamped/Odometry/TFMessage topic");
+  sub.add_option("--topic", a->opt.topic, "ROS 1/ROS 2 bag: PoseStamped/TransformStamped/Odometry/TFMessage topic");
+  sub.add_option("--parent", a->opt.parent, "ROS bag tf topics: parent frame of the transform (header.frame_id)");
+  sub.add_option("--child", a->opt.child, "ROS bag tf topics: child frame of the transform (same as --body)");
   sub.add_option("--up", a->opt.up, "Up axis of the file's world: auto (y for Motive), y or z")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "y", "z"}));

@@ -17,7 +17,7 @@ struct Args {
 
 RunFn setup(CLI::App& sub) {
   auto a = std::make_shared<Args>();
-  sub.add_option("BAG", a->bag, "RealSense Viewer/rs-record .bag, or a realsense-ros rosbag")->required();
+  sub.add_option("BAG", a->bag, "RealSense Viewer/rs-record .bag, or a realsense-ros ROS 1 bag or ROS 2 bag (.mcap, .db3, bag folder)")->required();
   sub.add_option("--out", a->out, "New dataset folder (refused if non-empty unless --force)")->required();
   sub.add_option("--crop-width", a->opt.crop_width, "Centred crop of the undistorted image (0 = full width)")
       ->capture_default_str()->check(number_in("integer>=0"));

@@ -13,6 +13,7 @@
 #include "roe/core/error.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/ros_msgs.hpp"
+#include "roe/io/bag.hpp"
 #include "roe/io/rosbag.hpp"
 #include "roe/math/so3.hpp"
 
@@ -412,68 +413,79 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
 // ROS bag topics
 // ---------------------------------------------------------------------------------------------
 MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, const std::string& child_frame,
-                         bool salvage) {
+                         bool salvage, const std::string& parent_frame) {
   MocapData out;
-  out.format = "rosbag";
   out.length_unit = "m";
   out.rotation_type = "Quaternion";
-  bag::Reader reader(bag_file);
-  const std::string type = reader.topic_type(topic);
+  BagOpenOptions bo;
+  bo.allow_missing_files = salvage;
+  const auto reader = open_bag(bag_file, bo);
+  out.format = reader->ros2() ? "rosbag2" : "rosbag";
+  const std::string type = reader->topic_type(topic);
+  const std::string bag_word = reader->ros2() ? "the ROS 2 bag" : "the bag";
   if (topic.empty() || type.empty()) {
     std::string list;
-    for (const auto& c : reader.connections())
-      if (c.type == "geometry_msgs/PoseStamped" || c.type == "geometry_msgs/TransformStamped" ||
-          c.type == "nav_msgs/Odometry" || c.type == "tf2_msgs/TFMessage" ||
-          c.type == "geometry_msgs/PoseWithCovarianceStamped")
-        list += "\n  " + c.topic + " [" + c.type + "]";
-    const std::string where = reader.damaged() ? "the intact part of the bag" : "the bag";
+    for (const auto& t : reader->topics())
+      if (is_pose_type(t.type)) list += "\n  " + t.topic + " [" + t.type + "]";
+    const std::string where = reader->damaged() ? "the intact part of " + bag_word : bag_word;
     std::string msg = (topic.empty() ? std::string("choose a pose topic with --topic")
                                      : "topic \"" + topic + "\" is not in " + where) +
-                      "; pose topics in " + where + ":" + (list.empty() ? std::string(" none") : list);
-    if (reader.damaged()) msg += "\nthe bag is damaged (" + reader.first_damage() + "); --salvage cannot recover what is lost";
-    throw InputError(msg, {reader.name()});
+                      "; pose topics in " + where + ":" + (list.empty() ? std::string(" none") : list) +
+                      "\nall topics:" + reader->topic_listing();
+    if (reader->damaged())
+      msg += "\nthe bag is damaged (" + reader->first_damage() + "); --salvage cannot recover what is lost";
+    throw InputError(msg, {reader->name()});
   }
-  static const std::set<std::string> kTypes = {"geometry_msgs/PoseStamped", "geometry_msgs/TransformStamped",
-                                               "nav_msgs/Odometry", "tf2_msgs/TFMessage",
-                                               "geometry_msgs/PoseWithCovarianceStamped"};
-  if (!kTypes.count(type))
+  if (!is_pose_type(type))
     throw InputError("topic " + topic + " has type " + type +
                          " (supported: PoseStamped, TransformStamped, PoseWithCovarianceStamped, Odometry, TFMessage)",
-                     {reader.name()});
+                     {reader->name()});
+  const bool tf = type == "tf2_msgs/TFMessage";
+  if (!tf && !parent_frame.empty())
+    throw InputError("--parent selects a transform of a tf2_msgs/TFMessage topic; " + topic + " has type " + type,
+                     {reader->name()});
   out.body = topic;
-  std::set<std::string> children;
+  std::set<std::pair<std::string, std::string>> pairs;  // (parent, child) seen on a tf topic
   std::vector<std::pair<Timestamp, ros::StampedTransform>> msgs;
-  reader.for_each_topic({topic}, [&](const bag::MessageView& m) {
-    const std::string w = fmt::format("{}: {} (chunk at byte {})", reader.name(), topic, m.chunk_offset);
+  reader->for_each({topic}, [&](const BagMessage& m) {
     ++out.rows;
-    if (type == "tf2_msgs/TFMessage") {
-      for (auto& tr : ros::decode_tf_message(m.data, w)) {
-        children.insert(tr.child_frame_id);
-        if (child_frame.empty() || tr.child_frame_id == child_frame) msgs.emplace_back(m.record_time_ns, tr);
+    if (tf) {
+      for (auto& tr : decode_tf_message(m)) {
+        pairs.insert({tr.header.frame_id, tr.child_frame_id});
+        if ((child_frame.empty() || tr.child_frame_id == child_frame) &&
+            (parent_frame.empty() || tr.header.frame_id == parent_frame))
+          msgs.emplace_back(m.log_time_ns, tr);
       }
       return true;
     }
-    ros::StampedTransform st = type == "geometry_msgs/PoseStamped"        ? ros::decode_pose_stamped(m.data, w)
-                               : type == "geometry_msgs/TransformStamped" ? ros::decode_transform_stamped(m.data, w)
-                               : type == "nav_msgs/Odometry"              ? ros::decode_odometry(m.data, w)
-                                                                          : ros::decode_pose_with_covariance_stamped(m.data, w);
-    msgs.emplace_back(m.record_time_ns, st);
+    msgs.emplace_back(m.log_time_ns, decode_stamped_pose(m));
     return true;
   });
-  if (reader.damaged() && !salvage)
-    throw InputError("the bag is damaged (" + reader.first_damage() +
+  if (reader->damaged() && !salvage)
+    throw InputError("the bag is damaged (" + reader->first_damage() +
                          "); use --salvage to import the poses that are intact",
-                     {reader.name()});
-  if (type == "tf2_msgs/TFMessage") {
-    if (child_frame.empty() && children.size() > 1) {
-      std::string list;
-      for (const auto& c : children) list += " \"" + c + "\"";
-      throw InputError("topic " + topic + " carries several child frames; choose one with --body:" + list,
-                       {reader.name()});
+                     {reader->name()});
+  if (tf) {
+    std::set<std::pair<std::string, std::string>> chosen;
+    for (const auto& pc : pairs)
+      if ((child_frame.empty() || pc.second == child_frame) && (parent_frame.empty() || pc.first == parent_frame))
+        chosen.insert(pc);
+    std::string list;
+    for (const auto& [p, c] : pairs) list += "\n  " + p + " -> " + c;
+    if (chosen.empty())
+      throw InputError("no transform " + (parent_frame.empty() ? std::string("*") : parent_frame) + " -> " +
+                           (child_frame.empty() ? std::string("*") : child_frame) + " on " + topic +
+                           "; transforms (parent -> child) on it:" + (list.empty() ? std::string(" none") : list),
+                       {reader->name()});
+    if (chosen.size() > 1) {
+      std::set<std::string> children;
+      for (const auto& pc : chosen) children.insert(pc.second);
+      throw InputError("topic " + topic + (children.size() > 1 ? " carries several child frames" : " carries several parent frames") +
+                           "; choose one with --child (or --body) and --parent:" + list,
+                       {reader->name()});
     }
-    if (!child_frame.empty() && !children.count(child_frame))
-      throw InputError("child frame \"" + child_frame + "\" is not on " + topic, {reader.name()});
-    out.body = child_frame.empty() && !children.empty() ? *children.begin() : child_frame;
+    out.body = chosen.begin()->second;
+    out.parent_frame = chosen.begin()->first;
   }
   bool zero_stamps = false;
   std::size_t index = 0;
@@ -487,8 +499,9 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
       throw InputError(fmt::format("{}: message {} (stamp {} ns): {}", topic, index, t,
                                    st.transform.t.allFinite() ? fmt::format("quaternion is not unit norm (|q| = {:.6g})", n)
                                                               : std::string("non-finite position")),
-                       {reader.name()});
+                       {reader->name()});
     out.poses.push_back({t, Pose(q.normalized(), st.transform.t)});
+    if (!tf && out.parent_frame.empty()) out.parent_frame = st.header.frame_id;
   }
   if (zero_stamps) out.warnings.push_back("messages with header.stamp = 0 use the bag record time");
   std::stable_sort(out.poses.begin(), out.poses.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
@@ -497,8 +510,8 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
                   out.poses.end());
   out.duplicates = n - out.poses.size();
   if (out.duplicates) out.warnings.push_back(fmt::format("{} poses with a repeated stamp dropped", out.duplicates));
-  for (const auto& w : reader.warnings())
-    out.warnings.push_back(fmt::format("{}: byte {}: {}", reader.name(), w.offset, w.message));
+  for (const auto& w : reader->warnings())
+    out.warnings.push_back(fmt::format("{}: {}", w.file, w.text()));
   return out;
 }
 

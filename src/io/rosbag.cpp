@@ -2,9 +2,7 @@
 #include "roe/io/rosbag.hpp"
 
 #include <bzlib.h>
-#include <fcntl.h>
 #include <lz4frame.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cstring>
@@ -30,58 +28,6 @@ enum Op : std::uint8_t {
   kOpChunk = 0x05,
   kOpChunkInfo = 0x06,
   kOpConnection = 0x07,
-};
-
-class FileSource final : public ByteSource {
- public:
-  explicit FileSource(const fs::path& p) : path_(p.string()) {
-    fd_ = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd_ < 0) throw InputError(std::string("cannot open bag: ") + std::strerror(errno), {path_});
-    const off_t end = ::lseek(fd_, 0, SEEK_END);
-    if (end < 0) {
-      ::close(fd_);
-      throw InputError("cannot determine the size of the bag", {path_});
-    }
-    size_ = static_cast<std::uint64_t>(end);
-  }
-  ~FileSource() override { ::close(fd_); }
-  std::uint64_t size() const override { return size_; }
-  std::size_t read_at(std::uint64_t offset, void* out, std::size_t n) const override {
-    if (offset >= size_) return 0;
-    n = static_cast<std::size_t>(std::min<std::uint64_t>(n, size_ - offset));
-    std::size_t done = 0;
-    while (done < n) {
-      const ssize_t r = ::pread(fd_, static_cast<char*>(out) + done, n - done,
-                                static_cast<off_t>(offset + done));
-      if (r < 0) {
-        if (errno == EINTR) continue;
-        throw InputError(std::string("read error: ") + std::strerror(errno), {path_});
-      }
-      if (r == 0) break;
-      done += static_cast<std::size_t>(r);
-    }
-    return done;
-  }
-
- private:
-  std::string path_;
-  int fd_ = -1;
-  std::uint64_t size_ = 0;
-};
-
-class MemorySource final : public ByteSource {
- public:
-  explicit MemorySource(std::string b) : bytes_(std::move(b)) {}
-  std::uint64_t size() const override { return bytes_.size(); }
-  std::size_t read_at(std::uint64_t offset, void* out, std::size_t n) const override {
-    if (offset >= bytes_.size()) return 0;
-    n = std::min<std::size_t>(n, bytes_.size() - offset);
-    std::memcpy(out, bytes_.data() + offset, n);
-    return n;
-  }
-
- private:
-  std::string bytes_;
 };
 
 std::uint32_t le32(const char* p) {
@@ -295,12 +241,12 @@ std::string bz2_compress(std::string_view in) {
 // Reader
 // ---------------------------------------------------------------------------------------------
 Reader::Reader(const fs::path& file, ReaderOptions options)
-    : name_(file.string()), src_(std::make_unique<FileSource>(file)), options_(options) {
+    : name_(file.string()), src_(open_file_source(file)), options_(options) {
   open();
 }
 
 Reader::Reader(std::string bytes, std::string name, ReaderOptions options)
-    : name_(std::move(name)), src_(std::make_unique<MemorySource>(std::move(bytes))), options_(options) {
+    : name_(std::move(name)), src_(memory_source(std::move(bytes))), options_(options) {
   open();
 }
 

@@ -86,6 +86,12 @@ struct EvalInput {
   std::filesystem::path path;
 };
 EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warnings);
+/// A trajectory straight from a bag topic, `BAG:TOPIC` (ROS 1 or ROS 2, file or rosbag2 folder; a
+/// PoseStamped, TransformStamped, PoseWithCovarianceStamped or Odometry topic, or a tf topic as
+/// `BAG:/tf:PARENT.CHILD` as evo writes it); nullopt when `spec` is not of that form (an existing
+/// path, or no prefix that is a bag by content). InputError for a topic the bag lacks (listing its
+/// pose topics) or a damaged bag.
+std::optional<EvalInput> load_bag_trajectory(const std::string& spec, std::vector<std::string>& warnings);
 
 struct EvalResult {
   nlohmann::json report;      ///< the report.json content

@@ -92,6 +92,8 @@ struct ImportMocapOptions {
   std::string format = "auto";  ///< auto | motive | vicon | euroc | tum | csv (cnspy) | rosbag
   std::string body;             ///< rigid body (Motive/Vicon) ; "" = the only one
   std::string topic;            ///< rosbag: the pose topic
+  std::string parent;           ///< rosbag tf topics: the parent frame (header.frame_id) of the transform
+  std::string child;            ///< rosbag tf topics: the child frame (same as body)
   std::string up = "auto";      ///< world up axis of the file: auto (y for Motive, z otherwise) | y | z
   std::optional<double> time_offset_s;  ///< t_imu = t_mocap + offset (applied to the written stamps)
   bool estimate_offset = false;         ///< estimate the offset against DATASET/mav0/imu0 gyro

@@ -22,8 +22,9 @@ namespace roe::io {
 namespace fs = std::filesystem;
 
 struct MocapData {
-  std::string format;              ///< motive | vicon | rosbag | tum | euroc | csv
+  std::string format;              ///< motive | vicon | rosbag (ROS 1) | rosbag2 | tum | euroc | csv
   std::string body;                ///< rigid body / topic / child frame actually read
+  std::string parent_frame;        ///< bags: header.frame_id of the poses read (the tf parent)
   std::vector<std::string> bodies; ///< every rigid body in the file (Motive/Vicon)
   std::vector<StampedPose> poses;  ///< T_M_B, metres, ns of the file's clock
   std::size_t rows = 0;            ///< frames (rows/messages) read
@@ -56,11 +57,12 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body = "");
 /// time = (Frame − first Frame) / rate. The Vicon world is Z up.
 MocapData read_vicon_csv(const fs::path& file, const std::string& body = "");
 
-/// Pose messages of one topic in a ROS bag, stamped with header.stamp (record time when the stamp
-/// is zero). For tf2_msgs/TFMessage topics (/tf), `child_frame` selects the transform (required when
-/// the topic carries several child frames). A damaged bag (truncated, corrupt chunk) is an
-/// InputError naming the byte offset unless `salvage`, which keeps what is intact (with warnings).
+/// Pose messages of one topic in a ROS 1 or ROS 2 bag (any kind io::open_bag reads), stamped with
+/// header.stamp (record time when the stamp is zero). For tf2_msgs/TFMessage topics (/tf),
+/// `child_frame` and `parent_frame` select the transform (required when the topic carries several).
+/// A damaged bag (truncated, corrupt chunk, missing split file) is an InputError naming the byte
+/// offset (or table row) unless `salvage`, which keeps what is intact (with warnings).
 MocapData read_bag_poses(const fs::path& bag, const std::string& topic, const std::string& child_frame = "",
-                         bool salvage = false);
+                         bool salvage = false, const std::string& parent_frame = "");
 
 }  // namespace roe::io

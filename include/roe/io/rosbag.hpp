@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "roe/core/types.hpp"
+#include "roe/io/byte_source.hpp"
 
 namespace roe::io::bag {
 
@@ -56,15 +57,7 @@ struct MessageView {
 };
 
 /// A problem that was skipped over, with the byte offset in the file where it was found.
-struct Warning {
-  std::uint64_t offset = 0;
-  std::string message;
-  bool damage = true;  ///< false for notes that do not mean lost data (e.g. "bag is not indexed")
-  /// The bag header or index section was unusable, so the reader scanned the records instead ("index
-  /// position ... past the end of the file"): the symptom of a damage that the scan's own warnings
-  /// (a truncated record, ...) name more precisely when it finds one.
-  bool index_fallback = false;
-};
+using Warning = io::OffsetWarning;
 
 /// Summary of one chunk (from the index, or from the sequential scan).
 struct ChunkInfo {
@@ -78,14 +71,7 @@ struct ChunkInfo {
   bool times_known = false;
 };
 
-/// Where the bytes come from: a file (pread) or a buffer in memory (tests, fuzzing).
-class ByteSource {
- public:
-  virtual ~ByteSource() = default;
-  virtual std::uint64_t size() const = 0;
-  /// Reads up to n bytes at offset; returns the number read (less at the end of the source).
-  virtual std::size_t read_at(std::uint64_t offset, void* out, std::size_t n) const = 0;
-};
+using io::ByteSource;
 
 struct ReaderOptions {
   /// Ignore the index section even when present and scan every record (for tests and for bags whose
