@@ -148,6 +148,14 @@ JobOutcome run_job(const SweepFolder& s, std::size_t index, bool retry_failed) {
   fs::remove_all(work);  // what a killed attempt left: redone from scratch
   make_dirs(work);
   const auto t0 = Clock::now();
+  // A job's warnings (the run's, the eval's) go to its result.json; on stderr they would repeat for every
+  // job. -v still shows them.
+  const log::Level level = log::level();
+  if (level == log::Level::kWarn) log::set_level(log::Level::kQuiet);
+  struct Restore {
+    log::Level l;
+    ~Restore() { log::set_level(l); }
+  } restore{level};
   json result = {{"format", "roe-sweep-job/1"}, {"id", job.id}, {"axes", job.axes}, {"roe_version", kVersion}};
   try {
     execute(job, work, result);

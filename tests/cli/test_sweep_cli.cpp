@@ -141,7 +141,7 @@ TEST_CASE("roe sweep: 4 shards killed at random and resumed == one uninterrupted
   st = status_of(b);
   CHECK(st["done"] == 8);
   CHECK(st["failed"] == 1);
-  CHECK(!fs::exists(b / "work") || fs::is_empty(b / "work"));
+  CHECK((!fs::exists(b / "work") || fs::is_empty(b / "work")));
   const auto fa = job_files(a), fb = job_files(b);
   REQUIRE(fa.size() == fb.size());
   CHECK(fa.size() >= 8 * 6);
@@ -160,7 +160,8 @@ TEST_CASE("roe sweep: 4 shards killed at random and resumed == one uninterrupted
   for (const char* f : {"summary.md", "summary.tex", "summary.csv", "summary.json", "comparisons.csv", "jobs.csv"})
     CHECK(fs::is_regular_file(tmp / "agg" / f));
   bool paired = false;
-  for (const auto& c : ag["comparisons"]) paired = paired || (c["a"] == "default" && c["b"] == "paper" && c["n_pairs"] == 4);
+  for (const auto& c : ag["comparisons"])
+    if (c["a"] == "default" && c["b"] == "paper" && c["n_pairs"] == 4) paired = true;
   CHECK(paired);
   CHECK(roe::test::run_roe("sweep aggregate " + q(a) + " --out " + q(tmp / "agg") + " -q").code == 2);  // exists
   CHECK(roe::test::run_roe("sweep aggregate " + q(a) + " --out " + q(tmp / "agg2") + " --group-by nope").code == 2);
