@@ -39,9 +39,9 @@ std::string small_spec() {
   "format": "roe-sweep-spec/1",
   "description": "test: 8 short jobs and one that fails",
   "axes": [
-    {"datasets": [{"preset": "paper-seq1", "duration_s": 6}, {"preset": "paper-seq4", "duration_s": 6}],
+    {"datasets": [{"preset": "paper-seq1", "duration_s": 3}, {"preset": "paper-seq4", "duration_s": 3}],
      "seeds": [1, 2], "configs": ["default", "paper"]},
-    {"datasets": [{"preset": "paper-seq1", "duration_s": 6}], "seeds": [1], "configs": ["default"],
+    {"datasets": [{"preset": "paper-seq1", "duration_s": 3}], "seeds": [1], "configs": ["default"],
      "overrides": {"filter.anchor_id": [99]}}
   ]
 })";
@@ -131,11 +131,13 @@ TEST_CASE("roe sweep: 4 shards killed at random and resumed == one uninterrupted
   for (int round = 0; round < 2; ++round) {
     std::vector<pid_t> pids;
     for (int s = 0; s < 4; ++s) pids.push_back(spawn_roe("sweep run " + q(b) + " --shard " + std::to_string(s) + "/4"));
-    std::this_thread::sleep_for(std::chrono::milliseconds(300 + rng() % 1200));
+    std::this_thread::sleep_for(std::chrono::milliseconds(150 + rng() % 900));
     for (int s = 0; s < 4; ++s)
       if (rng() % 2 == 0) kill(-pids[s], SIGKILL);
     for (pid_t p : pids) waitpid(p, nullptr, 0);
   }
+  const json killed = status_of(b);
+  INFO("after the kills: " << killed["done"] << " done, " << killed["pending"] << " pending");
   for (int s = 0; s < 4; ++s)
     roe::test::run_roe("sweep run " + q(b) + " --shard " + std::to_string(s) + "/4 -q");
   st = status_of(b);
@@ -178,7 +180,7 @@ TEST_CASE("roe sweep: 4 shards killed at random and resumed == one uninterrupted
 
 TEST_CASE("roe sweep: a held job lock, another format version, bad usage", "[cli][sweep]") {
   roe::test::TempDir tmp("roe_sweep_lock");
-  const fs::path spec = tmp.write("spec.json", R"({"axes": {"datasets": [{"preset": "paper-seq1", "duration_s": 6}]}})");
+  const fs::path spec = tmp.write("spec.json", R"({"axes": {"datasets": [{"preset": "paper-seq1", "duration_s": 3}]}})");
   const fs::path s = tmp / "s";
   REQUIRE(roe::test::run_roe("sweep plan " + q(spec) + " --out " + q(s) + " -q").code == 0);
   const std::string id = json::parse(slurp(s / "jobs.jsonl"))["id"];
@@ -187,6 +189,7 @@ TEST_CASE("roe sweep: a held job lock, another format version, bad usage", "[cli
     fs::create_directories(s / "locks");
     const pid_t holder = fork();
     if (holder == 0) {
+      setpgid(0, 0);  // flock and its sleep (which inherits the lock) end together
       execlp("flock", "flock", (s / "locks" / (id + ".lock")).c_str(), "sleep", "30", static_cast<char*>(nullptr));
       _exit(127);
     }
@@ -195,7 +198,7 @@ TEST_CASE("roe sweep: a held job lock, another format version, bad usage", "[cli
     CHECK(r.code == 0);
     CHECK(json::parse(r.out)["jobs"][0]["action"] == "busy");
     CHECK(status_of(s)["running"] == 1);
-    kill(holder, SIGTERM);
+    kill(-holder, SIGTERM);
     waitpid(holder, nullptr, 0);
   }
   CHECK(roe::test::run_roe("sweep run " + q(s) + " --index 1").code == 2);  // out of range
@@ -223,7 +226,7 @@ TEST_CASE("roe sweep: GNU parallel runs the emitted script", "[cli][sweep][paral
   }
   roe::test::TempDir tmp("roe_sweep_parallel");
   const fs::path spec = tmp.write(
-      "spec.json", R"({"axes": {"datasets": [{"preset": "paper-seq1", "duration_s": 6}], "seeds": [1, 2, 3, 4]}})");
+      "spec.json", R"({"axes": {"datasets": [{"preset": "paper-seq1", "duration_s": 3}], "seeds": [1, 2, 3, 4]}})");
   const fs::path s = tmp / "s";
   REQUIRE(roe::test::run_roe("sweep plan " + q(spec) + " --out " + q(s) + " -q").code == 0);
   REQUIRE(roe::test::run_roe("sweep emit parallel " + q(s) + " -j 2 --out " + q(tmp / "run.sh") + " -q").code == 0);
