@@ -166,6 +166,12 @@ TEST_CASE("roe sweep: 4 shards killed at random and resumed == one uninterrupted
     if (c["a"] == "default" && c["b"] == "paper" && c["n_pairs"] == 4) paired = true;
   CHECK(paired);
   CHECK(roe::test::run_roe("sweep aggregate " + q(a) + " --out " + q(tmp / "agg") + " -q").code == 2);  // exists
+  if (std::system("/usr/bin/python3 -c 'import matplotlib' >/dev/null 2>&1") == 0) {
+    r = roe::test::run_roe("sweep aggregate " + q(a) + " --out " + q(tmp / "agg-plots") + " --plot --group-by config -q");
+    CHECK(r.code == 0);
+    CHECK(fs::is_regular_file(tmp / "agg-plots" / "plots" / "box_ate_rmse_m.png"));
+    CHECK(slurp(tmp / "agg-plots" / "summary.md").find("| default |") != std::string::npos);
+  }
   CHECK(roe::test::run_roe("sweep aggregate " + q(a) + " --out " + q(tmp / "agg2") + " --group-by nope").code == 2);
 
   // Emit: the array covers every index; the resources are passed through.
