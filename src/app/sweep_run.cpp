@@ -172,6 +172,9 @@ JobOutcome run_job(const SweepFolder& s, std::size_t index, bool retry_failed) {
     o.message = e.what();
   }
   if (o.exit_code != 0) {
+    // The job's files move from work/ID to jobs/ID: the message names them where they will be.
+    for (std::size_t p = o.message.find(work.string()); p != std::string::npos; p = o.message.find(work.string(), p))
+      o.message.replace(p, work.string().size(), job_dir(s.dir, job.id).string());
     result["status"] = "failed";
     result["exit_code"] = o.exit_code;
     result["message"] = o.message;
