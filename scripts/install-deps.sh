@@ -12,9 +12,11 @@ packages=(
   libzstd-dev libsqlite3-dev                                        # ROS 2 bags: MCAP zstd chunks, rosbag2 .db3
   libopencv-dev libtorch-dev                                        # images, detector, PoET head
   python3 python3-numpy python3-matplotlib                          # plots (roe eval --plot)
+  parallel slurm-wlm munge                                          # roe sweep: the real-engine tests (GNU parallel, single-node Slurm)
 )
 if [[ "${1:-}" == "--dev" ]]; then
   packages+=(clang clang-format libclang-rt-14-dev python3-torch)
+  packages+=(python3-scipy)  # regenerates tests/eval/data/stats_reference.json (tests do not need it)
 fi
 
 missing=()

@@ -3,8 +3,32 @@
 # sequence, run the filter with configs/paper.json (and configs/default.json), compute the metrics
 # (scripts/run_metrics.py) and print a Markdown table.
 # usage: scripts/reproduce-tables.sh [ROE_BINARY] [WORK_DIR]
+#
+# The paper's Tables I-III (docs/REPRODUCTION.md): one sweep, configs/sweeps/paper-tables.json (26 runs of
+# 60 s), run with JOBS parallel shards (default 2), aggregated, then printed next to the paper's numbers
+# (read from ../shared/paper.tex, or $PAPER_TEX):
+# usage: scripts/reproduce-tables.sh --paper [ROE_BINARY] [WORK_DIR]
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
+if [[ "${1:-}" == "--paper" ]]; then
+  shift
+  roe="${1:-$here/build/roe}"
+  work="${2:-$(mktemp -d)}"
+  jobs="${JOBS:-2}"
+  start=$(date +%s.%N)
+  "$roe" sweep plan "$here/configs/sweeps/paper-tables.json" --out "$work/sweep" -q
+  pids=()
+  for ((i = 0; i < jobs; i++)); do
+    "$roe" sweep run "$work/sweep" --shard "$i/$jobs" -q & pids+=($!)
+  done
+  for p in "${pids[@]}"; do wait "$p" || true; done   # a failed job is reported by status and the tables
+  end=$(date +%s.%N)
+  "$roe" sweep status "$work/sweep" >&2
+  "$roe" sweep aggregate "$work/sweep" --out "$work/aggregate" --group-by dataset --force -q
+  echo "sweep of $("$roe" sweep status "$work/sweep" --json | /usr/bin/python3 -c 'import json,sys; print(json.load(sys.stdin)["total"])') jobs with $jobs shards: $(/usr/bin/python3 -c "print('%.1f' % ($end - $start))") s (plan + run); aggregate in $work/aggregate" >&2
+  /usr/bin/python3 "$here/scripts/paper_tables.py" "$work/aggregate" "${PAPER_TEX:-$here/../shared/paper.tex}"
+  exit 0
+fi
 roe="${1:-$here/build/roe}"
 work="${2:-$(mktemp -d)}"
 seed="${SEED:-1}"

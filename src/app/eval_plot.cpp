@@ -68,7 +68,8 @@ std::string read_text(const fs::path& p) {
 }
 }  // namespace
 
-std::string render_eval_plots(const fs::path& eval_dir, bool& ok) {
+std::string run_plot_script(const std::string& script_text, const std::string& name, const fs::path& eval_dir,
+                            bool& ok) {
   ok = false;
   // Debian's interpreter (the python3 on PATH may be a build without matplotlib); ROE_PYTHON overrides
   // (a path, or a name looked up on PATH).
@@ -100,9 +101,9 @@ std::string render_eval_plots(const fs::path& eval_dir, bool& ok) {
           exe.string(), why.empty() ? fmt::format(" (exit {})", rc) : ": " + why);
     }
   }
-  const fs::path script = eval_dir / ".plot_eval.py";
-  io::write_file_atomic(script, plot_eval_script());
-  const fs::path log = eval_dir / ".plot_eval.log";
+  const fs::path script = eval_dir / ("." + name);
+  io::write_file_atomic(script, script_text);
+  const fs::path log = eval_dir / ("." + name + ".log");
   const int rc = run(shell_quote(exe.string()) + " " + shell_quote(script.string()) + " " +
                      shell_quote(eval_dir.string()) + " >" + shell_quote(log.string()) + " 2>&1");
   std::string detail;
@@ -110,8 +111,14 @@ std::string render_eval_plots(const fs::path& eval_dir, bool& ok) {
   std::error_code ec;
   fs::remove(script, ec);
   fs::remove(log, ec);
-  if (rc != 0) return fmt::format("not rendered: plot_eval.py failed (exit {}): {}", rc, detail);
+  if (rc != 0) return fmt::format("not rendered: {} failed (exit {}): {}", name, rc, detail);
   ok = true;
+  return "";
+}
+
+std::string render_eval_plots(const fs::path& eval_dir, bool& ok) {
+  const std::string status = run_plot_script(plot_eval_script(), "plot_eval.py", eval_dir, ok);
+  if (!ok) return status;
   std::string written;  // rpe.png only exists with --rpe-delta
   for (const char* name : {"trajectory_top", "xyz", "rpy", "errors", "rpe"}) {
     const std::string f = fmt::format("plots/{}.png", name);

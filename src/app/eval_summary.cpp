@@ -7,6 +7,7 @@
 
 #include "roe/app/eval.hpp"
 #include "roe/core/error.hpp"
+#include "roe/eval/metrics.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
@@ -79,6 +80,25 @@ std::string vec3(const std::vector<double>& v, int first, int decimals) {
 
 }  // namespace
 
+std::vector<std::pair<std::string, double>> eval_report_metrics(const json& j, const std::string& file) {
+  try {
+    if (!j.contains("per_axis") || !j["per_axis"].contains("pos_rmse_m") || !j["per_axis"].contains("rpy_rmse_deg"))
+      throw InputError("not a roe eval report: per_axis.pos_rmse_m / rpy_rmse_deg missing", {file});
+    const auto& pa = j["per_axis"];
+    if (!pa["pos_rmse_m"].is_object() || !pa["rpy_rmse_deg"].is_object())
+      throw InputError("not a roe eval report: per_axis.pos_rmse_m / rpy_rmse_deg missing", {file});
+    const double v[kNumCols] = {pa["pos_rmse_m"]["x"].get<double>(),       pa["pos_rmse_m"]["y"].get<double>(),
+                                pa["pos_rmse_m"]["z"].get<double>(),       pa["rpy_rmse_deg"]["roll"].get<double>(),
+                                pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>(),
+                                num(j, file, "ape_trans_m", "rmse"),       num(j, file, "ape_rot_deg", "rmse")};
+    std::vector<std::pair<std::string, double>> out;
+    for (int k = 0; k < kNumCols; ++k) out.emplace_back(kCols[k], v[k]);
+    return out;
+  } catch (const json::exception& e) {
+    throw InputError(std::string("not a roe eval report: ") + e.what(), {file});
+  }
+}
+
 EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
   if (o.reports.empty()) throw InputError("--summary needs at least one report.json", {"roe eval"});
   struct Row {
@@ -101,16 +121,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
                                                                     : f.parent_path().filename().string();
       row.n_objects = j.contains("per_object") ? j["per_object"].size() : 0;
       row.n_matched = j.contains("association") ? j["association"].value("n_matched", std::size_t{0}) : 0;
-      if (!j.contains("per_axis") || !j["per_axis"].contains("pos_rmse_m") ||
-          !j["per_axis"].contains("rpy_rmse_deg"))
-        throw InputError("not a roe eval report: per_axis.pos_rmse_m / rpy_rmse_deg missing", {row.file});
-      const auto& pa = j["per_axis"];
-      if (!pa["pos_rmse_m"].is_object() || !pa["rpy_rmse_deg"].is_object())
-        throw InputError("not a roe eval report: per_axis.pos_rmse_m / rpy_rmse_deg missing", {row.file});
-      row.v = {pa["pos_rmse_m"]["x"].get<double>(),       pa["pos_rmse_m"]["y"].get<double>(),
-               pa["pos_rmse_m"]["z"].get<double>(),       pa["rpy_rmse_deg"]["roll"].get<double>(),
-               pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>(),
-               num(j, row.file, "ape_trans_m", "rmse"),   num(j, row.file, "ape_rot_deg", "rmse")};
+      for (const auto& [name, value] : eval_report_metrics(j, row.file)) row.v.push_back(value);
       for (const Setting& st : kSettings) row.settings[st.key] = setting_value(j, st);
       row.rpe = rpe_blocks(j);
     } catch (const json::exception& e) {
@@ -118,7 +129,6 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     }
     rows.push_back(std::move(row));
   }
-  const double n = static_cast<double>(rows.size());  // mean and population std, as the paper's tables
 
   // Mixed settings: a warning (the table is still written; comparing settings can be the point).
   std::vector<std::string> warnings;
@@ -172,11 +182,13 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
   }
   const int n_cols = static_cast<int>(cols.size());
   std::vector<double> mean(n_cols, 0.0), sd(n_cols, 0.0);
-  for (const auto& r : rows)
-    for (int k = 0; k < n_cols; ++k) mean[k] += r.v[k] / n;
-  for (const auto& r : rows)
-    for (int k = 0; k < n_cols; ++k) sd[k] += (r.v[k] - mean[k]) * (r.v[k] - mean[k]) / n;
-  for (double& x : sd) x = std::sqrt(x);
+  for (int k = 0; k < n_cols; ++k) {
+    std::vector<double> column;
+    for (const auto& r : rows) column.push_back(r.v[k]);
+    const eval::Stats st = eval::compute_stats(column);  // mean and population std (ddof 0)
+    mean[k] = st.mean;
+    sd[k] = st.std;
+  }
 
   EvalSummaryResult res;
   json runs = json::array();

@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
     if (!e.parent.empty()) {
       auto it = groups.find(e.parent);
       if (it == groups.end()) {
-        CLI::App* g = app.add_subcommand(e.parent, "Import recordings, calibrations and detections into a dataset folder");
+        CLI::App* g = app.add_subcommand(e.parent, e.parent == "sweep" ? "Plan, run (any scheduler), check and aggregate sweeps of runs" : "Import recordings, calibrations and detections into a dataset folder");
         g->require_subcommand(1);
         g->fallthrough();
         it = groups.emplace(e.parent, g).first;

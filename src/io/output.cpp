@@ -296,6 +296,26 @@ FolderLock::~FolderLock() {
   if (fd_ >= 0) ::close(fd_);  // releases the lock
 }
 
+FileLock::FileLock(const fs::path& file) {
+  const int fd = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) throw InputError(std::string("cannot open lock file: ") + std::strerror(errno), {file.string()});
+  int rc;
+  do {
+    rc = ::flock(fd, LOCK_EX | LOCK_NB);
+  } while (rc != 0 && errno == EINTR);
+  if (rc != 0) {
+    const int err = errno;
+    ::close(fd);
+    if (err != EWOULDBLOCK) throw InputError(std::string("cannot lock: ") + std::strerror(err), {file.string()});
+    return;  // another process holds it
+  }
+  fd_ = fd;
+}
+
+FileLock::~FileLock() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
 void StagedFiles::ensure_folder(const fs::path& dir) {
   std::error_code ec;
   std::vector<fs::path> missing;  // deepest first

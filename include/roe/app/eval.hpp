@@ -106,6 +106,11 @@ struct EvalResult {
 /// degenerate.
 EvalResult run_eval(const EvalOptions& options);
 
+/// The headline numbers of a report.json, in `roe eval --summary`'s column order: rmse_x_m, rmse_y_m,
+/// rmse_z_m, rmse_roll_deg, rmse_pitch_deg, rmse_yaw_deg, ate_rmse_m, rot_rmse_deg. InputError naming
+/// `file` when the report lacks them. (Also read by `roe sweep aggregate`.)
+std::vector<std::pair<std::string, double>> eval_report_metrics(const nlohmann::json& report, const std::string& file);
+
 struct EvalSummaryOptions {
   std::vector<std::string> reports;  ///< report.json files (or folders containing one)
   /// FILE: writes FILE (without a .csv/.json/.md extension) + .csv, .json and .md; a path ending in '/'
@@ -130,6 +135,10 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& options);
 
 /// The plotting script (scripts/plot_eval.py, embedded at build time).
 const std::string& plot_eval_script();
+/// Runs a plotting script (its text; `name` is its file name) with the interpreter render_eval_plots
+/// uses, passing `dir` as its argument. Returns "" on success (ok = true), else the status line.
+std::string run_plot_script(const std::string& script_text, const std::string& name,
+                            const std::filesystem::path& dir, bool& ok);
 /// Renders the PNGs of an eval output folder into DIR/plots with /usr/bin/python3 (or $ROE_PYTHON: a
 /// path, or a name looked up on PATH) and matplotlib. Returns a status line that tells apart an
 /// interpreter that was not found, one that cannot import matplotlib (with Python's message) and a

@@ -99,6 +99,22 @@ class FolderLock {
   int fd_ = -1;
 };
 
+/// An exclusive advisory lock (flock) on a lock file (created when missing, never removed), taken without
+/// waiting: held() says whether this process got it. It is released when the object ends or the process
+/// dies (a killed Slurm task releases its sweep job's lock). The file is opened read-write, so the lock
+/// also holds across the clients of an NFS share (Linux emulates flock with fcntl locks there).
+class FileLock {
+ public:
+  explicit FileLock(const fs::path& file);
+  ~FileLock();
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+  bool held() const { return fd_ >= 0; }
+
+ private:
+  int fd_ = -1;
+};
+
 /// Files that belong together (an import's data and the roe.json that records it), written under
 /// temporary names beside their final paths and renamed into place by commit() in the order they
 /// were staged (stage roe.json last). Until commit(), nothing the reader sees has changed; if it is

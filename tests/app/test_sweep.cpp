@@ -1,0 +1,186 @@
+// roe sweep's data decisions without files: the spec model and its errors (spec key paths), job ids
+// derived from content (stable under re-planning, a new seed only adds jobs), shards, and the
+// aggregation's groups and paired comparisons checked against scipy's numbers
+// (tests/eval/data/stats_reference.json).
+#include <catch2/catch.hpp>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "roe/app/sweep.hpp"
+#include "roe/core/error.hpp"
+#include "support/test_util.hpp"
+
+using nlohmann::json;
+using namespace roe;
+using namespace roe::app;
+
+namespace {
+
+json spec_with(const json& axes) { return {{"format", "roe-sweep-spec/1"}, {"axes", axes}}; }
+
+std::string config_error(const json& spec, const std::filesystem::path& dir = ".") {
+  try {
+    (void)plan_sweep(spec, dir, "spec.json");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  FAIL("expected a ConfigError for " << spec.dump());
+  return "";
+}
+
+std::set<std::string> ids(const SweepPlan& p) {
+  std::set<std::string> s;
+  for (const auto& j : p.jobs) s.insert(j.id);
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("sweep spec: expansion, content-derived ids, a new seed adds jobs only", "[app][sweep]") {
+  const json axes = {{"datasets", {"paper-seq1", {{"preset", "paper-seq4"}, {"duration_s", 5}}}},
+                     {"seeds", {1, 2}},
+                     {"configs", {"default", "paper"}},
+                     {"overrides", {{"filter.chi2_confidence", {0.9, 0.99}}}}};
+  const SweepPlan a = plan_sweep(spec_with(axes), ".", "spec.json");
+  REQUIRE(a.jobs.size() == 2 * 2 * 2 * 2);
+  CHECK(a.axis_names == std::vector<std::string>{"dataset", "seed", "config", "filter.chi2_confidence"});
+  CHECK(ids(a).size() == a.jobs.size());
+  // The override is in the effective config each job carries.
+  CHECK(a.jobs[0].content["run_config"]["filter"]["chi2_confidence"] == 0.9);
+  CHECK(a.jobs[1].content["run_config"]["filter"]["chi2_confidence"] == 0.99);
+  CHECK(a.jobs[0].axes["filter.chi2_confidence"] == 0.9);
+  CHECK(a.jobs[0].id.size() == 16);
+  // Re-planning gives the same ids in the same order.
+  const SweepPlan again = plan_sweep(spec_with(axes), ".", "spec.json");
+  for (std::size_t i = 0; i < a.jobs.size(); ++i) CHECK(again.jobs[i].id == a.jobs[i].id);
+  // Writing a default explicitly changes nothing; a different eval option changes every id.
+  json with_eval = spec_with(axes);
+  with_eval["eval"] = {{"align", "se3"}};
+  CHECK(ids(plan_sweep(with_eval, ".", "spec.json")) == ids(a));
+  with_eval["eval"] = {{"align", "posyaw"}};
+  for (const auto& j : plan_sweep(with_eval, ".", "spec.json").jobs) CHECK(ids(a).count(j.id) == 0);
+  // One more seed: every old job keeps its id, 8 new ones; keep_indices keeps the old order first.
+  json more = axes;
+  more["seeds"] = {1, 2, 3};
+  SweepPlan b = plan_sweep(spec_with(more), ".", "spec.json");
+  REQUIRE(b.jobs.size() == 24);
+  const auto old_ids = ids(a);
+  std::size_t shared = 0;
+  for (const auto& j : b.jobs) shared += old_ids.count(j.id);
+  CHECK(shared == a.jobs.size());
+  std::vector<std::string> order;
+  for (const auto& j : a.jobs) order.push_back(j.id);
+  CHECK(keep_indices(b, order).empty());
+  for (std::size_t i = 0; i < order.size(); ++i) CHECK(b.jobs[i].id == order[i]);
+  // A seed removed: the folder's job is reported as dropped.
+  SweepPlan c = plan_sweep(spec_with(axes), ".", "spec.json");
+  std::vector<std::string> b_order;
+  for (const auto& j : b.jobs) b_order.push_back(j.id);
+  CHECK(keep_indices(c, b_order).size() == 8);
+}
+
+TEST_CASE("sweep spec: blocks share jobs, per-dataset seeds", "[app][sweep]") {
+  // Table I (every sequence, seed 1) and Tables II/III (sequence 4, seeds 1-3): seq4 seed 1 once.
+  const json axes = json::array({{{"datasets", {"paper-seq1", "paper-seq4"}}, {"configs", {"paper"}}},
+                                 {{"datasets", {{{"preset", "paper-seq4"}, {"seeds", {1, 2, 3}}}}},
+                                  {"configs", {"paper"}}}});
+  const SweepPlan p = plan_sweep(spec_with(axes), ".", "spec.json");
+  CHECK(p.jobs.size() == 4);
+  CHECK(p.axis_names == std::vector<std::string>{"dataset", "seed", "config"});
+}
+
+TEST_CASE("sweep spec: bad input names the spec path", "[app][sweep]") {
+  roe::test::TempDir tmp("roe_sweep_spec");
+  const json ok = {{"datasets", {"paper-seq1"}}, {"configs", {"default"}}};
+  const auto err = [&](json axes) { return config_error(spec_with(axes), tmp.path); };
+  json a = ok;
+  a["bogus"] = 1;
+  CHECK_THAT(err(a), Catch::Contains("'axes.bogus'") && Catch::Contains("unknown key"));
+  a = ok;
+  a["configs"] = {"default", "paper", "no-such-config"};
+  CHECK_THAT(err(a), Catch::Contains("'axes.configs[2]'") && Catch::Contains("no-such-config"));
+  a = ok;
+  a["configs"] = {"default", "missing.json"};
+  CHECK_THAT(err(a), Catch::Contains("'axes.configs[1]'") && Catch::Contains("not found"));
+  a = ok;
+  a["seeds"] = json::array();
+  CHECK_THAT(err(a), Catch::Contains("'axes.seeds'") && Catch::Contains("at least one value"));
+  a = ok;
+  a["overrides"] = {{"filter.no_such_key", {1, 2}}};
+  CHECK_THAT(err(a), Catch::Contains("axes.overrides.filter.no_such_key[0]") && Catch::Contains("not a run config key"));
+  a = ok;
+  a["overrides"] = {{"filter.chi2_confidence", {0.9, 1.5}}};
+  CHECK_THAT(err(a), Catch::Contains("axes.overrides") && Catch::Contains("chi2_confidence"));
+  a = ok;
+  a["overrides"] = {{"filter", {1}}};
+  CHECK_THAT(err(a), Catch::Contains("a section, not a value"));
+  a = ok;
+  a["datasets"] = {"paper-seq1", {{"path", "no/such/dataset"}}};
+  CHECK_THAT(err(a), Catch::Contains("'axes.datasets[1].path'") && Catch::Contains("no roe.json"));
+  a = ok;
+  a["datasets"] = {"paper-seq99"};
+  CHECK_THAT(err(a), Catch::Contains("'axes.datasets[0]'") && Catch::Contains("unknown simulator preset"));
+  a = ok;
+  a["datasets"] = {{{"preset", "paper-seq1"}, {"sedes", {1}}}};
+  CHECK_THAT(err(a), Catch::Contains("axes.datasets[0].sedes"));
+  CHECK_THAT(config_error({{"axes", ok}, {"evaluation", {}}}), Catch::Contains("'evaluation'"));
+  CHECK_THAT(config_error({{"axes", ok}, {"eval", {{"align", "affine"}}}}), Catch::Contains("'eval.align'"));
+  CHECK_THAT(config_error({{"format", "roe-sweep-spec/0"}, {"axes", ok}}), Catch::Contains("unsupported spec format"));
+  CHECK_THAT(config_error({{"axes", json::array({ok, {{"datasets", json::array()}}})}}),
+             Catch::Contains("'axes[1].datasets'"));
+}
+
+TEST_CASE("sweep shards: round-robin, 0-based, every job exactly once", "[app][sweep]") {
+  std::vector<int> seen(10, 0);
+  for (std::size_t s = 0; s < 4; ++s)
+    for (std::size_t k : shard_indices(10, s, 4)) ++seen[k];
+  for (int n : seen) CHECK(n == 1);
+  CHECK(shard_indices(10, 1, 4) == std::vector<std::size_t>{1, 5, 9});
+  CHECK(parse_shard("3/4", "--shard") == std::pair<std::size_t, std::size_t>{3, 4});
+  for (const char* bad : {"4/4", "1/0", "a/2", "1", "-1/2", "1/2/3"})
+    CHECK_THROWS_AS(parse_shard(bad, "--shard"), InputError);
+}
+
+TEST_CASE("sweep aggregate: groups, CIs and paired Wilcoxon against scipy", "[app][sweep]") {
+  std::ifstream in(ROE_SOURCE_DIR "/tests/eval/data/stats_reference.json");
+  const json ref = json::parse(in);
+  const json& w = ref["wilcoxon"][0];  // "exact, no ties": 10 seeds, two configs
+  REQUIRE(w["name"] == "exact, no ties");
+  const auto a = w["a"].get<std::vector<double>>(), b = w["b"].get<std::vector<double>>();
+  std::vector<JobResult> results;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    for (const auto& [config, values] : {std::pair{"paper", &a}, std::pair{"default", &b}}) {
+      JobResult r;
+      r.id = std::string(config) + std::to_string(i);
+      r.axes = {{"dataset", "paper-seq4"}, {"seed", i + 1}, {"config", config}};
+      for (const auto& m : sweep_metric_names()) r.metrics[m] = (*values)[i];
+      results.push_back(r);
+    }
+  const Aggregate ag = aggregate_results(results, {"dataset", "seed", "config"}, {});
+  CHECK(ag.group_by == std::vector<std::string>{"dataset", "config"});
+  REQUIRE(ag.groups.size() == 2);
+  const json& s0 = ref["samples"][0];  // the same ten values as `a`
+  REQUIRE(s0["values"].get<std::vector<double>>() == a);
+  const auto& g = ag.groups[0].metrics.at("rmse_x_m");
+  CHECK(ag.groups[0].key == json({{"dataset", "paper-seq4"}, {"config", "paper"}}));
+  CHECK(g.n == 10);
+  CHECK(g.ci_low == Approx(s0["ci_low"].get<double>()).epsilon(1e-9));
+  CHECK(g.ci_high == Approx(s0["ci_high"].get<double>()).epsilon(1e-9));
+  REQUIRE(ag.comparisons.size() == 1);
+  const Comparison& c = ag.comparisons[0];
+  CHECK(c.a == "paper");
+  CHECK(c.b == "default");
+  CHECK(c.n_pairs == 10);
+  CHECK(c.metrics.at("ate_rmse_m").wilcoxon.p_value == Approx(w["p_value"].get<double>()).epsilon(1e-12));
+  CHECK(c.metrics.at("ate_rmse_m").wilcoxon.statistic == w["statistic"].get<double>());
+  // Outputs carry the numbers.
+  CHECK_THAT(ag.markdown(), Catch::Contains("| paper-seq4 | paper | 10 |") && Catch::Contains("p=0.010"));
+  CHECK_THAT(ag.latex(), Catch::Contains("\\toprule") && Catch::Contains("rmse\\_x\\_m"));
+  CHECK_THAT(ag.comparisons_csv(), Catch::Contains("paper,default,all,ate_rmse_m,10,"));
+  CHECK(ag.to_json()["comparisons"][0]["metrics"]["ate_rmse_m"]["wilcoxon"]["method"] == "exact");
+  // Grouping by an axis that does not exist is bad usage.
+  AggregateOptions bad;
+  bad.group_by = {"sequence"};
+  CHECK_THROWS_AS(aggregate_results(results, {"dataset", "seed", "config"}, bad), InputError);
+}
