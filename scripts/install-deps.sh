@@ -11,6 +11,7 @@ packages=(
   liblz4-dev libbz2-dev libyaml-cpp-dev libssl-dev                  # ROS bags, Kalibr YAML, sha256
   libopencv-dev libtorch-dev                                        # images, detector, PoET head
   python3 python3-numpy python3-matplotlib                          # plots (roe eval --plot)
+  chromium                                                          # roe report's browser test (tests/cli/test_report_cli.cpp)
 )
 if [[ "${1:-}" == "--dev" ]]; then
   packages+=(clang clang-format libclang-rt-14-dev python3-torch)
