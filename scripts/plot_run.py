@@ -207,6 +207,18 @@ def line(ax, t, y, angle=False, **kw):
     return ax.plot(tt, yy, **kw)
 
 
+def wrap_window(a):
+    """Angles (deg) wrapped into [L, L + 360) with L in -180, -90, 0, 90: the window in which the series
+    wraps least often (an orbit hovering around yaw 180 deg is drawn in [0, 360) instead of flipping)."""
+    best = None
+    for low in (-180.0, -90.0, 0.0, 90.0):
+        w = (np.asarray(a) - low) % 360.0 + low
+        jumps = int(np.sum(np.abs(np.diff(w)) > 180.0))
+        if best is None or jumps < best[0]:
+            best = (jumps, w)
+    return best[1]
+
+
 def onto(t, y, t_ref, y_ref):
     """Angles shifted by multiples of 360 deg to lie within 180 deg of the reference at the same time."""
     if len(t_ref) == 0:
@@ -252,6 +264,8 @@ class Figures:
         self.out, self.vector, self.dpi, self.footer = out, vector, dpi, footer
         self.items, self.skipped = [], []
 
+    task = 0  # the drawing task in progress: keeps the manifest in task order across workers
+
     def save(self, fig, name, title, caption):
         fig.suptitle(title, fontsize=10, y=0.995)
         fig.text(0.005, 0.004, self.footer, fontsize=6.5, color="#444444", ha="left", va="bottom")
@@ -261,10 +275,66 @@ class Figures:
             files[self.vector] = f"{name}.{self.vector}"
             fig.savefig(os.path.join(self.out, files[self.vector]))
         plt.close(fig)
-        self.items.append({"name": name, "title": title, "caption": caption, "files": files})
+        self.items.append({"task": self.task, "name": name, "title": title, "caption": caption, "files": files})
 
     def skip(self, name, reason):
-        self.skipped.append({"name": name, "reason": reason})
+        self.skipped.append({"task": self.task, "name": name, "reason": reason})
+
+
+def run_tasks(F, tasks, jobs):
+    """Runs the drawing tasks (cost, fn) on `jobs` processes: this one and jobs-1 forks of it (the
+    imports and data are shared, nothing is read twice). Greedy by cost. A fork reports its figures
+    through a hidden file; a failing fork fails the whole set (its traceback is on stderr)."""
+    share = [[] for _ in range(max(1, jobs))]
+    load = [0.0] * len(share)
+    for i in sorted(range(len(tasks)), key=lambda i: -tasks[i][0]):
+        j = load.index(min(load))
+        share[j].append(i)
+        load[j] += tasks[i][0]
+    children = []
+    try:
+        for j in range(1, len(share)):
+            if not share[j]:
+                continue
+            part = os.path.join(F.out, f".figures-part{j}.json")
+            pid = os.fork()
+            if pid == 0:
+                code = 0
+                try:
+                    F.items, F.skipped = [], []
+                    for i in sorted(share[j]):
+                        F.task = i
+                        tasks[i][1]()
+                    with open(part, "w") as f:
+                        json.dump({"items": F.items, "skipped": F.skipped}, f)
+                except BaseException:  # noqa: B036 - the fork must never return into the caller
+                    import traceback
+                    traceback.print_exc()
+                    code = 1
+                finally:
+                    sys.stdout.flush()
+                    sys.stderr.flush()
+                    os._exit(code)
+            children.append((pid, part))
+        for i in sorted(share[0]):
+            F.task = i
+            tasks[i][1]()
+    finally:
+        failed = False
+        for pid, part in children:
+            _, status = os.waitpid(pid, 0)
+            if os.waitstatus_to_exitcode(status) != 0 or not os.path.exists(part):
+                failed = True
+                continue
+            with open(part) as f:
+                d = json.load(f)
+            os.remove(part)
+            F.items += d["items"]
+            F.skipped += d["skipped"]
+    if failed:
+        raise RuntimeError("a figure process failed (its traceback is above)")
+    F.items.sort(key=lambda it: it["task"])
+    F.skipped.sort(key=lambda it: it["task"])
 
 
 # ------------------------------------------------------------------------------------------- figures
@@ -278,7 +348,7 @@ def fig3(F, est, gt, reps, chosen, colors, t0):
     for k, (key, lab) in enumerate(names):
         ax = axs[k % 3][k // 3]
         angle = k >= 3
-        g = gt[key]
+        g = wrap_window(gt[key]) if angle else gt[key]
         e = onto(est["t"], est[key], gt["t"], g) if angle else est[key]
         lim = robust_limits([g, e], 5.0 if angle else 0.05)
         for oid in chosen:
@@ -296,8 +366,8 @@ def fig3(F, est, gt, reps, chosen, colors, t0):
     h, l = axs[0][0].get_legend_handles_labels()
     fig.legend(h, l, loc="upper center", ncol=min(len(l), 8), bbox_to_anchor=(0.5, 0.965), frameon=False,
                markerscale=2.0)
-    cap = ("Position and Euler angles (ZYX, wrapped to [-180°, 180°); lines break at wrap and gimbal-lock "
-           "jumps) of the aligned estimate and the ground truth, with the IMU pose reprojected from each raw "
+    cap = ("Position and Euler angles (ZYX, each wrapped into the 360° window in which the ground truth wraps "
+           "least; lines break at wrap and gimbal-lock jumps) of the aligned estimate and the ground truth, with the IMU pose reprojected from each raw "
            f"detection of object(s) {', '.join(str(o) for o in chosen) or '(none)'} (dots: used by the filter; "
            "crosses: rejected). The axes cover the estimate and the truth; "
            f"{out_total} reprojected values beyond them are drawn as triangles at the edge.")
@@ -328,15 +398,20 @@ def relative_to_anchor(objs, anchor):
     return out
 
 
-def fig4(F, objs, anchor, truth_objects, colors, t0, label_of):
+def fig4_tasks(F, objs, anchor, truth_objects, colors, t0, label_of):
+    """One drawing task per non-anchor object (the paper's Fig. 4)."""
     rel = relative_to_anchor(objs, anchor)
     if not rel:
-        F.skip("fig4", "no non-anchor object was initialised")
-        return
+        return [(0.1, lambda: F.skip("fig4", "no non-anchor object was initialised"))]
+    return [(1.5, (lambda oid=oid, r=r: fig4(F, oid, r, anchor, truth_objects, colors, t0, label_of)))
+            for oid, r in rel.items()]
+
+
+def fig4(F, oid, r, anchor, truth_objects, colors, t0, label_of):
     tA = truth_objects.get(anchor)
-    for oid, r in rel.items():
+    if True:
         t = r["t"] - t0
-        ang = log_so3_deg(r["R"]) if False else euler_deg(r["R"])
+        ang = euler_deg(r["R"])
         truth = None
         if tA is not None and oid in truth_objects:
             pA, RA = tA
@@ -399,6 +474,8 @@ def extrinsics(F, states, prior, truth, t0):
         p_prior, R_prior = p[:1] / 1000.0, R[:1]
     # The rotation as the error state: R_I_C = R_prior Exp(dtheta), dtheta in degrees.
     dth = log_so3_deg(np.transpose(R_prior, (0, 2, 1)) @ R)
+    same_prior = truth is not None and np.allclose(truth[0], p_prior, atol=1e-6) and \
+        np.abs(log_so3_deg(np.transpose(R_prior, (0, 2, 1)) @ truth[1])).max() < 1e-4
     fig, axs = plt.subplots(3, 2, figsize=(10, 6.5), sharex=True)
     fig.subplots_adjust(left=0.08, right=0.99, top=0.9, bottom=0.1, hspace=0.12, wspace=0.2)
     ax_names = "xyz"
@@ -417,16 +494,20 @@ def extrinsics(F, states, prior, truth, t0):
         i = decimate(t, [y, s])
         ax.fill_between(t[i], (y - s)[i], (y + s)[i], color=C_EST, alpha=0.2, lw=0, label=r"$\pm1\sigma$")
         ax.plot(t[i], y[i], color=C_EST, lw=1.1, label="estimate")
-        ax.axhline(pv, color=C_PRIOR, ls=":", lw=1.2, label="prior")
-        if tv is not None:
-            ax.axhline(tv, color=C_GT, ls="--", lw=1.0, label="truth")
+        if tv is not None and same_prior:
+            ax.axhline(tv, color=C_GT, ls="--", lw=1.0, label="prior = truth")
+        else:
+            ax.axhline(pv, color=C_PRIOR, ls=":", lw=1.4, label="prior")
+            if tv is not None:
+                ax.axhline(tv, color=C_GT, ls="--", lw=1.0, label="truth")
     for ax in axs[-1]:
         ax.set_xlabel("time [s]")
     h, l = axs[0][0].get_legend_handles_labels()
     fig.legend(h, l, loc="upper center", ncol=4, bbox_to_anchor=(0.5, 0.955), frameon=False)
     cap = (r"Camera–IMU extrinsics $T_{IC}$ over time: the lever arm $p_{IC}$ (mm) and the rotation away from "
            r"the prior, $\delta\theta = \mathrm{Log}(R_{IC,\mathrm{prior}}^\top R_{IC})$ (deg, the filter's error "
-           "state), with ±1σ, the prior" + (" and the truth." if truth is not None else "."))
+           "state), with ±1σ, the prior" + (" (here equal to the truth)." if same_prior else
+                                            " and the truth." if truth is not None else "."))
     F.save(fig, "extrinsics", r"Extrinsics $T_{IC}$ (self-calibration)", cap)
 
 
@@ -439,8 +520,8 @@ def consistency(F, err, reps, colors, gate, t0):
     n = int(have_nees) * 2 + int(have_nis)
     fig, axs = plt.subplots(n, 1, figsize=(10, 2.3 * n + 0.8), sharex=True, squeeze=False)
     axs = axs[:, 0]
-    fig.subplots_adjust(left=0.08, right=0.99, top=1 - 0.75 / (2.3 * n + 0.8), bottom=0.45 / (2.3 * n + 0.8) + 0.04,
-                        hspace=0.12)
+    height = 2.3 * n + 0.8
+    fig.subplots_adjust(left=0.08, right=0.99, top=1 - 0.62 / height, bottom=0.62 / height, hspace=0.16)
     k = 0
     lo3, hi3 = chi2_ppf(0.025, 3), chi2_ppf(0.975, 3)
     if have_nees:
@@ -621,6 +702,7 @@ def main():
     ap.add_argument("--color-by-error", action="store_true")
     ap.add_argument("--vector", default="pdf", choices=["pdf", "svg", "none"])
     ap.add_argument("--dpi", type=int, default=130)
+    ap.add_argument("--jobs", type=int, default=0, help="processes drawing (0: min(2, CPUs))")
     a = ap.parse_args()
     d = a.eval_dir
     try:
@@ -673,26 +755,27 @@ def main():
     F = Figures(a.out, a.vector, a.dpi, footer)
     t0 = float(gt["t"][0]) if len(gt["t"]) else 0.0
 
-    fig3(F, est, gt, reps, chosen, colors, t0)
     truth = (ds or {}).get("truth") or {}
+    tasks = [(3.0, lambda: fig3(F, est, gt, reps, chosen, colors, t0))]
     if objs is not None and anchor is not None:
         tobj = {o["id"]: pose_q(o["T_W_O"]["p"], o["T_W_O"]["q"]) for o in truth.get("objects", [])}
-        fig4(F, objs, anchor, tobj, colors, t0, label_of)
+        tasks += fig4_tasks(F, objs, anchor, tobj, colors, t0, label_of)
     else:
-        F.skip("fig4", "no objects.csv / run.json (not a run folder)")
+        tasks.append((0.1, lambda: F.skip("fig4", "no objects.csv / run.json (not a run folder)")))
     if states is not None and "p_I_C_x" in states:
         pj = ((run_json or {}).get("init") or {}).get("T_I_C")
         prior = pose_q(pj["p"], pj["q"]) if pj else None
         tt = truth.get("T_I_C")
-        extrinsics(F, states, prior, pose_q(tt["p"], tt["q"]) if tt else None, t0)
+        tasks.append((2.0, lambda: extrinsics(F, states, prior, pose_q(tt["p"], tt["q"]) if tt else None, t0)))
     else:
-        F.skip("extrinsics", "no states.csv with the extrinsics (not a run folder)")
+        tasks.append((0.1, lambda: F.skip("extrinsics", "no states.csv with the extrinsics (not a run folder)")))
     gate = ((run_json or {}).get("nis") or {}).get("gate")
-    consistency(F, err, reps, colors, gate, t0)
-    trajectory(F, est, gt, reps, chosen, colors, err, a.plot_mode, a.color_by_error)
-    errors(F, err, t0)
+    tasks.append((3.0, lambda: consistency(F, err, reps, colors, gate, t0)))
+    tasks.append((1.2, lambda: trajectory(F, est, gt, reps, chosen, colors, err, a.plot_mode, a.color_by_error)))
+    tasks.append((1.5, lambda: errors(F, err, t0)))
     if rpe is not None:
-        rpe_fig(F, rpe, t0)
+        tasks.append((1.2, lambda: rpe_fig(F, rpe, t0)))
+    run_tasks(F, tasks, a.jobs if a.jobs > 0 else min(2, os.cpu_count() or 1))
     manifest = {"figures": F.items, "skipped": F.skipped, "objects": {str(k): v for k, v in colors.items()},
                 "chosen_objects": chosen, "anchor_id": anchor, "vector": a.vector}
     with open(os.path.join(a.out, "figures.json"), "w") as f:
