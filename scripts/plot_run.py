@@ -437,16 +437,13 @@ def fig4(F, oid, r, anchor, truth_objects, colors, t0, label_of):
             if truth is not None:
                 tv = truth[0][k] if k < 3 else truth[1][k - 3]
                 ax.axhline(tv, color=C_GT, ls="--", lw=1.0, label="truth")
-            # Zoom on the converged part: the first (uninformed) seconds must not squash the rest.
-            tail = y[len(y) // 5:]
-            ts = s[len(y) // 5:]
-            ref_vals = np.concatenate([tail - 3 * ts, tail + 3 * ts] + ([np.array([tv])] if truth is not None else []))
+            # The whole estimate and the truth, but the σ band only after the first fifth: the first
+            # (uninformed) σ must not squash the converged part; it runs off the axes instead.
+            tail = slice(len(y) // 5, None)
+            ref_vals = np.concatenate([y, y[tail] - 2 * s[tail], y[tail] + 2 * s[tail]] +
+                                      ([np.array([tv])] if truth is not None else []))
             lo, hi = np.nanmin(ref_vals), np.nanmax(ref_vals)
-            allv = np.concatenate([y - s, y + s])
-            lo, hi = min(lo, np.nanmin(allv)), max(hi, np.nanmax(allv))
-            floor = 0.01 if k < 3 else 1.0
-            span_cap = max(hi - lo, floor)
-            pad = 0.08 * span_cap
+            pad = 0.1 * max(hi - lo, 0.01 if k < 3 else 1.0)
             ax.set_ylim(lo - pad, hi + pad)
             ax.set_ylabel(labels[k])
         for ax in axs[-1]:
@@ -592,16 +589,21 @@ def trajectory(F, est, gt, reps, chosen, colors, err, mode, by_error):
                 continue
             m = r["used"] & (r[ka] >= lim_a[0]) & (r[ka] <= lim_a[1]) & (r[kb] >= lim_b[0]) & (r[kb] <= lim_b[1])
             ax.scatter(r[ka][m], r[kb][m], s=3, color=colors[oid], alpha=0.3, label=f"obj {oid} (used)", rasterized=True)
+        colored = by_error and "e_norm_m" in err and len(err["e_norm_m"]) == len(est["t"])
         ig = decimate(gt["t"], [gt[ka], gt[kb]])
-        ax.plot(gt[ka][ig], gt[kb][ig], color=C_GT, lw=1.2, label="ground truth")
-        if by_error and "e_norm_m" in err and len(err["e_norm_m"]) == len(est["t"]):
+        ax.plot(gt[ka][ig], gt[kb][ig], color="#9a9a9a" if colored else C_GT, lw=2.2 if colored else 1.2,
+                label="ground truth", zorder=1)
+        if colored:
             step = max(1, len(est["t"]) // (4 * SCREEN_BINS))
             xa, xb, e = est[ka][::step], est[kb][::step], err["e_norm_m"][::step]
             seg = np.stack([np.stack([xa[:-1], xb[:-1]], 1), np.stack([xa[1:], xb[1:]], 1)], 1)
-            lc = LineCollection(seg, cmap="viridis", lw=1.6)
+            # The colour scale stops at the 98th percentile: an initial transient must not darken the rest.
+            vmax = float(np.nanpercentile(e, 98)) if len(e) else 1.0
+            lc = LineCollection(seg, cmap="viridis", lw=1.6, zorder=3)
             lc.set_array(e[:-1])
+            lc.set_clim(0.0, vmax)
             ax.add_collection(lc)
-            cb = fig.colorbar(lc, ax=ax, fraction=0.04, pad=0.02)
+            cb = fig.colorbar(lc, ax=ax, fraction=0.04, pad=0.02, extend="max" if np.nanmax(e) > vmax else "neither")
             cb.set_label(r"position error $\|p_{est}-p_{gt}\|$ [m]")
             ax.plot([], [], color=plt.get_cmap("viridis")(0.6), lw=1.6, label="estimate (colour: error)")
         else:
