@@ -535,6 +535,8 @@ def consistency(F, err, reps, colors, gate, t0):
             if len(finite):
                 ax.set_title(f"mean {np.mean(finite):.2f}, {100 * np.mean((finite < lo3) | (finite > hi3)):.1f} % "
                              "outside the bounds", loc="right", fontsize=8)
+            if len(finite):  # headroom on the log axis: the legend must not cover the curve
+                ax.set_ylim(max(finite.min(), 1e-3) / 2, max(finite.max(), hi3) * 40)
             ax.legend(loc="upper left", ncol=3)
             k += 1
     if have_nis:
@@ -552,6 +554,9 @@ def consistency(F, err, reps, colors, gate, t0):
             ax.scatter(r["t"][x] - t0, r["nis"][x], s=8, marker="x", color=colors[oid], alpha=0.5, linewidths=0.6,
                        rasterized=True)
         ax.set_yscale("log")
+        nis_all = np.concatenate([r["nis"][np.isfinite(r["nis"]) & (r["nis"] > 0)] for r in reps.values()])
+        if len(nis_all):
+            ax.set_ylim(max(nis_all.min(), 1e-3) / 2, max(nis_all.max(), gate or hi6) * 40)
         ax.set_ylabel("NIS per detection")
         ax.legend(loc="upper left", ncol=8, markerscale=2)
     axs[-1].set_xlabel("time [s]")
