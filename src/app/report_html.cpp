@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <iterator>
 #include <map>
 #include <set>
 #include <tuple>
@@ -153,9 +154,12 @@ std::string section_objects(const json& ev, const json& run) {
   s += "<table class=\"num\" id=\"counts\"><caption>Detections per object (run.json";
   s += run.contains("anchor_id") ? fmt::format("; anchor object {}", plain(run["anchor_id"])) : std::string();
   s += ") and the RMSE of each object's reprojected raw detections against the ground truth (same alignment)"
-       "</caption>\n<tr><th>object</th>";
-  for (const char* k : statuses) s += fmt::format("<th>{}</th>", k);
-  s += "<th>rmse x/y/z [m]</th><th>rmse roll/pitch/yaw [°]</th></tr>\n";
+       "</caption>\n<tr><th rowspan=\"2\">object</th><th colspan=\"8\">detections by status</th>"
+       "<th colspan=\"3\">RMSE [m]</th><th colspan=\"3\">RMSE [°]</th></tr>\n<tr>";
+  const char* shown[] = {"all", "accepted", "initialized", "χ² rejected", "no anchor", "score", "no IMU", "pending"};
+  for (std::size_t i = 0; i < std::size(statuses); ++i)
+    s += fmt::format("<th title=\"{}\">{}</th>", statuses[i], shown[i]);
+  s += "<th>x</th><th>y</th><th>z</th><th>roll</th><th>pitch</th><th>yaw</th></tr>\n";
   std::map<int, const json*> eval_obj;
   if (ev.contains("per_object"))
     for (const json& o : ev["per_object"]) eval_obj[o["object_id"].get<int>()] = &o;
@@ -173,12 +177,12 @@ std::string section_objects(const json& ev, const json& run) {
     const json* o = eval_obj.count(id) ? eval_obj[id] : nullptr;
     if (o && (*o)["all"]["n"].get<int>() > 0) {
       const json& a = (*o)["all"];
-      s += fmt::format("<td>{:.3f} / {:.3f} / {:.3f}</td><td>{:.2f} / {:.2f} / {:.2f}</td>",
+      s += fmt::format("<td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.2f}</td>",
                        a["pos_rmse_m"]["x"].get<double>(), a["pos_rmse_m"]["y"].get<double>(),
                        a["pos_rmse_m"]["z"].get<double>(), a["rpy_rmse_deg"]["roll"].get<double>(),
                        a["rpy_rmse_deg"]["pitch"].get<double>(), a["rpy_rmse_deg"]["yaw"].get<double>());
     } else {
-      s += "<td class=\"na\">–</td><td class=\"na\">–</td>";
+      for (int k = 0; k < 6; ++k) s += "<td class=\"na\">–</td>";
     }
     s += "</tr>\n";
   }
@@ -228,7 +232,7 @@ constexpr const char* kStyle = R"css(
 body{font:14px/1.45 system-ui,-apple-system,"Segoe UI",sans-serif;max-width:1180px;margin:1.5em auto;padding:0 1em;color:#222}
 h1{font-size:1.5em;margin:.2em 0}h2{font-size:1.2em;margin:1.2em 0 .4em;display:inline-block}
 table{border-collapse:collapse;margin:.6em 0 1em}caption{text-align:left;color:#555;padding:.2em 0}
-th,td{border:1px solid #ddd;padding:.25em .6em;text-align:left}table.num td{text-align:right;font-variant-numeric:tabular-nums}
+th,td{border:1px solid #ddd;padding:.25em .6em;text-align:left}#counts th,#counts td{font-size:13px;white-space:nowrap}table.num td{text-align:right;font-variant-numeric:tabular-nums}
 table.kv th{font-weight:normal;color:#444;font-family:ui-monospace,monospace;font-size:12px}
 figure{margin:1.2em 0}figure img{max-width:100%;height:auto;border:1px solid #eee}figcaption{color:#444;font-size:13px}
 .pass{color:#17803d}.fail{color:#b3261e}.inconclusive{color:#a15c00}.skipped,.na{color:#888}
