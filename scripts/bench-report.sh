@@ -2,7 +2,7 @@
 # Benchmark of the figures and of `roe report` on a 60 s run (docs/report.md, docs/benchmarks/report.md):
 #   scripts/bench-report.sh [BUILD_DIR] [DURATION_S]
 # Simulates `matched-calib` (seed 7) for DURATION_S (default 60), runs the filter, then times, each
-# three times: the figure set alone (scripts/plot_run.py, PNG + PDF, one python process) and the whole
+# three times (wall and CPU): the figure set alone (scripts/plot_run.py, PNG + PDF, one python process) and the whole
 # `roe report` (in-process eval + calib-check + figures + HTML). Prints the median and the HTML size.
 set -euo pipefail
 BUILD=${1:-build}
@@ -17,21 +17,23 @@ echo "machine: $(lscpu | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores
 "$ROE" -q run "$W/ds" --out "$W/run"
 "$ROE" -q eval "$W/run" --gt "$W/ds" --out "$W/eval"
 median() { sort -n | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
-now() { date +%s.%N; }
+# Wall and CPU (user + sys of the process and the children it waited for): on a shared machine the wall
+# time follows the load, the CPU time much less.
 for what in figures report; do
-  times=()
+  walls=(); cpus=()
   for i in 1 2 3; do
     rm -rf "$W/figs" "$W/r.html"
-    t0=$(now)
     if [ "$what" = figures ]; then
-      "$PY" scripts/plot_run.py --eval "$W/eval" --run "$W/run" --dataset "$W/ds" --out "$W/figs" --objects all >/dev/null
+      cmd=("$PY" scripts/plot_run.py --eval "$W/eval" --run "$W/run" --dataset "$W/ds" --out "$W/figs" --objects all)
     else
-      "$ROE" -q report "$W/run" --gt "$W/ds" --out "$W/r.html" --objects all
+      cmd=("$ROE" -q report "$W/run" --gt "$W/ds" --out "$W/r.html" --objects all)
     fi
-    t1=$(now)
-    times+=("$(awk "BEGIN{print $t1 - $t0}")")
+    /usr/bin/time -f "%e %U %S" -o "$W/time" "${cmd[@]}" >/dev/null
+    read -r e u s < "$W/time"
+    walls+=("$e"); cpus+=("$(awk "BEGIN{print $u + $s}")")
   done
-  printf '%s\n' "${times[@]}" | median | xargs printf "%-8s median of 3: %.2f s (${DUR} s run; runs: ${times[*]})\n" "$what"
+  [ "$what" = figures ] && echo "figures: $(ls "$W/figs" | grep -c '\.png$') PNG + $(ls "$W/figs" | grep -c '\.pdf$') PDF"
+  printf "%-8s wall median %s s (%s), CPU median %s s (%s); %s s run\n" "$what" \
+    "$(printf '%s\n' "${walls[@]}" | median)" "${walls[*]}" "$(printf '%s\n' "${cpus[@]}" | median)" "${cpus[*]}" "$DUR"
 done
-echo "figures: $(ls "$W/figs" | grep -c '\.png$') PNG + $(ls "$W/figs" | grep -c '\.pdf$') PDF"
-echo "report: $(stat -c %s "$W/r.html") bytes"
+echo "report: $(stat -c %s "$W/r.html") bytes; load after: $(cut -d' ' -f1-3 /proc/loadavg)"

@@ -108,7 +108,10 @@ ReportResult write_report(const ReportOptions& o) {
   t = std::chrono::steady_clock::now();
   std::error_code ec;
   const fs::path dataset = fs::exists(fs::path(opt.gt) / "roe.json", ec) ? fs::path(opt.gt) : fs::path();
-  const FigureSet figs = render_figures(work.tmp() / "eval", o.run_dir, dataset, fig_dir, o.figures);
+  // The HTML embeds the PNGs only: vector files are drawn only when --figures keeps them.
+  FigureOptions fo = o.figures;
+  if (!keep) fo.vector = "none";
+  const FigureSet figs = render_figures(work.tmp() / "eval", o.run_dir, dataset, fig_dir, fo);
   const double fig_s = seconds_since(t);
   t = std::chrono::steady_clock::now();
   const std::string html = report_html(ev.report, run, calib, figs, fig_dir);
