@@ -128,7 +128,8 @@ TEST_CASE("roe report: the HTML in headless Chromium", "[cli][report][browser]")
   REQUIRE(a != std::string::npos);
   const std::size_t b = dom.find("</pre>", a);
   const std::string b64 = dom.substr(a + 20, b - a - 20);
-  auto [drc, decoded] = sh("printf %s '" + b64 + "' | base64 -d");
+  std::ofstream(t / "probe.b64") << b64;
+  auto [drc, decoded] = sh("base64 -d " + (t / "probe.b64").string());
   REQUIRE(drc == 0);
   const json probe = json::parse(decoded);
   CHECK(probe["errors"].empty());
