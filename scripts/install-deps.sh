@@ -13,6 +13,7 @@ packages=(
   libopencv-dev libtorch-dev                                        # images, detector, PoET head
   python3 python3-numpy python3-matplotlib                          # plots (roe eval --plot)
   parallel slurm-wlm munge                                          # roe sweep: the real-engine tests (GNU parallel, single-node Slurm)
+  chromium                                                          # roe report's browser test (tests/cli/test_report_cli.cpp)
 )
 if [[ "${1:-}" == "--dev" ]]; then
   packages+=(clang clang-format libclang-rt-14-dev python3-torch)

@@ -149,6 +149,7 @@ EvalResult run_eval(const EvalOptions& o) {
   (void)parse_format_option(o.est_format, "--est-format");
   (void)parse_format_option(o.gt_format, "--gt-format");
   check_gt_source(o.gt_source);
+  if (o.plot) check_figure_options(o.figures);
   std::vector<eval::RpeOptions> rpe_options;
   for (double d : o.rpe_delta) {
     eval::RpeOptions r;
@@ -573,9 +574,8 @@ EvalResult run_eval(const EvalOptions& o) {
     report["outputs"] = {{"dir", out.string()}, {"files", files}};
     put("report.json", io::dump_json(report, 2) + "\n");
     if (o.plot) {
-      bool ok = false;
-      res.plot_status = render_eval_plots(dir.tmp(), ok);
-      report["plots"] = {{"ok", ok}, {"status", res.plot_status}};
+      res.plot_status = render_eval_plots(dir.tmp(), o);  // throws: a plotting failure commits nothing
+      report["plots"] = {{"ok", true}, {"status", res.plot_status}};
       io::write_file_atomic(dir.file("report.json"), io::dump_json(report, 2) + "\n");
     }
     dir.commit();

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "roe/app/eval.hpp"
+#include "roe/app/figures.hpp"
 #include "roe/app/sweep.hpp"
 #include "roe/core/error.hpp"
 #include "roe/io/csv.hpp"
@@ -406,10 +407,9 @@ SweepAggregateResult sweep_aggregate(const SweepAggregateOptions& o) {
   js["sweep"] = io::provenance_path(s.dir);
   io::write_file_atomic(out.file("summary.json"), io::dump_json(js, 2) + "\n");
   io::write_file_atomic(out.file("jobs.csv"), jobs_csv.str());
-  if (o.plot) {
-    bool ok = false;
-    res.plot_status = run_plot_script(detail::embedded_plot_sweep_script(), "plot_sweep.py", out.tmp(), ok);
-    if (ok) res.plot_status = "plots/box_<metric>.png";
+  if (o.plot) {  // a failed plot is an error (nothing is committed), as for eval --plot and report
+    run_plot_script(detail::embedded_plot_sweep_script(), "plot_sweep.py", out.tmp(), {out.tmp().string()});
+    res.plot_status = "plots/box_<metric>.png";
   }
   out.commit();
   res.out = out.final_dir();

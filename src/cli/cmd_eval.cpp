@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "command.hpp"
+#include "figure_options.hpp"
 #include "roe/app/eval.hpp"
 #include "roe/core/error.hpp"
 
@@ -17,6 +18,7 @@ struct Args {
   app::EvalOptions opt;
   std::vector<std::string> summary;
   std::vector<CLI::Option*> eval_only;  // options of an evaluation, meaningless with --summary
+  std::vector<CLI::Option*> plot_only;  // figure options, meaningless without --plot
 };
 
 RunFn setup(CLI::App& sub) {
@@ -58,7 +60,10 @@ RunFn setup(CLI::App& sub) {
   a->eval_only.push_back(
       sub.add_option("--label", a->opt.label, "Name of this run in reports and summaries"));
   a->eval_only.push_back(sub.add_flag(
-      "--plot", a->opt.plot, "Render PNG plots with /usr/bin/python3 + matplotlib (scripts/plot_eval.py)"));
+      "--plot", a->opt.plot,
+      "Draw the figures (PNG + PDF) into OUT/plots with /usr/bin/python3 + matplotlib (docs/report.md)"));
+  a->plot_only = add_figure_options(sub, a->opt.figures);
+  a->eval_only.insert(a->eval_only.end(), a->plot_only.begin(), a->plot_only.end());
   auto* rpe_delta =
       sub.add_option("--rpe-delta", a->opt.rpe_delta,
                      "Relative pose error over this delta (several: 1,2,5); unit from --rpe-unit")
@@ -98,6 +103,10 @@ RunFn setup(CLI::App& sub) {
                                        op->get_name()),
                            {"", 0, 0, op->get_name().substr(2)});
     }
+    for (const CLI::Option* op : a->plot_only)
+      if (op->count() > 0 && !a->opt.plot)
+        throw InputError(fmt::format("{} needs --plot (it is an option of the figures)", op->get_name()),
+                         {"", 0, 0, op->get_name().substr(2)});
     if (!a->summary.empty()) {
       // --summary only reads existing reports: options of an evaluation would be silently ignored.
       std::string given;

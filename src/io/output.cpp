@@ -54,11 +54,22 @@ void unregister_temporary(int slot) {
 std::atomic<int> g_defer_depth{0};
 std::atomic<int> g_deferred_signal{0};
 
+// Child processes (process-group leaders) the handler kills before removing the temporaries.
+constexpr int kChildSlots = 8;
+std::atomic<pid_t> g_children[kChildSlots];
+
 extern "C" void remove_temporaries_and_die(int sig) {
   if (g_defer_depth.load(std::memory_order_acquire) > 0) {
     int none = 0;
     g_deferred_signal.compare_exchange_strong(none, sig);
     return;
+  }
+  for (int i = 0; i < kChildSlots; ++i) {
+    const pid_t child = g_children[i].exchange(0);
+    if (child <= 0) continue;
+    ::kill(-child, SIGKILL);  // its whole group: a script's own children too
+    ::kill(child, SIGKILL);
+    ::waitpid(child, nullptr, 0);
   }
   static char rm[] = "rm", rf[] = "-rf", dashes[] = "--";
   for (int i = 0; i < kSlots; ++i) {
@@ -249,6 +260,18 @@ std::vector<fs::path> remove_stale_temporaries(const fs::path& final_path) {
     if (fs::remove_all(s, rec) != static_cast<std::uintmax_t>(-1) && !rec) removed.push_back(s);
   }
   return removed;
+}
+
+int register_child_process(pid_t pid) {
+  for (int i = 0; i < kChildSlots; ++i) {
+    pid_t none = 0;
+    if (g_children[i].compare_exchange_strong(none, pid)) return i;
+  }
+  return -1;
+}
+
+void unregister_child_process(int slot) {
+  if (slot >= 0) g_children[slot].store(0);
 }
 
 void remove_temporaries_on_signals() {

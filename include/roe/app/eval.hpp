@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "roe/app/figures.hpp"
 #include "roe/core/types.hpp"
 #include "roe/eval/align.hpp"
 #include "roe/eval/associate.hpp"
@@ -47,6 +48,7 @@ struct EvalOptions {
   bool no_out = false;              ///< --no-out: write nothing (even for a run folder)
   std::string label;                ///< --label (default: the run folder's or file's name)
   bool plot = false;                ///< --plot
+  FigureOptions figures;            ///< --objects, --plot-mode, --color-by-error, --vector (with --plot)
   bool force = false;               ///< --force
   /// --rpe-delta D[,D...]: relative pose error for each delta (none: no RPE), eval/rpe.hpp.
   std::vector<double> rpe_delta;
@@ -133,16 +135,9 @@ struct EvalSummaryResult {
 /// Markdown say so (a warning, not an error).
 EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& options);
 
-/// The plotting script (scripts/plot_eval.py, embedded at build time).
-const std::string& plot_eval_script();
-/// Runs a plotting script (its text; `name` is its file name) with the interpreter render_eval_plots
-/// uses, passing `dir` as its argument. Returns "" on success (ok = true), else the status line.
-std::string run_plot_script(const std::string& script_text, const std::string& name,
-                            const std::filesystem::path& dir, bool& ok);
-/// Renders the PNGs of an eval output folder into DIR/plots with /usr/bin/python3 (or $ROE_PYTHON: a
-/// path, or a name looked up on PATH) and matplotlib. Returns a status line that tells apart an
-/// interpreter that was not found, one that cannot import matplotlib (with Python's message) and a
-/// failing script; `ok` false then (never throws for that).
-std::string render_eval_plots(const std::filesystem::path& eval_dir, bool& ok);
+/// --plot: draws the figure set (app/figures.hpp) of the eval output folder `eval_dir` into
+/// eval_dir/plots, with the run folder and dataset of `options` when they are folders. Returns the
+/// status line; throws as render_figures does (a plotting failure is an error, nothing is committed).
+std::string render_eval_plots(const std::filesystem::path& eval_dir, const EvalOptions& options);
 
 }  // namespace roe::app

@@ -69,6 +69,13 @@ std::vector<fs::path> remove_stale_temporaries(const fs::path& final_path);
 /// by the executable's main.
 void remove_temporaries_on_signals();
 
+/// Registers a child process roe waits for (e.g. the plotting script; io/process.hpp) with the handler of
+/// remove_temporaries_on_signals(): on SIGINT/SIGTERM/SIGHUP it kills the child and its process group
+/// (SIGKILL) and reaps it before removing the temporaries. Returns a slot for unregister_child_process
+/// (-1 when all 8 are taken: that child is then not killed, nothing worse).
+int register_child_process(pid_t pid);
+void unregister_child_process(int slot);
+
 /// Defers SIGINT, SIGTERM and SIGHUP for its lifetime, in every thread (they arrive when it ends): a
 /// sequence of renames that belong together is not cut in half. This thread blocks them; a signal that
 /// another thread takes meanwhile (LibTorch's or std::async's) is recorded by the handler of

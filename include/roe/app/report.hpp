@@ -1,0 +1,49 @@
+#pragma once
+/// @file
+/// `roe report`: one self-contained HTML file per run (docs/report.md).
+///
+///   roe report RUN_DIR [--gt DATASET|GT_FILE] --out REPORT.html [--figures DIR] [--align ...] [--label L]
+///              [--objects anchor|all|ID,...] [--plot-mode xy|xz|yz|xyz] [--color-by-error] [--vector pdf|svg|none]
+///
+/// Evaluates the run in-process (app/eval.hpp, into a temporary folder), runs the calibration checks
+/// in-process (app/calib_check.hpp), draws the figure set once (app/figures.hpp) and writes one HTML
+/// file with the run's configuration, health, counts per object, the evaluation tables, the
+/// calib-check verdicts and every figure embedded as base64 PNG: it needs no network and no other file.
+/// Atomic: REPORT.html (and the --figures folder) appear complete or not at all; an existing one is
+/// replaced only with --force. Ctrl-C kills the plotting process and removes every temporary.
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "roe/app/figures.hpp"
+
+namespace roe::app {
+
+struct ReportOptions {
+  std::string run_dir;      ///< RUN_DIR (written by roe run)
+  std::string gt;           ///< --gt; default: the dataset named in run.json (inputs.dataset_abs)
+  std::string out;          ///< --out REPORT.html
+  std::string figures_dir;  ///< --figures DIR: also keep the figures (PNG + PDF/SVG) in this new folder
+  std::string align = "se3";  ///< --align (as roe eval)
+  std::string label;        ///< --label (default: the run folder's name)
+  FigureOptions figures;    ///< --objects, --plot-mode, --color-by-error, --vector
+  bool force = false;       ///< --force: replace an existing REPORT.html / figures folder
+};
+
+struct ReportResult {
+  nlohmann::json summary;  ///< out, bytes, figures, evaluation headline, calib-check verdict, timing
+  std::string to_text() const;
+};
+
+/// InputError for bad options or inputs (exit 2), as roe eval and calib-check report them; a failing
+/// calib check or an unhealthy run is reported in the file, not an error.
+ReportResult write_report(const ReportOptions& options);
+
+/// The HTML document (exposed for tests): `eval` is roe eval's report.json, `run` run.json (may be
+/// null), `calib` calib-check's JSON (or {"error": message}), `figures` the figure set whose files lie
+/// in `figures_dir`.
+std::string report_html(const nlohmann::json& eval, const nlohmann::json& run, const nlohmann::json& calib,
+                        const FigureSet& figures, const std::filesystem::path& figures_dir);
+
+}  // namespace roe::app

@@ -1,0 +1,173 @@
+// roe report: eval + calib-check in-process, the figure set once, one self-contained HTML file.
+#include "roe/app/report.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <optional>
+
+#include "roe/app/calib_check.hpp"
+#include "roe/app/eval.hpp"
+#include "roe/core/error.hpp"
+#include "roe/io/json.hpp"
+#include "roe/io/output.hpp"
+
+namespace roe::app {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+/// Usage and output checks before any work: REPORT.html's folder exists, it is not a folder, not
+/// replaced without --force, and neither it nor --figures is an input.
+void check_outputs(const ReportOptions& o) {
+  if (o.out.empty()) throw InputError("--out REPORT.html is required", {"", 0, 0, "out"});
+  const fs::path out = o.out;
+  std::error_code ec;
+  if (fs::is_directory(out, ec))
+    throw InputError("--out names a folder; give the HTML file to write (e.g. REPORT.html)", {o.out});
+  const fs::path parent = out.parent_path().empty() ? fs::path(".") : out.parent_path();
+  if (!fs::is_directory(parent, ec))
+    throw InputError("the folder of --out does not exist (roe report creates the file, not its folder)",
+                     {parent.string()});
+  if (fs::exists(out, ec) && !o.force)
+    throw InputError("the report already exists (pass --force to replace it)", {o.out});
+  io::refuse_overwriting_inputs(out, {o.run_dir, o.gt}, "report");
+  if (!o.figures_dir.empty()) io::OutputDir::check(o.figures_dir, o.force, {o.run_dir, o.gt});
+}
+
+/// --gt, or the dataset run.json names when it is still there.
+std::string ground_truth(const ReportOptions& o, const json& run) {
+  if (!o.gt.empty()) return o.gt;
+  const json& in = run.is_object() ? run.value("inputs", json::object()) : json::object();
+  const std::string ds = in.value("dataset_abs", std::string());
+  std::error_code ec;
+  if (!ds.empty() && fs::exists(fs::path(ds) / "roe.json", ec)) return ds;
+  throw InputError(ds.empty() ? "--gt DATASET|GT_FILE is required (run.json names no dataset)"
+                              : fmt::format("--gt DATASET|GT_FILE is required: the dataset run.json names ({}) "
+                                            "is not there any more",
+                                            ds),
+                   {o.run_dir});
+}
+
+json run_calib_check(const ReportOptions& o, const std::string& gt) {
+  CalibCheckOptions co;
+  std::error_code ec;
+  if (fs::exists(fs::path(gt) / "roe.json", ec))
+    co.dataset = gt;
+  else
+    co.no_dataset = true;
+  try {
+    return calib_check(o.run_dir, co).to_json();
+  } catch (const InputError& e) {  // e.g. a trajectory-only folder: the report says why, and goes on
+    return {{"error", e.what()}};
+  }
+}
+
+}  // namespace
+
+ReportResult write_report(const ReportOptions& o) {
+  const auto t_start = std::chrono::steady_clock::now();
+  check_figure_options(o.figures);
+  if (o.run_dir.empty()) throw InputError("RUN_DIR is required", {"roe report"});
+  if (!fs::is_directory(o.run_dir))
+    throw InputError("not a run folder (roe report reads the folder roe run wrote)", {o.run_dir});
+  check_outputs(o);
+  const fs::path run_json_path = fs::path(o.run_dir) / "run.json";
+  const json run = fs::exists(run_json_path) ? io::parse_json_file(run_json_path) : json();
+  ReportOptions opt = o;
+  opt.gt = ground_truth(o, run);
+
+  // Scratch space: a never-committed OutputDir beside the report, removed on return, on an exception
+  // and on SIGINT/SIGTERM/SIGHUP (with the plotting process).
+  const fs::path out = o.out;
+  const fs::path parent = out.parent_path().empty() ? fs::path(".") : out.parent_path();
+  io::OutputDir work(parent / ("." + out.filename().string() + ".work"), true);
+  std::optional<io::OutputDir> keep;
+  if (!o.figures_dir.empty()) keep.emplace(o.figures_dir, o.force, std::vector<fs::path>{o.run_dir, opt.gt});
+  const fs::path fig_dir = keep ? keep->tmp() : work.file("figures");
+  fs::create_directories(fig_dir);
+
+  EvalOptions eo;
+  eo.est = o.run_dir;
+  eo.gt = opt.gt;
+  eo.align = o.align;
+  eo.label = o.label;
+  eo.out = (work.tmp() / "eval").string();
+  auto t = std::chrono::steady_clock::now();
+  const EvalResult ev = run_eval(eo);
+  const double eval_s = seconds_since(t);
+  t = std::chrono::steady_clock::now();
+  const json calib = run_calib_check(opt, opt.gt);
+  const double calib_s = seconds_since(t);
+  t = std::chrono::steady_clock::now();
+  std::error_code ec;
+  const fs::path dataset = fs::exists(fs::path(opt.gt) / "roe.json", ec) ? fs::path(opt.gt) : fs::path();
+  // The HTML embeds the PNGs only: vector files are drawn only when --figures keeps them.
+  FigureOptions fo = o.figures;
+  if (!keep) fo.vector = "none";
+  const FigureSet figs = render_figures(work.tmp() / "eval", o.run_dir, dataset, fig_dir, fo);
+  const double fig_s = seconds_since(t);
+  t = std::chrono::steady_clock::now();
+  const std::string html = report_html(ev.report, run, calib, figs, fig_dir);
+  {
+    io::DeferSignals defer;  // the report and its figures folder appear together
+    io::write_file_atomic(out, html, o.force);
+    if (keep) keep->commit();
+  }
+  const double html_s = seconds_since(t);
+
+  ReportResult r;
+  json names = json::array();
+  for (const Figure& f : figs.figures) names.push_back(f.name);
+  json skipped = json::array();
+  for (const auto& [n, why] : figs.skipped) skipped.push_back({{"name", n}, {"reason", why}});
+  r.summary = {{"out", o.out},
+               {"bytes", html.size()},
+               {"run", o.run_dir},
+               {"gt", opt.gt},
+               {"figures", names},
+               {"figures_skipped", skipped},
+               {"figures_dir", o.figures_dir.empty() ? json(nullptr) : json(o.figures_dir)},
+               {"label", ev.report["info"]["label"]},
+               {"per_axis", ev.report["per_axis"]},
+               {"ape_trans_rmse_m", ev.report["ape_trans_m"]["rmse"]},
+               {"ape_rot_rmse_deg", ev.report["ape_rot_deg"]["rmse"]},
+               {"calib_check", calib.contains("error") ? json{{"error", calib["error"]}}
+                                                       : json{{"passed", calib["passed"]}, {"counts", calib["counts"]}}},
+               {"timing_s",
+                {{"eval", eval_s}, {"calib_check", calib_s}, {"figures", fig_s}, {"html", html_s},
+                 {"total", seconds_since(t_start)}}},
+               {"warnings", ev.report["warnings"]}};
+  return r;
+}
+
+std::string ReportResult::to_text() const {
+  const json& s = summary;
+  std::string t = fmt::format("roe report: {} ({:.1f} MB, {} figures)\n", s["out"].get<std::string>(),
+                              s["bytes"].get<double>() / 1e6, s["figures"].size());
+  const json& pa = s["per_axis"];
+  t += fmt::format("  RMSE x/y/z {:.4f} {:.4f} {:.4f} m, roll/pitch/yaw {:.3f} {:.3f} {:.3f} deg\n",
+                   pa["pos_rmse_m"]["x"].get<double>(), pa["pos_rmse_m"]["y"].get<double>(),
+                   pa["pos_rmse_m"]["z"].get<double>(), pa["rpy_rmse_deg"]["roll"].get<double>(),
+                   pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>());
+  const json& c = s["calib_check"];
+  if (c.contains("error"))
+    t += "  calib-check: not run (" + c["error"].get<std::string>() + ")\n";
+  else
+    t += fmt::format("  calib-check: {}\n", c["passed"].get<bool>() ? "PASS" : "FAIL");
+  for (const json& k : s["figures_skipped"])
+    t += fmt::format("  {} not drawn: {}\n", k["name"].get<std::string>(), k["reason"].get<std::string>());
+  const json& ti = s["timing_s"];
+  t += fmt::format("  {:.2f} s (eval {:.2f}, calib-check {:.2f}, figures {:.2f}, html {:.2f})\n",
+                   ti["total"].get<double>(), ti["eval"].get<double>(), ti["calib_check"].get<double>(),
+                   ti["figures"].get<double>(), ti["html"].get<double>());
+  return t;
+}
+
+}  // namespace roe::app

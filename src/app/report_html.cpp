@@ -1,0 +1,283 @@
+// roe report: the HTML document (no script, no external resource; figures as data: URIs).
+#include <fmt/format.h>
+
+#include <cmath>
+#include <iterator>
+#include <map>
+#include <set>
+#include <tuple>
+
+#include "roe/app/report.hpp"
+#include "roe/io/json.hpp"
+#include "roe/io/output.hpp"
+#include "roe/version.hpp"
+
+namespace roe::app {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string esc(const std::string& s) {
+  std::string o;
+  o.reserve(s.size());
+  for (char c : s) {
+    switch (c) {
+      case '&': o += "&amp;"; break;
+      case '<': o += "&lt;"; break;
+      case '>': o += "&gt;"; break;
+      case '"': o += "&quot;"; break;
+      default: o += c;
+    }
+  }
+  return o;
+}
+
+std::string base64(const std::string& bytes) {
+  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string o;
+  o.reserve((bytes.size() + 2) / 3 * 4);
+  std::size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const unsigned v = (static_cast<unsigned char>(bytes[i]) << 16) | (static_cast<unsigned char>(bytes[i + 1]) << 8) |
+                       static_cast<unsigned char>(bytes[i + 2]);
+    o += {k[v >> 18], k[(v >> 12) & 63], k[(v >> 6) & 63], k[v & 63]};
+  }
+  if (i + 1 == bytes.size()) {
+    const unsigned v = static_cast<unsigned char>(bytes[i]) << 16;
+    o += {k[v >> 18], k[(v >> 12) & 63], '=', '='};
+  } else if (i + 2 == bytes.size()) {
+    const unsigned v = (static_cast<unsigned char>(bytes[i]) << 16) | (static_cast<unsigned char>(bytes[i + 1]) << 8);
+    o += {k[v >> 18], k[(v >> 12) & 63], k[(v >> 6) & 63], '='};
+  }
+  return o;
+}
+
+/// `j` at a dotted path ("per_axis.pos_rmse_m.x"); null when absent.
+const json& at_path(const json& j, const std::string& path) {
+  static const json null;
+  const json* cur = &j;
+  std::size_t start = 0;
+  while (start <= path.size()) {
+    const std::size_t end = std::min(path.find('.', start), path.size());
+    const std::string key = path.substr(start, end - start);
+    if (!cur->is_object() || !cur->contains(key)) return null;
+    cur = &(*cur)[key];
+    start = end + 1;
+  }
+  return *cur;
+}
+
+/// A table cell holding a number of the evaluation report: the shown value is rounded, the exact
+/// one is in data-value, and data-path says where it is in report.json (the browser test reads both).
+std::string num_cell(const json& report, const std::string& path, int decimals) {
+  const json& v = at_path(report, path);
+  if (!v.is_number()) return "<td class=\"na\">–</td>";
+  const double x = v.get<double>();
+  return fmt::format("<td data-path=\"{}\" data-value=\"{}\">{:.{}f}</td>", esc(path), io::dump_json(v), x, decimals);
+}
+
+std::string plain(const json& v) {
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_number_float()) return fmt::format("{:.6g}", v.get<double>());
+  return io::dump_json(v);
+}
+
+/// Every leaf of `j` as a two-column table row (key path, value): configurations and health.
+void flatten_rows(const json& j, const std::string& prefix, std::string& out) {
+  if (j.is_object() && !j.empty()) {
+    for (const auto& [k, v] : j.items()) flatten_rows(v, prefix.empty() ? k : prefix + "." + k, out);
+  } else if (j.is_array() && !j.empty() && (j.front().is_object() || j.front().is_array())) {
+    for (std::size_t i = 0; i < j.size(); ++i) flatten_rows(j[i], fmt::format("{}[{}]", prefix, i), out);
+  } else {
+    out += fmt::format("<tr><th>{}</th><td>{}</td></tr>\n", esc(prefix), esc(plain(j)));
+  }
+}
+
+std::string section_summary(const json& ev) {
+  std::string s = "<section id=\"evaluation\"><h2>Evaluation</h2>\n";
+  const json& as = ev["association"];
+  const json& al = ev["alignment"];
+  s += fmt::format(
+      "<p>Estimate {} against ground truth {}: {} of {} estimate poses matched (max Δt {} s, {}); alignment "
+      "<b>{}</b> on {} pairs, scale {:.6f}.</p>\n",
+      esc(plain(at_path(ev, "inputs.est.description"))), esc(plain(at_path(ev, "inputs.gt.description"))),
+      plain(as["n_matched"]), plain(as["n_est"]), plain(as["max_dt_s"]), esc(plain(as["policy"])),
+      esc(plain(al["type"])), plain(al["n_aligned"]), al.value("scale", 1.0));
+  s += "<table class=\"num\" id=\"per-axis\"><caption>RMSE per axis (the paper's tables)</caption>\n"
+       "<tr><th></th><th>x [m]</th><th>y [m]</th><th>z [m]</th><th>roll [°]</th><th>pitch [°]</th>"
+       "<th>yaw [°]</th></tr>\n<tr><th>RMSE</th>";
+  for (const char* k : {"x", "y", "z"}) s += num_cell(ev, std::string("per_axis.pos_rmse_m.") + k, 4);
+  for (const char* k : {"roll", "pitch", "yaw"}) s += num_cell(ev, std::string("per_axis.rpy_rmse_deg.") + k, 3);
+  s += "</tr></table>\n";
+  s += "<table class=\"num\" id=\"ape\"><caption>Absolute pose error (evo's statistics)</caption>\n<tr><th></th>";
+  const char* stats[] = {"rmse", "mean", "median", "std", "min", "max"};
+  for (const char* k : stats) s += fmt::format("<th>{}</th>", k);
+  s += "</tr>\n";
+  for (const auto& [key, name, dec] : {std::tuple{"ape_trans_m", "translation [m]", 4},
+                                       std::tuple{"ape_rot_deg", "rotation [°]", 3}}) {
+    s += fmt::format("<tr><th>{}</th>", name);
+    for (const char* k : stats) s += num_cell(ev, std::string(key) + "." + k, dec);
+    s += "</tr>\n";
+  }
+  s += "</table>\n";
+  if (at_path(ev, "consistency.available") == true) {
+    s += "<table class=\"num\" id=\"nees\"><caption>Average NEES after the alignment (3 expected)</caption>"
+         "<tr><th>position</th><th>orientation</th></tr><tr>";
+    s += num_cell(ev, "consistency.anees_p", 3) + num_cell(ev, "consistency.anees_r", 3) + "</tr></table>\n";
+  }
+  if (ev.contains("rpe") && !ev["rpe"].empty()) {
+    s += "<table class=\"num\" id=\"rpe\"><caption>Relative pose error</caption><tr><th>Δ</th><th>pairs</th>"
+         "<th>trans rmse [m]</th><th>rot rmse [°]</th></tr>\n";
+    for (std::size_t i = 0; i < ev["rpe"].size(); ++i) {
+      const std::string p = fmt::format("rpe.{}", i);
+      s += fmt::format("<tr><th>{} {}</th><td>{}</td>", plain(ev["rpe"][i]["delta"]), esc(plain(ev["rpe"][i]["unit"])),
+                       plain(ev["rpe"][i]["n_pairs"]));
+      // rpe is an array: its cells carry no data-path (at_path walks objects only).
+      for (const char* k : {"trans_m", "rot_deg"}) {
+        const json& st = ev["rpe"][i][k];
+        s += st.is_object() ? fmt::format("<td>{:.4f}</td>", st["rmse"].get<double>()) : "<td class=\"na\">–</td>";
+      }
+      s += "</tr>\n";
+    }
+    s += "</table>\n";
+  }
+  return s + "</section>\n";
+}
+
+std::string section_objects(const json& ev, const json& run) {
+  std::string s = "<section id=\"objects\"><h2>Objects</h2>\n";
+  const json& per = at_path(run, "counts.detections.per_object");
+  const char* statuses[] = {"detections", "accepted", "initialized", "rejected_chi2", "rejected_no_main",
+                            "rejected_score", "rejected_no_imu", "pending_init"};
+  s += "<table class=\"num\" id=\"counts\"><caption>Detections per object (run.json";
+  s += run.contains("anchor_id") ? fmt::format("; anchor object {}", plain(run["anchor_id"])) : std::string();
+  s += ") and the RMSE of each object's reprojected raw detections against the ground truth (same alignment)"
+       "</caption>\n<tr><th rowspan=\"2\">object</th><th colspan=\"8\">detections by status</th>"
+       "<th colspan=\"3\">RMSE [m]</th><th colspan=\"3\">RMSE [°]</th></tr>\n<tr>";
+  const char* shown[] = {"all", "accepted", "initialized", "χ² rejected", "no anchor", "score", "no IMU", "pending"};
+  for (std::size_t i = 0; i < std::size(statuses); ++i)
+    s += fmt::format("<th title=\"{}\">{}</th>", statuses[i], shown[i]);
+  s += "<th>x</th><th>y</th><th>z</th><th>roll</th><th>pitch</th><th>yaw</th></tr>\n";
+  std::map<int, const json*> eval_obj;
+  if (ev.contains("per_object"))
+    for (const json& o : ev["per_object"]) eval_obj[o["object_id"].get<int>()] = &o;
+  std::set<int> ids;
+  for (const auto& [k, v] : eval_obj) ids.insert(k);
+  if (per.is_object())
+    for (const auto& [k, v] : per.items()) ids.insert(std::stoi(k));
+  for (int id : ids) {
+    s += fmt::format("<tr><th>{}</th>", id);
+    const std::string key = std::to_string(id);
+    for (const char* k : statuses) {
+      const json& v = per.is_object() && per.contains(key) ? per[key].value(k, json()) : json();
+      s += v.is_number() ? fmt::format("<td>{}</td>", plain(v)) : "<td class=\"na\">–</td>";
+    }
+    const json* o = eval_obj.count(id) ? eval_obj[id] : nullptr;
+    if (o && (*o)["all"]["n"].get<int>() > 0) {
+      const json& a = (*o)["all"];
+      s += fmt::format("<td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.2f}</td>",
+                       a["pos_rmse_m"]["x"].get<double>(), a["pos_rmse_m"]["y"].get<double>(),
+                       a["pos_rmse_m"]["z"].get<double>(), a["rpy_rmse_deg"]["roll"].get<double>(),
+                       a["rpy_rmse_deg"]["pitch"].get<double>(), a["rpy_rmse_deg"]["yaw"].get<double>());
+    } else {
+      for (int k = 0; k < 6; ++k) s += "<td class=\"na\">–</td>";
+    }
+    s += "</tr>\n";
+  }
+  return s + "</table></section>\n";
+}
+
+std::string section_calib(const json& calib) {
+  std::string s = "<section id=\"calib-check\"><h2>Calibration checks</h2>\n";
+  if (calib.contains("error"))
+    return s + fmt::format("<p class=\"fail\">calib-check could not run: {}</p></section>\n",
+                           esc(calib["error"].get<std::string>()));
+  s += fmt::format("<p>Verdict: <b class=\"{}\">{}</b> (dataset: {}). Thresholds and definitions: "
+                   "docs/calib-check.md.</p>\n",
+                   calib["passed"] == true ? "pass" : "fail", calib["passed"] == true ? "PASS" : "FAIL",
+                   esc(plain(calib["dataset"])));
+  s += "<table id=\"calib-checks\"><tr><th>check</th><th>status</th><th>message</th></tr>\n";
+  for (const json& c : calib["checks"]) {
+    const std::string st = c["status"].get<std::string>();
+    s += fmt::format("<tr><th>{}</th><td class=\"{}\">{}</td><td>{}</td></tr>\n", esc(c["name"].get<std::string>()),
+                     esc(st), esc(st), esc(c["message"].get<std::string>()));
+  }
+  return s + "</table></section>\n";
+}
+
+std::string section_figures(const FigureSet& figs, const fs::path& dir) {
+  std::string s = "<section id=\"figures\"><h2>Figures</h2>\n";
+  for (const Figure& f : figs.figures) {
+    const std::string png = io::read_file(dir / f.files.at("png"));
+    s += fmt::format(
+        "<figure id=\"fig-{}\"><img alt=\"{}\" src=\"data:image/png;base64,{}\">\n<figcaption><b>{}</b> {}"
+        "</figcaption></figure>\n",
+        esc(f.name), esc(f.title), base64(png), esc(f.title), esc(f.caption));
+  }
+  for (const auto& [name, why] : figs.skipped) s += fmt::format("<p class=\"na\">{} not drawn: {}</p>\n", esc(name), esc(why));
+  return s + "</section>\n";
+}
+
+std::string section_table(const char* id, const char* title, const json& j, bool open) {
+  std::string rows;
+  flatten_rows(j, "", rows);
+  return fmt::format("<section id=\"{}\"><details{}><summary><h2>{}</h2></summary><table class=\"kv\">\n{}"
+                     "</table></details></section>\n",
+                     id, open ? " open" : "", title, rows);
+}
+
+constexpr const char* kStyle = R"css(
+body{font:14px/1.45 system-ui,-apple-system,"Segoe UI",sans-serif;max-width:1180px;margin:1.5em auto;padding:0 1em;color:#222}
+h1{font-size:1.5em;margin:.2em 0}h2{font-size:1.2em;margin:1.2em 0 .4em;display:inline-block}
+table{border-collapse:collapse;margin:.6em 0 1em}caption{text-align:left;color:#555;padding:.2em 0}
+th,td{border:1px solid #ddd;padding:.25em .6em;text-align:left}#counts th,#counts td{font-size:13px;white-space:nowrap}table.num td{text-align:right;font-variant-numeric:tabular-nums}
+table.kv th{font-weight:normal;color:#444;font-family:ui-monospace,monospace;font-size:12px}
+figure{margin:1.2em 0}figure img{max-width:100%;height:auto;border:1px solid #eee}figcaption{color:#444;font-size:13px}
+.pass{color:#17803d}.fail{color:#b3261e}.inconclusive{color:#a15c00}.skipped,.na{color:#888}
+summary{cursor:pointer}.meta{color:#555}
+)css";
+
+}  // namespace
+
+std::string report_html(const json& ev, const json& run, const json& calib, const FigureSet& figures,
+                        const fs::path& figures_dir) {
+  const std::string label = plain(at_path(ev, "info.label"));
+  std::string h = "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n";
+  h += "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
+  h += fmt::format("<title>roe report: {}</title>\n<style>{}</style></head><body>\n", esc(label), kStyle);
+  h += fmt::format("<h1>roe report: {}</h1>\n<p class=\"meta\">run {} · ground truth {} · roe {}</p>\n", esc(label),
+                   esc(plain(at_path(ev, "inputs.est.path"))), esc(plain(at_path(ev, "inputs.gt.path"))), kVersion);
+  h += "<nav><a href=\"#evaluation\">Evaluation</a> · <a href=\"#objects\">Objects</a> · <a href=\"#calib-check\">Calibration checks</a> · <a href=\"#figures\">Figures</a> · <a href=\"#configuration\">Configuration</a> · <a href=\"#warnings\">Warnings</a></nav>\n";
+  h += section_summary(ev);
+  h += section_objects(ev, run);
+  h += section_calib(calib);
+  h += section_figures(figures, figures_dir);
+  if (run.is_object() && run.contains("health")) h += section_table("health", "Health", run["health"], true);
+  if (run.is_object()) {
+    json cfg = {{"config", run.value("config", json::object())},
+                {"inputs", run.value("inputs", json::object())},
+                {"init", run.value("init", json::object())},
+                {"nis", run.value("nis", json::object())},
+                {"timing_s", run.value("timing_s", json::object())}};
+    h += section_table("configuration", "Configuration (run.json)", cfg, false);
+  }
+  h += section_table("eval-options", "Evaluation options", ev.value("options", json::object()), false);
+  json warnings = json::array();
+  for (const json& w : ev.value("warnings", json::array())) warnings.push_back("eval: " + w.get<std::string>());
+  if (run.is_object())
+    for (const json& w : run.value("warnings", json::array())) warnings.push_back("run: " + plain(w));
+  h += "<section id=\"warnings\"><h2>Warnings</h2>\n";
+  if (warnings.empty()) h += "<p class=\"na\">none</p>\n";
+  for (const json& w : warnings) h += "<p>" + esc(w.get<std::string>()) + "</p>\n";
+  h += "</section>\n";
+  // The evaluation report itself, for scripts (a data block: browsers do not execute it).
+  std::string data = io::dump_json(ev);
+  for (std::size_t p = 0; (p = data.find("</", p)) != std::string::npos;) data.replace(p, 2, "<\\/");
+  h += "<script type=\"application/json\" id=\"roe-eval-report\">" + data + "</script>\n";
+  h += "</body></html>\n";
+  return h;
+}
+
+}  // namespace roe::app

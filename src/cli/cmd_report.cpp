@@ -1,0 +1,34 @@
+// roe report RUN_DIR [--gt DATASET|GT_FILE] --out REPORT.html [--figures DIR] [figure options]
+#include <memory>
+
+#include "command.hpp"
+#include "figure_options.hpp"
+#include "roe/app/report.hpp"
+
+namespace roe::cli {
+namespace {
+
+RunFn setup(CLI::App& sub) {
+  auto o = std::make_shared<app::ReportOptions>();
+  sub.add_option("RUN_DIR", o->run_dir, "Run folder written by roe run")->required();
+  sub.add_option("--gt", o->gt,
+                 "Ground truth: dataset folder or trajectory file (default: the dataset named in run.json)");
+  sub.add_option("--out", o->out, "The HTML file to write (self-contained: figures embedded)")->required();
+  sub.add_option("--figures", o->figures_dir, "Also keep the figures (PNG + PDF/SVG) in this new folder");
+  sub.add_option("--align", o->align, "Alignment, as roe eval: se3, sim3, posyaw, origin or none")
+      ->capture_default_str();
+  sub.add_option("--label", o->label, "Name of the run in titles and footers (default: the folder's name)");
+  add_figure_options(sub, o->figures);
+  return [o]() {
+    o->force = globals().force;
+    const auto r = app::write_report(*o);
+    emit(r.summary, r.to_text());
+    return 0;
+  };
+}
+
+const Registrar reg("", "report", "One self-contained HTML report of a run: tables, verdicts, the paper's figures",
+                    75, &setup);
+
+}  // namespace
+}  // namespace roe::cli

@@ -1,0 +1,30 @@
+#pragma once
+// The figure options shared by `roe eval --plot` and `roe report` (app/figures.hpp).
+#include <CLI/CLI.hpp>
+
+#include "roe/app/figures.hpp"
+
+namespace roe::cli {
+
+/// Binds --objects, --plot-mode, --color-by-error and --vector to `o`, in the group "Figures"; returns
+/// the options (eval marks them as needing --plot).
+inline std::vector<CLI::Option*> add_figure_options(CLI::App& sub, app::FigureOptions& o) {
+  return {
+      sub.add_option("--objects", o.objects,
+                     "Reprojected raw detections drawn in Fig. 3 and the trajectory: anchor, all or ID[,ID...]")
+          ->capture_default_str()
+          ->group("Figures"),
+      sub.add_option("--plot-mode", o.plot_mode, "Trajectory figure: the plane xy, xz, yz, or 3-D xyz")
+          ->capture_default_str()
+          ->check(CLI::IsMember({"xy", "xz", "yz", "xyz"}))
+          ->group("Figures"),
+      sub.add_flag("--color-by-error", o.color_by_error, "Colour the trajectory by the position error")
+          ->group("Figures"),
+      sub.add_option("--vector", o.vector, "Vector format written beside every PNG: pdf, svg or none")
+          ->capture_default_str()
+          ->check(CLI::IsMember({"pdf", "svg", "none"}))
+          ->group("Figures"),
+  };
+}
+
+}  // namespace roe::cli
