@@ -1,6 +1,8 @@
 // roe eval --summary: one row per run + mean and population std, in the paper's table layout.
 #include <fmt/format.h>
 
+#include <map>
+
 #include <algorithm>
 #include <cmath>
 #include <iterator>
@@ -77,6 +79,23 @@ std::string vec3(const std::vector<double>& v, int first, int decimals) {
                      decimals);
 }
 
+/// Rows that share a label cannot be told apart in the table: one warning per repeated label.
+template <class Row>
+std::vector<std::string> duplicate_label_warnings(const std::vector<Row>& rows) {
+  std::vector<std::string> w;
+  std::map<std::string, std::vector<std::size_t>> runs;
+  for (std::size_t i = 0; i < rows.size(); ++i) runs[rows[i].label].push_back(i + 1);
+  for (const auto& [label, idx] : runs) {
+    if (idx.size() < 2) continue;
+    std::string list;
+    for (std::size_t k : idx) list += (list.empty() ? "" : ", ") + std::to_string(k);
+    w.push_back(fmt::format("runs {} are all labelled '{}': the rows cannot be told apart by label (set "
+                            "`roe eval --label NAME` when evaluating)",
+                            list, label));
+  }
+  return w;
+}
+
 }  // namespace
 
 EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
@@ -121,7 +140,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
   const double n = static_cast<double>(rows.size());  // mean and population std, as the paper's tables
 
   // Mixed settings: a warning (the table is still written; comparing settings can be the point).
-  std::vector<std::string> warnings;
+  std::vector<std::string> warnings = duplicate_label_warnings(rows);
   json common = json::object();
   for (const Setting& st : kSettings) {
     bool same = true;
