@@ -141,6 +141,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
 
   // Mixed settings: a warning (the table is still written; comparing settings can be the point).
   std::vector<std::string> warnings = duplicate_label_warnings(rows);
+  const std::size_t n_label_warnings = warnings.size();
   json common = json::object();
   for (const Setting& st : kSettings) {
     bool same = true;
@@ -250,13 +251,14 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     md += rpe_row("mean", "", mean, "");
     md += rpe_row("± std", "", sd, "± ");
   }
-  if (warnings.empty()) {
+  if (warnings.size() == n_label_warnings) {  // the settings agree (labels alone say nothing of them)
     md += fmt::format(
         "\nSettings of every run: alignment {}, --n-align {}, --max-dt {} s, --t-offset {} s, "
         "association {}.\n",
         setting_text(common["alignment"]), setting_text(common["n_align"]), setting_text(common["max_dt_s"]),
         setting_text(common["t_offset_s"]), setting_text(common["assoc"]));
-  } else {
+  }
+  if (!warnings.empty()) {
     md += "\n";
     for (const auto& w : warnings) md += "warning: " + w + "\n";
   }
