@@ -253,7 +253,8 @@ TEST_CASE("roe --json: every failure is one JSON document on stdout, and --versi
   CHECK(r.code == 2);
   j = nlohmann::json::parse(r.out);
   CHECK(j["command"] == "run");
-  CHECK(j.contains("error"));
+  CHECK(j["error"]["key"] == "filter.smoother");
+  CHECK(j["error"]["message"] == "unknown key (did you mean the top-level \"smoother\"?)");
   // Bad usage (before any command runs) and an unknown command.
   for (const char* args : {"--json eval --align", "--json bogus", "--json eval --no-such-option"}) {
     r = run_roe(args, false);
