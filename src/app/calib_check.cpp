@@ -198,13 +198,14 @@ calib::CheckResult dataset_identity(const RunJson& run, const fs::path& dataset,
 
 int CalibCheckResult::exit_code() const {
   if (report.failed()) return 1;
-  if (strict && report.undecided()) return 1;
+  if (strict && (report.undecided() || report.within_sigma())) return 1;
   return 0;
 }
 
 json CalibCheckResult::to_json() const {
   json checks = json::array();
-  std::map<std::string, int> counts = {{"pass", 0}, {"fail", 0}, {"inconclusive", 0}, {"skipped", 0}};
+  std::map<std::string, int> counts = {{"pass", 0}, {"fail", 0}, {"inconclusive", 0}, {"skipped", 0},
+                                       {"within-sigma", 0}};
   for (const auto& c : report.checks) {
     json values = json::object();
     for (const auto& [k, v] : c.values) values[k] = v;
@@ -236,11 +237,13 @@ std::string CalibCheckResult::to_text() const {
   for (const auto& c : report.checks) {
     const std::string st = calib::to_string(c.status);
     ++counts[st];
-    s += fmt::format("  {:<12} {:<{}}  {}\n", st, c.name, width, c.message);
+    s += fmt::format("  {:<13} {:<{}}  {}\n", st, c.name, width, c.message);
   }
-  s += fmt::format("{}: {} passed, {} failed, {} inconclusive, {} skipped{}\n",
-                   exit_code() == 0 ? "PASS" : "FAIL", counts["pass"], counts["fail"], counts["inconclusive"],
-                   counts["skipped"], strict ? " (--strict: inconclusive checks count as failures)" : "");
+  s += fmt::format("{}: {} passed, {} within σ (beyond the limit, explained by the filter's σ), {} failed, {} "
+                   "inconclusive, {} skipped{}\n",
+                   exit_code() == 0 ? "PASS" : "FAIL", counts["pass"], counts["within-sigma"], counts["fail"],
+                   counts["inconclusive"], counts["skipped"],
+                   strict ? " (--strict: within-sigma and inconclusive checks count as failures)" : "");
   return s;
 }
 

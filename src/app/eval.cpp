@@ -10,10 +10,8 @@
 
 #include "roe/core/error.hpp"
 #include "roe/io/json.hpp"
-#include "roe/io/csv.hpp"
+#include "roe/io/eval_report.hpp"
 #include "roe/io/output.hpp"
-#include "roe/math/euler.hpp"
-#include "roe/version.hpp"
 
 namespace roe::app {
 
@@ -22,24 +20,10 @@ using nlohmann::json;
 
 namespace {
 
-json stats_json(const eval::Stats& s) {
-  return {{"rmse", s.rmse}, {"mean", s.mean}, {"median", s.median}, {"std", s.std},
-          {"min", s.min},   {"max", s.max},   {"sse", s.sse},       {"n", s.n}};
-}
-json xyz_json(const Eigen::Vector3d& v) { return {{"x", v.x()}, {"y", v.y()}, {"z", v.z()}}; }
-json rpy_json(const Eigen::Vector3d& v) { return {{"roll", v.x()}, {"pitch", v.y()}, {"yaw", v.z()}}; }
-
-/// Path length of a sequence of positions.
-double path_length(const std::vector<Pose>& p) {
-  double L = 0.0;
-  for (std::size_t i = 1; i < p.size(); ++i) L += (p[i].p - p[i - 1].p).norm();
-  return L;
-}
-
 struct Estimate {
   EvalInput in;
   bool run = false;
-  std::vector<ReprojectionCsvRow> reprojection;
+  std::vector<eval::DetectionPose> reprojection;
   bool have_reprojection = false;
   std::vector<std::optional<eval::PoseCovariance>> cov;
   std::string cov_source;
@@ -88,6 +72,7 @@ Estimate load_estimate(const EvalOptions& o, std::vector<std::string>& warnings)
   } else {
     e.in.kind = "file";
     e.in.traj = io::read_trajectory(e.in.path, io::parse_trajectory_format(o.est_format));
+    if (!o.est_times.empty()) io::apply_kitti_times(e.in.traj, o.est_times);
     e.in.description = fmt::format("{} ({})", o.est, io::to_string(e.in.traj.format));
     if (!e.in.traj.cov.empty()) {
       e.cov.resize(e.in.traj.size());
@@ -121,36 +106,70 @@ void check_gt_source(const std::string& v) {
                      {"", 0, 0, "gt-source"});
 }
 
-std::string default_label(const fs::path& p) {
-  fs::path q = p;
-  if (q.filename().empty()) q = q.parent_path();
-  return fs::is_directory(q) ? q.filename().string() : q.stem().string();
+/// `roe eval RUN_DIR` without --gt: the dataset the run's run.json names (its absolute path, else the
+/// path as given to `roe run`). `note` says where the ground truth came from.
+EvalOptions with_ground_truth(EvalOptions o, std::string& note) {
+  if (!o.gt.empty()) return o;
+  if (!o.est.empty() && !fs::exists(o.est)) throw InputError("estimate not found", {o.est});
+  if (o.est.empty() || !fs::is_directory(o.est))
+    throw InputError("--gt DATASET|GT_FILE is required (only a run folder's run.json names its dataset)",
+                     {"roe eval"});
+  const fs::path rj = fs::path(o.est) / "run.json";
+  if (!fs::exists(rj))
+    throw InputError("--gt DATASET is required: this folder has no run.json naming the dataset it ran on",
+                     {o.est});
+  const json j = io::parse_json_file(rj);
+  const json in = j.is_object() ? j.value("inputs", json::object()) : json::object();
+  for (const char* key : {"dataset_abs", "dataset"}) {
+    if (!in.is_object() || !in.contains(key) || !in[key].is_string()) continue;
+    const std::string d = in[key].get<std::string>();
+    if (d.empty() || !fs::is_directory(d)) continue;
+    o.gt = d;
+    note = fmt::format("the dataset {} names ({})", rj.string(), d);
+    return o;
+  }
+  throw InputError("--gt DATASET is required: the dataset this run names is not there any more (pass --gt)",
+                   {rj.string(), 0, 0, "inputs.dataset"});
 }
 
-}  // namespace
+/// KITTI files without times are associated by index (evo's convention), which needs both of them so.
+void check_kitti_pairing(const EvalInput& est, const std::string& est_times, const EvalInput& gt,
+                         const std::string& gt_times) {
+  const bool est_index = est.traj.format == io::TrajectoryFormat::kKitti && est_times.empty();
+  const bool gt_index = gt.traj.format == io::TrajectoryFormat::kKitti && gt_times.empty();
+  if (est_index == gt_index) {
+    if (est_index && est.traj.size() != gt.traj.size())
+      throw InputError(fmt::format("KITTI files are associated by index (as evo does) but the estimate has {} "
+                                   "poses and the ground truth {}: pass their times files (--est-times, "
+                                   "--gt-times)",
+                                   est.traj.size(), gt.traj.size()),
+                       {est.path.string()});
+    return;
+  }
+  throw InputError(fmt::format("the {} is a KITTI pose file without stamps (associated by index) but the {} has "
+                               "time stamps: pass its times file with {}",
+                               est_index ? "estimate" : "ground truth", est_index ? "ground truth" : "estimate",
+                               est_index ? "--est-times" : "--gt-times"),
+                   {(est_index ? est.path : gt.path).string()});
+}
 
-EvalResult run_eval(const EvalOptions& o) {
-  std::vector<std::string> warnings;
-  // Options first, so usage errors come before any file is read.
-  const eval::AlignType align = eval::parse_align_type(o.align);
-  eval::AssociationOptions ao;
-  ao.max_dt_s = o.max_dt_s;
-  ao.offset_s = o.t_offset_s;
-  ao.policy = eval::parse_assoc_policy(o.assoc);
-  if (!(o.max_dt_s >= 0.0) || !std::isfinite(o.max_dt_s))
-    throw InputError(fmt::format("--max-dt must be ≥ 0, got {}", o.max_dt_s), {"", 0, 0, "max-dt"});
-  if (o.n_align == 0 || o.n_align < -1)
-    throw InputError(fmt::format("--n-align must be -1 (all) or ≥ 1, got {}", o.n_align),
-                     {"", 0, 0, "n-align"});
+/// The evaluation parameters from the options, and the warnings they alone imply. Every option value is
+/// checked, even where it does not apply to the inputs given, before any file is read.
+eval::EvalParams eval_params(const EvalOptions& o, std::vector<std::string>& warnings) {
+  eval::EvalParams p;
+  p.align = eval::parse_align_type(o.align);
+  p.n_align = o.n_align;
+  p.assoc.max_dt_s = o.max_dt_s;
+  p.assoc.offset_s = o.t_offset_s;
+  p.assoc.policy = eval::parse_assoc_policy(o.assoc);
+  (void)eval::check_params(p);  // --max-dt and --n-align before the other options
   if (o.no_out && !o.out.empty())
     throw InputError(fmt::format("--no-out and --out {} contradict each other: pass one of them", o.out),
                      {"", 0, 0, "no-out"});
-  // Every option value is checked, even where it does not apply to the inputs given.
   (void)parse_format_option(o.est_format, "--est-format");
   (void)parse_format_option(o.gt_format, "--gt-format");
   check_gt_source(o.gt_source);
   if (o.plot) check_figure_options(o.figures);
-  std::vector<eval::RpeOptions> rpe_options;
   for (double d : o.rpe_delta) {
     eval::RpeOptions r;
     r.delta = d;
@@ -158,19 +177,70 @@ EvalResult run_eval(const EvalOptions& o) {
     r.all_pairs = o.rpe_all_pairs;
     r.pairs_from = eval::parse_pairs_from(o.rpe_pairs_from);
     r.rel_tol = o.rpe_tol;
-    eval::check_rpe_options(r);
-    for (const eval::RpeOptions& prev : rpe_options)
-      if (prev.delta == d)  // two identical blocks would collide in rpe.csv and in --summary's columns
-        throw InputError(fmt::format("--rpe-delta lists {} twice", d), {"", 0, 0, "rpe-delta"});
-    rpe_options.push_back(r);
+    p.rpe.push_back(r);
   }
-  if (o.n_align != -1 && (align == eval::AlignType::kOrigin || align == eval::AlignType::kNone)) {
-    // evo ignores --n_to_align with --align_origin; say so instead.
-    warnings.push_back(fmt::format("--n-align {} is ignored with --align {}: {}", o.n_align, o.align,
-                                   align == eval::AlignType::kOrigin
-                                       ? "origin alignment uses the first matched pose pair by definition"
-                                       : "nothing is aligned"));
+  warnings = eval::check_params(p);
+  return p;
+}
+
+nlohmann::json input_json(const EvalInput& in) {
+  return {{"path", in.path.string()},
+          {"kind", in.kind},
+          {"format", io::to_string(in.traj.format)},
+          {"description", in.description},
+          {"n_poses", in.traj.size()},
+          {"duplicate_stamps", in.traj.count_duplicate_stamps()}};
+}
+
+nlohmann::json options_json(const EvalOptions& o) {
+  json j = {{"align", o.align},           {"n_align", o.n_align},
+          {"max_dt_s", o.max_dt_s},     {"t_offset_s", o.t_offset_s},
+          {"assoc", o.assoc},           {"est_format", o.est_format},
+          {"gt_format", o.gt_format},   {"gt_source", o.gt_source},
+          {"rpe_delta", o.rpe_delta},   {"rpe_unit", o.rpe_unit},
+          {"rpe_all_pairs", o.rpe_all_pairs}, {"rpe_pairs_from", o.rpe_pairs_from},
+          {"rpe_tol", o.rpe_tol}};
+  if (!o.est_times.empty()) j["est_times"] = o.est_times;
+  if (!o.gt_times.empty()) j["gt_times"] = o.gt_times;
+  return j;
+}
+
+/// The output folder: --out, else RUN_DIR/eval for a run folder; empty for none.
+fs::path output_folder(const EvalOptions& o, const Estimate& est) {
+  if (o.no_out) return {};
+  if (!o.out.empty()) return o.out;
+  return est.run ? est.in.path / "eval" : fs::path();
+}
+
+}  // namespace
+
+std::string label_from_path(const fs::path& path, bool is_dir) {
+  fs::path p = io::without_trailing_separator(path);
+  std::string name = is_dir ? p.filename().string() : p.stem().string();
+  // A generic file name (EuRoC's data.csv, a run's trajectory.csv) names nothing: use the closest folder
+  // that is not part of a dataset's layout (V1_01_easy for V1_01_easy/mav0/state_groundtruth_estimate0).
+  static const char* const kGenericFiles[] = {"data", "trajectory", "traj", "groundtruth", "estimate",
+                                              "stamped_traj_estimate", "stamped_groundtruth", "poses",
+                                              "trajectory_estimate", "est", "gt"};
+  static const char* const kLayoutFolders[] = {"mav0", "state_groundtruth_estimate0", "mocap0", "vicon0",
+                                               "leica0", "eval", "imu0", "cam0", "cam1"};
+  const auto in = [](const std::string& s, const auto& list) {
+    return std::find(std::begin(list), std::end(list), s) != std::end(list);
+  };
+  if (is_dir || !in(name, kGenericFiles)) return name.empty() ? p.string() : name;
+  for (fs::path q = p.parent_path(); !q.empty() && q.has_filename(); q = q.parent_path()) {
+    const std::string f = q.filename().string();
+    if (f != "." && f != ".." && !in(f, kLayoutFolders)) return f;
+    if (q == q.parent_path()) break;
   }
+  return name;
+}
+
+EvalResult run_eval(const EvalOptions& options) {
+  std::vector<std::string> warnings;
+  const eval::EvalParams params = eval_params(options, warnings);
+  std::string gt_note;
+  const EvalOptions o = with_ground_truth(options, gt_note);
 
   // The two inputs are independent: parse the ground truth on a second thread while the estimate is
   // read here (large files are parse-bound; this halves the wall time on two cores).
@@ -183,245 +253,28 @@ EvalResult run_eval(const EvalOptions& o) {
     gt_future.wait();  // never leave the thread running past the exception
     throw;
   }
-  const EvalInput gt = gt_future.get();
+  EvalInput gt = gt_future.get();
+  if (!gt_note.empty()) gt.description = "from " + gt_note + ": " + gt.description;
   warnings.insert(warnings.end(), gt_warnings.begin(), gt_warnings.end());
-  const io::Trajectory& te = est.in.traj;
-  const io::Trajectory& tg = gt.traj;
-  if (const std::size_t d = te.count_duplicate_stamps()) {
-    warnings.push_back(fmt::format("the estimate has {} duplicated time stamp(s) with different poses; {}", d,
-                                   ao.policy == eval::AssocPolicy::kNearest
-                                       ? "policy 'nearest' keeps every pose (as evo does); --assoc unique "
-                                         "keeps the first of each (as cnspy does)"
-                                       : "policy 'unique' keeps the first pose of each (as cnspy does)"));
-  }
-  if (const std::size_t d = tg.count_duplicate_stamps())
-    warnings.push_back(
-        fmt::format("the ground truth has {} duplicated time stamp(s); the first pose of each is used", d));
 
-  // Association.
-  const eval::Association a = eval::associate(te.t_ns, tg.t_ns, ao);
-  if (a.size() == 0) throw InputError(eval::explain_no_match(te.t_ns, tg.t_ns, ao), {o.est});
-  std::vector<Pose> pe, pg;
-  std::vector<Timestamp> t_e, t_g;
-  pe.reserve(a.size());
-  pg.reserve(a.size());
-  t_e.reserve(a.size());
-  t_g.reserve(a.size());
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    pe.push_back(te.poses[a.est_index[k]]);
-    pg.push_back(tg.poses[a.gt_index[k]]);
-    t_e.push_back(te.t_ns[a.est_index[k]]);
-    t_g.push_back(tg.t_ns[a.gt_index[k]]);
-  }
-  // The most pairs to expect: the sparser stream's poses inside the span both trajectories cover (a
-  // ground truth covering a longer session than the estimate is not a matching problem).
-  const eval::Overlap ov = eval::overlap(te.t_ns, tg.t_ns, ao);
-  if (a.size() < ov.n_max() / 2) {
-    warnings.push_back(fmt::format(
-        "only {} of at most {} poses were matched ({} estimate and {} ground-truth poses lie in the span "
-        "[{:.6f}, {:.6f}] s both cover): check --max-dt / --t-offset",
-        a.size(), ov.n_max(), ov.n_est, ov.n_gt, to_seconds(ov.begin_ns), to_seconds(ov.end_ns)));
-  }
+  check_kitti_pairing(est.in, o.est_times, gt, o.gt_times);
+  const eval::EstimateInput ei{est.in.traj.t_ns, est.in.traj.poses, est.cov,
+                               est.have_reprojection ? &est.reprojection : nullptr, o.est};
+  const eval::Report rep = eval::evaluate(ei, {gt.traj.t_ns, gt.traj.poses}, params);
+  warnings.insert(warnings.end(), rep.warnings.begin(), rep.warnings.end());
 
-  // Alignment.
-  const eval::Alignment al = eval::compute_alignment(align, pe, pg, o.n_align);
-  std::vector<Pose> pe_aligned = pe;
-  eval::apply_alignment(al, pe_aligned);
-
-  // Covariances of the matched estimate poses, rotated into the aligned frame.
-  std::vector<eval::PoseCovariance> cov;
-  if (!est.cov.empty()) {
-    bool all = true;
-    for (std::size_t k = 0; k < a.size() && all; ++k) all = est.cov[a.est_index[k]].has_value();
-    if (all) {
-      for (std::size_t k = 0; k < a.size(); ++k)
-        cov.push_back(eval::align_covariance(*est.cov[a.est_index[k]], al.R, al.s));
-    } else {
-      warnings.push_back("NEES not computed: some matched estimate poses have no covariance");
-    }
-  }
-  const eval::ApeResult ape = eval::compute_ape(pe_aligned, pg, cov);
-  if (align == eval::AlignType::kSe3 || align == eval::AlignType::kSim3) {
-    if (o.n_align < 0 && ape.pos_mean_m.cwiseAbs().maxCoeff() > 1e-6)
-      warnings.push_back("internal check: the mean position error after Umeyama is not ~0");
-  }
-  if (align == eval::AlignType::kNone)
-    warnings.push_back("no alignment: the results depend on the arbitrary world frames of both trajectories");
-
-  // Relative pose error of the aligned pairs (only a Sim(3) scale changes it), one block per delta.
-  std::vector<eval::RpeResult> rpe;
-  json rpe_json = json::array();
-  for (const eval::RpeOptions& ro : rpe_options) {
-    rpe.push_back(eval::compute_rpe(pe_aligned, pg, t_e, t_g, ro));
-    const eval::RpeResult& r = rpe.back();
-    if (r.pairs.empty())
-      warnings.push_back(fmt::format("RPE delta {} {}: no pair of matched poses is that far apart{}", ro.delta,
-                                     eval::to_string(ro.unit),
-                                     ro.all_pairs ? fmt::format(" (within {} %)", 100.0 * ro.rel_tol) : ""));
-    rpe_json.push_back({{"delta", ro.delta},
-                        {"unit", eval::to_string(ro.unit)},
-                        {"all_pairs", ro.all_pairs},
-                        {"pairs_from", eval::to_string(ro.pairs_from)},
-                        {"rel_tol", ro.rel_tol},
-                        {"n_pairs", r.pairs.size()},
-                        {"trans_m", r.pairs.empty() ? json(nullptr) : stats_json(r.trans_m)},
-                        {"rot_deg", r.pairs.empty() ? json(nullptr) : stats_json(r.rot_deg)},
-                        {"drift_pct", r.trans_pct.n == 0 ? json(nullptr) : stats_json(r.trans_pct)}});
-  }
-
-  // Per-object reprojection traces.
-  json per_object = json::array();
-  std::vector<std::tuple<Timestamp, int, Pose, std::string, double>> rep_aligned;
-  if (est.have_reprojection) {
-    std::map<int, std::vector<const ReprojectionCsvRow*>> by_obj;
-    for (const auto& r : est.reprojection) by_obj[r.object_id].push_back(&r);
-    for (const auto& [id, rows] : by_obj) {
-      std::map<std::string, std::size_t> counts;
-      std::vector<Timestamp> ts;
-      std::vector<Pose> ps;
-      std::vector<bool> accepted;
-      for (const ReprojectionCsvRow* r : rows) {
-        ++counts[r->status];
-        const bool valid = r->T_W_I.p.allFinite();
-        Pose T = valid ? al.apply(r->T_W_I) : r->T_W_I;
-        rep_aligned.emplace_back(r->t_ns, id, T, r->status, r->nis);
-        if (!valid) continue;
-        ts.push_back(r->t_ns);
-        ps.push_back(T);
-        accepted.push_back(r->status == "accepted" || r->status == "initialized");
-      }
-      json obj = {
-          {"object_id", id}, {"n_detections", rows.size()}, {"counts", counts}, {"n_valid_pose", ts.size()}};
-      // Each trace against the ground truth, with the same association options (unique stamps per object).
-      const eval::Association ar = ts.empty() ? eval::Association{} : eval::associate(ts, tg.t_ns, ao);
-      obj["n_matched"] = ar.size();
-      const auto summarize = [&](bool only_accepted) {
-        std::vector<Pose> e2, g2;
-        for (std::size_t k = 0; k < ar.size(); ++k) {
-          if (only_accepted && !accepted[ar.est_index[k]]) continue;
-          e2.push_back(ps[ar.est_index[k]]);
-          g2.push_back(tg.poses[ar.gt_index[k]]);
-        }
-        if (e2.empty()) return json{{"n", 0}};
-        const eval::ApeResult r = eval::compute_ape(e2, g2);
-        return json{{"n", e2.size()},
-                    {"pos_rmse_m", xyz_json(r.pos_rmse_m)},
-                    {"rpy_rmse_deg", rpy_json(r.rpy_rmse_deg)},
-                    {"ape_trans_rmse_m", r.trans_m.rmse},
-                    {"ape_rot_rmse_deg", r.rot_deg.rmse}};
-      };
-      obj["all"] = summarize(false);
-      obj["accepted"] = summarize(true);
-      per_object.push_back(obj);
-    }
-  }
-
-  // Report.
-  const std::string label = o.label.empty() ? default_label(est.in.path) : o.label;
-  double max_abs_dt = 0.0;
-  for (Timestamp d : a.dt_ns) max_abs_dt = std::max(max_abs_dt, std::abs(to_seconds(d)));
-  const Eigen::Quaterniond qa = al.q();
-  json R = json::array();
-  for (int r = 0; r < 3; ++r) R.push_back({al.R(r, 0), al.R(r, 1), al.R(r, 2)});
-  const double L_est = path_length(pe_aligned), L_gt = path_length(pg);
-  json report = {
-      {"info",
-       {{"title", "roe eval: " + label},
-        {"ref_name", gt.path.string()},
-        {"est_name", est.in.path.string()},
-        {"label", label},
-        {"roe_version", kVersion}}},
-      {"inputs",
-       {{"est",
-         {{"path", est.in.path.string()},
-          {"kind", est.in.kind},
-          {"format", io::to_string(te.format)},
-          {"description", est.in.description},
-          {"n_poses", te.size()},
-          {"duplicate_stamps", te.count_duplicate_stamps()}}},
-        {"gt",
-         {{"path", gt.path.string()},
-          {"kind", gt.kind},
-          {"format", io::to_string(tg.format)},
-          {"description", gt.description},
-          {"n_poses", tg.size()},
-          {"duplicate_stamps", tg.count_duplicate_stamps()}}}}},
-      {"association",
-       {{"max_dt_s", ao.max_dt_s},
-        {"offset_s", ao.offset_s},
-        {"policy", eval::to_string(ao.policy)},
-        {"n_gt", tg.size()},
-        {"n_est", te.size()},
-        {"n_matched", a.size()},
-        {"n_overlap_max", ov.n_max()},
-        {"n_dropped_unique", a.n_dropped_unique},
-        {"max_abs_dt_s", max_abs_dt},
-        {"rule",
-         "nearest neighbour from the shorter trajectory, |t_gt - (t_est + offset)| <= max_dt (evo)"}}},
-      {"alignment",
-       {{"type", eval::to_string(al.type == eval::AlignType::kNone ? align : al.type)},
-        {"n_aligned", al.n_used},
-        {"n_align_requested", o.n_align},
-        {"scale", al.s},
-        {"R", R},
-        {"t", {al.t.x(), al.t.y(), al.t.z()}},
-        {"q_xyzw", {qa.x(), qa.y(), qa.z(), qa.w()}},
-        {"applied", "p' = s*R*p + t, R'_est = R*R_est"}}},
-      {"ape_trans_m", stats_json(ape.trans_m)},
-      {"ape_rot_deg", stats_json(ape.rot_deg)},
-      {"per_axis",
-       {{"pos_rmse_m", xyz_json(ape.pos_rmse_m)},
-        {"pos_mean_m", xyz_json(ape.pos_mean_m)},
-        {"rpy_rmse_deg", rpy_json(ape.rpy_rmse_deg)},
-        {"pos_error", "p_est - p_gt"},
-        {"rot_error", "R_est^T*R_gt"},
-        {"euler", "ZYX (R=Rz*Ry*Rx)"},
-        {"wrap", "[-180,180)"}}},
-      {"cnspy",
-       {{"ARMSE_p", ape.armse_p_m},
-        {"ARMSE_R", ape.armse_r_deg},
-        {"ANEES_p", ape.anees_p ? json(*ape.anees_p) : json(nullptr)},
-        {"ANEES_R", ape.anees_r ? json(*ape.anees_r) : json(nullptr)},
-        {"note", "ARMSE_* are cnspy's report values: the mean of the per-pose error norms (m, deg)"}}},
-      {"consistency",
-       {{"available", !cov.empty()},
-        {"source", est.cov_source},
-        {"anees_p", ape.anees_p ? json(*ape.anees_p) : json(nullptr)},
-        {"anees_r", ape.anees_r ? json(*ape.anees_r) : json(nullptr)},
-        {"dof", 3},
-        {"definition",
-         "NEES_p = e_p^T P_p^-1 e_p (e_p = p_gt - p_est, P_p rotated by the alignment); "
-         "NEES_R = dtheta^T P_theta^-1 dtheta, dtheta = Log(R_est^T R_gt)"}}},
-      {"rpe", rpe_json},
-      {"rpe_definition",
-       "E_ij = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j), Q ground truth, P aligned estimate (evo RPE); trans_m = |trans(E)|, "
-       "rot_deg = angle of rot(E), drift_pct = 100 trans_m / ground-truth path length from i to j"},
-      {"per_object", per_object},
-      {"path_length_m", {{"est", L_est}, {"gt", L_gt}}},
-      {"options",
-       {{"align", o.align},
-        {"n_align", o.n_align},
-        {"max_dt_s", o.max_dt_s},
-        {"t_offset_s", o.t_offset_s},
-        {"assoc", o.assoc},
-        {"est_format", o.est_format},
-        {"gt_format", o.gt_format},
-        {"gt_source", o.gt_source},
-        {"rpe_delta", o.rpe_delta},
-        {"rpe_unit", o.rpe_unit},
-        {"rpe_all_pairs", o.rpe_all_pairs},
-        {"rpe_pairs_from", o.rpe_pairs_from},
-        {"rpe_tol", o.rpe_tol}}},
-      {"warnings", warnings}};
+  io::EvalReportContext ctx;
+  ctx.label = o.label.empty() ? label_from_path(est.in.path, est.run) : o.label;
+  ctx.est_path = est.in.path.string();
+  ctx.gt_path = gt.path.string();
+  ctx.inputs = {{"est", input_json(est.in)}, {"gt", input_json(gt)}};
+  ctx.options = options_json(o);
+  ctx.cov_source = est.cov_source;
+  ctx.warnings = warnings;
+  json report = io::eval_report_json(rep, ctx);
 
   EvalResult res;
-  fs::path out;
-  if (!o.no_out) {
-    if (!o.out.empty())
-      out = o.out;
-    else if (est.run)
-      out = est.in.path / "eval";
-  }
+  const fs::path out = output_folder(o, est);
   if (o.plot && out.empty()) {
     throw InputError(
         "--plot needs an output folder: pass --out DIR (plots are rendered from the output files)",
@@ -429,150 +282,8 @@ EvalResult run_eval(const EvalOptions& o) {
   }
   if (!out.empty()) {
     io::OutputDir dir(out, o.force, {o.est, o.gt});
-    std::vector<std::string> files;
-    const auto put = [&](const std::string& name, const std::string& text) {
-      io::write_file_atomic(dir.file(name), text);
-      files.push_back(name);
-    };
-    put("est_matched_aligned.csv", io::format_trajectory(t_e, pe_aligned, io::TrajectoryFormat::kCsv));
-    put("gt_matched.csv", io::format_trajectory(t_g, pg, io::TrajectoryFormat::kCsv));
-    put("est_matched_aligned.tum", io::format_trajectory(t_e, pe_aligned, io::TrajectoryFormat::kTum));
-    put("gt_matched.tum", io::format_trajectory(t_g, pg, io::TrajectoryFormat::kTum));
-    {
-      io::CsvWriter w;
-      std::vector<std::string> h = {"t_gt",     "t_est",    "dt",        "ex_m",    "ey_m",     "ez_m",
-                                    "e_norm_m", "roll_deg", "pitch_deg", "yaw_deg", "angle_deg"};
-      if (!cov.empty()) {
-        h.push_back("nees_p");
-        h.push_back("nees_r");
-      }
-      w.header(h);
-      for (std::size_t k = 0; k < a.size(); ++k) {
-        const auto& e = ape.errors[k];
-        w.add_seconds(t_g[k]).add_seconds(t_e[k]).add(to_seconds(a.dt_ns[k]));
-        w.add(e.dp.x()).add(e.dp.y()).add(e.dp.z()).add(e.dp.norm());
-        w.add(e.rpy_deg.x()).add(e.rpy_deg.y()).add(e.rpy_deg.z()).add(e.angle_deg);
-        if (!cov.empty()) w.add(ape.nees[k].pos).add(ape.nees[k].rot);
-        w.end_row();
-      }
-      put("errors.csv", w.str());
-    }
-    {
-      // cnspy PoseTypedStamped error file (type5: p_est - p_gt, q = R_est^T R_gt).
-      io::CsvWriter w;
-      w.header({"t", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "scale", "est_err_type"});
-      const double scale = L_est > 0.0 ? L_gt / L_est : 1.0;
-      for (std::size_t k = 0; k < a.size(); ++k) {
-        const auto& e = ape.errors[k];
-        w.add_seconds(t_g[k]).add(e.dp.x()).add(e.dp.y()).add(e.dp.z());
-        w.add(e.q_err.x())
-            .add(e.q_err.y())
-            .add(e.q_err.z())
-            .add(e.q_err.w())
-            .add(scale)
-            .add("type5")
-            .end_row();
-      }
-      put("err_matched_aligned.csv", w.str());
-    }
-    {
-      io::CsvWriter w;
-      w.header({"gt_file",      "est_file",    "alignment", "n_aligned",     "max_dt_s",       "t_offset_s",
-                "n_gt",         "n_est",       "n_matched", "scale",         "ate_rmse_m",     "ate_mean_m",
-                "ate_median_m", "ate_std_m",   "ate_min_m", "ate_max_m",     "rot_rmse_deg",   "rot_mean_deg",
-                "rmse_x_m",     "rmse_y_m",    "rmse_z_m",  "rmse_roll_deg", "rmse_pitch_deg", "rmse_yaw_deg",
-                "armse_p_m",    "armse_r_deg", "anees_p",   "anees_r"});
-      w.add(gt.path.string()).add(est.in.path.string()).add(eval::to_string(align)).add(al.n_used);
-      w.add(ao.max_dt_s).add(ao.offset_s).add(static_cast<std::int64_t>(tg.size()));
-      w.add(static_cast<std::int64_t>(te.size())).add(static_cast<std::int64_t>(a.size())).add(al.s);
-      w.add(ape.trans_m.rmse).add(ape.trans_m.mean).add(ape.trans_m.median).add(ape.trans_m.std);
-      w.add(ape.trans_m.min).add(ape.trans_m.max).add(ape.rot_deg.rmse).add(ape.rot_deg.mean);
-      for (int k = 0; k < 3; ++k) w.add(ape.pos_rmse_m(k));
-      for (int k = 0; k < 3; ++k) w.add(ape.rpy_rmse_deg(k));
-      w.add(ape.armse_p_m).add(ape.armse_r_deg);
-      if (ape.anees_p)
-        w.add(*ape.anees_p);
-      else
-        w.add_empty();
-      if (ape.anees_r)
-        w.add(*ape.anees_r);
-      else
-        w.add_empty();
-      w.end_row();
-      put("summary.csv", w.str());
-    }
-    if (!rpe.empty()) {
-      io::CsvWriter w;
-      w.header({"delta", "unit", "t_i", "t_j", "dt_s", "path_gt_m", "trans_m", "rot_deg", "drift_pct"});
-      for (const eval::RpeResult& r : rpe) {
-        for (const eval::RpePair& p : r.pairs) {
-          w.add(r.options.delta).add(eval::to_string(r.options.unit)).add_seconds(t_g[p.i]).add_seconds(t_g[p.j]);
-          w.add(dt_seconds(t_g[p.i], t_g[p.j])).add(p.path_gt_m).add(p.trans_m).add(p.rot_deg);
-          if (std::isfinite(p.trans_pct))
-            w.add(p.trans_pct);
-          else
-            w.add_empty();
-          w.end_row();
-        }
-      }
-      put("rpe.csv", w.str());
-      io::CsvWriter sw;
-      sw.header({"delta", "unit", "all_pairs", "pairs_from", "n_pairs", "trans_rmse_m", "trans_mean_m",
-                "trans_median_m", "trans_std_m", "trans_min_m", "trans_max_m", "rot_rmse_deg", "rot_mean_deg",
-                "rot_median_deg", "rot_std_deg", "rot_min_deg", "rot_max_deg", "drift_mean_pct",
-                "drift_median_pct"});
-      for (const eval::RpeResult& r : rpe) {
-        sw.add(r.options.delta).add(eval::to_string(r.options.unit)).add(r.options.all_pairs ? "true" : "false");
-        sw.add(eval::to_string(r.options.pairs_from)).add(static_cast<std::int64_t>(r.pairs.size()));
-        for (const eval::Stats* st : {&r.trans_m, &r.rot_deg}) {
-          if (r.pairs.empty()) {
-            for (int k = 0; k < 6; ++k) sw.add_empty();
-            continue;
-          }
-          sw.add(st->rmse).add(st->mean).add(st->median).add(st->std).add(st->min).add(st->max);
-        }
-        if (r.trans_pct.n == 0)
-          sw.add_empty().add_empty();
-        else
-          sw.add(r.trans_pct.mean).add(r.trans_pct.median);
-        sw.end_row();
-      }
-      put("rpe_summary.csv", sw.str());
-    }
-    if (est.have_reprojection) {
-      io::CsvWriter w;
-      w.header({"timestamp_ns", "object_id", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "status", "nis"});
-      for (const auto& [t, id, T, status, nis] : rep_aligned) {
-        w.add(static_cast<std::int64_t>(t)).add(id).add(T.p.x()).add(T.p.y()).add(T.p.z());
-        w.add(T.q.x()).add(T.q.y()).add(T.q.z()).add(T.q.w()).add(status).add(nis).end_row();
-      }
-      put("reprojection_aligned.csv", w.str());
-      io::CsvWriter p;
-      p.header({"object_id", "n_detections", "n_matched", "rmse_x_m", "rmse_y_m", "rmse_z_m", "rmse_roll_deg",
-                "rmse_pitch_deg", "rmse_yaw_deg", "n_accepted_matched", "acc_rmse_x_m", "acc_rmse_y_m",
-                "acc_rmse_z_m", "acc_rmse_roll_deg", "acc_rmse_pitch_deg", "acc_rmse_yaw_deg", "counts"});
-      for (const auto& obj : per_object) {
-        p.add(obj["object_id"].get<int>()).add(obj["n_detections"].get<std::int64_t>());
-        p.add(obj["n_matched"].get<std::int64_t>());
-        for (const char* sub : {"all", "accepted"}) {
-          const json& s = obj[sub];
-          if (sub == std::string("accepted")) p.add(s["n"].get<std::int64_t>());
-          if (s["n"].get<std::int64_t>() == 0) {
-            for (int k = 0; k < 6; ++k) p.add_empty();
-            continue;
-          }
-          for (const char* ax : {"x", "y", "z"}) p.add(s["pos_rmse_m"][ax].get<double>());
-          for (const char* ax : {"roll", "pitch", "yaw"}) p.add(s["rpy_rmse_deg"][ax].get<double>());
-        }
-        std::string c;
-        for (const auto& [k, v] : obj["counts"].items())
-          c += (c.empty() ? "" : ";") + k + "=" + std::to_string(v.get<int>());
-        p.add(c).end_row();
-      }
-      put("per_object.csv", p.str());
-    }
-    report["outputs"] = {{"dir", out.string()}, {"files", files}};
-    put("report.json", io::dump_json(report, 2) + "\n");
+    report["outputs"] = {{"dir", out.string()}, {"files", io::write_eval_files(dir, rep, ctx)}};
+    io::write_file_atomic(dir.file("report.json"), io::dump_json(report, 2) + "\n");
     if (o.plot) {
       res.plot_status = render_eval_plots(dir.tmp(), o);  // throws: a plotting failure commits nothing
       report["plots"] = {{"ok", true}, {"status", res.plot_status}};
@@ -584,6 +295,41 @@ EvalResult run_eval(const EvalOptions& o) {
   res.report = std::move(report);
   return res;
 }
+
+namespace {
+
+/// The per-object table: each object's RMSE over all its matched detections (the outliers the filter
+/// rejected included) and over the accepted ones alone, on two labelled rows.
+std::string per_object_text(const json& objects) {
+  std::string s = "\n  per object (reprojected IMU pose of each raw detection, same alignment; 'all' includes the\n"
+                  "  detections the filter rejected as outliers, 'accepted' only those it used)\n";
+  s += "  object  detections  matched  subset        n   rmse x/y/z [m]              rmse roll/pitch/yaw [deg]   "
+       "statuses\n";
+  for (const auto& o : objects) {
+    std::string counts;
+    for (const auto& [k, v] : o["counts"].items())
+      counts += (counts.empty() ? "" : ", ") + k + " " + std::to_string(v.get<int>());
+    for (const char* subset : {"all", "accepted"}) {
+      const bool first = subset == std::string("all");
+      const std::string head = first ? fmt::format("  {:>6}  {:>10}  {:>7}", o["object_id"].get<int>(),
+                                                   o["n_detections"].get<int>(), o["n_matched"].get<int>())
+                                     : std::string(29, ' ');
+      const json& f = o[subset];
+      const std::string tail = first ? "     " + counts : "";
+      if (f["n"].get<int>() == 0) {
+        s += fmt::format("{}  {:<9} {:>5}   (no matched pose){}\n", head, subset, 0, first ? "         " + counts : "");
+        continue;
+      }
+      s += fmt::format("{}  {:<9} {:>5}   {:7.3f} {:7.3f} {:7.3f}     {:7.2f} {:7.2f} {:7.2f}{}\n", head, subset,
+                       f["n"].get<int>(), f["pos_rmse_m"]["x"].get<double>(), f["pos_rmse_m"]["y"].get<double>(),
+                       f["pos_rmse_m"]["z"].get<double>(), f["rpy_rmse_deg"]["roll"].get<double>(),
+                       f["rpy_rmse_deg"]["pitch"].get<double>(), f["rpy_rmse_deg"]["yaw"].get<double>(), tail);
+    }
+  }
+  return s;
+}
+
+}  // namespace
 
 std::string EvalResult::to_text() const {
   const json& r = report;
@@ -642,27 +388,7 @@ std::string EvalResult::to_text() const {
     s += "  (both are relative to this alignment, not to the estimator's own gauge: the alignment's rotation\n"
          "   error, fitted on positions, is not in the estimate's covariance and inflates the orientation NEES)\n";
   }
-  if (!r["per_object"].empty()) {
-    s += "\n  per object (reprojected IMU pose of each raw detection, same alignment)\n";
-    s += "  object  detections  matched   rmse x/y/z [m]              rmse roll/pitch/yaw [deg]   statuses\n";
-    for (const auto& o : r["per_object"]) {
-      std::string counts;
-      for (const auto& [k, v] : o["counts"].items())
-        counts += (counts.empty() ? "" : ", ") + k + " " + std::to_string(v.get<int>());
-      const auto& all = o["all"];
-      if (all["n"].get<int>() > 0) {
-        s += fmt::format(
-            "  {:>6}  {:>10}  {:>7}   {:7.3f} {:7.3f} {:7.3f}     {:7.2f} {:7.2f} {:7.2f}     {}\n",
-            o["object_id"].get<int>(), o["n_detections"].get<int>(), o["n_matched"].get<int>(),
-            all["pos_rmse_m"]["x"].get<double>(), all["pos_rmse_m"]["y"].get<double>(),
-            all["pos_rmse_m"]["z"].get<double>(), all["rpy_rmse_deg"]["roll"].get<double>(),
-            all["rpy_rmse_deg"]["pitch"].get<double>(), all["rpy_rmse_deg"]["yaw"].get<double>(), counts);
-      } else {
-        s += fmt::format("  {:>6}  {:>10}  {:>7}   (no matched pose)     {}\n", o["object_id"].get<int>(),
-                         o["n_detections"].get<int>(), o["n_matched"].get<int>(), counts);
-      }
-    }
-  }
+  if (!r["per_object"].empty()) s += per_object_text(r["per_object"]);
   for (const auto& w : r["warnings"]) s += "  warning: " + w.get<std::string>() + "\n";
   if (!out.empty()) s += fmt::format("\n  wrote {}\n", out.string());
   if (!plot_status.empty()) s += "  plots: " + plot_status + "\n";

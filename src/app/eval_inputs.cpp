@@ -187,6 +187,7 @@ EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warn
           fmt::format("--gt-source {} is ignored: the ground truth is a file, not a dataset", o.gt_source));
     in.kind = "file";
     in.traj = io::read_trajectory(in.path, io::parse_trajectory_format(o.gt_format));
+    if (!o.gt_times.empty()) io::apply_kitti_times(in.traj, o.gt_times);
     in.description = fmt::format("{} ({})", in.path.string(), io::to_string(in.traj.format));
     return in;
   }

@@ -1,6 +1,8 @@
 // roe eval --summary: one row per run + mean and population std, in the paper's table layout.
 #include <fmt/format.h>
 
+#include <map>
+
 #include <algorithm>
 #include <cmath>
 #include <iterator>
@@ -78,6 +80,23 @@ std::string vec3(const std::vector<double>& v, int first, int decimals) {
                      decimals);
 }
 
+/// Rows that share a label cannot be told apart in the table: one warning per repeated label.
+template <class Row>
+std::vector<std::string> duplicate_label_warnings(const std::vector<Row>& rows) {
+  std::vector<std::string> w;
+  std::map<std::string, std::vector<std::size_t>> runs;
+  for (std::size_t i = 0; i < rows.size(); ++i) runs[rows[i].label].push_back(i + 1);
+  for (const auto& [label, idx] : runs) {
+    if (idx.size() < 2) continue;
+    std::string list;
+    for (std::size_t k : idx) list += (list.empty() ? "" : ", ") + std::to_string(k);
+    w.push_back(fmt::format("runs {} are all labelled '{}': the rows cannot be told apart by label (set "
+                            "`roe eval --label NAME` when evaluating)",
+                            list, label));
+  }
+  return w;
+}
+
 }  // namespace
 
 std::vector<std::pair<std::string, double>> eval_report_metrics(const json& j, const std::string& file) {
@@ -131,7 +150,8 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
   }
 
   // Mixed settings: a warning (the table is still written; comparing settings can be the point).
-  std::vector<std::string> warnings;
+  std::vector<std::string> warnings = duplicate_label_warnings(rows);
+  const std::size_t n_label_warnings = warnings.size();
   json common = json::object();
   for (const Setting& st : kSettings) {
     bool same = true;
@@ -243,13 +263,14 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     md += rpe_row("mean", "", mean, "");
     md += rpe_row("± std", "", sd, "± ");
   }
-  if (warnings.empty()) {
+  if (warnings.size() == n_label_warnings) {  // the settings agree (labels alone say nothing of them)
     md += fmt::format(
         "\nSettings of every run: alignment {}, --n-align {}, --max-dt {} s, --t-offset {} s, "
         "association {}.\n",
         setting_text(common["alignment"]), setting_text(common["n_align"]), setting_text(common["max_dt_s"]),
         setting_text(common["t_offset_s"]), setting_text(common["assoc"]));
-  } else {
+  }
+  if (!warnings.empty()) {
     md += "\n";
     for (const auto& w : warnings) md += "warning: " + w + "\n";
   }

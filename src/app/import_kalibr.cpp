@@ -93,6 +93,11 @@ KalibrCamchain read_kalibr_camchain(const fs::path& file, const std::string& cam
   const YAML::Node root = load_yaml(file);
   if (!root.IsMap()) throw InputError("expected a YAML mapping with cam0, cam1, ...", {file.string()});
   const YAML::Node cam = root[camera];
+  if (!cam && (root["accelerometer_noise_density"] || root["imu0"]))
+    throw InputError("this is a Kalibr imu.yaml, not a camchain: pass the camchain first, "
+                     "`roe import kalibr camchain-imucam.yaml imu.yaml --into DATASET` (the camchain carries T_I_C, "
+                     "which roe needs; the imu.yaml only adds the noise)",
+                     {file.string()});
   if (!cam) throw InputError("no camera \"" + camera + "\" in the camchain", {file.string(), 0, 0, camera});
   KalibrCamchain c;
   c.camera_model = text(file, required(file, cam, "camera_model", camera), camera + ".camera_model");
@@ -197,6 +202,13 @@ nlohmann::json ImportKalibrSummary::to_json() const {
   return j;
 }
 
+namespace {
+bool has_distortion(const KalibrCamchain& c) {
+  return c.distortion_model != "none" &&
+         std::any_of(c.distortion_coeffs.begin(), c.distortion_coeffs.end(), [](double k) { return k != 0.0; });
+}
+}  // namespace
+
 ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<fs::path>& imu_yaml,
                                   const fs::path& dataset, const ImportKalibrOptions& opt) {
   ImportKalibrSummary S;
@@ -244,6 +256,14 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
     S.warnings.push_back(fmt::format("Kalibr calibrated {}x{} images but the dataset's processed images are {}x{}: "
                                      "its intrinsics are kept; only T_I_C and the time shift are imported",
                                      c.width, c.height, cam.width, cam.height));
+  } else if (have_camera && m.camera->distortion_model == "none" && has_distortion(c)) {
+    // The dataset's images are already undistorted (roe.json says so): Kalibr calibrated the raw camera,
+    // and its distortion written here would be applied a second time. Keep the processed images' model.
+    S.warnings.push_back(fmt::format(
+        "the dataset's images are already undistorted (roe.json: distortion_model none) but the Kalibr camera has "
+        "{} distortion, i.e. Kalibr calibrated the raw images: the processed images' pinhole model and intrinsics "
+        "are kept; only T_I_C and the time shift are imported (docs/import.md)",
+        c.distortion_model));
   } else {
     cam.width = c.width;
     cam.height = c.height;
@@ -254,10 +274,6 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
     cam.distortion_model = c.distortion_model;
     cam.distortion = c.distortion_coeffs;
     if (c.distortion_model == "none") cam.distortion.clear();
-    const bool all_zero = std::all_of(cam.distortion.begin(), cam.distortion.end(), [](double k) { return k == 0.0; });
-    if (have_camera && cam.distortion_model != "none" && !all_zero && m.camera->distortion_model == "none")
-      S.warnings.push_back("the Kalibr model has distortion but the dataset's images are undistorted: check that "
-                           "Kalibr calibrated the processed images");
     S.intrinsics_written = true;
   }
   if (!have_camera && !S.intrinsics_written) {

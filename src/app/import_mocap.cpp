@@ -246,6 +246,20 @@ nlohmann::json ImportMocapSummary::to_json() const {
   return j;
 }
 
+namespace {
+/// --estimate-offset on a dataset without an IMU stream: what the estimate needs and the two ways on.
+InputError no_imu_for_offset(const fs::path& dataset, const fs::path& imu_csv) {
+  return InputError(fmt::format("--estimate-offset correlates the mocap's angular rate with the gyro, but {} has no "
+                                "IMU recording ({} is missing{}): import the recording with its IMU first "
+                                "(`roe import realsense BAG --out {}`, a bag with the IMU streams enabled), or give "
+                                "the offset with --time-offset S (0 for clocks synchronised in hardware)",
+                                dataset.string(), imu_csv.string(),
+                                fs::exists(io::manifest_path(dataset)) ? "" : "; the dataset does not exist yet",
+                                dataset.string()),
+                    {imu_csv.string()});
+}
+}  // namespace
+
 ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, const ImportMocapOptions& opt) {
   ImportMocapSummary S;
   S.dataset = dataset;
@@ -273,6 +287,8 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   S.csv = dataset / "mav0" / opt.mocap_name / "data.csv";
   if (fs::exists(S.csv) && !opt.force)
     throw InputError("the dataset already has mocap data (use --force to replace it)", {S.csv.string()});
+  if (opt.estimate_offset && !fs::exists(io::imu_csv_path(dataset)))  // before reading the take
+    throw no_imu_for_offset(dataset, io::imu_csv_path(dataset));
   io::MocapData d = read_mocap(file, opt);
   S.format = d.format;
   S.body = d.body;
@@ -307,8 +323,7 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   double offset = opt.time_offset_s.value_or(0.0);
   if (opt.estimate_offset) {
     const fs::path imu_csv = io::imu_csv_path(dataset);
-    if (!fs::exists(imu_csv))
-      throw InputError("--estimate-offset needs the IMU of the dataset (import the recording first)", {imu_csv.string()});
+    if (!fs::exists(imu_csv)) throw no_imu_for_offset(dataset, imu_csv);
     const auto imu = io::read_imu_csv(imu_csv);
     std::vector<StampedPose> shifted = d.poses;
     // With --time-offset given too, it is the centre of the search.

@@ -102,7 +102,7 @@ CheckResult extrinsics_settled(const CalibInput& in, const CalibThresholds& th) 
   }
   const bool drift = beyond && z_beyond > limit_z;
   static const char* axes[6] = {"p_x", "p_y", "p_z", "θ_x", "θ_y", "θ_z"};
-  CheckResult r{name, drift ? CheckStatus::kFail : CheckStatus::kPass, "", {}};
+  CheckResult r{name, drift ? CheckStatus::kFail : beyond ? CheckStatus::kWithinSigma : CheckStatus::kPass, "", {}};
   r.message = fmt::format("over the last {:.1f} s the estimate stays within {:.1f} mm / {:.2f}° of its final value, "
                           "limits {:.1f} mm / {:.2f}°",
                           window, dp * 1e3, dr, th.max_drift_p_m * 1e3, th.max_drift_rot_deg);
@@ -227,7 +227,7 @@ CheckResult truth_extrinsics(const CalibInput& in, const CalibThresholds& th) {
   const double nees = have_sigma ? e.cwiseQuotient(last.sigma).squaredNorm() : 0.0;
   const double limit_nees = ekf::chi2_quantile(th.confidence, 6.0);
   const bool fail = beyond && (!have_sigma || nees > limit_nees);
-  CheckResult r{name, fail ? CheckStatus::kFail : CheckStatus::kPass, "", {}};
+  CheckResult r{name, fail ? CheckStatus::kFail : beyond ? CheckStatus::kWithinSigma : CheckStatus::kPass, "", {}};
   r.message = fmt::format("error {:.1f} mm / {:.2f}°, limits {:.1f} mm / {:.2f}°", ep * 1e3, er, th.max_err_p_m * 1e3,
                           th.max_err_rot_deg);
   if (have_sigma) r.message += fmt::format(", NEES {:.1f} (per-axis σ; χ²₆({}) = {:.2f})", nees, th.confidence, limit_nees);
@@ -283,7 +283,8 @@ CheckResult truth_objects(const CalibInput& in, const CalibThresholds& th) {
   }
   const std::string no_truth = missing.empty() ? "" : "; no true pose for object(s) " + id_list(missing);
   if (checked == 0) return skipped(name, "no initialised object besides the anchor has a true pose" + no_truth);
-  CheckResult r{name, over.empty() ? CheckStatus::kPass : CheckStatus::kFail, "", {}};
+  CheckResult r{name, !over.empty() ? CheckStatus::kFail : explained ? CheckStatus::kWithinSigma : CheckStatus::kPass,
+                "", {}};
   r.message = over.empty()
                   ? fmt::format("{} object(s) relative to the anchor: largest error {:.1f} mm / {:.2f}°, limits "
                                 "{:.1f} mm / {:.2f}°",
@@ -367,12 +368,18 @@ const char* to_string(CheckStatus s) {
     case CheckStatus::kFail: return "fail";
     case CheckStatus::kInconclusive: return "inconclusive";
     case CheckStatus::kSkipped: return "skipped";
+    case CheckStatus::kWithinSigma: return "within-sigma";
   }
   return "?";
 }
 
 bool CalibReport::failed() const {
   return std::any_of(checks.begin(), checks.end(), [](const CheckResult& c) { return c.status == CheckStatus::kFail; });
+}
+
+bool CalibReport::within_sigma() const {
+  return std::any_of(checks.begin(), checks.end(),
+                     [](const CheckResult& c) { return c.status == CheckStatus::kWithinSigma; });
 }
 
 bool CalibReport::undecided() const {

@@ -16,10 +16,28 @@ namespace {
 
 struct Args {
   app::EvalOptions opt;
+  bool evo_align = false, evo_scale = false, evo_origin = false;  // evo's -a, -s (-as), --align_origin
+  std::string evo_save_results;
   std::vector<std::string> summary;
   std::vector<CLI::Option*> eval_only;  // options of an evaluation, meaningless with --summary
   std::vector<CLI::Option*> plot_only;  // figure options, meaningless without --plot
 };
+
+/// evo's -a / -s / -as / --align_origin as roe's --align; a contradiction or evo's scale-only
+/// correction (-s without -a, which roe has no alignment for) is refused with the roe spelling.
+void apply_evo_alignment(Args& a, bool align_given) {
+  const int n = (a.evo_align || a.evo_scale) + a.evo_origin;
+  if (n == 0) return;
+  if (align_given || n > 1)
+    throw InputError("evo's -a/-s/--align_origin and --align name the alignment twice: pass one "
+                     "(--align se3|sim3|posyaw|origin|none)",
+                     {"", 0, 0, "align"});
+  if (a.evo_scale && !a.evo_align)
+    throw InputError("-s (evo's --correct_scale without --align) corrects the scale alone, which roe does not "
+                     "do: pass -as or --align sim3 (scale and pose), or --align se3",
+                     {"", 0, 0, "correct_scale"});
+  a.opt.align = a.evo_origin ? "origin" : a.evo_scale ? "sim3" : "se3";
+}
 
 RunFn setup(CLI::App& sub) {
   auto a = std::make_shared<Args>();
@@ -27,31 +45,37 @@ RunFn setup(CLI::App& sub) {
                  "Run folder (trajectory.csv [+ reprojection.csv, states.csv]), trajectory file, or BAG:TOPIC (ROS 1/2 bag)");
   a->eval_only.push_back(sub.add_option(
       "--gt", a->opt.gt,
-      "Ground truth: dataset folder (state_groundtruth_estimate0 or mocap0), trajectory file, or BAG:TOPIC"));
-  a->eval_only.push_back(
+      "Ground truth: dataset folder (state_groundtruth_estimate0 or mocap0), trajectory file or BAG:TOPIC "
+      "(default for a run folder: the dataset its run.json names)"));
+  CLI::Option* align =
       sub.add_option("--align", a->opt.align, "Alignment: se3, sim3, posyaw, origin or none")
+          ->capture_default_str();
+  a->eval_only.push_back(align);
+  a->eval_only.push_back(
+      sub.add_option("--n-align,--n_to_align", a->opt.n_align, "Align on the first N matched pairs (-1: all)")
           ->capture_default_str());
   a->eval_only.push_back(
-      sub.add_option("--n-align", a->opt.n_align, "Align on the first N matched pairs (-1: all)")
+      sub.add_option("--max-dt,--t_max_diff", a->opt.max_dt_s, "Max |dt| in seconds for a match (evo --t_max_diff)")
           ->capture_default_str());
   a->eval_only.push_back(
-      sub.add_option("--max-dt", a->opt.max_dt_s, "Max |dt| in seconds for a match (evo --t_max_diff)")
-          ->capture_default_str());
-  a->eval_only.push_back(
-      sub.add_option("--t-offset", a->opt.t_offset_s, "Seconds added to the estimate stamps (evo --t_offset)")
+      sub.add_option("--t-offset,--t_offset", a->opt.t_offset_s, "Seconds added to the estimate stamps (evo --t_offset)")
           ->capture_default_str());
   a->eval_only.push_back(
       sub.add_option("--assoc", a->opt.assoc, "Association: nearest (evo) or unique (one-to-one, cnspy-like)")
           ->capture_default_str());
   a->eval_only.push_back(sub.add_option("--est-format", a->opt.est_format,
-                                        "Estimate file format: auto, tum, euroc, csv (cnspy), csv-ns (roe)")
+                                        "Estimate file format: auto, tum, euroc, csv (cnspy), csv-ns (roe), kitti")
                              ->capture_default_str());
   a->eval_only.push_back(sub.add_option("--gt-format", a->opt.gt_format,
-                                        "Ground-truth file format: auto, tum, euroc, csv, csv-ns")
+                                        "Ground-truth file format: auto, tum, euroc, csv, csv-ns, kitti")
                              ->capture_default_str());
   a->eval_only.push_back(
       sub.add_option("--gt-source", a->opt.gt_source, "For a dataset: auto, groundtruth or mocap")
           ->capture_default_str());
+  a->eval_only.push_back(sub.add_option("--est-times", a->opt.est_times,
+                                        "Times file of a KITTI estimate (seconds, one per pose; default: "
+                                        "associate by index, as evo)"));
+  a->eval_only.push_back(sub.add_option("--gt-times", a->opt.gt_times, "Times file of a KITTI ground truth"));
   sub.add_option(
       "--out", a->opt.out,
       "Output folder (default RUN_DIR/eval for a run folder); with --summary: FILE[.csv|.json|.md] "
@@ -71,10 +95,11 @@ RunFn setup(CLI::App& sub) {
           ->group("Relative pose error");
   a->eval_only.push_back(rpe_delta);
   std::vector<CLI::Option*> rpe_only;
-  rpe_only.push_back(sub.add_option("--rpe-unit", a->opt.rpe_unit,
+  rpe_only.push_back(sub.add_option("--rpe-unit,--delta_unit", a->opt.rpe_unit,
                                     "Unit of --rpe-delta: m (path length), s, f (matched poses), deg or rad "
-                                    "(rotation); evo's default is f")
+                                    "(rotation); evo's default is f, evo's d and r are deg and rad")
                          ->capture_default_str()
+                         ->transform(CLI::Transformer({{"d", "deg"}, {"r", "rad"}}))
                          ->group("Relative pose error"));
   rpe_only.push_back(sub.add_flag("--rpe-all-pairs", a->opt.rpe_all_pairs,
                                   "Every pose pair at the delta (evo --all_pairs), not consecutive ones")
@@ -90,10 +115,27 @@ RunFn setup(CLI::App& sub) {
                          ->check(number_in("non-negative"))
                          ->group("Relative pose error"));
   a->eval_only.insert(a->eval_only.end(), rpe_only.begin(), rpe_only.end());
+  // evo's spellings (evo_ape / evo_rpe): -a is --align se3, -as --align sim3, --align_origin --align origin.
+  const std::vector<CLI::Option*> evo_align = {
+      sub.add_flag("-a", a->evo_align, "evo's --align: the same as --align se3")->group("evo spellings"),
+      sub.add_flag("-s,--correct_scale", a->evo_scale, "evo's --correct_scale: with -a, --align sim3 (-as)")
+          ->group("evo spellings"),
+      sub.add_flag("--align_origin", a->evo_origin, "evo's --align_origin: the same as --align origin")
+          ->group("evo spellings")};
+  a->eval_only.insert(a->eval_only.end(), evo_align.begin(), evo_align.end());
+  a->eval_only.push_back(sub.add_option("--save_results", a->evo_save_results,
+                                        "evo's results zip: roe writes its results to --out DIR instead")
+                             ->group("evo spellings"));
   sub.add_option("--summary", a->summary,
                  "Summarise report.json files: mean and std over runs (paper table layout)")
       ->expected(1, -1);
-  return [a, rpe_delta, rpe_only]() {
+  return [a, rpe_delta, rpe_only, align]() {
+    if (!a->evo_save_results.empty())
+      throw InputError(fmt::format("--save_results is evo's results zip: roe writes report.json and the CSV "
+                                   "files into a folder: --out {} (read them with `roe eval --summary`)",
+                                   fs::path(a->evo_save_results).replace_extension().string()),
+                       {"", 0, 0, "save_results"});
+    apply_evo_alignment(*a, align->count() > 0);
     if (rpe_delta->count() == 0) {
       // The RPE settings do nothing without a delta: say so instead of ignoring them.
       for (const CLI::Option* op : rpe_only)
@@ -138,7 +180,6 @@ RunFn setup(CLI::App& sub) {
     if (a->opt.est.empty())
       throw InputError("an estimate is required: roe eval RUN_DIR|EST_FILE --gt DATASET|GT_FILE",
                        {"roe eval"});
-    if (a->opt.gt.empty()) throw InputError("--gt DATASET|GT_FILE is required", {"roe eval"});
     a->opt.force = globals().force;
     const auto r = app::run_eval(a->opt);
     emit(r.report, r.to_text());

@@ -55,7 +55,7 @@ RunFn setup(CLI::App& sub) {
         j.push_back({{"name", n}, {"description", d}});
         human += fmt::format("{:<12} {}\n", n, d);
       }
-      emit({{"presets", j}}, human);
+      emit({{"presets", j}}, human, /*listing=*/true);
       return 0;
     }
     if (a->out.empty()) throw InputError("--out DATASET is required", {"roe simulate"});

@@ -66,7 +66,9 @@ CLI::Validator number_in(const std::string& kind);
 /// (unless --quiet). Always to stdout. Every JSON summary carries `command`, `out` (the folder or file
 /// written: the summary's own `out`, `dataset`, `output` or `outputs.dir`; null when none) and
 /// `warnings` (added empty when the command has none), so that batch scripts read one set of keys.
-void emit(const nlohmann::json& summary, const std::string& human);
+/// `listing`: the human text is what the user asked for (--list-presets), printed even with --quiet
+/// (which silences the summary of work done, not the answer to a question).
+void emit(const nlohmann::json& summary, const std::string& human, bool listing = false);
 
 /// A progress bar on stderr, drawn only when stderr is a TTY and --quiet is off.
 class Progress {

@@ -8,7 +8,10 @@
 #include <memory>
 #include <vector>
 
+#include <fmt/format.h>
+
 #include "command.hpp"
+#include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
@@ -39,6 +42,26 @@ Registrar::Registrar(const char* parent, const char* name, const char* descripti
   registry().push_back({parent, name, description, order, setup});
 }
 
+namespace {
+/// With --json every failure is one JSON document on stdout as well (the message still goes to stderr):
+/// `command`, `error` (message, and file/line/column/key when known), `exit_code`.
+bool g_json_errors = false;
+int fail(int code, const std::string& command, const std::string& prefix, const std::string& message,
+         const roe::ErrorContext* where = nullptr, const std::string& bare = {}) {
+  std::cerr << "roe: " << prefix << message << "\n";
+  if (!g_json_errors) return code;
+  nlohmann::json err = {{"message", bare.empty() ? message : bare}};
+  if (where) {
+    if (!where->file.empty()) err["file"] = where->file;
+    if (where->line > 0) err["line"] = where->line;
+    if (where->column > 0) err["column"] = where->column;
+    if (!where->key.empty()) err["key"] = where->key;
+  }
+  std::cout << roe::io::dump_json({{"command", command}, {"error", err}, {"exit_code", code}}, 2) << std::endl;
+  return code;
+}
+}  // namespace
+
 }  // namespace roe::cli
 
 int main(int argc, char** argv) {
@@ -48,6 +71,7 @@ int main(int argc, char** argv) {
   if (const int code = forward_to_helper(argc, argv); code >= 0) return code;
 #endif
   roe::io::remove_temporaries_on_signals();
+  for (int i = 1; i < argc && std::string(argv[i]) != "--"; ++i) g_json_errors |= std::string(argv[i]) == "--json";
   CLI::App app{"roe: AI-based, object-relative visual-inertial state estimation (offline toolkit)",
                "roe"};
   app.require_subcommand(1);
@@ -82,9 +106,32 @@ int main(int argc, char** argv) {
     runs[sub] = e.setup(*sub);
   }
 
+  // The first word is the command: one that is none is named as such, before any option of a later
+  // command is read (`roe seq4 run` is an unknown command, not `roe run` without a dataset).
+  std::string names;
+  for (const CLI::App* c : app.get_subcommands({})) names += (names.empty() ? "" : ", ") + c->get_name();
+  const auto is_command = [&](const std::string& w) {
+    for (const CLI::App* c : app.get_subcommands({}))
+      if (c->get_name() == w) return true;
+    return false;
+  };
+  for (int i = 1; i < argc && std::string(argv[i]) != "--"; ++i) {
+    const std::string w = argv[i];
+    if (w.empty() || w[0] == '-') continue;
+    if (is_command(w)) break;
+    std::string swap;
+    if (i + 1 < argc && is_command(argv[i + 1]))
+      swap = fmt::format(" (did you mean `roe {} {}`?)", argv[i + 1], w);
+    return fail(2, "", "error: ", fmt::format("unknown command '{}'{} (commands: {})\n(see roe --help)", w, swap, names));
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
+    if (g_json_errors && dynamic_cast<const CLI::CallForVersion*>(&e)) {
+      std::cout << roe::io::dump_json({{"command", "version"}, {"version", roe::kVersion}, {"exit_code", 0}}, 2)
+                << std::endl;
+      return 0;
+    }
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
     // Bad usage: the same "roe: error:" prefix as every other error, and where to read about the command.
     std::string path = "roe";
@@ -110,10 +157,10 @@ int main(int argc, char** argv) {
           break;
         }
       }
-      std::cerr << "roe: error: " << (word.empty() ? "a command is required" : "unknown command '" + word + "'")
-                << " (" << (level == &app ? "commands" : "subcommands of " + path.substr(4)) << ": " << names
-                << ")\n(see " << path << " --help)\n";
-      return 2;
+      return fail(2, path.substr(std::min<std::size_t>(path.size(), 4)), "error: ",
+                  (word.empty() ? "a command is required" : "unknown command '" + word + "'") + " (" +
+                      (level == &app ? "commands" : "subcommands of " + path.substr(4)) + ": " + names +
+                      ")\n(see " + path + " --help)");
     }
     // An unknown option before the command's name is a global one: point to `roe --help`, not to the
     // command's help (`roe --bogus run ...`).
@@ -135,8 +182,9 @@ int main(int argc, char** argv) {
         }
       }
     }
-    std::cerr << "roe: error: " << e.what() << "\n(see " << path << " --help)\n";
-    return 2;  // DESIGN §1: bad usage is exit code 2
+    // DESIGN §1: bad usage is exit code 2
+    return fail(2, path.substr(std::min<std::size_t>(path.size(), 4)), "error: ",
+                std::string(e.what()) + "\n(see " + path + " --help)", nullptr, e.what());
   }
 
   roe::log::set_level(g_globals.quiet          ? roe::log::Level::kWarn
@@ -152,22 +200,17 @@ int main(int argc, char** argv) {
   }
   auto it = runs.find(leaf);
   if (it == runs.end()) {
-    std::cerr << "roe: no command given (see roe --help)\n";
-    return 2;
+    return fail(2, "", "", "no command given (see roe --help)");
   }
   try {
     return it->second();
   } catch (const roe::InputError& e) {
-    std::cerr << "roe: error: " << e.what() << "\n";
-    return 2;
+    return fail(2, g_globals.command, "error: ", e.what(), &e.context(), e.bare_message());
   } catch (const roe::DataError& e) {
-    std::cerr << "roe: error: " << e.what() << "\n";
-    return 1;
+    return fail(1, g_globals.command, "error: ", e.what(), &e.context(), e.bare_message());
   } catch (const roe::Error& e) {
-    std::cerr << "roe: internal error: " << e.what() << "\n";
-    return 3;
+    return fail(3, g_globals.command, "internal error: ", e.what(), &e.context(), e.bare_message());
   } catch (const std::exception& e) {
-    std::cerr << "roe: internal error: " << e.what() << "\n";
-    return 3;
+    return fail(3, g_globals.command, "internal error: ", e.what());
   }
 }

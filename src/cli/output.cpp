@@ -52,7 +52,7 @@ double now_s() {
 }
 }  // namespace
 
-void emit(const nlohmann::json& summary, const std::string& human) {
+void emit(const nlohmann::json& summary, const std::string& human, bool listing) {
   if (globals().json) {
     nlohmann::json j = summary;
     if (j.is_object()) {
@@ -71,7 +71,7 @@ void emit(const nlohmann::json& summary, const std::string& human) {
       if (!j.contains("warnings")) j["warnings"] = nlohmann::json::array();
     }
     std::cout << roe::io::dump_json(j, 2) << "\n";
-  } else if (!globals().quiet && !human.empty()) {
+  } else if ((listing || !globals().quiet) && !human.empty()) {
     std::cout << human;
     if (human.back() != '\n') std::cout << "\n";
   }

@@ -1,5 +1,7 @@
 #include "roe/io/json.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cctype>
 #include <set>
@@ -138,15 +140,20 @@ bool JsonObject::has(const char* key) const {
 }
 
 void JsonObject::mark(const char* key) {
-  if (std::find(read_.begin(), read_.end(), key) == read_.end()) read_.emplace_back(key);
+  if (std::find(read_.begin(), read_.end(), key) != read_.end()) return;
+  read_.emplace_back(key);
+  tree_->known.emplace_back(path_, key);
 }
 
 JsonObject JsonObject::child(const char* key) {
   mark(key);
   auto it = j_->find(key);
-  if (it == j_->end() || it->is_null()) return JsonObject(empty_, source_, key_path(key));
-  if (!it->is_object()) throw ConfigError("expected a JSON object", {source_, 0, 0, key_path(key)});
-  return JsonObject(*it, source_, key_path(key));
+  if (!(it == j_->end() || it->is_null()) && !it->is_object())
+    throw ConfigError("expected a JSON object", {source_, 0, 0, key_path(key)});
+  JsonObject c(it == j_->end() || it->is_null() ? empty_ : *it, source_, key_path(key));
+  c.tree_ = tree_;
+  c.is_child_ = true;
+  return c;
 }
 
 const json* JsonObject::raw(const char* key) {
@@ -155,10 +162,45 @@ const json* JsonObject::raw(const char* key) {
   return it == j_->end() ? nullptr : &*it;
 }
 
+namespace {
+/// Levenshtein distance, capped at 3 (only 1 and 2 are suggested).
+int edit_distance(const std::string& a, const std::string& b) {
+  if (a.size() > b.size() + 2 || b.size() > a.size() + 2) return 3;
+  std::vector<int> prev(b.size() + 1), cur(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = static_cast<int>(j);
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = static_cast<int>(i);
+    for (std::size_t j = 1; j <= b.size(); ++j)
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+    std::swap(prev, cur);
+  }
+  return std::min(prev[b.size()], 3);
+}
+}  // namespace
+
+void JsonObject::throw_unknown(const std::string& path, const std::string& key) const {
+  const std::string full = path.empty() ? key : path + "." + key;
+  std::string hint;
+  for (const auto& [p, k] : tree_->known)  // the same key where the reader reads it
+    if (k == key && p != path) {
+      hint = p.empty() ? fmt::format(" (did you mean the top-level \"{}\"?)", k)
+                       : fmt::format(" (did you mean \"{}.{}\"?)", p, k);
+      break;
+    }
+  int best = 3;
+  for (const auto& [p, k] : tree_->known)  // a typo of a key of the same object
+    if (hint.empty() && p == path && edit_distance(k, key) < best) best = edit_distance(k, key), hint = k;
+  if (best < 3) hint = fmt::format(" (did you mean \"{}\"?)", path.empty() ? hint : path + "." + hint);
+  throw ConfigError("unknown key" + hint, {source_, 0, 0, full});
+}
+
 void JsonObject::finish() const {
+  if (!is_child_ && !tree_->pending_key.empty()) throw_unknown(tree_->pending_path, tree_->pending_key);
   for (auto it = j_->begin(); it != j_->end(); ++it) {
-    if (std::find(read_.begin(), read_.end(), it.key()) == read_.end())
-      throw ConfigError("unknown key", {source_, 0, 0, key_path(it.key())});
+    if (std::find(read_.begin(), read_.end(), it.key()) != read_.end()) continue;
+    if (!is_child_) throw_unknown(path_, it.key());
+    if (tree_->pending_key.empty()) tree_->pending_path = path_, tree_->pending_key = it.key();
+    return;
   }
 }
 

@@ -464,6 +464,15 @@ PoetRotationFormat parse_poet_rotation_format(const std::string& s, const std::s
 }
 
 PoetResults parse_poet_results(const std::string& text, const std::string& source, PoetRotationFormat format) {
+  // A CSV (a roe detections.csv, a trajectory) is not PoET's output: say what it is, not "invalid JSON".
+  const std::size_t first = text.find_first_not_of(" \t\r\n\xEF\xBB\xBF");
+  const std::string line = first == std::string::npos ? "" : text.substr(first, text.find('\n', first) - first);
+  if (!line.empty() && line[0] != '{' && line[0] != '[' && line.find(',') != std::string::npos)
+    throw InputError("this looks like a CSV file (first line \"" + line.substr(0, 60) +
+                         "\"), not PoET's results.json: `roe import poet` reads the JSON PoET's inference_engine.py "
+                         "writes (docs/infer.md); a roe detections.csv is used as it is, from "
+                         "DATASET/detections/NAME/detections.csv",
+                     {source, 1, 1});
   LenientParser p(text, source);
   const Node root = p.parse_document();
   return ResultsBuilder(source, format).build(root);

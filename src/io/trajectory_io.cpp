@@ -28,6 +28,8 @@ std::string to_string(TrajectoryFormat f) {
       return "csv";
     case TrajectoryFormat::kCsvNs:
       return "csv-ns";
+    case TrajectoryFormat::kKitti:
+      return "kitti";
   }
   return "auto";
 }
@@ -38,8 +40,9 @@ TrajectoryFormat parse_trajectory_format(const std::string& name) {
   if (name == "euroc" || name == "asl") return TrajectoryFormat::kEuroc;
   if (name == "csv" || name == "cnspy") return TrajectoryFormat::kCsv;
   if (name == "csv-ns" || name == "roe") return TrajectoryFormat::kCsvNs;
-  throw InputError(fmt::format("unknown trajectory format '{}' (expected auto, tum, euroc, csv (= cnspy) or "
-                               "csv-ns (= roe))",
+  if (name == "kitti") return TrajectoryFormat::kKitti;
+  throw InputError(fmt::format("unknown trajectory format '{}' (expected auto, tum, euroc, csv (= cnspy), "
+                               "csv-ns (= roe) or kitti)",
                                name),
                    {"", 0, 0, "format"});
 }
@@ -107,6 +110,12 @@ const std::vector<std::string> kPoseCov = {"Txx", "Txy", "Txz", "Txa", "Txb", "T
 }  // namespace
 
 TrajectoryFormat detect_trajectory_format(std::string_view text, const std::string& source) {
+  if (text.substr(0, 8) == "#ROSBAG " || text.substr(0, 5) == "\x89MCAP")
+    throw InputError(fmt::format("this is a ROS bag ({}), not a trajectory file: name the pose topic "
+                                 "(BAG:TOPIC, a geometry_msgs PoseStamped/Odometry topic) or export it first "
+                                 "(e.g. `evo_traj bag BAG TOPIC --save_as_tum`)",
+                                 text[0] == '#' ? "rosbag v2" : "MCAP"),
+                     {source});
   std::size_t pos = 0;
   std::int64_t line_no = 0;
   if (text.size() >= 3 && static_cast<unsigned char>(text[0]) == 0xEF) pos = 3;  // BOM
@@ -137,7 +146,13 @@ TrajectoryFormat detect_trajectory_format(std::string_view text, const std::stri
                        {source, line_no, 1});
     }
     if (comment) continue;  // a TUM comment (e.g. "# timestamp tx ty tz qx qy qz qw")
-    if (looks_numeric(body)) return TrajectoryFormat::kTum;
+    if (looks_numeric(body)) {
+      // KITTI: 12 numbers (the 3×4 [R|t] row-major), no stamp; TUM: 8.
+      std::size_t fields = 0;
+      for (std::size_t i = 0; i < body.size(); ++i)
+        fields += body[i] != ' ' && body[i] != '\t' && (i == 0 || body[i - 1] == ' ' || body[i - 1] == '\t');
+      return fields == 12 ? TrajectoryFormat::kKitti : TrajectoryFormat::kTum;
+    }
     throw InputError(fmt::format("unrecognised trajectory line '{}' (expected a TUM row 't tx ty tz qx qy qz "
                                  "qw' or a CSV header)",
                                  std::string(line.substr(0, 120))),
@@ -204,6 +219,27 @@ void read_tum(CsvReader& r, Trajectory& tr) {
   while (r.next()) {
     const Timestamp t = read_seconds(r, 0);
     append(tr, r, 0, t, read_pose(r, {1, 2, 3}, {4, 5, 6, 7}));
+  }
+}
+
+/// KITTI odometry poses (evo's kitti format): T = [R|t] row-major per line, no stamp. The stamps are the
+/// row index in seconds (association by index) until a times file replaces them (read_kitti_times).
+void read_kitti(CsvReader& r, Trajectory& tr) {
+  Timestamp index = 0;
+  while (r.next()) {
+    Eigen::Matrix3d R;
+    Eigen::Vector3d p;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) R(i, j) = r.get_double(static_cast<std::size_t>(4 * i + j));
+      p(i) = r.get_double(static_cast<std::size_t>(4 * i + 3));
+    }
+    const double err = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+    if (!(err <= 1e-3) || !(R.determinant() > 0.0))
+      throw r.error(0, fmt::format("the 3×3 block is not a rotation (|RᵀR − I| = {:.3g}, det {:.3g}): is this a "
+                                   "KITTI pose file (r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz)?",
+                                   err, R.determinant()));
+    append(tr, r, 0, index, Pose(Eigen::Quaterniond(R), p));  // normalises
+    index += 1'000'000'000;
   }
 }
 
@@ -330,6 +366,14 @@ Trajectory parse_trajectory(std::string text, const std::string& source, Traject
       read_euroc(r, tr);
       break;
     }
+    case TrajectoryFormat::kKitti: {
+      o.whitespace_delimited = true;
+      o.header = CsvHeader::kNone;
+      o.columns = 12;
+      CsvReader r = CsvReader::from_text(std::move(text), source, o);
+      read_kitti(r, tr);
+      break;
+    }
     case TrajectoryFormat::kCsv:
     case TrajectoryFormat::kCsvNs: {
       o.header = CsvHeader::kFirstLine;
@@ -372,6 +416,32 @@ Trajectory read_trajectory(const fs::path& file, TrajectoryFormat format) {
   return parse_trajectory(slurp(file), file.string(), format);
 }
 
+void apply_kitti_times(Trajectory& tr, const fs::path& times_file) {
+  if (tr.format != TrajectoryFormat::kKitti)
+    throw InputError(fmt::format("a times file is for a KITTI pose file (without stamps), not a {} trajectory",
+                                 to_string(tr.format)),
+                     {times_file.string()});
+  CsvOptions o;
+  o.whitespace_delimited = true;
+  o.header = CsvHeader::kNone;
+  o.columns = 1;
+  o.comment_prefix = "#";
+  CsvReader r = CsvReader::from_text(slurp(times_file), times_file.string(), o);
+  std::size_t i = 0;
+  while (r.next()) {
+    if (i == tr.size())
+      throw r.error(0, fmt::format("more stamps than poses: {} has {}", tr.source, tr.size()));
+    const double t = r.get_double(0);  // KITTI's times.txt: seconds, often as 1.036e-01
+    if (!(t >= 0.0 && t < 1e10)) throw r.error(0, fmt::format("time {} s is out of range", t));
+    const Timestamp ns = from_seconds(t);
+    if (i > 0 && ns < tr.t_ns[i - 1]) throw r.error(0, "time stamps must not decrease");
+    tr.t_ns[i++] = ns;
+  }
+  if (i != tr.size())
+    throw InputError(fmt::format("{} stamps for {} poses of {} (one stamp per pose line)", i, tr.size(), tr.source),
+                     {times_file.string()});
+}
+
 // -------------------------------------------------------------------------------------------------
 // Writing
 // -------------------------------------------------------------------------------------------------
@@ -380,8 +450,16 @@ std::string format_trajectory(const std::vector<Timestamp>& t_ns, const std::vec
                               TrajectoryFormat format) {
   ROE_CHECK(t_ns.size() == poses.size(), "one stamp per pose");
   if (format == TrajectoryFormat::kAuto) format = TrajectoryFormat::kCsv;
-  const char delim = format == TrajectoryFormat::kTum ? ' ' : ',';
+  const char delim = format == TrajectoryFormat::kTum || format == TrajectoryFormat::kKitti ? ' ' : ',';
   CsvWriter w(delim);
+  if (format == TrajectoryFormat::kKitti) {  // no header, no stamps
+    for (const Pose& T : poses) {
+      const Eigen::Matrix3d R = T.R();
+      for (int i = 0; i < 3; ++i) w.add(R(i, 0)).add(R(i, 1)).add(R(i, 2)).add(T.p(i));
+      w.end_row();
+    }
+    return w.str();
+  }
   switch (format) {
     case TrajectoryFormat::kTum:
       w.header({"timestamp", "tx", "ty", "tz", "qx", "qy", "qz", "qw"}, "# ");

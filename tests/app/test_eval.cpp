@@ -615,6 +615,7 @@ TEST_CASE("roe eval --summary: mixed settings are warned about and listed per ru
     o.est = f.run.string();
     o.gt = f.dataset.string();
     o.out = (f.root / name).string();
+    o.label = name;  // one run folder evaluated three ways: labelled apart (else a duplicate-label warning)
     o.align = align;
     o.max_dt_s = max_dt;
     app::run_eval(o);
@@ -658,11 +659,15 @@ TEST_CASE("roe eval --summary: mixed settings are warned about and listed per ru
     CHECK(row1.find(",se3,-1,0.01,0,nearest") != std::string::npos);
     CHECK(row2.find(",none,-1,0.01,0,nearest") != std::string::npos);
   }
-  // identical settings: no warning, the settings under the table
+  // identical settings: no settings warning, the settings under the table; the one report given twice
+  // has one label twice, which is said
   so.reports = {a, a};
   so.out.clear();
   s = app::summarize_eval_reports(so);
-  CHECK(s.summary["warnings"].empty());
+  REQUIRE(s.summary["warnings"].size() == 1);
+  CHECK(s.summary["warnings"][0].get<std::string>() ==
+        "runs 1, 2 are all labelled 'a': the rows cannot be told apart by label (set `roe eval --label NAME` when "
+        "evaluating)");
   CHECK(s.markdown.find("Settings of every run: alignment se3") != std::string::npos);
 }
 

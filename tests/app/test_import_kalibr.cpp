@@ -189,17 +189,40 @@ TEST_CASE("import kalibr: invalid files are InputErrors naming file, line and ke
   CHECK_FALSE(fs::exists(ds));
 }
 
-TEST_CASE("import kalibr: distortion over undistorted images is warned about, all-zero coefficients are not",
+TEST_CASE("import kalibr onto undistorted images keeps their model and intrinsics, and warns; all-zero "
+          "coefficients are imported as they are",
           "[app][import][kalibr]") {
-  const auto warnings_for = [](const std::string& coeffs) {
+  const auto import_with = [](const std::string& coeffs, DatasetManifest& after) {
     TempDir d;
     const fs::path ds = dataset_with_camera(d, 640, 480, 600);
     std::string cc = kCamchain;
     cc.replace(cc.find("[0.01, -0.02, 0.001, 0.002]"), 27, coeffs);
-    return app::import_kalibr(d.write("cc.yaml", cc), std::nullopt, ds, {}).warnings;
+    const auto s = app::import_kalibr(d.write("cc.yaml", cc), std::nullopt, ds, {});
+    after = io::read_manifest(ds);
+    return s;
   };
-  const auto w = warnings_for("[0.01, -0.02, 0.001, 0.002]");
-  REQUIRE(w.size() == 1);
-  CHECK_THAT(w[0], Catch::StartsWith("the Kalibr model has distortion but the dataset's images are undistorted"));
-  CHECK(warnings_for("[0.0, 0.0, 0.0, 0.0]").empty());
+  DatasetManifest m;
+  const auto s = import_with("[0.01, -0.02, 0.001, 0.002]", m);
+  REQUIRE(s.warnings.size() == 1);
+  CHECK_THAT(s.warnings[0], Catch::StartsWith("the dataset's images are already undistorted"));
+  CHECK_FALSE(s.intrinsics_written);
+  REQUIRE(m.camera);
+  CHECK(m.camera->distortion_model == "none");  // never the raw camera's radtan over undistorted images
+  CHECK(m.camera->distortion.empty());
+  CHECK(m.camera->fx == 600.0);                           // the processed images' intrinsics
+  CHECK(m.camera->T_I_C.p.isApprox(Eigen::Vector3d(0.03, 0.02, 0.01), 1e-12));  // the extrinsics are imported
+  CHECK(m.camera->time_offset_s == 0.0042);
+  const auto zero = import_with("[0.0, 0.0, 0.0, 0.0]", m);
+  CHECK(zero.warnings.empty());
+  CHECK(zero.intrinsics_written);
+  CHECK(m.camera->fx == 612.0);
+}
+
+TEST_CASE("import kalibr imu.yaml alone says it is an imu.yaml and what to pass", "[app][import][kalibr]") {
+  TempDir d;
+  const fs::path imu = d.write("imu.yaml", kImu);
+  CHECK_THROWS_WITH(app::import_kalibr(imu, std::nullopt, d.path / "ds", {}),
+                    Catch::Contains("this is a Kalibr imu.yaml, not a camchain") &&
+                        Catch::Contains("camchain-imucam.yaml imu.yaml --into"));
+  CHECK_FALSE(fs::exists(d.path / "ds"));
 }

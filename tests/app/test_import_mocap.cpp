@@ -346,3 +346,17 @@ TEST_CASE("import mocap: --name cannot land on another stream; T_B_I follows its
     CHECK(mm.sources.at(0).options.at("capture_start_time") == "2016-01-05 03.49.50.755 PM");
   }
 }
+
+TEST_CASE("import mocap --estimate-offset without an IMU says what it needs and the ways on", "[app][import][offset]") {
+  TempDir d;
+  std::vector<ImuSample> imu;
+  std::vector<StampedPose> mocap;
+  simulate(0.5, imu, mocap, 4);
+  io::write_trajectory(d.path / "gt.tum", mocap, io::TrajectoryFormat::kTum);
+  app::ImportMocapOptions o;
+  o.estimate_offset = true;
+  CHECK_THROWS_WITH(app::import_mocap(d.path / "gt.tum", d.path / "ds", o),
+                    Catch::Contains("correlates the mocap's angular rate with the gyro") &&
+                        Catch::Contains("--time-offset S") && Catch::Contains("roe import realsense"));
+  CHECK_FALSE(fs::exists(d.path / "ds"));
+}

@@ -121,7 +121,8 @@ TEST_CASE("calib-check: extrinsics.settled fails a move beyond the limits only w
   in.extrinsics[250].sigma(0) = 0.010;
   in.extrinsics[250].T_I_C.p.x() += 0.006;
   auto c = get(calib::check_calibration(in), "extrinsics.settled");
-  CHECK(c.status == CheckStatus::kPass);
+  CHECK(c.status == CheckStatus::kWithinSigma);  // beyond the limit, explained by σ: its own status
+  CHECK(std::string(calib::to_string(c.status)) == "within-sigma");
   CHECK(value(c, "z") == Approx(0.006 / std::sqrt(0.0001 - 0.000004)).epsilon(1e-6));
   CHECK(value(c, "limit_z") == Approx(3.3415).epsilon(1e-4));  // P(|N(0,1)| > z) = 0.01 / 12
   CHECK_THAT(c.message, Catch::Contains("still converging"));
@@ -132,7 +133,7 @@ TEST_CASE("calib-check: extrinsics.settled fails a move beyond the limits only w
   CHECK_THAT(c.message, Catch::Contains("p_x"));
   // A lower confidence makes the bound tighter (2.64 at 0.9): 30 mm (3.06 σ) fails there only.
   in.extrinsics[250].T_I_C.p.x() -= 0.015;
-  CHECK(get(calib::check_calibration(in), "extrinsics.settled").status == CheckStatus::kPass);
+  CHECK(get(calib::check_calibration(in), "extrinsics.settled").status == CheckStatus::kWithinSigma);
   calib::CalibThresholds t;
   t.confidence = 0.9;
   CHECK(get(calib::check_calibration(in, t), "extrinsics.settled").status == CheckStatus::kFail);
@@ -305,7 +306,7 @@ TEST_CASE("calib-check: truth.objects compares poses relative to the anchor, wha
   // ... unless its σ explains it: 6 cm with σ 3 cm per axis is NEES 4.
   moved.objects[2].sigma_A_O.head<3>().setConstant(0.03);
   c = get(calib::check_calibration(moved), "truth.objects");
-  CHECK(c.status == CheckStatus::kPass);
+  CHECK(c.status == CheckStatus::kWithinSigma);
   CHECK(value(c, "beyond_limits_within_sigma") == 1.0);
   moved = in;
   moved.objects[2].T_O_W = Pose(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 0.04, 0)) * *moved.objects[2].T_O_W;
@@ -337,8 +338,15 @@ TEST_CASE("calib-check: truth.extrinsics fails beyond the limits and the sigma",
   // The same error with σ 6 mm (NEES 3.4): beyond the limit but consistent, so a pass that says so.
   in.extrinsics.back().sigma.head<3>().setConstant(0.006);
   c = get(calib::check_calibration(in), "truth.extrinsics");
-  CHECK(c.status == CheckStatus::kPass);
+  CHECK(c.status == CheckStatus::kWithinSigma);
   CHECK_THAT(c.message, Catch::Contains("within its σ"));
+  {
+    calib::CalibReport rep;
+    rep.checks.push_back(c);
+    CHECK_FALSE(rep.failed());  // not a failure: exit 0 unless --strict (app/calib_check)
+    CHECK(rep.within_sigma());
+    CHECK_FALSE(rep.undecided());
+  }
   in = good_input();
   in.extrinsics.back().T_I_C.q = in.extrinsics.back().T_I_C.q * math::exp_quat(Eigen::Vector3d(0.9 * kDeg, 0, 0));
   CHECK(get(calib::check_calibration(in), "truth.extrinsics").status == CheckStatus::kPass);

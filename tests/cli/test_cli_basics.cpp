@@ -230,3 +230,51 @@ TEST_CASE("roe: an unknown option points to the help of the level it was given a
   CHECK(r.code == 2);
   CHECK(r.out.find("(see roe import mocap --help)") != std::string::npos);
 }
+
+TEST_CASE("roe: a word before the command is an unknown command, not a missing argument", "[cli]") {
+  const auto r = run_roe("seq4 run");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("unknown command 'seq4' (did you mean `roe run seq4`?)") != std::string::npos);
+  CHECK(r.out.find("DATASET is required") == std::string::npos);
+}
+
+TEST_CASE("roe --json: every failure is one JSON document on stdout, and --version too", "[cli]") {
+  roe::test::TempDir tmp("roe_cli_json_err");
+  // A command's error: the location of the bad value.
+  const fs::path bad = tmp.write("bad.tum", "1 0 0 0 0 0 0 1\n2 0 0 zero 0 0 0 1\n");
+  auto r = run_roe("--json eval " + bad.string() + " --gt " + bad.string() + " --no-out", false);
+  CHECK(r.code == 2);
+  auto j = nlohmann::json::parse(r.out);
+  CHECK(j["command"] == "eval");
+  CHECK(j["exit_code"] == 2);
+  CHECK(j["error"]["file"] == bad.string());
+  CHECK(j["error"]["line"] == 2);
+  CHECK(j["error"]["column"] == 4);
+  CHECK(j["error"]["message"].get<std::string>().find("zero") != std::string::npos);
+  // A config key.
+  const fs::path cfg = tmp.write("c.json", R"({"filter": {"smoother": "rts"}})");
+  r = run_roe("--json run nowhere --config " + cfg.string() + " --out " + (tmp / "o").string(), false);
+  CHECK(r.code == 2);
+  j = nlohmann::json::parse(r.out);
+  CHECK(j["command"] == "run");
+  CHECK(j["error"]["key"] == "filter.smoother");
+  CHECK(j["error"]["message"] == "unknown key (did you mean the top-level \"smoother\"?)");
+  // Bad usage (before any command runs) and an unknown command.
+  for (const char* args : {"--json eval --align", "--json bogus", "--json eval --no-such-option"}) {
+    r = run_roe(args, false);
+    CHECK(r.code == 2);
+    j = nlohmann::json::parse(r.out);
+    CHECK(j["exit_code"] == 2);
+    CHECK(j["error"]["message"].is_string());
+  }
+  r = run_roe("--json --version", false);
+  CHECK(r.code == 0);
+  j = nlohmann::json::parse(r.out);
+  CHECK(j["version"].get<std::string>().rfind("0.", 0) == 0);
+}
+
+TEST_CASE("roe -q simulate --list-presets prints the listing: it is the answer, not chatter", "[cli]") {
+  const auto r = run_roe("-q simulate --list-presets", false);
+  CHECK(r.code == 0);
+  CHECK(r.out.find("paper-seq4") != std::string::npos);
+}

@@ -10,8 +10,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
+
+#include "roe/app/eval.hpp"
 
 namespace fs = std::filesystem;
 
@@ -212,4 +216,169 @@ TEST_CASE("roe eval: --rpe-delta adds the relative pose error to the report, fil
   std::getline(t, header);
   CHECK(header.find("rpe_1f_trans_rmse_m,rpe_1f_rot_rmse_deg") != std::string::npos);
   fs::remove_all(dir);
+}
+
+namespace {
+/// est.tum's rows as a run folder's trajectory.csv (roe's cnspy CSV).
+void write_run_folder(const fs::path& est_tum, const fs::path& run_dir) {
+  fs::create_directories(run_dir);
+  std::ifstream in(est_tum);
+  std::ofstream out(run_dir / "trajectory.csv");
+  out << "t,tx,ty,tz,qx,qy,qz,qw\n";
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    for (char& ch : line)
+      if (ch == ' ') ch = ',';
+    out << line << "\n";
+  }
+}
+
+/// The poses of a TUM file as KITTI rows (3×4 [R|t] row-major) and its stamps as a KITTI times file.
+void tum_to_kitti(const fs::path& tum, const fs::path& kitti, const fs::path& times) {
+  std::ifstream in(tum);
+  std::ofstream k(kitti), t(times);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ss(line);
+    std::string stamp;
+    double x, y, z, qx, qy, qz, qw;
+    ss >> stamp >> x >> y >> z >> qx >> qy >> qz >> qw;
+    const Eigen::Matrix3d R = Eigen::Quaterniond(qw, qx, qy, qz).normalized().toRotationMatrix();
+    char buf[512];
+    std::snprintf(buf, sizeof buf, "%.12e %.12e %.12e %.12e %.12e %.12e %.12e %.12e %.12e %.12e %.12e %.12e\n",
+                  R(0, 0), R(0, 1), R(0, 2), x, R(1, 0), R(1, 1), R(1, 2), y, R(2, 0), R(2, 1), R(2, 2), z);
+    k << buf;
+    t << stamp << "\n";
+  }
+}
+}  // namespace
+
+TEST_CASE("roe eval RUN_DIR without --gt uses the dataset run.json names, and says so", "[cli][eval]") {
+  roe::test::TempDir tmp("roe_cli_eval_nogt");
+  const fs::path dir = tmp.path;
+  write_pair(dir);
+  const fs::path ds = dir / "V1_01_easy";
+  fs::create_directories(ds / "mav0/state_groundtruth_estimate0");
+  fs::copy_file(dir / "gt.csv", ds / "mav0/state_groundtruth_estimate0/data.csv");
+  write_run_folder(dir / "est.tum", dir / "run");
+  // No run.json: --gt is still required, and the message says why.
+  const auto missing = run("eval " + (dir / "run").string() + " --no-out");
+  CHECK(missing.code == 2);
+  CHECK_THAT(missing.out, Catch::Contains("run.json"));
+  std::ofstream(dir / "run/run.json") << nlohmann::json{{"inputs", {{"dataset", ds.string()}}}}.dump();
+  const auto r = run("eval " + (dir / "run").string() + " --no-out", false);
+  REQUIRE(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("from the dataset"));
+  CHECK_THAT(r.out, Catch::Contains("run.json"));
+  const auto j = run("--json eval " + (dir / "run").string() + " --no-out", false);
+  REQUIRE(j.code == 0);
+  const auto rep = nlohmann::json::parse(j.out);
+  CHECK(rep["inputs"]["gt"]["path"] == ds.string());
+  CHECK(rep["association"]["n_matched"] == 190);
+  // A dataset that moved away: exit 2 naming run.json's key.
+  fs::rename(ds, dir / "elsewhere");
+  const auto gone = run("eval " + (dir / "run").string() + " --no-out");
+  CHECK(gone.code == 2);
+  CHECK_THAT(gone.out, Catch::Contains("inputs.dataset"));
+}
+
+TEST_CASE("roe eval accepts evo's spellings or answers with roe's", "[cli][eval]") {
+  roe::test::TempDir tmp("roe_cli_eval_evo");
+  const fs::path dir = tmp.path;
+  write_pair(dir);
+  const std::string base = "--json eval " + (dir / "est.tum").string() + " --gt " + (dir / "gt.csv").string() + " --no-out ";
+  const auto align_of = [&](const std::string& extra) {
+    const auto r = run(base + extra, false);
+    REQUIRE(r.code == 0);
+    return nlohmann::json::parse(r.out);
+  };
+  CHECK(align_of("-a")["alignment"]["type"] == "se3");
+  CHECK(align_of("-as")["alignment"]["type"] == "sim3");
+  CHECK(align_of("-a -s")["alignment"]["type"] == "sim3");
+  CHECK(align_of("--align_origin")["alignment"]["type"] == "origin");
+  const auto o = align_of("--n_to_align 20 --t_max_diff 0.02 --t_offset 0.001");
+  CHECK(o["options"]["n_align"] == 20);
+  CHECK(o["options"]["max_dt_s"].get<double>() == 0.02);
+  CHECK(o["options"]["t_offset_s"].get<double>() == 0.001);
+  CHECK(align_of("--rpe-delta 10 --delta_unit d")["rpe"][0]["unit"] == "deg");
+  // -s alone is evo's scale-only correction: refused with the roe spelling.
+  const auto s = run(base + "-s");
+  CHECK(s.code == 2);
+  CHECK_THAT(s.out, Catch::Contains("-as"));
+  CHECK(run(base + "-a --align sim3").code == 2);  // named twice
+  const auto zip = run(base + "--save_results r.zip");
+  CHECK(zip.code == 2);
+  CHECK_THAT(zip.out, Catch::Contains("--out"));
+}
+
+TEST_CASE("roe eval labels: from the path (EuRoC's data.csv is its sequence), --label, duplicate warning",
+          "[cli][eval]") {
+  CHECK(roe::app::label_from_path("/d/V1_01_easy/mav0/state_groundtruth_estimate0/data.csv", false) == "V1_01_easy");
+  CHECK(roe::app::label_from_path("runs/seed3/trajectory.csv", false) == "seed3");
+  CHECK(roe::app::label_from_path("runs/seed3/", true) == "seed3");
+  CHECK(roe::app::label_from_path("results/orbslam_v101.tum", false) == "orbslam_v101");
+  roe::test::TempDir tmp("roe_cli_eval_label");
+  const fs::path dir = tmp.path;
+  write_pair(dir);
+  const fs::path seq = dir / "V1_01_easy/mav0/state_groundtruth_estimate0";
+  fs::create_directories(seq);
+  fs::copy_file(dir / "gt.csv", seq / "data.csv");
+  const std::string gt = (dir / "gt.csv").string();
+  REQUIRE(run("eval " + (seq / "data.csv").string() + " --gt " + gt + " --align none --out " + (dir / "a").string()).code == 0);
+  CHECK(nlohmann::json::parse(std::ifstream(dir / "a/report.json"))["info"]["label"] == "V1_01_easy");
+  REQUIRE(run("eval " + (dir / "est.tum").string() + " --gt " + gt + " --label mine --out " + (dir / "b").string()).code == 0);
+  REQUIRE(run("eval " + (dir / "est.tum").string() + " --gt " + gt + " --label mine --out " + (dir / "c").string()).code == 0);
+  CHECK(nlohmann::json::parse(std::ifstream(dir / "b/report.json"))["info"]["label"] == "mine");
+  const auto s = run("--json eval --summary " + (dir / "a").string() + " " + (dir / "b").string() + " " +
+                     (dir / "c").string(), false);
+  REQUIRE(s.code == 0);
+  const auto w = nlohmann::json::parse(s.out)["warnings"].dump();
+  CHECK_THAT(w, Catch::Contains("runs 2, 3 are all labelled 'mine'"));
+  CHECK_THAT(w, !Catch::Contains("V1_01_easy"));
+}
+
+TEST_CASE("roe eval reads KITTI pose files: by index as evo, or by a times file", "[cli][eval][kitti]") {
+  roe::test::TempDir tmp("roe_cli_eval_kitti");
+  const fs::path dir = tmp.path;
+  write_pair(dir);
+  const std::string gt = (dir / "gt.csv").string();
+  // The matched pairs of a TUM evaluation, converted to KITTI, give the same figures.
+  REQUIRE(run("eval " + (dir / "est.tum").string() + " --gt " + gt + " --align none --out " + (dir / "tum").string()).code == 0);
+  tum_to_kitti(dir / "tum/est_matched_aligned.tum", dir / "est.txt", dir / "est_times.txt");
+  tum_to_kitti(dir / "tum/gt_matched.tum", dir / "gt.txt", dir / "gt_times.txt");
+  const auto ref = nlohmann::json::parse(std::ifstream(dir / "tum/report.json"));
+  const auto by_index = run("--json eval " + (dir / "est.txt").string() + " --gt " + (dir / "gt.txt").string() + " --align none --no-out", false);
+  REQUIRE(by_index.code == 0);
+  const auto k = nlohmann::json::parse(by_index.out);
+  CHECK(k["inputs"]["est"]["format"] == "kitti");
+  CHECK(k["association"]["n_matched"] == 190);
+  CHECK(k["ape_trans_m"]["rmse"].get<double>() == Approx(ref["ape_trans_m"]["rmse"].get<double>()).epsilon(1e-6));
+  // With the times files, against the stamped EuRoC ground truth directly.
+  const auto timed = run("--json eval " + (dir / "est.txt").string() + " --est-times " + (dir / "est_times.txt").string() +
+                         " --gt " + gt + " --align none --no-out", false);
+  REQUIRE(timed.code == 0);
+  CHECK(nlohmann::json::parse(timed.out)["association"]["n_matched"] == 190);
+  // Without them a KITTI file cannot meet a stamped trajectory: say which option to pass.
+  const auto mixed = run("eval " + (dir / "est.txt").string() + " --gt " + gt + " --no-out");
+  CHECK(mixed.code == 2);
+  CHECK_THAT(mixed.out, Catch::Contains("--est-times"));
+  std::ofstream(dir / "short.txt") << "1 0 0 0 0 1 0 0 0 0 1 0\n";
+  const auto count = run("eval " + (dir / "short.txt").string() + " --gt " + (dir / "gt.txt").string() + " --no-out");
+  CHECK(count.code == 2);
+  CHECK_THAT(count.out, Catch::Contains("by index"));
+  std::ofstream(dir / "skew.txt") << "1 0 0 0 0 2 0 0 0 0 1 0\n";
+  CHECK(run("eval " + (dir / "skew.txt").string() + " --gt " + (dir / "skew.txt").string() + " --no-out").code == 2);
+}
+
+TEST_CASE("roe eval on a ROS bag says it is a bag and how to read it", "[cli][eval]") {
+  roe::test::TempDir tmp("roe_cli_eval_bag");
+  const fs::path dir = tmp.path;
+  write_pair(dir);
+  std::ofstream(dir / "rec.bag", std::ios::binary) << std::string("#ROSBAG V2.0\n\x04\x00\x00\x00op=\x03\xff\xfe", 23);
+  const auto r = run("eval " + (dir / "rec.bag").string() + " --gt " + (dir / "gt.csv").string() + " --no-out");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains("ROS bag"));
+  CHECK_THAT(r.out, Catch::Contains("TOPIC"));
 }

@@ -196,3 +196,10 @@ TEST_CASE("PoET's image id rule without an extension, and class-name files", "[p
   CHECK(names == std::vector<std::string>{"bg", "a", "", "c"});
   CHECK(read_poet_class_names(d.write("one.json", R"({"5": "e"})")).size() == 6);
 }
+
+TEST_CASE("a CSV given as results.json says it is a CSV and where a detections.csv goes", "[poet_results]") {
+  const std::string e = expect_error("timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw\n1,2,0,0,1,0,0,0,1\n");
+  CHECK(e.find("looks like a CSV file") != std::string::npos);
+  CHECK(e.find("detections/NAME/detections.csv") != std::string::npos);
+  CHECK(e.find(":1:1") != std::string::npos);
+}

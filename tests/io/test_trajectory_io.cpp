@@ -5,6 +5,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/io/trajectory_io.hpp"
+#include "support/test_util.hpp"
 
 using namespace roe;
 using namespace roe::io;
@@ -57,7 +58,35 @@ TEST_CASE("format detection from the header", "[io][trajectory]") {
   CHECK_THROWS_AS(detect_trajectory_format("# only comments\n", "f.txt"), InputError);
   CHECK(parse_trajectory_format("cnspy") == TrajectoryFormat::kCsv);
   CHECK(parse_trajectory_format("roe") == TrajectoryFormat::kCsvNs);
-  CHECK_THROWS_AS(parse_trajectory_format("kitti"), InputError);
+  CHECK(parse_trajectory_format("kitti") == TrajectoryFormat::kKitti);
+  CHECK_THROWS_AS(parse_trajectory_format("kitty"), InputError);
+}
+
+TEST_CASE("KITTI poses: 12 fields [R|t] row-major, stamped by index; a times file; a bag is named", "[trajectory_io]") {
+  // Rz(90°) then identity: evo's kitti layout r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz.
+  const std::string text = "0 -1 0 1.5 1 0 0 -2 0 0 1 0.25\n1 0 0 0 0 1 0 0 0 0 1 0\n";
+  CHECK(detect_trajectory_format(text, "k.txt") == TrajectoryFormat::kKitti);
+  Trajectory t = parse_trajectory(text, "k.txt");
+  REQUIRE(t.size() == 2);
+  CHECK(t.t_ns[0] == 0);
+  CHECK(t.t_ns[1] == 1'000'000'000);
+  CHECK(t.poses[0].p.isApprox(Eigen::Vector3d(1.5, -2, 0.25)));
+  CHECK(t.poses[0].R().isApprox(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix(), 1e-12));
+  // Written back as KITTI, read again: the same poses.
+  const Trajectory back = parse_trajectory(format_trajectory(t.t_ns, t.poses, TrajectoryFormat::kKitti), "b.txt");
+  CHECK(back.poses[0].R().isApprox(t.poses[0].R(), 1e-15));
+  check_error_at([] { parse_trajectory("1 0 0 0 0 2 0 0 0 0 1 0\n", "s.txt"); }, 1, 1, "not a rotation");
+  CHECK_THROWS_AS(parse_trajectory("1 0 0 0 0 1 0 0 0 0 1\n", "s.txt", TrajectoryFormat::kKitti), InputError);
+  roe::test::TempDir d;
+  const auto times = d.write("times.txt", "0.000000e+00\n1.036000e-01\n");
+  apply_kitti_times(t, times);
+  CHECK(t.t_ns[1] == 103'600'000);
+  const auto three = d.write("three.txt", "0\n1\n2\n");
+  CHECK_THROWS_WITH(apply_kitti_times(t, three), Catch::Contains("more stamps than poses"));
+  Trajectory tum = parse_trajectory("1 0 0 0 0 0 0 1\n", "t.tum");
+  CHECK_THROWS_WITH(apply_kitti_times(tum, times), Catch::Contains("KITTI"));
+  CHECK_THROWS_WITH(detect_trajectory_format(std::string("#ROSBAG V2.0\n\x04\x00", 15), "r.bag"),
+                    Catch::Contains("ROS bag (rosbag v2)"));
 }
 
 TEST_CASE("TUM reader", "[io][trajectory]") {

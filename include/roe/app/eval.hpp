@@ -25,20 +25,19 @@
 
 #include "roe/app/figures.hpp"
 #include "roe/core/types.hpp"
-#include "roe/eval/align.hpp"
-#include "roe/eval/associate.hpp"
-#include "roe/eval/metrics.hpp"
-#include "roe/eval/rpe.hpp"
+#include "roe/eval/evaluate.hpp"
 #include "roe/io/trajectory_io.hpp"
 
 namespace roe::app {
 
 struct EvalOptions {
   std::string est;                  ///< RUN_DIR or EST_FILE
-  std::string gt;                   ///< DATASET (or EuRoC mav0 folder) or GT_FILE
+  std::string gt;                   ///< DATASET (or EuRoC mav0 folder) or GT_FILE; empty: run.json's dataset
   std::string est_format = "auto";  ///< --est-format (for a file)
   std::string gt_format = "auto";   ///< --gt-format (for a file)
   std::string gt_source = "auto";   ///< --gt-source for a dataset: auto | groundtruth | mocap
+  std::string est_times;            ///< --est-times: a KITTI estimate's times file (else: by index)
+  std::string gt_times;             ///< --gt-times: a KITTI ground truth's times file
   std::string align = "se3";        ///< --align
   int n_align = -1;                 ///< --n-align: first N pairs (-1 = all)
   double max_dt_s = 0.01;           ///< --max-dt
@@ -46,7 +45,7 @@ struct EvalOptions {
   std::string assoc = "nearest";    ///< --assoc nearest | unique
   std::string out;                  ///< --out DIR; default RUN_DIR/eval for a run folder, none for a file
   bool no_out = false;              ///< --no-out: write nothing (even for a run folder)
-  std::string label;                ///< --label (default: the run folder's or file's name)
+  std::string label;                ///< --label (default: label_from_path())
   bool plot = false;                ///< --plot
   FigureOptions figures;            ///< --objects, --plot-mode, --color-by-error, --vector (with --plot)
   bool force = false;               ///< --force
@@ -59,13 +58,7 @@ struct EvalOptions {
 };
 
 /// One row of a run folder's reprojection.csv: the IMU pose T_W_I implied by one raw detection.
-struct ReprojectionCsvRow {
-  Timestamp t_ns = 0;
-  int object_id = 0;
-  Pose T_W_I;
-  std::string status;
-  double nis = 0.0;
-};
+using ReprojectionCsvRow = eval::DetectionPose;
 
 /// reprojection.csv: `timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis` (columns matched by
 /// name, any order; nis may be empty or nan). Rows sorted by time (non-decreasing).
@@ -101,6 +94,12 @@ struct EvalResult {
   std::string plot_status;    ///< what happened to --plot
   std::string to_text() const;
 };
+
+/// The default label of an estimate: a folder's name, a file's stem, and for a generic file name
+/// (data.csv, trajectory.csv, ...) the closest enclosing folder that is not part of a dataset's layout
+/// (mav0, state_groundtruth_estimate0, ...): `V1_01_easy/mav0/state_groundtruth_estimate0/data.csv`
+/// is `V1_01_easy`. Path arithmetic only.
+std::string label_from_path(const std::filesystem::path& path, bool is_dir);
 
 /// Runs the evaluation and writes the output folder (atomically). InputError for bad options/files
 /// (every option value is checked, even one that does not apply; --no-out with --out is refused),

@@ -9,7 +9,11 @@
 ///   fail          measured beyond its limit (the command exits 1),
 ///   inconclusive  the data cannot decide (e.g. a time offset estimated less precisely than its limit,
 ///                 a run too short, a dataset that is not there); `--strict` fails on it,
-///   skipped       not applicable (extrinsics held fixed, no truth, --no-dataset); never a failure.
+///   skipped       not applicable (extrinsics held fixed, no truth, --no-dataset); never a failure,
+///   within-sigma  an error check (extrinsics.settled, truth.*) measured beyond its limit but within what
+///                 the filter's own σ explains: not a failure (exit 0), but not a pass either: the
+///                 estimate is too uncertain to tell (the σ checks say how uncertain); `--strict` fails
+///                 on it, as on inconclusive.
 /// The error checks (extrinsics.settled, truth.*) fail only when an error exceeds both the absolute
 /// limit and what the filter's own σ explains (a test at `confidence`: χ² for truth.*, a bound on the
 /// largest per-axis excursion over the window for .settled): a consistent filter that
@@ -26,8 +30,8 @@
 
 namespace roe::calib {
 
-enum class CheckStatus { kPass, kFail, kInconclusive, kSkipped };
-/// "pass", "fail", "inconclusive", "skipped".
+enum class CheckStatus { kPass, kFail, kInconclusive, kSkipped, kWithinSigma };
+/// "pass", "fail", "inconclusive", "skipped", "within-sigma".
 const char* to_string(CheckStatus s);
 
 struct CheckResult {
@@ -42,6 +46,7 @@ struct CalibReport {
   std::vector<CheckResult> checks;
   bool failed() const;         ///< any check failed
   bool undecided() const;      ///< any check inconclusive
+  bool within_sigma() const;   ///< any check beyond its limit but within its σ
 };
 
 /// The extrinsics at one time with their standard deviations [p x y z (m), θ x y z (rad)].

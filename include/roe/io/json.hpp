@@ -12,6 +12,7 @@
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -54,7 +55,10 @@ class JsonObject {
   JsonObject child(const char* key);
   /// The raw value of a key (marks it as read); nullptr when absent.
   const json* raw(const char* key);
-  /// Throws ConfigError naming the first key that was never read.
+  /// Throws ConfigError naming the first key that was never read, with a suggestion: the same key where
+  /// the reader does read it (`filter.smoother` → the top-level `smoother`), or a known key of this
+  /// object one or two edits away. An object from child() defers its unknown key to its root's
+  /// finish(), when every level's keys are known (so the root's finish() must be called).
   void finish() const;
 
   const std::string& source() const { return source_; }
@@ -81,11 +85,21 @@ class JsonObject {
     }
   }
 
+  /// What the objects read from one document share: every (object path, key) read so far, and the
+  /// first unknown key a child found.
+  struct Tree {
+    std::vector<std::pair<std::string, std::string>> known;
+    std::string pending_path, pending_key;
+  };
+  [[noreturn]] void throw_unknown(const std::string& path, const std::string& key) const;
+
   const json* j_;
   std::string source_;
   std::string path_;
   std::vector<std::string> read_;
   json empty_;
+  std::shared_ptr<Tree> tree_ = std::make_shared<Tree>();
+  bool is_child_ = false;
 };
 
 }  // namespace roe::io

@@ -13,6 +13,10 @@
 ///             err_representation; PoseTypedStamped (+ scale, est_err_type; no covariance). roe's
 ///             trajectory.csv (DESIGN §4) is PoseStamped. Seconds.
 ///  - CSV-ns   roe-native: `timestamp_ns,tx,ty,tz,qx,qy,qz,qw` (int64 ns), same set matching.
+///  - KITTI    odometry poses: `r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz` per line, no stamp (evo's
+///             kitti format). The stamps are the row index in seconds, so two KITTI files associate
+///             by index as evo does; apply_kitti_times() takes the stamps from a times file instead.
+///  A ROS bag (rosbag v2 or MCAP) is recognised by its magic and refused with how to read it.
 /// Seconds are parsed as decimal text straight into int64 nanoseconds (io::parse_seconds_ns, no
 /// double rounding), so stamps equal in the file stay equal, and written back exactly with 9 decimals.
 /// Readers are strict: every malformed row is a roe::InputError with file:line:column (wrong field
@@ -32,9 +36,9 @@ namespace roe::io {
 
 namespace fs = std::filesystem;
 
-enum class TrajectoryFormat { kAuto, kTum, kEuroc, kCsv, kCsvNs };
+enum class TrajectoryFormat { kAuto, kTum, kEuroc, kCsv, kCsvNs, kKitti };
 
-/// "auto", "tum", "euroc", "csv", "csv-ns".
+/// "auto", "tum", "euroc", "csv", "csv-ns", "kitti".
 std::string to_string(TrajectoryFormat f);
 /// Accepts the names of to_string plus the aliases "cnspy" (= csv) and "roe" (= csv-ns);
 /// InputError otherwise.
@@ -66,6 +70,10 @@ TrajectoryFormat detect_trajectory_format(std::string_view text, const std::stri
 
 /// Reads a trajectory file. `format` kAuto detects it from the header.
 Trajectory read_trajectory(const fs::path& file, TrajectoryFormat format = TrajectoryFormat::kAuto);
+/// Replaces a KITTI trajectory's index stamps by those of a times file (KITTI odometry times.txt: one
+/// time in seconds per line, one line per pose). InputError for another format, a count that differs
+/// from the poses', or decreasing times.
+void apply_kitti_times(Trajectory& tr, const fs::path& times_file);
 /// Parses trajectory text; `source` names it in errors.
 Trajectory parse_trajectory(std::string text, const std::string& source,
                             TrajectoryFormat format = TrajectoryFormat::kAuto);

@@ -1,0 +1,109 @@
+#pragma once
+/// @file
+/// One evaluation of an estimate against ground truth, I/O-free (notes/eval.md §7): association
+/// (associate.hpp) → alignment (align.hpp) → APE (metrics.hpp), the relative pose error (rpe.hpp) of
+/// the aligned pairs for each requested delta, and the per-object traces of a run's raw detections.
+/// The result is a typed Report (as OpenVINS's ov_eval ResultTrajectory); io/eval_report.hpp turns
+/// it into report.json and the CSV files, app/eval.cpp reads the inputs and calls evaluate() once.
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "roe/core/types.hpp"
+#include "roe/eval/align.hpp"
+#include "roe/eval/associate.hpp"
+#include "roe/eval/metrics.hpp"
+#include "roe/eval/rpe.hpp"
+
+namespace roe::eval {
+
+/// How to evaluate. check_params() validates it.
+struct EvalParams {
+  AlignType align = AlignType::kSe3;
+  int n_align = -1;  ///< align on the first N matched pairs (-1 = all)
+  AssociationOptions assoc;
+  std::vector<RpeOptions> rpe;  ///< one relative-pose-error block per delta (none: no RPE)
+};
+
+/// InputError (key path = the option's CLI name) for a bad max_dt, n_align, RPE block or a delta
+/// listed twice. Returns the warnings the parameters alone imply (n_align ignored by origin/none).
+std::vector<std::string> check_params(const EvalParams& p);
+
+/// The IMU pose T_W_I one raw detection implies (a run folder's reprojection.csv). A detection
+/// that gave no pose has a non-finite position; it still counts in the status counts.
+struct DetectionPose {
+  Timestamp t_ns = 0;
+  int object_id = 0;
+  Pose T_W_I;
+  std::string status;  ///< accepted, initialized, rejected, ...
+  double nis = 0.0;
+};
+
+/// The estimate: stamps and poses (non-decreasing stamps), optionally a covariance per pose and
+/// the run's raw detections. The vectors are referenced, not copied: they must outlive the call.
+struct EstimateInput {
+  const std::vector<Timestamp>& t_ns;
+  const std::vector<Pose>& poses;
+  /// Empty (no NEES) or one per pose; a pose without one disables NEES with a warning.
+  const std::vector<std::optional<PoseCovariance>>& cov;
+  const std::vector<DetectionPose>* detections = nullptr;  ///< null: no per-object traces
+  std::string source;  ///< names the estimate in errors (a path), never opened
+};
+struct GroundTruthInput {
+  const std::vector<Timestamp>& t_ns;
+  const std::vector<Pose>& poses;
+};
+
+/// APE of one object's detection trace (all its matched detections, or the accepted ones).
+struct ObjectFit {
+  std::size_t n = 0;  ///< matched detections used; the figures below are 0 when n = 0
+  Eigen::Vector3d pos_rmse_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rpy_rmse_deg = Eigen::Vector3d::Zero();
+  double ape_trans_rmse_m = 0.0;
+  double ape_rot_rmse_deg = 0.0;
+};
+
+/// One object's trace: its detections' implied IMU poses (aligned with the trajectory's alignment)
+/// against the ground truth, with the same association options.
+struct ObjectReport {
+  int object_id = 0;
+  std::size_t n_detections = 0;
+  std::map<std::string, std::size_t> counts;  ///< detections per status
+  std::size_t n_valid_pose = 0;
+  std::size_t n_matched = 0;
+  ObjectFit all;       ///< every matched detection, outliers included
+  ObjectFit accepted;  ///< only those the filter accepted (status accepted or initialized)
+};
+
+/// Everything one evaluation computes.
+struct Report {
+  EvalParams params;
+  std::size_t n_est = 0, n_gt = 0;
+  Association association;
+  Overlap overlap;
+  double max_abs_dt_s = 0.0;
+  /// The matched pairs, in association order: stamps, aligned estimate and ground-truth poses.
+  std::vector<Timestamp> t_est, t_gt;
+  std::vector<Pose> est_aligned, gt;
+  Alignment alignment;
+  /// The matched estimate covariances rotated into the aligned frame (empty: no NEES).
+  std::vector<PoseCovariance> cov;
+  ApeResult ape;
+  std::vector<RpeResult> rpe;  ///< one per params.rpe entry
+  bool has_detections = false;
+  std::vector<ObjectReport> objects;              ///< by object id
+  std::vector<DetectionPose> detections_aligned;  ///< every detection, grouped by object id
+  double path_length_est_m = 0.0, path_length_gt_m = 0.0;
+  std::vector<std::string> warnings;  ///< what the data implies (duplicates, few matches, ...)
+
+  /// The alignment type to report: the one requested when nothing was aligned.
+  AlignType align_type() const { return alignment.type == AlignType::kNone ? params.align : alignment.type; }
+};
+
+/// Evaluates `est` against `gt`. InputError (at est.source) when no pair matches, with
+/// explain_no_match()'s diagnosis; DataError when the alignment is degenerate.
+Report evaluate(const EstimateInput& est, const GroundTruthInput& gt, const EvalParams& params);
+
+}  // namespace roe::eval

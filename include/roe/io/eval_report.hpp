@@ -1,0 +1,34 @@
+#pragma once
+/// @file
+/// The files of `roe eval` (docs/eval.md "Output"): report.json's content and the CSV/TUM files, made
+/// from a typed eval::Report (eval/evaluate.hpp). Formatting only: nothing here computes a figure.
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "roe/eval/evaluate.hpp"
+#include "roe/io/output.hpp"
+
+namespace roe::io {
+
+/// What report.json says beyond the evaluation itself: the inputs and options as the caller read them.
+struct EvalReportContext {
+  std::string label;
+  std::string est_path, gt_path;
+  nlohmann::json inputs;   ///< {"est": {...}, "gt": {...}}: path, kind, format, description, counts
+  nlohmann::json options;  ///< the options as given
+  std::string cov_source;  ///< where the covariances came from (empty: none)
+  std::vector<std::string> warnings;  ///< every warning, in order
+};
+
+/// report.json's content (without `outputs` and `plots`, which the caller adds).
+nlohmann::json eval_report_json(const eval::Report& r, const EvalReportContext& c);
+
+/// Writes the matched trajectories (CSV and TUM), errors.csv, err_matched_aligned.csv, summary.csv,
+/// with RPE rpe.csv and rpe_summary.csv, with detections reprojection_aligned.csv and per_object.csv
+/// into `dir` (atomically, each). Returns the names written, in order.
+std::vector<std::string> write_eval_files(const OutputDir& dir, const eval::Report& r,
+                                          const EvalReportContext& c);
+
+}  // namespace roe::io

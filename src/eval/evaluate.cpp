@@ -1,0 +1,196 @@
+// One evaluation: association -> alignment -> APE -> RPE -> per-object traces (notes/eval.md §7).
+#include "roe/eval/evaluate.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "roe/core/error.hpp"
+
+namespace roe::eval {
+
+namespace {
+
+double path_length(const std::vector<Pose>& p) {
+  double L = 0.0;
+  for (std::size_t i = 1; i < p.size(); ++i) L += (p[i].p - p[i - 1].p).norm();
+  return L;
+}
+
+void warn_duplicates(const Association& a, AssocPolicy policy, std::vector<std::string>& w) {
+  if (a.n_duplicate_est)
+    w.push_back(fmt::format("the estimate has {} duplicated time stamp(s) with different poses; {}",
+                            a.n_duplicate_est,
+                            policy == AssocPolicy::kNearest
+                                ? "policy 'nearest' keeps every pose (as evo does); --assoc unique "
+                                  "keeps the first of each (as cnspy does)"
+                                : "policy 'unique' keeps the first pose of each (as cnspy does)"));
+  if (a.n_duplicate_gt)
+    w.push_back(fmt::format("the ground truth has {} duplicated time stamp(s); the first pose of each is used",
+                            a.n_duplicate_gt));
+}
+
+/// The matched estimate covariances in the aligned frame; empty (with a warning) when one is missing.
+std::vector<PoseCovariance> aligned_covariances(const EstimateInput& est, const Report& r,
+                                                std::vector<std::string>& w) {
+  std::vector<PoseCovariance> cov;
+  if (est.cov.empty()) return cov;
+  const Association& a = r.association;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    if (!est.cov[a.est_index[k]].has_value()) {
+      w.push_back("NEES not computed: some matched estimate poses have no covariance");
+      return {};
+    }
+  }
+  for (std::size_t k = 0; k < a.size(); ++k)
+    cov.push_back(align_covariance(*est.cov[a.est_index[k]], r.alignment.R, r.alignment.s));
+  return cov;
+}
+
+ObjectFit fit(const std::vector<Pose>& est, const std::vector<Pose>& gt) {
+  ObjectFit f;
+  f.n = est.size();
+  if (est.empty()) return f;
+  const ApeResult a = compute_ape(est, gt);
+  f.pos_rmse_m = a.pos_rmse_m;
+  f.rpy_rmse_deg = a.rpy_rmse_deg;
+  f.ape_trans_rmse_m = a.trans_m.rmse;
+  f.ape_rot_rmse_deg = a.rot_deg.rmse;
+  return f;
+}
+
+/// One object's trace: aligns its detections (appended to `aligned`) and fits them to the ground truth.
+ObjectReport object_report(int id, const std::vector<const DetectionPose*>& rows, const Alignment& al,
+                           const GroundTruthInput& gt, const AssociationOptions& ao,
+                           std::vector<DetectionPose>& aligned) {
+  ObjectReport obj;
+  obj.object_id = id;
+  obj.n_detections = rows.size();
+  std::vector<Timestamp> ts;
+  std::vector<Pose> ps;
+  std::vector<bool> accepted;
+  for (const DetectionPose* r : rows) {
+    ++obj.counts[r->status];
+    const bool valid = r->T_W_I.p.allFinite();
+    aligned.push_back(*r);
+    if (!valid) continue;
+    aligned.back().T_W_I = al.apply(r->T_W_I);
+    ts.push_back(r->t_ns);
+    ps.push_back(aligned.back().T_W_I);
+    accepted.push_back(r->status == "accepted" || r->status == "initialized");
+  }
+  obj.n_valid_pose = ts.size();
+  // Each trace against the ground truth, with the same association options (unique stamps per object).
+  const Association ar = ts.empty() ? Association{} : associate(ts, gt.t_ns, ao);
+  obj.n_matched = ar.size();
+  for (const bool only_accepted : {false, true}) {
+    std::vector<Pose> e2, g2;
+    for (std::size_t k = 0; k < ar.size(); ++k) {
+      if (only_accepted && !accepted[ar.est_index[k]]) continue;
+      e2.push_back(ps[ar.est_index[k]]);
+      g2.push_back(gt.poses[ar.gt_index[k]]);
+    }
+    (only_accepted ? obj.accepted : obj.all) = fit(e2, g2);
+  }
+  return obj;
+}
+
+void add_objects(const EstimateInput& est, const GroundTruthInput& gt, Report& r) {
+  if (!est.detections) return;
+  r.has_detections = true;
+  std::map<int, std::vector<const DetectionPose*>> by_obj;
+  for (const DetectionPose& d : *est.detections) by_obj[d.object_id].push_back(&d);
+  for (const auto& [id, rows] : by_obj)
+    r.objects.push_back(object_report(id, rows, r.alignment, gt, r.params.assoc, r.detections_aligned));
+}
+
+void add_rpe(Report& r) {
+  for (const RpeOptions& ro : r.params.rpe) {
+    r.rpe.push_back(compute_rpe(r.est_aligned, r.gt, r.t_est, r.t_gt, ro));
+    if (r.rpe.back().pairs.empty())
+      r.warnings.push_back(fmt::format("RPE delta {} {}: no pair of matched poses is that far apart{}", ro.delta,
+                                       to_string(ro.unit),
+                                       ro.all_pairs ? fmt::format(" (within {} %)", 100.0 * ro.rel_tol) : ""));
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> check_params(const EvalParams& p) {
+  std::vector<std::string> warnings;
+  if (!(p.assoc.max_dt_s >= 0.0) || !std::isfinite(p.assoc.max_dt_s))
+    throw InputError(fmt::format("--max-dt must be ≥ 0, got {}", p.assoc.max_dt_s), {"", 0, 0, "max-dt"});
+  if (p.n_align == 0 || p.n_align < -1)
+    throw InputError(fmt::format("--n-align must be -1 (all) or ≥ 1, got {}", p.n_align),
+                     {"", 0, 0, "n-align"});
+  for (std::size_t i = 0; i < p.rpe.size(); ++i) {
+    check_rpe_options(p.rpe[i]);
+    for (std::size_t j = 0; j < i; ++j)
+      if (p.rpe[j].delta == p.rpe[i].delta)  // two identical blocks would collide in rpe.csv and --summary
+        throw InputError(fmt::format("--rpe-delta lists {} twice", p.rpe[i].delta), {"", 0, 0, "rpe-delta"});
+  }
+  if (p.n_align != -1 && (p.align == AlignType::kOrigin || p.align == AlignType::kNone)) {
+    // evo ignores --n_to_align with --align_origin; say so instead.
+    warnings.push_back(fmt::format("--n-align {} is ignored with --align {}: {}", p.n_align, to_string(p.align),
+                                   p.align == AlignType::kOrigin
+                                       ? "origin alignment uses the first matched pose pair by definition"
+                                       : "nothing is aligned"));
+  }
+  return warnings;
+}
+
+Report evaluate(const EstimateInput& est, const GroundTruthInput& gt, const EvalParams& params) {
+  Report r;
+  r.params = params;
+  r.n_est = est.t_ns.size();
+  r.n_gt = gt.t_ns.size();
+  const AssociationOptions& ao = params.assoc;
+
+  r.association = associate(est.t_ns, gt.t_ns, ao);
+  const Association& a = r.association;
+  warn_duplicates(a, ao.policy, r.warnings);
+  if (a.size() == 0) throw InputError(explain_no_match(est.t_ns, gt.t_ns, ao), {est.source});
+  std::vector<Pose> pe;
+  pe.reserve(a.size());
+  r.gt.reserve(a.size());
+  r.t_est.reserve(a.size());
+  r.t_gt.reserve(a.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    pe.push_back(est.poses[a.est_index[k]]);
+    r.gt.push_back(gt.poses[a.gt_index[k]]);
+    r.t_est.push_back(est.t_ns[a.est_index[k]]);
+    r.t_gt.push_back(gt.t_ns[a.gt_index[k]]);
+  }
+  for (Timestamp d : a.dt_ns) r.max_abs_dt_s = std::max(r.max_abs_dt_s, std::abs(to_seconds(d)));
+  // The most pairs to expect: the sparser stream's poses inside the span both trajectories cover (a
+  // ground truth covering a longer session than the estimate is not a matching problem).
+  r.overlap = overlap(est.t_ns, gt.t_ns, ao);
+  const Overlap& ov = r.overlap;
+  if (a.size() < ov.n_max() / 2) {
+    r.warnings.push_back(fmt::format(
+        "only {} of at most {} poses were matched ({} estimate and {} ground-truth poses lie in the span "
+        "[{:.6f}, {:.6f}] s both cover): check --max-dt / --t-offset",
+        a.size(), ov.n_max(), ov.n_est, ov.n_gt, to_seconds(ov.begin_ns), to_seconds(ov.end_ns)));
+  }
+
+  r.alignment = compute_alignment(params.align, pe, r.gt, params.n_align);
+  r.est_aligned = std::move(pe);
+  apply_alignment(r.alignment, r.est_aligned);
+  r.cov = aligned_covariances(est, r, r.warnings);
+  r.ape = compute_ape(r.est_aligned, r.gt, r.cov);
+  if ((params.align == AlignType::kSe3 || params.align == AlignType::kSim3) && params.n_align < 0 &&
+      r.ape.pos_mean_m.cwiseAbs().maxCoeff() > 1e-6)
+    r.warnings.push_back("internal check: the mean position error after Umeyama is not ~0");
+  if (params.align == AlignType::kNone)
+    r.warnings.push_back("no alignment: the results depend on the arbitrary world frames of both trajectories");
+
+  // Relative pose error of the aligned pairs (only a Sim(3) scale changes it), one block per delta.
+  add_rpe(r);
+  add_objects(est, gt, r);
+  r.path_length_est_m = path_length(r.est_aligned);
+  r.path_length_gt_m = path_length(r.gt);
+  return r;
+}
+
+}  // namespace roe::eval

@@ -1,0 +1,303 @@
+// roe eval's output files from a typed eval::Report (docs/eval.md "Output").
+#include "roe/io/eval_report.hpp"
+
+#include <cmath>
+
+#include "roe/io/csv.hpp"
+#include "roe/io/json.hpp"
+#include "roe/io/trajectory_io.hpp"
+#include "roe/version.hpp"
+
+namespace roe::io {
+
+using nlohmann::json;
+
+namespace {
+
+json stats_json(const eval::Stats& s) {
+  return {{"rmse", s.rmse}, {"mean", s.mean}, {"median", s.median}, {"std", s.std},
+          {"min", s.min},   {"max", s.max},   {"sse", s.sse},       {"n", s.n}};
+}
+json xyz_json(const Eigen::Vector3d& v) { return {{"x", v.x()}, {"y", v.y()}, {"z", v.z()}}; }
+json rpy_json(const Eigen::Vector3d& v) { return {{"roll", v.x()}, {"pitch", v.y()}, {"yaw", v.z()}}; }
+json optional_json(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
+
+json rpe_json(const eval::Report& r) {
+  json out = json::array();
+  for (const eval::RpeResult& e : r.rpe) {
+    const eval::RpeOptions& ro = e.options;
+    out.push_back({{"delta", ro.delta},
+                   {"unit", eval::to_string(ro.unit)},
+                   {"all_pairs", ro.all_pairs},
+                   {"pairs_from", eval::to_string(ro.pairs_from)},
+                   {"rel_tol", ro.rel_tol},
+                   {"n_pairs", e.pairs.size()},
+                   {"trans_m", e.pairs.empty() ? json(nullptr) : stats_json(e.trans_m)},
+                   {"rot_deg", e.pairs.empty() ? json(nullptr) : stats_json(e.rot_deg)},
+                   {"drift_pct", e.trans_pct.n == 0 ? json(nullptr) : stats_json(e.trans_pct)}});
+  }
+  return out;
+}
+
+json fit_json(const eval::ObjectFit& f) {
+  if (f.n == 0) return json{{"n", 0}};
+  return json{{"n", f.n},
+              {"pos_rmse_m", xyz_json(f.pos_rmse_m)},
+              {"rpy_rmse_deg", rpy_json(f.rpy_rmse_deg)},
+              {"ape_trans_rmse_m", f.ape_trans_rmse_m},
+              {"ape_rot_rmse_deg", f.ape_rot_rmse_deg}};
+}
+
+json per_object_json(const eval::Report& r) {
+  json out = json::array();
+  for (const eval::ObjectReport& o : r.objects)
+    out.push_back({{"object_id", o.object_id},
+                   {"n_detections", o.n_detections},
+                   {"counts", o.counts},
+                   {"n_valid_pose", o.n_valid_pose},
+                   {"n_matched", o.n_matched},
+                   {"all", fit_json(o.all)},
+                   {"accepted", fit_json(o.accepted)}});
+  return out;
+}
+
+json alignment_json(const eval::Report& r) {
+  const eval::Alignment& al = r.alignment;
+  const Eigen::Quaterniond qa = al.q();
+  json R = json::array();
+  for (int i = 0; i < 3; ++i) R.push_back({al.R(i, 0), al.R(i, 1), al.R(i, 2)});
+  return {{"type", eval::to_string(r.align_type())},
+          {"n_aligned", al.n_used},
+          {"n_align_requested", r.params.n_align},
+          {"scale", al.s},
+          {"R", R},
+          {"t", {al.t.x(), al.t.y(), al.t.z()}},
+          {"q_xyzw", {qa.x(), qa.y(), qa.z(), qa.w()}},
+          {"applied", "p' = s*R*p + t, R'_est = R*R_est"}};
+}
+
+json association_json(const eval::Report& r) {
+  const eval::AssociationOptions& ao = r.params.assoc;
+  return {{"max_dt_s", ao.max_dt_s},
+          {"offset_s", ao.offset_s},
+          {"policy", eval::to_string(ao.policy)},
+          {"n_gt", r.n_gt},
+          {"n_est", r.n_est},
+          {"n_matched", r.association.size()},
+          {"n_overlap_max", r.overlap.n_max()},
+          {"n_dropped_unique", r.association.n_dropped_unique},
+          {"max_abs_dt_s", r.max_abs_dt_s},
+          {"rule", "nearest neighbour from the shorter trajectory, |t_gt - (t_est + offset)| <= max_dt (evo)"}};
+}
+
+std::string errors_csv(const eval::Report& r) {
+  CsvWriter w;
+  std::vector<std::string> h = {"t_gt",     "t_est",    "dt",        "ex_m",    "ey_m",     "ez_m",
+                                "e_norm_m", "roll_deg", "pitch_deg", "yaw_deg", "angle_deg"};
+  if (!r.cov.empty()) {
+    h.push_back("nees_p");
+    h.push_back("nees_r");
+  }
+  w.header(h);
+  for (std::size_t k = 0; k < r.association.size(); ++k) {
+    const auto& e = r.ape.errors[k];
+    w.add_seconds(r.t_gt[k]).add_seconds(r.t_est[k]).add(to_seconds(r.association.dt_ns[k]));
+    w.add(e.dp.x()).add(e.dp.y()).add(e.dp.z()).add(e.dp.norm());
+    w.add(e.rpy_deg.x()).add(e.rpy_deg.y()).add(e.rpy_deg.z()).add(e.angle_deg);
+    if (!r.cov.empty()) w.add(r.ape.nees[k].pos).add(r.ape.nees[k].rot);
+    w.end_row();
+  }
+  return w.str();
+}
+
+/// cnspy PoseTypedStamped error file (type5: p_est - p_gt, q = R_est^T R_gt).
+std::string cnspy_errors_csv(const eval::Report& r) {
+  CsvWriter w;
+  w.header({"t", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "scale", "est_err_type"});
+  const double scale = r.path_length_est_m > 0.0 ? r.path_length_gt_m / r.path_length_est_m : 1.0;
+  for (std::size_t k = 0; k < r.association.size(); ++k) {
+    const auto& e = r.ape.errors[k];
+    w.add_seconds(r.t_gt[k]).add(e.dp.x()).add(e.dp.y()).add(e.dp.z());
+    w.add(e.q_err.x()).add(e.q_err.y()).add(e.q_err.z()).add(e.q_err.w()).add(scale).add("type5").end_row();
+  }
+  return w.str();
+}
+
+std::string summary_csv(const eval::Report& r, const EvalReportContext& c) {
+  CsvWriter w;
+  w.header({"gt_file",      "est_file",    "alignment", "n_aligned",     "max_dt_s",       "t_offset_s",
+            "n_gt",         "n_est",       "n_matched", "scale",         "ate_rmse_m",     "ate_mean_m",
+            "ate_median_m", "ate_std_m",   "ate_min_m", "ate_max_m",     "rot_rmse_deg",   "rot_mean_deg",
+            "rmse_x_m",     "rmse_y_m",    "rmse_z_m",  "rmse_roll_deg", "rmse_pitch_deg", "rmse_yaw_deg",
+            "armse_p_m",    "armse_r_deg", "anees_p",   "anees_r"});
+  const eval::ApeResult& ape = r.ape;
+  w.add(c.gt_path).add(c.est_path).add(eval::to_string(r.params.align)).add(r.alignment.n_used);
+  w.add(r.params.assoc.max_dt_s).add(r.params.assoc.offset_s).add(static_cast<std::int64_t>(r.n_gt));
+  w.add(static_cast<std::int64_t>(r.n_est)).add(static_cast<std::int64_t>(r.association.size()));
+  w.add(r.alignment.s);
+  w.add(ape.trans_m.rmse).add(ape.trans_m.mean).add(ape.trans_m.median).add(ape.trans_m.std);
+  w.add(ape.trans_m.min).add(ape.trans_m.max).add(ape.rot_deg.rmse).add(ape.rot_deg.mean);
+  for (int k = 0; k < 3; ++k) w.add(ape.pos_rmse_m(k));
+  for (int k = 0; k < 3; ++k) w.add(ape.rpy_rmse_deg(k));
+  w.add(ape.armse_p_m).add(ape.armse_r_deg);
+  for (const auto& v : {ape.anees_p, ape.anees_r}) {
+    if (v)
+      w.add(*v);
+    else
+      w.add_empty();
+  }
+  w.end_row();
+  return w.str();
+}
+
+std::string rpe_csv(const eval::Report& r) {
+  CsvWriter w;
+  w.header({"delta", "unit", "t_i", "t_j", "dt_s", "path_gt_m", "trans_m", "rot_deg", "drift_pct"});
+  for (const eval::RpeResult& e : r.rpe) {
+    for (const eval::RpePair& p : e.pairs) {
+      w.add(e.options.delta).add(eval::to_string(e.options.unit)).add_seconds(r.t_gt[p.i]).add_seconds(r.t_gt[p.j]);
+      w.add(dt_seconds(r.t_gt[p.i], r.t_gt[p.j])).add(p.path_gt_m).add(p.trans_m).add(p.rot_deg);
+      if (std::isfinite(p.trans_pct))
+        w.add(p.trans_pct);
+      else
+        w.add_empty();
+      w.end_row();
+    }
+  }
+  return w.str();
+}
+
+std::string rpe_summary_csv(const eval::Report& r) {
+  CsvWriter sw;
+  sw.header({"delta", "unit", "all_pairs", "pairs_from", "n_pairs", "trans_rmse_m", "trans_mean_m",
+             "trans_median_m", "trans_std_m", "trans_min_m", "trans_max_m", "rot_rmse_deg", "rot_mean_deg",
+             "rot_median_deg", "rot_std_deg", "rot_min_deg", "rot_max_deg", "drift_mean_pct",
+             "drift_median_pct"});
+  for (const eval::RpeResult& e : r.rpe) {
+    sw.add(e.options.delta).add(eval::to_string(e.options.unit)).add(e.options.all_pairs ? "true" : "false");
+    sw.add(eval::to_string(e.options.pairs_from)).add(static_cast<std::int64_t>(e.pairs.size()));
+    for (const eval::Stats* st : {&e.trans_m, &e.rot_deg}) {
+      if (e.pairs.empty()) {
+        for (int k = 0; k < 6; ++k) sw.add_empty();
+        continue;
+      }
+      sw.add(st->rmse).add(st->mean).add(st->median).add(st->std).add(st->min).add(st->max);
+    }
+    if (e.trans_pct.n == 0)
+      sw.add_empty().add_empty();
+    else
+      sw.add(e.trans_pct.mean).add(e.trans_pct.median);
+    sw.end_row();
+  }
+  return sw.str();
+}
+
+std::string reprojection_csv(const eval::Report& r) {
+  CsvWriter w;
+  w.header({"timestamp_ns", "object_id", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "status", "nis"});
+  for (const eval::DetectionPose& d : r.detections_aligned) {
+    const Pose& T = d.T_W_I;
+    w.add(static_cast<std::int64_t>(d.t_ns)).add(d.object_id).add(T.p.x()).add(T.p.y()).add(T.p.z());
+    w.add(T.q.x()).add(T.q.y()).add(T.q.z()).add(T.q.w()).add(d.status).add(d.nis).end_row();
+  }
+  return w.str();
+}
+
+std::string per_object_csv(const eval::Report& r) {
+  CsvWriter p;
+  p.header({"object_id", "n_detections", "n_matched", "rmse_x_m", "rmse_y_m", "rmse_z_m", "rmse_roll_deg",
+            "rmse_pitch_deg", "rmse_yaw_deg", "n_accepted_matched", "acc_rmse_x_m", "acc_rmse_y_m",
+            "acc_rmse_z_m", "acc_rmse_roll_deg", "acc_rmse_pitch_deg", "acc_rmse_yaw_deg", "counts"});
+  for (const eval::ObjectReport& o : r.objects) {
+    p.add(o.object_id).add(static_cast<std::int64_t>(o.n_detections)).add(static_cast<std::int64_t>(o.n_matched));
+    for (const eval::ObjectFit* f : {&o.all, &o.accepted}) {
+      if (f == &o.accepted) p.add(static_cast<std::int64_t>(f->n));
+      if (f->n == 0) {
+        for (int k = 0; k < 6; ++k) p.add_empty();
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) p.add(f->pos_rmse_m(k));
+      for (int k = 0; k < 3; ++k) p.add(f->rpy_rmse_deg(k));
+    }
+    std::string counts;
+    for (const auto& [status, n] : o.counts) counts += (counts.empty() ? "" : ";") + status + "=" + std::to_string(n);
+    p.add(counts).end_row();
+  }
+  return p.str();
+}
+
+}  // namespace
+
+json eval_report_json(const eval::Report& r, const EvalReportContext& c) {
+  const eval::ApeResult& ape = r.ape;
+  return {
+      {"info",
+       {{"title", "roe eval: " + c.label},
+        {"ref_name", c.gt_path},
+        {"est_name", c.est_path},
+        {"label", c.label},
+        {"roe_version", kVersion}}},
+      {"inputs", c.inputs},
+      {"association", association_json(r)},
+      {"alignment", alignment_json(r)},
+      {"ape_trans_m", stats_json(ape.trans_m)},
+      {"ape_rot_deg", stats_json(ape.rot_deg)},
+      {"per_axis",
+       {{"pos_rmse_m", xyz_json(ape.pos_rmse_m)},
+        {"pos_mean_m", xyz_json(ape.pos_mean_m)},
+        {"rpy_rmse_deg", rpy_json(ape.rpy_rmse_deg)},
+        {"pos_error", "p_est - p_gt"},
+        {"rot_error", "R_est^T*R_gt"},
+        {"euler", "ZYX (R=Rz*Ry*Rx)"},
+        {"wrap", "[-180,180)"}}},
+      {"cnspy",
+       {{"ARMSE_p", ape.armse_p_m},
+        {"ARMSE_R", ape.armse_r_deg},
+        {"ANEES_p", optional_json(ape.anees_p)},
+        {"ANEES_R", optional_json(ape.anees_r)},
+        {"note", "ARMSE_* are cnspy's report values: the mean of the per-pose error norms (m, deg)"}}},
+      {"consistency",
+       {{"available", !r.cov.empty()},
+        {"source", c.cov_source},
+        {"anees_p", optional_json(ape.anees_p)},
+        {"anees_r", optional_json(ape.anees_r)},
+        {"dof", 3},
+        {"definition",
+         "NEES_p = e_p^T P_p^-1 e_p (e_p = p_gt - p_est, P_p rotated by the alignment); "
+         "NEES_R = dtheta^T P_theta^-1 dtheta, dtheta = Log(R_est^T R_gt)"}}},
+      {"rpe", rpe_json(r)},
+      {"rpe_definition",
+       "E_ij = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j), Q ground truth, P aligned estimate (evo RPE); trans_m = |trans(E)|, "
+       "rot_deg = angle of rot(E), drift_pct = 100 trans_m / ground-truth path length from i to j"},
+      {"per_object", per_object_json(r)},
+      {"path_length_m", {{"est", r.path_length_est_m}, {"gt", r.path_length_gt_m}}},
+      {"options", c.options},
+      {"warnings", c.warnings}};
+}
+
+std::vector<std::string> write_eval_files(const OutputDir& dir, const eval::Report& r,
+                                          const EvalReportContext& c) {
+  std::vector<std::string> files;
+  const auto put = [&](const std::string& name, const std::string& text) {
+    write_file_atomic(dir.file(name), text);
+    files.push_back(name);
+  };
+  put("est_matched_aligned.csv", format_trajectory(r.t_est, r.est_aligned, TrajectoryFormat::kCsv));
+  put("gt_matched.csv", format_trajectory(r.t_gt, r.gt, TrajectoryFormat::kCsv));
+  put("est_matched_aligned.tum", format_trajectory(r.t_est, r.est_aligned, TrajectoryFormat::kTum));
+  put("gt_matched.tum", format_trajectory(r.t_gt, r.gt, TrajectoryFormat::kTum));
+  put("errors.csv", errors_csv(r));
+  put("err_matched_aligned.csv", cnspy_errors_csv(r));
+  put("summary.csv", summary_csv(r, c));
+  if (!r.rpe.empty()) {
+    put("rpe.csv", rpe_csv(r));
+    put("rpe_summary.csv", rpe_summary_csv(r));
+  }
+  if (r.has_detections) {
+    put("reprojection_aligned.csv", reprojection_csv(r));
+    put("per_object.csv", per_object_csv(r));
+  }
+  return files;
+}
+
+}  // namespace roe::io
