@@ -118,6 +118,18 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
       fail(out, "rate", "must be \"imu\" or \"images\"");
     out.finish();
   }
+  {
+    JsonObject h = root.child("health");
+    ekf::HealthLimits& l = c.health;
+    non_negative(h, "support_window_s", l.support_window_s);
+    non_negative(h, "min_supported_fraction", l.min_supported_fraction);
+    if (l.min_supported_fraction > 1.0) fail(h, "min_supported_fraction", "must be in [0, 1] (0 = no check)");
+    h.get("max_dead_reckoning_s", l.max_dead_reckoning_s);
+    if (!std::isfinite(l.max_dead_reckoning_s))
+      fail(h, "max_dead_reckoning_s", "must be a number of seconds (negative = no check)");
+    non_negative(h, "max_nis_median_ratio", l.max_nis_median_ratio);
+    h.finish();
+  }
   root.get("smoother", c.smoother);
   if (c.smoother != "none" && c.smoother != "rts") fail(root, "smoother", "must be \"none\" or \"rts\"");
   root.get("description", c.description);
@@ -176,7 +188,12 @@ json run_config_to_json(const RunConfig& c) {
       {"max_accel_bias", o.max_accel_bias},
       {"pd_check_every", o.pd_check_every},
   };
-  json j = {{"filter", f}, {"output", {{"rate", c.output_rate}}}, {"smoother", c.smoother}};
+  const ekf::HealthLimits& l = c.health;
+  json h = {{"support_window_s", l.support_window_s},
+            {"min_supported_fraction", l.min_supported_fraction},
+            {"max_dead_reckoning_s", l.max_dead_reckoning_s},
+            {"max_nis_median_ratio", l.max_nis_median_ratio}};
+  json j = {{"filter", f}, {"output", {{"rate", c.output_rate}}}, {"smoother", c.smoother}, {"health", h}};
   if (!c.description.empty()) j["description"] = c.description;
   return j;
 }

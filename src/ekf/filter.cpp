@@ -10,6 +10,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/ekf/chi2.hpp"
+#include "roe/ekf/images.hpp"
 #include "roe/math/euler.hpp"
 #include "roe/math/so3.hpp"
 
@@ -664,20 +665,14 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       if (dets[k].object_id == dets[i].object_id)
         throw InputError(fmt::format("two detections of object {} in the image at {}: one per object and image",
                                      dets[i].object_id, when()));
-    if (std::isfinite(dets[i].score) && dets[i].score < opt_.min_score) {
+    if (!usable_detection(dets[i], opt_)) {
       res.detections[i].status = DetectionStatus::kRejectedScore;
       usable[i] = 0;
     }
   }
-  // Anchor choice: the configured id, or the lowest id among the first frame's usable detections.
-  if (anchor_id_ < 0) {
-    if (opt_.anchor_id >= 0) {
-      anchor_id_ = opt_.anchor_id;
-    } else {
-      for (std::size_t i = 0; i < dets.size(); ++i)
-        if (usable[i] && (anchor_id_ < 0 || dets[i].object_id < anchor_id_)) anchor_id_ = dets[i].object_id;
-    }
-  }
+  // Anchor choice: the configured id (run_filter passes the rule's choice over the whole run), or the rule
+  // (images.hpp) on the one image known here.
+  if (anchor_id_ < 0) anchor_id_ = choose_anchor({ImageDetections{t_ns_, dets}}, t_ns_, t_ns_, opt_).id;
   int anchor_det = -1;
   for (std::size_t i = 0; i < dets.size(); ++i)
     if (usable[i] && dets[i].object_id == anchor_id_) anchor_det = static_cast<int>(i);

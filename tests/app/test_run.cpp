@@ -236,8 +236,18 @@ TEST_CASE("run.json's detection counts and NIS statistics agree with the reproje
   }
   CHECK(n.at("gate").get<double>() == Approx(12.591587).epsilon(1e-6));
   CHECK(n.at("mean").get<double>() == Approx(sum / nis.size()).epsilon(1e-12));
-  CHECK(n.at("median").get<double>() == nis[nis.size() / 2]);
-  CHECK(n.at("p95").get<double>() == nis[static_cast<std::size_t>(0.95 * nis.size())]);
+  // Quantiles by linear interpolation between the order statistics (numpy's default).
+  const auto q = [&](double p) {
+    const double h = p * (nis.size() - 1);
+    const std::size_t lo = static_cast<std::size_t>(h);
+    return nis[lo] + (h - lo) * (nis[std::min(lo + 1, nis.size() - 1)] - nis[lo]);
+  };
+  CHECK(n.at("median").get<double>() == Approx(q(0.5)).epsilon(1e-12));
+  CHECK(n.at("p25").get<double>() == Approx(q(0.25)).epsilon(1e-12));
+  CHECK(n.at("p75").get<double>() == Approx(q(0.75)).epsilon(1e-12));
+  CHECK(n.at("p95").get<double>() == Approx(q(0.95)).epsilon(1e-12));
+  CHECK(n.at("max").get<double>() == nis.back());
+  CHECK(n.at("median_ratio").get<double>() == Approx(q(0.5) / 5.348120627).epsilon(1e-8));
   CHECK(n.at("fraction_above_gate").get<double>() == Approx(static_cast<double>(above) / nis.size()).epsilon(1e-12));
   CHECK(above == c.at("rejected_chi2").get<std::size_t>());
   // The text summary names the rarer statuses with their counts when they occur.
@@ -623,7 +633,7 @@ TEST_CASE("detections outside the IMU stream are skipped, counted and named in a
   REQUIRE(late > 10);
   const app::RunOutput r = app::run_dataset(d, "sim", app::RunConfig());
   std::size_t skipped = 0;
-  for (const auto& kv : r.counts) skipped += kv.second.rejected_no_imu;
+  for (const auto& kv : r.summary.counts) skipped += kv.second.rejected_no_imu;
   CHECK(skipped == late);
   const std::string want = std::to_string(late) + " detections lie outside the IMU stream and were skipped";
   CHECK(std::count(r.warnings.begin(), r.warnings.end(), want) == 1);

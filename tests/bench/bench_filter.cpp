@@ -31,14 +31,7 @@ struct Null : ekf::FilterObserver {
   void on_imu(const ekf::Filter& f) override { n += f.time() & 1; }
 };
 
-std::vector<ekf::ImageDetections> images_of(const Dataset& d) {
-  std::vector<ekf::ImageDetections> images;
-  for (const auto& det : d.detections.at("sim")) {
-    if (images.empty() || images.back().t_ns != det.t_ns) images.push_back({det.t_ns, {}});
-    images.back().detections.push_back(det);
-  }
-  return images;
-}
+std::vector<ekf::ImageDetections> images_of(const Dataset& d) { return ekf::group_images(d.detections.at("sim")); }
 
 double cpu_ms() {
   timespec ts;
