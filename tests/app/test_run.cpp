@@ -317,6 +317,37 @@ TEST_CASE("run config: strict keys, shipped configs load, defaults round-trip", 
   // Round trip.
   const auto j = app::run_config_to_json(paper);
   CHECK(app::run_config_to_json(app::run_config_from_json(j, "echo")) == j);
+  // The field table echoes every key it loads, each once: a config that sets every key to a non-default
+  // value comes back with those values.
+  io::json every = app::run_config_to_json(app::RunConfig());
+  every["filter"]["meas_sigma_p_m"] = 0.07;
+  every["filter"]["init_gyro_bias"] = {0.01, 0.02, 0.03};
+  every["filter"]["anchor_gauge"] = "pose";
+  every["filter"]["pd_check_every"] = 7;
+  every["health"]["max_dead_reckoning_s"] = 4.5;
+  every["health"]["min_supported_fraction"] = 0.8;
+  const app::RunConfig ev = app::run_config_from_json(every, "every");
+  CHECK(ev.filter.meas_sigma_p_m == 0.07);
+  CHECK(ev.filter.init_gyro_bias.z() == 0.03);
+  CHECK(ev.filter.anchor_gauge == ekf::AnchorGauge::kPose);
+  CHECK(ev.filter.pd_check_every == 7);
+  CHECK(ev.health.max_dead_reckoning_s == 4.5);
+  CHECK(ev.health.min_supported_fraction == 0.8);
+  CHECK(app::run_config_to_json(ev) == every);
+  CHECK(every.at("filter").size() == 42);  // every FilterOptions field (configs/default.json lists them all)
+  CHECK(every.at("health").size() == 4);
+  // The health limits are strict too, and their errors name the key path.
+  for (const char* bad : {R"({"health": {"min_supported_fraction": 1.5}})", R"({"health": {"max_nis_median_ratio": -1}})",
+                          R"({"health": {"support_window_s": -0.5}})", R"({"health": {"max_dead_reckonin_s": 3}})"}) {
+    INFO(bad);
+    try {
+      app::run_config_from_json(io::json::parse(bad), "cfg.json");
+      FAIL("accepted");
+    } catch (const ConfigError& e) {
+      CHECK(e.context().file == "cfg.json");
+      CHECK(e.context().key.rfind("health.", 0) == 0);
+    }
+  }
   // Unknown keys and bad values are ConfigErrors naming the key.
   CHECK_THROWS_AS(app::run_config_from_json(io::json::parse(R"({"filter": {"chi2_confidense": 0.9}})"), "x"),
                   ConfigError);
