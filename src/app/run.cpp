@@ -10,7 +10,6 @@
 
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
-#include "roe/ekf/chi2.hpp"
 #include "roe/ekf/smoother.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
