@@ -157,8 +157,7 @@ StateEstimate Filter::snapshot() const {
   s.T_I_C = T_I_C_;
   s.extr_offset = extr_offset_;
   s.dim = n_;
-  s.objects.reserve(objects_.size());
-  for (const auto& o : objects_) s.objects.push_back({o.id, o.T_O_W, o.offset, o.dim});
+  s.objects = objects_;
   return s;
 }
 
