@@ -10,7 +10,6 @@
 
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
-#include "roe/ekf/chi2.hpp"
 #include "roe/ekf/smoother.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
@@ -27,7 +26,7 @@ double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// Collects the filter's outputs in memory.
+// Collects the filter's output rows in memory (the counts and the final state are run_filter's summary).
 class Recorder : public ekf::FilterObserver {
  public:
   Recorder(RunOutput& out, bool imu_rate) : out_(out), imu_rate_(imu_rate) {}
@@ -38,35 +37,7 @@ class Recorder : public ekf::FilterObserver {
 
   void on_image(ekf::Filter& f, const ekf::FrameResult& r) override {
     if (!imu_rate_) record_state(f);
-    for (const auto& d : r.detections) {
-      out_.reprojection.push_back({r.t_ns, d.object_id, d});
-      ObjectCounts& c = out_.counts[d.object_id];
-      ++c.detections;
-      switch (d.status) {
-        case ekf::DetectionStatus::kAccepted:
-          ++c.accepted;
-          break;
-        case ekf::DetectionStatus::kInitialized:
-          ++c.initialized;
-          break;
-        case ekf::DetectionStatus::kRejectedChi2:
-          ++c.rejected_chi2;
-          break;
-        case ekf::DetectionStatus::kRejectedNoMain:
-          ++c.rejected_no_main;
-          break;
-        case ekf::DetectionStatus::kRejectedScore:
-          ++c.rejected_score;
-          break;
-        case ekf::DetectionStatus::kRejectedNoImu:
-          ++c.rejected_no_imu;
-          break;
-        case ekf::DetectionStatus::kPendingInit:
-          ++c.pending_init;
-          break;
-      }
-      if (std::isfinite(d.nis)) out_.nis.push_back(d.nis);
-    }
+    for (const auto& d : r.detections) out_.reprojection.push_back({r.t_ns, d.object_id, d});
     if (r.detections.empty() || r.detections.front().status == ekf::DetectionStatus::kRejectedNoImu) return;
     for (const auto& o : f.objects()) {
       ObjectRow row;
@@ -215,41 +186,7 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   const Timestamp offset_ns =
       dataset.manifest.camera ? from_seconds(dataset.manifest.camera->time_offset_s) : 0;
 
-  // Group detections per image (IMU clock).
-  std::vector<ekf::ImageDetections> images;
-  for (const auto& d : dets) {
-    const Timestamp t = d.t_ns + offset_ns;
-    if (images.empty() || images.back().t_ns != t) images.push_back({t, {}});
-    images.back().detections.push_back(d);
-    images.back().detections.back().t_ns = t;
-  }
-
-  // The anchor "first seen": the objects of the first image with a usable detection (in the IMU
-  // time range); ties broken offline by the number of images an object is detected in (the anchor
-  // is what every update needs with require_anchor), then by the lowest id.
-  ekf::FilterOptions fopt = opt;
-  if (fopt.anchor_id < 0) {
-    std::map<int, std::size_t> seen;
-    for (const auto& d : dets) ++seen[d.object_id];
-    const Timestamp t_first_imu = dataset.imu.front().t_ns, t_last_imu = dataset.imu.back().t_ns;
-    for (const auto& im : images) {
-      if (im.t_ns < t_first_imu || im.t_ns > t_last_imu) continue;
-      int best = -1;
-      for (const auto& d : im.detections) {
-        if (std::isfinite(d.score) && d.score < opt.min_score) continue;
-        if (best < 0 || seen[d.object_id] > seen[best] ||
-            (seen[d.object_id] == seen[best] && d.object_id < best))
-          best = d.object_id;
-      }
-      if (best >= 0) {
-        fopt.anchor_id = best;
-        break;
-      }
-    }
-    out.warnings.push_back(
-        fmt::format("anchor chosen automatically: object {} (first seen{}, detected in {} images)",
-                    fopt.anchor_id, "", seen[fopt.anchor_id]));
-  }
+  const std::vector<ekf::ImageDetections> images = ekf::group_images(dets, offset_ns);
   const ekf::ImuNoiseParams noise = imu_noise(dataset, opt, out.imu_noise_from);
   out.imu_noise = noise;
   if (noise.gyro_noise_density == 0.0 || noise.accel_noise_density == 0.0)
@@ -258,34 +195,13 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
         "only a noise-free simulation justifies",
         noise.gyro_noise_density, noise.accel_noise_density,
         out.imu_noise_from[0] == out.imu_noise_from[2] ? out.imu_noise_from[0] : "dataset and config"));
-  out.gate = ekf::chi2_quantile(opt.chi2_confidence, 6.0);
   out.states.reserve(config.output_rate == "imu" ? dataset.imu.size() : images.size());
   out.reprojection.reserve(dets.size());
   Recorder rec(out, config.output_rate == "imu");
   const auto t0 = Clock::now();
-  // The run is replayed into a filter we keep, to report its final state.
-  struct Final : ekf::FilterObserver {
-    Recorder* rec;
-    RunOutput* out;
-    void on_imu(const ekf::Filter& f) override {
-      rec->on_imu(f);
-      last(f);
-    }
-    void on_image(ekf::Filter& f, const ekf::FrameResult& r) override {
-      rec->on_image(f, r);
-      last(f);
-    }
-    void last(const ekf::Filter& f) {
-      out->anchor_id = f.anchor_id();
-      out->final_T_I_C = f.T_I_C();
-      for (const auto& o : f.objects()) out->final_T_O_W[o.id] = o.T_O_W;
-    }
-  } fin;
-  fin.rec = &rec;
-  fin.out = &out;
   const bool smooth = config.smoother == "rts";
   ekf::FilterRecording recording;
-  out.summary = ekf::run_filter(dataset.imu, images, fopt, noise, T_I_C, fin, smooth ? &recording : nullptr);
+  out.summary = ekf::run_filter(dataset.imu, images, opt, noise, T_I_C, rec, smooth ? &recording : nullptr);
   out.filter_wall_s = seconds_since(t0);
   if (smooth) {
     // Every state row is at the filter's initial time or at the end of a propagation step.
@@ -305,62 +221,9 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
     out.smoother_wall_s = seconds_since(t1);
   }
 
-  // Warnings about what the data allowed. A rejected_no_main detection either lacks the anchor in its
-  // image or comes before the anchor is initialised (init_min_detections): they are told apart here.
-  std::size_t anchor_pending = 0;
-  for (std::size_t i = 0; i < out.reprojection.size();) {
-    std::size_t j = i;
-    bool anchor_pending_here = false;
-    std::size_t no_main = 0;
-    for (; j < out.reprojection.size() && out.reprojection[j].t_ns == out.reprojection[i].t_ns; ++j) {
-      // The anchor is in the image but not usable yet (awaiting or just getting its initialisation); an
-      // anchor detection below min_score or rejected does not count: that image lacks a usable anchor.
-      const auto st = out.reprojection[j].outcome.status;
-      anchor_pending_here |= out.reprojection[j].object_id == fopt.anchor_id &&
-                             (st == ekf::DetectionStatus::kPendingInit || st == ekf::DetectionStatus::kInitialized);
-      no_main += out.reprojection[j].outcome.status == ekf::DetectionStatus::kRejectedNoMain;
-    }
-    if (anchor_pending_here) anchor_pending += no_main;
-    i = j;
-  }
-  std::size_t no_imu = 0, no_anchor = 0, detections = 0;
-  for (const auto& kv : out.counts) {
-    const ObjectCounts& c = kv.second;
-    no_imu += c.rejected_no_imu;
-    no_anchor += c.rejected_no_main;
-    detections += c.detections;
-    if (c.initialized == 0 && c.detections > 0) {
-      std::vector<std::string> why;
-      if (c.pending_init)
-        why.push_back(fmt::format("{} awaited initialisation ({} agreeing consecutive detections needed, "
-                                  "init_min_detections)",
-                                  c.pending_init, fopt.init_min_detections));
-      if (c.rejected_no_main) why.push_back(fmt::format("{} had no initialised anchor in their image", c.rejected_no_main));
-      if (c.rejected_no_imu) why.push_back(fmt::format("{} lay outside the IMU stream", c.rejected_no_imu));
-      if (c.rejected_score) why.push_back(fmt::format("{} scored below min_score", c.rejected_score));
-      out.warnings.push_back(fmt::format("object {} was detected {} times but never initialised: {}", kv.first,
-                                         c.detections, fmt::join(why, "; ")));
-    }
-  }
-  no_anchor -= anchor_pending;  // images without the anchor
-  if (no_imu > 0)
-    out.warnings.push_back(fmt::format("{} detections lie outside the IMU stream and were skipped", no_imu));
-  // The paper's rule (require_anchor) wastes most of a recording whose camera leaves the anchor often,
-  // e.g. a flight that sweeps a room: say so, and name the switch.
-  if (fopt.require_anchor && detections > 0 && 4 * no_anchor >= detections)
-    out.warnings.push_back(fmt::format(
-        "{} of {} detections ({:.0f} %) were rejected because their image lacks the anchor object {} "
-        "(filter.require_anchor is true, the paper's rule); require_anchor false updates from every "
-        "initialised object{}",
-        no_anchor, detections, 100.0 * static_cast<double>(no_anchor) / static_cast<double>(detections),
-        fopt.anchor_id,
-        anchor_pending ? fmt::format(" ({} more were in images with the anchor, before it was initialised)", anchor_pending)
-                       : std::string()));
-  if (out.summary.updates == 0)
-    out.warnings.push_back("no update was made: the trajectory is IMU dead reckoning");
-  if (!out.summary.gyro_bias_rest_refused.empty())
-    out.warnings.push_back("init_gyro_bias_from_rest: " + out.summary.gyro_bias_rest_refused +
-                           "; the gyro bias starts at init_gyro_bias");
+  const std::vector<std::string> w = ekf::run_warnings(out.summary, opt);
+  out.warnings.insert(out.warnings.end(), w.begin(), w.end());
+  out.health = ekf::assess_health(out.summary, opt, config.health);
   return out;
 }
 
@@ -445,7 +308,7 @@ void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
   }
 }
 
-json counts_json(const ObjectCounts& c) {
+json counts_json(const ekf::DetectionCounts& c) {
   return {{"detections", c.detections},
           {"accepted", c.accepted},
           {"initialized", c.initialized},
@@ -459,41 +322,39 @@ json counts_json(const ObjectCounts& c) {
 // Per object and in total: every status, so that the totals add up to the detections.
 json counts_json(const RunOutput& r) {
   json per = json::object();
-  ObjectCounts total;
-  for (const auto& kv : r.counts) {
-    const ObjectCounts& c = kv.second;
-    per[std::to_string(kv.first)] = counts_json(c);
-    total.detections += c.detections;
-    total.accepted += c.accepted;
-    total.initialized += c.initialized;
-    total.rejected_chi2 += c.rejected_chi2;
-    total.rejected_no_main += c.rejected_no_main;
-    total.rejected_score += c.rejected_score;
-    total.rejected_no_imu += c.rejected_no_imu;
-    total.pending_init += c.pending_init;
+  ekf::DetectionCounts total;
+  for (const auto& [id, c] : r.summary.counts) {
+    per[std::to_string(id)] = counts_json(c);
+    total += c;
   }
   json j = counts_json(total);
   j["per_object"] = per;
   return j;
 }
 
-json nis_json(const RunOutput& r) {
-  if (r.nis.empty()) return {{"count", 0}};
-  std::vector<double> v = r.nis;
-  std::sort(v.begin(), v.end());
-  double sum = 0.0;
-  std::size_t above = 0;
-  for (double x : v) {
-    sum += x;
-    if (x > r.gate) ++above;
-  }
-  return {{"count", v.size()},
-          {"dof", 6},
-          {"mean", sum / v.size()},
-          {"median", v[v.size() / 2]},
-          {"p95", v[std::min(v.size() - 1, static_cast<std::size_t>(0.95 * v.size()))]},
-          {"gate", r.gate},
-          {"fraction_above_gate", static_cast<double>(above) / v.size()}};
+json nis_json(const ekf::NisStats& n) {
+  if (n.count == 0) return {{"count", 0}, {"dof", 6}, {"gate", n.gate}};
+  return {{"count", n.count},   {"dof", 6},         {"median", n.median}, {"p25", n.p25},
+          {"p75", n.p75},       {"p95", n.p95},     {"max", n.max},       {"mean", n.mean},
+          {"gate", n.gate},     {"fraction_above_gate", n.fraction_above_gate},
+          {"median_ratio", n.median_ratio}};
+}
+
+json health_json(const ekf::RunHealth& h, const ekf::HealthLimits& l, Timestamp t0) {
+  return {{"healthy", h.healthy()},
+          {"problems", h.problems},
+          {"duration_s", h.duration_s},
+          {"accepted_updates", h.accepted_updates},
+          {"supported_fraction", h.supported_fraction},
+          {"longest_dead_reckoning_s", h.longest_dead_reckoning_s},
+          {"longest_dead_reckoning_from_s", to_seconds(h.dead_reckoning_from_ns - t0)},
+          {"longest_dead_reckoning_to_s", to_seconds(h.dead_reckoning_to_ns - t0)},
+          {"nis_median_ratio", h.nis.median_ratio},
+          {"limits",
+           {{"support_window_s", l.support_window_s},
+            {"min_supported_fraction", l.min_supported_fraction},
+            {"max_dead_reckoning_s", l.max_dead_reckoning_s},
+            {"max_nis_median_ratio", l.max_nis_median_ratio}}}};
 }
 
 // The initial state: the extrinsics prior, the init window and where the gyro bias came from.
@@ -571,7 +432,7 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
   const RunOutput& r = res.output;
   for (const auto& w : r.warnings) log::warn("{}", w);
   log::info("filter: {} updates, anchor object {}, {:.3f} s; IMU noise gyro {:g} ({}), accel {:g} ({})",
-            r.summary.updates, r.anchor_id, r.filter_wall_s, r.imu_noise.gyro_noise_density, r.imu_noise_from[0],
+            r.summary.updates, r.summary.anchor.id, r.filter_wall_s, r.imu_noise.gyro_noise_density, r.imu_noise_from[0],
             r.imu_noise.accel_noise_density, r.imu_noise_from[2]);
 
   const auto t_write = Clock::now();
@@ -604,7 +465,7 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
       {"command", "run"},
       {"config", run_config_to_json(config)},
       {"inputs", inputs},
-      {"anchor_id", r.anchor_id},
+      {"anchor_id", r.summary.anchor.id},
       {"counts",
        {{"imu_samples", dataset.imu.size()},
         {"camera_frames", dataset.frames.size()},
@@ -612,7 +473,8 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
         {"updates", r.summary.updates},
         {"trajectory_rows", r.states.size()},
         {"detections", counts_json(r)}}},
-      {"nis", nis_json(r)},
+      {"nis", nis_json(r.health.nis)},
+      {"health", health_json(r.health, config.health, r.summary.t_first_ns)},
       {"init", init_json(r.summary, r.prior_T_I_C)},
       {"imu_noise",
        {{"gyro_noise_density", r.imu_noise.gyro_noise_density},
@@ -626,13 +488,13 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
           {"accel_random_walk", r.imu_noise_from[3]}}}}},
       {"final",
        {{"T_I_C",
-         {{"p", {r.final_T_I_C.p.x(), r.final_T_I_C.p.y(), r.final_T_I_C.p.z()}},
-          {"q", {r.final_T_I_C.q.x(), r.final_T_I_C.q.y(), r.final_T_I_C.q.z(), r.final_T_I_C.q.w()}}}}}},
+         {{"p", {r.summary.final_T_I_C.p.x(), r.summary.final_T_I_C.p.y(), r.summary.final_T_I_C.p.z()}},
+          {"q", {r.summary.final_T_I_C.q.x(), r.summary.final_T_I_C.q.y(), r.summary.final_T_I_C.q.z(), r.summary.final_T_I_C.q.w()}}}}}},
       {"warnings", r.warnings}};
   json objs = json::array();
-  for (const auto& kv : r.final_T_O_W)
+  for (const auto& kv : r.summary.final_T_O_W)
     objs.push_back({{"id", kv.first},
-                    {"anchor", kv.first == r.anchor_id},
+                    {"anchor", kv.first == r.summary.anchor.id},
                     {"T_O_W",
                      {{"p", {kv.second.p.x(), kv.second.p.y(), kv.second.p.z()}},
                       {"q", {kv.second.q.x(), kv.second.q.y(), kv.second.q.z(), kv.second.q.w()}}}}});
@@ -651,9 +513,9 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
 
 json RunResult::to_json() const {
   return {
-      {"out", out.string()},           {"anchor_id", output.anchor_id}, {"updates", output.summary.updates},
+      {"out", out.string()},           {"anchor_id", output.summary.anchor.id}, {"updates", output.summary.updates},
       {"counts", report.at("counts")}, {"nis", report.at("nis")},       {"timing_s", report.at("timing_s")},
-      {"warnings", output.warnings}};
+      {"health", report.at("health")},  {"warnings", output.warnings}};
 }
 
 std::string RunResult::to_text() const {
@@ -662,7 +524,7 @@ std::string RunResult::to_text() const {
   std::string s = fmt::format("roe run → {}\n", out.string());
   s += fmt::format("  IMU samples {}, images with detections {}, updates {}, anchor object {}\n",
                    c.at("imu_samples").get<std::size_t>(), c.at("images_with_detections").get<std::size_t>(),
-                   output.summary.updates, output.anchor_id);
+                   output.summary.updates, output.summary.anchor.id);
   s += fmt::format("  detections {}: accepted {}, initialised {}, rejected χ² {}, rejected without anchor {}",
                    d.at("detections").get<std::size_t>(), d.at("accepted").get<std::size_t>(),
                    d.at("initialized").get<std::size_t>(), d.at("rejected_chi2").get<std::size_t>(),
@@ -675,9 +537,19 @@ std::string RunResult::to_text() const {
   s += "\n";
   const json& n = report.at("nis");
   if (n.at("count").get<std::size_t>() > 0)
-    s += fmt::format("  NIS (6 dof): mean {:.2f}, median {:.2f}, {:.1f} % above the gate {:.2f}\n",
-                     n.at("mean").get<double>(), n.at("median").get<double>(),
-                     100.0 * n.at("fraction_above_gate").get<double>(), n.at("gate").get<double>());
+    s += fmt::format("  NIS (6 dof): median {:.2f} (quartiles {:.2f}, {:.2f}; χ²₆ median 5.35), p95 {:.2f}, "
+                     "{:.1f} % above the gate {:.2f}\n",
+                     n.at("median").get<double>(), n.at("p25").get<double>(), n.at("p75").get<double>(),
+                     n.at("p95").get<double>(), 100.0 * n.at("fraction_above_gate").get<double>(),
+                     n.at("gate").get<double>());
+  const json& h = report.at("health");
+  s += fmt::format("  health: {} — {:.1f} % of the {:.1f} s within {:g} s after an accepted update, longest "
+                   "dead reckoning {:.2f} s\n",
+                   h.at("healthy").get<bool>() ? "healthy" : "UNHEALTHY",
+                   100.0 * h.at("supported_fraction").get<double>(), h.at("duration_s").get<double>(),
+                   h.at("limits").at("support_window_s").get<double>(),
+                   h.at("longest_dead_reckoning_s").get<double>());
+  for (const auto& p : h.at("problems")) s += "    " + p.get<std::string>() + "\n";
   s += fmt::format("  filter {:.3f} s, total {:.3f} s\n", report.at("timing_s").at("filter").get<double>(),
                    report.at("timing_s").at("total").get<double>());
   return s;

@@ -1,7 +1,11 @@
-// roe run: the strict JSON loader of RunConfig (FilterOptions + output options) and its echo.
+// roe run: the strict JSON loader of RunConfig (FilterOptions, HealthLimits and the output options) and
+// its echo. Each options struct lists its fields once, in a table of (key, member, check): the table
+// loads, validates and echoes (run.json "config"), in this order.
 #include <fmt/format.h>
 
 #include <cmath>
+#include <functional>
+#include <vector>
 
 #include "roe/app/run.hpp"
 #include "roe/core/error.hpp"
@@ -16,29 +20,163 @@ using io::JsonObject;
   throw ConfigError(what, {r.source(), 0, 0, r.key_path(key)});
 }
 
-void read_vec3(JsonObject& r, const char* key, Eigen::Vector3d& out) {
-  const json* v = r.raw(key);
-  if (!v || v->is_null()) return;
-  if (!v->is_array() || v->size() != 3) fail(r, key, "expected an array of 3 numbers");
-  for (int i = 0; i < 3; ++i) {
-    if (!(*v)[i].is_number()) fail(r, key, "expected an array of 3 numbers");
-    out[i] = (*v)[i].get<double>();
-  }
-  if (!out.allFinite()) fail(r, key, "values must be finite");
+/// One key of an options struct S: how it is read (and validated) and how it is echoed.
+template <typename S>
+struct Field {
+  const char* key;
+  std::function<void(JsonObject&, S&)> load;
+  std::function<json(const S&)> echo;
+};
+
+/// A check returns the error message for a bad value, or nullptr.
+template <typename T>
+using Check = const char* (*)(const T&);
+
+template <typename S, typename T>
+Field<S> field(const char* key, T S::*m, Check<T> check = nullptr) {
+  return {key,
+          [key, m, check](JsonObject& r, S& s) {
+            r.get(key, s.*m);
+            if constexpr (std::is_floating_point_v<T>)
+              if (!std::isfinite(s.*m)) fail(r, key, "must be finite");
+            if (check)
+              if (const char* what = check(s.*m)) fail(r, key, what);
+          },
+          [m](const S& s) { return json(s.*m); }};
 }
 
-void positive(JsonObject& r, const char* key, double& v) {
-  r.get(key, v);
-  if (!(v > 0.0) || !std::isfinite(v)) fail(r, key, "must be a positive number");
+Field<ekf::FilterOptions> vec3_field(const char* key, Eigen::Vector3d ekf::FilterOptions::*m) {
+  return {key,
+          [key, m](JsonObject& r, ekf::FilterOptions& s) {
+            const json* v = r.raw(key);
+            if (!v || v->is_null()) return;
+            if (!v->is_array() || v->size() != 3) fail(r, key, "expected an array of 3 numbers");
+            Eigen::Vector3d out;
+            for (int i = 0; i < 3; ++i) {
+              if (!(*v)[i].is_number()) fail(r, key, "expected an array of 3 numbers");
+              out[i] = (*v)[i].get<double>();
+            }
+            if (!out.allFinite()) fail(r, key, "values must be finite");
+            s.*m = out;
+          },
+          [m](const ekf::FilterOptions& s) { return json::array({(s.*m).x(), (s.*m).y(), (s.*m).z()}); }};
 }
-void non_negative(JsonObject& r, const char* key, double& v) {
-  r.get(key, v);
-  if (!(v >= 0.0) || !std::isfinite(v)) fail(r, key, "must be a number >= 0");
+
+/// An enum read by name: `parse` returns false for an unknown name, `what` says what is allowed.
+template <typename E>
+Field<ekf::FilterOptions> enum_field(const char* key, E ekf::FilterOptions::*m, bool (*parse)(const std::string&, E&),
+                                     std::string (*name)(E), const char* what) {
+  return {key,
+          [=](JsonObject& r, ekf::FilterOptions& s) {
+            std::string v = name(s.*m);
+            r.get(key, v);
+            if (!parse(v, s.*m)) fail(r, key, what);
+          },
+          [=](const ekf::FilterOptions& s) { return json(name(s.*m)); }};
 }
-// IMU densities: negative (= from the dataset) or >= 0.
-void density(JsonObject& r, const char* key, double& v) {
-  r.get(key, v);
-  if (!std::isfinite(v)) fail(r, key, "must be finite (negative = take the dataset's value)");
+
+const char* positive(const double& v) { return v > 0.0 ? nullptr : "must be a positive number"; }
+const char* non_negative(const double& v) { return v >= 0.0 ? nullptr : "must be a number >= 0"; }
+// IMU densities: negative (= from the dataset) or >= 0; only finiteness is checked.
+const char* any_finite(const double&) { return nullptr; }
+
+const std::vector<Field<ekf::FilterOptions>>& filter_fields() {
+  using O = ekf::FilterOptions;
+  static const std::vector<Field<O>> t = {
+      enum_field("residual_frame", &O::residual_frame, &ekf::parse_residual_frame, &ekf::to_string,
+                 "must be \"object\" (paper: T_O_C) or \"camera\" (T_C_O)"),
+      field("meas_sigma_p_m", &O::meas_sigma_p_m, &positive),
+      field("meas_sigma_rot_deg", &O::meas_sigma_rot_deg, &positive),
+      field<O, bool>("meas_sigma_in_camera", &O::meas_sigma_in_camera),
+      field("meas_sigma_p_per_depth", &O::meas_sigma_p_per_depth, &non_negative),
+      field("meas_sigma_ray_m", &O::meas_sigma_ray_m, &any_finite),
+      field("meas_sigma_ray_per_depth", &O::meas_sigma_ray_per_depth, &non_negative),
+      field<O, bool>("use_detection_sigmas", &O::use_detection_sigmas),
+      field("min_score", &O::min_score, &non_negative),
+      field<O, bool>("chi2_gate", &O::chi2_gate),
+      field<O, double>("chi2_confidence", &O::chi2_confidence,
+                       [](const double& v) -> const char* {
+                         return v > 0.0 && v < 1.0 ? nullptr : "must be in (0, 1), e.g. 0.95";
+                       }),
+      field<O, int>("anchor_id", &O::anchor_id,
+                    [](const int& v) -> const char* {
+                      return v >= -1 ? nullptr : "must be an object id >= 0, or -1 for the first object seen";
+                    }),
+      enum_field("anchor_gauge", &O::anchor_gauge, &ekf::parse_anchor_gauge, &ekf::to_string,
+                 "must be \"position\" (paper), \"position_yaw\" or \"pose\""),
+      field<O, bool>("require_anchor", &O::require_anchor),
+      field<O, int>("init_min_detections", &O::init_min_detections,
+                    [](const int& v) -> const char* {
+                      return v >= 1 ? nullptr : "must be >= 1 (1 = the paper: first detection)";
+                    }),
+      field("init_gate_p_m", &O::init_gate_p_m, &positive),
+      field("init_gate_rot_deg", &O::init_gate_rot_deg, &positive),
+      field<O, bool>("estimate_extrinsics", &O::estimate_extrinsics),
+      field("extrinsics_sigma_p_m", &O::extrinsics_sigma_p_m, &positive),
+      field("extrinsics_sigma_rot_deg", &O::extrinsics_sigma_rot_deg, &positive),
+      field("gyro_noise_density", &O::gyro_noise_density, &any_finite),
+      field("gyro_random_walk", &O::gyro_random_walk, &any_finite),
+      field("accel_noise_density", &O::accel_noise_density, &any_finite),
+      field("accel_random_walk", &O::accel_random_walk, &any_finite),
+      field("imu_noise_scale", &O::imu_noise_scale, &positive),
+      field("init_window_s", &O::init_window_s, &non_negative),
+      vec3_field("init_gyro_bias", &O::init_gyro_bias),
+      field<O, bool>("init_gyro_bias_from_rest", &O::init_gyro_bias_from_rest),
+      field("init_rest_max_gyro_std", &O::init_rest_max_gyro_std, &positive),
+      field("init_rest_max_accel_std", &O::init_rest_max_accel_std, &positive),
+      vec3_field("init_accel_bias", &O::init_accel_bias),
+      field("init_sigma_p_m", &O::init_sigma_p_m, &positive),
+      field("init_sigma_v_mps", &O::init_sigma_v_mps, &positive),
+      field("init_sigma_roll_pitch_deg", &O::init_sigma_roll_pitch_deg, &positive),
+      field("init_sigma_yaw_deg", &O::init_sigma_yaw_deg, &positive),
+      field("init_sigma_gyro_bias", &O::init_sigma_gyro_bias, &positive),
+      field("init_sigma_accel_bias", &O::init_sigma_accel_bias, &positive),
+      field("max_position_m", &O::max_position_m, &positive),
+      field("max_velocity_mps", &O::max_velocity_mps, &positive),
+      field("max_gyro_bias", &O::max_gyro_bias, &positive),
+      field("max_accel_bias", &O::max_accel_bias, &positive),
+      field<O, int>("pd_check_every", &O::pd_check_every,
+                    [](const int& v) -> const char* {
+                      return v >= 0 ? nullptr : "must be >= 0 (0 = only after initialisations)";
+                    }),
+  };
+  return t;
+}
+
+// What no single key can say: the ray-aligned σ's consistency.
+void check_filter(JsonObject& f, const ekf::FilterOptions& o) {
+  if (o.meas_sigma_ray_m >= 0.0 && o.meas_sigma_ray_m + o.meas_sigma_ray_per_depth <= 0.0)
+    fail(f, "meas_sigma_ray_m", "must be > 0 (or meas_sigma_ray_per_depth > 0), or negative for σ_ray = σ_lat");
+  const bool camera_sigma = o.meas_sigma_in_camera || o.residual_frame == ekf::ResidualFrame::kCamera;
+  if (!camera_sigma && (o.meas_sigma_ray_m >= 0.0 || o.meas_sigma_p_per_depth > 0.0))
+    fail(f, "meas_sigma_ray_m",
+         "the ray-aligned, depth-dependent σ describe the detected T_C_O: set meas_sigma_in_camera true");
+}
+
+const std::vector<Field<ekf::HealthLimits>>& health_fields() {
+  using H = ekf::HealthLimits;
+  static const std::vector<Field<H>> t = {
+      field("support_window_s", &H::support_window_s, &non_negative),
+      field<H, double>("min_supported_fraction", &H::min_supported_fraction,
+                       [](const double& v) -> const char* {
+                         return v >= 0.0 && v <= 1.0 ? nullptr : "must be in [0, 1] (0 = no check)";
+                       }),
+      field("max_dead_reckoning_s", &H::max_dead_reckoning_s, &any_finite),
+      field("max_nis_median_ratio", &H::max_nis_median_ratio, &non_negative),
+  };
+  return t;
+}
+
+template <typename S>
+void load(JsonObject& r, S& s, const std::vector<Field<S>>& fields) {
+  for (const auto& f : fields) f.load(r, s);
+}
+
+template <typename S>
+json echo(const S& s, const std::vector<Field<S>>& fields) {
+  json j = json::object();
+  for (const auto& f : fields) j[f.key] = f.echo(s);
+  return j;
 }
 
 }  // namespace
@@ -48,67 +186,8 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
   JsonObject root(j, source);
   {
     JsonObject f = root.child("filter");
-    ekf::FilterOptions& o = c.filter;
-    std::string frame = ekf::to_string(o.residual_frame);
-    f.get("residual_frame", frame);
-    if (!ekf::parse_residual_frame(frame, o.residual_frame))
-      fail(f, "residual_frame", "must be \"object\" (paper: T_O_C) or \"camera\" (T_C_O)");
-    positive(f, "meas_sigma_p_m", o.meas_sigma_p_m);
-    positive(f, "meas_sigma_rot_deg", o.meas_sigma_rot_deg);
-    f.get("meas_sigma_in_camera", o.meas_sigma_in_camera);
-    non_negative(f, "meas_sigma_p_per_depth", o.meas_sigma_p_per_depth);
-    f.get("meas_sigma_ray_m", o.meas_sigma_ray_m);
-    non_negative(f, "meas_sigma_ray_per_depth", o.meas_sigma_ray_per_depth);
-    if (o.meas_sigma_ray_m >= 0.0 && o.meas_sigma_ray_m + o.meas_sigma_ray_per_depth <= 0.0)
-      fail(f, "meas_sigma_ray_m", "must be > 0 (or meas_sigma_ray_per_depth > 0), or negative for σ_ray = σ_lat");
-    const bool camera_sigma = o.meas_sigma_in_camera || o.residual_frame == ekf::ResidualFrame::kCamera;
-    if (!camera_sigma && (o.meas_sigma_ray_m >= 0.0 || o.meas_sigma_p_per_depth > 0.0))
-      fail(f, "meas_sigma_ray_m",
-           "the ray-aligned, depth-dependent σ describe the detected T_C_O: set meas_sigma_in_camera true");
-    f.get("use_detection_sigmas", o.use_detection_sigmas);
-    non_negative(f, "min_score", o.min_score);
-    f.get("chi2_gate", o.chi2_gate);
-    f.get("chi2_confidence", o.chi2_confidence);
-    if (!(o.chi2_confidence > 0.0 && o.chi2_confidence < 1.0))
-      fail(f, "chi2_confidence", "must be in (0, 1), e.g. 0.95");
-    f.get("anchor_id", o.anchor_id);
-    if (o.anchor_id < -1) fail(f, "anchor_id", "must be an object id >= 0, or -1 for the first object seen");
-    std::string gauge = ekf::to_string(o.anchor_gauge);
-    f.get("anchor_gauge", gauge);
-    if (!ekf::parse_anchor_gauge(gauge, o.anchor_gauge))
-      fail(f, "anchor_gauge", "must be \"position\" (paper), \"position_yaw\" or \"pose\"");
-    f.get("require_anchor", o.require_anchor);
-    f.get("init_min_detections", o.init_min_detections);
-    if (o.init_min_detections < 1)
-      fail(f, "init_min_detections", "must be >= 1 (1 = the paper: first detection)");
-    positive(f, "init_gate_p_m", o.init_gate_p_m);
-    positive(f, "init_gate_rot_deg", o.init_gate_rot_deg);
-    f.get("estimate_extrinsics", o.estimate_extrinsics);
-    positive(f, "extrinsics_sigma_p_m", o.extrinsics_sigma_p_m);
-    positive(f, "extrinsics_sigma_rot_deg", o.extrinsics_sigma_rot_deg);
-    density(f, "gyro_noise_density", o.gyro_noise_density);
-    density(f, "gyro_random_walk", o.gyro_random_walk);
-    density(f, "accel_noise_density", o.accel_noise_density);
-    density(f, "accel_random_walk", o.accel_random_walk);
-    positive(f, "imu_noise_scale", o.imu_noise_scale);
-    non_negative(f, "init_window_s", o.init_window_s);
-    read_vec3(f, "init_gyro_bias", o.init_gyro_bias);
-    f.get("init_gyro_bias_from_rest", o.init_gyro_bias_from_rest);
-    positive(f, "init_rest_max_gyro_std", o.init_rest_max_gyro_std);
-    positive(f, "init_rest_max_accel_std", o.init_rest_max_accel_std);
-    read_vec3(f, "init_accel_bias", o.init_accel_bias);
-    positive(f, "init_sigma_p_m", o.init_sigma_p_m);
-    positive(f, "init_sigma_v_mps", o.init_sigma_v_mps);
-    positive(f, "init_sigma_roll_pitch_deg", o.init_sigma_roll_pitch_deg);
-    positive(f, "init_sigma_yaw_deg", o.init_sigma_yaw_deg);
-    positive(f, "init_sigma_gyro_bias", o.init_sigma_gyro_bias);
-    positive(f, "init_sigma_accel_bias", o.init_sigma_accel_bias);
-    positive(f, "max_position_m", o.max_position_m);
-    positive(f, "max_velocity_mps", o.max_velocity_mps);
-    positive(f, "max_gyro_bias", o.max_gyro_bias);
-    positive(f, "max_accel_bias", o.max_accel_bias);
-    f.get("pd_check_every", o.pd_check_every);
-    if (o.pd_check_every < 0) fail(f, "pd_check_every", "must be >= 0 (0 = only after initialisations)");
+    load(f, c.filter, filter_fields());
+    check_filter(f, c.filter);
     f.finish();
   }
   {
@@ -117,6 +196,11 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
     if (c.output_rate != "imu" && c.output_rate != "images")
       fail(out, "rate", "must be \"imu\" or \"images\"");
     out.finish();
+  }
+  {
+    JsonObject h = root.child("health");
+    load(h, c.health, health_fields());
+    h.finish();
   }
   root.get("smoother", c.smoother);
   if (c.smoother != "none" && c.smoother != "rts") fail(root, "smoother", "must be \"none\" or \"rts\"");
@@ -130,53 +214,10 @@ RunConfig run_config_from_file(const std::filesystem::path& file) {
 }
 
 json run_config_to_json(const RunConfig& c) {
-  const ekf::FilterOptions& o = c.filter;
-  const auto v3 = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
-  json f = {
-      {"residual_frame", ekf::to_string(o.residual_frame)},
-      {"meas_sigma_p_m", o.meas_sigma_p_m},
-      {"meas_sigma_rot_deg", o.meas_sigma_rot_deg},
-      {"meas_sigma_in_camera", o.meas_sigma_in_camera},
-      {"meas_sigma_p_per_depth", o.meas_sigma_p_per_depth},
-      {"meas_sigma_ray_m", o.meas_sigma_ray_m},
-      {"meas_sigma_ray_per_depth", o.meas_sigma_ray_per_depth},
-      {"use_detection_sigmas", o.use_detection_sigmas},
-      {"min_score", o.min_score},
-      {"chi2_gate", o.chi2_gate},
-      {"chi2_confidence", o.chi2_confidence},
-      {"anchor_id", o.anchor_id},
-      {"anchor_gauge", ekf::to_string(o.anchor_gauge)},
-      {"require_anchor", o.require_anchor},
-      {"init_min_detections", o.init_min_detections},
-      {"init_gate_p_m", o.init_gate_p_m},
-      {"init_gate_rot_deg", o.init_gate_rot_deg},
-      {"estimate_extrinsics", o.estimate_extrinsics},
-      {"extrinsics_sigma_p_m", o.extrinsics_sigma_p_m},
-      {"extrinsics_sigma_rot_deg", o.extrinsics_sigma_rot_deg},
-      {"gyro_noise_density", o.gyro_noise_density},
-      {"gyro_random_walk", o.gyro_random_walk},
-      {"accel_noise_density", o.accel_noise_density},
-      {"accel_random_walk", o.accel_random_walk},
-      {"imu_noise_scale", o.imu_noise_scale},
-      {"init_window_s", o.init_window_s},
-      {"init_gyro_bias", v3(o.init_gyro_bias)},
-      {"init_gyro_bias_from_rest", o.init_gyro_bias_from_rest},
-      {"init_rest_max_gyro_std", o.init_rest_max_gyro_std},
-      {"init_rest_max_accel_std", o.init_rest_max_accel_std},
-      {"init_accel_bias", v3(o.init_accel_bias)},
-      {"init_sigma_p_m", o.init_sigma_p_m},
-      {"init_sigma_v_mps", o.init_sigma_v_mps},
-      {"init_sigma_roll_pitch_deg", o.init_sigma_roll_pitch_deg},
-      {"init_sigma_yaw_deg", o.init_sigma_yaw_deg},
-      {"init_sigma_gyro_bias", o.init_sigma_gyro_bias},
-      {"init_sigma_accel_bias", o.init_sigma_accel_bias},
-      {"max_position_m", o.max_position_m},
-      {"max_velocity_mps", o.max_velocity_mps},
-      {"max_gyro_bias", o.max_gyro_bias},
-      {"max_accel_bias", o.max_accel_bias},
-      {"pd_check_every", o.pd_check_every},
-  };
-  json j = {{"filter", f}, {"output", {{"rate", c.output_rate}}}, {"smoother", c.smoother}};
+  json j = {{"filter", echo(c.filter, filter_fields())},
+            {"output", {{"rate", c.output_rate}}},
+            {"smoother", c.smoother},
+            {"health", echo(c.health, health_fields())}};
   if (!c.description.empty()) j["description"] = c.description;
   return j;
 }

@@ -2,6 +2,7 @@
 // roe run --list-configs
 #include <fmt/format.h>
 
+#include <iostream>
 #include <memory>
 
 #include "command.hpp"
@@ -45,6 +46,14 @@ RunFn setup(CLI::App& sub) {
     a->opt.force = globals().force;
     const auto r = app::run(a->dataset, a->out, a->opt);
     emit(r.to_json(), r.to_text());
+    // An unsupported estimate must not look like a result: RUN_DIR is written (to look into), the exit
+    // code says the run cannot be trusted and why (run.json "health", limits in the config's "health").
+    if (!r.output.health.healthy()) {
+      std::cerr << "roe: error: the run in " << a->out
+                << " cannot be trusted (limits: the config's \"health\", docs/filter.md §11):\n";
+      for (const auto& p : r.output.health.problems) std::cerr << "  " << p << "\n";
+      return 1;
+    }
     return 0;
   };
 }

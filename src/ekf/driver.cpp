@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include "roe/core/error.hpp"
 
 namespace roe::ekf {
@@ -53,6 +55,66 @@ Vec3 initial_gyro_bias(const InitWindow& w, const FilterOptions& options, std::s
   return why.empty() ? w.mean_gyro : options.init_gyro_bias;
 }
 
+void DetectionCounts::add(DetectionStatus s) {
+  ++detections;
+  switch (s) {
+    case DetectionStatus::kAccepted:
+      ++accepted;
+      break;
+    case DetectionStatus::kInitialized:
+      ++initialized;
+      break;
+    case DetectionStatus::kRejectedChi2:
+      ++rejected_chi2;
+      break;
+    case DetectionStatus::kRejectedNoMain:
+      ++rejected_no_main;
+      break;
+    case DetectionStatus::kRejectedScore:
+      ++rejected_score;
+      break;
+    case DetectionStatus::kRejectedNoImu:
+      ++rejected_no_imu;
+      break;
+    case DetectionStatus::kPendingInit:
+      ++pending_init;
+      break;
+  }
+}
+
+DetectionCounts& DetectionCounts::operator+=(const DetectionCounts& o) {
+  detections += o.detections;
+  accepted += o.accepted;
+  initialized += o.initialized;
+  rejected_chi2 += o.rejected_chi2;
+  rejected_no_main += o.rejected_no_main;
+  rejected_score += o.rejected_score;
+  rejected_no_imu += o.rejected_no_imu;
+  pending_init += o.pending_init;
+  return *this;
+}
+
+namespace {
+
+// Tallies one image's outcomes into the summary.
+void tally(const FrameResult& r, int anchor_id, FilterRunSummary& s) {
+  bool anchor_pending = false;
+  std::size_t no_main = 0;
+  for (const auto& d : r.detections) {
+    s.counts[d.object_id].add(d.status);
+    if (std::isfinite(d.nis)) s.nis.push_back(d.nis);
+    // The anchor is in the image but not usable yet (awaiting or just getting its initialisation); an
+    // anchor detection below min_score or rejected does not count: that image lacks a usable anchor.
+    anchor_pending |= d.object_id == anchor_id &&
+                      (d.status == DetectionStatus::kPendingInit || d.status == DetectionStatus::kInitialized);
+    no_main += d.status == DetectionStatus::kRejectedNoMain;
+  }
+  if (anchor_pending) s.no_main_anchor_pending += no_main;
+  if (r.n_inliers > 0) s.update_times.push_back(r.t_ns);
+}
+
+}  // namespace
+
 FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,
                             const FilterOptions& options, const ImuNoiseParams& noise,
                             const Pose& T_I_C_prior, FilterObserver& observer,
@@ -76,7 +138,13 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
   summary.init_gyro_bias = initial_gyro_bias(summary.init, options, &summary.gyro_bias_rest_refused);
   summary.gyro_bias_from_rest = options.init_gyro_bias_from_rest && summary.gyro_bias_rest_refused.empty();
 
-  Filter filter(options, noise, T_I_C_prior);
+  summary.t_first_ns = t0;
+  summary.t_last_ns = imu.back().t_ns;
+  summary.anchor = choose_anchor(images, t0, summary.t_last_ns, options);
+  FilterOptions opt = options;
+  opt.anchor_id = summary.anchor.id;  // −1 only when no image has a usable detection
+
+  Filter filter(opt, noise, T_I_C_prior);
   filter.set_recording(recording);
   filter.initialize(t0, imu.front().gyro, imu.front().accel, summary.init.mean_accel, &summary.init_gyro_bias);
   observer.on_imu(filter);
@@ -90,12 +158,18 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
       o.status = DetectionStatus::kRejectedNoImu;
       r.detections.push_back(o);
     }
+    tally(r, summary.anchor.id, summary);
     observer.on_image(filter, r);
+  };
+  const auto update = [&](const ImageDetections& im) {
+    const FrameResult r = filter.update(im.detections);
+    tally(r, summary.anchor.id, summary);
+    observer.on_image(filter, r);
+    ++summary.images;
   };
   while (j < images.size() && images[j].t_ns < t0) reject_no_imu(images[j++]);
   while (j < images.size() && images[j].t_ns == t0) {
-    observer.on_image(filter, filter.update(images[j++].detections));
-    ++summary.images;
+    update(images[j++]);
   }
   for (std::size_t k = 1; k < imu.size(); ++k) {
     const ImuSample& a = imu[k - 1];
@@ -105,19 +179,19 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
           static_cast<double>(images[j].t_ns - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
       filter.propagate(images[j].t_ns, a.gyro + alpha * (b.gyro - a.gyro),
                        a.accel + alpha * (b.accel - a.accel));
-      observer.on_image(filter, filter.update(images[j++].detections));
-      ++summary.images;
+      update(images[j++]);
     }
     filter.propagate(b.t_ns, b.gyro, b.accel);
     observer.on_imu(filter);
     while (j < images.size() && images[j].t_ns == b.t_ns) {
-      observer.on_image(filter, filter.update(images[j++].detections));
-      ++summary.images;
+      update(images[j++]);
     }
   }
   while (j < images.size()) reject_no_imu(images[j++]);
   filter.finish_recording();
   summary.updates = filter.n_updates();
+  summary.final_T_I_C = filter.T_I_C();
+  for (const auto& o : filter.objects()) summary.final_T_O_W[o.id] = o.T_O_W;
   return summary;
 }
 

@@ -10,6 +10,8 @@
 
 #include "roe/core/error.hpp"
 #include "roe/ekf/chi2.hpp"
+#include "roe/ekf/images.hpp"
+#include "roe/ekf/stacked_update.hpp"
 #include "roe/math/euler.hpp"
 #include "roe/math/so3.hpp"
 
@@ -155,8 +157,7 @@ StateEstimate Filter::snapshot() const {
   s.T_I_C = T_I_C_;
   s.extr_offset = extr_offset_;
   s.dim = n_;
-  s.objects.reserve(objects_.size());
-  for (const auto& o : objects_) s.objects.push_back({o.id, o.T_O_W, o.offset, o.dim});
+  s.objects = objects_;
   return s;
 }
 
@@ -412,23 +413,6 @@ inline Mat6 h_pht(const Block& a, const Y& pht_c) {
   return S;
 }
 
-/// C += α A Bᵀ on raw column-major storage (C is M x N with leading dimension ldc, A is M x K, B is N x K),
-/// so that the update can address sub-blocks by pointer. With `lower` (M = N) only the lower
-/// triangle of C is updated (the caller mirrors it). Eigen's products do the arithmetic: a hand-tiled
-/// SSE2 kernel measured 12 % faster on the benchmark and was not kept (docs/benchmarks/ekf.md).
-void add_abt(double* C, Eigen::Index ldc, const double* A, Eigen::Index lda, const double* B,
-             Eigen::Index ldb, Eigen::Index M, Eigen::Index N, Eigen::Index K, double alpha, bool lower) {
-  using Stride = Eigen::OuterStride<>;
-  Eigen::Map<Eigen::MatrixXd, 0, Stride> Cm(C, M, N, Stride(ldc));
-  Eigen::Map<const Eigen::MatrixXd, 0, Stride> Am(A, M, K, Stride(lda));
-  Eigen::Map<const Eigen::MatrixXd, 0, Stride> Bm(B, N, K, Stride(ldb));
-  if (K == 0) return;
-  if (lower && M == N)
-    Cm.triangularView<Eigen::Lower>() += alpha * Am * Bm.transpose();
-  else
-    Cm.noalias() += alpha * Am * Bm.transpose();
-}
-
 }  // namespace
 
 void Filter::build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) const {
@@ -664,20 +648,14 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       if (dets[k].object_id == dets[i].object_id)
         throw InputError(fmt::format("two detections of object {} in the image at {}: one per object and image",
                                      dets[i].object_id, when()));
-    if (std::isfinite(dets[i].score) && dets[i].score < opt_.min_score) {
+    if (!usable_detection(dets[i], opt_)) {
       res.detections[i].status = DetectionStatus::kRejectedScore;
       usable[i] = 0;
     }
   }
-  // Anchor choice: the configured id, or the lowest id among the first frame's usable detections.
-  if (anchor_id_ < 0) {
-    if (opt_.anchor_id >= 0) {
-      anchor_id_ = opt_.anchor_id;
-    } else {
-      for (std::size_t i = 0; i < dets.size(); ++i)
-        if (usable[i] && (anchor_id_ < 0 || dets[i].object_id < anchor_id_)) anchor_id_ = dets[i].object_id;
-    }
-  }
+  // Anchor choice: the configured id (run_filter passes the rule's choice over the whole run), or the rule
+  // (images.hpp) on the one image known here.
+  if (anchor_id_ < 0) anchor_id_ = choose_anchor({ImageDetections{t_ns_, dets}}, t_ns_, t_ns_, opt_).id;
   int anchor_det = -1;
   for (std::size_t i = 0; i < dets.size(); ++i)
     if (usable[i] && dets[i].object_id == anchor_id_) anchor_det = static_cast<int>(i);
@@ -821,42 +799,11 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
           S.block<6, 6>(6 * c, 6 * a) = Sac.transpose();
         }
       }
-      // Cholesky S = L Lᵀ in place (no pivoting needed: S is symmetric positive definite, and failing
-      // that is the guard rail), then K = P Hᵀ S⁻¹ by two triangular solves from the right (no inverse).
-      auto L = ws_L_.topLeftCorner(m, m);
-      L = S;
-      Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(L);
-      if (llt.info() != Eigen::Success || !(L.diagonal().array() > 0.0).all())
-        throw NumericError(
-            fmt::format("filter failed at {}: stacked innovation covariance is not positive "
-                        "definite",
-                        when()));
-      if (ws_U_.rows() != n_ || ws_U_.cols() < 2 * m) {
-        const Eigen::Index cols = std::max<Eigen::Index>(2 * m, ws_U_.rows() == n_ ? ws_U_.cols() : 0);
-        ws_U_.resize(n_, cols);
-        ws_V_.resize(n_, cols);
-      }
-      auto E = ws_U_.leftCols(m);
-      auto K = ws_V_.leftCols(m);
-      K = Y;
-      // K = Y S⁻¹ = Y L⁻ᵀ L⁻¹: solve X Lᵀ = Y, then K L = X (in place, Eigen's triangular solves).
-      L.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(K);
-      L.triangularView<Eigen::Lower>().solveInPlace<Eigen::OnTheRight>(K);
+      // K, δx and the Joseph-form posterior (stacked_update.hpp).
       Eigen::VectorXd& dx = ws_dx_;
-      dx.noalias() = K * r;
-      // Joseph form: (I−KH)P(I−KH)ᵀ + KRKᵀ = P − K(PHᵀ)ᵀ − PHᵀKᵀ + KSKᵀ = P + E Kᵀ + K Eᵀ with
-      // E = ½ K S − P Hᵀ (exact for any K). Evaluated as one product [E, K] [K, E]ᵀ of inner size 2m
-      // assigned to the lower triangle only (n²m multiply-adds), then mirrored (symmetrisation).
-      // K S as K Sᵀ (S symmetric).
-      E.setZero();
-      add_abt(E.data(), ws_U_.outerStride(), K.data(), ws_V_.outerStride(), S.data(), ws_S_.outerStride(), n_,
-              m, m, 1.0, /*lower=*/false);
-      E = 0.5 * E - Y;
-      ws_U_.middleCols(m, m) = K;
-      ws_V_.middleCols(m, m) = E;
-      add_abt(P_.data(), P_.outerStride(), ws_U_.data(), ws_U_.outerStride(), ws_V_.data(),
-              ws_V_.outerStride(), n_, n_, 2 * m, 1.0, /*lower=*/true);
-      P_.triangularView<Eigen::StrictlyUpper>() = P_.transpose();
+      if (!stacked_update(P_, Y, S, r, dx, {ws_L_, ws_U_, ws_V_}))
+        throw NumericError(
+            fmt::format("filter failed at {}: stacked innovation covariance is not positive definite", when()));
       boxplus(dx);
       res.n_inliers = ni;
       ++n_updates_;

@@ -66,7 +66,7 @@ TEST_CASE("roe infer then roe run on a small dataset with images", "[infer][run]
   ro.detections = "tiny-poet";
   const auto res = app::run(ds, root / "run", ro);
   std::size_t used = 0, rejected = 0, total = 0;
-  for (const auto& [id, c] : res.output.counts) {
+  for (const auto& [id, c] : res.output.summary.counts) {
     used += c.accepted + c.initialized;
     rejected += c.rejected_chi2;
     total += c.detections;

@@ -236,8 +236,18 @@ TEST_CASE("run.json's detection counts and NIS statistics agree with the reproje
   }
   CHECK(n.at("gate").get<double>() == Approx(12.591587).epsilon(1e-6));
   CHECK(n.at("mean").get<double>() == Approx(sum / nis.size()).epsilon(1e-12));
-  CHECK(n.at("median").get<double>() == nis[nis.size() / 2]);
-  CHECK(n.at("p95").get<double>() == nis[static_cast<std::size_t>(0.95 * nis.size())]);
+  // Quantiles by linear interpolation between the order statistics (numpy's default).
+  const auto q = [&](double p) {
+    const double h = p * (nis.size() - 1);
+    const std::size_t lo = static_cast<std::size_t>(h);
+    return nis[lo] + (h - lo) * (nis[std::min(lo + 1, nis.size() - 1)] - nis[lo]);
+  };
+  CHECK(n.at("median").get<double>() == Approx(q(0.5)).epsilon(1e-12));
+  CHECK(n.at("p25").get<double>() == Approx(q(0.25)).epsilon(1e-12));
+  CHECK(n.at("p75").get<double>() == Approx(q(0.75)).epsilon(1e-12));
+  CHECK(n.at("p95").get<double>() == Approx(q(0.95)).epsilon(1e-12));
+  CHECK(n.at("max").get<double>() == nis.back());
+  CHECK(n.at("median_ratio").get<double>() == Approx(q(0.5) / 5.348120627).epsilon(1e-8));
   CHECK(n.at("fraction_above_gate").get<double>() == Approx(static_cast<double>(above) / nis.size()).epsilon(1e-12));
   CHECK(above == c.at("rejected_chi2").get<std::size_t>());
   // The text summary names the rarer statuses with their counts when they occur.
@@ -307,6 +317,37 @@ TEST_CASE("run config: strict keys, shipped configs load, defaults round-trip", 
   // Round trip.
   const auto j = app::run_config_to_json(paper);
   CHECK(app::run_config_to_json(app::run_config_from_json(j, "echo")) == j);
+  // The field table echoes every key it loads, each once: a config that sets every key to a non-default
+  // value comes back with those values.
+  io::json every = app::run_config_to_json(app::RunConfig());
+  every["filter"]["meas_sigma_p_m"] = 0.07;
+  every["filter"]["init_gyro_bias"] = {0.01, 0.02, 0.03};
+  every["filter"]["anchor_gauge"] = "pose";
+  every["filter"]["pd_check_every"] = 7;
+  every["health"]["max_dead_reckoning_s"] = 4.5;
+  every["health"]["min_supported_fraction"] = 0.8;
+  const app::RunConfig ev = app::run_config_from_json(every, "every");
+  CHECK(ev.filter.meas_sigma_p_m == 0.07);
+  CHECK(ev.filter.init_gyro_bias.z() == 0.03);
+  CHECK(ev.filter.anchor_gauge == ekf::AnchorGauge::kPose);
+  CHECK(ev.filter.pd_check_every == 7);
+  CHECK(ev.health.max_dead_reckoning_s == 4.5);
+  CHECK(ev.health.min_supported_fraction == 0.8);
+  CHECK(app::run_config_to_json(ev) == every);
+  CHECK(every.at("filter").size() == 42);  // every FilterOptions field (configs/default.json lists them all)
+  CHECK(every.at("health").size() == 4);
+  // The health limits are strict too, and their errors name the key path.
+  for (const char* bad : {R"({"health": {"min_supported_fraction": 1.5}})", R"({"health": {"max_nis_median_ratio": -1}})",
+                          R"({"health": {"support_window_s": -0.5}})", R"({"health": {"max_dead_reckonin_s": 3}})"}) {
+    INFO(bad);
+    try {
+      app::run_config_from_json(io::json::parse(bad), "cfg.json");
+      FAIL("accepted");
+    } catch (const ConfigError& e) {
+      CHECK(e.context().file == "cfg.json");
+      CHECK(e.context().key.rfind("health.", 0) == 0);
+    }
+  }
   // Unknown keys and bad values are ConfigErrors naming the key.
   CHECK_THROWS_AS(app::run_config_from_json(io::json::parse(R"({"filter": {"chi2_confidense": 0.9}})"), "x"),
                   ConfigError);
@@ -623,7 +664,7 @@ TEST_CASE("detections outside the IMU stream are skipped, counted and named in a
   REQUIRE(late > 10);
   const app::RunOutput r = app::run_dataset(d, "sim", app::RunConfig());
   std::size_t skipped = 0;
-  for (const auto& kv : r.counts) skipped += kv.second.rejected_no_imu;
+  for (const auto& kv : r.summary.counts) skipped += kv.second.rejected_no_imu;
   CHECK(skipped == late);
   const std::string want = std::to_string(late) + " detections lie outside the IMU stream and were skipped";
   CHECK(std::count(r.warnings.begin(), r.warnings.end(), want) == 1);

@@ -31,14 +31,7 @@ struct Null : ekf::FilterObserver {
   void on_imu(const ekf::Filter& f) override { n += f.time() & 1; }
 };
 
-std::vector<ekf::ImageDetections> images_of(const Dataset& d) {
-  std::vector<ekf::ImageDetections> images;
-  for (const auto& det : d.detections.at("sim")) {
-    if (images.empty() || images.back().t_ns != det.t_ns) images.push_back({det.t_ns, {}});
-    images.back().detections.push_back(det);
-  }
-  return images;
-}
+std::vector<ekf::ImageDetections> images_of(const Dataset& d) { return ekf::group_images(d.detections.at("sim")); }
 
 double cpu_ms() {
   timespec ts;
@@ -70,10 +63,8 @@ int main(int argc, char** argv) {
     const ekf::ImuNoiseParams noise{
         d.manifest.imu->noise.gyro_noise_density, d.manifest.imu->noise.gyro_random_walk,
         d.manifest.imu->noise.accel_noise_density, d.manifest.imu->noise.accel_random_walk};
-    // The anchor as roe run picks it (most detected among the first image's objects).
-    ekf::FilterOptions opt = cfg.filter;
-    const app::RunOutput ref = app::run_dataset(d, "sim", cfg);
-    opt.anchor_id = ref.anchor_id;
+    // run_filter picks the anchor as roe run does (ekf::choose_anchor).
+    const ekf::FilterOptions opt = cfg.filter;
     std::vector<double> t_filter, t_cpu, t_prop, t_run, t_rec, t_smooth;
     double rec_mb = 0.0;
     std::size_t updates = 0;

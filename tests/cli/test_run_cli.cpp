@@ -91,3 +91,55 @@ TEST_CASE("roe run: exit codes 0/1/2, --force, nothing half-written", "[cli][run
     CHECK_FALSE(fs::exists(out3 / "run.json"));
   }
 }
+
+// An unsupported estimate must not look like a result (issue 23): detections that end after 0.13 s of a
+// 60 s recording leave 59.9 s of IMU dead reckoning. RUN_DIR is written (run.json says why), the exit
+// code is 1 and stderr names the failed limits; the config's "health" limits can relax the verdict.
+TEST_CASE("roe run: a run the detections do not support exits 1 and says why", "[cli][run][health]") {
+  roe::test::TempDir tmp("roe_cli_run_health");
+  const fs::path ds = tmp / "ds";
+  REQUIRE(roe_run("-q simulate --preset paper-seq1 --seed 2 --duration 60 --out " + q(ds)).code == 0);
+  const fs::path full = tmp / "full";
+  REQUIRE(roe_run("-q run " + q(ds) + " --config " + kDefaultConfig + " --out " + q(full)).code == 0);
+  CHECK(nlohmann::json::parse(slurp(full / "run.json")).at("health").at("healthy").get<bool>());
+
+  // Keep the first 5 images' detections (0 … 0.133 s).
+  const fs::path csv = ds / "detections" / "sim" / "detections.csv";
+  std::istringstream in(slurp(csv));
+  std::string header, line, kept;
+  std::getline(in, header);
+  long long t0 = -1;
+  int images = 0;
+  long long last = -1;
+  while (std::getline(in, line)) {
+    const long long t = std::stoll(line.substr(0, line.find(',')));
+    if (t0 < 0) t0 = t;
+    if (t != last) ++images, last = t;
+    if (images > 5) break;
+    kept += line + "\n";
+  }
+  REQUIRE(last - t0 > 130000000LL);
+  std::ofstream(csv, std::ios::trunc) << header << "\n" << kept;
+
+  const fs::path out = tmp / "short";
+  const auto r = roe_run("run " + q(ds) + " --config " + kDefaultConfig + " --out " + q(out));
+  CHECK(r.code == 1);
+  CHECK(r.out.find("cannot be trusted") != std::string::npos);
+  CHECK(r.out.find("without an accepted update (0.13 s → 60.00 s of the 60.00 s trajectory") != std::string::npos);
+  CHECK(r.out.find("the last accepted update is at 0.13 s") != std::string::npos);
+  CHECK(r.out.find("UNHEALTHY") != std::string::npos);
+  const auto j = nlohmann::json::parse(slurp(out / "run.json"));
+  CHECK_FALSE(j.at("health").at("healthy").get<bool>());
+  CHECK(j.at("health").at("problems").size() == 2);
+  CHECK(j.at("health").at("longest_dead_reckoning_s").get<double>() > 59.8);
+  CHECK(j.at("health").at("supported_fraction").get<double>() < 0.02);
+
+  // The limits are the config's: switched off, the same run passes (and says so in run.json).
+  const fs::path cfg = tmp / "lenient.json";
+  std::ofstream(cfg) << R"({"health": {"min_supported_fraction": 0, "max_dead_reckoning_s": -1}})";
+  const fs::path out2 = tmp / "lenient";
+  CHECK(roe_run("-q run " + q(ds) + " --config " + q(cfg) + " --out " + q(out2)).code == 0);
+  const auto j2 = nlohmann::json::parse(slurp(out2 / "run.json"));
+  CHECK(j2.at("health").at("healthy").get<bool>());
+  CHECK(j2.at("config").at("health").at("max_dead_reckoning_s").get<double>() == -1.0);
+}

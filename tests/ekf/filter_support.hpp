@@ -124,11 +124,11 @@ inline MonteCarlo monte_carlo(const std::string& preset, int N, double duration,
   for (int run = 0; run < N; ++run) {
     const Dataset d = simulate_preset(preset, 100 + run, duration);
     const app::RunOutput r = app::run_dataset(d, "sim", cfg);
-    for (double nis : r.nis) {
+    for (double nis : r.summary.nis) {
       ++mc.gated;
-      if (nis > r.gate) ++rejected;
+      if (nis > r.health.nis.gate) ++rejected;
     }
-    const Pose T_Wp_Wt = gauge_position_yaw(r.final_T_O_W.at(r.anchor_id), truth_object(d, r.anchor_id).T_W_O);
+    const Pose T_Wp_Wt = gauge_position_yaw(r.summary.final_T_O_W.at(r.summary.anchor.id), truth_object(d, r.summary.anchor.id).T_W_O);
     const auto m = match(r, d, skip_s);
     if (nees_sum.empty()) nees_sum.assign(m.est.size(), 0.0);
     REQUIRE(m.est.size() >= nees_sum.size() - 2);

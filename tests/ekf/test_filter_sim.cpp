@@ -41,16 +41,16 @@ TEST_CASE("noise-free preset: the estimate converges to the truth", "[ekf][sim]"
     CHECK(a.euler_rmse.maxCoeff() < 0.01);
     // Extrinsics converge to the truth.
     const Pose& T_I_C_true = d.manifest.truth->T_I_C;
-    const Vec6 e_c = math::pose_difference(T_I_C_true, r.final_T_I_C);
+    const Vec6 e_c = math::pose_difference(T_I_C_true, r.summary.final_T_I_C);
     INFO("extrinsics error " << e_c.transpose());
     CHECK(e_c.head<3>().norm() < 1e-3);
     CHECK(e_c.tail<3>().norm() * math::kDegPerRad < 0.02);
     // Non-anchor object-worlds relative to the anchor: T_Ok_Oa = T_Ok_W T_W_Oa against the truth.
-    const Pose T_Oa_W = r.final_T_O_W.at(r.anchor_id);
-    const Pose T_W_Oa_true = truth_object(d, r.anchor_id).T_W_O;
-    REQUIRE(r.final_T_O_W.size() == d.manifest.truth->objects.size());
-    for (const auto& kv : r.final_T_O_W) {
-      if (kv.first == r.anchor_id) continue;
+    const Pose T_Oa_W = r.summary.final_T_O_W.at(r.summary.anchor.id);
+    const Pose T_W_Oa_true = truth_object(d, r.summary.anchor.id).T_W_O;
+    REQUIRE(r.summary.final_T_O_W.size() == d.manifest.truth->objects.size());
+    for (const auto& kv : r.summary.final_T_O_W) {
+      if (kv.first == r.summary.anchor.id) continue;
       const Pose est = kv.second * T_Oa_W.inverse();
       const Pose tru = truth_object(d, kv.first).T_W_O.inverse() * T_W_Oa_true;
       const Vec6 e = math::pose_difference(tru, est);
@@ -118,7 +118,7 @@ TEST_CASE("self-calibration: perturbed extrinsics converge to < 5 mm / 0.5 deg u
   const Dataset d = perturbed_extrinsics("matched-calib", 7, 120.0);
   const Pose& T_I_C_true = d.manifest.truth->T_I_C;
   const app::RunOutput r = app::run_dataset(d, "sim", self_calibration_config());
-  const Vec6 e = math::pose_difference(T_I_C_true, r.final_T_I_C);
+  const Vec6 e = math::pose_difference(T_I_C_true, r.summary.final_T_I_C);
   const double e_p = e.head<3>().norm(), e_r = e.tail<3>().norm() * math::kDegPerRad;
   const auto& last = r.states.back();
   WARN("self-calibration (matched-calib, 120 s): extrinsics error " << e_p * 1000 << " mm, " << e_r
@@ -128,7 +128,7 @@ TEST_CASE("self-calibration: perturbed extrinsics converge to < 5 mm / 0.5 deg u
   CHECK(e_p < 0.005);
   CHECK(e_r < 0.5);
   // The estimate agrees with its own σ (3σ per axis).
-  for (int i = 0; i < 3; ++i) CHECK(std::abs(r.final_T_I_C.p(i) - T_I_C_true.p(i)) < 3.0 * last.sigma(15 + i));
+  for (int i = 0; i < 3; ++i) CHECK(std::abs(r.summary.final_T_I_C.p(i) - T_I_C_true.p(i)) < 3.0 * last.sigma(15 + i));
 }
 
 // On the paper-like slow orbit alone (`matched`, 0.12 rad/s) a lever-arm error δ looks like an
@@ -140,7 +140,7 @@ TEST_CASE("self-calibration on the slow orbit: the lever arm stays uncertain and
   const Dataset d = perturbed_extrinsics("matched", 7, 60.0);
   const Pose& T_I_C_true = d.manifest.truth->T_I_C;
   const app::RunOutput r = app::run_dataset(d, "sim", self_calibration_config());
-  const Vec6 e = math::pose_difference(T_I_C_true, r.final_T_I_C);
+  const Vec6 e = math::pose_difference(T_I_C_true, r.summary.final_T_I_C);
   const auto& last = r.states.back();
   WARN("self-calibration (matched, 60 s): extrinsics error "
        << e.head<3>().norm() * 1000 << " mm, " << e.tail<3>().norm() * math::kDegPerRad
@@ -148,7 +148,7 @@ TEST_CASE("self-calibration on the slow orbit: the lever arm stays uncertain and
   CHECK(e.tail<3>().norm() * math::kDegPerRad < 0.5);
   CHECK(last.sigma.segment<3>(15).maxCoeff() > 0.005);
   for (int i = 0; i < 3; ++i)
-    CHECK(std::abs(r.final_T_I_C.p(i) - T_I_C_true.p(i)) < 3.0 * last.sigma(15 + i) + 0.002);
+    CHECK(std::abs(r.summary.final_T_I_C.p(i) - T_I_C_true.p(i)) < 3.0 * last.sigma(15 + i) + 0.002);
 }
 
 // Non-anchor object-worlds (issue target: σ < 1 cm / 1° within 10 s of first sight; the paper's Fig. 4,
@@ -191,8 +191,8 @@ TEST_CASE("object-worlds: sigma < 1 cm / 1 deg within 10 s of first sight, estim
       if (below(row.sigma_W_O) && !reached_W_O.count(row.object_id)) reached_W_O[row.object_id] = row.t_ns;
     }
     REQUIRE(first.size() >= 2);
-    const Pose T_A_W_est = r.final_T_O_W.at(r.anchor_id);
-    const Pose T_W_A_true = truth_object(d, r.anchor_id).T_W_O;
+    const Pose T_A_W_est = r.summary.final_T_O_W.at(r.summary.anchor.id);
+    const Pose T_W_A_true = truth_object(d, r.summary.anchor.id).T_W_O;
     double best_W_O = 1e9;
     for (const auto& kv : first) {
       INFO("seed " << seed << " object " << kv.first);
@@ -203,7 +203,7 @@ TEST_CASE("object-worlds: sigma < 1 cm / 1 deg within 10 s of first sight, estim
       CHECK(t <= 10.0);
       best_W_O = std::min(best_W_O, dt_seconds(kv.second, reached_W_O[kv.first]));
       const Pose T_W_O_true = truth_object(d, kv.first).T_W_O;
-      const Pose T_O_W_est = r.final_T_O_W.at(kv.first);
+      const Pose T_O_W_est = r.summary.final_T_O_W.at(kv.first);
       // Relative to the anchor (no gauge needed).
       const Vec6 err_A_O = math::pose_difference(T_W_A_true.inverse() * T_W_O_true, T_A_W_est * T_O_W_est.inverse());
       INFO("error T_A_O " << err_A_O.transpose() << " sigma " << last.at(kv.first)->sigma_A_O.transpose());

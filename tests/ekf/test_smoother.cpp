@@ -42,7 +42,7 @@ TEST_CASE("smoother: the recording leaves the filter's estimate bit for bit unch
     REQUIRE(a.x.q_W_I.coeffs() == b.x.q_W_I.coeffs());
     REQUIRE(a.sigma == b.sigma);
   }
-  REQUIRE(plain.final_T_I_C.p == smoothed.final_T_I_C.p);
+  REQUIRE(plain.summary.final_T_I_C.p == smoothed.summary.final_T_I_C.p);
 }
 
 TEST_CASE("smoother: exact at the end, constant states at their final estimate, never less certain",
@@ -75,8 +75,8 @@ TEST_CASE("smoother: exact at the end, constant states at their final estimate, 
   // every time (the RTS gain's constant-state rows; a wrong transpose or Φ breaks this).
   double max_dp = 0.0, max_dth = 0.0, max_dsig = 0.0;
   for (const auto& s : r.states) {
-    max_dp = std::max(max_dp, (s.T_I_C.p - r.final_T_I_C.p).norm());
-    max_dth = std::max(max_dth, rot_diff(s.T_I_C.q, r.final_T_I_C.q));
+    max_dp = std::max(max_dp, (s.T_I_C.p - r.summary.final_T_I_C.p).norm());
+    max_dth = std::max(max_dth, rot_diff(s.T_I_C.q, r.summary.final_T_I_C.q));
     for (int i = 15; i < 21; ++i) max_dsig = std::max(max_dsig, std::abs(s.sigma(i) / lf.sigma(i) - 1.0));
   }
   const double sigma_p = lf.sigma.segment<3>(15).minCoeff();
@@ -132,7 +132,7 @@ TEST_CASE("smoother: the states before the anchor's first sight join the rest wi
   REQUIRE(r.states.size() > 100);
   Timestamp t_anchor = 0;
   for (const auto& p : r.reprojection)
-    if (p.object_id == r.anchor_id && p.outcome.status == ekf::DetectionStatus::kInitialized)
+    if (p.object_id == r.summary.anchor.id && p.outcome.status == ekf::DetectionStatus::kInitialized)
       t_anchor = p.t_ns;
   REQUIRE(t_anchor > r.states.front().t_ns);
   // The largest change between consecutive rows, across the anchor's initialisation and elsewhere

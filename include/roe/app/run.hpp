@@ -10,10 +10,12 @@
 ///   objects.csv      timestamp_ns,object_id,anchor, T_O_W (p, q xyzw), six σ, after each image, then
 ///                    the six σ of T_W_O (where the object is: sigma_p_W_O_*, sigma_theta_W_O_*)
 ///   reprojection.csv timestamp_ns,object_id, T_W_I implied by the raw detection, status, nis
-///   run.json         effective configuration, input hashes, counts, NIS statistics, timings, warnings
+///   run.json         effective configuration, input hashes, counts, NIS statistics, health, timings,
+///                    warnings
 ///
 /// Config file (configs/default.json, configs/paper.json): {"filter": {FilterOptions keys},
-/// "output": {"rate": "imu" | "images"}}; every key optional, unknown keys are errors.
+/// "output": {"rate": "imu" | "images"}, "smoother": ..., "health": {HealthLimits keys}}; every key
+/// optional, unknown keys are errors.
 
 #include <array>
 #include <filesystem>
@@ -24,6 +26,7 @@
 
 #include "roe/core/dataset.hpp"
 #include "roe/ekf/driver.hpp"
+#include "roe/ekf/health.hpp"
 #include "roe/ekf/options.hpp"
 
 namespace roe::app {
@@ -38,6 +41,8 @@ struct RunConfig {
   /// trajectory_filter.csv/.tum and states_filter.csv.
   std::string smoother = "none";
   std::string description;  ///< free text (configs/*.json say what they are for)
+  /// When a run is judged unhealthy (`roe run` exits 1): "health": {...} in the config.
+  ekf::HealthLimits health;
 };
 
 /// Strict loader (ConfigError naming the file and key) and its inverse (what run.json echoes).
@@ -75,11 +80,6 @@ struct ReprojectionRow {
   ekf::DetectionOutcome outcome;
 };
 
-struct ObjectCounts {
-  std::size_t detections = 0, accepted = 0, initialized = 0, rejected_chi2 = 0, rejected_no_main = 0,
-              rejected_score = 0, rejected_no_imu = 0, pending_init = 0;
-};
-
 /// The result of a run in memory (what the files hold).
 struct RunOutput {
   std::vector<StateRow> states;  ///< the estimate (smoothed with RunConfig::smoother "rts")
@@ -89,17 +89,12 @@ struct RunOutput {
   double smoother_wall_s = 0.0;
   std::vector<ObjectRow> objects;
   std::vector<ReprojectionRow> reprojection;
-  std::map<int, ObjectCounts> counts;
+  /// The anchor, per-object counts, NIS values, update times and the final state (ekf/driver.hpp).
   ekf::FilterRunSummary summary;
-  int anchor_id = -1;
+  ekf::RunHealth health;  ///< against RunConfig::health
   Pose prior_T_I_C;  ///< the extrinsics the filter started from (roe.json camera.T_I_C)
-  Pose final_T_I_C;
-  std::map<int, Pose> final_T_O_W;
   std::vector<std::string> warnings;
   double filter_wall_s = 0.0;
-  /// NIS of every gated detection (6 dof), and the gate.
-  std::vector<double> nis;
-  double gate = 0.0;
   /// The IMU noise the filter used (after imu_noise_scale), and where each value came from
   /// ("config" or "dataset"), in the order gyro_noise_density, gyro_random_walk, accel_noise_density,
   /// accel_random_walk.
@@ -126,7 +121,8 @@ struct RunResult {
   std::string to_text() const;
 };
 
-/// `roe run`: reads DATASET, runs, writes RUN_DIR atomically (OutputDir).
+/// `roe run`: reads DATASET, runs, writes RUN_DIR atomically (OutputDir), the health verdict included
+/// (RunResult::output.health; the CLI exits 1 when it is unhealthy).
 RunResult run(const std::filesystem::path& dataset, const std::filesystem::path& out,
               const RunOptions& options);
 

@@ -1,26 +1,23 @@
 #pragma once
 /// @file
 /// Runs the filter over a time-sorted IMU stream and a time-sorted list of images (the detections of
-/// each image already grouped), in the IMU clock. I/O-free: results go to an observer.
+/// each image already grouped), in the IMU clock. I/O-free: the states go to an observer; what a run
+/// report needs (anchor, per-object counts, NIS, update times, final state) to FilterRunSummary.
 ///
 /// Timeline: the filter starts at the first IMU sample (roll/pitch from the accelerometer mean over
 /// FilterOptions::init_window_s). Between samples k−1 and k an image at t_f is handled by propagating
 /// to t_f with the IMU measurement linearly interpolated at t_f, updating, and then propagating on to
 /// sample k. Images before the first or after the last IMU sample are reported as rejected_no_imu.
 
+#include <map>
 #include <string>
 #include <vector>
 
 #include "roe/core/types.hpp"
 #include "roe/ekf/filter.hpp"
+#include "roe/ekf/images.hpp"
 
 namespace roe::ekf {
-
-/// The detections of one image (time in the IMU clock).
-struct ImageDetections {
-  Timestamp t_ns = 0;
-  std::vector<Detection> detections;
-};
 
 class FilterObserver {
  public:
@@ -49,17 +46,36 @@ InitWindow init_window(const std::vector<ImuSample>& imu, double window_s);
 /// `why_not` (may be null) receives the reason when the rest estimate was asked for but not taken.
 Vec3 initial_gyro_bias(const InitWindow& w, const FilterOptions& options, std::string* why_not);
 
+/// What happened to the detections of one object (or of all: operator+=), by status.
+struct DetectionCounts {
+  std::size_t detections = 0, accepted = 0, initialized = 0, rejected_chi2 = 0, rejected_no_main = 0,
+              rejected_score = 0, rejected_no_imu = 0, pending_init = 0;
+  void add(DetectionStatus s);
+  DetectionCounts& operator+=(const DetectionCounts& o);
+};
+
 struct FilterRunSummary {
   std::size_t imu_samples = 0;
   std::size_t images = 0;
   std::size_t updates = 0;
+  Timestamp t_first_ns = 0, t_last_ns = 0;  ///< the IMU span (the trajectory's)
   InitWindow init;                   ///< the init window's statistics
   Vec3 init_gyro_bias = Vec3::Zero();  ///< the gyro bias the filter started with
   bool gyro_bias_from_rest = false;  ///< init_gyro_bias is the window's gyro mean
   std::string gyro_bias_rest_refused;  ///< why not, when init_gyro_bias_from_rest was asked for
+  AnchorChoice anchor;                 ///< the anchor and how it was chosen (choose_anchor)
+  std::map<int, DetectionCounts> counts;  ///< per object id
+  /// rejected_no_main detections in images whose anchor detection was awaiting or getting its
+  /// initialisation (init_min_detections): the anchor was there, just not usable yet.
+  std::size_t no_main_anchor_pending = 0;
+  std::vector<double> nis;                ///< every finite NIS (6 dof), in time order
+  std::vector<Timestamp> update_times;    ///< images with an accepted (stacked) update
+  Pose final_T_I_C;                       ///< the filter's extrinsics at the end
+  std::map<int, Pose> final_T_O_W;        ///< the filter's object-worlds at the end
 };
 
-/// Runs the whole stream. Throws roe::DataError when the IMU stream is too short or not strictly
+/// Runs the whole stream. With FilterOptions::anchor_id −1 the anchor is chosen by choose_anchor over
+/// all `images` (images.hpp) before the filter starts. Throws roe::DataError when the IMU stream is too short or not strictly
 /// increasing, or the images are not sorted; roe::NumericError when the filter diverges. With
 /// `recording`, the filter records what smooth() (smoother.hpp) needs.
 FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,

@@ -46,6 +46,7 @@
 #include "roe/ekf/measurement.hpp"
 #include "roe/ekf/options.hpp"
 #include "roe/ekf/smoother.hpp"
+#include "roe/ekf/state.hpp"
 
 namespace roe::ekf {
 
@@ -75,15 +76,6 @@ struct FrameResult {
   Timestamp t_ns = 0;
   std::vector<DetectionOutcome> detections;  ///< in the order given to update()
   int n_inliers = 0;                         ///< detections used in the stacked update
-};
-
-struct ObjectEntry {
-  int id = 0;
-  Pose T_O_W;  ///< the paper's (p_O_W, q_O_W)
-  bool anchor = false;
-  int offset = -1;  ///< first error-state column (−1 when dim == 0)
-  int dim = 0;      ///< 6; anchor: 0 (kPose), 3 (kPosition: δθ) or 2 (kPositionYaw: δθ_x, δθ_y)
-  Timestamp t_init_ns = 0;
 };
 
 class Filter {

@@ -76,9 +76,9 @@ struct FilterOptions {
   double chi2_confidence = 0.95;  ///< gate = χ²₆ quantile at this probability
 
   // --- Anchor (main object) ---
-  /// Object id of the anchor; −1 = the first object detected (the filter takes the lowest id of the
-  /// first image; `roe run` breaks ties among the first image's objects offline by the number of
-  /// images each is detected in, and passes the id explicitly).
+  /// Object id of the anchor; −1 = chosen by the rule of choose_anchor (images.hpp): among the objects
+  /// of the first usable image, the one detected in the most images, then the lowest id. run_filter
+  /// applies it over the whole run; Filter::update alone knows one image (every count 1: lowest id).
   int anchor_id = -1;
   AnchorGauge anchor_gauge = AnchorGauge::kPositionYaw;
   /// true (paper): frames in which the anchor is not detected are rejected (status rejected_no_main);

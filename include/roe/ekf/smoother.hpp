@@ -37,32 +37,9 @@
 
 #include "roe/core/types.hpp"
 #include "roe/ekf/imu.hpp"
+#include "roe/ekf/state.hpp"
 
 namespace roe::ekf {
-
-struct ObjectEntry;
-
-/// The filter's nominal state with its error-state layout.
-struct StateEstimate {
-  Timestamp t_ns = 0;
-  CoreState x;
-  Pose T_I_C;
-  int extr_offset = -1;  ///< first column of the extrinsics (−1: held fixed)
-  int dim = kCore;       ///< error-state dimension
-  struct Object {
-    int id = 0;
-    Pose T_O_W;
-    int offset = -1;  ///< −1 when dim == 0
-    int dim = 0;      ///< 6, or the anchor's 0/2/3 leading rotation components
-  };
-  std::vector<Object> objects;
-};
-
-/// x ← x ⊞ δx (Filter::boxplus: additive positions/velocities/biases, right rotation errors; the anchor's
-/// components are its leading δθ_O_W components).
-void boxplus(StateEstimate& x, const Eigen::VectorXd& dx);
-/// δ = a ⊟ b with a = b ⊞ δ; a and b must have the same layout.
-Eigen::VectorXd boxminus(const StateEstimate& a, const StateEstimate& b);
 
 struct RecordedStep {
   Timestamp t_ns = 0;

@@ -1,0 +1,39 @@
+#pragma once
+/// @file
+/// The algebra of the filter's stacked update, apart from its policy (which detections enter, the gate,
+/// the anchor's masking, symmetric objects: Filter::update). Given the stacked P Hᵀ, S = H P Hᵀ + R and the
+/// residual r of m rows:
+///   S = L Lᵀ (Cholesky in place, no pivoting: S is symmetric positive definite, failing that is reported),
+///   K = P Hᵀ S⁻¹ = Y L⁻ᵀ L⁻¹ by two triangular solves from the right (no inverse), δx = K r,
+///   P ← (I−KH)P(I−KH)ᵀ + KRKᵀ = P + E Kᵀ + K Eᵀ with E = ½ K S − P Hᵀ (the Joseph form, exact for the K
+///   computed), evaluated as one product [E, K][K, E]ᵀ of inner size 2m on the lower triangle only (n²m
+///   multiply-adds), then mirrored (P exactly symmetric).
+/// I/O-free; tested against the textbook formulas on random problems (tests/ekf/test_stacked_update.cpp).
+
+#include <Eigen/Core>
+
+namespace roe::ekf {
+
+/// C += α A Bᵀ on raw column-major storage (C is M x N with leading dimension ldc, A is M x K, B is N x K),
+/// so that the update can address sub-blocks by pointer. With `lower` (M = N) only the lower
+/// triangle of C is updated (the caller mirrors it). Eigen's products do the arithmetic: a hand-tiled
+/// SSE2 kernel measured 12 % faster on the benchmark and was not kept (docs/benchmarks/ekf.md).
+void add_abt(double* C, Eigen::Index ldc, const double* A, Eigen::Index lda, const double* B, Eigen::Index ldb,
+             Eigen::Index M, Eigen::Index N, Eigen::Index K, double alpha, bool lower);
+
+/// Reusable buffers of stacked_update (sized on first use; no allocation afterwards). U and V are at
+/// least n x 2m (the filter also uses U as a gather buffer of its own).
+struct StackedUpdateBuffers {
+  Eigen::MatrixXd& L;  ///< ≥ m x m: the Cholesky factor
+  Eigen::MatrixXd& U;  ///< n x ≥ 2m: [E, K]
+  Eigen::MatrixXd& V;  ///< n x ≥ 2m: [K, E]
+};
+
+/// One stacked update of the n x n covariance P with Y = P Hᵀ (n x m), S (m x m, symmetric) and r (m):
+/// writes δx = K r to `dx` and P's Joseph-form posterior to P. Returns false, with P and dx untouched, when
+/// S is not positive definite.
+bool stacked_update(Eigen::MatrixXd& P, const Eigen::Ref<const Eigen::MatrixXd>& Y,
+                    const Eigen::Ref<const Eigen::MatrixXd>& S, const Eigen::Ref<const Eigen::VectorXd>& r,
+                    Eigen::VectorXd& dx, const StackedUpdateBuffers& buf);
+
+}  // namespace roe::ekf
