@@ -11,9 +11,10 @@ packages=(
   liblz4-dev libbz2-dev libyaml-cpp-dev libssl-dev                  # ROS bags, Kalibr YAML, sha256
   libopencv-dev libtorch-dev                                        # images, detector, PoET head
   python3 python3-numpy python3-matplotlib                          # plots (roe eval --plot)
+  clang libclang-rt-14-dev                                          # fuzz/smoke test: libFuzzer, ASan, UBSan
 )
 if [[ "${1:-}" == "--dev" ]]; then
-  packages+=(clang clang-format libclang-rt-14-dev python3-torch)
+  packages+=(clang-format python3-torch)
 fi
 
 missing=()

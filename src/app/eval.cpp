@@ -49,10 +49,10 @@ Estimate load_estimate(const EvalOptions& o, std::vector<std::string>& warnings)
   Estimate e;
   e.in.path = o.est;
   if (o.est.empty()) throw InputError("an estimate (RUN_DIR or EST_FILE) is required", {"roe eval"});
-  if (!fs::exists(e.in.path)) throw InputError("estimate not found", {o.est});
-  if (fs::is_directory(e.in.path)) {
+  if (!io::path_exists(e.in.path)) throw InputError("estimate not found", {o.est});
+  if (io::is_folder(e.in.path)) {
     const fs::path traj = e.in.path / "trajectory.csv";
-    if (!fs::exists(traj)) {
+    if (!io::path_exists(traj)) {
       throw InputError(
           "not a run folder: it has no trajectory.csv (pass a trajectory file or a `roe run` output)",
           {o.est});
@@ -67,12 +67,12 @@ Estimate load_estimate(const EvalOptions& o, std::vector<std::string>& warnings)
     e.in.traj = io::read_trajectory(traj, io::TrajectoryFormat::kAuto);
     e.in.description = fmt::format("run folder {} (trajectory.csv)", o.est);
     const fs::path rep = e.in.path / "reprojection.csv";
-    if (fs::exists(rep)) {
+    if (io::path_exists(rep)) {
       e.reprojection = read_reprojection_csv(rep);
       e.have_reprojection = true;
     }
     const fs::path states = e.in.path / "states.csv";
-    if (fs::exists(states)) {
+    if (io::path_exists(states)) {
       std::string why;
       e.cov = read_states_covariance(states, e.in.traj.t_ns, &why);
       if (e.cov.empty()) {
@@ -120,7 +120,7 @@ void check_gt_source(const std::string& v) {
 std::string default_label(const fs::path& p) {
   fs::path q = p;
   if (q.filename().empty()) q = q.parent_path();
-  return fs::is_directory(q) ? q.filename().string() : q.stem().string();
+  return io::is_folder(q) ? q.filename().string() : q.stem().string();
 }
 
 }  // namespace

@@ -115,7 +115,7 @@ std::string render_eval_plots(const fs::path& eval_dir, bool& ok) {
   std::string written;  // rpe.png only exists with --rpe-delta
   for (const char* name : {"trajectory_top", "xyz", "rpy", "errors", "rpe"}) {
     const std::string f = fmt::format("plots/{}.png", name);
-    if (fs::exists(eval_dir / f)) written += (written.empty() ? "" : ", ") + f;
+    if (io::path_exists(eval_dir / f)) written += (written.empty() ? "" : ", ") + f;
   }
   return written;
 }
