@@ -6,7 +6,8 @@
 #                                    findings land in build-fuzz/findings/, a summary line per target
 #   scripts/fuzz.sh smoke            build, then run every target ROE_FUZZ_SMOKE_S seconds (default 10);
 #                                    exit 77 (CTest: skipped) when clang or libFuzzer is missing
-# Environment: FUZZ_BUILD (default build-fuzz), JOBS (build jobs, default nproc).
+# Environment: FUZZ_BUILD (default build-fuzz), JOBS (build jobs, default nproc), FUZZ_TIMEOUT (seconds one
+# input may take before it counts as a hang, default 30: generous, for a loaded machine).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
@@ -43,7 +44,7 @@ seeds() {
   case "$1" in
     fuzz_csv|fuzz_dataset|fuzz_trajectory) pats='*.csv *.txt' ;;
     fuzz_json) pats='*.json' ;;
-    fuzz_poet) pats='*results*.json *.json' ;;
+    fuzz_poet) pats='*results*.json' ;;
     fuzz_kalibr) pats='*.yaml' ;;
     fuzz_rosbag) pats='*.bag' ;;
     fuzz_mcap) pats='*.mcap' ;;
@@ -58,13 +59,11 @@ seeds() {
 run_one() {  # target seconds
   local t=$1 s=$2 corpus=$B/corpus/$1 log=$B/logs/$1.log
   mkdir -p "$corpus" "$B/findings" "$B/logs"
-  if [ -z "$(ls -A "$corpus")" ]; then
-    seeds "$t" | while read -r f; do cp "$f" "$corpus/seed-$(sha1sum "$f" | cut -c1-16)"; done
-  fi
+  seeds "$t" | while read -r f; do cp -n "$f" "$corpus/seed-$(sha1sum "$f" | cut -c1-16)"; done
   local max_len=65536
   case "$t" in fuzz_rosbag|fuzz_mcap|fuzz_cdr) max_len=1048576 ;; esac
   local rc=0
-  nice -n 10 "$B/$t" "$corpus" -max_total_time="$s" -timeout=10 -rss_limit_mb=2048 -max_len=$max_len \
+  nice -n 10 "$B/$t" "$corpus" -max_total_time="$s" -timeout="${FUZZ_TIMEOUT:-30}" -rss_limit_mb=2048 -max_len=$max_len \
     -print_final_stats=1 -artifact_prefix="$B/findings/$t-" >"$log" 2>&1 || rc=$?
   local execs
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)

@@ -133,12 +133,44 @@ KalibrCamchain read_kalibr_camchain(const fs::path& file, const std::string& cam
 
 KalibrImu read_kalibr_imu(const fs::path& file) { return parse_kalibr_imu(read_file(file), file.string()); }
 
+namespace {
+
+/// yaml-cpp throws on a subscript of a scalar or a sequence (a camera given as a list): whatever the
+/// checks above did not foresee is still this file's error, at yaml-cpp's mark.
+template <typename Fn>
+auto yaml_structure_errors(const fs::path& file, Fn&& fn) {
+  try {
+    return fn();
+  } catch (const YAML::Exception& e) {
+    throw InputError("unexpected YAML structure: " + e.msg,
+                     {file.string(), e.mark.is_null() ? 0 : e.mark.line + 1, e.mark.is_null() ? 0 : e.mark.column + 1});
+  }
+}
+
+KalibrCamchain camchain_from_yaml(const YAML::Node& root, const fs::path& file, const std::string& camera);
+KalibrImu imu_from_yaml(const YAML::Node& root, const fs::path& file);
+
+}  // namespace
+
 KalibrCamchain parse_kalibr_camchain(const std::string& yaml, const std::string& source, const std::string& camera) {
   const fs::path file(source);
   const YAML::Node root = load_yaml(yaml, file);
+  return yaml_structure_errors(file, [&] { return camchain_from_yaml(root, file, camera); });
+}
+
+KalibrImu parse_kalibr_imu(const std::string& yaml, const std::string& source) {
+  const fs::path file(source);
+  const YAML::Node root = load_yaml(yaml, file);
+  return yaml_structure_errors(file, [&] { return imu_from_yaml(root, file); });
+}
+
+namespace {
+
+KalibrCamchain camchain_from_yaml(const YAML::Node& root, const fs::path& file, const std::string& camera) {
   if (!root.IsMap()) throw InputError("expected a YAML mapping with cam0, cam1, ...", {file.string()});
   const YAML::Node cam = root[camera];
   if (!cam) throw InputError("no camera \"" + camera + "\" in the camchain", {file.string(), 0, 0, camera});
+  if (!cam.IsMap()) throw InputError("expected a mapping (camera_model, intrinsics, ...)", at(file, cam, camera));
   KalibrCamchain c;
   c.camera_model = text(file, required(file, cam, "camera_model", camera), camera + ".camera_model");
   c.intrinsics = numbers(file, required(file, cam, "intrinsics", camera), camera + ".intrinsics");
@@ -196,13 +228,12 @@ KalibrCamchain parse_kalibr_camchain(const std::string& yaml, const std::string&
   return c;
 }
 
-KalibrImu parse_kalibr_imu(const std::string& yaml, const std::string& source) {
-  const fs::path file(source);
-  const YAML::Node root = load_yaml(yaml, file);
+KalibrImu imu_from_yaml(const YAML::Node& root, const fs::path& file) {
   if (!root.IsMap()) throw InputError("expected a YAML mapping", {file.string()});
   // Kalibr's imu.yaml is flat; a multi-IMU file nests the same keys under imu0.
   const YAML::Node n = root["imu0"] ? root["imu0"] : root;
   const std::string p = root["imu0"] ? "imu0" : "";
+  if (!n.IsMap()) throw InputError("expected a mapping of noise densities", at(file, n, p));
   auto key = [&](const char* k) { return p.empty() ? std::string(k) : p + "." + k; };
   KalibrImu k;
   auto positive = [&](const char* name, double& out) {
@@ -220,5 +251,7 @@ KalibrImu parse_kalibr_imu(const std::string& yaml, const std::string& source) {
   if (n["rostopic"]) k.rostopic = text(file, n["rostopic"], key("rostopic"));
   return k;
 }
+
+}  // namespace
 
 }  // namespace roe::io

@@ -287,3 +287,17 @@ TEST_CASE("BOM class: every text reader skips a UTF-8 byte order mark", "[io][ho
   d.write("roe.json", bom + sample);
   CHECK(roe::io::read_manifest(d.path).name == "paper-seq4");
 }
+
+TEST_CASE("YAML class (fuzz finding): a camera or an IMU that is not a mapping is an input error, not yaml-cpp's "
+          "BadSubscript",
+          "[io][hostile][kalibr]") {
+  // fuzz_kalibr's first finding: a byte change turned cam0's mapping into a scalar, and cam0["camera_model"]
+  // threw YAML::BadSubscript through the reader (exit 3 in roe).
+  for (const std::string y : {"cam0: 5\n", "cam0: [1, 2]\n", "cam0:\n  \"T_cam_imu:\n  - [1, 0]\n"}) {
+    INFO(y);
+    const auto e = expect_input_error([&] { roe::io::parse_kalibr_camchain(y, "cc.yaml"); });
+    CHECK(e.context().line >= 1);
+  }
+  for (const std::string y : {"imu0: 5\n", "imu0: [1]\n"})
+    CHECK_THROWS_WITH(roe::io::parse_kalibr_imu(y, "i.yaml"), Contains("i.yaml:1:"));
+}
