@@ -4,6 +4,7 @@
 #include <cctype>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "roe/io/output.hpp"
@@ -78,26 +79,34 @@ struct JsonCursor {
     }
     return depth == 0;
   }
-  // At '{': moves to the value of member `key`; returns the offset of its key, or npos.
-  std::size_t find_member(const std::string& key) {
+  // At '{': moves to the value of member `key` (its last occurrence when `last`); returns the offset of
+  // its key, or npos.
+  std::size_t find_member(const std::string& key, bool last) {
     skip_space();
     if (done() || t[i] != '{') return std::string_view::npos;
     ++i;
     std::string k;
+    std::size_t found = std::string_view::npos, value = 0;
     while (true) {
       skip_space();
       const std::size_t at = i;
-      if (!read_string(k)) return std::string_view::npos;
+      if (!read_string(k)) break;
       skip_space();
-      if (done() || t[i] != ':') return std::string_view::npos;
+      if (done() || t[i] != ':') break;
       ++i;
       skip_space();
-      if (k == key) return at;
-      if (!skip_value()) return std::string_view::npos;
+      if (k == key) {
+        found = at;
+        value = i;
+        if (!last) break;
+      }
+      if (!skip_value()) break;
       skip_space();
-      if (done() || t[i] != ',') return std::string_view::npos;
+      if (done() || t[i] != ',') break;
       ++i;
     }
+    if (found != std::string_view::npos) i = value;
+    return found;
   }
   // At '[': moves to element `index`; returns its offset, or npos.
   std::size_t find_element(std::size_t index) {
@@ -118,7 +127,8 @@ struct JsonCursor {
 
 }  // namespace
 
-std::pair<std::int64_t, std::int64_t> json_key_location(std::string_view text, const std::string& key_path) {
+std::pair<std::int64_t, std::int64_t> json_key_location(std::string_view text, const std::string& key_path,
+                                                        bool last_occurrence) {
   if (key_path.empty() || key_path == "<root>") return {0, 0};
   JsonCursor cur{text};
   cur.i = utf8_bom_length(text);
@@ -136,9 +146,9 @@ std::pair<std::int64_t, std::int64_t> json_key_location(std::string_view text, c
       p = close + 1;
     } else {
       if (key_path[p] == '.') ++p;
-      const std::size_t end = key_path.find_first_of(".[", p);
-      at = cur.find_member(key_path.substr(p, end == std::string::npos ? std::string::npos : end - p));
+      const std::size_t start = p, end = key_path.find_first_of(".[", p);
       p = end == std::string::npos ? key_path.size() : end;
+      at = cur.find_member(key_path.substr(start, p - start), last_occurrence && p == key_path.size());
     }
     if (at == std::string_view::npos) return {0, 0};
   }
@@ -243,8 +253,13 @@ json parse_json_unlocated(const std::string& text, const std::string& source) {
 }  // namespace
 
 json parse_json_text(const std::string& text, const std::string& source) {
-  // The duplicate-key error knows its key path only: located here, in the text.
-  return with_json_locations(text, source, [&] { return parse_json_unlocated(text, source); });
+  try {
+    return parse_json_unlocated(text, source);
+  } catch (const ConfigError& e) {  // a key given twice: located at its second occurrence
+    ErrorContext c = e.context();
+    if (c.line == 0 && !c.key.empty()) std::tie(c.line, c.column) = json_key_location(text, c.key, true);
+    throw ConfigError(e.bare_message(), c);
+  }
 }
 
 std::string dump_json(const json& j, int indent) {

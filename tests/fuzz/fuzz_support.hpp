@@ -13,8 +13,16 @@
 #include <string>
 
 #include "roe/core/error.hpp"
+#include "roe/core/log.hpp"
 
 namespace roe::fuzz {
+
+/// Warnings (a CSV's last line without its line end, ...) are not findings: kept off stderr, where they
+/// would cost more than the parse.
+inline const bool quiet_logs = [] {
+  roe::log::set_level(roe::log::Level::kQuiet);
+  return true;
+}();
 
 /// The input as a string.
 inline std::string text(const std::uint8_t* data, std::size_t size) {

@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -34,22 +35,26 @@ json parse_json_file(const std::filesystem::path& path);
 json parse_json_text(const std::string& text, const std::string& source);
 /// Where the value at `key_path` ("camera.fx", "objects[2].T_W_O.q") is in the JSON `text`: the 1-based
 /// line and column of its key (object members) or of the element itself (array elements); {0, 0}
-/// when the path is not in the text. Linear in the text's size; `text` need not be valid beyond the
-/// path.
-std::pair<std::int64_t, std::int64_t> json_key_location(std::string_view text, const std::string& key_path);
+/// when the path is not in the text. With `last_occurrence`, a key given twice in its object is found at
+/// its last occurrence. Linear in the text's size; `text` need not be valid beyond the path.
+std::pair<std::int64_t, std::int64_t> json_key_location(std::string_view text, const std::string& key_path,
+                                                        bool last_occurrence = false);
 
 /// Gives the errors of a reader their line and column: runs `fn()`, and an roe::InputError (ConfigError
 /// included) that names `source` and a key path but no line is thrown again, same type, with the line and
-/// column of that key in `text` (json_key_location). Every semantic check that throws with the key path
+/// column of that key in `text` (json_key_location), or of its nearest ancestor when the key is absent. Every semantic check that throws with the key path
 /// (a wrong type, an unknown key, fx = 0, a non-unit quaternion) is located this way, in one place.
 template <typename Fn>
 decltype(auto) with_json_locations(const std::string& text, const std::string& source, Fn&& fn) {
   const auto located = [&](const InputError& e) {
     ErrorContext c = e.context();
     if (c.file != source || c.line != 0 || c.key.empty()) return c;
-    const auto [line, column] = json_key_location(text, c.key);
-    c.line = line;
-    c.column = column;
+    // A key that is not in the text (a missing required key) is located at its nearest ancestor.
+    for (std::string path = c.key; !path.empty() && c.line == 0;) {
+      std::tie(c.line, c.column) = json_key_location(text, path);
+      const std::size_t cut = path.find_last_of(".[");
+      path = cut == std::string::npos ? std::string() : path.substr(0, cut);
+    }
     return c;
   };
   try {
