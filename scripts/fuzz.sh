@@ -60,8 +60,12 @@ run_one() {  # target seconds
   local t=$1 s=$2 corpus=$B/corpus/$1 log=$B/logs/$1.log
   mkdir -p "$corpus" "$B/findings" "$B/logs"
   seeds "$t" | while read -r f; do cp -n "$f" "$corpus/seed-$(sha1sum "$f" | cut -c1-16)"; done
+  # Inputs long enough for every structure of the format, short enough for many executions a second.
   local max_len=65536
-  case "$t" in fuzz_rosbag|fuzz_mcap|fuzz_cdr) max_len=1048576 ;; esac
+  case "$t" in
+    fuzz_rosbag|fuzz_mcap|fuzz_cdr) max_len=1048576 ;;
+    fuzz_csv|fuzz_trajectory) max_len=8192 ;;
+  esac
   local rc=0
   nice -n 10 "$B/$t" "$corpus" -max_total_time="$s" -timeout="${FUZZ_TIMEOUT:-30}" -rss_limit_mb=2048 -max_len=$max_len \
     -print_final_stats=1 -artifact_prefix="$B/findings/$t-" >"$log" 2>&1 || rc=$?

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <string>
 
+#include "roe/io/output.hpp"
 #include "support/test_util.hpp"
 
 namespace fs = std::filesystem;
@@ -53,12 +54,13 @@ TEST_CASE("roe: /dev/zero, a FIFO without writer, a folder and a symlink loop as
   fs::create_directories(d / "folder");
   d.write("cc.yaml", kCamchain);
   d.write("est.txt", "1 0 0 0 0 0 0 1\n2 0 0 0 0 0 0 1\n3 0 0 0 0 0 0 1\n");
+  fs::copy(fs::path(ROE_SOURCE_DIR) / "datasets" / "sample", d / "pds", fs::copy_options::recursive);
   for (const std::string special : {"/dev/zero", "fifo", "loop", "folder"}) {
     for (const std::string& args :
          {"import mocap " + special + " --into ds --format tum", "import mocap " + special + " --into ds",
           "eval " + special + " --gt est.txt --no-out", "eval est.txt --gt " + special + " --no-out",
           "import kalibr " + special + " --into ds", "import kalibr cc.yaml " + special + " --into ds",
-          "import poet " + special + " --into ds"}) {
+          "import poet " + special + " --into pds"}) {
       INFO(args);
       const Limited r = run_limited(d.path, args);
       INFO(r.out);
@@ -115,4 +117,37 @@ TEST_CASE("roe import kalibr: a resolution of 1e12 and chained aliases are input
   CHECK(r.code == 2);
   CHECK(r.seconds < 5);
   CHECK_THAT(r.out, Contains("laughs.yaml:1:") && Contains("anchor"));
+}
+
+TEST_CASE("roe import mocap: a negative stamp is an input error at its line", "[cli][hostile]") {
+  roe::test::TempDir d("roe_cli_hostile");
+  d.write("neg.txt", "-2.5 0 0 0 0 0 0 1\n1.0 0 0 0 0 0 0 1\n3.0 0 0 0 0 0 0 1\n");
+  d.write("neg.csv", "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n"
+                     "-1000,0,0,0,1,0,0,0\n2000,0,0,0,1,0,0,0\n");
+  Limited r = run_limited(d.path, "import mocap neg.txt --into ds --format tum");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Contains("neg.txt:1") && Contains("negative"));
+  r = run_limited(d.path, "import mocap neg.csv --into ds2 --format euroc");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Contains("neg.csv:2") && Contains("negative"));
+  CHECK_FALSE(fs::exists(d / "ds2" / "mav0"));
+}
+
+TEST_CASE("roe calib-check: a NaN anywhere in states.csv is an input error at its row and column", "[cli][hostile]") {
+  roe::test::TempDir d("roe_cli_hostile");
+  const fs::path sample = fs::path(ROE_SOURCE_DIR) / "datasets" / "sample";
+  Limited r = run_limited(d.path, "run '" + sample.string() + "' --out run");
+  REQUIRE(r.code == 0);
+  REQUIRE(run_limited(d.path, "calib-check run").code != 2);
+  // v_W_I_x (column 5) of the third data row: a column no check reads.
+  std::string states = roe::io::read_file(d / "run" / "states.csv");
+  std::size_t at = 0;
+  for (int k = 0; k < 3; ++k) at = states.find('\n', at) + 1;
+  std::size_t c = at;
+  for (int k = 0; k < 4; ++k) c = states.find(',', c) + 1;
+  states.replace(c, states.find(',', c) - c, "nan");
+  roe::io::write_file_atomic(d / "run" / "states.csv", states);
+  r = run_limited(d.path, "calib-check run");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Contains("states.csv:4:5") && Contains("v_W_I_x"));
 }
