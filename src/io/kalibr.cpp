@@ -79,8 +79,9 @@ YAML::Node load_yaml(const std::string& text, const fs::path& file) {
       std::istringstream in(text);
       YAML::Parser parser(in);
       RefuseAliases refuse(file.string());
-      while (parser.HandleNextDocument(refuse)) {
-      }
+      // The first document only, as YAML::Load reads: yaml-cpp 0.7's loop over the next documents never
+      // ends on some input (",m0:", a fuzz finding; YAML::LoadAll hangs on it too).
+      parser.HandleNextDocument(refuse);
     }
     root = YAML::Load(text);
   } catch (const YAML::Exception& e) {

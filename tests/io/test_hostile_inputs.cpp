@@ -300,6 +300,10 @@ TEST_CASE("YAML class (fuzz finding): a camera or an IMU that is not a mapping i
     const auto e = expect_input_error([&] { roe::io::parse_kalibr_camchain(y, "cc.yaml"); });
     CHECK(e.context().line >= 1);
   }
+  // fuzz_kalibr's second finding: yaml-cpp's loop over a file's documents never ends on ",m0:" (4 bytes).
+  const auto t0 = std::chrono::steady_clock::now();
+  CHECK_THROWS_AS(roe::io::parse_kalibr_camchain(",m0:", "cc.yaml"), roe::InputError);
+  CHECK(std::chrono::steady_clock::now() - t0 < std::chrono::seconds(2));
   for (const std::string y : {"imu0: 5\n", "imu0: [1]\n"})
     CHECK_THROWS_WITH(roe::io::parse_kalibr_imu(y, "i.yaml"), Contains("i.yaml:1:"));
 }
