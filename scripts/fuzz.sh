@@ -57,7 +57,7 @@ seeds() {
 }
 
 run_one() {  # target seconds
-  local t=$1 s=$2 corpus=$B/corpus/$1 log=$B/logs/$1.log
+  local t=$1 s=$2 corpus=$B/corpus/$1 log=$B/logs/${LOG_PREFIX:-}$1.log
   mkdir -p "$corpus" "$B/findings" "$B/logs"
   seeds "$t" | while read -r f; do cp -n "$f" "$corpus/seed-$(sha1sum "$f" | cut -c1-16)"; done
   # Inputs long enough for every structure of the format, short enough for many executions a second.
@@ -97,7 +97,7 @@ case "${1:-}" in
       exit 77
     fi
     build >"${TMPDIR:-/tmp}/roe-fuzz-build.log" 2>&1 || { cat "${TMPDIR:-/tmp}/roe-fuzz-build.log"; exit 1; }
-    run_all "${ROE_FUZZ_SMOKE_S:-10}"
+    LOG_PREFIX=smoke- run_all "${ROE_FUZZ_SMOKE_S:-10}"
     ;;
   *) sed -n '2,9p' "$0"; exit 2 ;;
 esac
