@@ -44,6 +44,12 @@ install: deps
 bench: build
 	scripts/bench.sh $(BUILD)
 
+# The libFuzzer targets (tests/fuzz/fuzz_*.cpp) in build-fuzz/ with clang, ASan and UBSan; run them with
+# `scripts/fuzz.sh run SECONDS` (docs/TESTING.md, "Fuzzing").
+.PHONY: fuzz
+fuzz:
+	JOBS=$(JOBS) scripts/fuzz.sh build
+
 format:
 	clang-format -i $$(git ls-files '*.cpp' '*.hpp')
 

@@ -14,9 +14,10 @@ packages=(
   python3 python3-numpy python3-matplotlib                          # plots (roe eval --plot)
   parallel slurm-wlm munge                                          # roe sweep: the real-engine tests (GNU parallel, single-node Slurm)
   chromium                                                          # roe report's browser test (tests/cli/test_report_cli.cpp)
+  clang libclang-rt-14-dev                                          # fuzz/smoke test: libFuzzer, ASan, UBSan
 )
 if [[ "${1:-}" == "--dev" ]]; then
-  packages+=(clang clang-format libclang-rt-14-dev python3-torch)
+  packages+=(clang-format python3-torch)
   packages+=(python3-scipy)  # regenerates tests/eval/data/stats_reference.json (tests do not need it)
 fi
 

@@ -106,6 +106,10 @@ StatesTrace read_states(const fs::path& file) {
   while (r.next()) {
     calib::ExtrinsicsSample s;
     s.t_ns = r.get_int64(ct);
+    // roe run writes only finite numbers here (the filter stops on a non-finite state): a NaN or a
+    // non-number in any column, read by a check or not, means the file is damaged (docs/calib-check.md).
+    for (std::size_t c = 0; c < r.size(); ++c)
+      if (c != ct) (void)r.get_double(c);
     if (!t.extrinsics.empty() && s.t_ns < t.extrinsics.back().t_ns)
       throw r.error(ct, fmt::format("time stamps must not decrease ({} after {})", s.t_ns, t.extrinsics.back().t_ns));
     Eigen::Vector3d p;

@@ -11,6 +11,7 @@
 #include "roe/core/error.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/eval_report.hpp"
+#include "roe/io/input.hpp"
 #include "roe/io/output.hpp"
 
 namespace roe::app {
@@ -37,10 +38,10 @@ Estimate load_estimate(const EvalOptions& o, std::vector<std::string>& warnings)
     e.in = std::move(*bag);
     return e;
   }
-  if (!fs::exists(e.in.path)) throw InputError("estimate not found", {o.est});
-  if (fs::is_directory(e.in.path)) {
+  if (!io::path_exists(e.in.path)) throw InputError("estimate not found", {o.est});
+  if (io::is_folder(e.in.path)) {
     const fs::path traj = e.in.path / "trajectory.csv";
-    if (!fs::exists(traj)) {
+    if (!io::path_exists(traj)) {
       throw InputError(
           "not a run folder: it has no trajectory.csv (pass a trajectory file or a `roe run` output)",
           {o.est});
@@ -55,12 +56,12 @@ Estimate load_estimate(const EvalOptions& o, std::vector<std::string>& warnings)
     e.in.traj = io::read_trajectory(traj, io::TrajectoryFormat::kAuto);
     e.in.description = fmt::format("run folder {} (trajectory.csv)", o.est);
     const fs::path rep = e.in.path / "reprojection.csv";
-    if (fs::exists(rep)) {
+    if (io::path_exists(rep)) {
       e.reprojection = read_reprojection_csv(rep);
       e.have_reprojection = true;
     }
     const fs::path states = e.in.path / "states.csv";
-    if (fs::exists(states)) {
+    if (io::path_exists(states)) {
       std::string why;
       e.cov = read_states_covariance(states, e.in.traj.t_ns, &why);
       if (e.cov.empty()) {
@@ -110,12 +111,12 @@ void check_gt_source(const std::string& v) {
 /// path as given to `roe run`). `note` says where the ground truth came from.
 EvalOptions with_ground_truth(EvalOptions o, std::string& note) {
   if (!o.gt.empty()) return o;
-  if (!o.est.empty() && !fs::exists(o.est)) throw InputError("estimate not found", {o.est});
-  if (o.est.empty() || !fs::is_directory(o.est))
+  if (!o.est.empty() && !io::path_exists(o.est)) throw InputError("estimate not found", {o.est});
+  if (o.est.empty() || !io::is_folder(o.est))
     throw InputError("--gt DATASET|GT_FILE is required (only a run folder's run.json names its dataset)",
                      {"roe eval"});
   const fs::path rj = fs::path(o.est) / "run.json";
-  if (!fs::exists(rj))
+  if (!io::path_exists(rj))
     throw InputError("--gt DATASET is required: this folder has no run.json naming the dataset it ran on",
                      {o.est});
   const json j = io::parse_json_file(rj);
@@ -123,7 +124,7 @@ EvalOptions with_ground_truth(EvalOptions o, std::string& note) {
   for (const char* key : {"dataset_abs", "dataset"}) {
     if (!in.is_object() || !in.contains(key) || !in[key].is_string()) continue;
     const std::string d = in[key].get<std::string>();
-    if (d.empty() || !fs::is_directory(d)) continue;
+    if (d.empty() || !io::is_folder(d)) continue;
     o.gt = d;
     note = fmt::format("the dataset {} names ({})", rj.string(), d);
     return o;

@@ -7,6 +7,7 @@
 
 #include "roe/app/eval.hpp"
 #include "roe/core/error.hpp"
+#include "roe/io/input.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/bag.hpp"
 #include "roe/io/dataset.hpp"
@@ -180,8 +181,8 @@ EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warn
   EvalInput in;
   in.path = o.gt;
   if (o.gt.empty()) throw InputError("--gt DATASET|GT_FILE is required", {"roe eval"});
-  if (!fs::exists(in.path)) throw InputError("ground truth not found", {o.gt});
-  if (!fs::is_directory(in.path)) {
+  if (!io::path_exists(in.path)) throw InputError("ground truth not found", {o.gt});
+  if (!io::is_folder(in.path)) {
     if (o.gt_source != "auto")
       warnings.push_back(
           fmt::format("--gt-source {} is ignored: the ground truth is a file, not a dataset", o.gt_source));
@@ -203,18 +204,18 @@ EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warn
                     "read as such)",
                     o.gt_format));
   // A roe dataset (roe.json + mav0/...), an EuRoC sequence folder (mav0/...) or a mav0 folder itself.
-  const bool has_manifest = fs::exists(io::manifest_path(in.path));
+  const bool has_manifest = io::path_exists(io::manifest_path(in.path));
   fs::path mav0 = in.path / "mav0";
-  if (!fs::is_directory(mav0) && fs::exists(in.path / "state_groundtruth_estimate0")) mav0 = in.path;
+  if (!io::is_folder(mav0) && io::path_exists(in.path / "state_groundtruth_estimate0")) mav0 = in.path;
   const fs::path gt_csv = mav0 / "state_groundtruth_estimate0" / "data.csv";
   const fs::path mocap_csv = mav0 / "mocap0" / "data.csv";
   const bool want_gt = o.gt_source != "mocap", want_mocap = o.gt_source != "groundtruth";
-  if (want_gt && fs::exists(gt_csv)) {
+  if (want_gt && io::path_exists(gt_csv)) {
     in.traj = io::read_trajectory(gt_csv, io::TrajectoryFormat::kEuroc);
     in.description = fmt::format("{} (true IMU pose T_W_I)", gt_csv.string());
     return in;
   }
-  if (want_mocap && fs::exists(mocap_csv)) {
+  if (want_mocap && io::path_exists(mocap_csv)) {
     io::Trajectory m = io::read_trajectory(mocap_csv, io::TrajectoryFormat::kEuroc);
     Pose T_B_I;
     double offset_s = 0.0;

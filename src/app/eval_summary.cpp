@@ -130,8 +130,8 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
   std::vector<Row> rows;
   for (const auto& r : o.reports) {
     fs::path f = r;
-    if (fs::is_directory(f))
-      f = fs::exists(f / "report.json") ? f / "report.json" : f / "eval" / "report.json";
+    if (io::is_folder(f))
+      f = io::path_exists(f / "report.json") ? f / "report.json" : f / "eval" / "report.json";
     const json j = io::parse_json_file(f);
     Row row;
     try {
@@ -282,7 +282,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     const std::string out_str = o.out;
     const bool trailing = out_str.back() == '/';
     const fs::path out = io::without_trailing_separator(o.out);
-    const bool into_folder = trailing || fs::is_directory(out);
+    const bool into_folder = trailing || io::is_folder(out);
     fs::path base = out;
     if (into_folder) {
       base = out / "summary";
@@ -324,7 +324,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     for (const auto& r : rows) inputs.push_back(r.file);
     for (const auto& p : {csv, js_path, md_path}) {
       io::refuse_overwriting_inputs(p, inputs, "summary output " + p.string());
-      if (fs::exists(p) && !o.force)
+      if (io::path_exists(p) && !o.force)
         throw InputError("output file exists (use --force to replace it)", {p.string()});
     }
     if (base.has_parent_path()) {

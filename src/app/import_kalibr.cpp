@@ -1,6 +1,4 @@
 // roe import kalibr: Kalibr camchain-imucam.yaml (+ imu.yaml) → roe.json camera/imu priors + calib/.
-#include <yaml-cpp/yaml.h>
-
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -14,166 +12,6 @@
 #include "roe/io/output.hpp"
 
 namespace roe::app {
-namespace {
-
-/// A key given twice in one mapping is an error. yaml-cpp keeps both and `node[key]` returns the
-/// first, while PyYAML (Kalibr's own reader) keeps the last: silently taking either would differ from
-/// what Kalibr meant for somebody.
-void refuse_duplicate_keys(const fs::path& file, const YAML::Node& n, const std::string& path) {
-  if (n.IsSequence()) {
-    for (std::size_t i = 0; i < n.size(); ++i) refuse_duplicate_keys(file, n[i], fmt::format("{}[{}]", path, i));
-    return;
-  }
-  if (!n.IsMap()) return;
-  std::map<std::string, YAML::Mark> seen;
-  for (const auto& kv : n) {
-    const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string("?");
-    const std::string here = path.empty() ? key : path + "." + key;
-    const auto m = kv.first.Mark();
-    const auto [it, fresh] = seen.emplace(key, m);
-    if (!fresh)
-      throw InputError(fmt::format("key \"{}\" appears twice in the same mapping (first at line {}); Kalibr would "
-                                   "take the last one, roe refuses to guess",
-                                   key, it->second.line + 1),
-                       {file.string(), m.line + 1, m.column + 1, here});
-    refuse_duplicate_keys(file, kv.second, here);
-  }
-}
-
-YAML::Node load_yaml(const fs::path& file) {
-  if (!fs::exists(file)) throw InputError("no such file", {file.string()});
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file.string());
-  } catch (const YAML::Exception& e) {
-    throw InputError("YAML syntax error: " + e.msg, {file.string(), e.mark.line + 1, e.mark.column + 1});
-  }
-  refuse_duplicate_keys(file, root, "");
-  return root;
-}
-
-ErrorContext at(const fs::path& file, const YAML::Node& n, const std::string& key) {
-  const auto m = n.Mark();
-  return {file.string(), m.is_null() ? 0 : m.line + 1, m.is_null() ? 0 : m.column + 1, key};
-}
-
-double number(const fs::path& file, const YAML::Node& n, const std::string& key) {
-  if (!n || !n.IsScalar()) throw InputError("expected a number", at(file, n, key));
-  try {
-    const double v = n.as<double>();
-    if (!std::isfinite(v)) throw InputError("value is not finite", at(file, n, key));
-    return v;
-  } catch (const YAML::Exception&) {
-    throw InputError("expected a number, got \"" + n.Scalar() + "\"", at(file, n, key));
-  }
-}
-
-std::vector<double> numbers(const fs::path& file, const YAML::Node& n, const std::string& key) {
-  if (!n || !n.IsSequence()) throw InputError("expected a list of numbers", at(file, n, key));
-  std::vector<double> v;
-  for (std::size_t i = 0; i < n.size(); ++i) v.push_back(number(file, n[i], fmt::format("{}[{}]", key, i)));
-  return v;
-}
-
-std::string text(const fs::path& file, const YAML::Node& n, const std::string& key) {
-  if (!n || !n.IsScalar()) throw InputError("expected a string", at(file, n, key));
-  return n.Scalar();
-}
-
-const YAML::Node required(const fs::path& file, const YAML::Node& parent, const std::string& key,
-                          const std::string& path) {
-  const YAML::Node n = parent[key];
-  if (!n) throw InputError("missing required key", at(file, parent, path.empty() ? key : path + "." + key));
-  return n;
-}
-
-}  // namespace
-
-KalibrCamchain read_kalibr_camchain(const fs::path& file, const std::string& camera) {
-  const YAML::Node root = load_yaml(file);
-  if (!root.IsMap()) throw InputError("expected a YAML mapping with cam0, cam1, ...", {file.string()});
-  const YAML::Node cam = root[camera];
-  if (!cam && (root["accelerometer_noise_density"] || root["imu0"]))
-    throw InputError("this is a Kalibr imu.yaml, not a camchain: pass the camchain first, "
-                     "`roe import kalibr camchain-imucam.yaml imu.yaml --into DATASET` (the camchain carries T_I_C, "
-                     "which roe needs; the imu.yaml only adds the noise)",
-                     {file.string()});
-  if (!cam) throw InputError("no camera \"" + camera + "\" in the camchain", {file.string(), 0, 0, camera});
-  KalibrCamchain c;
-  c.camera_model = text(file, required(file, cam, "camera_model", camera), camera + ".camera_model");
-  c.intrinsics = numbers(file, required(file, cam, "intrinsics", camera), camera + ".intrinsics");
-  c.distortion_model = text(file, required(file, cam, "distortion_model", camera), camera + ".distortion_model");
-  c.distortion_coeffs = numbers(file, required(file, cam, "distortion_coeffs", camera), camera + ".distortion_coeffs");
-  const auto res = numbers(file, required(file, cam, "resolution", camera), camera + ".resolution");
-  if (cam["rostopic"]) c.rostopic = text(file, cam["rostopic"], camera + ".rostopic");
-  if (res.size() != 2 || res[0] < 1 || res[1] < 1 || res[0] != std::floor(res[0]) || res[1] != std::floor(res[1]))
-    throw InputError("resolution must be [width, height] (positive integers)", at(file, cam["resolution"], camera + ".resolution"));
-  c.width = static_cast<int>(res[0]);
-  c.height = static_cast<int>(res[1]);
-  const std::size_t n_intr = c.camera_model == "pinhole" ? 4 : c.camera_model == "omni" ? 5 : c.camera_model == "eucm" ? 6
-                             : c.camera_model == "ds" ? 6 : 0;
-  if (n_intr == 0)
-    throw InputError("unknown camera_model \"" + c.camera_model + "\" (pinhole, omni, eucm, ds)",
-                     at(file, cam["camera_model"], camera + ".camera_model"));
-  if (c.intrinsics.size() != n_intr)
-    throw InputError(fmt::format("{} intrinsics need {} values, got {}", c.camera_model, n_intr, c.intrinsics.size()),
-                     at(file, cam["intrinsics"], camera + ".intrinsics"));
-  const std::size_t f0 = n_intr - 4;  // fu, fv, pu, pv are the last four
-  if (!(c.intrinsics[f0] > 0) || !(c.intrinsics[f0 + 1] > 0))
-    throw InputError("focal lengths must be > 0", at(file, cam["intrinsics"], camera + ".intrinsics"));
-  const std::size_t n_dist = c.distortion_model == "radtan" ? 4 : c.distortion_model == "equidistant" ? 4
-                             : c.distortion_model == "fov" ? 1 : c.distortion_model == "none" ? 0 : 99;
-  if (n_dist == 99)
-    throw InputError("unknown distortion_model \"" + c.distortion_model + "\" (radtan, equidistant, fov, none)",
-                     at(file, cam["distortion_model"], camera + ".distortion_model"));
-  if (c.distortion_coeffs.size() != n_dist)
-    throw InputError(fmt::format("{} needs {} coefficients, got {}", c.distortion_model, n_dist,
-                                 c.distortion_coeffs.size()),
-                     at(file, cam["distortion_coeffs"], camera + ".distortion_coeffs"));
-  // T_cam_imu: 4x4 list of rows.
-  const YAML::Node T = required(file, cam, "T_cam_imu", camera);
-  if (!T.IsSequence() || T.size() != 4)
-    throw InputError("T_cam_imu must be a 4x4 list of rows", at(file, T, camera + ".T_cam_imu"));
-  for (int i = 0; i < 4; ++i) {
-    const auto row = numbers(file, T[i], fmt::format("{}.T_cam_imu[{}]", camera, i));
-    if (row.size() != 4) throw InputError("T_cam_imu must be a 4x4 list of rows", at(file, T[i], camera + ".T_cam_imu"));
-    for (int j = 0; j < 4; ++j) c.T_cam_imu(i, j) = row[j];
-  }
-  const Eigen::Matrix3d R = c.T_cam_imu.topLeftCorner<3, 3>();
-  const double ortho = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  if (ortho > 1e-4 || R.determinant() < 0)
-    throw InputError(fmt::format("T_cam_imu rotation is not orthonormal (max |R^T R - I| = {:.3g}, det = {:.6f})", ortho,
-                                 R.determinant()),
-                     at(file, T, camera + ".T_cam_imu"));
-  if ((c.T_cam_imu.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-9)
-    throw InputError("T_cam_imu bottom row must be [0, 0, 0, 1]", at(file, T[3], camera + ".T_cam_imu"));
-  if (cam["timeshift_cam_imu"]) c.timeshift_cam_imu = number(file, cam["timeshift_cam_imu"], camera + ".timeshift_cam_imu");
-  return c;
-}
-
-KalibrImu read_kalibr_imu(const fs::path& file) {
-  const YAML::Node root = load_yaml(file);
-  if (!root.IsMap()) throw InputError("expected a YAML mapping", {file.string()});
-  // Kalibr's imu.yaml is flat; a multi-IMU file nests the same keys under imu0.
-  const YAML::Node n = root["imu0"] ? root["imu0"] : root;
-  const std::string p = root["imu0"] ? "imu0" : "";
-  auto key = [&](const char* k) { return p.empty() ? std::string(k) : p + "." + k; };
-  KalibrImu k;
-  auto positive = [&](const char* name, double& out) {
-    out = number(file, required(file, n, name, p), key(name));
-    if (!(out > 0)) throw InputError("must be > 0", at(file, n[name], key(name)));
-  };
-  positive("accelerometer_noise_density", k.noise.accel_noise_density);
-  positive("accelerometer_random_walk", k.noise.accel_random_walk);
-  positive("gyroscope_noise_density", k.noise.gyro_noise_density);
-  positive("gyroscope_random_walk", k.noise.gyro_random_walk);
-  if (n["update_rate"]) {
-    k.update_rate = number(file, n["update_rate"], key("update_rate"));
-    if (!(k.update_rate > 0)) throw InputError("must be > 0", at(file, n["update_rate"], key("update_rate")));
-  }
-  if (n["rostopic"]) k.rostopic = text(file, n["rostopic"], key("rostopic"));
-  return k;
-}
 
 nlohmann::json ImportKalibrSummary::to_json() const {
   auto pose = [](const Pose& T) {
@@ -220,9 +58,9 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
   if (imu_yaml) imu = read_kalibr_imu(*imu_yaml);
   const fs::path calib_dir = dataset / "calib";
   const fs::path cam_out = calib_dir / "camchain-imucam.yaml", imu_out = calib_dir / "imu.yaml";
-  if (!opt.force && (fs::exists(cam_out) || (imu_yaml && fs::exists(imu_out))))
+  if (!opt.force && (io::path_exists(cam_out) || (imu_yaml && io::path_exists(imu_out))))
     throw InputError("the dataset already has a Kalibr calibration (use --force to replace it)",
-                     {fs::exists(cam_out) ? cam_out.string() : imu_out.string()});
+                     {io::path_exists(cam_out) ? cam_out.string() : imu_out.string()});
   // The dataset is changed as one (calib files staged, roe.json last) under its lock.
   io::StagedFiles staged;
   begin_dataset_change(staged, dataset);

@@ -2,7 +2,6 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <fstream>
 #include <limits>
 
 #include <fmt/format.h>
@@ -22,11 +21,9 @@ namespace roe::app {
 namespace {
 
 std::string first_line(const fs::path& file) {
-  std::ifstream f(file, std::ios::binary);
-  if (!f) throw InputError("cannot open file", {file.string()});
-  std::string line;
-  std::getline(f, line);
-  if (line.size() >= 3 && static_cast<unsigned char>(line[0]) == 0xEF) line = line.substr(3);  // UTF-8 BOM
+  std::string line = io::read_file_head(file, 4096);  // a format's first line is short
+  line = line.substr(0, line.find('\n'));
+  line = line.substr(io::utf8_bom_length(line));
   return line;
 }
 
@@ -60,8 +57,7 @@ std::string source_kind(const std::string& format) {
 }  // namespace
 
 void begin_dataset_change(io::StagedFiles& staged, const fs::path& dataset) {
-  std::error_code ec;
-  if (fs::exists(dataset, ec) && !fs::is_directory(dataset, ec))
+  if (io::path_exists(dataset) && !io::is_folder(dataset))
     throw InputError("dataset path exists and is not a folder", {dataset.string()});
   staged.ensure_folder(dataset);
   staged.lock(dataset);
@@ -69,10 +65,9 @@ void begin_dataset_change(io::StagedFiles& staged, const fs::path& dataset) {
 
 DatasetManifest open_or_create_manifest(const fs::path& dataset, bool& created) {
   created = false;
-  std::error_code ec;
-  if (fs::exists(io::manifest_path(dataset), ec)) return io::read_manifest(dataset);
-  if (!fs::is_directory(dataset, ec))
-    throw InputError(fs::exists(dataset, ec) ? "dataset path exists and is not a folder" : "no such dataset folder",
+  if (io::path_exists(io::manifest_path(dataset))) return io::read_manifest(dataset);
+  if (!io::is_folder(dataset))
+    throw InputError(io::path_exists(dataset) ? "dataset path exists and is not a folder" : "no such dataset folder",
                      {dataset.string()});
   DatasetManifest m;
   m.name = fs::absolute(dataset).lexically_normal().filename().string();
@@ -105,6 +100,14 @@ io::MocapData read_mocap(const fs::path& file, const ImportMocapOptions& opt) {
     d.length_unit = "m";
     d.rotation_type = "Quaternion";
     for (std::size_t i = 0; i < t.size(); ++i) {
+      // A stamp before 1970 (or before the recording's start) is a damaged cell, not a clock: refused
+      // here, where the line is known (docs/import.md, "Timestamps"). --time-offset may still shift
+      // valid stamps anywhere.
+      if (t.t_ns[i] < 0)
+        throw InputError(fmt::format("negative timestamp ({} ns): mocap stamps count from an epoch or the "
+                                     "recording's start",
+                                     t.t_ns[i]),
+                         {file.string(), i < t.lines.size() ? t.lines[i] : 0});
       if (!d.poses.empty() && t.t_ns[i] == d.poses.back().t_ns) {
         ++d.duplicates;  // a repeated stamp: keep the first pose
         continue;
@@ -283,11 +286,11 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   if (!(opt.max_offset_s > 0.0 && opt.max_offset_s <= 60.0))
     throw InputError(fmt::format("--max-offset must be in (0, 60] seconds, got {} (give a coarse shift with --time-offset)",
                                  opt.max_offset_s));
-  if (!fs::exists(file)) throw InputError("no such file", {file.string()});
+  (void)io::require_regular_file(file, "mocap file");
   S.csv = dataset / "mav0" / opt.mocap_name / "data.csv";
-  if (fs::exists(S.csv) && !opt.force)
+  if (io::path_exists(S.csv) && !opt.force)
     throw InputError("the dataset already has mocap data (use --force to replace it)", {S.csv.string()});
-  if (opt.estimate_offset && !fs::exists(io::imu_csv_path(dataset)))  // before reading the take
+  if (opt.estimate_offset && !io::path_exists(io::imu_csv_path(dataset)))  // before reading the take
     throw no_imu_for_offset(dataset, io::imu_csv_path(dataset));
   io::MocapData d = read_mocap(file, opt);
   S.format = d.format;
@@ -323,7 +326,7 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   double offset = opt.time_offset_s.value_or(0.0);
   if (opt.estimate_offset) {
     const fs::path imu_csv = io::imu_csv_path(dataset);
-    if (!fs::exists(imu_csv)) throw no_imu_for_offset(dataset, imu_csv);
+    if (!io::path_exists(imu_csv)) throw no_imu_for_offset(dataset, imu_csv);
     const auto imu = io::read_imu_csv(imu_csv);
     std::vector<StampedPose> shifted = d.poses;
     // With --time-offset given too, it is the centre of the search.

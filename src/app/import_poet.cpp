@@ -136,7 +136,7 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
 
   // ---- image ids → frames -----------------------------------------------------------------
   const fs::path cam_csv = io::cam_csv_path(dataset);
-  const bool have_frames = fs::exists(cam_csv);
+  const bool have_frames = io::path_exists(cam_csv);
   std::vector<CameraFrame> frames;
   if (have_frames) frames = io::read_cam_csv(cam_csv);
   // key → frame indices it may denote (a set: one frame may offer the same key by several rules).

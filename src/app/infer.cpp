@@ -119,7 +119,7 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
   if (opt.model_dir.empty()) throw InputError("--model BUNDLE_DIR is required");
   DatasetManifest manifest = io::read_manifest(dataset);
   const fs::path cam_csv = io::cam_csv_path(dataset);
-  if (!fs::exists(cam_csv)) throw InputError("the dataset has no frames (missing " + cam_csv.string() + ")", {dataset.string()});
+  if (!io::path_exists(cam_csv)) throw InputError("the dataset has no frames (missing " + cam_csv.string() + ")", {dataset.string()});
   const std::vector<CameraFrame> frames = io::read_cam_csv(cam_csv);
   s.frames_in_dataset = frames.size();
   if (frames.empty()) throw InputError("the dataset has no frames", {cam_csv.string()});

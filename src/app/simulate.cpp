@@ -386,7 +386,7 @@ sim::SimConfig sim_config_from_preset(const std::string& name) {
 }
 
 sim::SimConfig sim_config_from_file(const std::filesystem::path& file) {
-  return sim_config_from_json(io::parse_json_file(file), file.string());
+  return io::read_json_file(file, sim_config_from_json);
 }
 
 sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {

@@ -10,6 +10,7 @@
 #include <iterator>
 #include <limits>
 
+#include "roe/core/log.hpp"
 #include "roe/io/output.hpp"
 
 namespace roe::io {
@@ -58,9 +59,7 @@ CsvReader CsvReader::from_text(std::string text, std::string source, CsvOptions 
 CsvReader::CsvReader(std::string text, std::string source, CsvOptions options, int)
     : text_(std::move(text)), source_(std::move(source)), opt_(std::move(options)) {
   // UTF-8 byte order mark (spreadsheet exports).
-  if (text_.size() >= 3 && static_cast<unsigned char>(text_[0]) == 0xEF &&
-      static_cast<unsigned char>(text_[1]) == 0xBB && static_cast<unsigned char>(text_[2]) == 0xBF)
-    pos_ = 3;
+  pos_ = utf8_bom_length(text_);
   if (!opt_.whitespace_delimited &&
       (opt_.delimiter == '\n' || opt_.delimiter == '\r' || opt_.delimiter == '"'))
     throw InternalError("CsvReader: invalid delimiter");
@@ -75,6 +74,7 @@ bool CsvReader::next_line(std::string_view& line) {
   line = std::string_view(text_).substr(pos_, end - pos_);
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
   pos_ = nl == std::string::npos ? text_.size() : nl + 1;
+  unterminated_ = nl == std::string::npos;
   line_ = next_line_no_++;
   return true;
 }
@@ -216,9 +216,14 @@ bool CsvReader::next() {
     if (columns_ == 0) columns_ = fields_.size();
     if (!opt_.ragged && fields_.size() != columns_) {
       const std::size_t col = std::min(fields_.size(), columns_) + 1;
-      throw InputError(fmt::format("expected {} columns, found {}", columns_, fields_.size()),
+      throw InputError(fmt::format("expected {} columns, found {}{}", columns_, fields_.size(),
+                                   unterminated_ ? " (the last line has no line end: the file looks cut short)" : ""),
                        {source_, line_, static_cast<std::int64_t>(col)});
     }
+    if (unterminated_ && !opt_.ragged)
+      log::warn("{}:{}: the last line has no line end: the file may have been cut short (check that line's last "
+                "value)",
+                source_, line_);
     ++rows_;
     if (opt_.stamp_column >= 0 && opt_.stamp_order != StampOrder::kAny) {
       const auto c = static_cast<std::size_t>(opt_.stamp_column);

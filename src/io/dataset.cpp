@@ -8,6 +8,7 @@
 #include <set>
 
 #include "roe/io/csv.hpp"
+#include "roe/io/input.hpp"
 #include "roe/io/output.hpp"
 
 namespace roe::io {
@@ -176,11 +177,9 @@ void read_noise(JsonObject& o, ImuNoise& n) {
   get("accel_random_walk", n.accel_random_walk);
 }
 
-// The stamp-ordered loaders share "absent file → empty stream".
-bool present(const fs::path& file) {
-  std::error_code ec;
-  return fs::is_regular_file(file, ec);
-}
+// The stamp-ordered loaders share "absent file → empty stream"; a folder, a FIFO or a symlink loop
+// where the file should be is an input error (not an empty stream).
+bool present(const fs::path& file) { return optional_regular_file(file, "data file"); }
 
 const std::vector<std::string>& imu_header() {
   static const std::vector<std::string> h = {
@@ -527,10 +526,10 @@ DatasetManifest manifest_from_json(const json& j, const std::string& source) {
 
 DatasetManifest read_manifest(const fs::path& dataset) {
   const fs::path file = manifest_path(dataset);
-  if (!present(file))
+  if (!optional_regular_file(file, "roe.json"))
     throw InputError("not a roe dataset folder (no roe.json; create one with roe import or roe simulate)",
                      {file.string()});
-  return manifest_from_json(parse_json_file(file), file.string());
+  return read_json_file(file, manifest_from_json);
 }
 
 void write_manifest(const DatasetManifest& m, const fs::path& file) {
@@ -773,7 +772,9 @@ void write_detections_csv(const fs::path& file, const std::vector<Detection>& de
 
 Dataset read_dataset(const fs::path& dataset, const DatasetParts& parts) {
   std::error_code ec;
-  if (!fs::is_directory(dataset, ec)) throw InputError("dataset folder not found", {dataset.string()});
+  if (!is_folder(dataset))
+    throw InputError(path_exists(dataset) ? "not a folder, expected a dataset folder" : "dataset folder not found",
+                     {dataset.string()});
   Dataset d;
   d.manifest = read_manifest(dataset);
   if (parts.imu && present(imu_csv_path(dataset))) d.imu = read_imu_csv(imu_csv_path(dataset));
@@ -784,9 +785,9 @@ Dataset read_dataset(const fs::path& dataset, const DatasetParts& parts) {
   if (parts.detections) {
     std::vector<std::string> available;
     const fs::path root = dataset / "detections";
-    if (fs::is_directory(root, ec)) {
+    if (is_folder(root)) {
       for (const auto& e : fs::directory_iterator(root, ec))
-        if (e.is_directory() && present(e.path() / "detections.csv"))
+        if (is_folder(e.path()) && present(e.path() / "detections.csv"))
           available.push_back(e.path().filename().string());
     }
     std::sort(available.begin(), available.end());  // deterministic order

@@ -6,6 +6,7 @@
 #include <cctype>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "roe/io/output.hpp"
@@ -25,9 +26,141 @@ void line_col(const std::string& text, std::size_t byte, std::int64_t& line, std
     }
   }
 }
+
+// A cursor over JSON text for json_key_location: finds members and elements without building a tree.
+struct JsonCursor {
+  std::string_view t;
+  std::size_t i = 0;
+
+  bool done() const { return i >= t.size(); }
+  void skip_space() {
+    while (i < t.size() && std::isspace(static_cast<unsigned char>(t[i]))) ++i;
+  }
+  // At '"': reads the string (escapes other than \uXXXX decoded), leaves i after the closing quote.
+  bool read_string(std::string& out) {
+    out.clear();
+    if (done() || t[i] != '"') return false;
+    for (++i; i < t.size(); ++i) {
+      const char c = t[i];
+      if (c == '"') {
+        ++i;
+        return true;
+      }
+      if (c == '\\' && i + 1 < t.size()) {
+        const char e = t[++i];
+        out += e == 'n' ? '\n' : e == 't' ? '\t' : e == 'r' ? '\r' : e == 'b' ? '\b' : e == 'f' ? '\f' : e;
+        continue;
+      }
+      out += c;
+    }
+    return false;
+  }
+  // Skips one value (any nesting depth, iteratively); leaves i after it.
+  bool skip_value() {
+    skip_space();
+    int depth = 0;
+    std::string ignored;
+    while (!done()) {
+      const char c = t[i];
+      if (c == '"') {
+        if (!read_string(ignored)) return false;
+      } else if (c == '{' || c == '[') {
+        ++depth;
+        ++i;
+      } else if (c == '}' || c == ']') {
+        if (depth == 0) return true;  // the end of the enclosing container
+        --depth;
+        ++i;
+      } else if (c == ',' || std::isspace(static_cast<unsigned char>(c))) {
+        if (depth == 0) return true;
+        ++i;
+      } else {
+        ++i;
+      }
+      if (depth == 0 && (c == '"' || c == '}' || c == ']')) return true;
+    }
+    return depth == 0;
+  }
+  // At '{': moves to the value of member `key` (its last occurrence when `last`); returns the offset of
+  // its key, or npos.
+  std::size_t find_member(const std::string& key, bool last) {
+    skip_space();
+    if (done() || t[i] != '{') return std::string_view::npos;
+    ++i;
+    std::string k;
+    std::size_t found = std::string_view::npos, value = 0;
+    while (true) {
+      skip_space();
+      const std::size_t at = i;
+      if (!read_string(k)) break;
+      skip_space();
+      if (done() || t[i] != ':') break;
+      ++i;
+      skip_space();
+      if (k == key) {
+        found = at;
+        value = i;
+        if (!last) break;
+      }
+      if (!skip_value()) break;
+      skip_space();
+      if (done() || t[i] != ',') break;
+      ++i;
+    }
+    if (found != std::string_view::npos) i = value;
+    return found;
+  }
+  // At '[': moves to element `index`; returns its offset, or npos.
+  std::size_t find_element(std::size_t index) {
+    skip_space();
+    if (done() || t[i] != '[') return std::string_view::npos;
+    ++i;
+    for (std::size_t k = 0;; ++k) {
+      skip_space();
+      if (done() || t[i] == ']') return std::string_view::npos;
+      if (k == index) return i;
+      if (!skip_value()) return std::string_view::npos;
+      skip_space();
+      if (done() || t[i] != ',') return std::string_view::npos;
+      ++i;
+    }
+  }
+};
+
 }  // namespace
 
-json parse_json_text(const std::string& text, const std::string& source) {
+std::pair<std::int64_t, std::int64_t> json_key_location(std::string_view text, const std::string& key_path,
+                                                        bool last_occurrence) {
+  if (key_path.empty() || key_path == "<root>") return {0, 0};
+  JsonCursor cur{text};
+  cur.i = utf8_bom_length(text);
+  std::size_t at = std::string_view::npos;
+  for (std::size_t p = 0; p < key_path.size();) {
+    if (key_path[p] == '[') {
+      const std::size_t close = key_path.find(']', p);
+      if (close == std::string::npos) return {0, 0};
+      std::size_t index = 0;
+      for (std::size_t k = p + 1; k < close; ++k) {
+        if (!std::isdigit(static_cast<unsigned char>(key_path[k]))) return {0, 0};
+        index = index * 10 + static_cast<std::size_t>(key_path[k] - '0');
+      }
+      at = cur.find_element(index);
+      p = close + 1;
+    } else {
+      if (key_path[p] == '.') ++p;
+      const std::size_t start = p, end = key_path.find_first_of(".[", p);
+      p = end == std::string::npos ? key_path.size() : end;
+      at = cur.find_member(key_path.substr(start, p - start), last_occurrence && p == key_path.size());
+    }
+    if (at == std::string_view::npos) return {0, 0};
+  }
+  std::int64_t line = 0, col = 0;
+  line_col(std::string(text.substr(0, at)), at, line, col);
+  return {line, col};
+}
+
+namespace {
+json parse_json_unlocated(const std::string& text, const std::string& source) {
   // A key given twice in one object is an error (nlohmann keeps the last one silently, which hides a
   // mistyped config). Tracked with the parser's events: one frame per open object or array, with the
   // keys seen (objects) or the index of the next element (arrays), for the key path of the error.
@@ -116,6 +249,18 @@ json parse_json_text(const std::string& text, const std::string& source) {
     const auto pos = msg.find("parse error");
     throw InputError("invalid JSON: " + (pos == std::string::npos ? msg : msg.substr(pos)),
                      {source, line, col});
+  }
+}
+
+}  // namespace
+
+json parse_json_text(const std::string& text, const std::string& source) {
+  try {
+    return parse_json_unlocated(text, source);
+  } catch (const ConfigError& e) {  // a key given twice: located at its second occurrence
+    ErrorContext c = e.context();
+    if (c.line == 0 && !c.key.empty()) std::tie(c.line, c.column) = json_key_location(text, c.key, true);
+    throw ConfigError(e.bare_message(), c);
   }
 }
 

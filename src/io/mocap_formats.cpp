@@ -2,7 +2,6 @@
 #include "roe/io/mocap_formats.hpp"
 
 #include <algorithm>
-#include <fstream>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -19,16 +18,6 @@
 
 namespace roe::io {
 namespace {
-
-/// Whether the file's last byte is a line end (an empty file counts as ended).
-bool ends_with_newline(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary | std::ios::ate);
-  if (!in || in.tellg() <= 0) return true;
-  in.seekg(-1, std::ios::end);
-  char c = 0;
-  in.get(c);
-  return c == '\n' || c == '\r';
-}
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
@@ -107,6 +96,8 @@ double length_scale(const std::string& unit, const std::string& file, std::int64
 }
 
 void check_time(const CsvReader& r, std::size_t col, Timestamp t, bool have_prev, Timestamp prev) {
+  // Motive's Time and Vicon's frame counter start at 0: a negative time is a damaged cell.
+  if (t < 0) throw r.error(col, fmt::format("negative time ({} ns): mocap times start at 0", t));
   if (have_prev && t <= prev)
     throw r.error(col, fmt::format("time does not increase ({} ns after {} ns)", t, prev));
 }
@@ -233,9 +224,11 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
   std::size_t last_cells = 0;
   std::int64_t last_line = 0;
   bool last_occluded = false;
+  bool last_unterminated = false;
   while (r.next()) {
     if (r.size() == 0) continue;
     last_cells = r.size();
+    last_unterminated = r.row_unterminated();
     last_line = r.line();
     last_occluded = false;
     ++out.rows;
@@ -268,7 +261,7 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
     const Eigen::Vector3d p(r.get_double(pos_cols["X"]), r.get_double(pos_cols["Y"]), r.get_double(pos_cols["Z"]));
     out.poses.push_back({*t, Pose(q, p * scale)});
   }
-  if (out.rows > 0 && last_cells < axis.size() && !ends_with_newline(file)) {
+  if (out.rows > 0 && last_cells < axis.size() && last_unterminated) {
     if (last_occluded)
       --out.occluded;
     else
@@ -385,8 +378,17 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
   while (r.next()) {
     if (r.size() == 0) continue;
     if (kSections.count(std::string(r.field(0)))) break;  // next section
+    if (r.row_unterminated() && r.size() < cols.size()) {  // as Motive's: the file was cut in this row
+      out.warnings.push_back(fmt::format("{}:{}: the last row has {} of {} cells and no line end: the file looks "
+                                         "truncated; that row was dropped",
+                                         src, r.line(), r.size(), cols.size()));
+      break;
+    }
     ++out.rows;
     const std::int64_t frame = r.get_int64(0);
+    // A frame counter, not a stamp: 10^12 frames are 300 years at 100 Hz; beyond that the difference
+    // to the first frame could overflow.
+    if (frame < 0 || frame > 1'000'000'000'000) throw r.error(0, "frame number out of range (0 to 10^12)");
     if (!have_first) {
       first_frame = frame;
       have_first = true;

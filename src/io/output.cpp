@@ -497,22 +497,15 @@ void write_file_atomic(const fs::path& path, std::string_view content, bool over
   }
 }
 
-std::string read_file(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError("cannot open file", {path.string()});
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 std::string sha256_file(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError("cannot open file", {path.string()});
+  const InputFile in(path);
   Sha256 h;
   std::array<char, 1 << 16> buf;
-  while (in) {
-    in.read(buf.data(), buf.size());
-    h.update(buf.data(), static_cast<std::size_t>(in.gcount()));
+  for (std::uint64_t at = 0; at < in.size();) {
+    const std::size_t n = in.read_at(at, buf.data(), buf.size());
+    if (n == 0) break;
+    h.update(buf.data(), n);
+    at += n;
   }
   return h.hex();
 }

@@ -12,6 +12,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
+#include "roe/io/input.hpp"
 
 namespace roe::io::bag {
 namespace {

@@ -116,9 +116,8 @@ TrajectoryFormat detect_trajectory_format(std::string_view text, const std::stri
                                  "(e.g. `evo_traj bag BAG TOPIC --save_as_tum`)",
                                  text[0] == '#' ? "rosbag v2" : "MCAP"),
                      {source});
-  std::size_t pos = 0;
+  std::size_t pos = utf8_bom_length(text);
   std::int64_t line_no = 0;
-  if (text.size() >= 3 && static_cast<unsigned char>(text[0]) == 0xEF) pos = 3;  // BOM
   while (pos < text.size()) {
     const std::size_t nl = text.find('\n', pos);
     std::string_view line =
@@ -388,32 +387,9 @@ Trajectory parse_trajectory(std::string text, const std::string& source, Traject
   return tr;
 }
 
-namespace {
-// One read into a pre-sized string: trajectory files reach hundreds of MB (1e6 poses ≈ 160 MB), where
-// a stream copy would double the memory traffic.
-std::string slurp(const fs::path& file) {
-  std::FILE* f = std::fopen(file.c_str(), "rb");
-  if (!f) {
-    if (fs::is_directory(file)) throw InputError("is a folder, expected a trajectory file", {file.string()});
-    throw InputError("cannot open file", {file.string()});
-  }
-  std::string text;
-  std::error_code ec;
-  const auto size = fs::file_size(file, ec);
-  if (!ec) text.resize(static_cast<std::size_t>(size));
-  const std::size_t got = text.empty() ? 0 : std::fread(text.data(), 1, text.size(), f);
-  text.resize(got);
-  char buf[65536];  // files that grew meanwhile, or had no size (pipes)
-  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, f)) > 0;) text.append(buf, n);
-  const bool bad = std::ferror(f) != 0;
-  std::fclose(f);
-  if (bad) throw InputError("read error", {file.string()});
-  return text;
-}
-}  // namespace
 
 Trajectory read_trajectory(const fs::path& file, TrajectoryFormat format) {
-  return parse_trajectory(slurp(file), file.string(), format);
+  return parse_trajectory(read_file(file), file.string(), format);
 }
 
 void apply_kitti_times(Trajectory& tr, const fs::path& times_file) {

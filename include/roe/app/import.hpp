@@ -14,6 +14,7 @@
 
 #include "roe/core/dataset.hpp"
 #include "roe/core/types.hpp"
+#include "roe/io/kalibr.hpp"
 #include "roe/io/mocap_formats.hpp"
 #include "roe/io/output.hpp"
 
@@ -171,23 +172,11 @@ struct ImportKalibrSummary {
   nlohmann::json to_json() const;
 };
 
-/// Parsed Kalibr files (exposed for tests).
-struct KalibrCamchain {
-  std::string camera_model, distortion_model, rostopic;
-  std::vector<double> intrinsics, distortion_coeffs;
-  int width = 0, height = 0;
-  Eigen::Matrix4d T_cam_imu = Eigen::Matrix4d::Identity();
-  double timeshift_cam_imu = 0.0;
-};
-struct KalibrImu {
-  ImuNoise noise;
-  double update_rate = 0.0;
-  std::string rostopic;
-};
-/// InputError naming file and key: missing keys, wrong shapes, a non-orthonormal rotation or a
-/// bottom row other than [0 0 0 1], non-positive intrinsics, negative/zero noise.
-KalibrCamchain read_kalibr_camchain(const fs::path& file, const std::string& camera = "cam0");
-KalibrImu read_kalibr_imu(const fs::path& file);
+/// The Kalibr readers live in io (roe/io/kalibr.hpp); these names are kept for the app's callers.
+using io::KalibrCamchain;
+using io::KalibrImu;
+using io::read_kalibr_camchain;
+using io::read_kalibr_imu;
 
 ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<fs::path>& imu_yaml,
                                   const fs::path& dataset, const ImportKalibrOptions& options);

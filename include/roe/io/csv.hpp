@@ -119,6 +119,10 @@ class CsvReader {
   std::int64_t line() const { return line_; }
   /// Data rows returned by next() so far.
   std::size_t rows() const { return rows_; }
+  /// Whether the current row is the file's last line and has no line end (the file may have been cut
+  /// inside it). next() warns about such a row (log::warn, with file and line) unless options.ragged:
+  /// ragged readers know their layout and judge a short last row themselves (Motive drops it).
+  bool row_unterminated() const { return unterminated_; }
   const std::string& source() const { return source_; }
 
   /// The raw (trimmed, unquoted) text of field i (0-based); InputError when the row has no field i.
@@ -158,6 +162,7 @@ class CsvReader {
   std::string source_;
   CsvOptions opt_;
   std::size_t pos_ = 0;
+  bool unterminated_ = false;
   std::int64_t next_line_no_ = 1;
   std::int64_t line_ = 0;
   std::int64_t header_line_ = 0;

@@ -14,6 +14,8 @@
 #include <string_view>
 #include <vector>
 
+#include "roe/io/input.hpp"  // read_file, sha256_file
+
 namespace roe::io {
 
 namespace fs = std::filesystem;
@@ -170,11 +172,6 @@ std::string provenance_path(const fs::path& path);
 /// Refuses to replace an existing file unless `overwrite` is true (roe::InputError).
 void write_file_atomic(const fs::path& path, std::string_view content, bool overwrite = true);
 
-/// Reads a whole file; roe::InputError naming the file when it cannot be read.
-std::string read_file(const fs::path& path);
-
-/// Lower-case hex SHA-256 of a file's bytes (OpenSSL libcrypto).
-std::string sha256_file(const fs::path& path);
 /// Lower-case hex SHA-256 of a byte string.
 std::string sha256_hex(std::string_view bytes);
 

@@ -1,0 +1,420 @@
+#!/usr/bin/env python3
+"""A catalogue of hostile inputs for every reader of roe, generated (not hand-listed), run against the roe binary.
+
+Each case takes a valid input (the embedded sample dataset, the real files in ../shared/data when present,
+and small files made here), damages it with one operator (truncation, bit flips, BOM, UTF-16, CRLF,
+NaN/Inf, huge numbers, unsorted and duplicated stamps, degenerate quaternions, lying lengths in a bag,
+deep nesting, YAML aliases, special files in its place) and runs the command that reads it, limited to
+10 s and 1 GB of address space. The contract (docs/TESTING.md, "Hostile inputs"): every case exits 0
+(where the operator's row in OPERATORS says the input stays valid: a BOM, CRLF), 1 (a data problem) or
+2 (an input error, located), and never 3, a signal or the time limit.
+
+usage: hostile-catalogue.py ROE_BINARY [--jobs N] [--list] [--keep DIR] [--only SUBSTRING]
+Exit status 0 when every case meets the contract; the cases that do not are printed.
+"""
+import argparse
+import concurrent.futures as futures
+import json
+import os
+import random
+import resource
+import shutil
+import signal
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SHARED = os.path.join(os.path.dirname(ROOT), "shared", "data")
+SAMPLE = os.path.join(ROOT, "datasets", "sample")
+TIME_LIMIT_S = 10
+MEMORY_LIMIT = 1 << 30  # bytes of address space
+
+# ----------------------------------------------------------------------------------------------------------
+# Byte operators. Each takes the valid bytes and a seeded random generator, returns the damaged bytes.
+# ----------------------------------------------------------------------------------------------------------
+
+
+def lines_of(b):
+    return b.split(b"\n")
+
+
+def data_line_indices(ls):
+    """Lines that look like data rows: non-empty, not a comment, start with a digit or a sign."""
+    return [i for i, l in enumerate(ls) if l[:1].isdigit() or l[:1] in (b"-", b"+")][1:]
+
+
+def replace_number(b, rng, token):
+    """Replaces one numeric cell of a data row (not the first: the stamp) by `token`."""
+    ls = lines_of(b)
+    rows = data_line_indices(ls)
+    if not rows:
+        return b + b"\n" + token
+    i = rows[len(rows) // 2]
+    sep = b"," if b"," in ls[i] else b" "
+    cells = ls[i].split(sep)
+    k = 1 + rng.randrange(max(1, len(cells) - 1))
+    cells[min(k, len(cells) - 1)] = token
+    ls[i] = sep.join(cells)
+    return b"\n".join(ls)
+
+
+def swap_rows(b, rng):
+    ls = lines_of(b)
+    rows = data_line_indices(ls)
+    if len(rows) < 3:
+        return b
+    i = rows[len(rows) // 3]
+    j = rows[2 * len(rows) // 3]
+    ls[i], ls[j] = ls[j], ls[i]
+    return b"\n".join(ls)
+
+
+def duplicate_row(b, rng):
+    ls = lines_of(b)
+    rows = data_line_indices(ls)
+    if not rows:
+        return b
+    i = rows[len(rows) // 2]
+    ls.insert(i + 1, ls[i])
+    return b"\n".join(ls)
+
+
+def zero_quaternion(b, rng):
+    """Sets the four cells of a pose row's quaternion to 0 (the last four for TUM, 4..7 for EuRoC)."""
+    ls = lines_of(b)
+    rows = data_line_indices(ls)
+    if not rows:
+        return b
+    i = rows[len(rows) // 2]
+    sep = b"," if b"," in ls[i] else b" "
+    cells = ls[i].split(sep)
+    if len(cells) >= 8:
+        span = range(len(cells) - 4, len(cells)) if sep == b" " else range(4, 8)
+        for k in span:
+            cells[k] = b"0"
+    ls[i] = sep.join(cells)
+    return b"\n".join(ls)
+
+
+def bit_flips(b, rng, n=16):
+    if not b:
+        return b
+    a = bytearray(b)
+    for _ in range(n):
+        k = rng.randrange(len(a))
+        a[k] ^= 1 << rng.randrange(8)
+    return bytes(a)
+
+
+def utf16(b):
+    return b.decode("latin-1").encode("utf-16")
+
+
+# name -> (function(bytes, rng) -> bytes, exits allowed). {0, 1, 2} = the input may stay valid or not.
+ANY = {0, 1, 2}
+OPERATORS = {
+    "truncate-10%": (lambda b, r: b[: len(b) // 10], ANY),
+    "truncate-50%": (lambda b, r: b[: len(b) // 2], ANY),
+    "truncate-last-byte": (lambda b, r: b[:-1], ANY),
+    "truncate-in-last-line": (lambda b, r: b[: b.rstrip(b"\n").rfind(b"\n") + 4] if b"\n" in b else b[:5], ANY),
+    "empty": (lambda b, r: b"", {1, 2}),
+    "bit-flips": (bit_flips, ANY),
+    "utf8-bom": (lambda b, r: b"\xef\xbb\xbf" + b, ANY),
+    "utf16": (lambda b, r: utf16(b), ANY),  # YAML allows UTF-16 (yaml-cpp reads it); CSV and JSON refuse it
+    "crlf": (lambda b, r: b.replace(b"\n", b"\r\n"), ANY),
+    "nan": (lambda b, r: replace_number(b, r, b"nan"), ANY),
+    "inf": (lambda b, r: replace_number(b, r, b"-inf"), ANY),
+    "huge-float": (lambda b, r: replace_number(b, r, b"1e999"), ANY),
+    "huge-int": (lambda b, r: replace_number(b, r, b"99999999999999999999999"), ANY),
+    "unsorted-stamps": (swap_rows, ANY),
+    "duplicated-stamp": (duplicate_row, ANY),
+    "zero-quaternion": (zero_quaternion, ANY),
+    "nul-bytes": (lambda b, r: b[: len(b) // 2] + b"\0" * 64 + b[len(b) // 2 :], ANY),
+    "long-line": (lambda b, r: b + b"1" * (4 << 20) + b"\n", ANY),
+}
+TEXT_OPERATORS = list(OPERATORS)
+BINARY_OPERATORS = ["truncate-10%", "truncate-50%", "truncate-last-byte", "empty", "bit-flips", "utf8-bom", "nul-bytes"]
+
+# Special files put where the input should be: all are input errors, at once.
+SPECIAL = ["dev-zero", "fifo", "folder", "symlink-loop", "dangling-symlink"]
+
+
+def make_special(path, kind):
+    if kind == "dev-zero":
+        os.symlink("/dev/zero", path)
+    elif kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "folder":
+        os.makedirs(path)
+    elif kind == "symlink-loop":
+        os.symlink(os.path.basename(path), path)
+    elif kind == "dangling-symlink":
+        os.symlink(path + ".absent", path)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Valid inputs and the commands that read them.
+# ----------------------------------------------------------------------------------------------------------
+
+
+def read(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+CAMCHAIN = (
+    b"cam0:\n  T_cam_imu:\n  - [1.0, 0.0, 0.0, 0.1]\n  - [0.0, 1.0, 0.0, 0.0]\n  - [0.0, 0.0, 1.0, 0.0]\n"
+    b"  - [0.0, 0.0, 0.0, 1.0]\n  camera_model: pinhole\n  distortion_coeffs: [0, 0, 0, 0]\n"
+    b"  distortion_model: radtan\n  intrinsics: [600, 600, 320, 240]\n  resolution: [640, 480]\n"
+    b"  timeshift_cam_imu: -0.01\n"
+)
+IMU_YAML = (
+    b"accelerometer_noise_density: 0.002\naccelerometer_random_walk: 0.003\n"
+    b"gyroscope_noise_density: 0.00016\ngyroscope_random_walk: 0.000019\nrostopic: /imu0\nupdate_rate: 200.0\n"
+)
+
+
+def poet_results():
+    """A valid results.json for the first frames of the sample dataset."""
+    names = [l.split(b",")[1].strip().decode() for l in read(os.path.join(SAMPLE, "mav0/cam0/data.csv")).splitlines()[1:4]]
+    det = {"t": [0.1, 0.2, 0.8], "rot": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "box": [0.5, 0.5, 0.1, 0.1], "class": 1}
+    return json.dumps({os.path.splitext(n)[0]: {"0": det} for n in names}, indent=1).encode()
+
+
+def deep_json(depth):
+    return b"[" * depth + b"]" * depth
+
+
+def billion_laughs():
+    y = b"a0: &a0 [x, x, x, x, x, x, x, x, x]\n"
+    for i in range(1, 10):
+        y += b"a%d: &a%d [" % (i, i) + b", ".join([b"*a%d" % (i - 1)] * 9) + b"]\n"
+    return y
+
+
+def lying_bag_length(b, offset_field):
+    """A ROS bag whose first record (after the 13-byte magic) claims a header (0) or data (1) length of 2^31."""
+    a = bytearray(b)
+    if len(a) < 17:
+        return bytes(a)
+    if offset_field == 0:
+        struct.pack_into("<I", a, 13, 0x7FFFFFFF)
+    else:
+        hlen = struct.unpack_from("<I", a, 13)[0]
+        if 17 + hlen + 4 <= len(a):
+            struct.pack_into("<I", a, 17 + hlen, 0x7FFFFFFF)
+    return bytes(a)
+
+
+class Case:
+    def __init__(self, name, setup, argv, allowed):
+        self.name, self.setup, self.argv, self.allowed = name, setup, argv, allowed
+
+
+def dataset_copy(dst):
+    """The sample dataset, hard-linked (every write of roe goes through a rename, never into a file)."""
+    shutil.copytree(SAMPLE, dst, copy_function=os.link)
+
+
+def put(path, data):
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    if os.path.lexists(path):
+        os.unlink(path)
+    with open(path, "wb") as f:
+        f.write(data)
+
+
+def cases():
+    out = []
+    rng_seed = 2811
+
+    def add_file_cases(family, filename, base, ops, argv, ds_needed=False, rel=None):
+        """One case per operator and per special file: `rel` is the path of the damaged file inside the
+        dataset copy (a dataset's own file), else `filename` lives beside it."""
+        for op in ops:
+            fn, allowed = OPERATORS[op]
+
+            def setup(d, fn=fn, op=op):
+                if ds_needed:
+                    dataset_copy(os.path.join(d, "ds"))
+                damaged = fn(base, random.Random(rng_seed + sum(op.encode())))
+                put(os.path.join(d, rel or filename), damaged)
+
+            out.append(Case(f"{family}/{op}", setup, argv, allowed))
+        for kind in SPECIAL:
+
+            def setup(d, kind=kind):
+                if ds_needed:
+                    dataset_copy(os.path.join(d, "ds"))
+                p = os.path.join(d, rel or filename)
+                if os.path.lexists(p):
+                    os.unlink(p)
+                os.makedirs(os.path.dirname(p), exist_ok=True)
+                make_special(p, kind)
+
+            out.append(Case(f"{family}/{kind}", setup, argv, {2}))
+
+    # Trajectories (roe eval), estimate side: a TUM file (real when ../shared is present).
+    est = os.path.join(SHARED, "eval/freiburg1_xyz-rgbdslam.txt")
+    gt = os.path.join(SHARED, "eval/freiburg1_xyz-groundtruth.txt")
+    if os.path.exists(est) and os.path.exists(gt):
+        add_file_cases("eval-tum", "est.txt", read(est), TEXT_OPERATORS, ["eval", "est.txt", "--gt", gt, "--no-out"])
+    euroc_gt = os.path.join(SAMPLE, "mav0/state_groundtruth_estimate0/data.csv")
+    add_file_cases("eval-euroc-gt", "gt.csv", read(euroc_gt), TEXT_OPERATORS,
+                   ["eval", os.path.join(SAMPLE, "mav0/mocap0/data.csv"), "--gt", "gt.csv", "--gt-format", "euroc",
+                    "--est-format", "euroc", "--no-out"])
+    # Mocap exports (roe import mocap).
+    motive = os.path.join(SHARED, "mocap/sample_optitrack_take_v1.21.csv")
+    if os.path.exists(motive):
+        add_file_cases("import-motive", "take.csv", read(motive), TEXT_OPERATORS,
+                       ["import", "mocap", "take.csv", "--into", "newds"])
+    add_file_cases("import-euroc-mocap", "mocap.csv", read(os.path.join(SAMPLE, "mav0/mocap0/data.csv")),
+                   ["truncate-in-last-line", "nan", "huge-int", "unsorted-stamps", "zero-quaternion", "utf8-bom", "crlf"],
+                   ["import", "mocap", "mocap.csv", "--into", "newds", "--format", "euroc"])
+    bag = os.path.join(SHARED, "rosbag/evo_ROS_example.bag")
+    if os.path.exists(bag):
+        b = read(bag)
+        add_file_cases("import-bag", "poses.bag", b, BINARY_OPERATORS,
+                       ["import", "mocap", "poses.bag", "--into", "newds", "--topic", "groundtruth"])
+        for field in (0, 1):
+            out.append(Case(f"import-bag/lying-length-{'header' if field == 0 else 'data'}",
+                            lambda d, b=b, field=field: put(os.path.join(d, "poses.bag"), lying_bag_length(b, field)),
+                            ["import", "mocap", "poses.bag", "--into", "newds", "--topic", "groundtruth"], {1, 2}))
+    # Kalibr (roe import kalibr).
+    add_file_cases("import-kalibr", "camchain.yaml", CAMCHAIN,
+                   ["truncate-50%", "truncate-in-last-line", "empty", "bit-flips", "utf8-bom", "utf16", "crlf", "nan",
+                    "huge-float", "nul-bytes"],
+                   ["import", "kalibr", "camchain.yaml", "imu.yaml", "--into", "newds"])
+    for name, text in [
+        ("billion-laughs", billion_laughs()),
+        ("deep-nesting", b"a: " + b"[" * 100000 + b"]" * 100000 + b"\n"),
+        ("resolution-1e12", CAMCHAIN.replace(b"[640, 480]", b"[1e12, 480]")),
+        ("resolution-2^31", CAMCHAIN.replace(b"[640, 480]", b"[2147483648, 480]")),
+        ("duplicate-key", CAMCHAIN + b"  camera_model: omni\n"),
+    ]:
+        out.append(Case(f"import-kalibr/{name}", lambda d, text=text: put(os.path.join(d, "camchain.yaml"), text),
+                        ["import", "kalibr", "camchain.yaml", "imu.yaml", "--into", "newds"], {2}))
+
+    # PoET results (roe import poet) into a copy of the sample dataset.
+    add_file_cases("import-poet", "results.json", poet_results(),
+                   ["truncate-50%", "truncate-last-byte", "empty", "bit-flips", "utf8-bom", "utf16", "crlf", "nul-bytes"],
+                   ["import", "poet", "results.json", "--into", "ds", "--name", "poet2"], ds_needed=True)
+    # roe.json and the stream files of a dataset (roe run).
+    run = ["run", "ds", "--out", "out"]
+    add_file_cases("run-roe.json", None, read(os.path.join(SAMPLE, "roe.json")),
+                   ["truncate-50%", "truncate-last-byte", "empty", "bit-flips", "utf8-bom", "utf16", "crlf", "nul-bytes"],
+                   run, ds_needed=True, rel="ds/roe.json")
+    manifest = json.loads(read(os.path.join(SAMPLE, "roe.json")))
+
+    def manifest_variant(mutate):
+        m = json.loads(json.dumps(manifest))
+        mutate(m)
+        return json.dumps(m, indent=1).encode()
+
+    semantic = {
+        "fx-zero": lambda m: m["camera"].__setitem__("fx", 0),
+        "fx-string": lambda m: m["camera"].__setitem__("fx", "600"),
+        "unknown-key": lambda m: m["camera"].__setitem__("fxx", 1),
+        "width-1e12": lambda m: m["camera"].__setitem__("width", 10**12),
+        "negative-rate": lambda m: m["imu"].__setitem__("rate_hz", -200),
+        "non-unit-quaternion": lambda m: m["camera"]["T_I_C"].__setitem__("q", [0, 0, 0, 2]),
+    }
+    for name, mut in semantic.items():
+        def setup(d, mut=mut):
+            dataset_copy(os.path.join(d, "ds"))
+            put(os.path.join(d, "ds/roe.json"), manifest_variant(mut))
+        out.append(Case(f"run-roe.json/{name}", setup, run, {2}))
+    out.append(Case("run-roe.json/deep-nesting",
+                    lambda d: (dataset_copy(os.path.join(d, "ds")), put(os.path.join(d, "ds/roe.json"), deep_json(200000))),
+                    run, {2}))
+    add_file_cases("run-imu0", None, read(os.path.join(SAMPLE, "mav0/imu0/data.csv")),
+                   ["truncate-50%", "truncate-in-last-line", "bit-flips", "utf8-bom", "utf16", "crlf", "nan", "inf",
+                    "huge-float", "huge-int", "unsorted-stamps", "duplicated-stamp", "nul-bytes"],
+                   run, ds_needed=True, rel="ds/mav0/imu0/data.csv")
+    det = os.path.join(SAMPLE, "detections/sim/detections.csv")
+    add_file_cases("run-detections", None, read(det),
+                   ["truncate-50%", "truncate-in-last-line", "bit-flips", "nan", "huge-int", "unsorted-stamps",
+                    "zero-quaternion", "utf8-bom"],
+                   run, ds_needed=True, rel="ds/detections/sim/detections.csv")
+    return out
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Running.
+# ----------------------------------------------------------------------------------------------------------
+
+
+def limit_child():
+    resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    os.setsid()
+
+
+def run_case(roe, case, workdir):
+    d = os.path.join(workdir, case.name.replace("/", "__"))
+    os.makedirs(d)
+    for name, data in (("imu.yaml", IMU_YAML),):
+        put(os.path.join(d, name), data)
+    case.setup(d)
+    t0 = time.monotonic()
+    p = subprocess.Popen([roe] + case.argv, cwd=d, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                         preexec_fn=limit_child)
+    try:
+        _, err = p.communicate(timeout=TIME_LIMIT_S)
+        code = p.returncode
+    except subprocess.TimeoutExpired:
+        os.killpg(p.pid, signal.SIGKILL)
+        _, err = p.communicate()
+        code = "timeout"
+    dt = time.monotonic() - t0
+    err = err.decode("utf-8", "replace").strip().splitlines()
+    message = err[-1] if err else ""
+    ok = code in case.allowed
+    return case.name, code, dt, message, ok
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("roe")
+    ap.add_argument("--jobs", type=int, default=max(1, os.cpu_count() or 1))
+    ap.add_argument("--list", action="store_true")
+    ap.add_argument("--keep", help="keep the case folders in this folder")
+    ap.add_argument("--only", default="")
+    ap.add_argument("--verbose", action="store_true")
+    a = ap.parse_args()
+    all_cases = [c for c in cases() if a.only in c.name]
+    if a.list:
+        for c in all_cases:
+            print(c.name, "exits", sorted(c.allowed))
+        print(len(all_cases), "cases")
+        return 0
+    roe = os.path.abspath(a.roe)
+    workdir = a.keep or tempfile.mkdtemp(prefix="roe-hostile-")
+    os.makedirs(workdir, exist_ok=True)
+    t0 = time.monotonic()
+    failed = []
+    counts = {}
+    slowest = (0.0, "")
+    try:
+        with futures.ThreadPoolExecutor(max_workers=a.jobs) as pool:
+            for name, code, dt, message, ok in pool.map(lambda c: run_case(roe, c, workdir), all_cases):
+                counts[code] = counts.get(code, 0) + 1
+                slowest = max(slowest, (dt, name))
+                if a.verbose or not ok:
+                    print(f"{'ok  ' if ok else 'FAIL'} {name}: exit {code} in {dt:.2f} s: {message[:200]}")
+                if not ok:
+                    failed.append(name)
+    finally:
+        if not a.keep:
+            shutil.rmtree(workdir, ignore_errors=True)
+    print(f"{len(all_cases)} hostile inputs in {time.monotonic() - t0:.1f} s ({a.jobs} at a time); exits "
+          + ", ".join(f"{k}: {v}" for k, v in sorted(counts.items(), key=str))
+          + f"; slowest {slowest[1]} {slowest[0]:.2f} s; {len(failed)} outside the contract")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
