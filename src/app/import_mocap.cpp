@@ -286,7 +286,9 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   if (!(opt.max_offset_s > 0.0 && opt.max_offset_s <= 60.0))
     throw InputError(fmt::format("--max-offset must be in (0, 60] seconds, got {} (give a coarse shift with --time-offset)",
                                  opt.max_offset_s));
-  (void)io::require_regular_file(file, "mocap file");
+  // A regular file, or a rosbag2 folder (metadata.yaml + its storage files).
+  if (!io::is_folder(file) || io::detect_bag_kind(file) != "rosbag2-folder")
+    (void)io::require_regular_file(file, "mocap file");
   S.csv = dataset / "mav0" / opt.mocap_name / "data.csv";
   if (io::path_exists(S.csv) && !opt.force)
     throw InputError("the dataset already has mocap data (use --force to replace it)", {S.csv.string()});

@@ -210,7 +210,10 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
 }
 
 RunConfig run_config_from_file(const std::filesystem::path& file) {
-  return run_config_from_json(io::parse_json_file(file), file.string());
+  // Every error with a key path gets the key's line and column in the file (io::read_json_file).
+  return io::read_json_file(file, [](const nlohmann::json& j, const std::string& source) {
+    return run_config_from_json(j, source);
+  });
 }
 
 json run_config_to_json(const RunConfig& c) {

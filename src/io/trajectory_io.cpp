@@ -402,7 +402,7 @@ void apply_kitti_times(Trajectory& tr, const fs::path& times_file) {
   o.header = CsvHeader::kNone;
   o.columns = 1;
   o.comment_prefix = "#";
-  CsvReader r = CsvReader::from_text(slurp(times_file), times_file.string(), o);
+  CsvReader r = CsvReader::from_text(read_file(times_file), times_file.string(), o);
   std::size_t i = 0;
   while (r.next()) {
     if (i == tr.size())

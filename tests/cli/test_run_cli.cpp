@@ -143,3 +143,22 @@ TEST_CASE("roe run: a run the detections do not support exits 1 and says why", "
   CHECK(j2.at("health").at("healthy").get<bool>());
   CHECK(j2.at("config").at("health").at("max_dead_reckoning_s").get<double>() == -1.0);
 }
+
+TEST_CASE("roe run: a run config's semantic error names the key and its line and column", "[cli][run]") {
+  roe::test::TempDir tmp("roe_cli_run_cfg");
+  const fs::path ds = tmp / "ds";
+  REQUIRE(roe_run("-q simulate --preset paper-seq4 --duration 2 --out " + q(ds)).code == 0);
+  // A wrong type on line 3, column 23 (the value), and a negative σ on line 4.
+  const fs::path bad_type = tmp.write("type.json", "{\n  \"filter\": {\n    \"meas_sigma_p_m\": \"ten\"\n  }\n}\n");
+  auto r = roe_run("run " + q(ds) + " --config " + q(bad_type) + " --out " + q(tmp / "r1"));
+  CHECK(r.code == 2);
+  CHECK(r.out.find(bad_type.string() + ":3:") != std::string::npos);
+  CHECK(r.out.find("meas_sigma_p_m") != std::string::npos);
+  const fs::path negative =
+      tmp.write("neg.json", "{\n  \"filter\": {\n    \"meas_sigma_rot_deg\": 20,\n    \"meas_sigma_p_m\": -0.1\n  }\n}\n");
+  r = roe_run("run " + q(ds) + " --config " + q(negative) + " --out " + q(tmp / "r2"));
+  CHECK(r.code == 2);
+  CHECK(r.out.find(negative.string() + ":4:") != std::string::npos);
+  CHECK(!fs::exists(tmp / "r1"));
+  CHECK(!fs::exists(tmp / "r2"));
+}

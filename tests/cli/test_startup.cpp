@@ -74,7 +74,7 @@ TEST_CASE("roe lists the helpers' commands and hands them over with their argume
   roe::test::TempDir d;
   r = run_roe("import realsense /no/such.bag --out " + (d / "ds").string());
   CHECK(r.code == 2);
-  CHECK(r.out.find("/no/such.bag: cannot open bag") != std::string::npos);
+  CHECK(r.out.find("/no/such.bag: no such bag file or folder") != std::string::npos);
   // A command's argument that happens to be a helper's command name is not forwarded.
   r = run_roe("run infer --out " + (d / "run").string());
   CHECK(r.code == 2);
