@@ -1,7 +1,5 @@
 // `make install` (cmake --install) gives a roe that works from any folder with only PREFIX/bin on PATH:
 // shipped configs by name, the image helpers from libexec, a relocated prefix (issue 26).
-#include <sys/wait.h>
-
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
@@ -14,21 +12,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Shell {
-  int code;
-  std::string out;
-};
-
-Shell sh(const std::string& cmd) {
-  FILE* p = popen(("(" + cmd + ") 2>&1").c_str(), "r");
-  REQUIRE(p != nullptr);
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+using Shell = roe::test::RunResult;
+Shell sh(const std::string& cmd) { return roe::test::run_shell(cmd); }
 
 std::string slurp(const fs::path& f) {
   std::ifstream in(f, std::ios::binary);

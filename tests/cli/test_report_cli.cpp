@@ -19,14 +19,8 @@ using roe::test::TempDir;
 
 /// Runs a shell command, returns (exit code, stdout+stderr).
 std::pair<int, std::string> sh(const std::string& cmd) {
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  REQUIRE(p != nullptr);
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  const int st = pclose(p);
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
+  const auto r = roe::test::run_shell(cmd);
+  return {r.code, r.out};
 }
 
 std::string chromium() {

@@ -11,21 +11,12 @@ using roe::test::run_roe;
 
 namespace {
 
-/// Runs a shell command and returns its stdout.
-std::string shell(const std::string& cmd) {
-  FILE* p = popen(cmd.c_str(), "r");
-  REQUIRE(p != nullptr);
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  pclose(p);
-  return out;
-}
+/// Runs a shell command and returns its output (stderr merged).
+std::string shell(const std::string& cmd) { return roe::test::run_shell(cmd).out; }
 
 /// The shared libraries the dynamic loader maps for `exe` (ldd's list: the whole closure of DT_NEEDED).
 std::string loaded_libraries(const fs::path& exe) {
-  const std::string out = shell("ldd '" + exe.string() + "' 2>&1");
+  const std::string out = shell("ldd '" + exe.string() + "'");
   REQUIRE(out.find("libc.so") != std::string::npos);  // ldd worked
   return out;
 }
@@ -42,7 +33,7 @@ TEST_CASE("roe maps neither OpenCV nor LibTorch, and cannot load them later", "[
   CHECK(libs.find("libc10") == std::string::npos);
   CHECK(libs.find("libgdal") == std::string::npos);
   // No dlopen import: what ldd lists is all that roe ever maps (glibc >= 2.34 exports dlopen from libc).
-  const std::string dyn = shell("nm -D --undefined-only '" + kRoe.string() + "' 2>&1");
+  const std::string dyn = shell("nm -D --undefined-only '" + kRoe.string() + "'");
   REQUIRE(dyn.find("execv") != std::string::npos);  // nm worked, and the forwarder is linked in
   CHECK(dyn.find("dlopen") == std::string::npos);
 }
@@ -85,7 +76,7 @@ TEST_CASE("a missing helper is an internal error that says what to do", "[cli][s
   roe::test::TempDir d;
   const fs::path lone = d / "roe";
   fs::copy_file(kRoe, lone);
-  const std::string out = shell("'" + lone.string() + "' infer x --model y 2>&1; echo \"exit=$?\"");
+  const std::string out = shell("'" + lone.string() + "' infer x --model y; echo \"exit=$?\"");
   CHECK(out.find("helper roe-infer, which is not installed") != std::string::npos);
   CHECK(out.find("exit=3") != std::string::npos);
   // Every other command works without the helpers.

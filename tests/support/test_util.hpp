@@ -49,6 +49,18 @@ struct RunResult {
   std::string out;
 };
 
+/// Runs `cmd` through the shell with stderr merged into `out` (a subshell, so `cmd` may be a list).
+inline RunResult run_shell(const std::string& cmd) {
+  FILE* p = popen(("(" + cmd + ") 2>&1").c_str(), "r");
+  REQUIRE(p != nullptr);
+  std::string out;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) out.append(buf.data(), n);
+  const int status = pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
 /// Runs `ROE_BINARY args` through the shell; stderr is merged into `out` unless merge_stderr is false
 /// (then it is discarded, so `out` is exactly stdout, e.g. for --json).
 inline RunResult run_roe(const std::string& args, bool merge_stderr = true) {
