@@ -52,9 +52,10 @@ inline constexpr ForwardedCommand kInferCommand{
 inline constexpr ForwardedCommand kForwardedCommands[] = {kImportRealsenseCommand, kInferCommand};
 
 /// In `roe`: when argv names a forwarded command, execs its helper with the same arguments and does not
-/// return; returns an exit code (3) when the helper cannot be started, and -1 when argv names no
-/// forwarded command. Global flags take no values, so the command is the first word not starting with '-'.
-int forward_to_helper(int argc, char** argv);
+/// return. Returns nullptr when argv names no forwarded command; else the command it could not hand over,
+/// with `error` saying why (an internal error: a broken installation). Global flags take no values, so the
+/// command is the first word not starting with '-'.
+const ForwardedCommand* forward_to_helper(int argc, char** argv, std::string& error);
 
 /// Option validators whose messages read well ("--every: must be an integer >= 1, got '0'");
 /// CLI11's PositiveNumber prints its range up to DBL_MAX in full. `kind` of number_in():

@@ -7,7 +7,6 @@
 
 #include <cerrno>
 #include <cstring>
-#include <iostream>
 #include <string>
 #include <system_error>
 
@@ -47,9 +46,9 @@ const ForwardedCommand* forwarded_command(int argc, char** argv) {
 
 }  // namespace
 
-int forward_to_helper(int argc, char** argv) {
+const ForwardedCommand* forward_to_helper(int argc, char** argv, std::string& error) {
   const ForwardedCommand* c = forwarded_command(argc, argv);
-  if (c == nullptr) return -1;
+  if (c == nullptr) return nullptr;
   const std::string here = io::executable_dir().string();
   // The build tree keeps the helpers beside roe; an installation puts them in PREFIX/libexec/roe.
   std::string tried;
@@ -59,13 +58,13 @@ int forward_to_helper(int argc, char** argv) {
       continue;
     }
     ::execv(candidate.c_str(), argv);
-    std::cerr << "roe: internal error: cannot start " << candidate << ": " << std::strerror(errno) << "\n";
-    return 3;
+    error = "cannot start " + candidate + ": " + std::strerror(errno);
+    return c;
   }
-  std::cerr << "roe: internal error: the command '" << (c->parent[0] ? std::string(c->parent) + " " : "")
-            << c->name << "' runs in the helper " << c->helper << ", which is not installed (looked for "
-            << tried << "); reinstall roe\n";
-  return 3;
+  error = std::string("the command '") + (c->parent[0] ? std::string(c->parent) + " " : "") + c->name +
+          "' runs in the helper " + c->helper + ", which is not installed (looked for " + tried +
+          "); reinstall roe";
+  return c;
 }
 
 }  // namespace roe::cli

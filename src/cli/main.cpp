@@ -66,12 +66,15 @@ int fail(int code, const std::string& command, const std::string& prefix, const 
 
 int main(int argc, char** argv) {
   using namespace roe::cli;
+  for (int i = 1; i < argc && std::string(argv[i]) != "--"; ++i) g_json_errors |= std::string(argv[i]) == "--json";
 #ifdef ROE_CLI_FORWARDS
   // Before anything else (signal handlers included: exec keeps only ignored signals ignored).
-  if (const int code = forward_to_helper(argc, argv); code >= 0) return code;
+  std::string forward_error;
+  if (const ForwardedCommand* c = forward_to_helper(argc, argv, forward_error))
+    return fail(3, std::string(c->parent[0] ? std::string(c->parent) + " " : "") + c->name, "internal error: ",
+                forward_error);
 #endif
   roe::io::remove_temporaries_on_signals();
-  for (int i = 1; i < argc && std::string(argv[i]) != "--"; ++i) g_json_errors |= std::string(argv[i]) == "--json";
   CLI::App app{"roe: AI-based, object-relative visual-inertial state estimation (offline toolkit)",
                "roe"};
   app.require_subcommand(1);

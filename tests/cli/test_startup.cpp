@@ -79,6 +79,10 @@ TEST_CASE("a missing helper is an internal error that says what to do", "[cli][s
   const std::string out = shell("'" + lone.string() + "' infer x --model y; echo \"exit=$?\"");
   CHECK(out.find("helper roe-infer, which is not installed") != std::string::npos);
   CHECK(out.find("exit=3") != std::string::npos);
+  // With --json, that failure is one JSON document on stdout like every other.
+  const std::string js = shell("'" + lone.string() + "' --json infer x --model y 2>/dev/null");
+  CHECK(js.find("\"exit_code\": 3") != std::string::npos);
+  CHECK(js.find("\"command\": \"infer\"") != std::string::npos);
   // Every other command works without the helpers.
   CHECK(shell("'" + lone.string() + "' --version").find("roe 0.") != std::string::npos);
 }
