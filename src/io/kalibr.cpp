@@ -19,9 +19,26 @@ namespace {
 /// A key given twice in one mapping is an error. yaml-cpp keeps both and `node[key]` returns the
 /// first, while PyYAML (Kalibr's own reader) keeps the last: silently taking either would differ from
 /// what Kalibr meant for somebody.
-void refuse_duplicate_keys(const fs::path& file, const YAML::Node& n, const std::string& path) {
+void refuse_duplicate_keys(const fs::path& file, const std::string& text, const YAML::Node& n,
+                           const std::string& path);
+
+/// yaml-cpp reads a line without ':' in a block mapping (a stray `nan` under the cameras) as a key with no
+/// value, where PyYAML, Kalibr's reader, refuses the file ("could not find expected ':'"). Kalibr writes
+/// no such keys, so a key whose line has no ':' after it is refused at its line.
+void refuse_key_without_colon(const fs::path& file, const std::string& text, const YAML::Node& key,
+                              const YAML::Node& value, const std::string& here) {
+  const auto m = key.Mark();
+  if (!value.IsNull() || m.is_null() || m.pos < 0 || static_cast<std::size_t>(m.pos) >= text.size()) return;
+  const auto eol = text.find('\n', static_cast<std::size_t>(m.pos));
+  if (text.find(':', static_cast<std::size_t>(m.pos)) < eol) return;
+  throw InputError("a line without ':' in a mapping (PyYAML, Kalibr's reader, refuses it)",
+                   {file.string(), m.line + 1, m.column + 1, here});
+}
+
+void refuse_duplicate_keys(const fs::path& file, const std::string& text, const YAML::Node& n,
+                           const std::string& path) {
   if (n.IsSequence()) {
-    for (std::size_t i = 0; i < n.size(); ++i) refuse_duplicate_keys(file, n[i], fmt::format("{}[{}]", path, i));
+    for (std::size_t i = 0; i < n.size(); ++i) refuse_duplicate_keys(file, text, n[i], fmt::format("{}[{}]", path, i));
     return;
   }
   if (!n.IsMap()) return;
@@ -36,7 +53,8 @@ void refuse_duplicate_keys(const fs::path& file, const YAML::Node& n, const std:
                                    "take the last one, roe refuses to guess",
                                    key, it->second.line + 1),
                        {file.string(), m.line + 1, m.column + 1, here});
-    refuse_duplicate_keys(file, kv.second, here);
+    refuse_key_without_colon(file, text, kv.first, kv.second, here);
+    refuse_duplicate_keys(file, text, kv.second, here);
   }
 }
 
@@ -45,7 +63,7 @@ void refuse_duplicate_keys(const fs::path& file, const YAML::Node& n, const std:
 class RefuseAliases final : public YAML::EventHandler {
  public:
   explicit RefuseAliases(std::string source) : source_(std::move(source)) {}
-  void OnDocumentStart(const YAML::Mark&) override {}
+  void OnDocumentStart(const YAML::Mark& m) override { start_ = m; }
   void OnDocumentEnd() override {}
   void OnNull(const YAML::Mark& m, YAML::anchor_t a) override { check(m, a); }
   void OnAlias(const YAML::Mark& m, YAML::anchor_t) override { refuse(m, "an alias (*name)"); }
@@ -60,6 +78,8 @@ class RefuseAliases final : public YAML::EventHandler {
     check(m, a);
   }
   void OnMapEnd() override {}
+  /// Where the last document handled started.
+  const YAML::Mark& document_start() const { return start_; }
 
  private:
   void check(const YAML::Mark& m, YAML::anchor_t a) const {
@@ -70,6 +90,7 @@ class RefuseAliases final : public YAML::EventHandler {
                      {source_, m.line + 1, m.column + 1});
   }
   std::string source_;
+  YAML::Mark start_ = YAML::Mark::null_mark();
 };
 
 YAML::Node load_yaml(const std::string& text, const fs::path& file) {
@@ -82,12 +103,19 @@ YAML::Node load_yaml(const std::string& text, const fs::path& file) {
       // The first document only, as YAML::Load reads: yaml-cpp 0.7's loop over the next documents never
       // ends on some input (",m0:", a fuzz finding; YAML::LoadAll hangs on it too).
       parser.HandleNextDocument(refuse);
+      // A second document would be ignored silently: refuse it (one more call only, never a loop).
+      RefuseAliases rest(file.string());
+      if (parser.HandleNextDocument(rest)) {
+        const auto& m = rest.document_start();
+        throw InputError("content after the first YAML document: a Kalibr file holds one mapping",
+                         {file.string(), m.is_null() ? 0 : m.line + 1, m.is_null() ? 0 : m.column + 1});
+      }
     }
     root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
     throw InputError("YAML syntax error: " + e.msg, {file.string(), e.mark.line + 1, e.mark.column + 1});
   }
-  refuse_duplicate_keys(file, root, "");
+  refuse_duplicate_keys(file, text, root, "");
   return root;
 }
 

@@ -307,3 +307,22 @@ TEST_CASE("YAML class (fuzz finding): a camera or an IMU that is not a mapping i
   for (const std::string y : {"imu0: 5\n", "imu0: [1]\n"})
     CHECK_THROWS_WITH(roe::io::parse_kalibr_imu(y, "i.yaml"), Contains("i.yaml:1:"));
 }
+
+TEST_CASE("YAML class: a line without ':' or a second document is refused at its line, not ignored", "[io][hostile][kalibr]") {
+  // yaml-cpp reads a stray `nan` line under a block mapping as the start of a second document and YAML::Load
+  // drops it; PyYAML (Kalibr's reader) refuses the file ("could not find expected ':'", line 12).
+  const std::string cc =
+      "cam0:\n  T_cam_imu:\n  - [1.0, 0.0, 0.0, 0.1]\n  - [0.0, 1.0, 0.0, 0.0]\n  - [0.0, 0.0, 1.0, 0.0]\n"
+      "  - [0.0, 0.0, 0.0, 1.0]\n  camera_model: pinhole\n  distortion_coeffs: [0, 0, 0, 0]\n"
+      "  distortion_model: radtan\n  intrinsics: [600, 600, 320, 240]\n  resolution: [640, 480]\n";
+  CHECK_NOTHROW(roe::io::parse_kalibr_camchain(cc, "cc.yaml"));
+  CHECK_NOTHROW(roe::io::parse_kalibr_camchain(cc + "...\n", "cc.yaml"));  // an explicit document end
+  const auto stray = expect_input_error([&] { roe::io::parse_kalibr_camchain(cc + "nan\n", "cc.yaml"); });
+  CHECK(stray.context().line == 12);
+  CHECK_THAT(stray.what(), Contains("without ':'"));
+  const auto second = expect_input_error([&] { roe::io::parse_kalibr_camchain(cc + "---\ncam1: 5\n", "cc.yaml"); });
+  CHECK(second.context().line == 12);
+  CHECK_THAT(second.what(), Contains("after the first YAML document"));
+  CHECK_NOTHROW(roe::io::parse_kalibr_camchain(cc + "cam1:\n", "cc.yaml") /* a key with ':' and no value */ );
+  CHECK_THROWS_WITH(roe::io::parse_kalibr_imu("imu0:\n  update_rate: 200\nnan\n", "i.yaml"), Contains("i.yaml:3:"));
+}
