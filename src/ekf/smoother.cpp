@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 
 #include "roe/core/error.hpp"
 #include "roe/math/so3.hpp"
@@ -55,6 +56,88 @@ SmoothedState make_state(Timestamp t, const CoreState& x, const Pose& T_I_C, con
     for (int b = 0; b < 2; ++b)
       s.pose_cov.block<3, 3>(3 * a, 3 * b) = Pcc.block<3, 3>(a == 0 ? kP : kTheta, b == 0 ? kP : kTheta);
   return s;
+}
+
+/// What the backward pass needs from one propagation segment a → b (docs in smoother.hpp): with
+/// Pp = P_b⁻ and D = P_s,b − P_b⁻, the smoothed δ_a and P_s,a, and, for the IMU steps inside the segment,
+/// λ and W = P_b⁻⁻¹ D P_b⁻⁻¹ reduced to the 30 directions the steps see (M = Tᵀ W T, T = diag(I₁₅, P_a,rc)).
+struct SegmentGain {
+  VecX delta_a;
+  MatX Ps_a;
+  Eigen::Matrix<double, 30, 1> lambda_T = Eigen::Matrix<double, 30, 1>::Zero();  ///< Tᵀ λ
+  Eigen::Matrix<double, 30, 30> M = Eigen::Matrix<double, 30, 30>::Zero();
+};
+
+/// The segment's gain C = P_a Φᵀ P_b⁻⁻¹ without forming it. Propagation adds process noise Q to the core
+/// block only, so P_a Φᵀ = Φ⁻¹ (P_b⁻ − Q) and C = Φ⁻¹ (I − Q P_b⁻⁻¹), where Q P_b⁻⁻¹ has 15 non-zero rows:
+/// δ_a = Φ⁻¹ (δ_b − Q λ), P_s,a = P_a + Φ⁻¹ G D Gᵀ Φ⁻ᵀ with G = I − Q P_b⁻⁻¹, all in O(15 n²) after one
+/// Cholesky factor of P_b⁻ (the direct form C D Cᵀ costs several n³ products per segment).
+SegmentGain segment_gain(const RecordedNode& nd, const MatX& Pa, const MatX& Ps, const VecX& delta_b) {
+  const Eigen::Index n = Pa.rows(), r = n - kCore;
+  const MatX Pp = predicted_covariance(nd, Pa);
+  const auto llt = factor(Pp, nd.x.t_ns, "predicted");
+  MatX T = MatX::Zero(n, 30);
+  T.topLeftCorner<kCore, kCore>().setIdentity();
+  if (r > 0) T.bottomRightCorner(r, kCore) = Pa.bottomLeftCorner(r, kCore);
+  const MatX Z = llt.solve(T);  // P_b⁻⁻¹ T; its first 15 columns are P_b⁻⁻¹'s core columns
+  const VecX lambda = llt.solve(delta_b);
+  MatX D = Ps - Pp;
+
+  SegmentGain g;
+  g.lambda_T = T.transpose() * lambda;
+  const MatX DZ = D * Z;
+  g.M = Z.transpose() * DZ;
+  g.M = 0.5 * (g.M + g.M.transpose()).eval();
+
+  const Mat15 Phi_inv = nd.Phi.inverse();
+  const Mat15 Q = nd.P_cc - nd.Phi * Pa.topLeftCorner<kCore, kCore>() * nd.Phi.transpose();
+  g.delta_a = delta_b;
+  g.delta_a.head<kCore>() = Phi_inv * (delta_b.head<kCore>() - Q * lambda.head<kCore>());
+  // G D Gᵀ: E = Q (P_b⁻⁻¹)_c: changes the core rows, then Eᵀ the core columns.
+  const MatX E = Q * Z.leftCols<kCore>().transpose();
+  D.topRows<kCore>() -= (E * D).eval();
+  D.leftCols<kCore>() -= (D * E.transpose()).eval();
+  D.topRows<kCore>() = (Phi_inv * D.topRows<kCore>()).eval();
+  D.leftCols<kCore>() = (D.leftCols<kCore>() * Phi_inv.transpose()).eval();
+  g.Ps_a = symmetric(Pa + D);
+  return g;
+}
+
+/// The smoothed core state and covariance at every IMU step inside a segment, written to res.states:
+/// P(t) and Φ(t, a) re-propagated from P_a with the recorded F and the same process noise, then backwards
+/// Ψ = Φ(b, t), A_t = [P_cc(t) Ψᵀ, Φ(t, a) P_a,cr] = G_t Tᵀ with G_t = [P_cc(t) Ψᵀ, Φ(t, a)] (15 x 30):
+/// δ_s(t) = G_t Tᵀλ, P_s(t) = P_cc(t) + G_t M G_tᵀ (fixed-size products only).
+void smooth_segment_steps(const FilterRecording& rec, const RecordedNode& nd, const MatX& Pa, const SegmentGain& g,
+                          const ImuNoiseParams& noise, const StateEstimate& xa, const MatX& Psa,
+                          SmootherResult& res) {
+  const std::size_t m = nd.steps - nd.first_step;
+  std::vector<Mat15> Pcc(m), Phi(m);
+  Mat15 Pc = Pa.topLeftCorner<kCore, kCore>();
+  Mat15 Ph = Mat15::Identity();
+  for (std::size_t i = 0; i < m; ++i) {
+    const CoreTransition& F = rec.steps[nd.first_step + i].F;
+    F.apply_left(Pc);
+    F.apply_right_transposed(Pc);
+    add_process_noise(noise, F.dt, Pc);
+    Pc = 0.5 * (Pc + Pc.transpose()).eval();
+    F.apply_left(Ph);
+    Pcc[i] = Pc;
+    Phi[i] = Ph;
+  }
+  Mat15 Psi = Mat15::Identity();  // Φ(b, t_i)
+  Eigen::Matrix<double, kCore, 30> G;
+  for (std::size_t i = m; i-- > 0;) {
+    const RecordedStep& st = rec.steps[nd.first_step + i];
+    G.leftCols<kCore>().noalias() = Pcc[i] * Psi.transpose();
+    G.rightCols<kCore>() = Phi[i];
+    CoreState x = st.x;
+    boxplus_core(x, G * g.lambda_T);
+    const Eigen::Matrix<double, kCore, 30> GM = G * g.M;
+    Mat15 Psc = Pcc[i];
+    Psc.noalias() += GM * G.transpose();
+    res.states[nd.first_step + i + 1] = make_state(st.t_ns, x, xa.T_I_C, Psc, Psa, xa.extr_offset);
+    st.F.apply_right(Psi);
+  }
 }
 
 }  // namespace
@@ -118,50 +201,11 @@ SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise) {
       case RecordedNode::Kind::kPropagate: {
         const RecordedNode& a = nodes[j - 1];
         ROE_CHECK(a.kind != RecordedNode::Kind::kPropagate, "smooth: two propagation nodes in a row");
-        const MatX& Pa = a.P;
-        const Eigen::Index n = Pa.rows(), r = n - kCore;
-        const MatX Pp = predicted_covariance(nd, Pa);
-        const auto llt = factor(Pp, nd.x.t_ns, "predicted");
-        const VecX lambda = llt.solve(boxminus(xs, nd.x));  // P_b⁻⁻¹ δ_b
-        const MatX D = Ps - Pp;
-        const MatX W = symmetric(llt.solve(llt.solve(D).transpose()));  // P_b⁻⁻¹ D P_b⁻⁻¹
-        // C = P_a Φᵀ P_b⁻⁻¹ (Φ acts on the core columns only), as Cᵀ = P_b⁻⁻¹ (Φ P_a).
-        MatX PaPhiT = Pa;
-        PaPhiT.leftCols<kCore>() = Pa.leftCols<kCore>() * nd.Phi.transpose();
-        const MatX CT = llt.solve(PaPhiT.transpose());
+        const SegmentGain g = segment_gain(nd, a.P, Ps, boxminus(xs, nd.x));
         StateEstimate xa = a.x;
-        boxplus(xa, PaPhiT * lambda);
-        const MatX Psa = symmetric(Pa + CT.transpose() * D * CT);
-
-        // The IMU steps of the segment: P(t) re-propagated from P_a, then, backwards, Φ(b, t) and the
-        // smoothed core state and covariance at every step.
-        const std::size_t m = nd.steps - nd.first_step;
-        std::vector<Mat15> Pcc(m);
-        std::vector<MatX> Pcr(m);
-        Mat15 Pc = Pa.topLeftCorner<kCore, kCore>();
-        MatX Pr = Pa.topRightCorner(kCore, r);
-        for (std::size_t i = 0; i < m; ++i) {
-          const CoreTransition& F = rec.steps[nd.first_step + i].F;
-          const Mat15 Fd = F.dense();
-          Pc = Fd * Pc * Fd.transpose();
-          add_process_noise(noise, F.dt, Pc);
-          Pc = 0.5 * (Pc + Pc.transpose()).eval();
-          Pr = Fd * Pr;
-          Pcc[i] = Pc;
-          Pcr[i] = Pr;
-        }
-        Mat15 Psi = Mat15::Identity();  // Φ(b, t_i)
-        MatX A(kCore, n);
-        for (std::size_t i = m; i-- > 0;) {
-          const RecordedStep& st = rec.steps[nd.first_step + i];
-          A.leftCols<kCore>() = Pcc[i] * Psi.transpose();
-          if (r > 0) A.rightCols(r) = Pcr[i];
-          CoreState x = st.x;
-          boxplus_core(x, A * lambda);
-          const Mat15 Psc = Pcc[i] + A * W * A.transpose();
-          res.states[nd.first_step + i + 1] = make_state(st.t_ns, x, xa.T_I_C, Psc, Psa, xa.extr_offset);
-          Psi = Psi * st.F.dense();
-        }
+        boxplus(xa, g.delta_a);
+        const MatX& Psa = g.Ps_a;
+        smooth_segment_steps(rec, nd, a.P, g, noise, xa, Psa, res);
         xs = std::move(xa);
         Ps = Psa;
         break;

@@ -88,6 +88,11 @@ TEST_CASE("discrete F equals finite differences of the nominal integration", "[e
       Eigen::Matrix<double, 15, 20> Y = X;
       F.apply_left(Y);
       CHECK((Y - Fa * X).cwiseAbs().maxCoeff() < 1e-12);
+      Eigen::Matrix<double, 20, 15> Xr = Eigen::Matrix<double, 20, 15>::Random(), Yr = Xr, Yt = Xr;
+      F.apply_right(Yr);
+      CHECK((Yr - Xr * Fa).cwiseAbs().maxCoeff() < 1e-12);
+      F.apply_right_transposed(Yt);
+      CHECK((Yt - Xr * Fa.transpose()).cwiseAbs().maxCoeff() < 1e-12);
     }
   }
 }

@@ -64,6 +64,9 @@ struct CoreTransition {
   /// column-major storage, so they vectorise over the rows; used by the per-sample F P Fᵀ and Φ).
   template <typename Derived>
   void apply_right_transposed(Eigen::MatrixBase<Derived>& X) const;
+  /// X ← X F for a fixed-size r x 15 block (the smoother's backward product Φ(b, t) = Φ(b, t') F).
+  template <typename Derived>
+  void apply_right(Eigen::MatrixBase<Derived>& X) const;
 };
 
 /// Integrates the nominal state over dt with the measurements (w0, a0) at the start and (w1, a1) at
@@ -139,6 +142,25 @@ void CoreTransition::apply_right_transposed(Eigen::MatrixBase<Derived>& X) const
   X.template middleCols<3>(kP) += dt * X.template middleCols<3>(kV) + (0.5 * dt) * dv;
   X.template middleCols<3>(kV) += dv;
   X.template middleCols<3>(kTheta) = dth;
+}
+
+template <typename Derived>
+void CoreTransition::apply_right(Eigen::MatrixBase<Derived>& X) const {
+  static_assert(Derived::RowsAtCompileTime != Eigen::Dynamic && Derived::ColsAtCompileTime == 15,
+                "apply_right: fixed-size r x 15 block");
+  constexpr int kRows = Derived::RowsAtCompileTime;
+  // F = I except rows δp (+ dt δv + dt/2 · the δv rows' terms), δv (F_vθ, F_vbg, F_vba) and δθ (F_θθ, F_θbg),
+  // so with u = X_v + (dt/2) X_p: (X F)[:, v] = X_v + dt X_p, [:, θ] = u F_vθ + X_θ F_θθ,
+  // [:, bg] = X_bg + u F_vbg + X_θ F_θbg, [:, ba] = X_ba + u F_vba; old columns are read first.
+  const Eigen::Matrix<double, kRows, 3> u = X.template middleCols<3>(kV) + (0.5 * dt) * X.template middleCols<3>(kP);
+  Eigen::Matrix<double, kRows, 3> th;
+  th.noalias() = u * F_vtheta;
+  th.noalias() += X.template middleCols<3>(kTheta) * F_tt;
+  X.template middleCols<3>(kBg).noalias() += u * F_vbg;
+  X.template middleCols<3>(kBg).noalias() += X.template middleCols<3>(kTheta) * F_tbg;
+  X.template middleCols<3>(kBa).noalias() += u * F_vba;
+  X.template middleCols<3>(kV) += dt * X.template middleCols<3>(kP);
+  X.template middleCols<3>(kTheta) = th;
 }
 
 }  // namespace roe::ekf
