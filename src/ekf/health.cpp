@@ -63,8 +63,8 @@ std::vector<std::string> run_warnings(const FilterRunSummary& s, const FilterOpt
                           s.no_main_anchor_pending)
             : std::string()));
   if (s.updates == 0) out.push_back("no update was made: the trajectory is IMU dead reckoning");
-  if (!s.gyro_bias_rest_refused.empty())
-    out.push_back("init_gyro_bias_from_rest: " + s.gyro_bias_rest_refused + "; the gyro bias starts at init_gyro_bias");
+  // A refused init_gyro_bias_from_rest is not a warning: the default asks for it and a handheld recording
+  // starts moving; run.json's init.gyro_bias_from / gyro_bias_rest_refused say what happened and why.
   return out;
 }
 

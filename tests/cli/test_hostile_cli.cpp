@@ -139,15 +139,16 @@ TEST_CASE("roe calib-check: a NaN anywhere in states.csv is an input error at it
   Limited r = run_limited(d.path, "run '" + sample.string() + "' --out run");
   REQUIRE(r.code == 0);
   REQUIRE(run_limited(d.path, "calib-check run").code != 2);
-  // v_W_I_x (column 5) of the third data row: a column no check reads.
-  std::string states = roe::io::read_file(d / "run" / "states.csv");
+  // v_W_I_x (column 5) of the third data row: a column no check reads. The default run is smoothed, so
+  // calib-check reads the filter's states_filter.csv.
+  std::string states = roe::io::read_file(d / "run" / "states_filter.csv");
   std::size_t at = 0;
   for (int k = 0; k < 3; ++k) at = states.find('\n', at) + 1;
   std::size_t c = at;
   for (int k = 0; k < 4; ++k) c = states.find(',', c) + 1;
   states.replace(c, states.find(',', c) - c, "nan");
-  roe::io::write_file_atomic(d / "run" / "states.csv", states);
+  roe::io::write_file_atomic(d / "run" / "states_filter.csv", states);
   r = run_limited(d.path, "calib-check run");
   CHECK(r.code == 2);
-  CHECK_THAT(r.out, Contains("states.csv:4:5") && Contains("v_W_I_x"));
+  CHECK_THAT(r.out, Contains("states_filter.csv:4:5") && Contains("v_W_I_x"));
 }

@@ -15,6 +15,7 @@
 #include "roe/math/euler.hpp"
 #include "roe/math/so3.hpp"
 #include "roe/sim/simulator.hpp"
+#include "support/plain_config.hpp"
 
 namespace roe::test {
 
@@ -113,7 +114,7 @@ struct MonteCarlo {
 /// RunConfig::smoother ("rts": the smoothed estimate and its covariance).
 inline MonteCarlo monte_carlo(const std::string& preset, int N, double duration, double skip_s,
                               const std::string& smoother = "none") {
-  app::RunConfig cfg;
+  app::RunConfig cfg = test::plain_config();
   cfg.filter.use_detection_sigmas = true;
   cfg.filter.init_sigma_v_mps = 1.0;
   cfg.smoother = smoother;

@@ -21,7 +21,7 @@ using roe::test::MonteCarlo;
 
 TEST_CASE("noise-free preset: the estimate converges to the truth", "[ekf][sim]") {
   const Dataset d = test::simulate_preset("noise-free", 1, 30.0);
-  app::RunConfig cfg;
+  app::RunConfig cfg = test::plain_config();
   cfg.filter.meas_sigma_p_m = 0.001;
   cfg.filter.meas_sigma_rot_deg = 0.05;
   // The simulated IMU is noise-free; the filter keeps a small process noise.
@@ -101,7 +101,7 @@ Dataset perturbed_extrinsics(const std::string& preset, std::uint64_t seed, doub
 }
 
 app::RunConfig self_calibration_config() {
-  app::RunConfig cfg;
+  app::RunConfig cfg = test::plain_config();
   cfg.filter.use_detection_sigmas = true;
   cfg.filter.extrinsics_sigma_p_m = 0.05;
   cfg.filter.extrinsics_sigma_rot_deg = 5.0;
@@ -162,7 +162,7 @@ TEST_CASE("self-calibration on the slow orbit: the lever arm stays uncertain and
 // Every final estimate must agree with its σ, relative to the anchor and in W.
 TEST_CASE("object-worlds: sigma < 1 cm / 1 deg within 10 s of first sight, estimates consistent with sigma",
           "[ekf][sim][calib]") {
-  app::RunConfig cfg;
+  app::RunConfig cfg = test::plain_config();
   cfg.filter.use_detection_sigmas = true;
   const auto below = [](const Vec6& sigma) {
     return sigma.head<3>().maxCoeff() < 0.01 && sigma.tail<3>().maxCoeff() * math::kDegPerRad < 1.0;

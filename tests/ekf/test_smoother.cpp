@@ -15,7 +15,7 @@ using ekf::Vec6;
 namespace {
 
 app::RunConfig matched_config(const std::string& smoother) {
-  app::RunConfig cfg;
+  app::RunConfig cfg = test::plain_config();
   cfg.filter.use_detection_sigmas = true;
   cfg.smoother = smoother;
   return cfg;
@@ -95,7 +95,7 @@ TEST_CASE("smoother: exact at the end, constant states at their final estimate, 
 
 TEST_CASE("smoother: noise-free preset matches the truth", "[ekf][smoother][sim]") {
   const Dataset d = test::simulate_preset("noise-free", 1, 30.0);
-  app::RunConfig cfg;
+  app::RunConfig cfg = test::plain_config();
   cfg.smoother = "rts";
   const app::RunOutput r = app::run_dataset(d, "sim", cfg);
   const test::Accuracy a = test::accuracy(test::match(r, d));
