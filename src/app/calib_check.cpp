@@ -82,10 +82,10 @@ struct StatesTrace {
 // every column is read.
 StatesTrace read_states(const fs::path& file) {
   StatesTrace t;
-  for (const io::StateRow& s : io::read_states_csv(file)) {
+  io::for_each_state_row(file, {}, [&](const io::StateRow& s) {
     t.extrinsics.push_back({s.t_ns, s.T_I_C, s.sigma.tail<6>()});
     t.final_gyro_bias = s.x.b_g;
-  }
+  });
   if (t.extrinsics.empty()) throw InputError("no data row", {file.string()});
   return t;
 }

@@ -29,22 +29,22 @@ std::vector<std::optional<eval::PoseCovariance>> read_states_covariance(const fs
   for (const char* g : {"sigma_p_W_I", "sigma_theta_W_I"})
     for (const char* a : {"_x", "_y", "_z"}) read.columns.push_back(std::string(g) + a);
   read.allow_nonfinite = true;
-  std::string missing;
-  const std::vector<io::StateRow> rows = io::read_states_csv(file, read, &missing);
-  if (!missing.empty()) {
-    if (why) *why = missing;
-    return {};
-  }
   std::vector<Timestamp> st;
   std::vector<eval::PoseCovariance> sc;
-  st.reserve(rows.size());
-  sc.reserve(rows.size());
-  for (const io::StateRow& s : rows) {
-    st.push_back(s.t_ns);
-    eval::PoseCovariance c;
-    c.P_p.diagonal() = s.sigma.head<3>().cwiseAbs2();
-    c.P_theta.diagonal() = s.sigma.segment<3>(6).cwiseAbs2();
-    sc.push_back(c);
+  std::string missing;
+  const bool have = io::for_each_state_row(
+      file, read,
+      [&](const io::StateRow& s) {
+        st.push_back(s.t_ns);
+        eval::PoseCovariance c;
+        c.P_p.diagonal() = s.sigma.head<3>().cwiseAbs2();
+        c.P_theta.diagonal() = s.sigma.segment<3>(6).cwiseAbs2();
+        sc.push_back(c);
+      },
+      &missing);
+  if (!have) {
+    if (why) *why = missing;
+    return {};
   }
   std::vector<std::optional<eval::PoseCovariance>> out(t_ns.size());
   std::size_t found = 0;

@@ -9,8 +9,6 @@
 #include <optional>
 
 #include "roe/io/csv.hpp"
-#include "roe/io/output.hpp"
-#include "roe/io/pose_json.hpp"
 #include "roe/math/so3.hpp"
 
 namespace roe::io {
@@ -38,10 +36,12 @@ struct Field {
   int integer() const { return r.get_int(col); }
   std::string text() const { return r.get_string(col); }
   /// Normalises q after checking it is unit within `tol` (an error at this column: the last one of q).
+  /// Always normalised, as the readers did before this table (eval's outputs keep their bytes): a written
+  /// quaternion reads back to within an ulp or two.
   void unit(Eigen::Quaterniond& q, double tol) const {
     const double n = q.norm();
     if (!(std::abs(n - 1.0) <= tol)) throw r.error(col, fmt::format("quaternion norm {:.6g} is not 1", n));
-    q = unit_quaternion(q);
+    q.normalize();
   }
 };
 
@@ -188,21 +188,21 @@ std::vector<std::string> names(const Table<W, R>& t) {
 }
 
 template <class W, class R>
-std::string format_table(const Table<W, R>& t, const std::vector<W>& rows) {
+CsvWriter fill_table(const Table<W, R>& t, const std::vector<W>& rows) {
   CsvWriter w;
   w.header(names(t));
   for (const W& row : rows) {
     for (const auto& c : t) c.write(w, row, c.k);
     w.end_row();
   }
-  return w.str();
+  return w;
 }
 
-/// Reads the listed columns (empty: all) of table `t` from `file`; nullopt with *missing set when a
-/// listed column is absent and `missing` is given.
-template <class W, class R>
-std::optional<std::vector<R>> read_table(const Table<W, R>& t, const fs::path& file, const RunFileRead& read,
-                                         std::string* missing) {
+/// Reads the listed columns (empty: all) of table `t` from `file`, calling sink(row) for each data row;
+/// false with *missing set when a listed column is absent and `missing` is given.
+template <class W, class R, class Sink>
+bool read_table(const Table<W, R>& t, const fs::path& file, const RunFileRead& read, std::string* missing,
+                Sink&& sink) {
   CsvOptions o;
   o.header = CsvHeader::kFirstLine;
   o.allow_nonfinite = read.allow_nonfinite;
@@ -221,21 +221,28 @@ std::optional<std::vector<R>> read_table(const Table<W, R>& t, const fs::path& f
       cols.emplace_back(&c, std::string::npos);
     } else if (missing != nullptr) {
       *missing = fmt::format("{} has no {} column", file.filename().string(), c.name);
-      return std::nullopt;
+      return false;
     } else {
       r.column(c.name);  // the located error naming it
     }
   }
   ROE_CHECK(!cols.empty() && cols.front().first->name == "timestamp_ns", "run file reader: the stamp is read first");
-  std::vector<R> rows;
+  Timestamp last = std::numeric_limits<Timestamp>::min();
   while (r.next()) {
     R row;
     for (const auto& [c, i] : cols) c->read(Field{r, i, read.allow_nonfinite}, row, c->k);
-    if (!rows.empty() && row.t_ns < rows.back().t_ns)
-      throw r.error(cols.front().second,
-                    fmt::format("time stamps must not decrease ({} after {})", row.t_ns, rows.back().t_ns));
-    rows.push_back(std::move(row));
+    if (row.t_ns < last)
+      throw r.error(cols.front().second, fmt::format("time stamps must not decrease ({} after {})", row.t_ns, last));
+    last = row.t_ns;
+    sink(std::move(row));
   }
+  return true;
+}
+
+template <class W, class R>
+std::vector<R> read_all(const Table<W, R>& t, const fs::path& file, const RunFileRead& read) {
+  std::vector<R> rows;
+  read_table(t, file, read, nullptr, [&](R&& row) { rows.push_back(std::move(row)); });
   return rows;
 }
 
@@ -254,34 +261,37 @@ const std::vector<std::string>& reprojection_csv_columns() {
   return n;
 }
 
-std::string format_states_csv(const std::vector<StateRow>& rows) { return format_table(states_table(), rows); }
-std::string format_objects_csv(const std::vector<ObjectRow>& rows) { return format_table(objects_table(), rows); }
+std::string format_states_csv(const std::vector<StateRow>& rows) { return fill_table(states_table(), rows).str(); }
+std::string format_objects_csv(const std::vector<ObjectRow>& rows) { return fill_table(objects_table(), rows).str(); }
 std::string format_reprojection_csv(const std::vector<ReprojectionRow>& rows) {
-  return format_table(reprojection_table(), rows);
+  return fill_table(reprojection_table(), rows).str();
 }
+// The writers write the table's buffer itself (no copy of a file's worth of text).
 void write_states_csv(const fs::path& file, const std::vector<StateRow>& rows) {
-  write_file_atomic(file, format_states_csv(rows));
+  fill_table(states_table(), rows).write(file);
 }
 void write_objects_csv(const fs::path& file, const std::vector<ObjectRow>& rows) {
-  write_file_atomic(file, format_objects_csv(rows));
+  fill_table(objects_table(), rows).write(file);
 }
 void write_reprojection_csv(const fs::path& file, const std::vector<ReprojectionRow>& rows) {
-  write_file_atomic(file, format_reprojection_csv(rows));
+  fill_table(reprojection_table(), rows).write(file);
 }
 
-std::vector<StateRow> read_states_csv(const fs::path& file, const RunFileRead& read, std::string* missing) {
-  auto rows = read_table(states_table(), file, read, missing);
-  return rows ? std::move(*rows) : std::vector<StateRow>{};
+std::vector<StateRow> read_states_csv(const fs::path& file, const RunFileRead& read) {
+  return read_all(states_table(), file, read);
 }
 
-std::vector<ObjectRow> read_objects_csv(const fs::path& file) {
-  return std::move(*read_table(objects_table(), file, {}, nullptr));
+bool for_each_state_row(const fs::path& file, const RunFileRead& read,
+                        const std::function<void(const StateRow&)>& fn, std::string* missing) {
+  return read_table(states_table(), file, read, missing, [&](StateRow&& row) { fn(row); });
 }
+
+std::vector<ObjectRow> read_objects_csv(const fs::path& file) { return read_all(objects_table(), file, {}); }
 
 std::vector<eval::DetectionPose> read_reprojection_csv(const fs::path& file) {
   RunFileRead read;
   read.allow_nonfinite = true;
-  return std::move(*read_table(reprojection_table(), file, read, nullptr));
+  return read_all(reprojection_table(), file, read);
 }
 
 }  // namespace roe::io

@@ -16,14 +16,15 @@
 /// any order (extra columns are ignored), every error is a roe::InputError with file, line and column:
 /// a missing column (at the header line, naming it), a value that is not a number, a non-finite number
 /// where the writer never writes one, a quaternion that is not unit (|‖q‖ − 1| > tolerance), a negative
-/// σ, decreasing stamps. write → read gives the rows back exactly (states.csv does not hold
-/// StateRow::pose_cov; it reads back as zero).
+/// σ, decreasing stamps. write → read gives the rows back: numbers exactly, quaternions in the canonical
+/// hemisphere and normalised (to an ulp or two); states.csv does not hold StateRow::pose_cov (reads as 0).
 ///
 /// Adding a column to a file is one line in its table in run_files.cpp (name, how to write it, how to
 /// read it; `optional` when older files without it must still be read).
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -94,10 +95,12 @@ struct RunFileRead {
 };
 
 /// states.csv (or states_filter.csv). Stamps must not decrease; quaternions unit within 1e-3; σ ≥ 0.
-/// With `missing` non-null, a listed column that the header lacks is not an error: *missing says which
-/// and the result is empty (eval then skips its NEES with that reason).
-std::vector<StateRow> read_states_csv(const fs::path& file, const RunFileRead& read = {},
-                                      std::string* missing = nullptr);
+std::vector<StateRow> read_states_csv(const fs::path& file, const RunFileRead& read = {});
+/// The same row by row, nothing kept (a 60 s run at the IMU rate is 24,000 rows of 600 bytes): fn(row)
+/// for each data row in order. With `missing` non-null, a listed column that the header lacks is not an
+/// error: *missing says which and the result is false (eval then skips its NEES with that reason).
+bool for_each_state_row(const fs::path& file, const RunFileRead& read, const std::function<void(const StateRow&)>& fn,
+                        std::string* missing = nullptr);
 /// objects.csv. Stamps must not decrease; anchor 0 or 1; quaternions unit within 1e-3; σ ≥ 0.
 std::vector<ObjectRow> read_objects_csv(const fs::path& file);
 /// reprojection.csv as roe eval reads it: any status text; the pose fields may be empty or nan (the
