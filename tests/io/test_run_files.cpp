@@ -101,8 +101,6 @@ TEST_CASE("run files: write then read gives the rows back", "[io][run_files]") {
       check_same_rotation(rows[i].x.q_W_I, back[i].x.q_W_I);
       check_same_rotation(rows[i].T_I_C.q, back[i].T_I_C.q);
     }
-    // Writing what was read gives the same bytes.
-    CHECK(format_states_csv(back) == format_states_csv(rows));
     // A subset of the columns: the others keep their defaults.
     RunFileRead some;
     some.columns = {"timestamp_ns", "sigma_theta_W_I_y"};
