@@ -10,10 +10,11 @@
 
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
-#include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
+#include "roe/io/pose_json.hpp"
+#include "roe/io/run_files.hpp"
 
 namespace roe::app {
 
@@ -60,21 +61,9 @@ class RunJson {
     return v.get<std::string>();
   }
   Pose pose(const std::string& path) const {
-    const json& p = at(path + ".p");
-    const json& q = at(path + ".q");
-    const auto vec = [&](const json& a, std::size_t n, const std::string& key) {
-      if (!a.is_array() || a.size() != n || !std::all_of(a.begin(), a.end(), [](const json& x) { return x.is_number(); }))
-        throw InputError(fmt::format("expected an array of {} numbers", n), {file_, 0, 0, key});
-      std::vector<double> v;
-      for (const auto& x : a) v.push_back(x.get<double>());
-      return v;
-    };
-    const auto pv = vec(p, 3, path + ".p");
-    const auto qv = vec(q, 4, path + ".q");
-    const Eigen::Quaterniond qq(qv[3], qv[0], qv[1], qv[2]);
-    if (std::abs(qq.norm() - 1.0) > 1e-3)
-      throw InputError(fmt::format("quaternion norm {:.6g} is not 1", qq.norm()), {file_, 0, 0, path + ".q"});
-    return Pose(qq, Eigen::Vector3d(pv[0], pv[1], pv[2]));
+    at(path + ".p");  // a missing key says so, like every other key of run.json
+    at(path + ".q");
+    return io::pose_from_json(at(path), file_, path, {1e-3, nullptr});
   }
   const std::string& file() const { return file_; }
 
@@ -88,79 +77,28 @@ struct StatesTrace {
   Eigen::Vector3d final_gyro_bias = Eigen::Vector3d::Zero();
 };
 
+// roe run writes only finite numbers in states.csv (the filter stops on a non-finite state): a NaN or a
+// non-number in any column, read by a check or not, means the file is damaged (docs/calib-check.md), so
+// every column is read.
 StatesTrace read_states(const fs::path& file) {
-  io::CsvOptions o;
-  o.stamp_column = -1;
-  io::CsvReader r(file, o);
-  const std::size_t ct = r.column("timestamp_ns");
-  std::size_t cp[3], cq[4], cs[6], cb[3];
-  const char* ax = "xyz";
-  for (int k = 0; k < 3; ++k) {
-    cp[k] = r.column(fmt::format("p_I_C_{}", ax[k]));
-    cs[k] = r.column(fmt::format("sigma_p_I_C_{}", ax[k]));
-    cs[3 + k] = r.column(fmt::format("sigma_theta_I_C_{}", ax[k]));
-    cb[k] = r.column(fmt::format("b_g_{}", ax[k]));
-  }
-  for (int k = 0; k < 4; ++k) cq[k] = r.column(fmt::format("q_I_C_{}", "xyzw"[k]));
   StatesTrace t;
-  while (r.next()) {
-    calib::ExtrinsicsSample s;
-    s.t_ns = r.get_int64(ct);
-    // roe run writes only finite numbers here (the filter stops on a non-finite state): a NaN or a
-    // non-number in any column, read by a check or not, means the file is damaged (docs/calib-check.md).
-    for (std::size_t c = 0; c < r.size(); ++c)
-      if (c != ct) (void)r.get_double(c);
-    if (!t.extrinsics.empty() && s.t_ns < t.extrinsics.back().t_ns)
-      throw r.error(ct, fmt::format("time stamps must not decrease ({} after {})", s.t_ns, t.extrinsics.back().t_ns));
-    Eigen::Vector3d p;
-    for (int k = 0; k < 3; ++k) p(k) = r.get_double(cp[k]);
-    const Eigen::Quaterniond q(r.get_double(cq[3]), r.get_double(cq[0]), r.get_double(cq[1]), r.get_double(cq[2]));
-    if (std::abs(q.norm() - 1.0) > 1e-3) throw r.error(cq[3], fmt::format("quaternion norm {:.6g} is not 1", q.norm()));
-    s.T_I_C = Pose(q, p);
-    for (int k = 0; k < 6; ++k) {
-      s.sigma(k) = r.get_double(cs[k]);
-      if (s.sigma(k) < 0) throw r.error(cs[k], "a standard deviation must not be negative");
-    }
-    for (int k = 0; k < 3; ++k) t.final_gyro_bias(k) = r.get_double(cb[k]);
-    t.extrinsics.push_back(s);
-  }
+  io::for_each_state_row(file, {}, [&](const io::StateRow& s) {
+    t.extrinsics.push_back({s.t_ns, s.T_I_C, s.sigma.tail<6>()});
+    t.final_gyro_bias = s.x.b_g;
+  });
   if (t.extrinsics.empty()) throw InputError("no data row", {file.string()});
   return t;
 }
 
 /// Each object's last row of objects.csv (its final pose and anchor-relative σ).
 std::map<int, calib::ObjectEstimate> read_objects(const fs::path& file) {
-  io::CsvReader r(file, io::CsvOptions{});
-  const std::size_t ct = r.column("timestamp_ns"), cid = r.column("object_id"), ca = r.column("anchor");
-  std::size_t cp[3], cq[4], cs[6];
-  const char* ax = "xyz";
-  for (int k = 0; k < 3; ++k) {
-    cp[k] = r.column(fmt::format("p_O_W_{}", ax[k]));
-    cs[k] = r.column(fmt::format("sigma_p_A_O_{}", ax[k]));
-    cs[3 + k] = r.column(fmt::format("sigma_theta_A_O_{}", ax[k]));
-  }
-  for (int k = 0; k < 4; ++k) cq[k] = r.column(fmt::format("q_O_W_{}", "xyzw"[k]));
   std::map<int, calib::ObjectEstimate> out;
-  Timestamp last = std::numeric_limits<Timestamp>::min();
-  while (r.next()) {
-    const Timestamp t = r.get_int64(ct);
-    if (t < last) throw r.error(ct, fmt::format("time stamps must not decrease ({} after {})", t, last));
-    last = t;
-    calib::ObjectEstimate o;
-    o.id = r.get_int(cid);
-    const int a = r.get_int(ca);
-    if (a != 0 && a != 1) throw r.error(ca, "expected 0 or 1");
-    o.anchor = a == 1;
-    Eigen::Vector3d p;
-    for (int k = 0; k < 3; ++k) p(k) = r.get_double(cp[k]);
-    const Eigen::Quaterniond q(r.get_double(cq[3]), r.get_double(cq[0]), r.get_double(cq[1]), r.get_double(cq[2]));
-    if (std::abs(q.norm() - 1.0) > 1e-3) throw r.error(cq[3], fmt::format("quaternion norm {:.6g} is not 1", q.norm()));
-    o.T_O_W = Pose(q, p);
-    for (int k = 0; k < 6; ++k) {
-      o.sigma_A_O(k) = r.get_double(cs[k]);
-      if (o.sigma_A_O(k) < 0) throw r.error(cs[k], "a standard deviation must not be negative");
-    }
-    out[o.id] = o;
+  for (const io::ObjectRow& row : io::read_objects_csv(file)) {
+    calib::ObjectEstimate& o = out[row.object_id];
+    o.id = row.object_id;
+    o.anchor = row.anchor;
+    o.T_O_W = row.T_O_W;
+    o.sigma_A_O = row.sigma_A_O;
   }
   return out;
 }

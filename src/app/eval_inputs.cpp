@@ -2,7 +2,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 
 #include "roe/app/eval.hpp"
@@ -12,113 +11,40 @@
 #include "roe/io/bag.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/mocap_formats.hpp"
+#include "roe/io/run_files.hpp"
 
 namespace roe::app {
 
 namespace fs = std::filesystem;
 
 std::vector<ReprojectionCsvRow> read_reprojection_csv(const fs::path& file) {
-  io::CsvOptions o;
-  o.header = io::CsvHeader::kFirstLine;
-  io::CsvReader r(file, o);
-  const std::size_t ct = r.column("timestamp_ns"), cid = r.column("object_id");
-  const std::size_t cp[3] = {r.column("tx"), r.column("ty"), r.column("tz")};
-  const std::size_t cq[4] = {r.column("qx"), r.column("qy"), r.column("qz"), r.column("qw")};
-  const std::size_t cs = r.column("status");
-  const auto cn = r.find_column("nis");
-  std::vector<ReprojectionCsvRow> rows;
-  while (r.next()) {
-    ReprojectionCsvRow row;
-    row.t_ns = r.get_int64(ct);
-    if (!rows.empty() && row.t_ns < rows.back().t_ns)
-      throw r.error(ct,
-                    fmt::format("time stamps must not decrease ({} after {})", row.t_ns, rows.back().t_ns));
-    row.object_id = r.get_int(cid);
-    row.status = r.get_string(cs);
-    row.nis = cn ? (r.is_empty(*cn) ? std::nan("") : r.get_double_nonfinite(*cn)) : std::nan("");
-    // A detection that could not be turned into a pose may carry empty/NaN pose fields: keep the row
-    // for the status counts, with a NaN position.
-    bool valid = true;
-    Eigen::Vector3d p;
-    Eigen::Quaterniond q;
-    for (int k = 0; k < 3; ++k) p(k) = r.is_empty(cp[k]) ? std::nan("") : r.get_double_nonfinite(cp[k]);
-    double qc[4];
-    for (int k = 0; k < 4; ++k) qc[k] = r.is_empty(cq[k]) ? std::nan("") : r.get_double_nonfinite(cq[k]);
-    q = Eigen::Quaterniond(qc[3], qc[0], qc[1], qc[2]);
-    valid = p.allFinite() && q.coeffs().allFinite();
-    if (valid) {
-      const double n = q.norm();
-      if (std::abs(n - 1.0) > 0.05) throw r.error(cq[3], fmt::format("quaternion norm {:.6g} is not 1", n));
-      row.T_W_I = Pose(q, p);
-    } else {
-      row.T_W_I.p = Eigen::Vector3d::Constant(std::nan(""));
-    }
-    rows.push_back(std::move(row));
-  }
-  return rows;
+  return io::read_reprojection_csv(file);
 }
-
-namespace {
-
-std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
-bool contains(const std::string& s, const char* needle) { return s.find(needle) != std::string::npos; }
-
-}  // namespace
 
 std::vector<std::optional<eval::PoseCovariance>> read_states_covariance(const fs::path& file,
                                                                         const std::vector<Timestamp>& t_ns,
                                                                         std::string* why) {
-  io::CsvOptions o;
-  o.header = io::CsvHeader::kFirstLine;
-  io::CsvReader r(file, o);
-  const auto ct = r.find_column("timestamp_ns");
-  if (!ct) {
-    if (why) *why = "states.csv has no timestamp_ns column";
-    return {};
-  }
-  // Find the six standard-deviation columns.
-  int pos_col[3] = {-1, -1, -1}, rot_col[3] = {-1, -1, -1};
-  bool rot_deg = false;
-  const auto& h = r.header();
-  for (std::size_t i = 0; i < h.size(); ++i) {
-    const std::string n = lower(h[i]);
-    if (!(contains(n, "std") || contains(n, "sigma"))) continue;
-    const char axis = n.empty() ? ' ' : n.back();
-    const int k = axis == 'x' ? 0 : axis == 'y' ? 1 : axis == 'z' ? 2 : -1;
-    if (k < 0) continue;
-    if (contains(n, "p_w_i")) {
-      if (pos_col[k] < 0) pos_col[k] = static_cast<int>(i);
-    } else if (contains(n, "theta_w_i") || contains(n, "q_w_i") || contains(n, "th_w_i") ||
-               contains(n, "r_w_i")) {
-      if (rot_col[k] < 0) {
-        rot_col[k] = static_cast<int>(i);
-        rot_deg = rot_deg || contains(n, "deg");
-      }
-    }
-  }
-  for (int k = 0; k < 3; ++k) {
-    if (pos_col[k] < 0 || rot_col[k] < 0) {
-      if (why) *why = "states.csv has no standard-deviation columns for p_W_I and theta_W_I (x, y, z)";
-      return {};
-    }
-  }
+  io::RunFileRead read;
+  read.columns = {"timestamp_ns"};
+  for (const char* g : {"sigma_p_W_I", "sigma_theta_W_I"})
+    for (const char* a : {"_x", "_y", "_z"}) read.columns.push_back(std::string(g) + a);
+  read.allow_nonfinite = true;
   std::vector<Timestamp> st;
   std::vector<eval::PoseCovariance> sc;
-  const double rs = rot_deg ? M_PI / 180.0 : 1.0;
-  while (r.next()) {
-    st.push_back(r.get_int64(*ct));
-    eval::PoseCovariance c;
-    for (int k = 0; k < 3; ++k) {
-      const double sp = r.get_double_nonfinite(static_cast<std::size_t>(pos_col[k]));
-      const double sr = r.get_double_nonfinite(static_cast<std::size_t>(rot_col[k])) * rs;
-      c.P_p(k, k) = sp * sp;
-      c.P_theta(k, k) = sr * sr;
-    }
-    sc.push_back(c);
+  std::string missing;
+  const bool have = io::for_each_state_row(
+      file, read,
+      [&](const io::StateRow& s) {
+        st.push_back(s.t_ns);
+        eval::PoseCovariance c;
+        c.P_p.diagonal() = s.sigma.head<3>().cwiseAbs2();
+        c.P_theta.diagonal() = s.sigma.segment<3>(6).cwiseAbs2();
+        sc.push_back(c);
+      },
+      &missing);
+  if (!have) {
+    if (why) *why = missing;
+    return {};
   }
   std::vector<std::optional<eval::PoseCovariance>> out(t_ns.size());
   std::size_t found = 0;

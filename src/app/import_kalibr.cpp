@@ -10,18 +10,16 @@
 #include "roe/core/log.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/output.hpp"
+#include "roe/io/pose_json.hpp"
 
 namespace roe::app {
 
 nlohmann::json ImportKalibrSummary::to_json() const {
-  auto pose = [](const Pose& T) {
-    return nlohmann::json{{"p", {T.p.x(), T.p.y(), T.p.z()}}, {"q", {T.q.x(), T.q.y(), T.q.z(), T.q.w()}}};
-  };
   nlohmann::json j = {{"command", "import kalibr"},
                       {"dataset", dataset.string()},
                       {"camera", camera},
-                      {"T_cam_imu", pose(T_cam_imu)},
-                      {"T_I_C", pose(T_I_C)},
+                      {"T_cam_imu", io::pose_to_json(T_cam_imu)},
+                      {"T_I_C", io::pose_to_json(T_I_C)},
                       {"timeshift_cam_imu", timeshift_cam_imu},
                       {"camera_model", camera_model},
                       {"distortion_model", distortion_model},
@@ -31,12 +29,10 @@ nlohmann::json ImportKalibrSummary::to_json() const {
                       {"intrinsics_written", intrinsics_written},
                       {"created_manifest", created_manifest},
                       {"warnings", warnings}};
-  if (imu_noise)
-    j["imu_noise"] = {{"gyro_noise_density", imu_noise->gyro_noise_density},
-                      {"gyro_random_walk", imu_noise->gyro_random_walk},
-                      {"accel_noise_density", imu_noise->accel_noise_density},
-                      {"accel_random_walk", imu_noise->accel_random_walk},
-                      {"update_rate", imu_rate_hz}};
+  if (imu_noise) {
+    j["imu_noise"] = io::imu_noise_to_json(*imu_noise);
+    j["imu_noise"]["update_rate"] = imu_rate_hz;
+  }
   return j;
 }
 

@@ -18,6 +18,7 @@
 #include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/output.hpp"
+#include "roe/io/pose_json.hpp"
 #include "roe/io/realsense_streams.hpp"
 #include "roe/io/ros_msgs.hpp"
 
@@ -415,7 +416,7 @@ std::vector<ImuSample> merge_accel_gyro(const std::vector<Vec3Stamped>& accel, c
 nlohmann::json ImportRealsenseSummary::to_json() const {
   nlohmann::json ext = nlohmann::json::object();
   for (const auto& [k, T] : extrinsics)
-    ext[k] = {{"p", {T.p.x(), T.p.y(), T.p.z()}}, {"q", {T.q.x(), T.q.y(), T.q.z(), T.q.w()}}};
+    ext[k] = io::pose_to_json(T);
   return {{"command", "import realsense"},
           {"dataset", dataset.string()},
           {"layout", layout},

@@ -11,9 +11,9 @@
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
 #include "roe/ekf/smoother.hpp"
-#include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/output.hpp"
+#include "roe/io/pose_json.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "roe/version.hpp"
 
@@ -241,71 +241,14 @@ void write_states(const std::vector<StateRow>& rows, const io::OutputDir& dir, c
   }
   io::write_trajectory(dir.file("trajectory" + suffix + ".csv"), t, poses, io::TrajectoryFormat::kCsv);
   io::write_trajectory(dir.file("trajectory" + suffix + ".tum"), t, poses, io::TrajectoryFormat::kTum);
-  io::CsvWriter w;
-  std::vector<std::string> h = {"timestamp_ns", "p_W_I_x", "p_W_I_y", "p_W_I_z", "v_W_I_x", "v_W_I_y",
-                                "v_W_I_z",      "q_W_I_x", "q_W_I_y", "q_W_I_z", "q_W_I_w", "b_g_x",
-                                "b_g_y",        "b_g_z",   "b_a_x",   "b_a_y",   "b_a_z",   "p_I_C_x",
-                                "p_I_C_y",      "p_I_C_z", "q_I_C_x", "q_I_C_y", "q_I_C_z", "q_I_C_w"};
-  for (const char* g : {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a", "p_I_C", "theta_I_C"})
-    for (const char* a : {"x", "y", "z"}) h.push_back(fmt::format("sigma_{}_{}", g, a));
-  w.header(h);
-  for (const auto& s : rows) {
-    w.add(s.t_ns);
-    for (int i = 0; i < 3; ++i) w.add(s.x.p_W_I(i));
-    for (int i = 0; i < 3; ++i) w.add(s.x.v_W_I(i));
-    const Eigen::Quaterniond q = math::canonical(s.x.q_W_I);
-    w.add(q.x()).add(q.y()).add(q.z()).add(q.w());
-    for (int i = 0; i < 3; ++i) w.add(s.x.b_g(i));
-    for (int i = 0; i < 3; ++i) w.add(s.x.b_a(i));
-    for (int i = 0; i < 3; ++i) w.add(s.T_I_C.p(i));
-    const Eigen::Quaterniond qc = math::canonical(s.T_I_C.q);
-    w.add(qc.x()).add(qc.y()).add(qc.z()).add(qc.w());
-    for (int i = 0; i < 21; ++i) w.add(s.sigma(i));
-    w.end_row();
-  }
-  w.write(dir.file("states" + suffix + ".csv"));
+  io::write_states_csv(dir.file("states" + suffix + ".csv"), rows);
 }
 
 void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
   write_states(r.states, dir, "");
   if (r.smoothed) write_states(r.filter_states, dir, "_filter");
-  {
-    io::CsvWriter w;
-    w.header({"timestamp_ns", "object_id", "anchor", "p_O_W_x", "p_O_W_y", "p_O_W_z", "q_O_W_x", "q_O_W_y",
-              "q_O_W_z", "q_O_W_w", "sigma_p_x", "sigma_p_y", "sigma_p_z", "sigma_theta_x", "sigma_theta_y",
-              "sigma_theta_z", "sigma_p_W_O_x", "sigma_p_W_O_y", "sigma_p_W_O_z", "sigma_theta_W_O_x",
-              "sigma_theta_W_O_y", "sigma_theta_W_O_z", "sigma_p_A_O_x", "sigma_p_A_O_y", "sigma_p_A_O_z",
-              "sigma_theta_A_O_x", "sigma_theta_A_O_y", "sigma_theta_A_O_z"});
-    for (const auto& o : r.objects) {
-      const Eigen::Quaterniond q = math::canonical(o.T_O_W.q);
-      w.add(o.t_ns).add(o.object_id).add(o.anchor ? 1 : 0);
-      for (int i = 0; i < 3; ++i) w.add(o.T_O_W.p(i));
-      w.add(q.x()).add(q.y()).add(q.z()).add(q.w());
-      for (int i = 0; i < 6; ++i) w.add(o.sigma(i));
-      for (int i = 0; i < 6; ++i) w.add(o.sigma_W_O(i));
-      for (int i = 0; i < 6; ++i) w.add(o.sigma_A_O(i));
-      w.end_row();
-    }
-    w.write(dir.file("objects.csv"));
-  }
-  {
-    io::CsvWriter w;
-    w.header({"timestamp_ns", "object_id", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "status", "nis"});
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    for (const auto& p : r.reprojection) {
-      w.add(p.t_ns).add(p.object_id);
-      if (p.outcome.has_T_W_I) {
-        const Eigen::Quaterniond q = math::canonical(p.outcome.T_W_I.q);
-        w.add(p.outcome.T_W_I.p.x()).add(p.outcome.T_W_I.p.y()).add(p.outcome.T_W_I.p.z());
-        w.add(q.x()).add(q.y()).add(q.z()).add(q.w());
-      } else {
-        for (int i = 0; i < 7; ++i) w.add(nan);
-      }
-      w.add(ekf::to_string(p.outcome.status)).add(p.outcome.nis);
-      w.end_row();
-    }
-    w.write(dir.file("reprojection.csv"));
-  }
+  io::write_objects_csv(dir.file("objects.csv"), r.objects);
+  io::write_reprojection_csv(dir.file("reprojection.csv"), r.reprojection);
 }
 
 json counts_json(const ekf::DetectionCounts& c) {
@@ -360,8 +303,7 @@ json health_json(const ekf::RunHealth& h, const ekf::HealthLimits& l, Timestamp 
 // The initial state: the extrinsics prior, the init window and where the gyro bias came from.
 json init_json(const ekf::FilterRunSummary& s, const Pose& T_I_C_prior) {
   const auto v3 = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
-  json j = {{"T_I_C", {{"p", v3(T_I_C_prior.p)},
-                       {"q", {T_I_C_prior.q.x(), T_I_C_prior.q.y(), T_I_C_prior.q.z(), T_I_C_prior.q.w()}}}},
+  json j = {{"T_I_C", io::pose_to_json(T_I_C_prior)},
             {"window_samples", s.init.samples},
             {"window_s", s.init.duration_s},
             {"accel_mean", v3(s.init.mean_accel)},
@@ -476,28 +418,18 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
       {"nis", nis_json(r.health.nis)},
       {"health", health_json(r.health, config.health, r.summary.t_first_ns)},
       {"init", init_json(r.summary, r.prior_T_I_C)},
-      {"imu_noise",
-       {{"gyro_noise_density", r.imu_noise.gyro_noise_density},
-        {"gyro_random_walk", r.imu_noise.gyro_random_walk},
-        {"accel_noise_density", r.imu_noise.accel_noise_density},
-        {"accel_random_walk", r.imu_noise.accel_random_walk},
-        {"from",
-         {{"gyro_noise_density", r.imu_noise_from[0]},
-          {"gyro_random_walk", r.imu_noise_from[1]},
-          {"accel_noise_density", r.imu_noise_from[2]},
-          {"accel_random_walk", r.imu_noise_from[3]}}}}},
-      {"final",
-       {{"T_I_C",
-         {{"p", {r.summary.final_T_I_C.p.x(), r.summary.final_T_I_C.p.y(), r.summary.final_T_I_C.p.z()}},
-          {"q", {r.summary.final_T_I_C.q.x(), r.summary.final_T_I_C.q.y(), r.summary.final_T_I_C.q.z(), r.summary.final_T_I_C.q.w()}}}}}},
+      {"imu_noise", io::imu_noise_to_json(r.imu_noise)},
+      {"final", {{"T_I_C", io::pose_to_json(r.summary.final_T_I_C)}}},
       {"warnings", r.warnings}};
+  report["imu_noise"]["from"] = {{"gyro_noise_density", r.imu_noise_from[0]},
+                                 {"gyro_random_walk", r.imu_noise_from[1]},
+                                 {"accel_noise_density", r.imu_noise_from[2]},
+                                 {"accel_random_walk", r.imu_noise_from[3]}};
   json objs = json::array();
   for (const auto& kv : r.summary.final_T_O_W)
     objs.push_back({{"id", kv.first},
                     {"anchor", kv.first == r.summary.anchor.id},
-                    {"T_O_W",
-                     {{"p", {kv.second.p.x(), kv.second.p.y(), kv.second.p.z()}},
-                      {"q", {kv.second.q.x(), kv.second.q.y(), kv.second.q.z(), kv.second.q.w()}}}}});
+                    {"T_O_W", io::pose_to_json(kv.second)}});
   report["final"]["objects"] = objs;
   report["timing_s"] = {{"read", read_s},
                         {"filter", r.filter_wall_s},

@@ -12,6 +12,7 @@
 #include "roe/io/json.hpp"
 #include "roe/core/log.hpp"
 #include "roe/io/output.hpp"
+#include "roe/io/pose_json.hpp"
 #include "roe/version.hpp"
 
 namespace roe::app {
@@ -50,17 +51,8 @@ void read_pose(JsonObject& r, const char* key, Pose& out) {
     r.raw(key);
     return;
   }
-  JsonObject p = r.child(key);
-  Eigen::Vector3d t = out.p;
-  read_vec3(p, "p", t);
-  const auto q = numbers(p, "q", 4);
-  Eigen::Quaterniond quat = out.q;
-  if (!q.empty()) {
-    quat = Eigen::Quaterniond(q[3], q[0], q[1], q[2]);  // stored x, y, z, w
-    if (std::abs(quat.norm() - 1.0) > 1e-6) fail(p, "q", "quaternion must have unit norm (x, y, z, w)");
-  }
-  p.finish();
-  out = Pose(quat, t);
+  const Pose base = out;
+  out = io::pose_from_json(*r.raw(key), r.source(), r.key_path(key), {1e-6, &base});
 }
 
 void read_signal(JsonObject& r, const char* key, sim::SmoothSignal& s) {
@@ -214,10 +206,7 @@ void apply(const json& j, const std::string& source, sim::SimConfig& c, int dept
   {
     JsonObject i = r.child("imu");
     i.get("rate_hz", c.imu.rate_hz);
-    i.get("gyro_noise_density", c.imu.gyro_noise_density);
-    i.get("gyro_random_walk", c.imu.gyro_random_walk);
-    i.get("accel_noise_density", c.imu.accel_noise_density);
-    i.get("accel_random_walk", c.imu.accel_random_walk);
+    io::read_imu_noise(i, c.imu);
     i.get("gyro_bias_sigma", c.imu.gyro_bias_sigma);
     i.get("accel_bias_sigma", c.imu.accel_bias_sigma);
     i.finish();
@@ -245,9 +234,6 @@ void apply(const json& j, const std::string& source, sim::SimConfig& c, int dept
   r.finish();
 }
 
-json pose_json(const Pose& T) {
-  return {{"p", {T.p.x(), T.p.y(), T.p.z()}}, {"q", {T.q.x(), T.q.y(), T.q.z(), T.q.w()}}};
-}
 json signal_json(const sim::SmoothSignal& s) {
   json terms = json::array();
   for (const auto& t : s.terms) terms.push_back({t.amplitude, t.frequency_hz, t.phase_rad});
@@ -292,10 +278,14 @@ json sim_config_to_json(const sim::SimConfig& c) {
   json objects = json::array();
   for (const auto& o : c.objects.objects) {
     json e = {{"id", o.id}};
-    if (o.has_pose) e["T_M_O"] = pose_json(o.T_M_O);
+    if (o.has_pose) e["T_M_O"] = io::pose_to_json(o.T_M_O);
     objects.push_back(e);
   }
   const auto& t = c.trajectory;
+  json imu = io::imu_noise_to_json(c.imu);
+  imu["rate_hz"] = c.imu.rate_hz;
+  imu["gyro_bias_sigma"] = c.imu.gyro_bias_sigma;
+  imu["accel_bias_sigma"] = c.imu.accel_bias_sigma;
   return {
       {"name", c.name},
       {"duration_s", c.duration_s},
@@ -327,19 +317,12 @@ json sim_config_to_json(const sim::SimConfig& c) {
         {"lying_prob", c.objects.lying_prob},
         {"layout_seed", c.objects.layout_seed},
         {"symmetric_ids", c.objects.symmetric_ids}}},
-      {"imu",
-       {{"rate_hz", c.imu.rate_hz},
-        {"gyro_noise_density", c.imu.gyro_noise_density},
-        {"gyro_random_walk", c.imu.gyro_random_walk},
-        {"accel_noise_density", c.imu.accel_noise_density},
-        {"accel_random_walk", c.imu.accel_random_walk},
-        {"gyro_bias_sigma", c.imu.gyro_bias_sigma},
-        {"accel_bias_sigma", c.imu.accel_bias_sigma}}},
+      {"imu", imu},
       {"camera",
        {{"rate_hz", c.camera.rate_hz},
         {"intrinsics", intrinsics_json(c.camera.intrinsics)},
-        {"T_I_C", pose_json(c.camera.T_I_C)},
-        {"prior_error", pose_json(c.camera.prior_error)}}},
+        {"T_I_C", io::pose_to_json(c.camera.T_I_C)},
+        {"prior_error", io::pose_to_json(c.camera.prior_error)}}},
       {"visibility", visibility_json(c.visibility)},
       {"detection", detection_json(c.detection)},
       {"mocap",
@@ -348,7 +331,7 @@ json sim_config_to_json(const sim::SimConfig& c) {
         {"position_sigma_m", c.mocap.position_sigma_m},
         {"rotation_sigma_deg", c.mocap.rotation_sigma_deg},
         {"body", c.mocap.body},
-        {"T_B_I", pose_json(c.mocap.T_B_I)}}},
+        {"T_B_I", io::pose_to_json(c.mocap.T_B_I)}}},
   };
 }
 

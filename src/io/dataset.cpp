@@ -10,6 +10,7 @@
 #include "roe/io/csv.hpp"
 #include "roe/io/input.hpp"
 #include "roe/io/output.hpp"
+#include "roe/io/pose_json.hpp"
 
 namespace roe::io {
 namespace {
@@ -27,16 +28,9 @@ constexpr double kManifestQuatTol = 1e-6;
 // normalised; anything further off is a wrong column or a corrupt row, not rounding.
 constexpr double kCsvQuatTol = 1e-3;
 
-// Normalises q unless it is already unit to rounding, so that a written quaternion reads back
-// bit-identical (normalising a unit quaternion again can change its last bits).
-Quaterniond unit(const Quaterniond& q) {
-  if (std::abs(q.squaredNorm() - 1.0) <= 4.0 * std::numeric_limits<double>::epsilon()) return q;
-  return q.normalized();
-}
-
 Pose make_pose(const Quaterniond& q, const Vector3d& p) {
   Pose T;
-  T.q = unit(q);
+  T.q = unit_quaternion(q);
   T.p = p;
   return T;
 }
@@ -90,51 +84,16 @@ void add_vec3(CsvWriter& w, const Vector3d& v) { w.add(v.x()).add(v.y()).add(v.z
 // roe.json
 // ---------------------------------------------------------------------------------------------
 
-json pose_to_json(const Pose& T) {
-  return json{{"p", {T.p.x(), T.p.y(), T.p.z()}}, {"q", {T.q.x(), T.q.y(), T.q.z(), T.q.w()}}};
-}
-
-// A fixed-length array of numbers at `key` of `o` (required).
-std::vector<double> number_array(JsonObject& o, const char* key, std::size_t n) {
-  const json* v = o.raw(key);
-  const std::string path = o.key_path(key);
-  if (!v || v->is_null()) throw ConfigError("missing required key", {o.source(), 0, 0, path});
-  if (!v->is_array() || v->size() != n)
-    throw ConfigError(fmt::format("expected an array of {} numbers", n), {o.source(), 0, 0, path});
-  std::vector<double> out;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!(*v)[i].is_number())
-      throw ConfigError("expected a number", {o.source(), 0, 0, fmt::format("{}[{}]", path, i)});
-    out.push_back((*v)[i].get<double>());
-  }
-  return out;
-}
-
-Pose pose_from_json(const json& j, const std::string& source, const std::string& path) {
-  JsonObject o(j, source, path);
-  const auto p = number_array(o, "p", 3);
-  const auto qv = number_array(o, "q", 4);
-  o.finish();
-  const Quaterniond q(qv[3], qv[0], qv[1], qv[2]);
-  const double n = q.norm();
-  if (!(std::abs(n - 1.0) <= kManifestQuatTol))
-    throw ConfigError(
-        fmt::format("quaternion [qx, qy, qz, qw] is not unit norm (|q| = {:.12g}, tolerance {:g})", n,
-                    kManifestQuatTol),
-        {source, 0, 0, o.key_path("q")});
-  return make_pose(q, Vector3d(p[0], p[1], p[2]));
-}
-
 Pose required_pose(JsonObject& o, const char* key) {
   const json* v = o.raw(key);
   if (!v || v->is_null()) throw ConfigError("missing required key", {o.source(), 0, 0, o.key_path(key)});
-  return pose_from_json(*v, o.source(), o.key_path(key));
+  return pose_from_json(*v, o.source(), o.key_path(key), {kManifestQuatTol, nullptr});
 }
 
 Pose optional_pose(JsonObject& o, const char* key) {
   const json* v = o.raw(key);
   if (!v || v->is_null()) return Pose::identity();
-  return pose_from_json(*v, o.source(), o.key_path(key));
+  return pose_from_json(*v, o.source(), o.key_path(key), {kManifestQuatTol, nullptr});
 }
 
 // Calls fn(element JsonObject-able json, path "key[i]") for each element of an optional array.
@@ -144,37 +103,6 @@ void for_each_element(JsonObject& o, const char* key, Fn&& fn) {
   if (!v || v->is_null()) return;
   if (!v->is_array()) throw ConfigError("expected an array", {o.source(), 0, 0, o.key_path(key)});
   for (std::size_t i = 0; i < v->size(); ++i) fn((*v)[i], fmt::format("{}[{}]", o.key_path(key), i));
-}
-
-void require_finite_nonneg(double v, const JsonObject& o, const char* key) {
-  if (!(std::isfinite(v) && v >= 0.0)) throw ConfigError("must be >= 0", {o.source(), 0, 0, o.key_path(key)});
-}
-
-// The known (>= 0) noise values; unknown ones (negative) are left out.
-json noise_to_json(const ImuNoise& n) {
-  json j = json::object();
-  const auto put = [&j](const char* key, double v) {
-    if (v >= 0.0) j[key] = v;
-  };
-  put("gyro_noise_density", n.gyro_noise_density);
-  put("gyro_random_walk", n.gyro_random_walk);
-  put("accel_noise_density", n.accel_noise_density);
-  put("accel_random_walk", n.accel_random_walk);
-  return j;
-}
-
-// Reads the four noise keys of `o`: each optional (absent = unknown, stored as −1), >= 0 when given
-// (0 = a noise-free IMU).
-void read_noise(JsonObject& o, ImuNoise& n) {
-  const auto get = [&o](const char* key, double& v) {
-    if (!o.has(key)) return;
-    o.get(key, v);
-    require_finite_nonneg(v, o, key);
-  };
-  get("gyro_noise_density", n.gyro_noise_density);
-  get("gyro_random_walk", n.gyro_random_walk);
-  get("accel_noise_density", n.accel_noise_density);
-  get("accel_random_walk", n.accel_random_walk);
 }
 
 // The stamp-ordered loaders share "absent file → empty stream"; a folder, a FIFO or a symlink loop
@@ -350,7 +278,7 @@ json manifest_to_json(const DatasetManifest& m) {
   }
   j["sources"] = std::move(sources);
   if (m.imu) {
-    json imu = noise_to_json(m.imu->noise);
+    json imu = imu_noise_to_json(m.imu->noise);
     imu["rate_hz"] = m.imu->rate_hz;
     j["imu"] = std::move(imu);
   }
@@ -380,7 +308,7 @@ json manifest_to_json(const DatasetManifest& m) {
     const auto& t = *m.truth;
     json tj = {{"T_I_C", pose_to_json(t.T_I_C)}, {"objects", json::array()}};
     for (const auto& o : t.objects) tj["objects"].push_back({{"id", o.id}, {"T_W_O", pose_to_json(o.T_W_O)}});
-    if (t.imu_noise) tj["imu_noise"] = noise_to_json(*t.imu_noise);
+    if (t.imu_noise) tj["imu_noise"] = imu_noise_to_json(*t.imu_noise);
     tj["detection_noise"] = json::object();
     for (const auto& [k, v] : t.detection_noise) tj["detection_noise"][k] = v;
     j["truth"] = std::move(tj);
@@ -424,7 +352,7 @@ DatasetManifest manifest_from_json(const json& j, const std::string& source) {
     o.require("rate_hz", imu.rate_hz);
     if (!(std::isfinite(imu.rate_hz) && imu.rate_hz > 0.0))
       throw ConfigError("must be > 0", {source, 0, 0, o.key_path("rate_hz")});
-    read_noise(o, imu.noise);
+    read_imu_noise(o, imu.noise);
     o.finish();
     m.imu = imu;
   } else {
@@ -500,7 +428,7 @@ DatasetManifest manifest_from_json(const json& j, const std::string& source) {
     if (o.has("imu_noise")) {
       JsonObject n = o.child("imu_noise");
       ImuNoise noise;
-      read_noise(n, noise);
+      read_imu_noise(n, noise);
       n.finish();
       t.imu_noise = noise;
     } else {

@@ -60,14 +60,14 @@ struct EvalOptions {
 /// One row of a run folder's reprojection.csv: the IMU pose T_W_I implied by one raw detection.
 using ReprojectionCsvRow = eval::DetectionPose;
 
-/// reprojection.csv: `timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis` (columns matched by
-/// name, any order; nis may be empty or nan). Rows sorted by time (non-decreasing).
+/// reprojection.csv (io::read_reprojection_csv: columns matched by name, any order; nis may be empty,
+/// nan or absent). Rows sorted by time (non-decreasing).
 std::vector<ReprojectionCsvRow> read_reprojection_csv(const std::filesystem::path& file);
 
-/// Per-pose diagonal covariance from a run folder's states.csv, matched to `t_ns` by stamp.
-/// Columns are found by name: `timestamp_ns`, and one standard deviation per axis of the IMU position
-/// and orientation: names containing "std" or "sigma", "p_W_I" resp. "theta_W_I"/"q_W_I"/"th_W_I",
-/// and ending in x/y/z (case-insensitive; "deg" in the name means degrees, otherwise radians).
+/// Per-pose diagonal covariance from a run folder's states.csv, matched to `t_ns` by stamp (within 1 µs).
+/// Reads the columns by the names roe run writes (io::read_states_csv): `timestamp_ns`,
+/// `sigma_p_W_I_{x,y,z}` (m) and `sigma_theta_W_I_{x,y,z}` (rad); other columns are ignored, a σ may be
+/// nan (no NEES at that pose), a negative σ or decreasing stamps are input errors.
 /// Returns an empty vector (and a reason in *why) when the columns are not there.
 std::vector<std::optional<eval::PoseCovariance>> read_states_covariance(const std::filesystem::path& file,
                                                                         const std::vector<Timestamp>& t_ns,

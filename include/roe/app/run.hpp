@@ -28,6 +28,7 @@
 #include "roe/ekf/driver.hpp"
 #include "roe/ekf/health.hpp"
 #include "roe/ekf/options.hpp"
+#include "roe/io/run_files.hpp"
 
 namespace roe::app {
 
@@ -59,35 +60,10 @@ RunConfig run_config_from_json(const nlohmann::json& j, const std::string& sourc
 RunConfig run_config_from_file(const std::filesystem::path& file);
 nlohmann::json run_config_to_json(const RunConfig& c);
 
-/// One output row of the state (trajectory.csv / states.csv).
-struct StateRow {
-  Timestamp t_ns = 0;
-  ekf::CoreState x;
-  Pose T_I_C;
-  /// σ of [δp, δv, δθ, δb_g, δb_a, δp_I_C, δθ_I_C] (0 for the extrinsics when they are held fixed).
-  Eigen::Matrix<double, 21, 1> sigma;
-  /// Covariance of the IMU pose error [δp_W_I; δθ_W_I] (consistency tests, eval's NEES).
-  Eigen::Matrix<double, 6, 6> pose_cov;
-};
-
-struct ObjectRow {
-  Timestamp t_ns = 0;
-  int object_id = 0;
-  bool anchor = false;
-  Pose T_O_W;
-  Eigen::Matrix<double, 6, 1> sigma;  ///< [δp_O_W; δθ_O_W]; 0 for components held fixed (anchor)
-  /// [δp_W_O; δθ_W_O]: the same uncertainty for the object's pose in W (Filter::object_covariance_in_world)
-  Eigen::Matrix<double, 6, 1> sigma_W_O;
-  /// [δp_A_O; δθ_A_O]: the object's pose relative to the anchor A, T_A_O (gauge-free; 0 for the anchor)
-  /// (Filter::object_covariance_relative_to_anchor)
-  Eigen::Matrix<double, 6, 1> sigma_A_O = Eigen::Matrix<double, 6, 1>::Zero();
-};
-
-struct ReprojectionRow {
-  Timestamp t_ns = 0;
-  int object_id = 0;
-  ekf::DetectionOutcome outcome;
-};
+/// The rows of states.csv, objects.csv and reprojection.csv (their columns: io/run_files.hpp).
+using StateRow = io::StateRow;
+using ObjectRow = io::ObjectRow;
+using ReprojectionRow = io::ReprojectionRow;
 
 /// The result of a run in memory (what the files hold).
 struct RunOutput {

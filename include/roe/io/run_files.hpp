@@ -1,0 +1,111 @@
+#pragma once
+/// @file
+/// The tables of a run folder (`roe run`, DESIGN §4), each defined once by a column table that both its
+/// writer and its reader use:
+///   states.csv        timestamp_ns, p_W_I, v_W_I, q_W_I (x y z w), b_g, b_a, p_I_C, q_I_C, then one σ
+///                     per error-state component [δp δv δθ δb_g δb_a δp_I_C δθ_I_C] (sigma_*; rad for
+///                     angles); states_filter.csv the same (the filter's estimate beside a smoothed one)
+///   objects.csv       timestamp_ns, object_id, anchor (0/1), T_O_W (p, q x y z w), its six σ, the six σ
+///                     of T_W_O (sigma_*_W_O_*) and of T_A_O relative to the anchor (sigma_*_A_O_*)
+///   reprojection.csv  timestamp_ns, object_id, T_W_I implied by the raw detection (tx..qw; nan when the
+///                     object has no object-world yet), status, nis
+/// (trajectory.csv / .tum are trajectory files: io/trajectory_io.hpp.)
+///
+/// Writing: numbers in the shortest round-trip form (CsvWriter), quaternions in the canonical
+/// hemisphere (w ≥ 0), one atomic write per file. Reading: columns are matched by their exact names in
+/// any order (extra columns are ignored), every error is a roe::InputError with file, line and column:
+/// a missing column (at the header line, naming it), a value that is not a number, a non-finite number
+/// where the writer never writes one, a quaternion that is not unit (|‖q‖ − 1| > tolerance), a negative
+/// σ, decreasing stamps. write → read gives the rows back: numbers exactly, quaternions in the canonical
+/// hemisphere and normalised (to an ulp or two); states.csv does not hold StateRow::pose_cov (reads as 0).
+///
+/// Adding a column to a file is one line in its table in run_files.cpp (name, how to write it, how to
+/// read it; `optional` when older files without it must still be read).
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "roe/core/types.hpp"
+#include "roe/ekf/filter.hpp"
+#include "roe/ekf/imu.hpp"
+#include "roe/eval/evaluate.hpp"
+
+namespace roe::io {
+
+namespace fs = std::filesystem;
+
+/// One row of states.csv (and of trajectory.csv: t, p_W_I, q_W_I).
+struct StateRow {
+  Timestamp t_ns = 0;
+  ekf::CoreState x;
+  Pose T_I_C;
+  /// σ of [δp, δv, δθ, δb_g, δb_a, δp_I_C, δθ_I_C] (0 for the extrinsics when they are held fixed).
+  Eigen::Matrix<double, 21, 1> sigma = Eigen::Matrix<double, 21, 1>::Zero();
+  /// Covariance of the IMU pose error [δp_W_I; δθ_W_I] (consistency tests, eval's NEES). Not in the file.
+  Eigen::Matrix<double, 6, 6> pose_cov = Eigen::Matrix<double, 6, 6>::Zero();
+};
+
+/// One row of objects.csv: an object's estimate after an image.
+struct ObjectRow {
+  Timestamp t_ns = 0;
+  int object_id = 0;
+  bool anchor = false;
+  Pose T_O_W;
+  Eigen::Matrix<double, 6, 1> sigma = Eigen::Matrix<double, 6, 1>::Zero();  ///< [δp_O_W; δθ_O_W]; 0 for components held fixed (anchor)
+  /// [δp_W_O; δθ_W_O]: the same uncertainty for the object's pose in W (Filter::object_covariance_in_world)
+  Eigen::Matrix<double, 6, 1> sigma_W_O = Eigen::Matrix<double, 6, 1>::Zero();
+  /// [δp_A_O; δθ_A_O]: the object's pose relative to the anchor A, T_A_O (gauge-free; 0 for the anchor)
+  /// (Filter::object_covariance_relative_to_anchor)
+  Eigen::Matrix<double, 6, 1> sigma_A_O = Eigen::Matrix<double, 6, 1>::Zero();
+};
+
+/// One row of reprojection.csv as the filter produced it.
+struct ReprojectionRow {
+  Timestamp t_ns = 0;
+  int object_id = 0;
+  ekf::DetectionOutcome outcome;
+};
+
+/// The column names of each file, in the order written.
+const std::vector<std::string>& states_csv_columns();
+const std::vector<std::string>& objects_csv_columns();
+const std::vector<std::string>& reprojection_csv_columns();
+
+/// The text of each file (header + rows), and the same written atomically (io/output.hpp).
+std::string format_states_csv(const std::vector<StateRow>& rows);
+std::string format_objects_csv(const std::vector<ObjectRow>& rows);
+std::string format_reprojection_csv(const std::vector<ReprojectionRow>& rows);
+void write_states_csv(const fs::path& file, const std::vector<StateRow>& rows);
+void write_objects_csv(const fs::path& file, const std::vector<ObjectRow>& rows);
+void write_reprojection_csv(const fs::path& file, const std::vector<ReprojectionRow>& rows);
+
+/// Which columns a reader reads.
+struct RunFileRead {
+  /// The columns to read, by name (each must be one of the file's); empty = all of them. Every listed
+  /// column is required: one missing from the header is an InputError at the header line that names it.
+  /// Columns not listed are neither read nor checked; fields of the row they would fill keep their
+  /// defaults.
+  std::vector<std::string> columns;
+  /// Accept nan/inf (roe eval's NEES reads σ columns others may have left nan); otherwise every number
+  /// must be finite, as roe run writes them.
+  bool allow_nonfinite = false;
+};
+
+/// states.csv (or states_filter.csv). Stamps must not decrease; quaternions unit within 1e-3; σ ≥ 0.
+std::vector<StateRow> read_states_csv(const fs::path& file, const RunFileRead& read = {});
+/// The same row by row, nothing kept (a 60 s run at the IMU rate is 24,000 rows of 600 bytes): fn(row)
+/// for each data row in order. With `missing` non-null, a listed column that the header lacks is not an
+/// error: *missing says which and the result is false (eval then skips its NEES with that reason).
+bool for_each_state_row(const fs::path& file, const RunFileRead& read, const std::function<void(const StateRow&)>& fn,
+                        std::string* missing = nullptr);
+/// objects.csv. Stamps must not decrease; anchor 0 or 1; quaternions unit within 1e-3; σ ≥ 0.
+std::vector<ObjectRow> read_objects_csv(const fs::path& file);
+/// reprojection.csv as roe eval reads it: any status text; the pose fields may be empty or nan (the
+/// detection had no object-world: T_W_I.p is then nan), otherwise the quaternion must be unit within
+/// 0.05; nis may be empty, nan, or its column absent (nan). Stamps must not decrease.
+std::vector<eval::DetectionPose> read_reprojection_csv(const fs::path& file);
+
+}  // namespace roe::io

@@ -1,0 +1,297 @@
+// The run folder's tables: one column table per file, used by its writer and its reader.
+#include "roe/io/run_files.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+#include "roe/io/csv.hpp"
+#include "roe/math/so3.hpp"
+
+namespace roe::io {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// The current row's field of one column, read with the file's rules.
+struct Field {
+  const CsvReader& r;
+  std::size_t col;
+  bool nonfinite;
+
+  double number() const { return nonfinite ? r.get_double_nonfinite(col) : r.get_double(col); }
+  /// An empty field, or an optional column the file lacks (col == npos), is nan.
+  double number_or_nan() const {
+    return col == std::string::npos || r.is_empty(col) ? kNaN : r.get_double_nonfinite(col);
+  }
+  double sigma() const {
+    const double v = number();
+    if (v < 0) throw r.error(col, "a standard deviation must not be negative");
+    return v;
+  }
+  std::int64_t int64() const { return r.get_int64(col); }
+  int integer() const { return r.get_int(col); }
+  std::string text() const { return r.get_string(col); }
+  /// Normalises q after checking it is unit within `tol` (an error at this column: the last one of q).
+  /// Always normalised, as the readers did before this table (eval's outputs keep their bytes): a written
+  /// quaternion reads back to within an ulp or two.
+  void unit(Eigen::Quaterniond& q, double tol) const {
+    const double n = q.norm();
+    if (!(std::abs(n - 1.0) <= tol)) throw r.error(col, fmt::format("quaternion norm {:.6g} is not 1", n));
+    q.normalize();
+  }
+};
+
+/// One column: its name, how a row W writes it, how it is read into a row R. `k` is the component
+/// (axis) the accessors take; `optional` columns may be absent from a file (their reader is then called
+/// with Field::col = npos and must give the row its value for "absent").
+template <class W, class R>
+struct Column {
+  using Write = void (*)(CsvWriter&, const W&, int k);
+  using Read = void (*)(const Field&, R&, int k);
+  std::string name;
+  Write write;
+  Read read;
+  int k = 0;
+  bool optional = false;
+};
+template <class W, class R = W>
+using Table = std::vector<Column<W, R>>;
+
+/// prefix + sep + axis for each axis letter, component k = 0, 1, ...
+template <class W, class R>
+void axes(Table<W, R>& t, const std::string& prefix, const char* letters, typename Column<W, R>::Write write,
+          typename Column<W, R>::Read read, const char* sep = "_") {
+  for (int k = 0; letters[k] != '\0'; ++k) t.push_back({prefix + sep + letters[k], write, read, k});
+}
+
+// Accessor pairs for the tables below: a vector member (component k), a σ vector member from offset `off`,
+// a quaternion member (x y z w, written canonical, checked unit and normalised once w is read).
+#define ROE_VEC(m)                                                            \
+  [](CsvWriter& w, const auto& r, int k) { w.add(r.m(k)); },                  \
+  [](const Field& f, auto& r, int k) { r.m(k) = f.number(); }
+#define ROE_SIGMA(m, off)                                                     \
+  [](CsvWriter& w, const auto& r, int k) { w.add(r.m((off) + k)); },          \
+  [](const Field& f, auto& r, int k) { r.m((off) + k) = f.sigma(); }
+#define ROE_QUAT(m)                                                                   \
+  [](CsvWriter& w, const auto& r, int k) { w.add(math::canonical(r.m).coeffs()(k)); }, \
+  [](const Field& f, auto& r, int k) {                                                \
+    r.m.coeffs()(k) = f.number();                                                     \
+    if (k == 3) f.unit(r.m, 1e-3);                                                    \
+  }
+
+template <class W, class R>
+Column<W, R> stamp_column() {
+  return {"timestamp_ns", [](CsvWriter& w, const W& r, int) { w.add(r.t_ns); },
+          [](const Field& f, R& r, int) { r.t_ns = f.int64(); }};
+}
+
+// states.csv
+const Table<StateRow>& states_table() {
+  static const Table<StateRow> t = [] {
+    Table<StateRow> t{stamp_column<StateRow, StateRow>()};
+    axes(t, "p_W_I", "xyz", ROE_VEC(x.p_W_I));
+    axes(t, "v_W_I", "xyz", ROE_VEC(x.v_W_I));
+    axes(t, "q_W_I", "xyzw", ROE_QUAT(x.q_W_I));
+    axes(t, "b_g", "xyz", ROE_VEC(x.b_g));
+    axes(t, "b_a", "xyz", ROE_VEC(x.b_a));
+    axes(t, "p_I_C", "xyz", ROE_VEC(T_I_C.p));
+    axes(t, "q_I_C", "xyzw", ROE_QUAT(T_I_C.q));
+    axes(t, "sigma_p_W_I", "xyz", ROE_SIGMA(sigma, 0));
+    axes(t, "sigma_v_W_I", "xyz", ROE_SIGMA(sigma, 3));
+    axes(t, "sigma_theta_W_I", "xyz", ROE_SIGMA(sigma, 6));
+    axes(t, "sigma_b_g", "xyz", ROE_SIGMA(sigma, 9));
+    axes(t, "sigma_b_a", "xyz", ROE_SIGMA(sigma, 12));
+    axes(t, "sigma_p_I_C", "xyz", ROE_SIGMA(sigma, 15));
+    axes(t, "sigma_theta_I_C", "xyz", ROE_SIGMA(sigma, 18));
+    return t;
+  }();
+  return t;
+}
+
+// objects.csv
+const Table<ObjectRow>& objects_table() {
+  static const Table<ObjectRow> t = [] {
+    Table<ObjectRow> t{stamp_column<ObjectRow, ObjectRow>()};
+    t.push_back({"object_id", [](CsvWriter& w, const ObjectRow& r, int) { w.add(r.object_id); },
+                 [](const Field& f, ObjectRow& r, int) { r.object_id = f.integer(); }});
+    t.push_back({"anchor", [](CsvWriter& w, const ObjectRow& r, int) { w.add(r.anchor ? 1 : 0); },
+                 [](const Field& f, ObjectRow& r, int) {
+                   const int a = f.integer();
+                   if (a != 0 && a != 1) throw f.r.error(f.col, "expected 0 or 1");
+                   r.anchor = a == 1;
+                 }});
+    axes(t, "p_O_W", "xyz", ROE_VEC(T_O_W.p));
+    axes(t, "q_O_W", "xyzw", ROE_QUAT(T_O_W.q));
+    axes(t, "sigma_p", "xyz", ROE_SIGMA(sigma, 0));
+    axes(t, "sigma_theta", "xyz", ROE_SIGMA(sigma, 3));
+    axes(t, "sigma_p_W_O", "xyz", ROE_SIGMA(sigma_W_O, 0));
+    axes(t, "sigma_theta_W_O", "xyz", ROE_SIGMA(sigma_W_O, 3));
+    axes(t, "sigma_p_A_O", "xyz", ROE_SIGMA(sigma_A_O, 0));
+    axes(t, "sigma_theta_A_O", "xyz", ROE_SIGMA(sigma_A_O, 3));
+    return t;
+  }();
+  return t;
+}
+
+// reprojection.csv: written from the filter's outcome, read as eval's DetectionPose. The pose is nan
+// (written) / empty or nan (read) for a detection whose object has no object-world yet.
+using RepColumn = Column<ReprojectionRow, eval::DetectionPose>;
+const Table<ReprojectionRow, eval::DetectionPose>& reprojection_table() {
+  static const Table<ReprojectionRow, eval::DetectionPose> t = [] {
+    Table<ReprojectionRow, eval::DetectionPose> t{stamp_column<ReprojectionRow, eval::DetectionPose>()};
+    t.push_back({"object_id", [](CsvWriter& w, const ReprojectionRow& r, int) { w.add(r.object_id); },
+                 [](const Field& f, eval::DetectionPose& r, int) { r.object_id = f.integer(); }});
+    const RepColumn::Write pos = [](CsvWriter& w, const ReprojectionRow& r, int k) {
+      w.add(r.outcome.has_T_W_I ? r.outcome.T_W_I.p(k) : kNaN);
+    };
+    const RepColumn::Read read_pos = [](const Field& f, eval::DetectionPose& r, int k) {
+      r.T_W_I.p(k) = f.number_or_nan();
+    };
+    const RepColumn::Write rot = [](CsvWriter& w, const ReprojectionRow& r, int k) {
+      w.add(r.outcome.has_T_W_I ? math::canonical(r.outcome.T_W_I.q).coeffs()(k) : kNaN);
+    };
+    const RepColumn::Read read_rot = [](const Field& f, eval::DetectionPose& r, int k) {
+      r.T_W_I.q.coeffs()(k) = f.number_or_nan();
+      if (k != 3) return;
+      if (r.T_W_I.p.allFinite() && r.T_W_I.q.coeffs().allFinite()) {
+        f.unit(r.T_W_I.q, 0.05);
+      } else {  // kept for the status counts, with a nan position
+        r.T_W_I = Pose();
+        r.T_W_I.p.setConstant(kNaN);
+      }
+    };
+    axes(t, "t", "xyz", pos, read_pos, "");
+    axes(t, "q", "xyzw", rot, read_rot, "");
+    t.push_back({"status", [](CsvWriter& w, const ReprojectionRow& r, int) { w.add(ekf::to_string(r.outcome.status)); },
+                 [](const Field& f, eval::DetectionPose& r, int) { r.status = f.text(); }});
+    t.push_back({"nis", [](CsvWriter& w, const ReprojectionRow& r, int) { w.add(r.outcome.nis); },
+                 [](const Field& f, eval::DetectionPose& r, int) { r.nis = f.number_or_nan(); }, 0, true});
+    return t;
+  }();
+  return t;
+}
+
+#undef ROE_VEC
+#undef ROE_SIGMA
+#undef ROE_QUAT
+
+template <class W, class R>
+std::vector<std::string> names(const Table<W, R>& t) {
+  std::vector<std::string> n;
+  n.reserve(t.size());
+  for (const auto& c : t) n.push_back(c.name);
+  return n;
+}
+
+template <class W, class R>
+CsvWriter fill_table(const Table<W, R>& t, const std::vector<W>& rows) {
+  CsvWriter w;
+  w.header(names(t));
+  for (const W& row : rows) {
+    for (const auto& c : t) c.write(w, row, c.k);
+    w.end_row();
+  }
+  return w;
+}
+
+/// Reads the listed columns (empty: all) of table `t` from `file`, calling sink(row) for each data row;
+/// false with *missing set when a listed column is absent and `missing` is given.
+template <class W, class R, class Sink>
+bool read_table(const Table<W, R>& t, const fs::path& file, const RunFileRead& read, std::string* missing,
+                Sink&& sink) {
+  CsvOptions o;
+  o.header = CsvHeader::kFirstLine;
+  o.allow_nonfinite = read.allow_nonfinite;
+  CsvReader r(file, o);
+  // (table entry, file column) of every column read, in table order; npos for an absent optional one.
+  std::vector<std::pair<const Column<W, R>*, std::size_t>> cols;
+  for (const std::string& name : read.columns)
+    ROE_CHECK(std::any_of(t.begin(), t.end(), [&](const Column<W, R>& c) { return c.name == name; }),
+              "run file reader: unknown column " + name);
+  for (const auto& c : t) {
+    if (!read.columns.empty() && std::find(read.columns.begin(), read.columns.end(), c.name) == read.columns.end())
+      continue;
+    if (const auto i = r.find_column(c.name)) {
+      cols.emplace_back(&c, *i);
+    } else if (c.optional) {
+      cols.emplace_back(&c, std::string::npos);
+    } else if (missing != nullptr) {
+      *missing = fmt::format("{} has no {} column", file.filename().string(), c.name);
+      return false;
+    } else {
+      r.column(c.name);  // the located error naming it
+    }
+  }
+  ROE_CHECK(!cols.empty() && cols.front().first->name == "timestamp_ns", "run file reader: the stamp is read first");
+  Timestamp last = std::numeric_limits<Timestamp>::min();
+  while (r.next()) {
+    R row;
+    for (const auto& [c, i] : cols) c->read(Field{r, i, read.allow_nonfinite}, row, c->k);
+    if (row.t_ns < last)
+      throw r.error(cols.front().second, fmt::format("time stamps must not decrease ({} after {})", row.t_ns, last));
+    last = row.t_ns;
+    sink(std::move(row));
+  }
+  return true;
+}
+
+template <class W, class R>
+std::vector<R> read_all(const Table<W, R>& t, const fs::path& file, const RunFileRead& read) {
+  std::vector<R> rows;
+  read_table(t, file, read, nullptr, [&](R&& row) { rows.push_back(std::move(row)); });
+  return rows;
+}
+
+}  // namespace
+
+const std::vector<std::string>& states_csv_columns() {
+  static const std::vector<std::string> n = names(states_table());
+  return n;
+}
+const std::vector<std::string>& objects_csv_columns() {
+  static const std::vector<std::string> n = names(objects_table());
+  return n;
+}
+const std::vector<std::string>& reprojection_csv_columns() {
+  static const std::vector<std::string> n = names(reprojection_table());
+  return n;
+}
+
+std::string format_states_csv(const std::vector<StateRow>& rows) { return fill_table(states_table(), rows).str(); }
+std::string format_objects_csv(const std::vector<ObjectRow>& rows) { return fill_table(objects_table(), rows).str(); }
+std::string format_reprojection_csv(const std::vector<ReprojectionRow>& rows) {
+  return fill_table(reprojection_table(), rows).str();
+}
+// The writers write the table's buffer itself (no copy of a file's worth of text).
+void write_states_csv(const fs::path& file, const std::vector<StateRow>& rows) {
+  fill_table(states_table(), rows).write(file);
+}
+void write_objects_csv(const fs::path& file, const std::vector<ObjectRow>& rows) {
+  fill_table(objects_table(), rows).write(file);
+}
+void write_reprojection_csv(const fs::path& file, const std::vector<ReprojectionRow>& rows) {
+  fill_table(reprojection_table(), rows).write(file);
+}
+
+std::vector<StateRow> read_states_csv(const fs::path& file, const RunFileRead& read) {
+  return read_all(states_table(), file, read);
+}
+
+bool for_each_state_row(const fs::path& file, const RunFileRead& read,
+                        const std::function<void(const StateRow&)>& fn, std::string* missing) {
+  return read_table(states_table(), file, read, missing, [&](StateRow&& row) { fn(row); });
+}
+
+std::vector<ObjectRow> read_objects_csv(const fs::path& file) { return read_all(objects_table(), file, {}); }
+
+std::vector<eval::DetectionPose> read_reprojection_csv(const fs::path& file) {
+  RunFileRead read;
+  read.allow_nonfinite = true;
+  return read_all(reprojection_table(), file, read);
+}
+
+}  // namespace roe::io

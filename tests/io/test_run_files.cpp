@@ -1,0 +1,293 @@
+// The run folder's tables (io/run_files.hpp): the headers roe run has always written, write → read
+// round trips, and located errors (a missing column, a bad value, decreasing stamps).
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <random>
+
+#include "roe/core/error.hpp"
+#include "roe/io/output.hpp"
+#include "roe/io/run_files.hpp"
+#include "support/test_util.hpp"
+
+using namespace roe;
+using namespace roe::io;
+
+namespace {
+
+std::string join(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : ",") + x;
+  return s;
+}
+
+Eigen::Quaterniond random_unit(std::mt19937& g) {
+  std::normal_distribution<double> n;
+  return Eigen::Quaterniond(n(g), n(g), n(g), n(g)).normalized();  // either hemisphere
+}
+
+Eigen::Vector3d random_vec(std::mt19937& g) {
+  std::normal_distribution<double> n(0.0, 10.0);
+  return {n(g), n(g), n(g)};
+}
+
+/// q read back: the canonical hemisphere of what was written, to the last bits (normalised on reading).
+void check_same_rotation(const Eigen::Quaterniond& written, const Eigen::Quaterniond& read) {
+  const Eigen::Quaterniond c = written.w() < 0 ? Eigen::Quaterniond(-written.coeffs()) : written;
+  CHECK(read.w() >= 0.0);
+  CHECK((read.coeffs() - c.coeffs()).cwiseAbs().maxCoeff() < 1e-15);
+}
+
+}  // namespace
+
+TEST_CASE("run files: the headers are the columns of DESIGN §4", "[io][run_files]") {
+  CHECK(join(states_csv_columns()) ==
+        "timestamp_ns,p_W_I_x,p_W_I_y,p_W_I_z,v_W_I_x,v_W_I_y,v_W_I_z,q_W_I_x,q_W_I_y,q_W_I_z,q_W_I_w,b_g_x,b_g_y,"
+        "b_g_z,b_a_x,b_a_y,b_a_z,p_I_C_x,p_I_C_y,p_I_C_z,q_I_C_x,q_I_C_y,q_I_C_z,q_I_C_w,sigma_p_W_I_x,"
+        "sigma_p_W_I_y,sigma_p_W_I_z,sigma_v_W_I_x,sigma_v_W_I_y,sigma_v_W_I_z,sigma_theta_W_I_x,"
+        "sigma_theta_W_I_y,sigma_theta_W_I_z,sigma_b_g_x,sigma_b_g_y,sigma_b_g_z,sigma_b_a_x,sigma_b_a_y,"
+        "sigma_b_a_z,sigma_p_I_C_x,sigma_p_I_C_y,sigma_p_I_C_z,sigma_theta_I_C_x,sigma_theta_I_C_y,"
+        "sigma_theta_I_C_z");
+  CHECK(join(objects_csv_columns()) ==
+        "timestamp_ns,object_id,anchor,p_O_W_x,p_O_W_y,p_O_W_z,q_O_W_x,q_O_W_y,q_O_W_z,q_O_W_w,sigma_p_x,sigma_p_y,"
+        "sigma_p_z,sigma_theta_x,sigma_theta_y,sigma_theta_z,sigma_p_W_O_x,sigma_p_W_O_y,sigma_p_W_O_z,"
+        "sigma_theta_W_O_x,sigma_theta_W_O_y,sigma_theta_W_O_z,sigma_p_A_O_x,sigma_p_A_O_y,sigma_p_A_O_z,"
+        "sigma_theta_A_O_x,sigma_theta_A_O_y,sigma_theta_A_O_z");
+  CHECK(join(reprojection_csv_columns()) == "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis");
+  // One row as text: the shortest round-trip numbers, canonical quaternions, nan for a missing pose.
+  ReprojectionRow r;
+  r.t_ns = 1403715523912140000;
+  r.object_id = 3;
+  r.outcome.status = ekf::DetectionStatus::kRejectedChi2;
+  r.outcome.nis = 0.1;
+  r.outcome.has_T_W_I = true;
+  r.outcome.T_W_I = Pose(Eigen::Quaterniond(-1, 0, 0, 0), Eigen::Vector3d(1.5, -2, 1e-300));
+  ReprojectionRow none;
+  none.t_ns = r.t_ns;
+  none.outcome.status = ekf::DetectionStatus::kPendingInit;
+  CHECK(format_reprojection_csv({r, none}) ==
+        "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis\n"
+        "1403715523912140000,3,1.5,-2,1e-300,-0,-0,-0,1,rejected_chi2,0.1\n"
+        "1403715523912140000,0,nan,nan,nan,nan,nan,nan,nan,pending_init,nan\n");
+}
+
+TEST_CASE("run files: write then read gives the rows back", "[io][run_files]") {
+  test::TempDir tmp("roe_run_files");
+  std::mt19937 g(7);
+  std::uniform_real_distribution<double> u(0.0, 2.0);
+  SECTION("states.csv") {
+    std::vector<StateRow> rows(50);
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      StateRow& s = rows[i];
+      s.t_ns = 1000000000LL * 1700000000 + static_cast<Timestamp>(i / 2) * 2500000;  // pairs of equal stamps
+      s.x.p_W_I = random_vec(g);
+      s.x.v_W_I = random_vec(g);
+      s.x.q_W_I = random_unit(g);
+      s.x.b_g = random_vec(g) * 1e-4;
+      s.x.b_a = random_vec(g) * 1e-3;
+      s.T_I_C = Pose(random_unit(g), random_vec(g));
+      for (int k = 0; k < 21; ++k) s.sigma(k) = k % 7 == 0 ? 0.0 : u(g);
+    }
+    write_states_csv(tmp / "states.csv", rows);
+    const std::vector<StateRow> back = read_states_csv(tmp / "states.csv");
+    REQUIRE(back.size() == rows.size());
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      CHECK(back[i].t_ns == rows[i].t_ns);
+      CHECK(back[i].x.p_W_I == rows[i].x.p_W_I);
+      CHECK(back[i].x.v_W_I == rows[i].x.v_W_I);
+      CHECK(back[i].x.b_g == rows[i].x.b_g);
+      CHECK(back[i].x.b_a == rows[i].x.b_a);
+      CHECK(back[i].T_I_C.p == rows[i].T_I_C.p);
+      CHECK(back[i].sigma == rows[i].sigma);
+      check_same_rotation(rows[i].x.q_W_I, back[i].x.q_W_I);
+      check_same_rotation(rows[i].T_I_C.q, back[i].T_I_C.q);
+    }
+    // A subset of the columns: the others keep their defaults.
+    RunFileRead some;
+    some.columns = {"timestamp_ns", "sigma_theta_W_I_y"};
+    const auto part = read_states_csv(tmp / "states.csv", some);
+    REQUIRE(part.size() == rows.size());
+    std::size_t n = 0;
+    CHECK(for_each_state_row(tmp / "states.csv", some, [&](const StateRow& r) { CHECK(r.sigma(7) == rows[n++].sigma(7)); }));
+    CHECK(n == rows.size());
+    CHECK(part[5].sigma(7) == rows[5].sigma(7));
+    CHECK(part[5].sigma(6) == 0.0);
+    CHECK(part[5].x.p_W_I.isZero());
+  }
+  SECTION("objects.csv") {
+    std::vector<ObjectRow> rows(30);
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      ObjectRow& o = rows[i];
+      o.t_ns = static_cast<Timestamp>(i / 3) * 50000000;
+      o.object_id = static_cast<int>(i % 3) - 1;  // -1, 0, 1
+      o.anchor = o.object_id == 0;
+      o.T_O_W = Pose(random_unit(g), random_vec(g));
+      for (int k = 0; k < 6; ++k) {
+        o.sigma(k) = u(g);
+        o.sigma_W_O(k) = u(g);
+        o.sigma_A_O(k) = o.anchor ? 0.0 : u(g);
+      }
+    }
+    write_objects_csv(tmp / "objects.csv", rows);
+    const auto back = read_objects_csv(tmp / "objects.csv");
+    REQUIRE(back.size() == rows.size());
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      CHECK(back[i].t_ns == rows[i].t_ns);
+      CHECK(back[i].object_id == rows[i].object_id);
+      CHECK(back[i].anchor == rows[i].anchor);
+      CHECK(back[i].T_O_W.p == rows[i].T_O_W.p);
+      check_same_rotation(rows[i].T_O_W.q, back[i].T_O_W.q);
+      CHECK(back[i].sigma == rows[i].sigma);
+      CHECK(back[i].sigma_W_O == rows[i].sigma_W_O);
+      CHECK(back[i].sigma_A_O == rows[i].sigma_A_O);
+    }
+  }
+  SECTION("reprojection.csv, as eval reads it") {
+    std::vector<ReprojectionRow> rows(40);
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      ReprojectionRow& r = rows[i];
+      r.t_ns = static_cast<Timestamp>(i / 4) * 33333333;
+      r.object_id = static_cast<int>(i % 4);
+      r.outcome.object_id = r.object_id;
+      r.outcome.status = static_cast<ekf::DetectionStatus>(i % 7);
+      r.outcome.has_T_W_I = i % 5 != 0;
+      r.outcome.T_W_I = Pose(random_unit(g), random_vec(g));
+      r.outcome.nis = i % 3 == 0 ? std::nan("") : u(g) * 10;
+    }
+    write_reprojection_csv(tmp / "reprojection.csv", rows);
+    const auto back = read_reprojection_csv(tmp / "reprojection.csv");
+    REQUIRE(back.size() == rows.size());
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      CHECK(back[i].t_ns == rows[i].t_ns);
+      CHECK(back[i].object_id == rows[i].object_id);
+      CHECK(back[i].status == ekf::to_string(rows[i].outcome.status));
+      if (std::isnan(rows[i].outcome.nis))
+        CHECK(std::isnan(back[i].nis));
+      else
+        CHECK(back[i].nis == rows[i].outcome.nis);
+      if (rows[i].outcome.has_T_W_I) {
+        CHECK(back[i].T_W_I.p == rows[i].outcome.T_W_I.p);
+        check_same_rotation(rows[i].outcome.T_W_I.q, back[i].T_W_I.q);
+      } else {
+        CHECK_FALSE(back[i].T_W_I.p.allFinite());
+      }
+    }
+  }
+}
+
+TEST_CASE("run files: readers name the file, line and column of what is wrong", "[io][run_files]") {
+  test::TempDir tmp("roe_run_files_bad");
+  StateRow s;
+  s.t_ns = 100;
+  ObjectRow o;
+  o.t_ns = 100;
+  const std::string states = format_states_csv({s, s});
+  const std::string objects = format_objects_csv({o});
+
+  SECTION("a missing column: at the header line, named") {
+    std::string text = states;
+    const std::size_t c = text.find(",sigma_p_I_C_y");
+    text.erase(c, std::string(",sigma_p_I_C_y").size());
+    const std::size_t row = text.find('\n') + 1;  // drop one field of each row too
+    for (std::size_t p = row; p < text.size(); p = text.find('\n', p) + 1) {
+      text.erase(text.find(',', p), 2);
+      if (text.find('\n', p) == std::string::npos) break;
+    }
+    const auto f = tmp.write("states.csv", text);
+    const InputError e = test::expect_input_error([&] { read_states_csv(f); });
+    CHECK_THAT(e.context().file, Catch::Contains("states.csv"));
+    CHECK(e.context().line == 1);
+    CHECK_THAT(e.what(), Catch::Contains("sigma_p_I_C_y"));
+    // With `missing`, the same is a reason instead of an error.
+    std::string why;
+    std::size_t n = 0;
+    CHECK_FALSE(for_each_state_row(f, {}, [&](const StateRow&) { ++n; }, &why));
+    CHECK(n == 0);
+    CHECK_THAT(why, Catch::Contains("sigma_p_I_C_y"));
+    // A column the reader is not asked for may be missing.
+    RunFileRead some;
+    some.columns = {"timestamp_ns", "sigma_p_I_C_x"};
+    CHECK(read_states_csv(f, some).size() == 2);
+  }
+  SECTION("eval's reading: a nan σ is accepted, extra columns are ignored") {
+    std::string text = states;
+    text.replace(text.find('\n'), 1, ",extra\n");
+    for (std::size_t p = text.find('\n') + 1; p < text.size(); p = text.find('\n', p) + 1) {
+      text.insert(text.find('\n', p), ",x");
+    }
+    const std::size_t last_comma = text.rfind(',', text.rfind(",x") - 1);  // the last σ of the last row
+    text.replace(last_comma + 1, 1, "nan");
+    const auto f = tmp.write("states.csv", text);
+    RunFileRead eval;
+    eval.allow_nonfinite = true;
+    const auto rows = read_states_csv(f, eval);
+    REQUIRE(rows.size() == 2);
+    CHECK(std::isnan(rows[1].sigma(20)));
+    const InputError e = test::expect_input_error([&] { read_states_csv(f); });
+    CHECK(e.context().line == 3);
+    CHECK(e.context().column == 45);
+  }
+  SECTION("a missing objects.csv column") {
+    std::string text = objects;
+    text.replace(text.find("anchor"), 6, "anchr");
+    const InputError e = test::expect_input_error([&] { read_objects_csv(tmp.write("objects.csv", text)); });
+    CHECK(e.context().line == 1);
+    CHECK_THAT(e.what(), Catch::Contains("anchor"));
+  }
+  SECTION("reprojection.csv without nis is read (nan); without status it is not") {
+    const auto f = tmp.write("reprojection.csv", "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status\n"
+                                                 "5,1,,,,,,,,pending_init\n6,1,1,2,3,0,0,0,1,accepted\n");
+    const auto rows = read_reprojection_csv(f);
+    REQUIRE(rows.size() == 2);
+    CHECK(std::isnan(rows[0].nis));
+    CHECK(std::isnan(rows[0].T_W_I.p.x()));
+    CHECK(rows[1].T_W_I.p == Eigen::Vector3d(1, 2, 3));
+    const auto g = tmp.write("r2.csv", "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,nis\n5,1,1,2,3,0,0,0,1,1\n");
+    const InputError e = test::expect_input_error([&] { read_reprojection_csv(g); });
+    CHECK(e.context().line == 1);
+    CHECK_THAT(e.what(), Catch::Contains("status"));
+  }
+  SECTION("bad values") {
+    const std::string header = states.substr(0, states.find('\n') + 1);
+    std::string row = states.substr(header.size(), states.find('\n', header.size()) - header.size() + 1);
+    // column 5 (v_W_I_x) nan: roe run never writes one
+    std::string bad = row;
+    std::size_t p = 0;
+    for (int c = 1; c < 5; ++c) p = bad.find(',', p) + 1;
+    bad.replace(p, bad.find(',', p) - p, "nan");
+    auto e = test::expect_input_error([&] { read_states_csv(tmp.write("a.csv", header + row + bad)); });
+    CHECK(e.context().line == 3);
+    CHECK(e.context().column == 5);
+    // a negative σ (column 25, sigma_p_W_I_x)
+    bad = row;
+    p = 0;
+    for (int c = 1; c < 25; ++c) p = bad.find(',', p) + 1;
+    bad.replace(p, bad.find(',', p) - p, "-1");
+    e = test::expect_input_error([&] { read_states_csv(tmp.write("b.csv", header + bad)); });
+    CHECK(e.context().line == 2);
+    CHECK(e.context().column == 25);
+    CHECK_THAT(e.what(), Catch::Contains("negative"));
+    // a quaternion that is not unit: at its w column (11)
+    bad = row;
+    p = 0;
+    for (int c = 1; c < 11; ++c) p = bad.find(',', p) + 1;
+    bad.replace(p, bad.find(',', p) - p, "2");
+    e = test::expect_input_error([&] { read_states_csv(tmp.write("c.csv", header + bad)); });
+    CHECK(e.context().column == 11);
+    CHECK_THAT(e.what(), Catch::Contains("quaternion"));
+    // decreasing stamps
+    std::string earlier = row;
+    earlier.replace(0, 3, "99");
+    e = test::expect_input_error([&] { read_states_csv(tmp.write("d.csv", header + row + earlier)); });
+    CHECK(e.context().line == 3);
+    CHECK(e.context().column == 1);
+    CHECK_THAT(e.what(), Catch::Contains("decrease"));
+    // objects.csv anchor must be 0 or 1 (column 3)
+    std::string obj = objects;
+    const std::size_t a = obj.find('\n') + 1;
+    const std::size_t c3 = obj.find(',', obj.find(',', a) + 1) + 1;
+    obj.replace(c3, 1, "2");
+    e = test::expect_input_error([&] { read_objects_csv(tmp.write("o.csv", obj)); });
+    CHECK(e.context().line == 2);
+    CHECK(e.context().column == 3);
+  }
+}
