@@ -340,27 +340,30 @@ std::string per_object_text(const json& objects) {
 std::string detection_calibration_text(const json& d) {
   std::string s = "\n  detection sigmas against the truth (" + d["source"].get<std::string>() + ")\n";
   const json& ex = d["expected"];
-  s += "  object      n   within 1/2/3 sigma: t [%]     r [%]          | NIS mean  median  >gate |   KS D  p      "
-       "| sigma scale (ML) [95 %]      t      r   median\n";
+  s += fmt::format("  {:<8} {:>5}   {:<15}  {:<15}  | {:>8} {:>7} {:>6} | {:>6} {:<7}| {:>6} {:<14}  {:>6} {:>6} {:>6}\n",
+                   "object", "n", "t 1/2/3 sig [%]", "r 1/2/3 sig [%]", "NIS mean", "median", ">gate", "KS D", "p",
+                   "scale", "[95 %]", "t", "r", "median");
   const auto row = [&s](const std::string& name, const json& c) {
     const auto pct = [](const json& a) {
       return fmt::format("{:4.1f} {:4.1f} {:5.1f}", 100 * a[0].get<double>(), 100 * a[1].get<double>(),
                          100 * a[2].get<double>());
     };
-    s += fmt::format("  {:<8} {:>5}   {}  {}  | {:8.2f} {:7.2f} {:5.1f}% | {:6.3f} {:<7.2g}| {:6.3f} [{:.3f}, {:.3f}]  {:6.3f} "
+    s += fmt::format("  {:<8} {:>5}   {}  {}  | {:8.2f} {:7.2f} {:5.1f}% | {:6.3f} {:<7.2g}| {:6.3f} {:<14}  {:6.3f} "
                      "{:6.3f} {:6.3f}\n",
                      name, c["n"].get<std::size_t>(), pct(c["within_sigma_t"]), pct(c["within_sigma_r"]),
                      c["nis_mean"].get<double>(), c["nis_quantiles"]["p50"].get<double>(),
                      100 * c["frac_above_gate"].get<double>(), c["ks_statistic"].get<double>(),
-                     c["ks_p_value"].get<double>(), c["sigma_scale"].get<double>(), c["sigma_scale_ci95"][0].get<double>(),
-                     c["sigma_scale_ci95"][1].get<double>(), c["sigma_scale_t"].get<double>(),
+                     c["ks_p_value"].get<double>(), c["sigma_scale"].get<double>(),
+                     fmt::format("[{:.3f}, {:.3f}]", c["sigma_scale_ci95"][0].get<double>(),
+                                 c["sigma_scale_ci95"][1].get<double>()),
+                     c["sigma_scale_t"].get<double>(),
                      c["sigma_scale_r"].get<double>(), c["sigma_scale_median"].get<double>());
   };
   for (const auto& o : d["per_object"]) row(std::to_string(o["object_id"].get<int>()), o);
   row("all", d["all"]);
   const auto& w = ex["within_sigma"];
   s += fmt::format("  consistent: {:.1f} {:.1f} {:.1f} % within 1/2/3 sigma, NIS mean 6, median {:.2f}, {:.0f} % above the "
-                   "gate {:.2f}, sigma scale 1 (true errors = scale x reported sigma)\n",
+                   "gate {:.2f}, scale 1 (scale = true errors / reported sigma; R would need scale^2)\n",
                    100 * w[0].get<double>(), 100 * w[1].get<double>(), 100 * w[2].get<double>(),
                    ex["nis_quantiles"]["p50"].get<double>(), 100 * ex["frac_above_gate"].get<double>(),
                    ex["gate"].get<double>());

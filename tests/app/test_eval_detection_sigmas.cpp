@@ -75,7 +75,7 @@ struct SigmaFixture {
       for (const auto& o : objects) {
         const Pose T_C_O = eval::true_T_C_O(d.groundtruth[k].T_W_I, truth.T_I_C, o.T_W_O);
         Detection det = model.measure(d.groundtruth[k].t_ns - 20'000'000LL, o.id, T_C_O, false, rng);
-        det.sigma = *det.sigma / scale;
+        if (det.sigma) *det.sigma /= scale;
         dets.push_back(det);
       }
     }
