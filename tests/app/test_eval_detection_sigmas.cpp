@@ -13,8 +13,7 @@
 #include "roe/io/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/trajectory_io.hpp"
-#include "roe/sim/detection_model.hpp"
-#include "roe/sim/random.hpp"
+#include "support/scaled_sigma_detections.hpp"
 
 using namespace roe;
 namespace fs = std::filesystem;
@@ -61,22 +60,12 @@ struct SigmaFixture {
       s.T_W_I = Pose(Eigen::Quaterniond(R), p);
       d.groundtruth.push_back(s);
     }
-    sim::DetectionNoiseConfig c;
-    c.translation_frame = "camera";
-    c.correlation_time_s = 0.0;
-    c.outlier_prob = 0.0;
-    c.symmetric_flip_prob = 0.0;
-    c.blur_frame_prob = 0.0;
-    c.write_sigmas = true;
-    sim::PoetErrorModel model(c, {});
-    sim::Rng rng(11);
+    test::ScaledSigmaDetector detect(scale, 11);
     auto& dets = d.detections["sim"];
     for (std::size_t k = 5; k + 5 < d.groundtruth.size(); k += 5) {
       for (const auto& o : objects) {
         const Pose T_C_O = eval::true_T_C_O(d.groundtruth[k].T_W_I, truth.T_I_C, o.T_W_O);
-        Detection det = model.measure(d.groundtruth[k].t_ns - 20'000'000LL, o.id, T_C_O, false, rng);
-        if (det.sigma) *det.sigma /= scale;
-        dets.push_back(det);
+        dets.push_back(detect(d.groundtruth[k].t_ns - 20'000'000LL, o.id, T_C_O));
       }
     }
     io::write_dataset(d, dataset, false);
@@ -127,7 +116,7 @@ TEST_CASE("roe eval calibrates the detection sigmas of the set run.json names", 
   CHECK(rows == 2 * 599);
   const std::string text = r.to_text();
   CHECK(text.find("detection sigmas against the truth") != std::string::npos);
-  CHECK(text.find("sigma scale") != std::string::npos);
+  CHECK(text.find("scale = true errors / reported sigma") != std::string::npos);
 }
 
 TEST_CASE("roe eval --detections: a file, a set name, and the errors", "[app][eval][sigmas]") {

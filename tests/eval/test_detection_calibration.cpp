@@ -6,8 +6,7 @@
 #include "roe/core/error.hpp"
 #include "roe/eval/detection_calibration.hpp"
 #include "roe/math/so3.hpp"
-#include "roe/sim/detection_model.hpp"
-#include "roe/sim/random.hpp"
+#include "support/scaled_sigma_detections.hpp"
 
 using namespace roe;
 
@@ -47,22 +46,12 @@ eval::DetectionTruth make_truth() {
 /// Detections at 10 Hz of both objects with the simulator's Gaussian errors (camera axes, no outliers,
 /// white) and reported σ = the true σ / scale, i.e. errors drawn with σ_true = scale · σ_reported.
 std::vector<Detection> simulate(const eval::DetectionTruth& truth, double scale, std::uint64_t seed, double offset_s = 0.0) {
-  sim::DetectionNoiseConfig c;
-  c.translation_frame = "camera";
-  c.correlation_time_s = 0.0;
-  c.outlier_prob = 0.0;
-  c.symmetric_flip_prob = 0.0;
-  c.blur_frame_prob = 0.0;
-  c.write_sigmas = true;
-  sim::PoetErrorModel model(c, {});
-  sim::Rng rng(seed);
+  test::ScaledSigmaDetector detect(scale, seed);
   std::vector<Detection> out;
   for (std::size_t k = 10; k + 10 < truth.T_W_I.size(); k += 10) {
     for (const auto& [id, T_W_O] : truth.T_W_O) {
       const Pose T_C_O = eval::true_T_C_O(truth.T_W_I[k].T, truth.T_I_C, T_W_O);
-      Detection d = model.measure(truth.T_W_I[k].t_ns - from_seconds(offset_s), id, T_C_O, false, rng);
-      if (d.sigma) *d.sigma /= scale;
-      out.push_back(d);
+      out.push_back(detect(truth.T_W_I[k].t_ns - from_seconds(offset_s), id, T_C_O));
     }
   }
   return out;
