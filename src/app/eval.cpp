@@ -200,7 +200,7 @@ nlohmann::json options_json(const EvalOptions& o) {
           {"gt_format", o.gt_format},   {"gt_source", o.gt_source},
           {"rpe_delta", o.rpe_delta},   {"rpe_unit", o.rpe_unit},
           {"rpe_all_pairs", o.rpe_all_pairs}, {"rpe_pairs_from", o.rpe_pairs_from},
-          {"rpe_tol", o.rpe_tol}};
+          {"rpe_tol", o.rpe_tol}, {"detections", o.detections}};
   if (!o.est_times.empty()) j["est_times"] = o.est_times;
   if (!o.gt_times.empty()) j["gt_times"] = o.gt_times;
   return j;
@@ -259,8 +259,12 @@ EvalResult run_eval(const EvalOptions& options) {
   warnings.insert(warnings.end(), gt_warnings.begin(), gt_warnings.end());
 
   check_kitti_pairing(est.in, o.est_times, gt, o.gt_times);
-  const eval::EstimateInput ei{est.in.traj.t_ns, est.in.traj.poses, est.cov,
-                               est.have_reprojection ? &est.reprojection : nullptr, o.est};
+  const std::optional<DetectionSigmaSource> sig = load_detection_sigmas(o, est.run, warnings);
+  std::optional<eval::DetectionSigmaInput> sig_in;
+  if (sig) sig_in.emplace(eval::DetectionSigmaInput{sig->detections, sig->T_I_C, sig->camera_time_offset_s, sig->T_W_O});
+  eval::EstimateInput ei{est.in.traj.t_ns, est.in.traj.poses, est.cov,
+                         est.have_reprojection ? &est.reprojection : nullptr, o.est};
+  ei.detection_sigmas = sig_in ? &*sig_in : nullptr;
   const eval::Report rep = eval::evaluate(ei, {gt.traj.t_ns, gt.traj.poses}, params);
   warnings.insert(warnings.end(), rep.warnings.begin(), rep.warnings.end());
 
@@ -271,6 +275,7 @@ EvalResult run_eval(const EvalOptions& options) {
   ctx.inputs = {{"est", input_json(est.in)}, {"gt", input_json(gt)}};
   ctx.options = options_json(o);
   ctx.cov_source = est.cov_source;
+  if (sig) ctx.detections_source = sig->description;
   ctx.warnings = warnings;
   json report = io::eval_report_json(rep, ctx);
 
@@ -327,6 +332,41 @@ std::string per_object_text(const json& objects) {
                        f["rpy_rmse_deg"]["pitch"].get<double>(), f["rpy_rmse_deg"]["yaw"].get<double>(), tail);
     }
   }
+  return s;
+}
+
+/// The detection σ calibration: per object and for all, the fractions within 1/2/3σ, the NIS against
+/// χ²₆ and the σ scale that would make them consistent.
+std::string detection_calibration_text(const json& d) {
+  std::string s = "\n  detection sigmas against the truth (" + d["source"].get<std::string>() + ")\n";
+  const json& ex = d["expected"];
+  s += fmt::format("  {:<8} {:>5}   {:<15}  {:<15}  | {:>8} {:>7} {:>6} | {:>6} {:<7}| {:>6} {:<14}  {:>6} {:>6} {:>6}\n",
+                   "object", "n", "t 1/2/3 sig [%]", "r 1/2/3 sig [%]", "NIS mean", "median", ">gate", "KS D", "p",
+                   "scale", "[95 %]", "t", "r", "median");
+  const auto row = [&s](const std::string& name, const json& c) {
+    const auto pct = [](const json& a) {
+      return fmt::format("{:4.1f} {:4.1f} {:5.1f}", 100 * a[0].get<double>(), 100 * a[1].get<double>(),
+                         100 * a[2].get<double>());
+    };
+    s += fmt::format("  {:<8} {:>5}   {}  {}  | {:8.2f} {:7.2f} {:5.1f}% | {:6.3f} {:<7.2g}| {:6.3f} {:<14}  {:6.3f} "
+                     "{:6.3f} {:6.3f}\n",
+                     name, c["n"].get<std::size_t>(), pct(c["within_sigma_t"]), pct(c["within_sigma_r"]),
+                     c["nis_mean"].get<double>(), c["nis_quantiles"]["p50"].get<double>(),
+                     100 * c["frac_above_gate"].get<double>(), c["ks_statistic"].get<double>(),
+                     c["ks_p_value"].get<double>(), c["sigma_scale"].get<double>(),
+                     fmt::format("[{:.3f}, {:.3f}]", c["sigma_scale_ci95"][0].get<double>(),
+                                 c["sigma_scale_ci95"][1].get<double>()),
+                     c["sigma_scale_t"].get<double>(),
+                     c["sigma_scale_r"].get<double>(), c["sigma_scale_median"].get<double>());
+  };
+  for (const auto& o : d["per_object"]) row(std::to_string(o["object_id"].get<int>()), o);
+  row("all", d["all"]);
+  const auto& w = ex["within_sigma"];
+  s += fmt::format("  consistent: {:.1f} {:.1f} {:.1f} % within 1/2/3 sigma, NIS mean 6, median {:.2f}, {:.0f} % above the "
+                   "gate {:.2f}, scale 1 (scale = true errors / reported sigma; R would need scale^2)\n",
+                   100 * w[0].get<double>(), 100 * w[1].get<double>(), 100 * w[2].get<double>(),
+                   ex["nis_quantiles"]["p50"].get<double>(), 100 * ex["frac_above_gate"].get<double>(),
+                   ex["gate"].get<double>());
   return s;
 }
 
@@ -390,6 +430,8 @@ std::string EvalResult::to_text() const {
          "   error, fitted on positions, is not in the estimate's covariance and inflates the orientation NEES)\n";
   }
   if (!r["per_object"].empty()) s += per_object_text(r["per_object"]);
+  if (r.contains("detection_calibration") && !r["detection_calibration"].is_null())
+    s += detection_calibration_text(r["detection_calibration"]);
   for (const auto& w : r["warnings"]) s += "  warning: " + w.get<std::string>() + "\n";
   if (!out.empty()) s += fmt::format("\n  wrote {}\n", out.string());
   if (!plot_status.empty()) s += "  plots: " + plot_status + "\n";

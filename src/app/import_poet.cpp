@@ -114,6 +114,9 @@ nlohmann::json ImportPoetSummary::to_json() const {
           {"dropped_unmapped_class", dropped_unmapped_class},
           {"dropped_duplicate_object", dropped_duplicate},
           {"quaternion_rotations", quaternion_rotations},
+          {"sigma_from_log_variances", sigma_from_log_variances},
+          {"sigma_from_covariance", sigma_from_covariance},
+          {"max_abs_correlation_dropped", max_abs_correlation_dropped},
           {"class_map", cm},
           {"warnings", warnings}};
 }
@@ -239,6 +242,12 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
       det.object_id = *obj;
       det.T_C_O = Pose(Eigen::Matrix3d(d.R_C_O), d.t);
       if (d.score) det.score = *d.score;
+      det.sigma = d.sigma;
+      if (d.uncertainty == io::PoetRawDetection::Uncertainty::kLogVariance) ++s.sigma_from_log_variances;
+      if (d.uncertainty == io::PoetRawDetection::Uncertainty::kCovariance) {
+        ++s.sigma_from_covariance;
+        s.max_abs_correlation_dropped = std::max(s.max_abs_correlation_dropped, d.max_abs_correlation);
+      }
       out.push_back(det);
     }
   }
@@ -253,6 +262,14 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
   if (s.dropped_duplicate)
     warn(std::to_string(s.dropped_duplicate) + " repeated detection(s) of an object in one frame dropped (the first, highest detector score, is kept)");
   s.detections_written = out.size();
+  const std::size_t with_sigma = s.sigma_from_log_variances + s.sigma_from_covariance;
+  if (with_sigma > 0 && with_sigma < out.size())
+    warn(std::to_string(out.size() - with_sigma) + " of " + std::to_string(out.size()) +
+         " written detection(s) carry no uncertainty (empty sigma columns): the filter uses its fixed σ for them");
+  if (s.sigma_from_covariance > 0 && s.max_abs_correlation_dropped > 0.1)
+    warn(fmt::format("the covariances have correlations up to |ρ| = {:.3f} between axes; the sigma columns keep "
+                     "each axis's marginal σ and drop them (docs/import.md, \"PoET uncertainty\")",
+                     s.max_abs_correlation_dropped));
 
   // ---- write --------------------------------------------------------------------------------
   const std::string sha = io::sha256_file(results_json);
@@ -265,6 +282,11 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
       {"options",
        {{"name", opt.name}, {"rotation", opt.rotation}, {"classes", opt.classes_file}, {"class_map", opt.class_map_file}}},
       {"score", "empty: PoET's results.json has no detection score"},
+      {"sigma", s.sigma_from_log_variances + s.sigma_from_covariance == 0
+                    ? "none: the entries carry no uncertainty"
+                    : "camera frame, m and rad (rotation error about the camera axes, R_meas = Exp(n) R); "
+                      "sigma = exp(s/2) of PoET's aleatoric log-variances s = log(sigma^2), or sqrt of a 6x6 "
+                      "covariance's diagonal (its correlations dropped)"},
       {"frames_processed", s.images_matched},
       {"summary", s.to_json()}};
   meta["summary"].erase("output");

@@ -76,6 +76,10 @@ RunFn setup(CLI::App& sub) {
                                         "Times file of a KITTI estimate (seconds, one per pose; default: "
                                         "associate by index, as evo)"));
   a->eval_only.push_back(sub.add_option("--gt-times", a->opt.gt_times, "Times file of a KITTI ground truth"));
+  a->eval_only.push_back(sub.add_option(
+      "--detections", a->opt.detections,
+      "Calibrate the sigmas of this detection set of the --gt dataset (or this detections.csv) against the "
+      "truth (default: the set run.json names, when it has sigmas)"));
   sub.add_option(
       "--out", a->opt.out,
       "Output folder (default RUN_DIR/eval for a run folder); with --summary: FILE[.csv|.json|.md] "

@@ -37,6 +37,9 @@ RunFn setup(CLI::App& sub) {
         "  score column empty (PoET's results.json has no score)\n",
         s.detections_written, s.images_matched, s.images_in_file, s.output_dir.string(), s.empty_images,
         s.images_unknown, s.dropped_non_finite, s.dropped_unmapped_class, s.dropped_duplicate);
+    if (s.sigma_from_log_variances + s.sigma_from_covariance > 0)
+      human += fmt::format("  sigma columns: {} from aleatoric log-variances, {} from 6x6 covariances\n",
+                           s.sigma_from_log_variances, s.sigma_from_covariance);
     emit(s.to_json(), human);
     return 0;
   };

@@ -105,6 +105,21 @@ void add_objects(const EstimateInput& est, const GroundTruthInput& gt, Report& r
     r.objects.push_back(object_report(id, rows, r.alignment, gt, r.params.assoc, r.detections_aligned));
 }
 
+/// The σ calibration of the detections, with the ground truth's poses as T_W_I (the first pose of a
+/// repeated stamp, as the association uses).
+void add_detection_calibration(const EstimateInput& est, const GroundTruthInput& gt, Report& r) {
+  if (!est.detection_sigmas) return;
+  const DetectionSigmaInput& in = *est.detection_sigmas;
+  DetectionTruth truth;
+  truth.T_I_C = in.T_I_C;
+  truth.camera_time_offset_s = in.camera_time_offset_s;
+  truth.T_W_O = in.T_W_O;
+  for (std::size_t i = 0; i < gt.t_ns.size(); ++i)
+    if (truth.T_W_I.empty() || gt.t_ns[i] > truth.T_W_I.back().t_ns) truth.T_W_I.push_back({gt.t_ns[i], gt.poses[i]});
+  r.detection_calibration = calibrate_detection_sigmas(in.detections, truth);
+  for (const std::string& w : r.detection_calibration->warnings) r.warnings.push_back("detection sigmas: " + w);
+}
+
 void add_rpe(Report& r) {
   for (const RpeOptions& ro : r.params.rpe) {
     r.rpe.push_back(compute_rpe(r.est_aligned, r.gt, r.t_est, r.t_gt, ro));
@@ -188,6 +203,7 @@ Report evaluate(const EstimateInput& est, const GroundTruthInput& gt, const Eval
   // Relative pose error of the aligned pairs (only a Sim(3) scale changes it), one block per delta.
   add_rpe(r);
   add_objects(est, gt, r);
+  add_detection_calibration(est, gt, r);
   r.path_length_est_m = path_length(r.est_aligned);
   r.path_length_gt_m = path_length(r.gt);
   return r;

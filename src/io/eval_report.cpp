@@ -3,6 +3,8 @@
 
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "roe/io/csv.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/trajectory_io.hpp"
@@ -226,6 +228,75 @@ std::string per_object_csv(const eval::Report& r) {
   return p.str();
 }
 
+json sigma_calibration_json(const eval::SigmaCalibration& c) {
+  json q = json::object();
+  for (std::size_t i = 0; i < eval::kNisProbabilities.size(); ++i)
+    q[fmt::format("p{:02.0f}", 100.0 * eval::kNisProbabilities[i])] = c.nis_quantiles[i];
+  return {{"n", c.n},
+          {"within_sigma_t", c.within_t},
+          {"within_sigma_r", c.within_r},
+          {"nis_mean", c.nis_mean},
+          {"nis_quantiles", q},
+          {"frac_above_gate", c.frac_above_gate},
+          {"ks_statistic", c.ks_statistic},
+          {"ks_p_value", c.ks_p_value},
+          {"sigma_scale", c.sigma_scale},
+          {"sigma_scale_ci95", {c.sigma_scale_lo, c.sigma_scale_hi}},
+          {"R_scale", c.sigma_scale * c.sigma_scale},
+          {"sigma_scale_t", c.sigma_scale_t},
+          {"sigma_scale_r", c.sigma_scale_r},
+          {"sigma_scale_median", c.sigma_scale_median}};
+}
+
+/// report.json's detection_calibration: null without one.
+json detection_calibration_json(const eval::Report& r, const EvalReportContext& c) {
+  if (!r.detection_calibration) return nullptr;
+  const eval::DetectionCalibration& d = *r.detection_calibration;
+  json q = json::object();
+  const auto chi2 = eval::chi2_6_quantiles();
+  for (std::size_t i = 0; i < eval::kNisProbabilities.size(); ++i)
+    q[fmt::format("p{:02.0f}", 100.0 * eval::kNisProbabilities[i])] = chi2[i];
+  json objects = json::array();
+  for (const auto& o : d.objects) {
+    json j = sigma_calibration_json(o.cal);
+    j["object_id"] = o.object_id;
+    objects.push_back(std::move(j));
+  }
+  return {{"source", c.detections_source},
+          {"n_detections", d.n_detections},
+          {"n_evaluated", d.all.n},
+          {"n_without_sigma", d.n_without_sigma},
+          {"n_without_object_truth", d.n_without_object_truth},
+          {"n_outside_truth", d.n_outside_truth},
+          {"all", sigma_calibration_json(d.all)},
+          {"per_object", objects},
+          {"expected",
+           {{"within_sigma", eval::expected_within()},
+            {"nis_mean", 6.0},
+            {"nis_quantiles", q},
+            {"frac_above_gate", 0.05},
+            {"gate", eval::nis_gate()},
+            {"sigma_scale", 1.0}}},
+          {"definition",
+           "e = [t_meas - t_true ; Log(R_meas R_true^T)] in camera axes (m, rad), T_C_O_true = (T_W_I T_I_C)^-1 T_W_O "
+           "at t_cam + camera time offset; z = e / sigma; within_sigma_t/_r = fraction of |z| <= 1, 2, 3 over the "
+           "3 translation / rotation axes; NIS = |z|^2 vs chi2(6); sigma_scale = sqrt(sum NIS / 6n) (ML, R_scale = "
+           "sigma_scale^2), ci95 from chi2(6n); sigma_scale_median = sqrt(median NIS / chi2(6) median)"}};
+}
+
+std::string detection_sigmas_csv(const eval::DetectionCalibration& d) {
+  CsvWriter w;
+  w.header({"timestamp_ns", "object_id", "e_tx_m", "e_ty_m", "e_tz_m", "e_rx_rad", "e_ry_rad", "e_rz_rad", "sigma_tx",
+            "sigma_ty", "sigma_tz", "sigma_rx", "sigma_ry", "sigma_rz", "nis"});
+  for (const auto& r : d.residuals) {
+    w.add(r.t_ns).add(r.object_id);
+    for (int i = 0; i < 6; ++i) w.add(r.error[i]);
+    for (int i = 0; i < 6; ++i) w.add(r.sigma[i]);
+    w.add(r.nis).end_row();
+  }
+  return w.str();
+}
+
 }  // namespace
 
 json eval_report_json(const eval::Report& r, const EvalReportContext& c) {
@@ -270,6 +341,7 @@ json eval_report_json(const eval::Report& r, const EvalReportContext& c) {
        "E_ij = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j), Q ground truth, P aligned estimate (evo RPE); trans_m = |trans(E)|, "
        "rot_deg = angle of rot(E), drift_pct = 100 trans_m / ground-truth path length from i to j"},
       {"per_object", per_object_json(r)},
+      {"detection_calibration", detection_calibration_json(r, c)},
       {"path_length_m", {{"est", r.path_length_est_m}, {"gt", r.path_length_gt_m}}},
       {"options", c.options},
       {"warnings", c.warnings}};
@@ -297,6 +369,7 @@ std::vector<std::string> write_eval_files(const OutputDir& dir, const eval::Repo
     put("reprojection_aligned.csv", reprojection_csv(r));
     put("per_object.csv", per_object_csv(r));
   }
+  if (r.detection_calibration) put("detection_sigmas.csv", detection_sigmas_csv(*r.detection_calibration));
   return files;
 }
 

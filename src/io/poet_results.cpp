@@ -1,10 +1,12 @@
 #include "roe/io/poet_results.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <map>
 #include <set>
@@ -377,9 +379,16 @@ class ResultsBuilder {
   void detection(const Node& det, const std::string& key, PoetRawDetection& d) const {
     if (det.kind != Node::kObject) fail(det, std::string("expected a detection object, found ") + kind_name(det.kind), key);
     bool has_t = false, has_rot = false, has_class = false;
+    RawUncertainty u;
     for (const auto& [k, v] : det.members) {
       const std::string kk = key + "." + k;
-      if (k == "t") {
+      if (k == "pred_translation_aleatoric" || k == "t_aleatoric") {
+        u.take(u.t_logvar, v, kk, *this);
+      } else if (k == "pred_rotation_aleatoric" || k == "rot_aleatoric") {
+        u.take(u.r_logvar, v, kk, *this);
+      } else if (k == "cov" || k == "covariance") {
+        u.take(u.cov, v, kk, *this);
+      } else if (k == "t") {
         has_t = true;
         if (v.kind != Node::kArray || v.items.size() != 3) fail(v, "\"t\" must be [x, y, z] (metres)", kk);
         for (int i = 0; i < 3; ++i) d.t[i] = num(v.items[i], kk);
@@ -400,13 +409,118 @@ class ResultsBuilder {
         const double s = num(v, kk);
         if (std::isfinite(s)) d.score = s;
       } else {
-        fail(v, "unknown key \"" + k + "\" in a PoET detection (expected t, rot, box, class)", kk);
+        fail(v, "unknown key \"" + k + "\" in a PoET detection (expected t, rot, box, class, score, and for the "
+                "uncertainty pred_translation_aleatoric + pred_rotation_aleatoric, or cov)", kk);
       }
     }
     if (!has_t) fail(det, "detection without \"t\"", key);
     if (!has_rot) fail(det, "detection without \"rot\"", key);
     if (!has_class) fail(det, "detection without \"class\"", key);
     d.finite = d.t.allFinite() && d.R_C_O.allFinite();
+    uncertainty(u, d);
+  }
+
+  /// The uncertainty keys of one detection, as found (validated once all keys are known).
+  struct RawUncertainty {
+    const Node* t_logvar = nullptr;
+    const Node* r_logvar = nullptr;
+    const Node* cov = nullptr;
+    std::string t_key, r_key, cov_key;
+    void take(const Node*& slot, const Node& v, const std::string& kk, const ResultsBuilder& b) {
+      std::string& where = &slot == &t_logvar ? t_key : &slot == &r_logvar ? r_key : cov_key;
+      if (slot) b.fail(v, "given twice, as " + where + " and " + kk + " (two spellings of one value)", kk);
+      slot = &v;
+      where = kk;
+    }
+  };
+
+  void uncertainty(const RawUncertainty& u, PoetRawDetection& d) const {
+    if (u.cov && (u.t_logvar || u.r_logvar))
+      fail(*u.cov, "a detection has both aleatoric log-variances and a covariance: give one of them", u.cov_key);
+    if (!u.t_logvar != !u.r_logvar) {
+      const bool has_t = u.t_logvar != nullptr;
+      fail(has_t ? *u.t_logvar : *u.r_logvar,
+           std::string(has_t ? "translation" : "rotation") + " log-variances without the " +
+               (has_t ? "rotation" : "translation") +
+               " ones (pred_rotation_aleatoric / pred_translation_aleatoric): the sigma columns need all six axes",
+           has_t ? u.t_key : u.r_key);
+    }
+    // A detection whose pose is not finite is dropped: its values are checked for shape only.
+    Vector6d s;
+    if (u.t_logvar) {
+      log_variances(*u.t_logvar, u.t_key, d.finite, s.head<3>());
+      log_variances(*u.r_logvar, u.r_key, d.finite, s.tail<3>());
+      d.uncertainty = PoetRawDetection::Uncertainty::kLogVariance;
+    } else if (u.cov) {
+      s = covariance(*u.cov, u.cov_key, d.finite, d.max_abs_correlation);
+      d.uncertainty = PoetRawDetection::Uncertainty::kCovariance;
+    } else {
+      return;
+    }
+    if (d.finite) d.sigma = s;
+  }
+
+  /// [s_x, s_y, s_z], s = log σ² (PoET's aleatoric heads) → σ = exp(s / 2).
+  void log_variances(const Node& v, const std::string& kk, bool check, Eigen::Ref<Eigen::Vector3d> sigma) const {
+    if (v.kind != Node::kArray || v.items.size() != 3)
+      fail(v, "must be [s_x, s_y, s_z], three log-variances s = log σ² (found " +
+                  (v.kind == Node::kArray ? std::to_string(v.items.size()) + " elements)" : std::string(kind_name(v.kind)) + ")"),
+           kk);
+    for (int i = 0; i < 3; ++i) {
+      const std::string ek = kk + "[" + std::to_string(i) + "]";
+      const double s = num(v.items[i], ek);
+      if (!check) continue;
+      if (!std::isfinite(s)) fail(v.items[i], "a log-variance must be a finite number", ek);
+      // exp(±600) stays a normal double, and so does σ² after the filter's mapping.
+      if (std::abs(s) > 600.0)
+        fail(v.items[i], "log-variance " + fmt_num(s) + " is outside [-600, 600]: σ² = exp(s) would under- or overflow", ek);
+      sigma[i] = std::exp(0.5 * s);
+    }
+  }
+
+  /// A 6x6 covariance (list of rows) of (t, rotation vector) → the square roots of its diagonal.
+  Vector6d covariance(const Node& v, const std::string& kk, bool check, double& max_abs_corr) const {
+    const std::string shape = "must be a 6x6 covariance, a list of 6 rows of 6 numbers (t in m, rotation in rad)";
+    if (v.kind != Node::kArray || v.items.size() != 6) fail(v, shape, kk);
+    Eigen::Matrix<double, 6, 6> C;
+    for (int r = 0; r < 6; ++r) {
+      const Node& row = v.items[r];
+      if (row.kind != Node::kArray || row.items.size() != 6) fail(row, shape, kk + "[" + std::to_string(r) + "]");
+      for (int c = 0; c < 6; ++c) C(r, c) = num(row.items[c], element(kk, r, c));
+    }
+    Vector6d sigma = Vector6d::Zero();
+    if (!check) return sigma;
+    auto at = [&](int r, int c) -> const Node& { return v.items[r].items[c]; };
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c)
+        if (!std::isfinite(C(r, c))) fail(at(r, c), "covariance elements must be finite numbers", element(kk, r, c));
+    for (int i = 0; i < 6; ++i)
+      if (!(C(i, i) > 0.0))
+        fail(at(i, i), "variance " + fmt_num(C(i, i)) + " on the diagonal must be > 0", element(kk, i, i));
+    for (int r = 0; r < 6; ++r)
+      for (int c = r + 1; c < 6; ++c)
+        if (std::abs(C(r, c) - C(c, r)) > 1e-5 * std::sqrt(C(r, r) * C(c, c)))
+          fail(at(c, r), "the covariance is not symmetric: [" + std::to_string(r) + "][" + std::to_string(c) + "] = " +
+                             fmt_num(C(r, c)) + " but [" + std::to_string(c) + "][" + std::to_string(r) + "] = " + fmt_num(C(c, r)),
+               element(kk, c, r));
+    // Positive semi-definite, judged on the correlation matrix (units differ: m² and rad²).
+    const Vector6d d = C.diagonal().cwiseSqrt();
+    const Eigen::Matrix<double, 6, 6> rho = d.cwiseInverse().asDiagonal() * (0.5 * (C + C.transpose())) * d.cwiseInverse().asDiagonal();
+    const double min_eig = Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(rho, Eigen::EigenvaluesOnly).eigenvalues()(0);
+    if (min_eig < -1e-6)
+      fail(v, "the covariance is not positive semi-definite (smallest eigenvalue of its correlation matrix " +
+                  fmt_num(min_eig) + ")", kk);
+    max_abs_corr = (rho - Eigen::Matrix<double, 6, 6>::Identity()).cwiseAbs().maxCoeff();
+    return d;
+  }
+
+  static std::string element(const std::string& kk, int r, int c) {
+    return kk + "[" + std::to_string(r) + "][" + std::to_string(c) + "]";
+  }
+  static std::string fmt_num(double x) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.6g", x);
+    return buf;
   }
 
   void rotation(const Node& v, const std::string& kk, PoetRawDetection& d) const {

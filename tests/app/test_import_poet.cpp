@@ -210,3 +210,49 @@ TEST_CASE("class map file, class names file, and datasets without cam0/data.csv"
   o.name = "../x";
   CHECK_THROWS_AS(app::import_poet(res, ds, o), InputError);
 }
+
+TEST_CASE("aleatoric log-variances and covariances become the sigma columns; malformed ones write nothing",
+          "[import_poet][uncertainty]") {
+  TmpDir tmp("sigma");
+  const fs::path fx = fs::path(ROE_SOURCE_DIR) / "tests/fixtures/poet_uncertainty";
+  const fs::path ds = make_dataset(tmp.path, {{1000, "1000.png"}, {2000, "2000.png"}, {3000, "3000.png"}},
+                                   {{5, "006_mustard_bottle", false}, {13, "024_bowl", true}});
+  app::ImportPoetOptions o;
+  const auto s = app::import_poet(fx / "good.json", ds, o);
+  CHECK(s.detections_written == 4);  // 3000.0 has a NaN pose: dropped
+  CHECK(s.dropped_non_finite == 1);
+  CHECK(s.sigma_from_log_variances == 2);
+  CHECK(s.sigma_from_covariance == 1);
+  CHECK(s.max_abs_correlation_dropped > 0.6);
+  bool warned_missing = false, warned_corr = false;
+  for (const auto& w : s.warnings) {
+    warned_missing |= w.find("1 of 4 written detection(s) carry no uncertainty") != std::string::npos;
+    warned_corr |= w.find("correlations up to") != std::string::npos;
+  }
+  CHECK(warned_missing);
+  CHECK(warned_corr);
+  // Read back from detections.csv (16 columns) and compared with the σ Python computed.
+  const auto dets = io::read_detections_csv(ds / "detections/poet/detections.csv");
+  const auto ex = nlohmann::json::parse(io::read_file(fx / "expected.json"))["good"];
+  REQUIRE(dets.size() == 4);
+  const std::pair<const char*, std::size_t> rows[] = {{"1000.0", 0}, {"1000.1", 1}, {"2000.0", 2}};
+  for (const auto& [key, i] : rows) {
+    INFO(key);
+    REQUIRE(dets[i].sigma);
+    for (int k = 0; k < 6; ++k) CHECK((*dets[i].sigma)[k] == Approx(ex[key][k].get<double>()).epsilon(1e-12));
+  }
+  CHECK_FALSE(dets[3].sigma);
+  CHECK(s.to_json()["sigma_from_covariance"] == 1);
+
+  // A malformed value: exit-2 error naming file, key and line; no detections folder is left behind.
+  const TmpDir tmp2("sigma_bad");
+  const fs::path ds2 = make_dataset(tmp2.path, {{1000, "1000.png"}}, {{5, "006_mustard_bottle", false}});
+  try {
+    (void)app::import_poet(fx / "bad_negative_variance.json", ds2, o);
+    FAIL("no error");
+  } catch (const InputError& e) {
+    CHECK(e.context().key == "1000.0.cov[3][3]");
+    CHECK(e.context().line > 1);
+  }
+  CHECK_FALSE(fs::exists(ds2 / "detections"));
+}

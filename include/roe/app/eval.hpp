@@ -19,6 +19,7 @@
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -55,6 +56,9 @@ struct EvalOptions {
   bool rpe_all_pairs = false;       ///< --rpe-all-pairs
   std::string rpe_pairs_from = "est";  ///< --rpe-pairs-from est|gt
   double rpe_tol = 0.1;             ///< --rpe-tol: all-pairs tolerance relative to the delta
+  /// --detections NAME|FILE: calibrate the σ of this detection set of the --gt dataset (or this
+  /// detections.csv) against the truth. Empty: the set run.json names, when it has sigmas.
+  std::string detections;
 };
 
 /// One row of a run folder's reprojection.csv: the IMU pose T_W_I implied by one raw detection.
@@ -87,6 +91,22 @@ EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warn
 /// path, or no prefix that is a bag by content). InputError for a topic the bag lacks (listing its
 /// pose topics) or a damaged bag.
 std::optional<EvalInput> load_bag_trajectory(const std::string& spec, std::vector<std::string>& warnings);
+
+/// Detections with σ and the truth that goes with them (roe.json truth.T_I_C, truth.objects, camera
+/// time offset), for the σ calibration of `roe eval` (docs/eval.md, "Detection uncertainty calibration").
+struct DetectionSigmaSource {
+  std::vector<Detection> detections;
+  Pose T_I_C;
+  double camera_time_offset_s = 0.0;
+  std::map<int, Pose> T_W_O;
+  std::string description;
+};
+/// `--detections NAME|FILE` with a dataset as ground truth, else the detection set a run folder's run.json
+/// names when it has sigmas; nullopt when there is nothing to calibrate (a warning when the dataset
+/// lacks the truth). InputError for an explicit --detections without a dataset, a set or file that is
+/// not there, without sigmas, or a dataset without truth.objects. `o.gt` is the resolved ground truth.
+std::optional<DetectionSigmaSource> load_detection_sigmas(const EvalOptions& o, bool est_is_run,
+                                                          std::vector<std::string>& warnings);
 
 struct EvalResult {
   nlohmann::json report;      ///< the report.json content

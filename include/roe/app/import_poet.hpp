@@ -18,7 +18,8 @@
 /// Per frame, detections keep PoET's order (detector score). Dropped with a count: non-finite t/rot
 /// (bare NaN tokens), classes with no object, and repeated objects in one frame (the first = highest
 /// detector score is kept: detections.csv holds one row per (frame, object)). The score column is
-/// left empty: PoET's results.json has no score.
+/// left empty: PoET's results.json has no score. Per-detection uncertainty (aleatoric log-variances or a
+/// 6x6 covariance, io/poet_results.hpp) goes into the sigma columns (docs/import.md, "PoET uncertainty").
 
 #include <filesystem>
 #include <map>
@@ -80,6 +81,9 @@ struct ImportPoetSummary {
   std::size_t dropped_unmapped_class = 0;
   std::size_t dropped_duplicate = 0;
   std::size_t quaternion_rotations = 0;
+  std::size_t sigma_from_log_variances = 0;  ///< written detections with σ from PoET's aleatoric heads
+  std::size_t sigma_from_covariance = 0;     ///< written detections with σ from a 6x6 covariance
+  double max_abs_correlation_dropped = 0.0;  ///< largest |ρ| of those covariances (not in the σ columns)
   std::map<int, int> class_map;         ///< PoET class → object id actually used
   std::vector<std::string> unknown_ids; ///< first few unmatched ids
   std::vector<std::string> warnings;

@@ -14,6 +14,7 @@
 #include "roe/core/types.hpp"
 #include "roe/eval/align.hpp"
 #include "roe/eval/associate.hpp"
+#include "roe/eval/detection_calibration.hpp"
 #include "roe/eval/metrics.hpp"
 #include "roe/eval/rpe.hpp"
 
@@ -41,6 +42,15 @@ struct DetectionPose {
   double nis = 0.0;
 };
 
+/// Detections with σ to calibrate against the ground truth (detection_calibration.hpp): the ground
+/// truth's poses are T_W_I; T_I_C, the camera time offset and the object poses complete the truth.
+struct DetectionSigmaInput {
+  const std::vector<Detection>& detections;
+  Pose T_I_C;
+  double camera_time_offset_s = 0.0;  ///< t_imu = t_cam + offset
+  std::map<int, Pose> T_W_O;          ///< in the ground truth's world
+};
+
 /// The estimate: stamps and poses (non-decreasing stamps), optionally a covariance per pose and
 /// the run's raw detections. The vectors are referenced, not copied: they must outlive the call.
 struct EstimateInput {
@@ -50,6 +60,7 @@ struct EstimateInput {
   const std::vector<std::optional<PoseCovariance>>& cov;
   const std::vector<DetectionPose>* detections = nullptr;  ///< null: no per-object traces
   std::string source;  ///< names the estimate in errors (a path), never opened
+  const DetectionSigmaInput* detection_sigmas = nullptr;  ///< null: no σ calibration
 };
 struct GroundTruthInput {
   const std::vector<Timestamp>& t_ns;
@@ -96,6 +107,9 @@ struct Report {
   std::vector<ObjectReport> objects;              ///< by object id
   std::vector<DetectionPose> detections_aligned;  ///< every detection, grouped by object id
   double path_length_est_m = 0.0, path_length_gt_m = 0.0;
+  /// The detections' σ against the ground truth (EstimateInput::detection_sigmas), independent of the
+  /// alignment: T_C_O is relative.
+  std::optional<DetectionCalibration> detection_calibration;
   std::vector<std::string> warnings;  ///< what the data implies (duplicates, few matches, ...)
 
   /// The alignment type to report: the one requested when nothing was aligned.

@@ -19,6 +19,7 @@ struct EvalReportContext {
   nlohmann::json inputs;   ///< {"est": {...}, "gt": {...}}: path, kind, format, description, counts
   nlohmann::json options;  ///< the options as given
   std::string cov_source;  ///< where the covariances came from (empty: none)
+  std::string detections_source;  ///< what the detection σ calibration compared (empty: none)
   std::vector<std::string> warnings;  ///< every warning, in order
 };
 
@@ -26,7 +27,8 @@ struct EvalReportContext {
 nlohmann::json eval_report_json(const eval::Report& r, const EvalReportContext& c);
 
 /// Writes the matched trajectories (CSV and TUM), errors.csv, err_matched_aligned.csv, summary.csv,
-/// with RPE rpe.csv and rpe_summary.csv, with detections reprojection_aligned.csv and per_object.csv
+/// with RPE rpe.csv and rpe_summary.csv, with detections reprojection_aligned.csv and per_object.csv,
+/// with a detection σ calibration detection_sigmas.csv
 /// into `dir` (atomically, each). Returns the names written, in order.
 std::vector<std::string> write_eval_files(const OutputDir& dir, const eval::Report& r,
                                           const EvalReportContext& c);

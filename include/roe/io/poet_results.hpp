@@ -11,6 +11,12 @@
 ///  - Python's json.dump may write the bare tokens NaN, Infinity and -Infinity, which strict JSON
 ///    parsers (nlohmann) reject: this reader has its own tokenizer that accepts them.
 /// There is no score, no time and no model information in the file.
+///
+/// Optional per-detection uncertainty (docs/import.md, "PoET uncertainty"): PoET's aleatoric heads (aau-cns/poet,
+/// `--aleatoric`) output per axis a log-variance s = log σ², `pred_translation_aleatoric` (t, log m²) and
+/// `pred_rotation_aleatoric` (rotation error v = Log(R_pred R_trueᵀ) about the camera axes, log rad²);
+/// a results.json entry may carry them under those names or as `t_aleatoric` / `rot_aleatoric`, or a
+/// full 6x6 covariance `cov` (= `covariance`) of (t, v) in m², m·rad, rad².
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -19,6 +25,8 @@
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "roe/core/types.hpp"
 
 namespace roe::io {
 
@@ -38,6 +46,14 @@ struct PoetRawDetection {
   Eigen::Vector4d box = Eigen::Vector4d::Constant(std::numeric_limits<double>::quiet_NaN());
   int class_id = 0;                                    ///< 1-based PoET class
   std::optional<double> score;                         ///< only if a fork wrote "score"
+  /// Where the uncertainty came from: none, log-variances (PoET's aleatoric heads), or a 6x6 covariance.
+  enum class Uncertainty { kNone, kLogVariance, kCovariance } uncertainty = Uncertainty::kNone;
+  /// σ in the camera frame, tx, ty, tz (m), rx, ry, rz (rad), as the sigma columns of detections.csv:
+  /// exp(s/2) of the log-variances, or the square roots of the covariance's diagonal. Unset without
+  /// uncertainty and for a detection whose pose is not finite (it is dropped).
+  std::optional<Vector6d> sigma;
+  /// A covariance's largest |correlation| off the diagonal: what the per-axis σ columns cannot hold.
+  double max_abs_correlation = 0.0;
   std::int64_t line = 0, column = 0;                   ///< where the entry starts in the file
 };
 
@@ -56,7 +72,12 @@ struct PoetResults {
 /// column): syntax errors, wrong shapes, non-integer indices or classes, class < 1, duplicate keys
 /// (top-level duplicates are colliding image ids, which Python would have silently overwritten),
 /// unknown keys, finite rotations that are not rotations (|RᵀR − I| > 1e-3 or det < 0), quaternions
-/// far from unit norm (|‖q‖ − 1| > 1e-3).
+/// far from unit norm (|‖q‖ − 1| > 1e-3); and for the uncertainty keys: a wrong shape, a non-number,
+/// NaN/Inf, a log-variance outside [−600, 600] (σ² would under/overflow), one of the two log-variance
+/// vectors without the other, two spellings of one key, log-variances and a covariance together, a
+/// covariance diagonal ≤ 0, a covariance that is not symmetric (|C_ij − C_ji| > 1e-5·√(C_ii C_jj)) or
+/// not positive semi-definite (correlation-matrix eigenvalue < −1e-6). Values of a detection whose
+/// t or rot is not finite are checked for shape only (the detection is dropped).
 PoetResults parse_poet_results(const std::string& text, const std::string& source,
                                PoetRotationFormat format = PoetRotationFormat::kAuto);
 PoetResults read_poet_results(const std::filesystem::path& file,

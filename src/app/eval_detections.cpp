@@ -1,0 +1,85 @@
+// roe eval: the detections whose σ are calibrated against the ground truth (docs/eval.md, "Detection
+// uncertainty calibration"), and the truth that goes with them (roe.json).
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "roe/app/eval.hpp"
+#include "roe/core/error.hpp"
+#include "roe/io/dataset.hpp"
+#include "roe/io/input.hpp"
+#include "roe/io/json.hpp"
+
+namespace roe::app {
+namespace fs = std::filesystem;
+
+namespace {
+
+/// The detection set a run folder's run.json names (inputs.detections), "" when none.
+std::string run_detection_set(const fs::path& run_dir) {
+  const fs::path rj = run_dir / "run.json";
+  if (!io::path_exists(rj)) return "";
+  const nlohmann::json j = io::parse_json_file(rj);
+  if (!j.is_object() || !j.contains("inputs") || !j["inputs"].is_object()) return "";
+  const auto& in = j["inputs"];
+  return in.contains("detections") && in["detections"].is_string() ? in["detections"].get<std::string>() : "";
+}
+
+}  // namespace
+
+std::optional<DetectionSigmaSource> load_detection_sigmas(const EvalOptions& o, bool est_is_run,
+                                                          std::vector<std::string>& warnings) {
+  const bool asked = !o.detections.empty();
+  const fs::path gt = o.gt;
+  const bool dataset = !gt.empty() && io::is_folder(gt) && io::path_exists(io::manifest_path(gt));
+  if (asked && !dataset)
+    throw InputError("--detections needs --gt DATASET (a roe dataset folder): the true T_C_O is computed from "
+                     "its ground truth and roe.json's truth.T_I_C and truth.objects",
+                     {"", 0, 0, "detections"});
+  if (!dataset) return std::nullopt;
+  fs::path csv;
+  if (asked) {
+    const fs::path as_file = o.detections;
+    csv = io::path_exists(as_file) && !io::is_folder(as_file)
+              ? as_file
+              : io::detections_dir(gt, o.detections) / "detections.csv";
+    if (!io::path_exists(csv))
+      throw InputError(fmt::format("--detections {}: neither a detections.csv file nor a detection set of {} ({})",
+                                   o.detections, gt.string(), csv.string()),
+                       {"", 0, 0, "detections"});
+  } else {
+    if (!est_is_run) return std::nullopt;
+    const std::string set = run_detection_set(o.est);
+    if (set.empty()) return std::nullopt;
+    csv = io::detections_dir(gt, set) / "detections.csv";
+    if (!io::path_exists(csv)) return std::nullopt;
+  }
+  DetectionSigmaSource s;
+  s.detections = io::read_detections_csv(csv);
+  const bool any_sigma = std::any_of(s.detections.begin(), s.detections.end(), [](const Detection& d) { return d.sigma.has_value(); });
+  if (!any_sigma) {
+    if (asked)
+      throw InputError("no detection carries sigmas (the six sigma columns are absent or empty): nothing to calibrate",
+                       {csv.string()});
+    return std::nullopt;
+  }
+  // The truth: roe.json's truth section (a simulation, or a real recording whose objects were surveyed in
+  // the ground truth's world); without truth.T_I_C the calibrated camera.T_I_C stands in.
+  const DatasetManifest man = io::read_manifest(gt);
+  const std::string mpath = io::manifest_path(gt).string();
+  if (!man.truth || man.truth->objects.empty()) {
+    const std::string why = mpath + " has no truth.objects: the true object poses T_W_O are needed";
+    if (asked) throw InputError("cannot calibrate the detection sigmas: " + why, {mpath, 0, 0, "truth.objects"});
+    warnings.push_back("detection sigmas not calibrated: " + why);
+    return std::nullopt;
+  }
+  for (const auto& ob : man.truth->objects) s.T_W_O[ob.id] = ob.T_W_O;
+  s.T_I_C = man.truth->T_I_C;
+  s.camera_time_offset_s = man.camera ? man.camera->time_offset_s : 0.0;
+  s.description = fmt::format("{} against the ground truth with {}'s truth.T_I_C, truth.objects ({}) and camera "
+                              "time offset {} s",
+                              csv.string(), mpath, s.T_W_O.size(), s.camera_time_offset_s);
+  return s;
+}
+
+}  // namespace roe::app
