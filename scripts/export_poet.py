@@ -362,7 +362,14 @@ def main():
     if os.path.exists(sym_file):
         with open(sym_file) as f:
             s = json.load(f)
-        symmetric = sorted(int(k) for k, v in (s.items() if isinstance(s, dict) else enumerate(s)) if v)
+        # PoET's dataset_files/ycbv_symmetries.json maps class *names* to true/false; ids are accepted too.
+        by_name = {v: k for k, v in class_names.items()}
+        items = s.items() if isinstance(s, dict) else enumerate(s)
+        unknown = [k for k, v in items if v and not str(k).isdigit() and k not in by_name]
+        if unknown:
+            sys.exit(f"error: {sym_file}: symmetric classes {unknown} are not in {names_file}")
+        items = s.items() if isinstance(s, dict) else enumerate(s)
+        symmetric = sorted(int(k) if str(k).isdigit() else by_name[k] for k, v in items if v)
     try:
         commit = subprocess.run(["git", "-C", poet_dir, "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
     except OSError:

@@ -4,6 +4,9 @@
 #include "roe/core/error.hpp"
 
 #ifdef ROE_HAVE_TORCH
+#include <algorithm>
+#include <thread>
+#include <ATen/Parallel.h>
 #include <torch/cuda.h>
 #include <torch/script.h>
 #include <torch/version.h>
@@ -16,9 +19,18 @@ namespace roe::infer {
 struct PoseHead::Impl {
   torch::jit::script::Module module;
   torch::Device device = torch::kCPU;
+  bool optimized = false;
 };
 
-PoseHead::PoseHead(const std::filesystem::path& file, const std::string& device) : impl_(std::make_unique<Impl>()) {
+namespace {
+void set_threads(int wanted) {
+  const int n = wanted > 0 ? wanted : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  if (at::get_num_threads() != n) at::set_num_threads(n);
+}
+}  // namespace
+
+PoseHead::PoseHead(const std::filesystem::path& file, const std::string& device, const PoseHeadTuning& tuning)
+    : impl_(std::make_unique<Impl>()) {
   if (device == "cuda" || (device == "auto" && torch::cuda::is_available())) {
     if (!torch::cuda::is_available())
       throw InputError("--device cuda: this LibTorch has no CUDA device (Debian's libtorch is CPU-only; build roe "
@@ -42,6 +54,17 @@ PoseHead::PoseHead(const std::filesystem::path& file, const std::string& device)
                                       : "exported with a newer torch than LibTorch " + runtime_version() + "?") +
                          "): " + msg.substr(0, 400),
                      {file.string()});
+  }
+  if (impl_->device.is_cpu()) {
+    set_threads(tuning.threads);
+    if (tuning.optimize) {
+      try {  // freezes (weights become constants) and runs the inference passes
+        impl_->module = torch::jit::optimize_for_inference(impl_->module);
+        impl_->optimized = true;
+      } catch (const c10::Error&) {
+        impl_->optimized = false;  // a module the passes cannot handle runs as it is
+      }
+    }
   }
 }
 
@@ -89,6 +112,8 @@ std::vector<HostTensor> PoseHead::forward(const std::vector<HostTensor>& inputs)
 }
 
 std::string PoseHead::device() const { return impl_->device.str(); }
+bool PoseHead::optimized() const { return impl_->optimized; }
+int PoseHead::threads() { return at::get_num_threads(); }
 bool PoseHead::available() { return true; }
 std::string PoseHead::runtime_version() { return TORCH_VERSION; }
 
@@ -96,7 +121,7 @@ std::string PoseHead::runtime_version() { return TORCH_VERSION; }
 
 struct PoseHead::Impl {};
 
-PoseHead::PoseHead(const std::filesystem::path& file, const std::string&) {
+PoseHead::PoseHead(const std::filesystem::path& file, const std::string&, const PoseHeadTuning&) {
   throw InputError("this roe was built without LibTorch, so it cannot run PoET pose heads; rebuild with "
                    "libtorch-dev installed (cmake -DROE_WITH_TORCH=ON), or run PoET's own inference and use "
                    "`roe import poet`",
@@ -107,6 +132,8 @@ std::vector<HostTensor> PoseHead::forward(const std::vector<HostTensor>&) {
   throw InternalError("PoseHead without LibTorch");
 }
 std::string PoseHead::device() const { return "none"; }
+bool PoseHead::optimized() const { return false; }
+int PoseHead::threads() { return 0; }
 bool PoseHead::available() { return false; }
 std::string PoseHead::runtime_version() { return ""; }
 
