@@ -12,6 +12,7 @@
 
 #include "roe/app/infer.hpp"
 #include "roe/io/dataset.hpp"
+#include "roe/io/json.hpp"
 
 namespace fs = std::filesystem;
 using namespace roe;
@@ -75,8 +76,14 @@ TEST_CASE("roe infer writes the aleatoric heads' sigmas as PyTorch computes them
 
   app::InferOptions o;
   o.model_dir = kTiny.string();
+  o.threads = 1;
   const auto s = app::run_infer(ds, o);
   CHECK_FALSE(s.warp);
+  // The CPU settings are applied and recorded (the optimized head passed the self-test to get here).
+  const auto meta = io::parse_json_file(ds / "detections/tiny-poet/meta.json");
+  CHECK(meta.at("model").at("cpu_threads") == 1);
+  CHECK(meta.at("model").at("pose_head_optimized") == true);
+  CHECK(meta.at("options").at("threads") == 1);
   const fs::path csv = ds / "detections/tiny-poet/detections.csv";
   {
     std::ifstream in(csv);
