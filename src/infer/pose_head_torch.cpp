@@ -6,6 +6,9 @@
 #ifdef ROE_HAVE_TORCH
 #include <algorithm>
 #include <thread>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <ATen/Parallel.h>
 #include <torch/cuda.h>
 #include <torch/script.h>
@@ -23,6 +26,15 @@ struct PoseHead::Impl {
 };
 
 namespace {
+void keep_freed_memory() {
+#ifdef __GLIBC__
+  // Large tensors are otherwise mmap'ed and unmapped at every layer: page faults and zeroing in the
+  // kernel on each run. Fixed thresholds keep them in the heap for reuse.
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest allowed value on 64-bit
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+#endif
+}
+
 void set_threads(int wanted) {
   const int n = wanted > 0 ? wanted : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   if (at::get_num_threads() != n) at::set_num_threads(n);
@@ -57,6 +69,7 @@ PoseHead::PoseHead(const std::filesystem::path& file, const std::string& device,
   }
   if (impl_->device.is_cpu()) {
     set_threads(tuning.threads);
+    if (tuning.reuse_memory) keep_freed_memory();
     if (tuning.optimize) {
       try {  // freezes (weights become constants) and runs the inference passes
         impl_->module = torch::jit::optimize_for_inference(impl_->module);

@@ -72,10 +72,10 @@ int main(int argc, char** argv) {
       const char* name;
       PoseHeadTuning tuning;
     };
-    const Variant variants[] = {{"plain, 1 thread", {false, 1}},
-                                {"plain, all threads", {false, 0}},
-                                {"optimized, 1 thread", {true, 1}},
-                                {"optimized, all threads", {true, 0}}};
+    const Variant variants[] = {{"plain, 1 thread", {false, 1, true}},
+                                {"plain, all threads", {false, 0, true}},
+                                {"optimized, 1 thread", {true, 1, true}},
+                                {"optimized, all threads", {true, 0, true}}};
     for (const auto& v : variants) {
       PoseHead h(b.pose.file, "cpu", v.tuning);
       std::vector<double> ms;

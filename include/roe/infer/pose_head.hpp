@@ -26,6 +26,10 @@ struct PoseHeadTuning {
   bool optimize = true;
   /// LibTorch intra-op threads (process-wide); 0 = one per hardware thread.
   int threads = 0;
+  /// glibc malloc keeps freed buffers (up to 32 MB each) in the heap, not trimmed, instead of mapping and
+  /// unmapping memory per tensor
+  /// (process-wide; PoET-sized model: 2.1 → 0.2 s of kernel time per frame, 0.7 GB more peak RSS).
+  bool reuse_memory = true;
 };
 
 class PoseHead {
