@@ -55,3 +55,15 @@ format:
 
 clean:
 	rm -rf $(BUILD)
+
+# Checks scripts/export_poet.py + roe infer against the real PoET architecture (docs/infer.md, "Verified
+# against the real PoET code"): make verify-poet POET=~/src/poet YOLO=~/src/yolov4 DDETR=~/src/Deformable-DETR
+# [VERIFY_WORK=/tmp/roe-poet-verify]. Skips (exit 0) when Debian's python3-torch is not installed.
+VERIFY_WORK ?= /tmp/roe-poet-verify
+.PHONY: verify-poet
+verify-poet:
+	@if ! /usr/bin/python3 -c 'import torch, torchvision' 2>/dev/null; then \
+	  echo "verify-poet: skipped (needs python3-torch and python3-torchvision)"; exit 0; fi; \
+	test -n "$(POET)" -a -n "$(YOLO)" -a -n "$(DDETR)" || { echo "verify-poet: set POET, YOLO and DDETR (checkouts)"; exit 2; }; \
+	$(MAKE) configure && cmake --build $(BUILD) -j $(JOBS) --target roe roe-infer && \
+	/usr/bin/python3 scripts/verify-poet-export.py --poet $(POET) --yolo $(YOLO) --ddetr $(DDETR) --roe $(ROE) --work $(VERIFY_WORK)

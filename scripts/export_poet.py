@@ -90,6 +90,54 @@ class DeformAttnShim:
         return deformable_attention_grid_sample(value, spatial_shapes, sampling_locations, attention_weights)
 
 
+def find_yolo_builder():
+    """The Scaled-YOLOv4 wrapper (aau-cns/yolov4) placed into PoET's models/ as its README says:
+    models/cns_yolo.py + models/yolo/. Returns build_cns_yolo, or None when it is not there."""
+    try:
+        from models.cns_yolo import build_cns_yolo
+    except ImportError as e:
+        if "cns_yolo" not in str(e):
+            raise
+        return None
+    return build_cns_yolo
+
+
+def patch_yolo_backbone():
+    """aau-cns/poet's build_backbone builds only Mask/Faster R-CNN and raises NotImplementedError for
+    'yolov4' (commit 227f6a4, Sep 2025): the YOLO wrapper is a separate download. This routes
+    'yolov4' to the wrapper with PoET's own Joiner and position encoding, as PoET's training code does
+    once the wrapper is in place."""
+    import models.backbone as bb
+    import models.pose_estimation_transformer as pet
+    original = bb.build_backbone
+
+    def build_backbone(args):
+        if args.backbone not in ("yolov4", "yolo"):
+            return original(args)
+        build_cns_yolo = find_yolo_builder()
+        if build_cns_yolo is None:
+            sys.exit("error: the YOLO wrapper is missing: put aau-cns/yolov4's cns_yolo.py and yolo/ into "
+                     "PoET's models/ folder (PoET README, 'Scaled-YOLOv4 Backbone')")
+        return bb.Joiner(build_cns_yolo(args), bb.build_position_encoding(args))
+
+    bb.build_backbone = build_backbone
+    pet.build_backbone = build_backbone
+
+
+def darknet_weights_writer(model):
+    """The wrapper's Darknet module and its save_weights (a module-level function in
+    yolo/backbone_models/models.py, save_weights(model, path)) → a callable path → None."""
+    for m in model.backbone.modules():
+        if hasattr(m, "module_defs") and hasattr(m, "module_list"):
+            if callable(getattr(m, "save_weights", None)):
+                return m.save_weights
+            for cls in type(m).__mro__:
+                fn = getattr(sys.modules.get(cls.__module__), "save_weights", None)
+                if callable(fn):
+                    return lambda path, m=m, fn=fn: fn(m, path=path)
+    return None
+
+
 def patch_deformable_attention():
     patched = []
     for name, mod in list(sys.modules.items()):
@@ -185,6 +233,7 @@ def main():
             sys.path.insert(0, os.path.abspath(p))
     from models import build_model  # PoET's, from the user's checkout
     from util.misc import NestedTensor
+    patch_yolo_backbone()
     patched = patch_deformable_attention()
     if not patched:
         sys.exit("error: PoET's deformable attention (MSDeformAttnFunction) was not found to patch; is the "
@@ -198,6 +247,8 @@ def main():
     if getattr(args, "backbone", "yolov4") not in ("yolov4", "yolo"):
         sys.exit(f"error: backbone '{args.backbone}' uses torchvision ops LibTorch lacks; use `roe import poet`")
     args.bbox_mode = "gt"
+    args.backbone_weights = None  # the detector's weights are in the checkpoint
+    args.lr_backbone = 0.0  # frozen backbone: PoET's Joiner refuses a trainable one in forward()
     built = build_model(args)
     model = built[0] if isinstance(built, (tuple, list)) else built
     missing, unexpected = model.load_state_dict(ckpt["model"], strict=False)
@@ -298,10 +349,10 @@ def main():
     if not os.path.exists(cfg):
         sys.exit(f"error: the detector cfg {cfg} does not exist (give it with --darknet-cfg)")
     shutil.copyfile(cfg, os.path.join(a.out, "detector.cfg"))
-    darknet = next((m for m in model.backbone.modules() if hasattr(m, "save_weights")), None)
-    if darknet is None:
-        sys.exit("error: no Darknet module with save_weights() in PoET's backbone")
-    darknet.save_weights(os.path.join(a.out, "detector.weights"))
+    write_weights = darknet_weights_writer(model)
+    if write_weights is None:
+        sys.exit("error: no Darknet module with the wrapper's save_weights() in PoET's backbone")
+    write_weights(os.path.join(a.out, "detector.weights"))
 
     names_file = a.classes or os.path.join(poet_dir, "dataset_files", "ycbv_classes.json")
     with open(names_file) as f:
@@ -311,7 +362,14 @@ def main():
     if os.path.exists(sym_file):
         with open(sym_file) as f:
             s = json.load(f)
-        symmetric = sorted(int(k) for k, v in (s.items() if isinstance(s, dict) else enumerate(s)) if v)
+        # PoET's dataset_files/ycbv_symmetries.json maps class *names* to true/false; ids are accepted too.
+        by_name = {v: k for k, v in class_names.items()}
+        items = s.items() if isinstance(s, dict) else enumerate(s)
+        unknown = [k for k, v in items if v and not str(k).isdigit() and k not in by_name]
+        if unknown:
+            sys.exit(f"error: {sym_file}: symmetric classes {unknown} are not in {names_file}")
+        items = s.items() if isinstance(s, dict) else enumerate(s)
+        symmetric = sorted(int(k) if str(k).isdigit() else by_name[k] for k, v in items if v)
     try:
         commit = subprocess.run(["git", "-C", poet_dir, "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
     except OSError:

@@ -196,6 +196,7 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
   infer::ModelOptions mo;
   mo.warp = opt.warp;
   mo.device = opt.device;
+  mo.tuning.threads = opt.threads;
   infer::PoetModel model(bundle, mo);
   s.model_id = bundle.model_id;
   s.selftest = model.selftest_report().to_json();
@@ -334,12 +335,14 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
         {"bundle", fs::absolute(opt.model_dir).lexically_normal().string()},
         {"provenance", bundle.provenance},
         {"libtorch", infer::PoseHead::runtime_version()},
-        {"device", s.device}}},
+        {"device", s.device},
+        {"pose_head_optimized", model.pose_head_optimized()},
+        {"cpu_threads", infer::PoseHead::threads()}}},
       {"config_hash", s.config_hash},
       {"config", cfg},
       {"options",
        {{"frames", opt.frames}, {"every", opt.every}, {"warp", opt.warp}, {"boxes", opt.boxes_file}, {"class_map", opt.class_map_file},
-        {"use_cache", opt.use_cache}}},
+        {"use_cache", opt.use_cache}, {"threads", opt.threads}}},
       {"class_map", class_map},
       {"selftest", s.selftest},
       {"frames_processed", sel.size()},

@@ -28,6 +28,9 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("--device", a->opt.device, "LibTorch device: auto, cpu, cuda")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "cpu", "cuda"}));
+  sub.add_option("--threads", a->opt.threads, "CPU threads of the pose head (0 = one per core; 1 is faster on a busy machine)")
+      ->capture_default_str()
+      ->check(number_in("integer>=0"));
   sub.add_option("--boxes", a->opt.boxes_file,
                  "External boxes CSV timestamp_ns,class,x1,y1,x2,y2,score (replaces the detector)");
   sub.add_option("--class-map", a->opt.class_map_file,

@@ -382,7 +382,7 @@ PoetModel::PoetModel(PoetBundle bundle, ModelOptions options) : impl_(std::make_
         throw ConfigError("OpenCV's network has no layer \"" + f + "\" (names look like conv_12, mish_143, pool_2, shortcut_20)",
                           {(m.b.dir / kBundleManifest).string(), 0, 0, "detector.feature_layers"});
   }
-  m.head = std::make_unique<PoseHead>(m.b.pose.file, m.opt.device);
+  m.head = std::make_unique<PoseHead>(m.b.pose.file, m.opt.device, m.opt.tuning);
   if (!m.b.pose.torch_version.empty() && m.b.pose.torch_version.substr(0, 4) != PoseHead::runtime_version().substr(0, 4))
     log::warn("the pose head was exported with torch {} and runs on LibTorch {}; TorchScript is only guaranteed to load "
               "with the same version",
@@ -507,6 +507,7 @@ void PoetModel::set_camera(int width, int height, const std::optional<Intrinsics
 
 bool PoetModel::warping() const { return impl_->warp; }
 std::string PoetModel::device() const { return impl_->head->device(); }
+bool PoetModel::pose_head_optimized() const { return impl_->head->optimized(); }
 
 nlohmann::json PoetModel::camera_json() const {
   const auto& m = *impl_;

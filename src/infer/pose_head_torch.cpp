@@ -4,6 +4,12 @@
 #include "roe/core/error.hpp"
 
 #ifdef ROE_HAVE_TORCH
+#include <algorithm>
+#include <thread>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+#include <ATen/Parallel.h>
 #include <torch/cuda.h>
 #include <torch/script.h>
 #include <torch/version.h>
@@ -16,9 +22,27 @@ namespace roe::infer {
 struct PoseHead::Impl {
   torch::jit::script::Module module;
   torch::Device device = torch::kCPU;
+  bool optimized = false;
 };
 
-PoseHead::PoseHead(const std::filesystem::path& file, const std::string& device) : impl_(std::make_unique<Impl>()) {
+namespace {
+void keep_freed_memory() {
+#ifdef __GLIBC__
+  // Large tensors are otherwise mmap'ed and unmapped at every layer: page faults and zeroing in the
+  // kernel on each run. Fixed thresholds keep them in the heap for reuse.
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest allowed value on 64-bit
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+#endif
+}
+
+void set_threads(int wanted) {
+  const int n = wanted > 0 ? wanted : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  if (at::get_num_threads() != n) at::set_num_threads(n);
+}
+}  // namespace
+
+PoseHead::PoseHead(const std::filesystem::path& file, const std::string& device, const PoseHeadTuning& tuning)
+    : impl_(std::make_unique<Impl>()) {
   if (device == "cuda" || (device == "auto" && torch::cuda::is_available())) {
     if (!torch::cuda::is_available())
       throw InputError("--device cuda: this LibTorch has no CUDA device (Debian's libtorch is CPU-only; build roe "
@@ -42,6 +66,18 @@ PoseHead::PoseHead(const std::filesystem::path& file, const std::string& device)
                                       : "exported with a newer torch than LibTorch " + runtime_version() + "?") +
                          "): " + msg.substr(0, 400),
                      {file.string()});
+  }
+  if (impl_->device.is_cpu()) {
+    set_threads(tuning.threads);
+    if (tuning.reuse_memory) keep_freed_memory();
+    if (tuning.optimize) {
+      try {  // freezes (weights become constants) and runs the inference passes
+        impl_->module = torch::jit::optimize_for_inference(impl_->module);
+        impl_->optimized = true;
+      } catch (const c10::Error&) {
+        impl_->optimized = false;  // a module the passes cannot handle runs as it is
+      }
+    }
   }
 }
 
@@ -89,6 +125,8 @@ std::vector<HostTensor> PoseHead::forward(const std::vector<HostTensor>& inputs)
 }
 
 std::string PoseHead::device() const { return impl_->device.str(); }
+bool PoseHead::optimized() const { return impl_->optimized; }
+int PoseHead::threads() { return at::get_num_threads(); }
 bool PoseHead::available() { return true; }
 std::string PoseHead::runtime_version() { return TORCH_VERSION; }
 
@@ -96,7 +134,7 @@ std::string PoseHead::runtime_version() { return TORCH_VERSION; }
 
 struct PoseHead::Impl {};
 
-PoseHead::PoseHead(const std::filesystem::path& file, const std::string&) {
+PoseHead::PoseHead(const std::filesystem::path& file, const std::string&, const PoseHeadTuning&) {
   throw InputError("this roe was built without LibTorch, so it cannot run PoET pose heads; rebuild with "
                    "libtorch-dev installed (cmake -DROE_WITH_TORCH=ON), or run PoET's own inference and use "
                    "`roe import poet`",
@@ -107,6 +145,8 @@ std::vector<HostTensor> PoseHead::forward(const std::vector<HostTensor>&) {
   throw InternalError("PoseHead without LibTorch");
 }
 std::string PoseHead::device() const { return "none"; }
+bool PoseHead::optimized() const { return false; }
+int PoseHead::threads() { return 0; }
 bool PoseHead::available() { return false; }
 std::string PoseHead::runtime_version() { return ""; }
 

@@ -67,6 +67,31 @@ int main(int argc, char** argv) {
     report("detector (+NMS)", det);
     report("pose head", head);
     report("whole frame (infer)", total);
+    // The pose head alone under each CPU setting, old and new side by side (docs/BENCHMARKS.md).
+    struct Variant {
+      const char* name;
+      PoseHeadTuning tuning;
+    };
+    const Variant variants[] = {{"plain, 1 thread", {false, 1, true}},
+                                {"plain, all threads", {false, 0, true}},
+                                {"optimized, 1 thread", {true, 1, true}},
+                                {"optimized, all threads", {true, 0, true}}};
+    for (const auto& v : variants) {
+      PoseHead h(b.pose.file, "cpu", v.tuning);
+      std::vector<double> ms;
+      double worst = 0;
+      for (int i = 0; i < frames + 1; ++i) {
+        const double a = now_ms();
+        const auto out = h.forward(head_in);
+        if (i > 0) ms.push_back(now_ms() - a);
+        for (std::size_t k = 0; k < out.size() && k < b.selftest.outputs.size(); ++k)
+          worst = std::max(worst, max_abs_diff(out[k], read_npy(b.selftest.outputs[k])));
+      }
+      char label[96];
+      std::snprintf(label, sizeof label, "head: %s (%d)%s", v.name, PoseHead::threads(), h.optimized() || !v.tuning.optimize ? "" : " [passes failed]");
+      report(label, ms);
+      std::printf("    max |output - reference| %.3g\n", worst);
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_infer: %s\n", e.what());
     return 1;

@@ -45,7 +45,8 @@ TEST_CASE("the committed tiny bundle is valid", "[bundle]") {
   CHECK(b.darknet.nms.conf_thresh == Approx(0.4));
   CHECK(b.pose.inputs == PoseInputs::kFeatures);
   CHECK(b.selftest.inputs.size() == 4);
-  CHECK(b.selftest.outputs.size() == 2);
+  CHECK(b.pose.aleatoric);
+  CHECK(b.selftest.outputs.size() == 4);  // t, rotation, logvar_t, logvar_r
   CHECK(fs::exists(b.pose.file));
 }
 
@@ -78,7 +79,8 @@ TEST_CASE("bundle validation errors name the key", "[bundle]") {
   CHECK(has(error_of([](json& j) { j["pose"]["inputs"] = "boxes"; }), "pose.inputs"));
   CHECK(has(error_of([](json& j) { j.erase("selftest"); }), "selftest"));
   CHECK(has(error_of([](json& j) { j["selftest"]["inputs"].erase(3); }), "needs 4 files"));
-  CHECK(has(error_of([](json& j) { j["pose"]["aleatoric"] = true; }), "needs 4 files (t, rotation, logvar_t"));
+  CHECK(has(error_of([](json& j) { j["selftest"]["outputs"].erase(3); }), "needs 4 files (t, rotation, logvar_t"));
+  CHECK(has(error_of([](json& j) { j["pose"]["aleatoric"] = false; }), "needs 2 files (t, rotation)"));
   CHECK(has(error_of([](json& j) { j["provenance"] = "x"; }), "provenance"));
   CHECK(error_of([](json& j) { j["provenance"]["poet_commit"] = "227f6a4"; }).empty());
   CHECK(error_of([](json& j) { j["translation_unit"] = "mm"; }).empty());

@@ -106,7 +106,7 @@ TEST_CASE("pose-head queries: normalised cx, cy, w, h and class per box, PoET's 
 TEST_CASE("tiny bundle: self-test within tolerance (pose head 1e-5, Darknet taps 1e-4)", "[model][torch]") {
   PoetModel model(read_bundle(kTiny));
   const SelfTestReport& r = model.selftest_report();
-  REQUIRE(r.pose.size() == 2);
+  REQUIRE(r.pose.size() == 4);  // t, rotation and the aleatoric heads' log-variances
   for (const auto& [k, v] : r.pose) {
     INFO(k);
     CHECK(v <= 1e-5);
@@ -169,13 +169,14 @@ TEST_CASE("tiny pose head through LibTorch matches the reference outputs", "[mod
   std::vector<HostTensor> in;
   for (const auto& f : b.selftest.inputs) in.push_back(read_npy(f));
   const auto out = head.forward(in);
-  REQUIRE(out.size() == 2);
-  const HostTensor t_ref = read_npy(b.selftest.outputs[0]);
-  const HostTensor r_ref = read_npy(b.selftest.outputs[1]);
-  CHECK(out[0].shape == t_ref.shape);
-  CHECK(out[1].shape == r_ref.shape);
-  CHECK(max_abs_diff(out[0], t_ref) <= 1e-5);
-  CHECK(max_abs_diff(out[1], r_ref) <= 1e-5);
+  REQUIRE(out.size() == 4);  // t, rotation, logvar_t, logvar_r
+  REQUIRE(b.selftest.outputs.size() == 4);
+  for (std::size_t k = 0; k < 4; ++k) {
+    CAPTURE(k);
+    const HostTensor ref = read_npy(b.selftest.outputs[k]);
+    CHECK(out[k].shape == ref.shape);
+    CHECK(max_abs_diff(out[k], ref) <= 1e-5);
+  }
 }
 
 TEST_CASE("tiny detector finds the rendered squares with PoET's NMS", "[model][torch]") {
@@ -294,7 +295,7 @@ TEST_CASE("network input: (pixel x scale - mean) / std per channel", "[model][to
 
 TEST_CASE("pose-head outputs to detections: each query keeps its own translation, sigma, box and class", "[model][torch]") {
   PoetBundle b = read_bundle(kTiny);
-  b.pose.aleatoric = true;  // outputs crafted below; the tiny head itself has no variance outputs
+  REQUIRE(b.pose.aleatoric);  // the tiny head has variance outputs; crafted ones below
   ModelOptions opt;
   opt.selftest = false;
   const PoetModel model(b, opt);

@@ -162,7 +162,8 @@ class DecoderLayer(nn.Module):
 
 
 class PoseHead(nn.Module):
-    def __init__(self, in_channels, d, heads, points, enc, dec, ffn, classes, extra_levels, freqs, prior=None):
+    def __init__(self, in_channels, d, heads, points, enc, dec, ffn, classes, extra_levels, freqs, prior=None,
+                 aleatoric=False):
         super().__init__()
         self.d = d
         self.freqs = freqs
@@ -182,6 +183,13 @@ class PoseHead(nn.Module):
         self.r_head = nn.Sequential(nn.Linear(d, d), nn.ReLU(), nn.Linear(d, 6 * classes))
         # prior = (fx, fy, cx, cy, width, height, object size): pinhole depth from the box width.
         self.prior = prior
+        # Aleatoric heads as PoET's (flag `aleatoric`): per class a log-variance s = log(sigma^2) of t (m^2)
+        # and of the rotation error in so(3) (rad^2, R_pred R_true^T, camera frame). Made last so the
+        # other modules keep their random weights.
+        self.aleatoric = aleatoric
+        if aleatoric:
+            self.tv_head = nn.Sequential(nn.Linear(d, d), nn.ReLU(), nn.Linear(d, 3 * classes))
+            self.rv_head = nn.Sequential(nn.Linear(d, d), nn.ReLU(), nn.Linear(d, 3 * classes))
 
     def forward(self, boxes, classes, *features):
         srcs = [p(f) for p, f in zip(self.proj, features)]
@@ -222,6 +230,9 @@ class PoseHead(nn.Module):
         r_all = self.r_head(tgt).view(q, self.classes, 6)
         t = t_all.gather(1, slot[:, None, None].expand(q, 1, 3)).squeeze(1)
         r = r_all.gather(1, slot[:, None, None].expand(q, 1, 6)).squeeze(1)
+        if self.aleatoric:
+            s_t = self.tv_head(tgt).view(q, self.classes, 3).gather(1, slot[:, None, None].expand(q, 1, 3)).squeeze(1)
+            s_r = self.rv_head(tgt).view(q, self.classes, 3).gather(1, slot[:, None, None].expand(q, 1, 3)).squeeze(1)
         if self.prior is not None:
             fx, fy, cx, cy, W, H, size = self.prior
             z = fx * size / (boxes[:, 2].clamp(min=1e-3) * W)
@@ -229,6 +240,11 @@ class PoseHead(nn.Module):
             ty = (boxes[:, 1] * H - cy) / fy * z
             t = torch.stack([tx, ty, z], dim=1) + 0.01 * torch.tanh(t)
             r = r + torch.tensor([1.0, 0.0, 0.0, 0.0, 1.0, 0.0]) * 3.0
+            if self.aleatoric:  # plausible scales: sigma about 1 cm and 3 degrees
+                s_t = s_t + 2.0 * math.log(0.01)
+                s_r = s_r + 2.0 * math.log(0.05)
+        if self.aleatoric:
+            return t, r, s_t, s_r
         return t, r
 
 
@@ -476,6 +492,34 @@ def save_png(path, rgb):
     Image.fromarray(rgb, "RGB").save(path)
 
 
+def write_expected_detections(path, head, dets, feats, q, width, height):
+    """What `roe infer` must write for the detector self-test image (tests/infer/test_aleatoric.cpp):
+    PoET's detections after NMS (poet_detections) as the queries, the eager head's pose, and
+    sigma = sqrt(exp(s)) per axis from the log-variances, computed here in float64."""
+    boxes = torch.full((q, 4), -1.0)
+    cls = torch.full((q,), -1, dtype=torch.int64)
+    n = min(q, len(dets))
+    for r in range(n):
+        x1, y1, x2, y2, _, c = (float(v) for v in dets[r])
+        boxes[r] = torch.tensor([(x1 + x2) / 2 / width, (y1 + y2) / 2 / height, (x2 - x1) / width, (y2 - y1) / height])
+        cls[r] = int(c)
+    with torch.no_grad():
+        t, r6, s_t, s_r = (o.double() for o in head(boxes, cls, *feats))
+    x = F.normalize(r6[:, 0:3], dim=1)  # Gram-Schmidt: R = [x y z]
+    z = F.normalize(torch.cross(x, r6[:, 3:6], dim=1), dim=1)
+    y = torch.cross(z, x, dim=1)
+    R = torch.stack([x, y, z], dim=2)
+    sigma = torch.exp(0.5 * torch.cat([s_t, s_r], dim=1))
+    cols = ["class", "score", "tx", "ty", "tz"] + [f"r{i}{j}" for i in range(3) for j in range(3)] + \
+           ["sigma_tx", "sigma_ty", "sigma_tz", "sigma_rx", "sigma_ry", "sigma_rz"]
+    with open(path, "w") as f:
+        f.write("# written by tests/models/gen_tiny_poet.py: expected roe infer output on detector_input.png\n")
+        f.write(",".join(cols) + "\n")
+        for k in range(n):
+            vals = [float(dets[k][4])] + t[k].tolist() + R[k].flatten().tolist() + sigma[k].tolist()
+            f.write(f"{int(cls[k])}," + ",".join(f"{v:.9g}" for v in vals) + "\n")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default=os.path.join(HERE, "tiny_poet"), help="bundle folder to (re)write")
@@ -510,7 +554,8 @@ def main():
         det = tiny_detector(width, height, obj_size, stride)
         taps = [1, 2]
         head = PoseHead([3, 3], d=16, heads=2, points=2, enc=1, dec=1, ffn=32, classes=classes, extra_levels=0,
-                        freqs=2, prior=(intr["fx"], intr["fy"], intr["cx"], intr["cy"], width, height, 0.06))
+                        freqs=2, prior=(intr["fx"], intr["fy"], intr["cx"], intr["cy"], width, height, 0.06),
+                        aleatoric=True)
         class_names = ["red_square", "green_square", "blue_square"]
         symmetric = [3]
         model_id = "tiny-poet"
@@ -552,9 +597,7 @@ def main():
         boxes2[1:] = -1.0
         cls2[1:] = -1
         for b, c in [(boxes, cls), (boxes2, cls2)]:
-            te, re = head(b, c, *feats)
-            tt, rt = traced(b, c, *feats)
-            err = max((te - tt).abs().max().item(), (re - rt).abs().max().item())
+            err = max((e - t).abs().max().item() for e, t in zip(head(b, c, *feats), traced(b, c, *feats)))
             if err > 1e-5:
                 sys.exit(f"traced and eager pose heads differ by {err}")
     traced.save(os.path.join(out, "pose_head.ts"))
@@ -565,8 +608,12 @@ def main():
         fn = f"selftest/feature{i}.npy"
         np.save(os.path.join(out, fn), f.numpy().astype(np.float32))
         st_inputs.append(fn)
-    np.save(os.path.join(out, "selftest/t.npy"), eager[0].numpy().astype(np.float32))
-    np.save(os.path.join(out, "selftest/rot.npy"), eager[1].numpy().astype(np.float32))
+    st_outputs = ["selftest/t.npy", "selftest/rot.npy", "selftest/logvar_t.npy", "selftest/logvar_r.npy"][: len(eager)]
+    for fn, o in zip(st_outputs, eager):
+        np.save(os.path.join(out, fn), o.numpy().astype(np.float32))
+    if not full:
+        write_expected_detections(os.path.join(out, "selftest", "expected_detections.csv"), head, dets, feats, q,
+                                  width, height)
 
     bundle = {
         "schema": "roe-poet-bundle/1",
@@ -593,14 +640,14 @@ def main():
                          **({} if full else {"detections": "selftest/detections.npy"})},
         },
         "pose": {"file": "pose_head.ts", "torch_version": torch.__version__.split("a")[0].split("+")[0],
-                 "inputs": "features", "aleatoric": False},
+                 "inputs": "features", "aleatoric": head.aleatoric},
         "provenance": {
             "generator": "tests/models/gen_tiny_poet.py" + (" --full" if full else ""),
             "weights": "random (pose head), hand-set (detector)" if not full else "random",
             "torch_version": torch.__version__,
             "pose_head_sha256": sha256(os.path.join(out, "pose_head.ts")),
         },
-        "selftest": {"inputs": st_inputs, "outputs": ["selftest/t.npy", "selftest/rot.npy"], "atol": 1e-5},
+        "selftest": {"inputs": st_inputs, "outputs": st_outputs, "atol": 1e-5},
     }
     with open(os.path.join(out, "poet_bundle.json"), "w") as f:
         json.dump(bundle, f, indent=2)

@@ -21,6 +21,7 @@ struct InferOptions {
   int every = 1;                  ///< keep every N-th frame of the range
   std::string warp = "auto";      ///< virtual-camera warp: auto | on | off
   std::string device = "auto";    ///< LibTorch device: auto | cpu | cuda
+  int threads = 0;                ///< LibTorch intra-op threads on the CPU; 0 = one per hardware thread
   std::string boxes_file;         ///< external boxes CSV (timestamp_ns,class,x1,y1,x2,y2,score)
   std::string class_map_file;     ///< {"<poet class>": <object id>}; default: by name
   bool use_cache = true;          ///< false: recompute every selected frame (replacing their cache entries)

@@ -23,6 +23,7 @@
 
 #include "roe/core/types.hpp"
 #include "roe/infer/bundle.hpp"
+#include "roe/infer/pose_head.hpp"
 #include "roe/infer/nms.hpp"
 #include "roe/infer/tensor.hpp"
 
@@ -32,6 +33,7 @@ struct ModelOptions {
   std::string warp = "auto";   ///< auto (warp when the camera differs), on, off
   std::string device = "auto"; ///< LibTorch device: auto, cpu, cuda
   bool selftest = true;        ///< check the bundle's self-test vectors on load
+  PoseHeadTuning tuning;       ///< CPU inference passes and threads of the pose head
 };
 
 /// One detection of a frame: PoET class, pose, detector score and box (dataset image pixels).
@@ -85,6 +87,8 @@ class PoetModel {
   bool warping() const;
   /// The pose head's LibTorch device ("cpu", "cuda:0").
   std::string device() const;
+  /// Whether the pose head runs with TorchScript's inference passes (PoseHeadTuning::optimize).
+  bool pose_head_optimized() const;
   /// The warp decision and homography, for meta.json and the config hash.
   nlohmann::json camera_json() const;
 

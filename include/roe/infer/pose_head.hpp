@@ -18,10 +18,24 @@
 
 namespace roe::infer {
 
+/// How the pose head runs on the CPU (docs/BENCHMARKS.md, "PoET pose head on the CPU").
+struct PoseHeadTuning {
+  /// Freeze the module and apply TorchScript's inference passes (torch::jit::optimize_for_inference:
+  /// constants folded, conv/linear through oneDNN, which does not depend on the system BLAS). CPU only;
+  /// if the passes fail the plain module is used.
+  bool optimize = true;
+  /// LibTorch intra-op threads (process-wide); 0 = one per hardware thread.
+  int threads = 0;
+  /// glibc malloc keeps freed buffers (up to 32 MB each) in the heap, not trimmed, instead of mapping and
+  /// unmapping memory per tensor
+  /// (process-wide; PoET-sized model: 2.1 → 0.2 s of kernel time per frame, 0.7 GB more peak RSS).
+  bool reuse_memory = true;
+};
+
 class PoseHead {
  public:
   /// Loads a TorchScript file. `device`: "auto" (CUDA when LibTorch has it), "cpu" or "cuda".
-  explicit PoseHead(const std::filesystem::path& file, const std::string& device = "auto");
+  explicit PoseHead(const std::filesystem::path& file, const std::string& device = "auto", const PoseHeadTuning& tuning = {});
   ~PoseHead();
   PoseHead(const PoseHead&) = delete;
   PoseHead& operator=(const PoseHead&) = delete;
@@ -30,6 +44,10 @@ class PoseHead {
   std::vector<HostTensor> forward(const std::vector<HostTensor>& inputs);
   /// "cpu" or "cuda:0".
   std::string device() const;
+  /// Whether the inference passes were applied (PoseHeadTuning::optimize on the CPU, and they succeeded).
+  bool optimized() const;
+  /// LibTorch's intra-op thread count now.
+  static int threads();
 
   /// Whether this roe was built with LibTorch.
   static bool available();
