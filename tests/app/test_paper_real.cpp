@@ -1,0 +1,50 @@
+// The paper-real presets (docs/simulator.md §6b): paper-seqN's trajectories and objects with the
+// failure modes of real PoET, calibrated so that configs/paper.json lands at the paper's Table I
+// level (docs/RESULTS.md §7, scripts/calibrate-paper-real.py). This test guards the calibration on a
+// subset: paper-real-seq1 and -seq4, seed 1, must stay above an error no mild preset reaches and
+// below divergence.
+#include <catch2/catch.hpp>
+#include <string>
+
+#include "../ekf/filter_support.hpp"
+#include "roe/app/run.hpp"
+
+using namespace roe;
+
+TEST_CASE("paper-real presets: paper-seqN's scene with the failure modes switched on", "[app][simulate][paper-real]") {
+  for (int s = 1; s <= 8; ++s) {
+    const std::string real = "paper-real-seq" + std::to_string(s), mild = "paper-seq" + std::to_string(s);
+    INFO(real);
+    const sim::SimConfig r = app::sim_config_from_preset(real), m = app::sim_config_from_preset(mild);
+    CHECK(r.name == real);
+    CHECK_FALSE(app::preset_description(real).empty());
+    const auto jr = app::sim_config_to_json(r), jm = app::sim_config_to_json(m);
+    CHECK(jr.at("trajectory") == jm.at("trajectory"));
+    CHECK(jr.at("objects") == jm.at("objects"));
+    CHECK(jr.at("imu") == jm.at("imu"));
+    CHECK(jr.at("detection") != jm.at("detection"));
+    CHECK(r.detection.burst_start_prob > 0.0);  // runs of bad frames (the paper's dead-reckoning phases)
+    CHECK(r.detection.flip_view_gain > 0.0);
+  }
+}
+
+TEST_CASE("paper-real presets give paper-level errors with configs/paper.json, mild presets do not",
+          "[app][run][sim][paper-real]") {
+  // Worst-axis position RMSE, seed 1 (docs/RESULTS.md §7): paper-seq1/4 give 0.04 / 0.07 m,
+  // paper-real-seq1/4 0.20 / 0.14 m (the paper: 0.163 / 0.157 m); the mild presets never exceed
+  // 0.11 m (paper-seq6). Above 0.5 m a run is on its way to divergence.
+  const app::RunConfig cfg = app::run_config_from_file(std::string(ROE_SOURCE_DIR) + "/configs/paper.json");
+  auto worst = [&](const std::string& preset) {
+    const Dataset d = test::simulate_preset(preset, 1, 60.0);
+    const auto acc = test::accuracy(test::match(app::run_dataset(d, "sim", cfg), d));
+    return acc.pos_rmse.maxCoeff();
+  };
+  for (int s : {1, 4}) {
+    const double real = worst("paper-real-seq" + std::to_string(s));
+    const double mild = worst("paper-seq" + std::to_string(s));
+    INFO("seq" << s << ": paper-real " << real << " m, paper-seq " << mild << " m");
+    CHECK(real > 0.12);
+    CHECK(real < 0.5);
+    CHECK(mild < 0.10);
+  }
+}
