@@ -31,7 +31,7 @@ TEST_CASE("paper-real presets: paper-seqN's scene with the failure modes switche
 TEST_CASE("paper-real presets give paper-level errors with configs/paper.json, mild presets do not",
           "[app][run][sim][paper-real]") {
   // Worst-axis position RMSE, seed 1 (docs/RESULTS.md §7): paper-seq1/4 give 0.04 / 0.07 m,
-  // paper-real-seq1/4 0.20 / 0.14 m (the paper: 0.163 / 0.157 m); the mild presets never exceed
+  // paper-real-seq1/4 0.18 / 0.14 m (the paper: 0.163 / 0.157 m); the mild presets never exceed
   // 0.11 m (paper-seq6). Above 0.5 m a run is on its way to divergence.
   const app::RunConfig cfg = app::run_config_from_file(std::string(ROE_SOURCE_DIR) + "/configs/paper.json");
   auto worst = [&](const std::string& preset) {
