@@ -88,6 +88,11 @@ TEST_CASE("paper-real-seq4-sigma presets: the written σ relate to the true erro
   // separate the informative preset (RMS 1) from the overconfident one (RMS 2, scale 0.5).
   const auto informative = sim::simulate_run(app::sim_config_from_preset("paper-real-seq4-sigma"), 1);
   const auto over = sim::simulate_run(app::sim_config_from_preset("paper-real-seq4-overconfident"), 1);
+  // Same name, so the same random streams: identical detections, only the written σ differ.
+  const auto& di = informative.dataset.detections.at("sim");
+  const auto& dov = over.dataset.detections.at("sim");
+  REQUIRE(di.size() == dov.size());
+  for (std::size_t i = 0; i < di.size(); ++i) REQUIRE(di[i].T_C_O.p == dov[i].T_C_O.p);
   const SigmaStats si = sigma_stats(informative), so = sigma_stats(over);
   INFO("informative: RMS " << si.rms << ", gross " << si.gross << " inflated " << si.gross_inflated
                            << "; overconfident: RMS " << so.rms << ", inflated " << so.gross_inflated);
