@@ -498,6 +498,8 @@ json SimulateResult::to_json() const {
           {"symmetric_flips", stats.flips},
           {"blurred_frames", stats.blurred_frames},
           {"blurred_detections", stats.blurred_detections},
+          {"bad_frames", stats.bad_frames},
+          {"bad_frame_detections", stats.bad_frame_detections},
           {"missed", stats.missed},
           {"mocap_samples", mocap_samples},
           {"max_speed_m_s", stats.max_speed_m_s},
@@ -511,11 +513,11 @@ std::string SimulateResult::to_text() const {
       "wrote {} ({}, seed {})\n"
       "  {:.1f} s: {} IMU samples, {} frames ({} with detections), {} mocap poses\n"
       "  objects [{}], detections {} (per object:{})\n"
-      "  outliers {}, symmetric flips {}, blurred frames {}, missed {}\n"
+      "  outliers {}, symmetric flips {}, blurred frames {}, bad frames {}, missed {}\n"
       "  max speed {:.2f} m/s, max rate {:.1f} deg/s\n",
       out.string(), name, seed, duration_s, stats.imu_samples, stats.frames, stats.frames_with_detections,
       mocap_samples, join_ids(object_ids), stats.detections, per, stats.outliers, stats.flips,
-      stats.blurred_frames, stats.missed, stats.max_speed_m_s, stats.max_rate_deg_s);
+      stats.blurred_frames, stats.bad_frames, stats.missed, stats.max_speed_m_s, stats.max_rate_deg_s);
 }
 
 }  // namespace roe::app

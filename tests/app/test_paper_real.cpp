@@ -101,4 +101,10 @@ TEST_CASE("paper-real-seq4-sigma presets: the written σ relate to the true erro
   REQUIRE(si.gross > 50);
   CHECK(si.gross_inflated > 0.6);   // outliers and blur report 0.3 m (flips only a large rotation σ)
   CHECK(so.gross_inflated == 0.0);  // overconfident failures: the ordinary, small σ
+  // Runs of bad frames are counted: stationary share 0.02 / (0.02 + 1/5) ≈ 9 % of the 1801 frames
+  // (runs of 5 frames: ~330 independent units, share known to ~1.5 %).
+  const auto& st = informative.stats;
+  CHECK(st.bad_frames > 0.02 * st.frames);
+  CHECK(st.bad_frames < 0.17 * st.frames);
+  CHECK(st.bad_frame_detections > 0);
 }
