@@ -68,9 +68,9 @@ const std::vector<NumberField<DetectionNoiseConfig>>& detection_fields() {
       {"burst_mean_frames", &D::burst_mean_frames, Range::kAtLeastOne, "mean length of a bad run (frames)"},
       {"burst_sigma_scale", &D::burst_sigma_scale, Range::kNonneg, "σ scale in a bad frame"},
       {"burst_outlier_prob", &D::burst_outlier_prob, Range::kProb, "outlier probability in a bad frame"},
-      {"reported_sigma_scale", &D::reported_sigma_scale, Range::kNonneg, "reported σ = this × true σ"},
-      {"failure_sigma_m", &D::failure_sigma_m, Range::kNonneg, "reported translation σ of a gross error (m)"},
-      {"failure_sigma_deg", &D::failure_sigma_deg, Range::kNonneg, "reported rotation σ of a gross error (deg)"},
+      {"reported_sigma_scale", &D::reported_sigma_scale, Range::kPositive, "reported σ = this × true σ"},
+      {"failure_sigma_m", &D::failure_sigma_m, Range::kPositive, "reported translation σ of a gross error (m)"},
+      {"failure_sigma_deg", &D::failure_sigma_deg, Range::kPositive, "reported rotation σ of a gross error (deg)"},
   };
   return f;
 }

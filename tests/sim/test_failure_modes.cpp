@@ -212,6 +212,9 @@ TEST_CASE("Detection config validation names the key", "[sim][config]") {
   d = DetectionNoiseConfig();
   d.reported_failure_sigma = "huge";
   CHECK_THROWS_AS(validate(d, "detection"), ConfigError);
+  d = DetectionNoiseConfig();
+  d.reported_sigma_scale = 0.0;  // the sigma columns must be > 0 (docs/dataset-format.md)
+  CHECK_THROWS_WITH(validate(d, "detection"), Catch::Contains("detection.reported_sigma_scale"));
   VisibilityConfig v;
   v.max_depth_m = 0.1;
   CHECK_THROWS_WITH(validate(v, "visibility"), Catch::Contains("visibility.max_depth_m"));
