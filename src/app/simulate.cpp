@@ -99,29 +99,15 @@ void read_intrinsics(JsonObject& r, const char* key, sim::PinholeCamera& k) {
 
 void read_visibility(JsonObject& r, const char* key, sim::VisibilityConfig& v) {
   JsonObject o = r.child(key);
-  o.get("margin_px", v.margin_px);
-  o.get("min_depth_m", v.min_depth_m);
-  o.get("max_depth_m", v.max_depth_m);
-  o.get("miss_prob", v.miss_prob);
-  o.get("border_miss_prob", v.border_miss_prob);
-  o.get("border_band_px", v.border_band_px);
+  for (const auto& f : sim::visibility_fields()) o.get(f.key, v.*f.member);
   o.finish();
 }
 
 void read_detection(JsonObject& r, const char* key, sim::DetectionNoiseConfig& d) {
   JsonObject o = r.child(key);
-  o.get("lateral_sigma_m", d.lateral_sigma_m);
-  o.get("lateral_sigma_per_depth", d.lateral_sigma_per_depth);
-  o.get("along_ray_sigma_m", d.along_ray_sigma_m);
-  o.get("along_ray_sigma_per_depth", d.along_ray_sigma_per_depth);
-  o.get("rotation_sigma_deg", d.rotation_sigma_deg);
+  for (const auto& f : sim::detection_fields()) o.get(f.key, d.*f.member);
   o.get("translation_frame", d.translation_frame);
-  o.get("correlation_time_s", d.correlation_time_s);
-  o.get("outlier_prob", d.outlier_prob);
-  o.get("outlier_translation_max_m", d.outlier_translation_max_m);
-  o.get("symmetric_flip_prob", d.symmetric_flip_prob);
-  o.get("blur_rate_threshold_deg_s", d.blur_rate_threshold_deg_s);
-  o.get("blur_frame_prob", d.blur_frame_prob);
+  o.get("reported_failure_sigma", d.reported_failure_sigma);
   o.get("write_sigmas", d.write_sigmas);
   o.finish();
 }
@@ -241,27 +227,16 @@ json signal_json(const sim::SmoothSignal& s) {
 }
 json vec_json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 json detection_json(const sim::DetectionNoiseConfig& d) {
-  return {{"lateral_sigma_m", d.lateral_sigma_m},
-          {"lateral_sigma_per_depth", d.lateral_sigma_per_depth},
-          {"along_ray_sigma_m", d.along_ray_sigma_m},
-          {"along_ray_sigma_per_depth", d.along_ray_sigma_per_depth},
-          {"rotation_sigma_deg", d.rotation_sigma_deg},
-          {"translation_frame", d.translation_frame},
-          {"correlation_time_s", d.correlation_time_s},
-          {"outlier_prob", d.outlier_prob},
-          {"outlier_translation_max_m", d.outlier_translation_max_m},
-          {"symmetric_flip_prob", d.symmetric_flip_prob},
-          {"blur_rate_threshold_deg_s", d.blur_rate_threshold_deg_s},
-          {"blur_frame_prob", d.blur_frame_prob},
-          {"write_sigmas", d.write_sigmas}};
+  json j = {{"translation_frame", d.translation_frame},
+            {"reported_failure_sigma", d.reported_failure_sigma},
+            {"write_sigmas", d.write_sigmas}};
+  for (const auto& f : sim::detection_fields()) j[f.key] = d.*f.member;
+  return j;
 }
 json visibility_json(const sim::VisibilityConfig& v) {
-  return {{"margin_px", v.margin_px},
-          {"min_depth_m", v.min_depth_m},
-          {"max_depth_m", v.max_depth_m},
-          {"miss_prob", v.miss_prob},
-          {"border_miss_prob", v.border_miss_prob},
-          {"border_band_px", v.border_band_px}};
+  json j = json::object();
+  for (const auto& f : sim::visibility_fields()) j[f.key] = v.*f.member;
+  return j;
 }
 json intrinsics_json(const sim::PinholeCamera& k) {
   return {{"width", k.width}, {"height", k.height}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}};
@@ -506,6 +481,8 @@ json SimulateResult::to_json() const {
           {"symmetric_flips", stats.flips},
           {"blurred_frames", stats.blurred_frames},
           {"blurred_detections", stats.blurred_detections},
+          {"bad_frames", stats.bad_frames},
+          {"bad_frame_detections", stats.bad_frame_detections},
           {"missed", stats.missed},
           {"mocap_samples", mocap_samples},
           {"max_speed_m_s", stats.max_speed_m_s},
@@ -519,11 +496,11 @@ std::string SimulateResult::to_text() const {
       "wrote {} ({}, seed {})\n"
       "  {:.1f} s: {} IMU samples, {} frames ({} with detections), {} mocap poses\n"
       "  objects [{}], detections {} (per object:{})\n"
-      "  outliers {}, symmetric flips {}, blurred frames {}, missed {}\n"
+      "  outliers {}, symmetric flips {}, blurred frames {}, bad frames {}, missed {}\n"
       "  max speed {:.2f} m/s, max rate {:.1f} deg/s\n",
       out.string(), name, seed, duration_s, stats.imu_samples, stats.frames, stats.frames_with_detections,
       mocap_samples, join_ids(object_ids), stats.detections, per, stats.outliers, stats.flips,
-      stats.blurred_frames, stats.missed, stats.max_speed_m_s, stats.max_rate_deg_s);
+      stats.blurred_frames, stats.bad_frames, stats.missed, stats.max_speed_m_s, stats.max_rate_deg_s);
 }
 
 }  // namespace roe::app

@@ -17,7 +17,7 @@ namespace {
 /// One object in one frame: the visibility rules, then (when seen) the PoET-like error model. Appends
 /// the detection and its label and counts it in run.stats; returns whether it was detected.
 bool observe_object(Timestamp t, int id, const Pose& T_C_O, const PinholeCamera& cam,
-                    const VisibilityConfig& vis, bool blurred, PoetErrorModel& model, Rng& rng_vis,
+                    const VisibilityConfig& vis, const FrameCondition& frame, PoetErrorModel& model, Rng& rng_vis,
                     Rng& rng_det, std::vector<Detection>& dets, SimRun& run) {
   SimStats& st = run.stats;
   if (!object_in_view(T_C_O, cam, vis)) return false;
@@ -26,13 +26,14 @@ bool observe_object(Timestamp t, int id, const Pose& T_C_O, const PinholeCamera&
     return false;
   }
   DetectionLabel label;
-  dets.push_back(model.measure(t, id, T_C_O, blurred, rng_det, &label));
+  dets.push_back(model.measure(t, id, T_C_O, frame, rng_det, &label));
   run.labels.push_back(label);
   ++st.detections;
   ++st.detections_per_object[id];
   if (label.outlier) ++st.outliers;
   if (label.flipped) ++st.flips;
   if (label.blurred) ++st.blurred_detections;
+  if (label.bad_frame) ++st.bad_frame_detections;
   return true;
 }
 constexpr double kPi = 3.14159265358979323846;
@@ -42,15 +43,9 @@ const Eigen::Vector3d kGravity_W(0.0, 0.0, 9.81);
 [[noreturn]] void bad(const std::string& key, const std::string& what) {
   throw ConfigError(what, ErrorContext{"", 0, 0, key});
 }
-void require_positive(double v, const std::string& key) {
-  if (!(std::isfinite(v) && v > 0.0)) bad(key, "must be a positive number");
-}
-void require_nonneg(double v, const std::string& key) {
-  if (!(std::isfinite(v) && v >= 0.0)) bad(key, "must be a finite number >= 0");
-}
-void require_prob(double v, const std::string& key) {
-  if (!(std::isfinite(v) && v >= 0.0 && v <= 1.0)) bad(key, "must be a probability in [0, 1]");
-}
+void require_positive(double v, const std::string& key) { check_range(v, Range::kPositive, key); }
+void require_nonneg(double v, const std::string& key) { check_range(v, Range::kNonneg, key); }
+void require_prob(double v, const std::string& key) { check_range(v, Range::kProb, key); }
 void require_finite_signal(const SmoothSignal& s, const std::string& key) {
   if (!std::isfinite(s.offset) || !std::isfinite(s.rate)) bad(key, "must be finite");
   for (std::size_t i = 0; i < s.terms.size(); ++i) {
@@ -90,25 +85,14 @@ std::map<int, Symmetry> symmetry_map(const std::vector<int>& ids, const std::vec
   return m;
 }
 
+// truth.detection_noise: every number key of the detection and visibility configs (the latter
+// prefixed "visibility_"), and translation_frame as translation_frame_is_ray.
 std::map<std::string, double> noise_map(const DetectionNoiseConfig& d, const VisibilityConfig& v) {
-  return {{"lateral_sigma_m", d.lateral_sigma_m},
-          {"lateral_sigma_per_depth", d.lateral_sigma_per_depth},
-          {"along_ray_sigma_m", d.along_ray_sigma_m},
-          {"along_ray_sigma_per_depth", d.along_ray_sigma_per_depth},
-          {"rotation_sigma_deg", d.rotation_sigma_deg},
-          {"translation_frame_is_ray", d.translation_frame == "ray" ? 1.0 : 0.0},
-          {"correlation_time_s", d.correlation_time_s},
-          {"outlier_prob", d.outlier_prob},
-          {"outlier_translation_max_m", d.outlier_translation_max_m},
-          {"symmetric_flip_prob", d.symmetric_flip_prob},
-          {"blur_rate_threshold_deg_s", d.blur_rate_threshold_deg_s},
-          {"blur_frame_prob", d.blur_frame_prob},
-          {"visibility_margin_px", v.margin_px},
-          {"visibility_min_depth_m", v.min_depth_m},
-          {"visibility_max_depth_m", v.max_depth_m},
-          {"visibility_miss_prob", v.miss_prob},
-          {"visibility_border_miss_prob", v.border_miss_prob},
-          {"visibility_border_band_px", v.border_band_px}};
+  std::map<std::string, double> m;
+  for (const auto& f : detection_fields()) m[f.key] = d.*f.member;
+  for (const auto& f : visibility_fields()) m[std::string("visibility_") + f.key] = v.*f.member;
+  m["translation_frame_is_ray"] = d.translation_frame == "ray" ? 1.0 : 0.0;
+  return m;
 }
 
 CameraInfo camera_info(const PinholeCamera& k, const Pose& T_I_C_prior) {
@@ -127,26 +111,8 @@ CameraInfo camera_info(const PinholeCamera& k, const Pose& T_I_C_prior) {
 
 void validate_detection(const DetectionNoiseConfig& d, const VisibilityConfig& v, const PinholeCamera& k,
                         const std::string& det, const std::string& vis, const std::string& cam) {
-  require_nonneg(d.lateral_sigma_m, det + ".lateral_sigma_m");
-  require_nonneg(d.lateral_sigma_per_depth, det + ".lateral_sigma_per_depth");
-  require_nonneg(d.along_ray_sigma_m, det + ".along_ray_sigma_m");
-  require_nonneg(d.along_ray_sigma_per_depth, det + ".along_ray_sigma_per_depth");
-  require_nonneg(d.rotation_sigma_deg, det + ".rotation_sigma_deg");
-  if (d.translation_frame != "ray" && d.translation_frame != "camera")
-    bad(det + ".translation_frame", "must be \"ray\" or \"camera\"");
-  require_nonneg(d.correlation_time_s, det + ".correlation_time_s");
-  require_prob(d.outlier_prob, det + ".outlier_prob");
-  require_nonneg(d.outlier_translation_max_m, det + ".outlier_translation_max_m");
-  require_prob(d.symmetric_flip_prob, det + ".symmetric_flip_prob");
-  if (!std::isfinite(d.blur_rate_threshold_deg_s)) bad(det + ".blur_rate_threshold_deg_s", "must be finite");
-  require_prob(d.blur_frame_prob, det + ".blur_frame_prob");
-  require_nonneg(v.margin_px, vis + ".margin_px");
-  require_positive(v.min_depth_m, vis + ".min_depth_m");
-  require_positive(v.max_depth_m, vis + ".max_depth_m");
-  if (v.max_depth_m <= v.min_depth_m) bad(vis + ".max_depth_m", "must be greater than min_depth_m");
-  require_prob(v.miss_prob, vis + ".miss_prob");
-  require_prob(v.border_miss_prob, vis + ".border_miss_prob");
-  require_nonneg(v.border_band_px, vis + ".border_band_px");
+  validate(d, det);
+  validate(v, vis);
   if (k.width <= 0) bad(cam + ".width", "must be a positive integer");
   if (k.height <= 0) bad(cam + ".height", "must be a positive integer");
   require_positive(k.fx, cam + ".fx");
@@ -350,9 +316,11 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
 
   // Camera frames and detections.
   {
-    PoetErrorModel model(config.detection, symmetry_map(ids_of(objects_M), config.objects.symmetric_ids));
+    PoetErrorModel model(config.detection, symmetry_map(ids_of(objects_M), config.objects.symmetric_ids),
+                         config.camera.intrinsics);
     Rng rng_vis = Rng::stream(seed, config.name + "/visibility");
     Rng rng_blur = Rng::stream(seed, config.name + "/blur");
+    Rng rng_burst = Rng::stream(seed, config.name + "/bursts");
     Rng rng_det = Rng::stream(seed, config.name + "/detections");
     auto& dets = ds.detections["sim"];
     st.min_distance_m = std::numeric_limits<double>::infinity();
@@ -362,13 +330,14 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
       const double dist = (kc.T_M_X.p - config.trajectory.center).norm();
       st.min_distance_m = std::min(st.min_distance_m, dist);
       st.max_distance_m = std::max(st.max_distance_m, dist);
-      const bool blurred = model.frame_blurred(kc.omega_X.norm(), rng_blur);
-      if (blurred) ++st.blurred_frames;
+      const FrameCondition frame = model.frame_condition(kc.omega_X.norm(), rng_blur, rng_burst);
+      if (frame.blurred) ++st.blurred_frames;
+      if (frame.bad) ++st.bad_frames;
       const Pose T_C_M = kc.T_M_X.inverse();
       bool any = false;
       for (const auto& o : objects_M) {
         const Pose T_C_O = T_C_M * o.T_W_O;  // T_W_O holds T_M_O here
-        any |= observe_object(t, o.id, T_C_O, config.camera.intrinsics, config.visibility, blurred, model,
+        any |= observe_object(t, o.id, T_C_O, config.camera.intrinsics, config.visibility, frame, model,
                               rng_vis, rng_det, dets, run);
       }
       if (any) ++st.frames_with_detections;
@@ -623,18 +592,20 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
 
   // Detections.
   const auto syms = symmetry_map(ids, config.symmetric_ids);
-  PoetErrorModel model(config.detection, syms);
+  PoetErrorModel model(config.detection, syms, K);
   Rng rng_vis = Rng::stream(seed, "from-groundtruth/visibility");
   Rng rng_blur = Rng::stream(seed, "from-groundtruth/blur");
+  Rng rng_burst = Rng::stream(seed, "from-groundtruth/bursts");
   Rng rng_det = Rng::stream(seed, "from-groundtruth/detections");
   auto& dets = ds.detections["sim"];
   for (std::size_t k = 0; k < ts.size(); ++k) {
-    const bool blurred = model.frame_blurred(rate_at(imu, ts[k]), rng_blur);
-    if (blurred) ++st.blurred_frames;
+    const FrameCondition frame = model.frame_condition(rate_at(imu, ts[k]), rng_blur, rng_burst);
+    if (frame.blurred) ++st.blurred_frames;
+    if (frame.bad) ++st.bad_frames;
     bool any = false;
     for (const auto& o : objects_W) {
       const Pose T_C_O = T_C_W[k] * o.T_W_O;
-      any |= observe_object(ts[k], o.id, T_C_O, K, config.visibility, blurred, model, rng_vis, rng_det, dets,
+      any |= observe_object(ts[k], o.id, T_C_O, K, config.visibility, frame, model, rng_vis, rng_det, dets,
                             run);
     }
     if (any) ++st.frames_with_detections;

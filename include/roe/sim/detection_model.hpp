@@ -24,11 +24,29 @@
 ///     objects with a continuous symmetry (YCB-V bowl, id 13).
 ///  5. Blur: in a frame whose camera angular rate exceeds blur_rate_threshold_deg_s, and in a random
 ///     fraction blur_frame_prob of all frames, every detection is corrupted like an outlier (3).
+///
+/// Failure modes of real PoET named by the paper (Sec. IV, Table I discussion), all off by default:
+///  6. Objects partly out of the image: c ∈ [0, 1] is the share of the object's projected diameter
+///     (a disc of object_radius_m at depth z, radius f·r/z px) that lies beyond the nearest image
+///     border; σ (1) × (1 + border_sigma_gain · c), outlier probability + border_outlier_prob · c.
+///  7. Viewpoint: a = |cos θ|, θ between the line of sight and the object's model z axis (a = 1 seen
+///     end-on, where the outline pins neither tilt nor in-plane rotation); σ × (1 + view_sigma_gain ·
+///     a), flip probability (4) + flip_view_gain · a. σ_rot also grows with depth
+///     (rotation_sigma_per_depth_deg).
+///  8. Runs of bad frames: a two-state Markov chain per frame (frame_condition): a run starts with
+///     burst_start_prob and lasts burst_mean_frames on average (geometric); in a bad frame every σ is
+///     × burst_sigma_scale and the outlier probability is burst_outlier_prob.
+///  9. Reported σ (write_sigmas): reported_sigma_scale × the σ the error was drawn from (1 =
+///     informative, < 1 overconfident, > 1 underconfident); gross errors (3–5) report the ordinary σ
+///     ("nominal": overconfident failures) or failure_sigma_m/deg ("inflated").
+/// The probabilities of (3, 4, 6, 7, 8) reuse the per-detection uniform draws of (3, 4), so turning a
+/// mode on changes no other random stream.
 
 #include <cstdint>
 #include <map>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "roe/core/types.hpp"
 #include "roe/sim/random.hpp"
@@ -69,13 +87,61 @@ struct DetectionNoiseConfig {
   double blur_rate_threshold_deg_s = 120.0;  ///< frames rotating faster are blurred; <= 0 disables
   double blur_frame_prob = 0.02;             ///< fraction of frames blurred at random
   bool write_sigmas = false;  ///< write the Gaussian σ of each detection (camera-frame axes) to the CSV
+
+  // Failure modes of real PoET (paper Sec. IV); every default switches its mode off (factor 1, prob 0).
+  double rotation_sigma_per_depth_deg = 0.0;  ///< σ_rot = rotation_sigma_deg + this · z (deg per m)
+  double object_radius_m = 0.1;      ///< radius of the object's projected extent (border cut c, 6)
+  double border_sigma_gain = 0.0;    ///< all σ × (1 + gain · c), c ∈ [0, 1] the share of the extent cut
+  double border_outlier_prob = 0.0;  ///< outlier probability + this · c
+  double view_sigma_gain = 0.0;      ///< all σ × (1 + gain · a), a = |cos θ| (end-on view, 7)
+  double flip_view_gain = 0.0;       ///< flip probability + this · a (symmetric objects)
+  double burst_start_prob = 0.0;     ///< per frame: probability that a run of bad frames starts (8)
+  double burst_mean_frames = 1.0;    ///< mean length of a bad run in frames (geometric, >= 1)
+  double burst_sigma_scale = 1.0;    ///< σ × this in a bad frame
+  double burst_outlier_prob = 0.0;   ///< outlier probability in a bad frame (replaces outlier_prob)
+
+  // What the simulated detector reports as its σ (the CSV's sigma columns, with write_sigmas; 9).
+  double reported_sigma_scale = 1.0;  ///< reported σ = this × the σ the error was drawn from
+  /// "nominal": gross errors (outliers, blur, flips) report the σ of an ordinary detection, i.e. the
+  /// detector is overconfident exactly when it fails; "inflated": they report failure_sigma_m/deg.
+  std::string reported_failure_sigma = "nominal";
+  double failure_sigma_m = 0.3;      ///< reported translation σ of a gross error ("inflated")
+  double failure_sigma_deg = 90.0;   ///< reported rotation σ of a gross error ("inflated")
 };
+
+/// Conditions of one camera frame that act on every detection in it.
+struct FrameCondition {
+  bool blurred = false;  ///< (5) every detection corrupted like an outlier
+  bool bad = false;      ///< (8) inside a run of bad frames
+};
+
+/// The number keys of VisibilityConfig and DetectionNoiseConfig, listed once: the config reader and
+/// writer (app/simulate.cpp), the manifest's truth.detection_noise and validate() iterate these
+/// tables. (translation_frame, reported_failure_sigma and write_sigmas are not numbers and are
+/// handled by name.)
+enum class Range { kFinite, kNonneg, kPositive, kProb, kAtLeastOne };
+template <typename S>
+struct NumberField {
+  const char* key;
+  double S::*member;
+  Range range;
+  const char* doc;
+};
+const std::vector<NumberField<VisibilityConfig>>& visibility_fields();
+const std::vector<NumberField<DetectionNoiseConfig>>& detection_fields();
+/// Throws roe::ConfigError naming `key` when v is outside the range.
+void check_range(double v, Range range, const std::string& key);
+/// Range checks of every field (keys prefixed "prefix."), plus the string choices and the
+/// cross-field rules. Throws roe::ConfigError naming the key.
+void validate(const DetectionNoiseConfig& d, const std::string& prefix);
+void validate(const VisibilityConfig& v, const std::string& prefix);
 
 /// What happened to one simulated detection (for tests and statistics; not written to the dataset).
 struct DetectionLabel {
   bool outlier = false;  ///< replaced by an outlier (3)
   bool flipped = false;  ///< symmetry-equivalent rotation returned (4)
   bool blurred = false;  ///< its frame was blurred (5); the detection is corrupted like an outlier
+  bool bad_frame = false;  ///< its frame lies in a run of bad frames (8)
   Pose T_C_O_true;       ///< the error-free value
 };
 
@@ -93,18 +159,34 @@ enum class Symmetry { kNone, kDiscrete2, kContinuous };
 /// Stateful PoET-like error model (the Gauss-Markov state is kept per object id).
 class PoetErrorModel {
  public:
-  /// `symmetries`: object id → symmetry type (objects absent are not symmetric).
-  PoetErrorModel(DetectionNoiseConfig config, std::map<int, Symmetry> symmetries);
+  /// `symmetries`: object id → symmetry type (objects absent are not symmetric). `camera`: the image
+  /// the border cut (6) is measured in; without one (fx = 0) c = 0.
+  PoetErrorModel(DetectionNoiseConfig config, std::map<int, Symmetry> symmetries, PinholeCamera camera = {});
 
   /// Whether a frame is blurred: camera angular rate above the threshold, or the random draw.
   bool frame_blurred(double camera_rate_rad_s, Rng& rng) const;
-  /// Corrupts one true T_C_O at time t_ns. `blurred` from frame_blurred for this frame.
-  Detection measure(Timestamp t_ns, int object_id, const Pose& T_C_O_true, bool blurred, Rng& rng,
+  /// Blur (from `rng_blur`, as frame_blurred) and the bad-run chain (8; one draw from `rng_burst`
+  /// per frame, kept as state).
+  FrameCondition frame_condition(double camera_rate_rad_s, Rng& rng_blur, Rng& rng_burst);
+  /// Corrupts one true T_C_O at time t_ns under the frame's condition.
+  Detection measure(Timestamp t_ns, int object_id, const Pose& T_C_O_true, const FrameCondition& frame, Rng& rng,
                     DetectionLabel* label = nullptr);
-  /// The Gaussian σ (camera axes x, y, z in m; rx, ry, rz in rad) of a detection at this T_C_O.
-  /// For translation_frame "ray" the translation σ are the diagonal of the ray-frame covariance
-  /// rotated into C.
-  Vector6d sigmas(const Pose& T_C_O_true) const;
+  /// The same for a frame that is only (not) blurred.
+  Detection measure(Timestamp t_ns, int object_id, const Pose& T_C_O_true, bool blurred, Rng& rng,
+                    DetectionLabel* label = nullptr) {
+    return measure(t_ns, object_id, T_C_O_true, FrameCondition{blurred, false}, rng, label);
+  }
+  /// The Gaussian σ (camera axes x, y, z in m; rx, ry, rz in rad) of a detection at this T_C_O, with
+  /// the factors of (6, 7) and, in a bad frame, (8). For translation_frame "ray" the translation σ are
+  /// the diagonal of the ray-frame covariance rotated into C.
+  Vector6d sigmas(const Pose& T_C_O_true, bool bad_frame = false) const;
+  /// The σ written with write_sigmas (9) for a detection drawn with sigmas(T_C_O_true, bad_frame);
+  /// `gross`: replaced by an outlier (3, 5), `flipped`: symmetry flip (4).
+  Vector6d reported_sigmas(const Pose& T_C_O_true, bool bad_frame, bool gross, bool flipped) const;
+  /// Share c ∈ [0, 1] of the object's projected extent beyond the image border (6).
+  double border_cut(const Pose& T_C_O_true) const;
+  /// a = |cos θ| of (7).
+  static double end_on(const Pose& T_C_O_true);
 
   const DetectionNoiseConfig& config() const { return config_; }
 
@@ -113,9 +195,14 @@ class PoetErrorModel {
     Timestamp t_ns = 0;
     Vector6d x = Vector6d::Zero();
   };
+  // σ_lat, σ_ray (m) and σ_rot (rad) of a detection at this T_C_O, with (6–8).
+  Eigen::Vector3d scaled_sigmas(const Pose& T_C_O_true, bool bad_frame) const;
+
   DetectionNoiseConfig config_;
   std::map<int, Symmetry> symmetries_;
+  PinholeCamera camera_;
   std::map<int, State> state_;
+  bool in_burst_ = false;
 };
 
 /// The YCB-V class name of an id (1..21), "obj_<id>" otherwise.

@@ -117,6 +117,8 @@ struct SimStats {
   std::size_t flips = 0;
   std::size_t blurred_frames = 0;
   std::size_t blurred_detections = 0;
+  std::size_t bad_frames = 0;            ///< frames inside a run of bad frames (detection_model.hpp, 8)
+  std::size_t bad_frame_detections = 0;  ///< detections in such frames
   std::size_t missed = 0;  ///< in view but dropped by the miss draw
   double max_speed_m_s = 0.0;
   double max_rate_deg_s = 0.0;
