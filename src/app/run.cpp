@@ -290,7 +290,7 @@ void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
   }
   {
     io::CsvWriter w;
-    w.header({"timestamp_ns", "object_id", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "status", "nis"});
+    w.header({"timestamp_ns", "object_id", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "status", "nis", "used"});
     const double nan = std::numeric_limits<double>::quiet_NaN();
     for (const auto& p : r.reprojection) {
       w.add(p.t_ns).add(p.object_id);
@@ -301,7 +301,7 @@ void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
       } else {
         for (int i = 0; i < 7; ++i) w.add(nan);
       }
-      w.add(ekf::to_string(p.outcome.status)).add(p.outcome.nis);
+      w.add(ekf::to_string(p.outcome.status)).add(p.outcome.nis).add(ekf::to_string(p.outcome.used));
       w.end_row();
     }
     w.write(dir.file("reprojection.csv"));
