@@ -97,6 +97,8 @@ Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const 
   ROE_CHECK(opt_.chi2_confidence > 0.0 && opt_.chi2_confidence < 1.0, "chi2_confidence must be in (0, 1)");
   gate_ = chi2_quantile(opt_.chi2_confidence, 6.0);
   gate3_ = chi2_quantile(opt_.chi2_confidence, 3.0);
+  gate5_ = chi2_quantile(opt_.chi2_confidence, 5.0);
+  gate2_ = chi2_quantile(opt_.chi2_confidence, 2.0);
   if (opt_.estimate_extrinsics) {
     extr_offset_ = kCore;
     n_ = kCore + 6;
@@ -428,8 +430,15 @@ inline Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, 6> h_pht(const Block& a, c
 
 }  // namespace
 
-void Filter::build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) const {
+const ObjectSymmetry* Filter::symmetry(int object_id) const {
+  const auto it = symmetries_.find(object_id);
+  return it == symmetries_.end() || it->second.empty() ? nullptr : &it->second;
+}
+
+void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock& b) const {
   const ObjectPrediction pr = predict_object(x_, T_I_C_, o.T_O_W);
+  const ObjectSymmetry* sym = symmetry(o.id);
+  const Pose z = sym ? nearest_equivalent(pr.T_O_C_hat, z_detected, *sym) : z_detected;
   b.r = object_residual(pr.T_O_C_hat, z);
   int c = 0;
   b.nruns = 0;
@@ -478,6 +487,29 @@ void Filter::build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) cons
     Hc.bottomRows<3>() = -b.H.bottomRows<3>();
     b.H = Hc;
   }
+  b.m = 6;
+  b.A.setIdentity();
+  b.separable = true;
+  if (sym && sym->continuous) {
+    // The rotation about the axis leaves residual and gate: r, H ← A r, A H (5 rows, row 5 zero).
+    const Mat56 A = symmetry_reduction(symmetry_direction(opt_.residual_frame, pr.T_O_C_hat, *sym->continuous),
+                                       b.separable);
+    b.m = 5;
+    b.A.topRows<5>() = A;
+    b.A.row(5).setZero();
+    b.r.head<5>() = (A * b.r).eval();
+    b.r(5) = 0.0;
+    const Eigen::Matrix<double, 5, 18> H5 = A * b.H;
+    b.H.topRows<5>() = H5;
+    b.H.row(5).setZero();
+  }
+}
+
+void Filter::reduce_covariance(MeasBlock& b) {
+  if (b.m == 6) return;
+  const Eigen::MatrixXd Rm = b.A.topRows(b.m) * b.R * b.A.topRows(b.m).transpose();
+  b.R.setIdentity();
+  b.R.topLeftCorner(b.m, b.m) = 0.5 * (Rm + Rm.transpose());
 }
 
 void Filter::measurement_jacobian(int object_id, const Pose& z, Vec6& r, Eigen::MatrixXd& H) const {
@@ -485,6 +517,7 @@ void Filter::measurement_jacobian(int object_id, const Pose& z, Vec6& r, Eigen::
   ROE_CHECK(o != nullptr, "measurement_jacobian: object not initialised");
   MeasBlock b;
   build_block(*o, z, b);
+  ROE_CHECK(b.m == 6, "measurement_jacobian: the object has a continuous symmetry (5 rows): use measurement_rows");
   r = b.r;
   H = Eigen::MatrixXd::Zero(6, n_);
   for (int j = 0; j < b.nc; ++j) H.col(b.idx[j]) += b.H.col(j);
@@ -492,7 +525,7 @@ void Filter::measurement_jacobian(int object_id, const Pose& z, Vec6& r, Eigen::
 
 void Filter::select_rows(ResidualPart part, MeasBlock& b, Eigen::MatrixXd& PHt, Eigen::Index col0) {
   int rows[6];
-  const int m = residual_rows(part, rows);
+  const int m = residual_rows(part, rows, b.m);
   Vec6 r = Vec6::Zero();
   Eigen::Matrix<double, 6, 18> H = Eigen::Matrix<double, 6, 18>::Zero();
   Mat6 R = Mat6::Zero(), S = Mat6::Identity();
@@ -521,11 +554,14 @@ ResidualPart Filter::gate(const MeasBlock& b, const Eigen::LDLT<Mat6>& ldlt, dou
   // outlier, gate or no gate; the run goes on.
   const bool finite = b.r.allFinite();
   nis = finite ? b.r.dot(ldlt.solve(b.r)) : std::numeric_limits<double>::infinity();
-  if (opt_.gate_mode == GateMode::kSplit) {
-    const double g = opt_.chi2_gate ? gate3_ : std::numeric_limits<double>::infinity();
-    return split_gate(b.r, b.S, g, g).used;
+  const double inf = std::numeric_limits<double>::infinity();
+  if (opt_.gate_mode == GateMode::kSplit && b.separable) {
+    // Rotation part: 3 rows, or 2 (continuous symmetry; r and S identity-padded: the same NIS).
+    const double gp = opt_.chi2_gate ? gate3_ : inf, gr = opt_.chi2_gate ? (b.m == 6 ? gate3_ : gate2_) : inf;
+    return split_gate(b.r, b.S, gp, gr).used;
   }
-  if (!finite || (opt_.chi2_gate && nis > gate_)) return ResidualPart::kNone;
+  // The joint test of the block's m rows (also the split mode's fallback when position and rotation mix).
+  if (!finite || (opt_.chi2_gate && nis > (b.m == 6 ? gate_ : gate5_))) return ResidualPart::kNone;
   return ResidualPart::kBoth;
 }
 
@@ -537,6 +573,7 @@ void Filter::measurement_rows(int object_id, const Pose& z, ResidualPart part, E
   build_block(*o, z, b);
   b.R.setIdentity();
   b.S.setIdentity();
+  reduce_covariance(b);
   Eigen::MatrixXd no_pht(0, 6);
   select_rows(part, b, no_pht, 0);
   r = b.r.head(b.m);
@@ -783,6 +820,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     b.obj = static_cast<int>(o - objects_.data());
     build_block(*o, z[i], b);
     b.R = measurement_covariance(dets[i], opt_.residual_frame == ResidualFrame::kObject);
+    reduce_covariance(b);
     blocks_.push_back(b);
   }
 

@@ -49,12 +49,12 @@ std::string to_string(ResidualPart p) {
   return "unknown";
 }
 
-int residual_rows(ResidualPart p, int rows[6]) {
+int residual_rows(ResidualPart p, int rows[6], int dim) {
   int m = 0;
   if (p == ResidualPart::kPosition || p == ResidualPart::kBoth)
     for (int i = 0; i < 3; ++i) rows[m++] = i;
   if (p == ResidualPart::kRotation || p == ResidualPart::kBoth)
-    for (int i = 3; i < 6; ++i) rows[m++] = i;
+    for (int i = 3; i < dim; ++i) rows[m++] = i;
   return m;
 }
 

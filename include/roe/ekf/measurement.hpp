@@ -51,15 +51,18 @@ Vec6 object_residual(const Pose& T_O_C_hat, const Pose& T_O_C_meas);
 enum class ResidualPart { kNone = 0, kPosition = 1, kRotation = 2, kBoth = 3 };
 /// "none" / "position" / "rotation" / "both".
 std::string to_string(ResidualPart p);
-/// The residual rows a part keeps, in increasing order: writes them to `rows` and returns their count
-/// (0, 3 or 6). Selecting rows of r, H and (rows and columns) of R gives the part's own measurement model:
-/// r_s = E r, H_s = E H, R_s = E R Eᵀ (the marginal block of R), S_s = E S Eᵀ (the marginal block of S).
-int residual_rows(ResidualPart p, int rows[6]);
+/// The residual rows a part keeps, in increasing order: writes them to `rows` and returns their count.
+/// Rows 0–2 are the position, rows 3 … dim−1 the rotation (dim 6; 5 for an object with a continuous
+/// symmetry, whose rotation residual has 2 rows, ekf/symmetry.hpp). Selecting rows of r, H and (rows and
+/// columns) of R gives the part's own measurement model: r_s = E r, H_s = E H, R_s = E R Eᵀ (the marginal
+/// block of R), S_s = E S Eᵀ (the marginal block of S).
+int residual_rows(ResidualPart p, int rows[6], int dim = 6);
 
 /// Split χ² gate (3 + 3 dof). Each part is tested alone with its marginal innovation covariance, the
 /// diagonal 3x3 block of S = H P Hᵀ + R:
 ///   NIS_p = r_pᵀ S_pp⁻¹ r_p ≤ gate_position,   NIS_r = r_rᵀ S_rr⁻¹ r_r ≤ gate_rotation
-/// (the χ²₃ quantile of the configured confidence). `used` is the part(s) that pass. A non-finite part
+/// (the χ²₃ quantile of the configured confidence; χ²₂ for a 2-row rotation part, whose r and S are
+/// padded with a zero row and an identity row/column: the padded NIS is the 2-row NIS). `used` is the part(s) that pass. A non-finite part
 /// (the rotation residual 2 q_v/q_w of a detection 180° from the prediction) fails with NIS ∞; the other
 /// part is tested as usual. Each test alone has the configured false-rejection rate, so an inlier keeps
 /// both parts with probability ≈ confidence² when the parts are independent.
