@@ -82,3 +82,41 @@ TEST_CASE("models_info.json: errors name file, line, column and key", "[io][mode
     fs::remove(p);
   }
 }
+
+#include "roe/io/dataset.hpp"
+
+TEST_CASE("roe.json objects point at a models_info.json (relative to roe.json's folder)", "[io][models_info]") {
+  const fs::path dir = fs::temp_directory_path() / "roe_test_models_info_ds";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "models");
+  std::ofstream(dir / "models" / "models_info.json") << kInfo;
+  const auto manifest = [&](const std::string& objects) {
+    std::ofstream(dir / "roe.json") << R"({"schema": "roe-dataset/1", "name": "x", "objects": )" << objects << "}";
+    return io::read_manifest(dir);
+  };
+  const auto m = manifest(R"([{"id": 4, "models_info": "models/models_info.json", "models_info_id": 13},
+                               {"id": 2, "models_info": "models/models_info.json"}, {"id": 7}])");
+  REQUIRE(m.objects.size() == 3);
+  REQUIRE(m.objects[0].symmetry.continuous);
+  CHECK(m.objects[0].symmetry.continuous->axis == Eigen::Vector3d(0, 0, 1));
+  CHECK(m.objects[1].symmetry.discrete.size() == 1);
+  CHECK(m.objects[2].symmetry.empty());
+  // Errors name roe.json and the object's key.
+  for (const auto& [objects, key] :
+       std::vector<std::pair<std::string, std::string>>{
+           {R"([{"id": 5, "models_info": "models/models_info.json"}])", "objects[0].models_info"},
+           {R"([{"id": 2, "models_info": "models/models_info.json", "models_info_id": 99}])", "objects[0].models_info_id"},
+           {R"([{"id": 2, "models_info_id": 1}])", "objects[0].models_info_id"}}) {
+    INFO(objects);
+    try {
+      manifest(objects);
+      FAIL("accepted");
+    } catch (const InputError& e) {
+      CHECK(e.context().file == (dir / "roe.json").string());
+      CHECK(e.context().key == key);
+    }
+  }
+  // A missing file is an input error naming it.
+  CHECK_THROWS_AS(manifest(R"([{"id": 2, "models_info": "nope.json"}])"), InputError);
+  fs::remove_all(dir);
+}
