@@ -201,7 +201,11 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   const auto t0 = Clock::now();
   const bool smooth = config.smoother == "rts";
   ekf::FilterRecording recording;
-  out.summary = ekf::run_filter(dataset.imu, images, opt, noise, T_I_C, rec, smooth ? &recording : nullptr);
+  std::map<int, ObjectSymmetry> symmetries;
+  for (const auto& o : dataset.manifest.objects)
+    if (!o.symmetry.empty()) symmetries[o.id] = o.symmetry;
+  out.summary =
+      ekf::run_filter(dataset.imu, images, opt, noise, T_I_C, rec, smooth ? &recording : nullptr, symmetries);
   out.filter_wall_s = seconds_since(t0);
   if (smooth) {
     // Every state row is at the filter's initial time or at the end of a propagation step.

@@ -98,6 +98,8 @@ const std::vector<Field<ekf::FilterOptions>>& filter_fields() {
                        [](const double& v) -> const char* {
                          return v > 0.0 && v < 1.0 ? nullptr : "must be in (0, 1), e.g. 0.95";
                        }),
+      enum_field("gate_mode", &O::gate_mode, &ekf::parse_gate_mode, &ekf::to_string,
+                 "must be \"joint\" (one 6-dof test, paper) or \"split\" (position and rotation, 3 + 3)"),
       field<O, int>("anchor_id", &O::anchor_id,
                     [](const int& v) -> const char* {
                       return v >= -1 ? nullptr : "must be an object id >= 0, or -1 for the first object seen";

@@ -118,7 +118,7 @@ void tally(const FrameResult& r, int anchor_id, FilterRunSummary& s) {
 FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,
                             const FilterOptions& options, const ImuNoiseParams& noise,
                             const Pose& T_I_C_prior, FilterObserver& observer,
-                            FilterRecording* recording) {
+                            FilterRecording* recording, const std::map<int, ObjectSymmetry>& symmetries) {
   if (imu.size() < 2) throw DataError(fmt::format("need at least 2 IMU samples, got {}", imu.size()));
   for (std::size_t k = 1; k < imu.size(); ++k)
     if (imu[k].t_ns <= imu[k - 1].t_ns)
@@ -145,6 +145,7 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
   opt.anchor_id = summary.anchor.id;  // −1 only when no image has a usable detection
 
   Filter filter(opt, noise, T_I_C_prior);
+  filter.set_symmetries(symmetries);
   filter.set_recording(recording);
   filter.initialize(t0, imu.front().gyro, imu.front().accel, summary.init.mean_accel, &summary.init_gyro_bias);
   observer.on_imu(filter);

@@ -60,6 +60,18 @@ bool parse_residual_frame(const std::string& s, ResidualFrame& out) {
   return true;
 }
 
+std::string to_string(GateMode m) { return m == GateMode::kJoint ? "joint" : "split"; }
+
+bool parse_gate_mode(const std::string& s, GateMode& out) {
+  if (s == "joint")
+    out = GateMode::kJoint;
+  else if (s == "split")
+    out = GateMode::kSplit;
+  else
+    return false;
+  return true;
+}
+
 std::string to_string(DetectionStatus s) {
   switch (s) {
     case DetectionStatus::kAccepted:
@@ -84,6 +96,9 @@ Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const 
     : opt_(options), noise_(noise), T_I_C_(T_I_C_prior) {
   ROE_CHECK(opt_.chi2_confidence > 0.0 && opt_.chi2_confidence < 1.0, "chi2_confidence must be in (0, 1)");
   gate_ = chi2_quantile(opt_.chi2_confidence, 6.0);
+  gate3_ = chi2_quantile(opt_.chi2_confidence, 3.0);
+  gate5_ = chi2_quantile(opt_.chi2_confidence, 5.0);
+  gate2_ = chi2_quantile(opt_.chi2_confidence, 2.0);
   if (opt_.estimate_extrinsics) {
     extr_offset_ = kCore;
     n_ = kCore + 6;
@@ -402,10 +417,10 @@ inline void for_each_run(const Block& b, F&& f) {
   }
 }
 
-/// H_a (P H_cᵀ) (6 x 6) from the rows of P H_cᵀ at H_a's non-zero columns.
+/// H_a (P H_cᵀ) (6 x m_c) from the rows of P H_cᵀ (n x m_c, m_c ≤ 6) at H_a's non-zero columns.
 template <typename Block, typename Y>
-inline Mat6 h_pht(const Block& a, const Y& pht_c) {
-  Mat6 S = Mat6::Zero();
+inline Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, 6> h_pht(const Block& a, const Y& pht_c) {
+  Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, 6> S = Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, 6>::Zero(6, pht_c.cols());
   for_each_run(a, [&](auto len, int off, int col) {
     constexpr int L = decltype(len)::value;
     S.noalias() += a.H.template middleCols<L>(col) * pht_c.template middleRows<L>(off);
@@ -415,8 +430,15 @@ inline Mat6 h_pht(const Block& a, const Y& pht_c) {
 
 }  // namespace
 
-void Filter::build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) const {
+const ObjectSymmetry* Filter::symmetry(int object_id) const {
+  const auto it = symmetries_.find(object_id);
+  return it == symmetries_.end() || it->second.empty() ? nullptr : &it->second;
+}
+
+void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock& b) const {
   const ObjectPrediction pr = predict_object(x_, T_I_C_, o.T_O_W);
+  const ObjectSymmetry* sym = symmetry(o.id);
+  const Pose z = sym ? nearest_equivalent(pr.T_O_C_hat, z_detected, *sym) : z_detected;
   b.r = object_residual(pr.T_O_C_hat, z);
   int c = 0;
   b.nruns = 0;
@@ -465,6 +487,29 @@ void Filter::build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) cons
     Hc.bottomRows<3>() = -b.H.bottomRows<3>();
     b.H = Hc;
   }
+  b.m = 6;
+  b.A.setIdentity();
+  b.separable = true;
+  if (sym && sym->continuous) {
+    // The rotation about the axis leaves residual and gate: r, H ← A r, A H (5 rows, row 5 zero).
+    const Mat56 A = symmetry_reduction(symmetry_direction(opt_.residual_frame, pr.T_O_C_hat, *sym->continuous),
+                                       b.separable);
+    b.m = 5;
+    b.A.topRows<5>() = A;
+    b.A.row(5).setZero();
+    b.r.head<5>() = (A * b.r).eval();
+    b.r(5) = 0.0;
+    const Eigen::Matrix<double, 5, 18> H5 = A * b.H;
+    b.H.topRows<5>() = H5;
+    b.H.row(5).setZero();
+  }
+}
+
+void Filter::reduce_covariance(MeasBlock& b) {
+  if (b.m == 6) return;
+  const Eigen::MatrixXd Rm = b.A.topRows(b.m) * b.R * b.A.topRows(b.m).transpose();
+  b.R.setIdentity();
+  b.R.topLeftCorner(b.m, b.m) = 0.5 * (Rm + Rm.transpose());
 }
 
 void Filter::measurement_jacobian(int object_id, const Pose& z, Vec6& r, Eigen::MatrixXd& H) const {
@@ -472,9 +517,68 @@ void Filter::measurement_jacobian(int object_id, const Pose& z, Vec6& r, Eigen::
   ROE_CHECK(o != nullptr, "measurement_jacobian: object not initialised");
   MeasBlock b;
   build_block(*o, z, b);
+  ROE_CHECK(b.m == 6, "measurement_jacobian: the object has a continuous symmetry (5 rows): use measurement_rows");
   r = b.r;
   H = Eigen::MatrixXd::Zero(6, n_);
   for (int j = 0; j < b.nc; ++j) H.col(b.idx[j]) += b.H.col(j);
+}
+
+void Filter::select_rows(ResidualPart part, MeasBlock& b, Eigen::MatrixXd& PHt, Eigen::Index col0) {
+  int rows[6];
+  const int m = residual_rows(part, rows, b.m);
+  Vec6 r = Vec6::Zero();
+  Eigen::Matrix<double, 6, 18> H = Eigen::Matrix<double, 6, 18>::Zero();
+  Mat6 R = Mat6::Zero(), S = Mat6::Identity();
+  for (int i = 0; i < m; ++i) {
+    r(i) = b.r(rows[i]);
+    H.row(i) = b.H.row(rows[i]);
+    for (int j = 0; j < m; ++j) {
+      R(i, j) = b.R(rows[i], rows[j]);
+      S(i, j) = b.S(rows[i], rows[j]);
+    }
+  }
+  // P Hᵀ's columns are H's rows; in place, left to right (rows[i] ≥ i).
+  for (int i = 0; i < m; ++i)
+    if (rows[i] != i) PHt.col(col0 + i) = PHt.col(col0 + rows[i]);
+  for (int i = m; i < 6; ++i) PHt.col(col0 + i).setZero();
+  b.m = m;
+  b.r = r;
+  b.H = H;
+  b.R = R;
+  b.S = S;
+}
+
+ResidualPart Filter::gate(const MeasBlock& b, const Eigen::LDLT<Mat6>& ldlt, double& nis) const {
+  // Only the orientation residual 2 q_v / q_w can be non-finite with a finite state and detection: a
+  // detection exactly 180° from the prediction (q_w = 0), e.g. a symmetric object's flip. That part is an
+  // outlier, gate or no gate; the run goes on.
+  const bool finite = b.r.allFinite();
+  nis = finite ? b.r.dot(ldlt.solve(b.r)) : std::numeric_limits<double>::infinity();
+  const double inf = std::numeric_limits<double>::infinity();
+  if (opt_.gate_mode == GateMode::kSplit && b.separable) {
+    // Rotation part: 3 rows, or 2 (continuous symmetry; r and S identity-padded: the same NIS).
+    const double gp = opt_.chi2_gate ? gate3_ : inf, gr = opt_.chi2_gate ? (b.m == 6 ? gate3_ : gate2_) : inf;
+    return split_gate(b.r, b.S, gp, gr).used;
+  }
+  // The joint test of the block's m rows (also the split mode's fallback when position and rotation mix).
+  if (!finite || (opt_.chi2_gate && nis > (b.m == 6 ? gate_ : gate5_))) return ResidualPart::kNone;
+  return ResidualPart::kBoth;
+}
+
+void Filter::measurement_rows(int object_id, const Pose& z, ResidualPart part, Eigen::VectorXd& r,
+                              Eigen::MatrixXd& H) const {
+  const ObjectEntry* o = object(object_id);
+  ROE_CHECK(o != nullptr, "measurement_rows: object not initialised");
+  MeasBlock b;
+  build_block(*o, z, b);
+  b.R.setIdentity();
+  b.S.setIdentity();
+  reduce_covariance(b);
+  Eigen::MatrixXd no_pht(0, 6);
+  select_rows(part, b, no_pht, 0);
+  r = b.r.head(b.m);
+  H = Eigen::MatrixXd::Zero(b.m, n_);
+  for (int j = 0; j < b.nc; ++j) H.col(b.idx[j]) += b.H.col(j).head(b.m);
 }
 
 Mat6 Filter::measurement_covariance(const Detection& d, bool object_frame) const {
@@ -686,6 +790,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     if (confirm_first_sight(d.object_id, z[anchor_det])) {
       initialize_object(d.object_id, z[anchor_det], measurement_covariance(d, true), true);
       res.detections[anchor_det].status = DetectionStatus::kInitialized;
+      res.detections[anchor_det].used = ResidualPart::kBoth;
     } else {
       res.detections[anchor_det].status = DetectionStatus::kPendingInit;
     }
@@ -715,6 +820,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     b.obj = static_cast<int>(o - objects_.data());
     build_block(*o, z[i], b);
     b.R = measurement_covariance(dets[i], opt_.residual_frame == ResidualFrame::kObject);
+    reduce_covariance(b);
     blocks_.push_back(b);
   }
 
@@ -742,7 +848,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
         add_abt(PHt_k.data(), PHt.outerStride(), ws_U_.data(), ws_U_.outerStride(), b.H.data(), 6, n_, 6,
                 b.nc, 1.0, /*lower=*/false);
       }
-      Mat6 S = h_pht(b, PHt_k) + b.R;
+      const Mat6 S = h_pht(b, PHt_k) + b.R;
       b.S = 0.5 * (S + S.transpose());
       Eigen::LDLT<Mat6> ldlt(b.S);
       if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all())
@@ -750,37 +856,40 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
             fmt::format("filter failed at {}: innovation covariance of object {} is not "
                         "positive definite",
                         when(), dets[b.det].object_id));
-      if (!b.r.allFinite()) {
-        // Only the orientation residual 2 q_v / q_w can be non-finite with a finite state and detection:
-        // a detection exactly 180° from the prediction (q_w = 0), e.g. a symmetric object's flip. It is
-        // an outlier like any other far-off detection, gate or no gate; the run goes on.
-        res.detections[b.det].nis = std::numeric_limits<double>::infinity();
-        res.detections[b.det].status = DetectionStatus::kRejectedChi2;
-        continue;
-      }
-      const double nis = b.r.dot(ldlt.solve(b.r));
-      if (!std::isfinite(nis))
+      double nis = 0.0;
+      const ResidualPart used = gate(b, ldlt, nis);
+      if (b.r.allFinite() && !std::isfinite(nis))
         throw NumericError(
             fmt::format("filter failed at {}: non-finite NIS for object {}", when(), dets[b.det].object_id));
       res.detections[b.det].nis = nis;
-      if (opt_.chi2_gate && nis > gate_) {
+      res.detections[b.det].used = used;
+      if (used == ResidualPart::kNone) {
         res.detections[b.det].status = DetectionStatus::kRejectedChi2;
-      } else {
-        res.detections[b.det].status = DetectionStatus::kAccepted;
-        inliers.push_back(k);
+        continue;
       }
+      res.detections[b.det].status = DetectionStatus::kAccepted;
+      if (used != ResidualPart::kBoth) select_rows(used, b, PHt, 6 * k);
+      inliers.push_back(k);
     }
 
     const int ni = static_cast<int>(inliers.size());
     if (ni > 0) {
       close_segment();
-      const int m = 6 * ni;
-      // Inliers' P Hᵀ compacted to the left (in place: inliers[a] ≥ a), residuals stacked.
+      // Row offsets of the inliers' blocks in the stack (6 rows each, fewer for a split block).
+      std::vector<int>& row0 = ws_row0_;
+      row0.resize(ni + 1);
+      row0[0] = 0;
+      for (int a = 0; a < ni; ++a) row0[a + 1] = row0[a] + blocks_[inliers[a]].m;
+      const int m = row0[ni];
+      // Inliers' P Hᵀ compacted to the left column by column (in place: row0[a] ≤ 6 inliers[a]), residuals
+      // stacked.
       Eigen::VectorXd& r = ws_r_;
       r.resize(m);
       for (int a = 0; a < ni; ++a) {
-        if (inliers[a] != a) PHt.middleCols<6>(6 * a) = PHt.middleCols<6>(6 * inliers[a]);
-        r.segment<6>(6 * a) = blocks_[inliers[a]].r;
+        const int ma = blocks_[inliers[a]].m;
+        if (row0[a] != 6 * inliers[a])
+          for (int j = 0; j < ma; ++j) PHt.col(row0[a] + j) = PHt.col(6 * inliers[a] + j);
+        r.segment(row0[a], ma) = blocks_[inliers[a]].r.head(ma);
       }
       const auto Y = PHt.leftCols(m);  // P Hᵀ (n x m)
       // S = H P Hᵀ + R: the diagonal blocks are the gate's S_k; block (a, c), a > c, is H_a (P H_cᵀ),
@@ -792,11 +901,12 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       auto S = ws_S_.topLeftCorner(m, m);
       for (int a = 0; a < ni; ++a) {
         const MeasBlock& ba = blocks_[inliers[a]];
-        S.block<6, 6>(6 * a, 6 * a) = ba.S;
+        S.block(row0[a], row0[a], ba.m, ba.m) = ba.S.topLeftCorner(ba.m, ba.m);
         for (int c = 0; c < a; ++c) {
-          const Mat6 Sac = h_pht(ba, Y.middleCols<6>(6 * c));
-          S.block<6, 6>(6 * a, 6 * c) = Sac;
-          S.block<6, 6>(6 * c, 6 * a) = Sac.transpose();
+          const int mc = blocks_[inliers[c]].m;
+          const auto Sac = h_pht(ba, Y.middleCols(row0[c], mc)).topRows(ba.m);
+          S.block(row0[a], row0[c], ba.m, mc) = Sac;
+          S.block(row0[c], row0[a], mc, ba.m) = Sac.transpose();
         }
       }
       // K, δx and the Joseph-form posterior (stacked_update.hpp).
@@ -822,6 +932,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     }
     initialize_object(d.object_id, z[i], measurement_covariance(d, true), false);
     res.detections[i].status = DetectionStatus::kInitialized;
+    res.detections[i].used = ResidualPart::kBoth;
   }
   implied();
   return res;

@@ -1,5 +1,9 @@
 #include "roe/ekf/measurement.hpp"
 
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <limits>
+
 #include "roe/math/so3.hpp"
 
 namespace roe::ekf {
@@ -29,6 +33,51 @@ Vec6 object_residual(const Pose& T_O_C_hat, const Pose& T_O_C_meas) {
   r.head<3>() = T_O_C_meas.p - T_O_C_hat.p;
   r.tail<3>() = math::quat_residual(T_O_C_hat.q, T_O_C_meas.q);
   return r;
+}
+
+std::string to_string(ResidualPart p) {
+  switch (p) {
+    case ResidualPart::kNone:
+      return "none";
+    case ResidualPart::kPosition:
+      return "position";
+    case ResidualPart::kRotation:
+      return "rotation";
+    case ResidualPart::kBoth:
+      return "both";
+  }
+  return "unknown";
+}
+
+int residual_rows(ResidualPart p, int rows[6], int dim) {
+  int m = 0;
+  if (p == ResidualPart::kPosition || p == ResidualPart::kBoth)
+    for (int i = 0; i < 3; ++i) rows[m++] = i;
+  if (p == ResidualPart::kRotation || p == ResidualPart::kBoth)
+    for (int i = 3; i < dim; ++i) rows[m++] = i;
+  return m;
+}
+
+namespace {
+
+/// r_sᵀ S_s⁻¹ r_s of one 3-row part (∞ when r_s is not finite; S_s is positive definite).
+double part_nis(const Vec3& r, const Mat3& S) {
+  if (!r.allFinite()) return std::numeric_limits<double>::infinity();
+  return r.dot(Eigen::LDLT<Mat3>(S).solve(r));
+}
+
+}  // namespace
+
+SplitGate split_gate(const Vec6& r, const Mat6& S, double gate_position, double gate_rotation) {
+  SplitGate g;
+  g.nis_position = part_nis(r.head<3>(), S.topLeftCorner<3, 3>());
+  g.nis_rotation = part_nis(r.tail<3>(), S.bottomRightCorner<3, 3>());
+  // A non-finite part fails even an infinite gate (no gate: chi2_gate false).
+  const bool p = std::isfinite(g.nis_position) && g.nis_position <= gate_position;
+  const bool q = std::isfinite(g.nis_rotation) && g.nis_rotation <= gate_rotation;
+  g.used = p && q ? ResidualPart::kBoth
+                  : p ? ResidualPart::kPosition : q ? ResidualPart::kRotation : ResidualPart::kNone;
+  return g;
 }
 
 ObjectInit init_object(const CoreState& x, const Pose& T_I_C, const Pose& z) {

@@ -1,4 +1,5 @@
 #include "roe/io/dataset.hpp"
+#include "roe/io/models_info.hpp"
 
 #include <fmt/format.h>
 
@@ -301,8 +302,12 @@ json manifest_to_json(const DatasetManifest& m) {
                   {"time_offset_s", m.mocap->time_offset_s}};
   }
   json objects = json::array();
-  for (const auto& o : m.objects)
-    objects.push_back({{"id", o.id}, {"name", o.name}, {"symmetric", o.symmetric}});
+  for (const auto& o : m.objects) {
+    json oj = {{"id", o.id}, {"name", o.name}, {"symmetric", o.symmetric}};
+    if (!o.models_info.empty()) oj["models_info"] = o.models_info;
+    if (o.models_info_id >= 0) oj["models_info_id"] = o.models_info_id;
+    objects.push_back(std::move(oj));
+  }
   j["objects"] = std::move(objects);
   if (m.truth) {
     const auto& t = *m.truth;
@@ -404,7 +409,22 @@ DatasetManifest manifest_from_json(const json& j, const std::string& source) {
     o.require("id", obj.id);
     o.get("name", obj.name);
     o.get("symmetric", obj.symmetric);
+    o.get("models_info", obj.models_info);
+    o.get("models_info_id", obj.models_info_id);
     o.finish();
+    if (!obj.models_info.empty()) {
+      // Relative to the folder of roe.json; the symmetries of the object's id (or models_info_id) there.
+      const fs::path file = fs::path(source).parent_path() / obj.models_info;
+      const auto info = read_models_info(file);
+      const int key = obj.models_info_id >= 0 ? obj.models_info_id : obj.id;
+      const auto it = info.find(key);
+      if (it == info.end())
+        throw ConfigError(fmt::format("object {} is not in {}", key, file.string()),
+                          {source, 0, 0, o.key_path(obj.models_info_id >= 0 ? "models_info_id" : "models_info")});
+      obj.symmetry = it->second;
+    } else if (obj.models_info_id >= 0) {
+      throw ConfigError("models_info_id without models_info", {source, 0, 0, o.key_path("models_info_id")});
+    }
     if (!ids.insert(obj.id).second)
       throw ConfigError(fmt::format("duplicate object id {}", obj.id), {source, 0, 0, o.key_path("id")});
     m.objects.push_back(std::move(obj));

@@ -170,6 +170,9 @@ const Table<ReprojectionRow, eval::DetectionPose>& reprojection_table() {
                  [](const Field& f, eval::DetectionPose& r, int) { r.status = f.text(); }});
     t.push_back({"nis", [](CsvWriter& w, const ReprojectionRow& r, int) { w.add(r.outcome.nis); },
                  [](const Field& f, eval::DetectionPose& r, int) { r.nis = f.number_or_nan(); }, 0, true});
+    // Which part of the detection updated the filter (gate_mode split, symmetric objects); optional.
+    t.push_back({"used", [](CsvWriter& w, const ReprojectionRow& r, int) { w.add(ekf::to_string(r.outcome.used)); },
+                 [](const Field& f, eval::DetectionPose& r, int) { r.used = f.text(); }, 0, true});
     return t;
   }();
   return t;

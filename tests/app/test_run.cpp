@@ -101,8 +101,17 @@ TEST_CASE("roe run writes the files of DESIGN §4", "[app][run]") {
   std::ifstream rp(out / "reprojection.csv");
   std::size_t n_rp = 0;
   std::getline(rp, header);
-  CHECK(header == "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis");
-  while (std::getline(rp, row)) ++n_rp;
+  CHECK(header == "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis,used");
+  while (std::getline(rp, row)) {
+    ++n_rp;
+    // used: the joint gate (default) uses an accepted or initialising detection whole, nothing else.
+    const std::size_t c_used = row.rfind(','), c_nis = row.rfind(',', c_used - 1);
+    const std::size_t c_status = row.rfind(',', c_nis - 1);
+    const std::string status = row.substr(c_status + 1, c_nis - c_status - 1);
+    const std::string used = row.substr(c_used + 1);
+    const bool whole = status == "accepted" || status == "initialized";
+    CHECK(used == (whole ? "both" : "none"));
+  }
   CHECK(n_rp == d.detections.at("sim").size());
   // run.json echoes the effective config and counts.
   const auto j = io::parse_json_file(out / "run.json");
@@ -324,6 +333,7 @@ TEST_CASE("run config: strict keys, shipped configs load, defaults round-trip", 
   every["filter"]["meas_sigma_p_m"] = 0.07;
   every["filter"]["init_gyro_bias"] = {0.01, 0.02, 0.03};
   every["filter"]["anchor_gauge"] = "pose";
+  every["filter"]["gate_mode"] = "split";
   every["filter"]["pd_check_every"] = 7;
   every["health"]["max_dead_reckoning_s"] = 4.5;
   every["health"]["min_supported_fraction"] = 0.8;
@@ -331,11 +341,12 @@ TEST_CASE("run config: strict keys, shipped configs load, defaults round-trip", 
   CHECK(ev.filter.meas_sigma_p_m == 0.07);
   CHECK(ev.filter.init_gyro_bias.z() == 0.03);
   CHECK(ev.filter.anchor_gauge == ekf::AnchorGauge::kPose);
+  CHECK(ev.filter.gate_mode == ekf::GateMode::kSplit);
   CHECK(ev.filter.pd_check_every == 7);
   CHECK(ev.health.max_dead_reckoning_s == 4.5);
   CHECK(ev.health.min_supported_fraction == 0.8);
   CHECK(app::run_config_to_json(ev) == every);
-  CHECK(every.at("filter").size() == 42);  // every FilterOptions field (configs/default.json lists them all)
+  CHECK(every.at("filter").size() == 43);  // every FilterOptions field (configs/default.json lists them all)
   CHECK(every.at("health").size() == 4);
   // The health limits are strict too, and their errors name the key path.
   for (const char* bad : {R"({"health": {"min_supported_fraction": 1.5}})", R"({"health": {"max_nis_median_ratio": -1}})",

@@ -327,6 +327,17 @@ Filter make_filter(AnchorGauge gauge, bool extrinsics, ResidualFrame frame = Res
   return f;
 }
 
+// The error a ⊟ b of two predicted measurements T_O_C in the residual frame: T_O_C (additive p, right
+// rotation error) or T_C_O (additive t, left rotation error).
+Vec6 prediction_error(ResidualFrame frame, const Pose& a, const Pose& b) {
+  if (frame == ResidualFrame::kObject) return pose_minus(a, b);
+  const Pose ai = a.inverse(), bi = b.inverse();
+  Vec6 d;
+  d.head<3>() = ai.p - bi.p;
+  d.tail<3>() = log_quat(ai.q * bi.q.conjugate());
+  return d;
+}
+
 }  // namespace
 
 TEST_CASE("full H of the filter equals finite differences, incl. zero and anchor blocks", "[ekf][jacobian]") {
@@ -334,16 +345,7 @@ TEST_CASE("full H of the filter equals finite differences, incl. zero and anchor
     for (bool extr : {true, false}) {
       for (ResidualFrame frame : {ResidualFrame::kObject, ResidualFrame::kCamera}) {
         Filter f = make_filter(gauge, extr, frame);
-        // The predicted measurement and its error in the residual frame: T_O_C (additive p, right
-        // rotation error) or T_C_O (additive t, left rotation error).
-        const auto diff = [frame](const Pose& a, const Pose& b) {
-          if (frame == ResidualFrame::kObject) return pose_minus(a, b);
-          const Pose ai = a.inverse(), bi = b.inverse();
-          Vec6 d;
-          d.head<3>() = ai.p - bi.p;
-          d.tail<3>() = log_quat(ai.q * bi.q.conjugate());
-          return d;
-        };
+        const auto diff = [frame](const Pose& a, const Pose& b) { return prediction_error(frame, a, b); };
         REQUIRE(f.objects().size() == 3);
         const int anchor_dim = gauge == AnchorGauge::kPose ? 0 : gauge == AnchorGauge::kPosition ? 3 : 2;
         const int expect_dim = 15 + (extr ? 6 : 0) + anchor_dim + 12;
@@ -435,6 +437,53 @@ TEST_CASE("gauge generator equals finite differences of a change of world frame"
       const Eigen::VectorXd col = (v[0] - v[1]) / (2 * eps);
       INFO("gamma component " << i << "\nG " << G.col(i).transpose() << "\nnum " << col.transpose());
       CHECK((G.col(i) - col).cwiseAbs().maxCoeff() < 1e-7);
+    }
+  }
+}
+
+TEST_CASE("the rows a split-gate update uses equal finite differences of their residual part",
+          "[ekf][jacobian][split]") {
+  // Filter::measurement_rows is the selection Filter::update applies after the split gate: the position
+  // rows, the rotation rows or all six, in both residual frames, for the anchor and the other objects.
+  for (ResidualFrame frame : {ResidualFrame::kObject, ResidualFrame::kCamera}) {
+    for (AnchorGauge gauge : {AnchorGauge::kPosition, AnchorGauge::kPositionYaw}) {
+      Filter f = make_filter(gauge, /*extrinsics=*/true, frame);
+      for (int id : {1, 2, 3}) {
+        const Pose zh0 = f.predict(id);
+        const Pose z = pose_plus(zh0, (Vec6() << 0.04, 0.03, -0.02, -0.1, 0.08, 0.05).finished());
+        Vec6 r6;
+        Eigen::MatrixXd H6;
+        f.measurement_jacobian(id, z, r6, H6);
+        for (ResidualPart part : {ResidualPart::kPosition, ResidualPart::kRotation, ResidualPart::kBoth}) {
+          INFO("frame " << to_string(frame) << " gauge " << to_string(gauge) << " object " << id << " part "
+                        << to_string(part));
+          Eigen::VectorXd r;
+          Eigen::MatrixXd H;
+          f.measurement_rows(id, z, part, r, H);
+          const int first = part == ResidualPart::kRotation ? 3 : 0;
+          const int m = part == ResidualPart::kBoth ? 6 : 3;
+          REQUIRE(r.size() == m);
+          REQUIRE(H.rows() == m);
+          REQUIRE(H.cols() == f.dim());
+          CHECK((r - r6.segment(first, m)).norm() == 0.0);
+          // Numeric Jacobian of the part's rows of the predicted measurement's error.
+          Eigen::MatrixXd Hn(m, f.dim());
+          const double eps = 1e-6;
+          for (int i = 0; i < f.dim(); ++i) {
+            Eigen::VectorXd v[2];
+            for (int s = 0; s < 2; ++s) {
+              Filter g = f;
+              Eigen::VectorXd d = Eigen::VectorXd::Zero(f.dim());
+              d(i) = s == 0 ? eps : -eps;
+              g.boxplus(d);
+              v[s] = prediction_error(frame, g.predict(id), zh0).segment(first, m);
+            }
+            Hn.col(i) = (v[0] - v[1]) / (2 * eps);
+          }
+          INFO("analytic\n" << H << "\nnumeric\n" << Hn);
+          CHECK((H - Hn).cwiseAbs().maxCoeff() < 1e-7);
+        }
+      }
     }
   }
 }

@@ -52,7 +52,7 @@ TEST_CASE("run files: the headers are the columns of DESIGN §4", "[io][run_file
         "sigma_p_z,sigma_theta_x,sigma_theta_y,sigma_theta_z,sigma_p_W_O_x,sigma_p_W_O_y,sigma_p_W_O_z,"
         "sigma_theta_W_O_x,sigma_theta_W_O_y,sigma_theta_W_O_z,sigma_p_A_O_x,sigma_p_A_O_y,sigma_p_A_O_z,"
         "sigma_theta_A_O_x,sigma_theta_A_O_y,sigma_theta_A_O_z");
-  CHECK(join(reprojection_csv_columns()) == "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis");
+  CHECK(join(reprojection_csv_columns()) == "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis,used");
   // One row as text: the shortest round-trip numbers, canonical quaternions, nan for a missing pose.
   ReprojectionRow r;
   r.t_ns = 1403715523912140000;
@@ -65,9 +65,9 @@ TEST_CASE("run files: the headers are the columns of DESIGN §4", "[io][run_file
   none.t_ns = r.t_ns;
   none.outcome.status = ekf::DetectionStatus::kPendingInit;
   CHECK(format_reprojection_csv({r, none}) ==
-        "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis\n"
-        "1403715523912140000,3,1.5,-2,1e-300,-0,-0,-0,1,rejected_chi2,0.1\n"
-        "1403715523912140000,0,nan,nan,nan,nan,nan,nan,nan,pending_init,nan\n");
+        "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis,used\n"
+        "1403715523912140000,3,1.5,-2,1e-300,-0,-0,-0,1,rejected_chi2,0.1,none\n"
+        "1403715523912140000,0,nan,nan,nan,nan,nan,nan,nan,pending_init,nan,none\n");
 }
 
 TEST_CASE("run files: write then read gives the rows back", "[io][run_files]") {

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "roe/core/symmetry.hpp"
 #include "roe/core/types.hpp"
 
 namespace roe {
@@ -62,6 +63,11 @@ struct ObjectInfo {
   int id = 0;             ///< the id used in detections.csv (YCB-V class id for PoET)
   std::string name;
   bool symmetric = false;
+  /// A BOP models_info.json (path as written in roe.json, relative to its folder) and the object's id in
+  /// it (−1: the same as `id`); `symmetry` is what the reader found there (empty without a file).
+  std::string models_info;
+  int models_info_id = -1;
+  ObjectSymmetry symmetry;
 };
 
 struct TruthObject {

@@ -77,10 +77,12 @@ struct FilterRunSummary {
 /// Runs the whole stream. With FilterOptions::anchor_id −1 the anchor is chosen by choose_anchor over
 /// all `images` (images.hpp) before the filter starts. Throws roe::DataError when the IMU stream is too short or not strictly
 /// increasing, or the images are not sorted; roe::NumericError when the filter diverges. With
-/// `recording`, the filter records what smooth() (smoother.hpp) needs.
+/// `recording`, the filter records what smooth() (smoother.hpp) needs. `symmetries`: the objects'
+/// symmetries (Filter::set_symmetries), e.g. from the dataset's models_info files.
 FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,
                             const FilterOptions& options, const ImuNoiseParams& noise,
                             const Pose& T_I_C_prior, FilterObserver& observer,
-                            FilterRecording* recording = nullptr);
+                            FilterRecording* recording = nullptr,
+                            const std::map<int, ObjectSymmetry>& symmetries = {});
 
 }  // namespace roe::ekf

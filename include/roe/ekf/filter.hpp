@@ -38,6 +38,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <limits>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -47,6 +48,7 @@
 #include "roe/ekf/options.hpp"
 #include "roe/ekf/smoother.hpp"
 #include "roe/ekf/state.hpp"
+#include "roe/ekf/symmetry.hpp"
 
 namespace roe::ekf {
 
@@ -66,6 +68,10 @@ struct DetectionOutcome {
   int object_id = 0;
   DetectionStatus status = DetectionStatus::kAccepted;
   double nis = std::numeric_limits<double>::quiet_NaN();  ///< rᵀ S⁻¹ r before the update (6 dof)
+  /// The part(s) of the residual the update used: kBoth for an accepted detection with the joint gate
+  /// and for a first sight (initialised from the whole detection); with the split gate the part(s) that
+  /// passed; kNone for every other status.
+  ResidualPart used = ResidualPart::kNone;
   bool has_T_W_I = false;                                 ///< false while the object has no object-world yet
   /// IMU pose implied by the raw detection and the current object-world estimate:
   /// T_W_I = T_O_W⁻¹ · T_O_C · T_I_C⁻¹ (paper Fig. 3, "obj").
@@ -122,6 +128,11 @@ class Filter {
   /// it does not contain the uncertainty of how W is pinned to the anchor. Zero for the anchor itself or
   /// before the anchor is initialised. Always current, like object_covariance.
   Mat6 object_covariance_relative_to_anchor(const ObjectEntry& o) const;
+  /// Symmetries of the objects (by id; objects not listed have none): from then on their residuals use
+  /// the symmetry-equivalent measurement nearest the prediction, and a continuous symmetry removes the
+  /// rotation about its axis from residual and gate (5 dof; ekf/symmetry.hpp).
+  void set_symmetries(std::map<int, ObjectSymmetry> symmetries) { symmetries_ = std::move(symmetries); }
+  const ObjectSymmetry* symmetry(int object_id) const;
   /// The full covariance, brought up to date (applies the pending cross-covariance transition).
   const Eigen::MatrixXd& covariance();
   const FilterOptions& options() const { return opt_; }
@@ -141,8 +152,13 @@ class Filter {
   /// Predicted T_O_C of an initialised object.
   Pose predict(int object_id) const;
   /// Residual and the full 6 x dim() Jacobian H of one detection of an initialised object, in the
-  /// configured residual frame (z is T_O_C).
+  /// configured residual frame (z is T_O_C; a discrete symmetry's nearest equivalent is used; an object
+  /// with a continuous symmetry has 5 rows: measurement_rows).
   void measurement_jacobian(int object_id, const Pose& T_O_C_meas, Vec6& r, Eigen::MatrixXd& H) const;
+  /// The rows of that residual and H that an update with `part` uses (residual_rows, measurement.hpp):
+  /// the selection Filter::update applies after the split gate. r is m, H is m x dim().
+  void measurement_rows(int object_id, const Pose& T_O_C_meas, ResidualPart part, Eigen::VectorXd& r,
+                        Eigen::MatrixXd& H) const;
   /// The generator of an infinitesimal change of W (γ = [t; φ]: x_W = Exp(φ) x_W' + t) acting on the
   /// current error state: δx' = δx + G γ (dim() x 6).
   Eigen::MatrixXd gauge_generator() const;
@@ -154,6 +170,11 @@ class Filter {
   struct MeasBlock {
     int det = 0;  // index into the detection vector
     int obj = 0;  // index into objects_
+    // The first m rows of r, H, R and S are used (m < 6 after the split gate kept one part: the selected
+    // rows moved up, the rest zero, S's identity-padded).
+    int m = 6;
+    Mat6 A;                 // the first m rows: r = A r_full (identity, or the continuous-symmetry reduction)
+    bool separable = true;  // position and rotation rows separate (the split gate applies)
     Vec6 r;
     Mat6 R;
     Mat6 S;                          // H P Hᵀ + R of this block (the χ² gate; the stacked S's diagonal)
@@ -171,7 +192,15 @@ class Filter {
   void close_segment();
   /// Recording: a node of the given kind with the current state and (synchronised) covariance.
   RecordedNode& push_node(RecordedNode::Kind kind);
+  /// r, H (symmetry-aware: nearest equivalent measurement, continuous reduction) of one detection.
   void build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) const;
+  /// b.R ← A R Aᵀ on the first b.m rows, identity-padded (a no-op for a 6-row block).
+  static void reduce_covariance(MeasBlock& b);
+  /// Keeps the rows of `part` in b (r, H, R, S moved up to its first m rows) and in its P Hᵀ columns.
+  /// PHt's columns col0 … col0+5 are the block's P Hᵀ (PHt may have no rows: measurement_rows).
+  static void select_rows(ResidualPart part, MeasBlock& b, Eigen::MatrixXd& PHt, Eigen::Index col0);
+  /// The χ² test of one block (options: chi2_gate, gate_mode): the part(s) to use; the joint NIS to `nis`.
+  ResidualPart gate(const MeasBlock& b, const Eigen::LDLT<Mat6>& ldlt, double& nis) const;
   void initialize_object(int id, const Pose& z, const Mat6& R, bool anchor);
   /// Records a first-sight candidate; true when init_min_detections consecutive candidates agree.
   bool confirm_first_sight(int id, const Pose& z);
@@ -205,13 +234,17 @@ class Filter {
   Eigen::VectorXd ws_r_, ws_dx_;
   std::vector<Pose> ws_z_;
   std::vector<char> ws_usable_;
-  std::vector<int> ws_new_objects_, ws_inliers_;
+  std::vector<int> ws_new_objects_, ws_inliers_, ws_row0_;
   struct Pending {
     Pose T_O_W;
     int count = 0;
   };
   std::vector<std::pair<int, Pending>> pending_;
-  double gate_ = 0.0;
+  double gate_ = 0.0;   // χ²₆ quantile of chi2_confidence
+  double gate3_ = 0.0;  // χ²₃ quantile (split gate, per part)
+  double gate5_ = 0.0;  // χ²₅ (joint gate of a continuous-symmetry object)
+  double gate2_ = 0.0;  // χ²₂ (its 2-row rotation part, split gate)
+  std::map<int, ObjectSymmetry> symmetries_;
   std::size_t n_updates_ = 0;
   FilterRecording* rec_ = nullptr;
   Mat15 rec_PhiT_ = Mat15::Identity();  // Φᵀ of the recording's open propagation segment

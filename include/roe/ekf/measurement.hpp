@@ -22,6 +22,7 @@
 ///   δp_O_W = δz_p + R_O_W [p_W_C]× δθ_O_W − R_O_W (δp_W_I + R_W_I δp_I_C − R_W_I [p_I_C]× δθ_W_I)
 
 #include <Eigen/Core>
+#include <string>
 
 #include "roe/core/types.hpp"
 #include "roe/ekf/imu.hpp"
@@ -43,6 +44,33 @@ ObjectPrediction predict_object(const CoreState& x, const Pose& T_I_C, const Pos
 
 /// Paper residual r = [z_p − ẑ_p ; 2 δq_v/δq_w] of a measurement z = T_O_C.
 Vec6 object_residual(const Pose& T_O_C_hat, const Pose& T_O_C_meas);
+
+/// The two parts of the 6-dof residual r = [position (rows 0–2); rotation (rows 3–5)] in either residual
+/// frame (object: p_O_C and the right error of R_O_C; camera: t_C_O and the left error of R_C_O), and
+/// which of them a detection's update used (reprojection.csv `used`).
+enum class ResidualPart { kNone = 0, kPosition = 1, kRotation = 2, kBoth = 3 };
+/// "none" / "position" / "rotation" / "both".
+std::string to_string(ResidualPart p);
+/// The residual rows a part keeps, in increasing order: writes them to `rows` and returns their count.
+/// Rows 0–2 are the position, rows 3 … dim−1 the rotation (dim 6; 5 for an object with a continuous
+/// symmetry, whose rotation residual has 2 rows, ekf/symmetry.hpp). Selecting rows of r, H and (rows and
+/// columns) of R gives the part's own measurement model: r_s = E r, H_s = E H, R_s = E R Eᵀ (the marginal
+/// block of R), S_s = E S Eᵀ (the marginal block of S).
+int residual_rows(ResidualPart p, int rows[6], int dim = 6);
+
+/// Split χ² gate (3 + 3 dof). Each part is tested alone with its marginal innovation covariance, the
+/// diagonal 3x3 block of S = H P Hᵀ + R:
+///   NIS_p = r_pᵀ S_pp⁻¹ r_p ≤ gate_position,   NIS_r = r_rᵀ S_rr⁻¹ r_r ≤ gate_rotation
+/// (the χ²₃ quantile of the configured confidence; χ²₂ for a 2-row rotation part, whose r and S are
+/// padded with a zero row and an identity row/column: the padded NIS is the 2-row NIS). `used` is the part(s) that pass. A non-finite part
+/// (the rotation residual 2 q_v/q_w of a detection 180° from the prediction) fails with NIS ∞; the other
+/// part is tested as usual. Each test alone has the configured false-rejection rate, so an inlier keeps
+/// both parts with probability ≈ confidence² when the parts are independent.
+struct SplitGate {
+  ResidualPart used = ResidualPart::kNone;
+  double nis_position = 0.0, nis_rotation = 0.0;
+};
+SplitGate split_gate(const Vec6& r, const Mat6& S, double gate_position, double gate_rotation);
 
 /// First-sight object-world T_O_W from z = T_O_C, and its Jacobians (6x3 blocks, rows [δp_O_W; δθ_O_W])
 /// with respect to δp_W_I, δθ_W_I, δp_I_C, δθ_I_C and the measurement z (6x6, [δz_p; δz_θ]).

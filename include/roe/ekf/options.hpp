@@ -46,6 +46,20 @@ enum class ResidualFrame {
 std::string to_string(ResidualFrame f);
 bool parse_residual_frame(const std::string& s, ResidualFrame& out);
 
+/// How the χ² gate treats a detection's 6-dof residual.
+enum class GateMode {
+  /// The paper: one test of the whole residual (χ²₆); a detection is used whole or not at all.
+  kJoint,
+  /// Position and rotation tested separately (χ²₃ each, at the same confidence) and the update made with
+  /// the part(s) that pass (ResidualPart, measurement.hpp): a detection whose rotation is wrong (a
+  /// symmetric object's flip, an ambiguous view) still gives its position.
+  kSplit,
+};
+
+/// "joint" / "split".
+std::string to_string(GateMode m);
+bool parse_gate_mode(const std::string& s, GateMode& out);
+
 struct FilterOptions {
   // --- Measurement model ---
   ResidualFrame residual_frame = ResidualFrame::kCamera;
@@ -73,7 +87,8 @@ struct FilterOptions {
 
   // --- Outlier gate: χ² test per object on its 6-dof residual with its own S ---
   bool chi2_gate = true;
-  double chi2_confidence = 0.95;  ///< gate = χ²₆ quantile at this probability
+  double chi2_confidence = 0.95;  ///< gate = χ²₆ quantile at this probability (split: χ²₃ per part)
+  GateMode gate_mode = GateMode::kJoint;
 
   // --- Anchor (main object) ---
   /// Object id of the anchor; −1 = chosen by the rule of choose_anchor (images.hpp): among the objects

@@ -40,6 +40,7 @@ struct DetectionPose {
   Pose T_W_I;
   std::string status;  ///< accepted, initialized, rejected, ...
   double nis = 0.0;
+  std::string used;  ///< the part that updated the filter: none, position, rotation, both (empty: older files)
 };
 
 /// Detections with σ to calibrate against the ground truth (detection_calibration.hpp): the ground
