@@ -4,6 +4,8 @@
 # and peak RSS (/usr/bin/time). With two binaries it measures both side by side and prints old/new ratios.
 #   scripts/bench-process.sh NEW_ROE [OLD_ROE]       e.g. build/roe /tmp/roe-before
 # Needs ../shared/data (the V102 pair) beside the repository. Record results in docs/BENCHMARKS.md.
+# "run paper-seq4" runs each binary's own defaults (since 2026-12-02 with the RTS smoother); "run
+# paper-seq4, plain" the same causal filter in both.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 NEW=$(readlink -f "${1:-build/roe}")
@@ -41,12 +43,20 @@ peak_mb() {  # peak RSS in MB of one run
   tail -n 1 "$work/rss" | awk '{printf "%.1f\n", $1/1024}'  # after "Command exited with non-zero status"
 }
 
+# The filter as roe run's defaults were before 2026-12-02 (FilterOptions' plain defaults, causal): the same
+# work for binaries before and after the default changed (docs/filter.md §12), keys both understand.
+cat >"$work/plain.json" <<'JSON'
+{"smoother": "none", "filter": {"require_anchor": true, "meas_sigma_p_m": 0.1, "meas_sigma_p_per_depth": 0,
+ "meas_sigma_ray_m": -1, "meas_sigma_ray_per_depth": 0, "init_gyro_bias_from_rest": false, "imu_noise_scale": 1}}
+JSON
+
 # The commands: name | arguments (TAG stands for the binary's own prepared files, OUT for a fresh output).
 commands=(
   "--version|--version"
   "eval V102 pair|-q eval $DATA/V102.txt --gt $DATA/V102_groundtruth.csv --out OUT --force"
   "simulate paper-seq4|-q simulate --preset paper-seq4 --seed 2 --out OUT --force"
   "run paper-seq4|-q run TAG-seq4 --out OUT --force"
+  "run paper-seq4, plain|-q run TAG-seq4 --config $work/plain.json --out OUT --force"
   "calib-check|-q calib-check TAG-run"
 )
 

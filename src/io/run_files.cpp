@@ -35,6 +35,8 @@ struct Field {
   std::int64_t int64() const { return r.get_int64(col); }
   int integer() const { return r.get_int(col); }
   std::string text() const { return r.get_string(col); }
+  /// An optional column the file lacks (col == npos) is the empty string.
+  std::string text_or_empty() const { return col == std::string::npos ? std::string() : r.get_string(col); }
   /// Normalises q after checking it is unit within `tol` (an error at this column: the last one of q).
   /// Always normalised, as the readers did before this table (eval's outputs keep their bytes): a written
   /// quaternion reads back to within an ulp or two.
@@ -172,7 +174,7 @@ const Table<ReprojectionRow, eval::DetectionPose>& reprojection_table() {
                  [](const Field& f, eval::DetectionPose& r, int) { r.nis = f.number_or_nan(); }, 0, true});
     // Which part of the detection updated the filter (gate_mode split, symmetric objects); optional.
     t.push_back({"used", [](CsvWriter& w, const ReprojectionRow& r, int) { w.add(ekf::to_string(r.outcome.used)); },
-                 [](const Field& f, eval::DetectionPose& r, int) { r.used = f.text(); }, 0, true});
+                 [](const Field& f, eval::DetectionPose& r, int) { r.used = f.text_or_empty(); }, 0, true});
     return t;
   }();
   return t;

@@ -821,7 +821,7 @@ TEST_CASE("a dataset that declares no objects runs on the ids of its detections,
                                ids.size(), fmt::join(ids, ", "))) == 1);
   for (const auto& w : ref.warnings) CHECK(w.find("declares no objects") == std::string::npos);
   // Declared objects that miss one of the detected ids: refused.
-  d.manifest.objects.push_back({*ids.begin(), "x", false});
+  d.manifest.objects.push_back({*ids.begin(), "x", false, "", -1, {}});
   CHECK_THROWS_WITH(app::run_dataset(d, "sim", {}), Catch::Contains("detection of unknown object id"));
 }
 

@@ -152,6 +152,7 @@ TEST_CASE("run files: write then read gives the rows back", "[io][run_files]") {
       r.outcome.has_T_W_I = i % 5 != 0;
       r.outcome.T_W_I = Pose(random_unit(g), random_vec(g));
       r.outcome.nis = i % 3 == 0 ? std::nan("") : u(g) * 10;
+      r.outcome.used = static_cast<ekf::ResidualPart>(i % 4);
     }
     write_reprojection_csv(tmp / "reprojection.csv", rows);
     const auto back = read_reprojection_csv(tmp / "reprojection.csv");
@@ -160,6 +161,7 @@ TEST_CASE("run files: write then read gives the rows back", "[io][run_files]") {
       CHECK(back[i].t_ns == rows[i].t_ns);
       CHECK(back[i].object_id == rows[i].object_id);
       CHECK(back[i].status == ekf::to_string(rows[i].outcome.status));
+      CHECK(back[i].used == ekf::to_string(rows[i].outcome.used));
       if (std::isnan(rows[i].outcome.nis))
         CHECK(std::isnan(back[i].nis));
       else
@@ -241,6 +243,7 @@ TEST_CASE("run files: readers name the file, line and column of what is wrong", 
     CHECK(std::isnan(rows[0].nis));
     CHECK(std::isnan(rows[0].T_W_I.p.x()));
     CHECK(rows[1].T_W_I.p == Eigen::Vector3d(1, 2, 3));
+    CHECK(rows[1].used.empty());  // a file written before the column existed
     const auto g = tmp.write("r2.csv", "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,nis\n5,1,1,2,3,0,0,0,1,1\n");
     const InputError e = test::expect_input_error([&] { read_reprojection_csv(g); });
     CHECK(e.context().line == 1);
