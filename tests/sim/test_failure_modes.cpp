@@ -7,21 +7,17 @@
 #include "roe/core/error.hpp"
 #include "roe/math/so3.hpp"
 #include "roe/sim/detection_model.hpp"
+#include "detection_support.hpp"
 
 using namespace roe;
 using namespace roe::sim;
+using roe::sim::test::kCam;
 
 namespace {
 constexpr double kDeg = M_PI / 180.0;
-const PinholeCamera kCam{640, 480, 919.806, 920.129, 319.909, 238.775};
 
 DetectionNoiseConfig white_camera_frame() {
-  DetectionNoiseConfig d;
-  d.correlation_time_s = 0.0;
-  d.outlier_prob = 0.0;
-  d.symmetric_flip_prob = 0.0;
-  d.blur_rate_threshold_deg_s = 0.0;
-  d.blur_frame_prob = 0.0;
+  DetectionNoiseConfig d = roe::sim::test::gaussian_only();
   d.translation_frame = "camera";
   d.write_sigmas = true;
   return d;
