@@ -170,10 +170,6 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
                                   opt.anchor_id, det_file),
                       {det_file});
   }
-  if (opt.use_detection_sigmas &&
-      std::none_of(dets.begin(), dets.end(), [](const Detection& d) { return d.sigma.has_value(); }))
-    out.warnings.push_back(det_file +
-                           " has no sigma columns: use_detection_sigmas falls back to the fixed σ");
 
   // Extrinsics prior.
   Pose T_I_C;
@@ -304,6 +300,21 @@ json health_json(const ekf::RunHealth& h, const ekf::HealthLimits& l, Timestamp 
             {"max_nis_median_ratio", l.max_nis_median_ratio}}}};
 }
 
+// Where the estimate was declared lost and re-locked (FilterOptions::relock_after_s).
+json relocks_json(const ekf::FilterRunSummary& s) {
+  const auto v3 = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
+  json a = json::array();
+  for (const auto& e : s.relocks)
+    a.push_back({{"t_s", to_seconds(e.t_ns - s.t_first_ns)},
+                 {"refused_since_s", to_seconds(e.what.since_ns - s.t_first_ns)},
+                 {"offset", v3(e.what.offset)},
+                 {"drift_per_s", v3(e.what.drift_per_s)},
+                 {"residual_sigma", e.what.residual_sigma},
+                 {"detections", e.what.detections},
+                 {"objects", e.what.objects}});
+  return a;
+}
+
 // The initial state: the extrinsics prior, the init window and where the gyro bias came from.
 json init_json(const ekf::FilterRunSummary& s, const Pose& T_I_C_prior) {
   const auto v3 = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
@@ -421,6 +432,11 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
         {"detections", counts_json(r)}}},
       {"nis", nis_json(r.health.nis)},
       {"health", health_json(r.health, config.health, r.summary.t_first_ns)},
+      {"relocks", relocks_json(r.summary)},
+      {"detection_sigmas",
+       {{"present", r.summary.detection_sigmas_present},
+        {"used", config.filter.use_detection_sigmas && r.summary.detection_sigmas_present},
+        {"final_scale", r.summary.detection_sigma_scale}}},
       {"init", init_json(r.summary, r.prior_T_I_C)},
       {"imu_noise", io::imu_noise_to_json(r.imu_noise)},
       {"final", {{"T_I_C", io::pose_to_json(r.summary.final_T_I_C)}}},

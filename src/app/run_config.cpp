@@ -92,6 +92,7 @@ const std::vector<Field<ekf::FilterOptions>>& filter_fields() {
       field("meas_sigma_ray_m", &O::meas_sigma_ray_m, &any_finite),
       field("meas_sigma_ray_per_depth", &O::meas_sigma_ray_per_depth, &non_negative),
       field<O, bool>("use_detection_sigmas", &O::use_detection_sigmas),
+      field<O, bool>("adapt_detection_sigma_scale", &O::adapt_detection_sigma_scale),
       field("min_score", &O::min_score, &non_negative),
       field<O, bool>("chi2_gate", &O::chi2_gate),
       field<O, double>("chi2_confidence", &O::chi2_confidence,
@@ -104,6 +105,9 @@ const std::vector<Field<ekf::FilterOptions>>& filter_fields() {
                     [](const int& v) -> const char* {
                       return v >= -1 ? nullptr : "must be an object id >= 0, or -1 for the first object seen";
                     }),
+      field("relock_after_s", &O::relock_after_s, &non_negative),
+      field<O, int>("relock_min_detections", &O::relock_min_detections,
+                    [](const int& v) -> const char* { return v >= 3 ? nullptr : "must be >= 3"; }),
       enum_field("anchor_gauge", &O::anchor_gauge, &ekf::parse_anchor_gauge, &ekf::to_string,
                  "must be \"position\" (paper), \"position_yaw\" or \"pose\""),
       field<O, bool>("require_anchor", &O::require_anchor),
@@ -192,6 +196,10 @@ ekf::FilterOptions recommended_filter_options() {
   o.meas_sigma_ray_per_depth = 0.1;
   o.init_gyro_bias_from_rest = true;  // falls back to init_gyro_bias (with a warning) when the IMU moves
   o.imu_noise_scale = 4.0;
+  o.use_detection_sigmas = true;         // the detector's own σ where detections.csv has them,
+  o.adapt_detection_sigma_scale = true;  // trusted up to one scale learned online
+  o.gate_mode = ekf::GateMode::kSplit;   // a wrong rotation does not throw the position away
+  o.relock_after_s = 0.5;  // a drifted estimate is re-locked to the refused detections that agree
   return o;
 }
 

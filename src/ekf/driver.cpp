@@ -110,7 +110,8 @@ void tally(const FrameResult& r, int anchor_id, FilterRunSummary& s) {
     no_main += d.status == DetectionStatus::kRejectedNoMain;
   }
   if (anchor_pending) s.no_main_anchor_pending += no_main;
-  if (r.n_inliers > 0) s.update_times.push_back(r.t_ns);
+  if (r.n_inliers > 0 && r.position_used) s.update_times.push_back(r.t_ns);
+  if (r.relock) s.relocks.push_back({r.t_ns, *r.relock});
 }
 
 }  // namespace
@@ -192,6 +193,9 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
   filter.finish_recording();
   summary.updates = filter.n_updates();
   summary.final_T_I_C = filter.T_I_C();
+  summary.detection_sigma_scale = filter.detection_sigma_scale();
+  for (const auto& im : images)
+    for (const auto& d : im.detections) summary.detection_sigmas_present |= d.sigma.has_value();
   for (const auto& o : filter.objects()) summary.final_T_O_W[o.id] = o.T_O_W;
   return summary;
 }

@@ -93,12 +93,17 @@ std::string to_string(DetectionStatus s) {
 }
 
 Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const Pose& T_I_C_prior)
-    : opt_(options), noise_(noise), T_I_C_(T_I_C_prior) {
+    : opt_(options),
+      noise_(noise),
+      T_I_C_(T_I_C_prior),
+      lost_position_(options.relock_after_s, options.relock_min_detections, options.init_gate_p_m) {
   ROE_CHECK(opt_.chi2_confidence > 0.0 && opt_.chi2_confidence < 1.0, "chi2_confidence must be in (0, 1)");
   gate_ = chi2_quantile(opt_.chi2_confidence, 6.0);
   gate3_ = chi2_quantile(opt_.chi2_confidence, 3.0);
   gate5_ = chi2_quantile(opt_.chi2_confidence, 5.0);
   gate2_ = chi2_quantile(opt_.chi2_confidence, 2.0);
+  chi2_median6_ = chi2_quantile(0.5, 6.0);
+  chi2_median5_ = chi2_quantile(0.5, 5.0);
   if (opt_.estimate_extrinsics) {
     extr_offset_ = kCore;
     n_ = kCore + 6;
@@ -585,8 +590,9 @@ Mat6 Filter::measurement_covariance(const Detection& d, bool object_frame) const
   const bool per_detection = opt_.use_detection_sigmas && d.sigma.has_value();
   if (per_detection) {
     // Camera-frame σ of the detection, mapped through the inversion when the object frame is wanted.
-    if (object_frame) return detection_covariance_in_residual_frame(d.T_C_O, *d.sigma);
-    return Mat6(d.sigma->cwiseProduct(*d.sigma).asDiagonal());
+    const Vector6d var = sigma_var_scale_ * d.sigma->cwiseProduct(*d.sigma);
+    if (object_frame) return detection_covariance_in_residual_frame(d.T_C_O, Mat6(var.asDiagonal()));
+    return Mat6(var.asDiagonal());
   }
   const double sr = opt_.meas_sigma_rot_deg * math::kRadPerDeg;
   if (!(opt_.meas_sigma_in_camera || opt_.residual_frame == ResidualFrame::kCamera)) {
@@ -803,6 +809,9 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     return res;
   }
 
+  relock_lost_position(res);
+  ws_scale_.clear();
+
   // Residuals, H and the per-object gate.
   sync_cross_covariance();
   blocks_.clear();
@@ -858,6 +867,8 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
                         when(), dets[b.det].object_id));
       double nis = 0.0;
       const ResidualPart used = gate(b, ldlt, nis);
+      if (opt_.adapt_detection_sigma_scale && opt_.use_detection_sigmas && dets[b.det].sigma && std::isfinite(nis))
+        ws_scale_.push_back(nis * sigma_var_scale_ / (b.m == 6 ? chi2_median6_ : chi2_median5_));
       if (b.r.allFinite() && !std::isfinite(nis))
         throw NumericError(
             fmt::format("filter failed at {}: non-finite NIS for object {}", when(), dets[b.det].object_id));
@@ -935,7 +946,74 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     res.detections[i].used = ResidualPart::kBoth;
   }
   implied();
+  observe_lockout(dets, res);
+  learn_sigma_scale(ws_scale_);
   return res;
+}
+
+void Filter::learn_sigma_scale(const std::vector<double>& frame_samples) {
+  for (double x : frame_samples) {
+    if (sigma_scale_samples_.size() < static_cast<std::size_t>(kSigmaScaleWindow)) {
+      sigma_scale_samples_.push_back(x);
+    } else {
+      sigma_scale_samples_[sigma_scale_next_] = x;
+      sigma_scale_next_ = (sigma_scale_next_ + 1) % kSigmaScaleWindow;
+    }
+  }
+  // Only from a window of some size on: a median of few detections is noise.
+  if (frame_samples.empty() || sigma_scale_samples_.size() < kSigmaScaleWindow / 3) return;
+  std::vector<double>& v = ws_scale_sorted_;
+  v = sigma_scale_samples_;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  // Bounded: a factor 8 on σ either way (64 on the variance) covers any detector worth fusing.
+  sigma_var_scale_ = std::clamp(v[v.size() / 2], 1.0 / 64.0, 64.0);
+}
+
+namespace {
+bool uses_position(ResidualPart p) { return p == ResidualPart::kPosition || p == ResidualPart::kBoth; }
+}  // namespace
+
+void Filter::relock_lost_position(FrameResult& res) {
+  if (!lost_position_.enabled()) return;
+  // The inflation is process noise added at this instant. The smoother sees it as part of the open
+  // propagation segment's Q (P_cc at the segment's end minus Φ P_a Φᵀ): without IMU steps since the last
+  // recorded node there is no such segment, and the decision waits for the next image.
+  if (rec_ != nullptr && !rec_->nodes.empty() && rec_->steps.size() == rec_->nodes.back().steps) return;
+  res.relock = lost_position_.check(t_ns_);
+  if (!res.relock) return;
+  // The observed offset (and its scatter) for the position; for the velocity the drift of the offset, or
+  // the offset spread over the time the position was refused, whichever the data say more of. Only the
+  // core block changes: P_cc is always current and the pending cross-covariance transition is unaffected
+  // by noise added now.
+  const Relock& r = *res.relock;
+  const double span = std::max(to_seconds(t_ns_ - r.since_ns), opt_.relock_after_s);
+  P_.block<3, 3>(kP, kP).diagonal().array() += r.offset.squaredNorm() + r.residual_sigma * r.residual_sigma;
+  P_.block<3, 3>(kV, kV).diagonal().array() += r.drift_per_s.squaredNorm() + r.offset.squaredNorm() / (span * span);
+  lost_position_.accepted(t_ns_);
+}
+
+void Filter::observe_lockout(const std::vector<Detection>& dets, FrameResult& res) {
+  bool position = false;
+  for (const auto& d : res.detections) {
+    position |= d.status == DetectionStatus::kInitialized;
+    res.position_used |= d.status == DetectionStatus::kAccepted && uses_position(d.used);
+  }
+  if (!lost_position_.enabled()) return;
+  if (position || res.position_used) {
+    lost_position_.accepted(t_ns_);
+    return;
+  }
+  // Offsets of the refused detections' implied camera position from the estimate, from the detected
+  // translation alone: p_W_C = p_W_O − R̂_W_C t_C_O (a flipped or noisy detected rotation does not move it).
+  const Mat3 R_W_C = x_.q_W_I.toRotationMatrix() * T_I_C_.R();
+  const Vec3 p_W_C = x_.p_W_I + x_.q_W_I * T_I_C_.p;
+  for (std::size_t i = 0; i < dets.size(); ++i) {
+    const DetectionOutcome& d = res.detections[i];
+    const bool refused = d.status == DetectionStatus::kRejectedChi2 || d.status == DetectionStatus::kAccepted;
+    if (!refused || !d.has_T_W_I) continue;
+    const Pose T_W_O = object(d.object_id)->T_O_W.inverse();
+    lost_position_.refused(t_ns_, d.object_id, T_W_O.p - R_W_C * dets[i].T_C_O.p - p_W_C);
+  }
 }
 
 bool Filter::confirm_first_sight(int id, const Pose& z) {

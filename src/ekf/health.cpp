@@ -63,6 +63,13 @@ std::vector<std::string> run_warnings(const FilterRunSummary& s, const FilterOpt
                           s.no_main_anchor_pending)
             : std::string()));
   if (s.updates == 0) out.push_back("no update was made: the trajectory is IMU dead reckoning");
+  // A re-lock repairs the estimate from then on; before it the estimate was wrong (and the health figures
+  // count that stretch as dead reckoning when it was the position that was lost).
+  for (const auto& e : s.relocks)
+    out.push_back(fmt::format("the position estimate was lost from {} (every detection refused; {} detections of "
+                              "{} object(s) agreed on an offset of {:.3g} m) and was re-locked at {}",
+                              seconds_at(e.what.since_ns, s.t_first_ns), e.what.detections, e.what.objects,
+                              e.what.offset.norm(), seconds_at(e.t_ns, s.t_first_ns)));
   // A refused init_gyro_bias_from_rest is not a warning: the default asks for it and a handheld recording
   // starts moving; run.json's init.gyro_bias_from / gyro_bias_rest_refused say what happened and why.
   return out;

@@ -69,8 +69,19 @@ struct FilterRunSummary {
   /// initialisation (init_min_detections): the anchor was there, just not usable yet.
   std::size_t no_main_anchor_pending = 0;
   std::vector<double> nis;                ///< every finite NIS (6 dof), in time order
-  std::vector<Timestamp> update_times;    ///< images with an accepted (stacked) update
+  /// Images whose accepted update used a detection's position (with gate_mode split an update of
+  /// rotations alone does not count: it does not bound the position's drift).
+  std::vector<Timestamp> update_times;
+  /// Where the position estimate was declared lost and re-locked (FilterOptions::relock_after_s).
+  struct RelockEvent {
+    Timestamp t_ns = 0;
+    Relock what;
+  };
+  std::vector<RelockEvent> relocks;
   Pose final_T_I_C;                       ///< the filter's extrinsics at the end
+  bool detection_sigmas_present = false;  ///< some detection carries its own σ
+  /// The factor on the per-detection σ at the end (adapt_detection_sigma_scale; 1 otherwise).
+  double detection_sigma_scale = 1.0;
   std::map<int, Pose> final_T_O_W;        ///< the filter's object-worlds at the end
 };
 

@@ -37,8 +37,10 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -46,6 +48,7 @@
 #include "roe/ekf/imu.hpp"
 #include "roe/ekf/measurement.hpp"
 #include "roe/ekf/options.hpp"
+#include "roe/ekf/relock.hpp"
 #include "roe/ekf/smoother.hpp"
 #include "roe/ekf/state.hpp"
 #include "roe/ekf/symmetry.hpp"
@@ -82,6 +85,12 @@ struct FrameResult {
   Timestamp t_ns = 0;
   std::vector<DetectionOutcome> detections;  ///< in the order given to update()
   int n_inliers = 0;                         ///< detections used in the stacked update
+  /// The update used the position part of at least one detection: the estimate's position is supported
+  /// by this image (run health; an update with rotations only does not bound the position's drift).
+  bool position_used = false;
+  /// Set when, before this image's gate, the position estimate was declared lost and its covariance
+  /// inflated (FilterOptions::relock_after_s, relock.hpp).
+  std::optional<Relock> relock;
 };
 
 class Filter {
@@ -137,6 +146,8 @@ class Filter {
   const Eigen::MatrixXd& covariance();
   const FilterOptions& options() const { return opt_; }
   std::size_t n_updates() const { return n_updates_; }
+  /// The factor the per-detection σ are multiplied with (1 unless adapt_detection_sigma_scale).
+  double detection_sigma_scale() const { return std::sqrt(sigma_var_scale_); }
 
   /// From now on, records into `rec` what the RTS smoother needs (smoother.hpp): call before
   /// initialize(), and finish_recording() after the last propagate(). nullptr stops recording.
@@ -204,6 +215,10 @@ class Filter {
   void initialize_object(int id, const Pose& z, const Mat6& R, bool anchor);
   /// Records a first-sight candidate; true when init_min_detections consecutive candidates agree.
   bool confirm_first_sight(int id, const Pose& z);
+  /// Lock-out: inflates the position and velocity covariance when the monitor declares the position lost
+  /// (before the gate), and feeds it this image's outcomes (after the update).
+  void relock_lost_position(FrameResult& res);
+  void observe_lockout(const std::vector<Detection>& dets, FrameResult& res);
   void check_state(const char* where, bool core_only = false) const;
   void check_covariance(bool full, const char* where);
   std::string when() const;
@@ -240,10 +255,20 @@ class Filter {
     int count = 0;
   };
   std::vector<std::pair<int, Pending>> pending_;
+  LockoutMonitor lost_position_;
+  // Online scale of the per-detection σ (adapt_detection_sigma_scale): variance scale and the last
+  // detections' NIS · k / χ²_m median, a ring of kSigmaScaleWindow.
+  static constexpr int kSigmaScaleWindow = 150;
+  double sigma_var_scale_ = 1.0;
+  std::vector<double> sigma_scale_samples_;
+  std::size_t sigma_scale_next_ = 0;
+  void learn_sigma_scale(const std::vector<double>& frame_samples);
   double gate_ = 0.0;   // χ²₆ quantile of chi2_confidence
   double gate3_ = 0.0;  // χ²₃ quantile (split gate, per part)
   double gate5_ = 0.0;  // χ²₅ (joint gate of a continuous-symmetry object)
   double gate2_ = 0.0;  // χ²₂ (its 2-row rotation part, split gate)
+  double chi2_median6_ = 0.0, chi2_median5_ = 0.0;  // χ² medians (the σ scale's reference)
+  std::vector<double> ws_scale_, ws_scale_sorted_;  // this image's σ-scale samples; a sorting copy
   std::map<int, ObjectSymmetry> symmetries_;
   std::size_t n_updates_ = 0;
   FilterRecording* rec_ = nullptr;

@@ -82,6 +82,12 @@ struct FilterOptions {
   /// Use the per-detection sigma columns of detections.csv (camera-frame σ of T_C_O, mapped into the
   /// T_O_C residual frame) where present; the fixed σ above otherwise.
   bool use_detection_sigmas = false;
+  /// Scale the per-detection σ by one factor learned online (docs/filter.md §14): the median over the last
+  /// detections that carried σ of NIS · k / χ²_m median (k the variance scale they were gated with) is
+  /// the variance scale that makes them consistent. Networks' predicted σ are often right in shape and
+  /// off in scale; an overconfident σ makes the filter overconfident, and its gate then refuses the
+  /// correct detections. The median ignores the gross failures (up to half of them).
+  bool adapt_detection_sigma_scale = false;
   /// Detections with a finite score below this are ignored (status rejected_score). 0 keeps all.
   double min_score = 0.0;
 
@@ -89,6 +95,15 @@ struct FilterOptions {
   bool chi2_gate = true;
   double chi2_confidence = 0.95;  ///< gate = χ²₆ quantile at this probability (split: χ²₃ per part)
   GateMode gate_mode = GateMode::kJoint;
+
+  // --- Re-lock after a lock-out (relock.hpp, docs/filter.md §13) ---
+  /// When every detection's position has been refused by the gate for at least this long while the refused
+  /// detections agree on where the camera is, the position estimate is declared lost and the covariance of
+  /// the position and velocity inflated by the observed offset and drift, so that the next detections pull
+  /// it back. 0: never (the paper: a gate that, once the estimate has drifted, refuses every later detection).
+  double relock_after_s = 0.0;
+  /// Refused detections needed for that decision (at least 3).
+  int relock_min_detections = 6;
 
   // --- Anchor (main object) ---
   /// Object id of the anchor; −1 = chosen by the rule of choose_anchor (images.hpp): among the objects
