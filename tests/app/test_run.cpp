@@ -104,13 +104,16 @@ TEST_CASE("roe run writes the files of DESIGN §4", "[app][run]") {
   CHECK(header == "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,status,nis,used");
   while (std::getline(rp, row)) {
     ++n_rp;
-    // used: the joint gate (default) uses an accepted or initialising detection whole, nothing else.
+    // used: the split gate (default) uses one part or both of an accepted detection, an initialising one
+    // whole, nothing of the others.
     const std::size_t c_used = row.rfind(','), c_nis = row.rfind(',', c_used - 1);
     const std::size_t c_status = row.rfind(',', c_nis - 1);
     const std::string status = row.substr(c_status + 1, c_nis - c_status - 1);
     const std::string used = row.substr(c_used + 1);
-    const bool whole = status == "accepted" || status == "initialized";
-    CHECK(used == (whole ? "both" : "none"));
+    if (status == "accepted")
+      CHECK((used == "both" || used == "position" || used == "rotation"));
+    else
+      CHECK(used == (status == "initialized" ? "both" : "none"));
   }
   CHECK(n_rp == d.detections.at("sim").size());
   // run.json echoes the effective config and counts.
@@ -208,7 +211,8 @@ TEST_CASE("run.json's detection counts and NIS statistics agree with the reproje
   std::size_t imu_rows = 0;
   rewrite(ds / "mav0" / "imu0" / "data.csv", [&](std::size_t, std::string&) { return ++imu_rows; });
   rewrite(ds / "mav0" / "imu0" / "data.csv", [&](std::size_t i, std::string&) { return i + 200 <= imu_rows; });
-  std::ofstream(out.string() + ".json") << R"({"filter": {"min_score": 0.5}})";
+  // The joint gate: every NIS above the χ²₆ gate is a rejection (the split gate keeps parts of some).
+  std::ofstream(out.string() + ".json") << R"({"filter": {"min_score": 0.5, "gate_mode": "joint"}})";
   app::RunOptions ro;
   ro.config_file = out.string() + ".json";
   const auto r = app::run(ds, out, ro);
