@@ -315,6 +315,11 @@ ObjectSymmetry ycbv_symmetry(int id) {
   return s;
 }
 
+ObjectSymmetry simulated_symmetry(int id) {
+  const ObjectSymmetry s = ycbv_symmetry(id);
+  return s.empty() ? ycbv_symmetry(16) : s;  // as the wood block
+}
+
 Pose flip_transform(const ObjectSymmetry& s, double u, double angle) {
   // Members: the discrete transforms, and with a continuous axis the identity first.
   const bool cont = s.continuous.has_value();

@@ -79,8 +79,7 @@ std::map<int, ObjectSymmetry> symmetry_map(const std::vector<int>& ids, const st
   std::map<int, ObjectSymmetry> m;
   for (int id : ids) {
     if (std::find(symmetric_ids.begin(), symmetric_ids.end(), id) == symmetric_ids.end()) continue;
-    ObjectSymmetry s = ycbv_symmetry(id);
-    m[id] = s.empty() ? ycbv_symmetry(16) : s;  // non-YCB-V ids listed: two-fold about z, as the wood block
+    m[id] = simulated_symmetry(id);
   }
   return m;
 }

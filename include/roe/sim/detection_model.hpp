@@ -215,6 +215,10 @@ std::string ycbv_name(int id);
 /// axis); all others none (empty).
 ObjectSymmetry ycbv_symmetry(int id);
 
+/// The symmetry the simulator flips an object listed as symmetric by: ycbv_symmetry(id), or for an id
+/// without one (not a symmetric YCB-V class) the two-fold turn about the model z axis.
+ObjectSymmetry simulated_symmetry(int id);
+
 /// The symmetry transform S of a flip (4) of an object with symmetry `s` (not empty): `u` uniform in
 /// [0, 1) picks the discrete member (with a continuous axis too, the identity counts as a member),
 /// `angle` is the turn about the continuous axis. T_C_O · S is the equivalent pose the detector reports.
