@@ -295,9 +295,11 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
                    dets.end());
       calib::TimeOffsetOptions to = opt.time_offset;
       to.centre_s = in.declared_time_offset_s;  // search around what the dataset declares
-      to.symmetric_ids.clear();                 // left out (docs/calib-check.md §3)
-      for (const auto& o : man.objects)
+      to.symmetric_ids.clear();  // left out unless described by a models_info (docs/calib-check.md §3)
+      for (const auto& o : man.objects) {
         if (o.symmetric) to.symmetric_ids.push_back(o.id);
+        if (!o.symmetry.empty()) to.symmetries[o.id] = in.symmetries[o.id] = o.symmetry;
+      }
       in.time_offset = calib::estimate_camera_time_offset(imu, states.final_gyro_bias, in.extrinsics.back().T_I_C.q,
                                                           dets, to);
     } else {

@@ -10,6 +10,7 @@
 #include "roe/core/error.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/json.hpp"
+#include "roe/io/models_info.hpp"
 #include "roe/core/log.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
@@ -434,6 +435,10 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
   return run;
 }
 
+namespace {
+constexpr const char* kModelsInfo = "models_info.json";  ///< --models-info: next to roe.json
+}  // namespace
+
 SimulateResult simulate(const SimulateOptions& opt, const std::filesystem::path& out) {
   io::OutputDir dir(out, opt.force, {opt.from_groundtruth, opt.config_file});  // refused before any work
   json effective;
@@ -441,6 +446,15 @@ SimulateResult simulate(const SimulateOptions& opt, const std::filesystem::path&
   log::info("simulated {}: seed {}, {} IMU samples, {} camera frames, {} detections of {} objects",
             run.dataset.manifest.name, opt.seed, run.dataset.imu.size(), run.dataset.frames.size(),
             run.stats.detections, run.dataset.manifest.objects.size());
+  std::map<int, ObjectSymmetry> symmetries;
+  if (opt.models_info)
+    for (auto& o : run.dataset.manifest.objects) {
+      if (!o.symmetric) continue;
+      o.models_info = kModelsInfo;
+      o.symmetry = symmetries[o.id] = sim::simulated_symmetry(o.id);
+    }
+  // The file first: writing roe.json checks what it points at.
+  if (!symmetries.empty()) io::write_models_info(dir.tmp() / kModelsInfo, symmetries);
   io::write_dataset_files(run.dataset, dir.tmp());
   // detections/sim/meta.json: who produced the detections and with which configuration.
   const json meta = {{"producer", std::string("roe simulate ") + roe::kVersion},

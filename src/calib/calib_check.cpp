@@ -7,6 +7,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/ekf/chi2.hpp"
+#include "roe/ekf/symmetry.hpp"
 #include "roe/math/so3.hpp"
 
 namespace roe::calib {
@@ -252,6 +253,11 @@ CheckResult truth_objects(const CalibInput& in, const CalibThresholds& th) {
   const auto ta = in.true_T_W_O.find(anchor->id);
   if (ta == in.true_T_W_O.end())
     return skipped(name, fmt::format("the truth has no pose for the anchor (object {})", anchor->id));
+  const auto anchor_sym = in.symmetries.find(anchor->id);
+  if (anchor_sym != in.symmetries.end() && !anchor_sym->second.empty())
+    return inconclusive(name, fmt::format("the anchor (object {}) is symmetric: poses relative to it are defined "
+                                          "only up to its symmetry",
+                                          anchor->id));
   const Pose T_A_W = *anchor->T_O_W;
   std::vector<std::string> over, missing;
   std::size_t checked = 0, explained = 0;
@@ -266,7 +272,10 @@ CheckResult truth_objects(const CalibInput& in, const CalibThresholds& th) {
     }
     ++checked;
     const Pose est = relative_to_anchor(T_A_W, *o.T_O_W);
-    const Pose tru = ta->second.inverse() * t->second;
+    Pose tru = ta->second.inverse() * t->second;
+    // A symmetric object: the equivalent true pose T_A_O · S nearest the estimate (z = T_O_A).
+    if (const auto s = in.symmetries.find(o.id); s != in.symmetries.end() && !s->second.empty())
+      tru = ekf::nearest_equivalent(est.inverse(), tru.inverse(), s->second).inverse();
     const Vector6d e = math::pose_difference(tru, est);
     const double ep = e.head<3>().norm(), er = e.tail<3>().norm() * kDeg;
     wp = std::max(wp, ep);
@@ -308,7 +317,9 @@ CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) 
   const TimeOffsetEstimate& e = *in.time_offset;
   CheckResult r{name, CheckStatus::kInconclusive, "", {}};
   const std::string left_out =
-      e.symmetric_excluded ? fmt::format(" ({} detections of symmetric objects left out)", e.symmetric_excluded) : "";
+      (e.symmetric_excluded ? fmt::format(" ({} detections of symmetric objects left out)", e.symmetric_excluded) : "") +
+      (e.symmetric_used ? fmt::format(" ({} detections of symmetric objects used through their symmetry)", e.symmetric_used)
+                        : "");
   if (!e.valid) {
     // The cost still falling at the edge of the search, with a likelihood ratio against the
     // declared offset beyond χ²₁: the offset is more than the search away from it.
@@ -350,6 +361,7 @@ CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) 
   r.values = {{"estimate_s", e.offset_s},         {"sigma_s", e.sigma_s},
               {"sigma_curvature_s", e.sigma_curvature_s}, {"sigma_cluster_s", e.sigma_cluster_s},
               {"sigma_jackknife_s", e.sigma_jackknife_s}, {"symmetric_excluded", static_cast<double>(e.symmetric_excluded)},
+              {"symmetric_used", static_cast<double>(e.symmetric_used)},
               {"declared_s", in.declared_time_offset_s}, {"difference_s", d},
               {"limit_s", lim},                   {"z", z},
               {"rms_rate_deg_s", e.rms_rate_deg_s}, {"residual_correlation", e.residual_correlation}};

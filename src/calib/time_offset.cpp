@@ -10,6 +10,7 @@
 #include <optional>
 #include <thread>
 
+#include "roe/ekf/symmetry.hpp"
 #include "roe/math/so3.hpp"
 
 namespace roe::calib {
@@ -129,6 +130,10 @@ Eigen::Quaterniond mean_rotation(const std::vector<Eigen::Quaterniond>& q, const
 
 struct Window {
   std::vector<const Detection*> dets;
+  /// The object's symmetry (null: none described). Each A_i is then replaced by its equivalent nearest
+  /// the window's reference (with a continuous symmetry: turned about the axis to the nearest angle, which
+  /// leaves no residual about the axis to first order).
+  const ObjectSymmetry* sym = nullptr;
   /// The detection the window's mean starts from: the one with the most others within the truncation
   /// angle at the centre of the search (a robust point of the cluster, never an outlier when most
   /// detections agree). Fixed for every candidate offset, so that the cost does not jump when the
@@ -136,8 +141,17 @@ struct Window {
   std::size_t ref = 0;
 };
 
+/// The object orientation A = R_I0_O of a symmetric object turned to its equivalent A · S nearest `ref`
+/// (the filter's choice, ekf::nearest_equivalent, on the rotations: z = A⁻¹, z' = S⁻¹ z).
+Eigen::Quaterniond nearest_to(const Eigen::Quaterniond& ref, const Eigen::Quaterniond& A, const ObjectSymmetry* sym) {
+  if (!sym) return A;
+  const Eigen::Vector3d o = Eigen::Vector3d::Zero();
+  return ekf::nearest_equivalent(Pose(ref.conjugate(), o), Pose(A.conjugate(), o), *sym).q.conjugate();
+}
+
 /// The index of the window's detection with the most others within `truncate_deg` of it at the offset
-/// `shift` (the first such on ties).
+/// `shift` (the first such on ties); a symmetric object's others are compared through their equivalent
+/// nearest it.
 std::size_t robust_start(const GyroRotation& gyro, const Eigen::Quaterniond& q_I_C, const Window& w, Timestamp shift,
                          double truncate_deg) {
   std::vector<Eigen::Quaterniond> A;
@@ -145,7 +159,8 @@ std::size_t robust_start(const GyroRotation& gyro, const Eigen::Quaterniond& q_I
   std::size_t best = 0, most = 0;
   for (std::size_t i = 0; i < A.size(); ++i) {
     std::size_t k = 0;
-    for (std::size_t j = 0; j < A.size(); ++j) k += math::angle_between(A[i], A[j]) * kRadToDeg <= truncate_deg;
+    for (std::size_t j = 0; j < A.size(); ++j)
+      k += math::angle_between(A[i], nearest_to(A[i], A[j], w.sym)) * kRadToDeg <= truncate_deg;
     if (k > most) best = i, most = k;
   }
   return best;
@@ -179,6 +194,8 @@ Cost evaluate(const GyroRotation& gyro, const Eigen::Quaterniond& q_I_C, const s
       tau.push_back(dt_seconds(w.dets.front()->t_ns, d->t_ns));
     }
     const std::size_t n = A.size();
+    if (w.sym)
+      for (std::size_t i = 0; i < n; ++i) A[i] = nearest_to(A[w.ref], A[i], w.sym);
     use.assign(n, 1);
     phi.assign(n, Eigen::Vector3d::Zero());
     // The window's mean orientation: from its robust start, the mean of the detections within the
@@ -259,14 +276,21 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   const Timestamp lo = from_seconds(o.centre_s - o.search_s) - 1, hi = from_seconds(o.centre_s + o.search_s) + 1;
 
   // Windows per object over the detections whose every shifted stamp lies inside the IMU span.
-  // Symmetric objects are left out (docs/calib-check.md §3): their rotation is known only up to a
-  // symmetry the dataset does not describe.
+  // Objects with a described symmetry are used through it; symmetric objects without one are left out
+  // (docs/calib-check.md §3): their rotation is known only up to a symmetry the dataset does not describe.
   std::map<int, std::vector<const Detection*>> per_object;
+  const auto symmetry_of = [&](int id) -> const ObjectSymmetry* {
+    const auto it = o.symmetries.find(id);
+    return it == o.symmetries.end() || it->second.empty() ? nullptr : &it->second;
+  };
   for (const auto& d : detections) {
-    if (std::find(o.symmetric_ids.begin(), o.symmetric_ids.end(), d.object_id) != o.symmetric_ids.end()) {
+    const bool described = symmetry_of(d.object_id) != nullptr;
+    if (!described &&
+        std::find(o.symmetric_ids.begin(), o.symmetric_ids.end(), d.object_id) != o.symmetric_ids.end()) {
       ++e.symmetric_excluded;
       continue;
     }
+    e.symmetric_used += described;
     if (d.t_ns + lo >= gyro.begin() && d.t_ns + hi <= gyro.end()) per_object[d.object_id].push_back(&d);
   }
   std::vector<Window> windows;
@@ -277,6 +301,7 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
     std::size_t i = 0;
     while (i < v.size()) {
       Window w;
+      w.sym = symmetry_of(id);
       const Timestamp start = v[i]->t_ns;
       while (i < v.size() && v[i]->t_ns - start < win) w.dets.push_back(v[i++]);
       if (w.dets.size() < o.min_window) continue;

@@ -46,6 +46,9 @@ RunFn setup(CLI::App& sub) {
   a->objects_opt =
       sub.add_option("--objects", a->objects, "Number of objects for --from-groundtruth (default 3)");
   sub.add_option("--out", a->out, "Output dataset folder (must not exist or be empty, unless --force)");
+  sub.add_flag("--models-info", a->opt.models_info,
+               "Write the symmetric objects' symmetries (the ones the flips use) to models_info.json and point "
+               "roe.json's objects at it");
   return [a]() {
     if (a->list) {
       nlohmann::json j = nlohmann::json::array();

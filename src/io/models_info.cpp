@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "roe/io/output.hpp"
+
 #include <cmath>
 #include <vector>
 
@@ -95,6 +97,34 @@ std::map<int, ObjectSymmetry> models_info_from_json(const json& j, const std::st
 
 std::map<int, ObjectSymmetry> read_models_info(const std::filesystem::path& file) {
   return read_json_file(file, models_info_from_json);
+}
+
+json models_info_to_json(const std::map<int, ObjectSymmetry>& symmetries) {
+  json out = json::object();
+  const auto mm = [](const Eigen::Vector3d& v) { return json::array({v.x() * 1e3, v.y() * 1e3, v.z() * 1e3}); };
+  for (const auto& [id, s] : symmetries) {
+    json e = json::object();
+    json disc = json::array();
+    for (const Pose& S : s.discrete) {
+      const Eigen::Matrix3d R = S.R();
+      json row = json::array();
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) row.push_back(R(r, c));
+        row.push_back(S.p(r) * 1e3);
+      }
+      for (double v : {0.0, 0.0, 0.0, 1.0}) row.push_back(v);
+      disc.push_back(row);
+    }
+    if (!disc.empty()) e["symmetries_discrete"] = disc;
+    if (s.continuous) e["symmetries_continuous"] = json::array({{{"axis", {s.continuous->axis.x(), s.continuous->axis.y(), s.continuous->axis.z()}},
+                                                                  {"offset", mm(s.continuous->offset)}}});
+    out[std::to_string(id)] = e;
+  }
+  return out;
+}
+
+void write_models_info(const std::filesystem::path& file, const std::map<int, ObjectSymmetry>& symmetries) {
+  write_file_atomic(file, dump_json(models_info_to_json(symmetries), 2) + "\n");
 }
 
 }  // namespace roe::io

@@ -135,7 +135,7 @@ bool object_visible(const Pose& T_C_O, const PinholeCamera& cam, const Visibilit
   return rng.uniform() >= miss_probability(T_C_O, cam, vis);
 }
 
-PoetErrorModel::PoetErrorModel(DetectionNoiseConfig config, std::map<int, Symmetry> symmetries,
+PoetErrorModel::PoetErrorModel(DetectionNoiseConfig config, std::map<int, ObjectSymmetry> symmetries,
                                PinholeCamera camera)
     : config_(std::move(config)), symmetries_(std::move(symmetries)), camera_(camera) {}
 
@@ -234,16 +234,18 @@ Detection PoetErrorModel::measure(Timestamp t_ns, int object_id, const Pose& T_C
   Eigen::Vector3d u1, u2, r;
   error_axes(t, c.translation_frame, u1, u2, r);
 
+  // The pose detected before the errors: T_C_O, or an equivalent T_C_O · S of a symmetric object.
   Eigen::Quaterniond q = T_C_O_true.q;
+  Eigen::Vector3d t_seen = t;
   bool flipped = false;
   const auto sym = symmetries_.find(object_id);
-  if (sym != symmetries_.end() && sym->second != Symmetry::kNone && flip_draw < p_flip) {
-    // A symmetry of the object about its model z axis: π (two-fold) or any angle (continuous).
-    const double angle = sym->second == Symmetry::kDiscrete2 ? kPi : flip_angle;
-    q = q * Eigen::Quaterniond(Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()));
+  if (sym != symmetries_.end() && !sym->second.empty() && flip_draw < p_flip) {
+    const Pose S = flip_transform(sym->second, flip_draw / p_flip, flip_angle);
+    q = q * S.q;
+    t_seen = t + T_C_O_true.q * S.p;
     flipped = true;
   }
-  Eigen::Vector3d t_meas = t + s_lat * x(0) * u1 + s_lat * x(1) * u2 + s_ray * x(2) * r;
+  Eigen::Vector3d t_meas = t_seen + s_lat * x(0) * u1 + s_lat * x(1) * u2 + s_ray * x(2) * r;
   q = q * math::exp_quat(s_rot * x.segment<3>(3));
   const bool gross = outlier || frame.blurred;
   if (gross) {
@@ -302,18 +304,37 @@ std::string ycbv_name(int id) {
   return "obj_" + std::to_string(id);
 }
 
-Symmetry ycbv_symmetry(int id) {
-  switch (id) {
-    case 13:
-      return Symmetry::kContinuous;
-    case 16:
-    case 19:
-    case 20:
-    case 21:
-      return Symmetry::kDiscrete2;
-    default:
-      return Symmetry::kNone;
+ObjectSymmetry ycbv_symmetry(int id) {
+  ObjectSymmetry s;
+  if (id == 13) {
+    s.continuous = ContinuousSymmetry{};  // the model z axis through the origin
+  } else if (id == 16 || id == 19 || id == 20 || id == 21) {
+    s.discrete.push_back(Pose(Eigen::Quaterniond(Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitZ())),
+                              Eigen::Vector3d::Zero()));
   }
+  return s;
+}
+
+ObjectSymmetry simulated_symmetry(int id) {
+  const ObjectSymmetry s = ycbv_symmetry(id);
+  return s.empty() ? ycbv_symmetry(16) : s;  // as the wood block
+}
+
+Pose flip_transform(const ObjectSymmetry& s, double u, double angle) {
+  // Members: the discrete transforms, and with a continuous axis the identity first.
+  const bool cont = s.continuous.has_value();
+  const std::size_t n = s.discrete.size() + (cont ? 1 : 0);
+  const std::size_t j = std::min(n - 1, static_cast<std::size_t>(std::max(0.0, u) * static_cast<double>(n)));
+  Pose D;
+  if (!cont) return s.discrete.at(j);
+  if (j > 0) D = s.discrete[j - 1];
+  // S(ψ) = (Exp(ψa), o − Exp(ψa) o), set member-wise: the angle-axis quaternion is unit to rounding, and
+  // keeping its bits keeps the presets' detections as they were before the shared definitions.
+  const ContinuousSymmetry& c = *s.continuous;
+  Pose C;
+  C.q = Eigen::Quaterniond(Eigen::AngleAxisd(angle, c.axis));
+  C.p = c.offset - C.q * c.offset;
+  return j > 0 ? D * C : C;
 }
 
 }  // namespace roe::sim

@@ -75,12 +75,11 @@ void vary(SmoothSignal& s, const VariationConfig& v, Rng& rng) {
   }
 }
 
-std::map<int, Symmetry> symmetry_map(const std::vector<int>& ids, const std::vector<int>& symmetric_ids) {
-  std::map<int, Symmetry> m;
+std::map<int, ObjectSymmetry> symmetry_map(const std::vector<int>& ids, const std::vector<int>& symmetric_ids) {
+  std::map<int, ObjectSymmetry> m;
   for (int id : ids) {
     if (std::find(symmetric_ids.begin(), symmetric_ids.end(), id) == symmetric_ids.end()) continue;
-    const Symmetry s = ycbv_symmetry(id);
-    m[id] = s == Symmetry::kNone ? Symmetry::kDiscrete2 : s;  // non-YCB-V ids listed: two-fold
+    m[id] = simulated_symmetry(id);
   }
   return m;
 }

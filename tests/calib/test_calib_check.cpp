@@ -329,6 +329,44 @@ TEST_CASE("calib-check: truth.objects compares poses relative to the anchor, wha
   }
 }
 
+TEST_CASE("calib-check: truth.objects compares a symmetric object with its equivalent true pose nearest the estimate",
+          "[calib][symmetry]") {
+  // Object 2 two-fold about an axis through an offset point, object 3 a body of revolution about a tilted
+  // axis: the filter may hold either as T_A_O · S (it started from a flipped or turned detection). With
+  // their symmetries described the check compares with the nearest equivalent; without, it fails.
+  auto in = good_input();
+  ObjectSymmetry two_fold, spin;
+  const Eigen::Vector3d o(0.01, -0.02, 0.03);
+  const Eigen::Quaterniond qf = math::exp_quat(M_PI * Eigen::Vector3d::UnitZ());
+  two_fold.discrete = {Pose(qf, o - qf * o)};
+  ContinuousSymmetry c;
+  c.axis = Eigen::Vector3d(0.3, -0.2, 1.0).normalized();
+  c.offset = Eigen::Vector3d(0.0, 0.01, -0.02);
+  spin.continuous = c;
+  const Eigen::Quaterniond qs = math::exp_quat(2.1 * c.axis);
+  const Pose S3(qs, c.offset - qs * c.offset);
+  // T_O_W of an estimate held as T_A_O · S: T_W_O · S, i.e. T_O_W ← S⁻¹ · T_O_W.
+  in.objects[1].T_O_W = two_fold.discrete[0].inverse() * *in.objects[1].T_O_W;
+  in.objects[2].T_O_W = S3.inverse() * *in.objects[2].T_O_W;
+  auto r = get(calib::check_calibration(in), "truth.objects");
+  CHECK(r.status == CheckStatus::kFail);
+  CHECK(value(r, "error_rot_max_deg") > 100.0);
+  in.symmetries = {{2, two_fold}, {3, spin}};
+  r = get(calib::check_calibration(in), "truth.objects");
+  CHECK(r.status == CheckStatus::kPass);
+  CHECK(value(r, "error_p_max_m") < 1e-9);
+  CHECK(value(r, "error_rot_max_deg") < 1e-6);
+  // A real error stays an error: 6 cm on the symmetric object fails.
+  auto moved = in;
+  moved.objects[2].T_O_W = Pose(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.06, 0, 0)) * *moved.objects[2].T_O_W;
+  CHECK(get(calib::check_calibration(moved), "truth.objects").status == CheckStatus::kFail);
+  // A symmetric anchor leaves the anchor-relative poses defined only up to its symmetry.
+  in.symmetries[1] = two_fold;
+  r = get(calib::check_calibration(in), "truth.objects");
+  CHECK(r.status == CheckStatus::kInconclusive);
+  CHECK_THAT(r.message, Catch::Contains("anchor (object 1) is symmetric"));
+}
+
 TEST_CASE("calib-check: truth.extrinsics fails beyond the limits and the sigma", "[calib]") {
   auto in = good_input();
   in.extrinsics.back().T_I_C.p.z() += 0.011;

@@ -35,6 +35,9 @@ struct RigExtras {
   /// Object 2 is two-fold symmetric about its z axis, and this fraction of its detections return the
   /// other of its two equivalent rotations (PoET's symmetric flips, sim::PoetErrorModel).
   double flip_prob = 0.0;
+  /// Object 1 is a body of revolution about its z axis: every detection returns it turned about that axis
+  /// by a uniform angle (PoET on a bowl: the rotation about the axis is arbitrary).
+  bool spin_1 = false;
   /// From this time on, for 2 s, the rig turns at full amplitude (a raised-cosine bump from `amp` to
   /// 1), and its detections show the camera `burst_shift_s` later than the others; < 0: no burst.
   double burst_from_s = -1.0;
@@ -92,6 +95,7 @@ Rig make_rig(double offset_s, double duration_s, double amp, double noise_deg, d
         q_C_O = q_C_O * math::exp_quat(err[o] + Eigen::Vector3d(gw(rng), gw(rng), gw(rng)));
       if (x.flip_prob > 0 && o == 1 && u(rng) < x.flip_prob)
         q_C_O = q_C_O * Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()));
+      if (x.spin_1 && o == 0) q_C_O = q_C_O * Eigen::Quaterniond(Eigen::AngleAxisd(2 * M_PI * u(rng), Eigen::Vector3d::UnitZ()));
       err[o] = rho * err[o] + std::sqrt(1.0 - rho * rho) * Eigen::Vector3d(g(rng), g(rng), g(rng));
       d.T_C_O = Pose(q_C_O, Eigen::Vector3d(0, 0, 1));
       r.detections.push_back(d);
@@ -342,4 +346,53 @@ TEST_CASE("time offset: the rate of turn is read at the detections' IMU times", 
   CHECK(e.rms_rate_deg_s > 20.0);
   REQUIRE(e.valid);
   CHECK(std::abs(e.offset_s - 5.0) < 1e-3);
+}
+
+TEST_CASE("time offset: symmetric objects with a described symmetry are used through it", "[calib][time][symmetry]") {
+  // Both objects symmetric: object 1 a body of revolution about its z axis (every detection turned about
+  // it by a uniform angle), object 2 two-fold about z (half its detections flipped); 3° errors, 5 %
+  // outliers, a true offset of 20 ms. Left out (symmetric_ids only, as before) there is nothing to
+  // estimate from; described (symmetries, as from models_info.json) every detection is used through the
+  // nearest equivalent (and the reduced residual of the continuous object), and the estimate is as good as
+  // the same rig's without any symmetry: within 4σ on every seed, σ describing the spread.
+  ObjectSymmetry spin, two_fold;
+  spin.continuous = ContinuousSymmetry{};  // the model z axis through the origin
+  two_fold.discrete = {Pose(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ())), Eigen::Vector3d::Zero())};
+  calib::TimeOffsetOptions left_out, described;
+  left_out.symmetric_ids = described.symmetric_ids = {1, 2};
+  described.symmetries = {{1, spin}, {2, two_fold}};
+  const double truth = 0.02;
+  double z2 = 0.0, ratio = 0.0;
+  const int seeds = 6;
+  for (int s = 1; s <= seeds; ++s) {
+    RigExtras sym;
+    sym.spin_1 = true;
+    sym.flip_prob = 0.5;
+    const auto seed = static_cast<std::uint32_t>(500 + s);
+    const Rig r = make_rig(truth, 30.0, 1.0, 3.0, 0.05, Eigen::Vector3d::Zero(), seed, 0.0, 0.0, sym);
+    const auto out = calib::estimate_camera_time_offset(r.imu, Eigen::Vector3d::Zero(), r.q_I_C, r.detections, left_out);
+    CHECK(!out.valid);
+    CHECK(out.symmetric_excluded == r.detections.size());
+    const auto e = calib::estimate_camera_time_offset(r.imu, Eigen::Vector3d::Zero(), r.q_I_C, r.detections, described);
+    // The same rig, errors and outliers without symmetries (the spin and flip draws are made after the
+    // errors, so the streams differ after the first symmetric detection: a comparison of σ, not of values).
+    const Rig plain = make_rig(truth, 30.0, 1.0, 3.0, 0.05, Eigen::Vector3d::Zero(), seed);
+    const auto p = calib::estimate_camera_time_offset(plain.imu, Eigen::Vector3d::Zero(), plain.q_I_C, plain.detections);
+    INFO("seed " << s << " estimate " << e.offset_s << " sigma " << e.sigma_s << " " << e.reason << "; without symmetries "
+                 << p.offset_s << " sigma " << p.sigma_s);
+    REQUIRE(e.valid);
+    REQUIRE(p.valid);
+    CHECK(e.symmetric_excluded == 0);
+    CHECK(e.symmetric_used == r.detections.size());
+    CHECK(std::abs(e.offset_s - truth) < 4.0 * e.sigma_s);
+    CHECK(e.sigma_s < 0.005);
+    CHECK(e.rms_residual_deg < 8.0);
+    z2 += std::pow((e.offset_s - truth) / e.sigma_s, 2);
+    ratio += e.sigma_s / p.sigma_s / seeds;
+  }
+  const double rms_z = std::sqrt(z2 / seeds);
+  INFO("RMS normalised error " << rms_z << ", mean sigma ratio to the plain rig " << ratio);
+  CHECK(rms_z > 0.3);
+  CHECK(rms_z < 2.0);
+  CHECK(ratio < 1.5);  // one object of two loses one of its three residual axes
 }

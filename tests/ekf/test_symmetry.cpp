@@ -1,7 +1,8 @@
 // Symmetric objects in the filter (ekf/symmetry.hpp): the nearest equivalent measurement, the
 // continuous-symmetry reduction (numeric Jacobian of the reduced residual through the whole pipeline:
 // alignment, projection, H), invariance of the residual under the symmetry, and a Monte-Carlo NEES/NIS
-// test of one update with the reduced (5) dof.
+// test of one update with the reduced (5) dof (successive updates: test_symmetry_nees.cpp), and numeric
+// Jacobians of the split parts (position rows; rotation rows, 2 after the projection).
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <random>
@@ -9,38 +10,25 @@
 #include "roe/ekf/filter.hpp"
 #include "roe/ekf/symmetry.hpp"
 #include "roe/math/so3.hpp"
+#include "symmetry_support.hpp"
 
 using namespace roe;
 using namespace roe::ekf;
 using math::exp_quat;
+using roe::test::about_z;
+using roe::test::continuous;
+using roe::test::flip_of;
 
 namespace {
 
 std::mt19937_64 rng(2029);
 double U(double a, double b) { return std::uniform_real_distribution<double>(a, b)(rng); }
 
-ContinuousSymmetry about_z(const Vec3& offset = Vec3::Zero()) {
-  ContinuousSymmetry c;
-  c.axis = Vec3(0.2, -0.1, 1.0).normalized();
-  c.offset = offset;
-  return c;
-}
-Pose continuous(const ContinuousSymmetry& c, double psi) {
-  const Eigen::Quaterniond q = exp_quat(psi * c.axis);
-  return Pose(q, c.offset - q * c.offset);
-}
 // 180° about x through (0.01, 0, 0.02): a box-like flip with a translation, as BOP writes them.
 Pose flip() {
   const Eigen::Quaterniond q = exp_quat(Vec3(M_PI, 0, 0));
   const Vec3 o(0.01, 0.0, 0.02);
   return Pose(q, o - q * o);
-}
-
-// The flip of a body of revolution: 180° about an axis ⟂ its symmetry axis, through a point of it (so
-// that the group {S(ψ), flip · S(ψ)} is closed, as for a BOP cylinder).
-Pose flip_of(const ContinuousSymmetry& c) {
-  const Eigen::Quaterniond q = exp_quat(M_PI * c.axis.cross(Vec3::UnitX()).normalized());
-  return Pose(q, c.offset - q * c.offset);
 }
 
 // A started filter with objects 1 (anchor), 2 and 3 initialised, symmetries set for 2 and 3.
@@ -66,6 +54,27 @@ Filter symmetric_filter(ResidualFrame frame, const ObjectSymmetry& s2, const Obj
   f.boxplus(dx);
   f.set_symmetries({{2, s2}, {3, s3}});
   return f;
+}
+
+// −∂r/∂δx of measurement_rows(part) by central differences, r re-evaluated (alignment, projection and
+// row selection included) at every perturbed state.
+Eigen::MatrixXd numeric_H(const Filter& f, int id, const Pose& z, ResidualPart part) {
+  const double eps = 1e-6;
+  Eigen::MatrixXd Hn;
+  for (int i = 0; i < f.dim(); ++i) {
+    Eigen::VectorXd v[2];
+    for (int sgn = 0; sgn < 2; ++sgn) {
+      Filter g = f;
+      Eigen::VectorXd dx = Eigen::VectorXd::Zero(f.dim());
+      dx(i) = sgn == 0 ? eps : -eps;
+      g.boxplus(dx);
+      Eigen::MatrixXd Hg;
+      g.measurement_rows(id, z, part, v[sgn], Hg);
+    }
+    if (i == 0) Hn.resize(v[0].size(), f.dim());
+    Hn.col(i) = -(v[0] - v[1]) / (2 * eps);
+  }
+  return Hn;
 }
 
 }  // namespace
@@ -147,20 +156,7 @@ TEST_CASE("the symmetry-reduced residual: numeric Jacobian through alignment and
         REQUIRE(r.size() == m);
         CHECK(r.norm() < 1e-9);  // the equivalent measurement is found: zero residual
         // r(x) = A(x) (z*(x) ⊟ ẑ(x)) with z*(x) re-chosen at every x: ∂r/∂δx = −H.
-        Eigen::MatrixXd Hn(m, f.dim());
-        const double eps = 1e-6;
-        for (int i = 0; i < f.dim(); ++i) {
-          Eigen::VectorXd v[2];
-          for (int sgn = 0; sgn < 2; ++sgn) {
-            Filter g = f;
-            Eigen::VectorXd dx = Eigen::VectorXd::Zero(f.dim());
-            dx(i) = sgn == 0 ? eps : -eps;
-            g.boxplus(dx);
-            Eigen::MatrixXd Hg;
-            g.measurement_rows(id, z, ResidualPart::kBoth, v[sgn], Hg);
-          }
-          Hn.col(i) = -(v[0] - v[1]) / (2 * eps);
-        }
+        const Eigen::MatrixXd Hn = numeric_H(f, id, z, ResidualPart::kBoth);
         INFO("analytic\n" << H << "\nnumeric\n" << Hn);
         CHECK((H - Hn).cwiseAbs().maxCoeff() < 1e-6);
         // Invariance: another equivalent detection of the same pose (plus noise) gives the same residual.
@@ -250,4 +246,35 @@ TEST_CASE("Monte-Carlo NEES and NIS of updates of a symmetric object with the re
   CHECK(std::abs(nees - n) < 3.0 * std::sqrt(2.0 * n / trials));
   CHECK(std::abs(nis - 5.0) < 3.0 * std::sqrt(2.0 * 5.0 / trials));
   CHECK(nis_plain > 100.0);
+}
+
+TEST_CASE("split parts of the residual, plain and symmetry-reduced: numeric Jacobians", "[ekf][symmetry][jacobian]") {
+  // The split gate updates with the position rows, the rotation rows (3, or 2 after a continuous
+  // symmetry's projection when the reduction is separable) or both; each part's H against central
+  // differences of that part's residual. At an equivalent pose of the prediction (zero residual, as the
+  // kBoth test above): H is the first-order Jacobian at the estimate, and at a residual r the exact
+  // derivative of the quaternion residual differs from it by O(|r|) (about |r|/2 relative).
+  ObjectSymmetry cont, none;
+  cont.continuous = about_z();
+  for (ResidualFrame frame : {ResidualFrame::kCamera, ResidualFrame::kObject}) {
+    Filter f = symmetric_filter(frame, cont, none);
+    for (int id : {2, 3}) {
+      const bool reduced = id == 2;
+      const bool separable = !reduced || frame == ResidualFrame::kCamera;  // the offset is 0
+      const Pose z = continuous(*cont.continuous, reduced ? 0.9 : 0.0).inverse() * f.predict(id);
+      for (ResidualPart part : {ResidualPart::kPosition, ResidualPart::kRotation}) {
+        if (!separable) continue;  // the rows mix: the split gate tests them jointly (kBoth, above)
+        INFO("frame " << to_string(frame) << " object " << id << " part " << to_string(part));
+        Eigen::VectorXd r;
+        Eigen::MatrixXd H;
+        f.measurement_rows(id, z, part, r, H);
+        const int rows = part == ResidualPart::kPosition ? 3 : (reduced ? 2 : 3);
+        REQUIRE(r.size() == rows);
+        CHECK(r.norm() < 1e-9);
+        const Eigen::MatrixXd Hn = numeric_H(f, id, z, part);
+        INFO("analytic\n" << H << "\nnumeric\n" << Hn);
+        CHECK((H - Hn).cwiseAbs().maxCoeff() < 1e-6);
+      }
+    }
+  }
 }

@@ -78,7 +78,7 @@ TEST_CASE("Border outliers and view-dependent flips move the thresholds of the e
   cfg.border_outlier_prob = 0.4;
   cfg.symmetric_flip_prob = 0.1;
   cfg.flip_view_gain = 0.5;
-  PoetErrorModel model(cfg, {{16, Symmetry::kDiscrete2}}, kCam);
+  PoetErrorModel model(cfg, {{16, ycbv_symmetry(16)}}, kCam);
   const double r_px = 0.1 * kCam.fx;
   const Pose cut = at_pixel(0.5 * r_px, 240, 1.0);  // c = 0.25 → outlier probability 0.1
   // End-on (sight along the model z axis: identity rotation, object on the optical axis) → a = 1;

@@ -27,6 +27,10 @@ struct SimulateOptions {
   std::string from_groundtruth;      ///< --from-groundtruth EUROC_MAV0_DIR
   std::optional<int> objects;        ///< --objects N (with --from-groundtruth)
   bool force = false;                ///< --force: replace a non-empty output folder
+  /// --models-info: describe the symmetric objects' symmetries, the ones the flips use
+  /// (sim::simulated_symmetry), in the dataset's models_info.json and point roe.json's objects at it,
+  /// so that `roe run` and `roe calib-check` use the same definitions (docs/simulator.md §5).
+  bool models_info = false;
 };
 
 struct SimulateResult {

@@ -75,6 +75,9 @@ struct CalibInput {
   std::vector<ObjectEstimate> objects;
   std::optional<Pose> true_T_I_C;            ///< from the dataset's truth (simulation)
   std::map<int, Pose> true_T_W_O;            ///< from the dataset's truth (simulation)
+  /// Object id → its symmetry (roe.json `models_info`): truth.objects compares such an object with the
+  /// equivalent of its true pose nearest the estimate (ekf::nearest_equivalent).
+  std::map<int, ObjectSymmetry> symmetries;
   /// The offset estimated from the raw camera stamps (estimate_camera_time_offset); absent = not run.
   std::optional<TimeOffsetEstimate> time_offset;
   std::string time_offset_absent_reason;     ///< why it was not run (shown when absent)

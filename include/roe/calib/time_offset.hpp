@@ -13,9 +13,14 @@
 /// gyro bias leaves), truncated at `truncate_deg` so that outliers and flips do not pull. The
 /// window's constant starts from a robust point, the detection with the most others within
 /// `truncate_deg` at the search's centre (the same one for every δ), so that a flip or an outlier
-/// cannot make the mean, its quaternion signs and the inlier set jump as δ moves. Objects listed in
-/// `symmetric_ids` are left out: their rotation is defined only up to a symmetry the dataset does
-/// not describe.
+/// cannot make the mean, its quaternion signs and the inlier set jump as δ moves. An object with a
+/// described symmetry (`symmetries`, core/symmetry.hpp) is used through it: each A_i is replaced by its
+/// equivalent A_i · S nearest the window's reference (ekf::nearest_equivalent, the filter's choice; the
+/// robust start compares through the same map); with a continuous symmetry that turns A_i about the axis
+/// to the angle nearest the reference, so the residual has no component about the axis to first order
+/// (2 dof instead of 3; the rotation about the axis carries no information). Objects listed in
+/// `symmetric_ids` without a described symmetry are left out: their rotation is defined only up to a
+/// symmetry the dataset does not describe.
 /// The cost is evaluated on a grid over `centre_s` ± `search_s` (centre: the offset the dataset
 /// declares); a parabola fitted over ±`fit_halfwidth_s` around its lowest point gives the offset and,
 /// from its curvature, the standard error. R_I_C comes from the run (its estimate), because the
@@ -37,9 +42,11 @@
 /// docs/calib-check.md §3 compares σ with the spread measured over seeds.
 
 #include <cstddef>
+#include <map>
 #include <string>
 #include <vector>
 
+#include "roe/core/symmetry.hpp"
 #include "roe/core/types.hpp"
 
 namespace roe::calib {
@@ -56,9 +63,11 @@ struct TimeOffsetOptions {
   double fit_halfwidth_s = 0.05; ///< the first parabola fit spans ±this (the second ±3σ of the first)
   /// Threads for the grid (0: every CPU the process may use). The result does not depend on it.
   unsigned threads = 0;
-  /// Objects left out: a symmetric object's detected rotation is defined only up to its symmetry
-  /// (PoET returns either of the equivalent poses), which the dataset does not describe.
+  /// Objects left out unless `symmetries` describes them: a symmetric object's detected rotation is
+  /// defined only up to its symmetry (PoET returns either of the equivalent poses).
   std::vector<int> symmetric_ids;
+  /// Object id → its symmetry (roe.json `models_info`): such objects are used through it.
+  std::map<int, ObjectSymmetry> symmetries;
 };
 
 struct TimeOffsetEstimate {
@@ -71,6 +80,7 @@ struct TimeOffsetEstimate {
   double sigma_jackknife_s = 0.0;  ///< delete-a-block jackknife over windows (0 with fewer than 2 windows)
   std::size_t detections = 0;  ///< detections in windows used
   std::size_t symmetric_excluded = 0;  ///< detections of symmetric objects left out
+  std::size_t symmetric_used = 0;      ///< detections of objects with a described symmetry, used through it
   std::size_t windows = 0;     ///< windows used
   double rms_rate_deg_s = 0.0; ///< RMS gyro rate over the used detections' times
   double rms_residual_deg = 0.0;  ///< RMS residual angle at the optimum (untruncated inliers)

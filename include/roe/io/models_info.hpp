@@ -22,4 +22,10 @@ namespace roe::io {
 std::map<int, ObjectSymmetry> models_info_from_json(const json& j, const std::string& source);
 std::map<int, ObjectSymmetry> read_models_info(const std::filesystem::path& file);
 
+/// The symmetries as a BOP models_info object (ids as keys, translations and offsets in mm; no model
+/// dimensions, which the reader does not need), and written atomically to `file`. Reading it back gives
+/// the same symmetries (to the rounding of the mm conversion).
+json models_info_to_json(const std::map<int, ObjectSymmetry>& symmetries);
+void write_models_info(const std::filesystem::path& file, const std::map<int, ObjectSymmetry>& symmetries);
+
 }  // namespace roe::io

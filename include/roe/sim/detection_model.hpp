@@ -19,9 +19,13 @@
 ///     object's previous detection. The marginal is still N(0, 1), so the σ above hold per sample.
 ///  3. Outliers (outlier_prob): t_meas = t + u, u uniform in the ball of radius outlier_translation_max_m;
 ///     R_meas uniform on SO(3).
-///  4. Symmetric objects (symmetric_flip_prob): R_meas is additionally right-multiplied by a symmetry of
-///     the object: a rotation by π about its model z axis (2-fold symmetry), or by a uniform angle for
-///     objects with a continuous symmetry (YCB-V bowl, id 13).
+///  4. Symmetric objects (symmetric_flip_prob): the detection is of a symmetry-equivalent pose T_C_O · S
+///     instead of T_C_O, S a symmetry transform of the object in the definitions the filter uses
+///     (core/symmetry.hpp, BOP's models_info convention; flip_transform): one of its discrete transforms
+///     (uniform), a turn by a uniform angle about its continuous axis, or (both) one of {I, discrete}
+///     followed by such a turn. The errors (1) are then applied to T_C_O · S, so the detection is an
+///     equivalent pose of the truth plus the ordinary error. ycbv_symmetry gives the defaults: π about
+///     the model z axis (2-fold), any angle about it for the YCB-V bowl (id 13).
 ///  5. Blur: in a frame whose camera angular rate exceeds blur_rate_threshold_deg_s, and in a random
 ///     fraction blur_frame_prob of all frames, every detection is corrupted like an outlier (3).
 ///
@@ -48,6 +52,7 @@
 #include <string>
 #include <vector>
 
+#include "roe/core/symmetry.hpp"
 #include "roe/core/types.hpp"
 #include "roe/sim/random.hpp"
 
@@ -153,15 +158,13 @@ bool object_in_view(const Pose& T_C_O, const PinholeCamera& cam, const Visibilit
 /// The miss probability of a visible object (0 when not in view).
 double miss_probability(const Pose& T_C_O, const PinholeCamera& cam, const VisibilityConfig& vis);
 
-/// The object's symmetry as used by the flip model.
-enum class Symmetry { kNone, kDiscrete2, kContinuous };
 
 /// Stateful PoET-like error model (the Gauss-Markov state is kept per object id).
 class PoetErrorModel {
  public:
-  /// `symmetries`: object id → symmetry type (objects absent are not symmetric). `camera`: the image
+  /// `symmetries`: object id → its symmetry (objects absent or empty are not symmetric). `camera`: the image
   /// the border cut (6) is measured in; without one (fx = 0) c = 0.
-  PoetErrorModel(DetectionNoiseConfig config, std::map<int, Symmetry> symmetries, PinholeCamera camera = {});
+  PoetErrorModel(DetectionNoiseConfig config, std::map<int, ObjectSymmetry> symmetries, PinholeCamera camera = {});
 
   /// Whether a frame is blurred: camera angular rate above the threshold, or the random draw.
   bool frame_blurred(double camera_rate_rad_s, Rng& rng) const;
@@ -199,7 +202,7 @@ class PoetErrorModel {
   Eigen::Vector3d scaled_sigmas(const Pose& T_C_O_true, bool bad_frame) const;
 
   DetectionNoiseConfig config_;
-  std::map<int, Symmetry> symmetries_;
+  std::map<int, ObjectSymmetry> symmetries_;
   PinholeCamera camera_;
   std::map<int, State> state_;
   bool in_burst_ = false;
@@ -207,8 +210,18 @@ class PoetErrorModel {
 
 /// The YCB-V class name of an id (1..21), "obj_<id>" otherwise.
 std::string ycbv_name(int id);
-/// Symmetry of a YCB-V class under the flip model: 13 (bowl) continuous; 16, 19, 20, 21 two-fold
-/// (PoET's ycbv_symmetries.json list); all others none.
-Symmetry ycbv_symmetry(int id);
+/// The simulator's default symmetry of a YCB-V class (PoET's ycbv_symmetries.json list): 13 (bowl)
+/// continuous about the model z axis through the origin; 16, 19, 20, 21 two-fold (π about the model z
+/// axis); all others none (empty).
+ObjectSymmetry ycbv_symmetry(int id);
+
+/// The symmetry the simulator flips an object listed as symmetric by: ycbv_symmetry(id), or for an id
+/// without one (not a symmetric YCB-V class) the two-fold turn about the model z axis.
+ObjectSymmetry simulated_symmetry(int id);
+
+/// The symmetry transform S of a flip (4) of an object with symmetry `s` (not empty): `u` uniform in
+/// [0, 1) picks the discrete member (with a continuous axis too, the identity counts as a member),
+/// `angle` is the turn about the continuous axis. T_C_O · S is the equivalent pose the detector reports.
+Pose flip_transform(const ObjectSymmetry& s, double u, double angle);
 
 }  // namespace roe::sim
