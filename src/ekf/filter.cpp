@@ -961,7 +961,7 @@ void Filter::learn_sigma_scale(const std::vector<double>& frame_samples) {
     }
   }
   // Only from a window of some size on: a median of few detections is noise.
-  if (frame_samples.empty() || sigma_scale_samples_.size() < kSigmaScaleWindow / 3) return;
+  if (frame_samples.empty() || sigma_scale_samples_.size() < kSigmaScaleMin) return;
   std::vector<double>& v = ws_scale_sorted_;
   v = sigma_scale_samples_;
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());

@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <Eigen/Core>
+#include <functional>
 #include <map>
 #include <vector>
 
@@ -107,24 +108,31 @@ struct MonteCarlo {
   double rejection_rate = 0.0;
   std::size_t gated = 0;
   double pos_rms_m = 0.0;  ///< RMS of the IMU position error in the filter's gauge, over runs and rows
+  double sigma_scale_sum = 0.0;  ///< sum over runs of the final factor on the detections' σ
 };
 
 /// N runs of `preset` (seeds 100..100+N−1) with the per-detection σ the simulator wrote (configured
 /// noise = simulated noise); NEES of the IMU pose in the filter's gauge, after skip_s. `smoother` is
 /// RunConfig::smoother ("rts": the smoothed estimate and its covariance).
+/// `edit_config` and `edit_data` (optional) change the run config and each simulated dataset.
 inline MonteCarlo monte_carlo(const std::string& preset, int N, double duration, double skip_s,
-                              const std::string& smoother = "none") {
+                              const std::string& smoother = "none",
+                              const std::function<void(app::RunConfig&)>& edit_config = {},
+                              const std::function<void(Dataset&)>& edit_data = {}) {
   app::RunConfig cfg = test::plain_config();
   cfg.filter.use_detection_sigmas = true;
   cfg.filter.init_sigma_v_mps = 1.0;
   cfg.smoother = smoother;
+  if (edit_config) edit_config(cfg);
   std::vector<double> nees_sum;  // per time step, summed over runs
   std::size_t rejected = 0, rows = 0;
   double sq = 0.0;
   MonteCarlo mc;
   for (int run = 0; run < N; ++run) {
-    const Dataset d = simulate_preset(preset, 100 + run, duration);
+    Dataset d = simulate_preset(preset, 100 + run, duration);
+    if (edit_data) edit_data(d);
     const app::RunOutput r = app::run_dataset(d, "sim", cfg);
+    mc.sigma_scale_sum += r.summary.detection_sigma_scale;
     for (double nis : r.summary.nis) {
       ++mc.gated;
       if (nis > r.health.nis.gate) ++rejected;

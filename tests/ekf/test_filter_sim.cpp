@@ -77,6 +77,39 @@ TEST_CASE("matched preset Monte-Carlo: NEES inside the 95 % bounds, rejection ra
   CHECK(mc.rejection_rate < 0.075);
 }
 
+// The default's handling of predicted σ (issue 29: online σ scale, split gate, re-lock) on the matched
+// preset: consistent when the σ are right. With σ reported at half the true error the scale learned online
+// comes out at 2 and the NEES returns to just above its upper bound (7.83 against 7.61, measured
+// 2026-12-02; 58.8 without the scale): the object-worlds, which have no process noise, keep the
+// overconfidence of the first 15 detections, gated before the scale is learned (docs/filter.md §14).
+TEST_CASE("matched Monte-Carlo with predicted σ, online scale, split gate: NEES inside the 95 % bounds",
+          "[ekf][sim][mc][sigma]") {
+  const auto default_sigma_handling = [](app::RunConfig& c) {
+    c.filter.adapt_detection_sigma_scale = true;
+    c.filter.gate_mode = ekf::GateMode::kSplit;
+    c.filter.relock_after_s = 0.5;
+  };
+  const auto halve_reported_sigma = [](Dataset& d) {
+    for (auto& det : d.detections.at("sim"))
+      if (det.sigma) *det.sigma *= 0.5;
+  };
+  const int N = 20;
+  const MonteCarlo right = monte_carlo("matched", N, 20.0, 3.0, "none", default_sigma_handling);
+  const MonteCarlo half = monte_carlo("matched", N, 20.0, 3.0, "none", default_sigma_handling, halve_reported_sigma);
+  const MonteCarlo half_fixed = monte_carlo("matched", N, 20.0, 3.0, "none", {}, halve_reported_sigma);
+  WARN("matched MC, σ right: NEES " << right.anees << ", σ scale " << right.sigma_scale_sum / N << "; σ halved: NEES "
+                                    << half.anees << ", scale " << half.sigma_scale_sum / N
+                                    << "; σ halved, no online scale: NEES " << half_fixed.anees << " (bounds "
+                                    << right.lo << ", " << right.hi << ")");
+  CHECK(right.anees > right.lo);
+  CHECK(right.anees < right.hi);
+  CHECK(right.sigma_scale_sum / N == Approx(1.0).epsilon(0.15));
+  CHECK(half.anees > half.lo);
+  CHECK(half.anees < 1.1 * half.hi);
+  CHECK(half.sigma_scale_sum / N == Approx(2.0).epsilon(0.15));
+  CHECK(half_fixed.anees > half_fixed.hi);  // the control: overconfident σ without the scale
+}
+
 TEST_CASE("matched-calib Monte-Carlo (fast rotations): NEES and rejection rate", "[ekf][sim][mc]") {
   const MonteCarlo mc = monte_carlo("matched-calib", 20, 20.0, 3.0);
   WARN("matched-calib MC: time-averaged NEES " << mc.anees << " (bounds " << mc.lo << ", " << mc.hi

@@ -259,6 +259,7 @@ class Filter {
   // Online scale of the per-detection σ (adapt_detection_sigma_scale): variance scale and the last
   // detections' NIS · k / χ²_m median, a ring of kSigmaScaleWindow.
   static constexpr int kSigmaScaleWindow = 150;
+  static constexpr std::size_t kSigmaScaleMin = 15;  // before this many, the median is too noisy
   double sigma_var_scale_ = 1.0;
   std::vector<double> sigma_scale_samples_;
   std::size_t sigma_scale_next_ = 0;
