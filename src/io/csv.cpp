@@ -137,9 +137,10 @@ void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<s
                       std::vector<std::optional<Number>>* numbers) {
   out.clear();
   if (numbers) numbers->clear();
-  // Each field's number is parsed where the field is found (numbers != null): the parse finds the
-  // field's end, which spares a second pass over its characters; fields that are not numbers are
-  // split as text.
+  // The number of each field read as a number in an earlier row (numbers != null) is parsed where the
+  // field is found: the parse finds the field's end, which spares a second pass over its characters.
+  // Other fields (never read as numbers, or not numbers) are split as text.
+  const auto numeric = [&] { return numbers && out.size() < numeric_.size() && numeric_[out.size()]; };
   if (opt_.whitespace_delimited) {
     std::size_t i = 0;
     while (i < line.size()) {
@@ -147,7 +148,7 @@ void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<s
       if (i >= line.size()) break;
       const std::size_t start = i;
       std::optional<Number> n;
-      if (numbers) n = number_at(line, start, is_space, i);
+      if (numeric()) n = number_at(line, start, is_space, i);
       if (!n)
         for (i = start; i < line.size() && !is_space(line[i]);) ++i;
       out.push_back(line.substr(start, i - start));
@@ -195,7 +196,7 @@ void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<s
       i = k + 1;
       continue;
     }
-    if (numbers) {  // a number, then (trimmed) spaces, then the delimiter or the line's end
+    if (numeric()) {  // a number, then (trimmed) spaces, then the delimiter or the line's end
       const std::size_t start = opt_.trim ? k : i;
       std::size_t stop = 0;
       const auto n = number_at(
@@ -210,8 +211,8 @@ void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<s
         i = q + 1;
         continue;
       }
-      numbers->emplace_back();
     }
+    if (numbers) numbers->emplace_back();
     const std::size_t end = line.find(d, i);
     std::string_view f = line.substr(i, end == std::string_view::npos ? std::string_view::npos : end - i);
     out.push_back(opt_.trim ? trim(f) : f);
@@ -351,6 +352,8 @@ std::string_view CsvReader::field(std::size_t i) const {
 double CsvReader::parse_double(std::size_t i, bool allow_nonfinite) const {
   std::string_view f = field(i);
   if (f.empty()) throw error(i, "empty field, expected a number");
+  if (i >= numeric_.size()) numeric_.resize(i + 1, 0);
+  numeric_[i] = 1;  // from the next row on, parsed while splitting
   double v = 0.0;
   if (i < numbers_.size() && numbers_[i]) {  // parsed while the row was split: the whole field, no '+'
     v = numbers_[i]->value;

@@ -474,9 +474,10 @@ TEST_CASE("csv: writer/reader round trip of arbitrary text fields", "[csv]") {
 }
 
 TEST_CASE("csv: a number parsed while the row is split equals the field's own parse", "[csv]") {
-  // CsvReader parses a field's number where it finds the field (the parse finds the field's end); a field
-  // that is more than a number falls back to the text. Either way get_double sees the whole field: the
-  // same value, and the same error for "1.5x" or "1e999", in every mode.
+  // From the second row on, CsvReader parses the number of a column read as a number before where it
+  // finds the field (the parse finds the field's end); a field that is more than a number falls back to
+  // the text. Either way get_double sees the whole field: the same value, and the same error for "1.5x"
+  // or "1e999", in every mode, in the first row and in later ones.
   struct Mode {
     const char* name;
     bool whitespace, trim, quotes;
@@ -493,10 +494,15 @@ TEST_CASE("csv: a number parsed while the row is split equals the field's own pa
     o.quotes = m.quotes;
     o.delimiter = m.delim;
     o.ragged = true;
-    const auto value = [&](const std::string& field) -> std::string {  // the second field's parse
+    const auto parse = [&](const std::string& field, bool later_row) -> std::string {  // the second field's
       const std::string sep = m.whitespace ? " \t " : std::string(1, m.delim);
-      auto r = CsvReader::from_text("7" + sep + field + sep + "8\n", "t", o);
+      const std::string row = "7" + sep + field + sep + "8\n";
+      auto r = CsvReader::from_text(later_row ? "1" + sep + "2" + sep + "3\n" + row : row, "t", o);
       try {
+        if (later_row) {
+          REQUIRE(r.next());
+          for (std::size_t c = 0; c < 3; ++c) CHECK(r.get_double(c) == static_cast<double>(c + 1));
+        }
         REQUIRE(r.next());
         const double v = r.get_double(1);
         CHECK(r.get_double(0) == 7.0);
@@ -505,6 +511,11 @@ TEST_CASE("csv: a number parsed while the row is split equals the field's own pa
       } catch (const InputError& e) {
         return e.bare_message();
       }
+    };
+    const auto value = [&](const std::string& field) {
+      const std::string first = parse(field, false), later = parse(field, true);
+      CHECK(first == later);
+      return later;
     };
     CHECK(value("1.5") == "1.500000");
     CHECK(value("-2.25e-1") == "-0.225000");

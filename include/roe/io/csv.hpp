@@ -188,7 +188,8 @@ class CsvReader {
   std::size_t columns_ = 0;
   std::vector<std::string> header_;
   std::vector<std::string_view> fields_;
-  std::vector<std::optional<Number>> numbers_;  ///< per field: its number, when the field is one
+  std::vector<std::optional<Number>> numbers_;  ///< per field: its number, when parsed while splitting
+  mutable std::vector<char> numeric_;           ///< per column: read as a number in some row
   std::deque<std::string> unquoted_;  // storage of fields that needed unescaping (stable addresses)
   bool have_prev_stamp_ = false;
   std::int64_t prev_ns_ = 0;
