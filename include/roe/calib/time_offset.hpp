@@ -17,7 +17,8 @@
 /// `symmetric_ids` are left out: their rotation is defined only up to a symmetry the dataset does
 /// not describe.
 /// The cost is evaluated on a grid over `centre_s` ± `search_s` (centre: the offset the dataset
-/// declares); a parabola fitted over ±`fit_halfwidth_s` around its lowest point gives the offset and,
+/// declares), coarse to fine (`coarse_stride`: the full step only where the fits need it); a parabola
+/// fitted over ±`fit_halfwidth_s` around its lowest point gives the offset and,
 /// from its curvature, the standard error. R_I_C comes from the run (its estimate), because the
 /// residual axes depend on it.
 ///
