@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Whole-process figures of the commands users call thousands of times in batch scripts (issue 24):
 # wall time (median of repeated runs, hyperfine when Debian's package is installed, else a timed loop)
-# and peak RSS (/usr/bin/time). With two binaries it measures both side by side and prints old/new ratios.
+# and peak RSS (/usr/bin/time), and with hyperfine the mean CPU time (user + system) per run, the steadier
+# figure on a loaded machine. With two binaries it measures both side by side and prints old/new ratios.
 #   scripts/bench-process.sh NEW_ROE [OLD_ROE]       e.g. build/roe /tmp/roe-before
 # Needs ../shared/data (the V102 pair) beside the repository. Record results in docs/BENCHMARKS.md.
 # "run paper-seq4" runs each binary's own defaults (since 2026-12-02 with the RTS smoother); "run
@@ -22,10 +23,10 @@ prepare() {  # prepare ROE TAG
   "$1" -q run "$work/$2-seq4" --out "$work/$2-run" >/dev/null 2>&1
 }
 
-median_ms() {  # median_ms CMD... : median wall time in ms over $RUNS runs (after one warm-up)
+median_ms() {  # median_ms CMD... : "median wall ms, mean CPU ms" over $RUNS runs (after one warm-up)
   if command -v hyperfine >/dev/null; then
     hyperfine -N -i --style none --warmup 1 --runs "$RUNS" --export-json "$work/h.json" -- "$*" >/dev/null 2>&1
-    /usr/bin/python3 -c 'import json,sys; print("%.1f" % (1000 * json.load(open(sys.argv[1]))["results"][0]["median"]))' "$work/h.json"
+    /usr/bin/python3 -c 'import json,sys; r = json.load(open(sys.argv[1]))["results"][0]; print("%.1f %.1f" % (1000 * r["median"], 1000 * (r["user"] + r["system"])))' "$work/h.json"
   else
     "$@" >/dev/null 2>&1 || true
     local ts=()
@@ -34,7 +35,7 @@ median_ms() {  # median_ms CMD... : median wall time in ms over $RUNS runs (afte
       "$@" >/dev/null 2>&1 || true
       ts+=($(( ($(date +%s%N) - t0) / 1000 )))
     done
-    printf '%s\n' "${ts[@]}" | sort -n | awk '{a[NR]=$1} END {printf "%.1f\n", a[int((NR+1)/2)]/1000}'
+    printf '%s\n' "${ts[@]}" | sort -n | awk '{a[NR]=$1} END {printf "%.1f -\n", a[int((NR+1)/2)]/1000}'
   fi
 }
 
@@ -60,7 +61,7 @@ commands=(
   "calib-check|-q calib-check TAG-run"
 )
 
-bench() {  # bench ROE TAG NAME ARGS -> "ms mb"
+bench() {  # bench ROE TAG NAME ARGS -> "ms cpu_ms mb"
   local args=${4//TAG-/$work/$2-}
   args=${args//OUT/$work/$2-out}
   # shellcheck disable=SC2086
@@ -69,17 +70,17 @@ bench() {  # bench ROE TAG NAME ARGS -> "ms mb"
 
 prepare "$NEW" new
 [ -n "$OLD" ] && prepare "$OLD" old
-printf '%-22s %12s %10s' command "new ms" "new MB"
-[ -n "$OLD" ] && printf ' %12s %10s %8s' "old ms" "old MB" "old/new"
+printf '%-22s %12s %12s %10s' command "new ms" "new CPU ms" "new MB"
+[ -n "$OLD" ] && printf ' %12s %12s %10s %8s' "old ms" "old CPU ms" "old MB" "old/new"
 echo
 for c in "${commands[@]}"; do
   name=${c%%|*}
   args=${c#*|}
-  read -r nms nmb < <(bench "$NEW" new "$name" "$args")
-  printf '%-22s %12s %10s' "$name" "$nms" "$nmb"
+  read -r nms ncpu nmb < <(bench "$NEW" new "$name" "$args")
+  printf '%-22s %12s %12s %10s' "$name" "$nms" "$ncpu" "$nmb"
   if [ -n "$OLD" ]; then
-    read -r oms omb < <(bench "$OLD" old "$name" "$args")
-    printf ' %12s %10s %8s' "$oms" "$omb" "$(awk -v o="$oms" -v n="$nms" 'BEGIN {printf "%.1fx", o / n}')"
+    read -r oms ocpu omb < <(bench "$OLD" old "$name" "$args")
+    printf ' %12s %12s %10s %8s' "$oms" "$ocpu" "$omb" "$(awk -v o="$oms" -v n="$nms" 'BEGIN {printf "%.1fx", o / n}')"
   fi
   echo
 done

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <fmt/format.h>
+#include <limits>
 #include <map>
 #include <optional>
 #include <thread>
@@ -19,6 +20,8 @@ namespace {
 constexpr double kRadToDeg = 180.0 / M_PI;
 /// Blocks of windows of the delete-a-block jackknife (fewer when there are fewer windows).
 constexpr std::size_t kJackknifeBlocks = 10;
+/// Candidates per side of a parabola fit at the least (the coarse-to-fine search's sub-grid for a fit).
+constexpr double kFitPointsPerSide = 12.0;
 
 /// The gyro's integrated rotation R_I0_I(t) at the IMU stamps (midpoint rule), slerped in between.
 class GyroRotation {
@@ -330,15 +333,76 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
 
   const auto n = static_cast<int>(std::llround(o.search_s / o.step_s));
   for (int k = -n; k <= n; ++k) e.grid_s.push_back(o.centre_s + k * o.step_s);
-  // The grid points are independent: evaluated in parallel, each into its own slot.
-  e.cost.assign(e.grid_s.size(), 0.0);
-  std::vector<std::vector<double>> per_window(e.grid_s.size());  // [grid point][window]
-  parallel_for(e.grid_s.size(), o.threads ? o.threads : available_cpus(), [&](std::size_t k) {
-    Cost c = evaluate(gyro, q_I_C, windows, from_seconds(e.grid_s[k]), o.truncate_deg);
-    e.cost[k] = c.truncated;
-    per_window[k] = std::move(c.per_window);
+  const std::size_t N = e.grid_s.size();
+  // Coarse to fine (docs/calib-check.md §3): the cost is evaluated on every `coarse_stride`-th candidate
+  // of the grid, then at the full step only where the estimate looks: around each lowest point and
+  // inside the parabola fits whose width asks for it. The candidates are evaluated on demand, once each,
+  // in parallel batches; each into its own slot, so the result does not depend on the thread count.
+  const std::size_t S = std::clamp<std::size_t>(o.coarse_stride, 1, N - 1);
+  e.cost.assign(N, std::numeric_limits<double>::quiet_NaN());
+  std::vector<std::vector<double>> per_window(N);  // [grid point][window]
+  std::vector<char> done(N, 0);
+  const unsigned threads = o.threads ? o.threads : available_cpus();
+  const auto ensure = [&](const std::vector<std::size_t>& ks) {
+    std::vector<std::size_t> todo;
+    for (const std::size_t k : ks)
+      if (!done[k]) done[k] = 1, todo.push_back(k);
+    parallel_for(todo.size(), threads, [&](std::size_t i) {
+      Cost c = evaluate(gyro, q_I_C, windows, from_seconds(e.grid_s[todo[i]]), o.truncate_deg);
+      e.cost[todo[i]] = c.truncated;
+      per_window[todo[i]] = std::move(c.per_window);
+    });
+  };
+  // The candidates of a sub-grid of every `stride`-th point (and the search's upper edge).
+  const auto on_grid = [&](std::size_t k, std::size_t stride) { return k % stride == 0 || k + 1 == N; };
+  // A fit over ±half uses every stride-th candidate, at least kFitPointsPerSide per side (finer only where
+  // the window is narrow: coarse points average the roughness of a wide window as well as fine ones).
+  const auto stride_for = [&](double half) {
+    return std::clamp<std::size_t>(static_cast<std::size_t>(half / (kFitPointsPerSide * o.step_s)), 1, S);
+  };
+  const auto window_points = [&](double centre, double half, std::size_t stride) {
+    std::vector<std::size_t> ks;
+    for (std::size_t k = 0; k < N; ++k)
+      if (on_grid(k, stride) && std::abs(e.grid_s[k] - centre) <= half + 1e-12) ks.push_back(k);
+    ensure(ks);
+    return ks;
+  };
+  {
+    std::vector<std::size_t> coarse;
+    for (std::size_t k = 0; k < N; ++k)
+      if (on_grid(k, S)) coarse.push_back(k);
+    ensure(coarse);
+  }
+  // The blocks of the delete-a-block jackknife: K blocks of windows, contiguous in time (so that
+  // windows of objects seen together go together). value(b, k) is the cost at candidate k without block
+  // b (b = K: with every window).
+  const std::size_t G = windows.size(), K = std::min<std::size_t>(kJackknifeBlocks, G);
+  std::vector<std::size_t> order(G);
+  for (std::size_t w = 0; w < G; ++w) order[w] = w;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return windows[a].dets.front()->t_ns < windows[b].dets.front()->t_ns;
   });
-  const auto best = static_cast<std::size_t>(std::min_element(e.cost.begin(), e.cost.end()) - e.cost.begin());
+  const auto value = [&](std::size_t b, std::size_t k) {
+    double c = e.cost[k];
+    for (std::size_t j = b < K ? b * G / K : 0; b < K && j < (b + 1) * G / K; ++j) c -= per_window[k][order[j]];
+    return c;
+  };
+  // The lowest candidate of a cost: the lowest coarse one, then (`refine`) the lowest of the full-step
+  // candidates between its coarse neighbours (the first on ties). The jackknife's replicates start
+  // their fits from the coarse one: a fit over ±fit_halfwidth_s does not depend on where it starts.
+  const auto lowest = [&](std::size_t b, bool refine) {
+    std::size_t best = 0;
+    for (std::size_t k = 0; k < N; ++k)
+      if (on_grid(k, S) && value(b, k) < value(b, best)) best = k;
+    if (!refine) return best;
+    std::vector<std::size_t> near;
+    for (std::size_t k = best >= S - 1 ? best - (S - 1) : 0; k < N && k <= best + (S - 1); ++k) near.push_back(k);
+    ensure(near);
+    for (const std::size_t k : near)
+      if (value(b, k) < value(b, best) || (value(b, k) == value(b, best) && k < best)) best = k;
+    return best;
+  };
+  const std::size_t best = lowest(K, true);
   // Residual variance per scalar residual at a grid point (3 per detection; 6 per window absorbed by
   // the constant and the drift) and the variance inflation (1 + ρ)/(1 − ρ) for their lag-1
   // correlation ρ between consecutive detections of a window. False when there are too few residuals.
@@ -351,28 +415,13 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
     inflation = (1.0 + rho) / (1.0 - rho);
     return true;
   };
-  // The blocks of the delete-a-block jackknife: K blocks of windows, contiguous in time (so that
-  // windows of objects seen together go together); cost_b is the cost without block b.
-  const std::size_t G = windows.size(), K = std::min<std::size_t>(kJackknifeBlocks, G);
-  std::vector<std::size_t> order(G);
-  for (std::size_t w = 0; w < G; ++w) order[w] = w;
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return windows[a].dets.front()->t_ns < windows[b].dets.front()->t_ns;
-  });
-  std::vector<double> cost_b(e.cost.size());
-  const auto block_cost = [&](std::size_t b) {
-    for (std::size_t k = 0; k < e.cost.size(); ++k) {
-      cost_b[k] = e.cost[k];
-      for (std::size_t j = b * G / K; j < (b + 1) * G / K; ++j) cost_b[k] -= per_window[k][order[j]];
-    }
-  };
   const auto block_text = [&](std::size_t b) {
     const std::size_t w0 = b * G / K, w1 = (b + 1) * G / K;
     return fmt::format("without the windows from {:.1f} s to {:.1f} s (block {} of {})",
                        dt_seconds(gyro.begin(), windows[order[w0]].dets.front()->t_ns),
                        dt_seconds(gyro.begin(), windows[order[w1 - 1]].dets.back()->t_ns), b + 1, K);
   };
-  if (best == 0 || best + 1 == e.cost.size()) {
+  if (best == 0 || best + 1 == N) {
     e.reason = fmt::format("the cost is lowest at the edge of the search ({:+.1f} ms ± {:.1f} ms): the offset may "
                            "lie beyond it",
                            o.centre_s * 1e3, o.search_s * 1e3);
@@ -381,14 +430,14 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
     e.edge_offset_s = e.grid_s[best];
     Cost cb;
     double s2 = 0.0, inflation = 1.0;
+    ensure({static_cast<std::size_t>(n)});
     if (residual_stats(best, cb, s2, inflation) && s2 > 0)
       e.edge_evidence = (e.cost[static_cast<std::size_t>(n)] - e.cost[best]) / (s2 * inflation);
     // The edge is evidence only when no part of the data carries it alone: without any one block the
     // cost must still be lowest there.
     e.edge_stable = true;
     for (std::size_t b = 0; K >= 2 && b < K && e.edge_stable; ++b) {
-      block_cost(b);
-      if (std::min_element(cost_b.begin(), cost_b.end()) - cost_b.begin() != static_cast<std::ptrdiff_t>(best)) {
+      if (lowest(b, true) != best) {
         e.edge_stable = false;
         e.reason += "; but not stably: " + block_text(b) + " it is lowest elsewhere";
       }
@@ -401,19 +450,20 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   // ten grid steps): wide enough to average the roughness, narrow enough that the cost's departure
   // from a parabola (it is not quadratic over tens of ms when the motion is fast) does not bias the
   // vertex.
-  const auto fit = [&](const std::vector<double>& cost, double centre, double half, double& curv) {
-    const double base = *std::min_element(cost.begin(), cost.end());
+  const auto fit = [&](std::size_t b, double centre, double half, double& curv) {
+    double base = std::numeric_limits<double>::infinity();  // a constant, for the conditioning
+    for (std::size_t k = 0; k < N; ++k)
+      if (done[k]) base = std::min(base, value(b, k));
     for (int iter = 0; iter < 8; ++iter) {
-      Eigen::Matrix3d N = Eigen::Matrix3d::Zero();
+      Eigen::Matrix3d NtN = Eigen::Matrix3d::Zero();
       Eigen::Vector3d r = Eigen::Vector3d::Zero();
-      for (std::size_t k = 0; k < e.grid_s.size(); ++k) {
+      for (const std::size_t k : window_points(centre, half, stride_for(half))) {
         const double x = e.grid_s[k] - centre;
-        if (std::abs(x) > half + 1e-12) continue;
         const Eigen::Vector3d f(1.0, x, x * x);
-        N += f * f.transpose();
-        r += f * (cost[k] - base);
+        NtN += f * f.transpose();
+        r += f * (value(b, k) - base);
       }
-      const Eigen::Vector3d abc = N.ldlt().solve(r);
+      const Eigen::Vector3d abc = NtN.ldlt().solve(r);
       curv = 2.0 * abc(2);  // d²cost/dδ² [deg²/s²]
       if (!(curv > 0)) return centre;
       const double next = centre - abc(1) / curv;
@@ -423,20 +473,20 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
     }
     return centre;
   };
-  // The whole estimate (lowest grid point, a fit over ±fit_halfwidth_s, then over ±`half`) of a cost;
-  // false when it has no minimum inside the search.
-  const auto estimate = [&](const std::vector<double>& cost, double half, double& offset) {
-    const auto lowest = static_cast<std::size_t>(std::min_element(cost.begin(), cost.end()) - cost.begin());
-    if (lowest == 0 || lowest + 1 == cost.size()) return false;
+  // The whole estimate (lowest grid point, a fit over ±fit_halfwidth_s, then over ±`half`) of the cost
+  // without block b; false when it has no minimum inside the search.
+  const auto estimate = [&](std::size_t b, double half, double& offset) {
+    const std::size_t low = lowest(b, false);
+    if (low == 0 || low + 1 == N) return false;
     double c = 0.0;
-    offset = fit(cost, fit(cost, e.grid_s[lowest], o.fit_halfwidth_s, c), half, c);
+    offset = fit(b, fit(b, e.grid_s[low], o.fit_halfwidth_s, c), half, c);
     return c > 0 && std::abs(offset - o.centre_s) <= o.search_s;
   };
   // The curvature-based standard error at an offset: var(δ) = 2 s² / cost'', inflated for the
   // residuals' lag-1 correlation; −1 when there are too few residuals.
   const auto sigma_at = [&](double offset, double curv, Cost& cb) {
     const double u = std::round((offset - o.centre_s + o.search_s) / o.step_s);
-    const auto at = std::min(static_cast<std::size_t>(std::max(0.0, u)), e.grid_s.size() - 1);
+    const auto at = std::min(static_cast<std::size_t>(std::max(0.0, u)), N - 1);
     double s2 = 0.0, inflation = 1.0;
     if (!residual_stats(at, cb, s2, inflation) || !(curv > 0)) return -1.0;
     return std::sqrt(2.0 * s2 / curv * inflation);
@@ -445,18 +495,16 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   // parabola as the total (the fit is linear in the costs, so the windows' slopes add up to the
   // total's, ≈ 0 at its vertex); var(δ) = G/(G−1) Σ_w slope_w² / cost''².
   const auto cluster_sigma = [&](double centre, double half, double curv) {
-    const std::size_t G = windows.size();
     if (G < 2 || !(curv > 0)) return 0.0;
-    Eigen::Matrix3d N = Eigen::Matrix3d::Zero();
+    Eigen::Matrix3d NtN = Eigen::Matrix3d::Zero();
     std::vector<Eigen::Vector3d> r(G, Eigen::Vector3d::Zero());
-    for (std::size_t k = 0; k < e.grid_s.size(); ++k) {
+    for (const std::size_t k : window_points(centre, half, stride_for(half))) {
       const double x = e.grid_s[k] - centre;
-      if (std::abs(x) > half + 1e-12) continue;
       const Eigen::Vector3d f(1.0, x, x * x);
-      N += f * f.transpose();
+      NtN += f * f.transpose();
       for (std::size_t w = 0; w < G; ++w) r[w] += f * per_window[k][w];
     }
-    const auto ldlt = N.ldlt();
+    const auto ldlt = NtN.ldlt();
     double sum2 = 0.0;
     for (std::size_t w = 0; w < G; ++w) sum2 += std::pow(ldlt.solve(r[w])(1), 2);
     return std::sqrt(static_cast<double>(G) / static_cast<double>(G - 1) * sum2) / curv;
@@ -467,7 +515,7 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   };
   double curv = 0.0;
   Cost cb;
-  double centre = fit(e.cost, e.grid_s[best], o.fit_halfwidth_s, curv);
+  double centre = fit(K, e.grid_s[best], o.fit_halfwidth_s, curv);
   if (!(curv > 0)) return not_observable();
   const double sigma1 = sigma_at(centre, curv, cb);
   if (sigma1 < 0) {
@@ -476,7 +524,7 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   }
   const double half = std::clamp(3.0 * std::max(sigma1, cluster_sigma(centre, o.fit_halfwidth_s, curv)),
                                  10.0 * o.step_s, o.fit_halfwidth_s);
-  centre = fit(e.cost, centre, half, curv);
+  centre = fit(K, centre, half, curv);
   if (!(curv > 0)) return not_observable();
   e.offset_s = centre;
   if (std::abs(e.offset_s - o.centre_s) > o.search_s) {
@@ -500,9 +548,8 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   {
     std::vector<double> replicate;
     for (std::size_t b = 0; K >= 2 && b < K; ++b) {
-      block_cost(b);
       double offset = 0.0;
-      if (!estimate(cost_b, half, offset)) {
+      if (!estimate(b, half, offset)) {
         e.reason = "the minimum is not stable: " + block_text(b) + " the cost has no minimum inside the search";
         return e;
       }

@@ -11,6 +11,7 @@
 #include <limits>
 
 #include "roe/core/log.hpp"
+#include "roe/io/input.hpp"
 #include "roe/io/output.hpp"
 
 namespace roe::io {
@@ -50,14 +51,17 @@ std::vector<std::string_view> alternatives(std::string_view spec) {
 // -------------------------------------------------------------------------------------------------
 
 CsvReader::CsvReader(const fs::path& path, CsvOptions options)
-    : CsvReader(read_file(path), path.string(), std::move(options), 0) {}
+    : CsvReader(std::string(), path.string(), std::move(options), std::make_unique<InputFile>(path)) {}
+
+CsvReader::~CsvReader() = default;
 
 CsvReader CsvReader::from_text(std::string text, std::string source, CsvOptions options) {
-  return CsvReader(std::move(text), std::move(source), std::move(options), 0);
+  return CsvReader(std::move(text), std::move(source), std::move(options), nullptr);
 }
 
-CsvReader::CsvReader(std::string text, std::string source, CsvOptions options, int)
-    : text_(std::move(text)), source_(std::move(source)), opt_(std::move(options)) {
+CsvReader::CsvReader(std::string text, std::string source, CsvOptions options, std::unique_ptr<InputFile> file)
+    : text_(std::move(text)), file_(std::move(file)), source_(std::move(source)), opt_(std::move(options)) {
+  refill();
   // UTF-8 byte order mark (spreadsheet exports).
   pos_ = utf8_bom_length(text_);
   if (!opt_.whitespace_delimited &&
@@ -67,9 +71,35 @@ CsvReader::CsvReader(std::string text, std::string source, CsvOptions options, i
   if (opt_.header == CsvHeader::kFirstLine) read_header();
 }
 
+namespace {
+/// Bytes read from a file at a time: large enough that the system calls cost nothing, small enough to
+/// stay in the cache while the rows are parsed.
+constexpr std::size_t kReadChunk = std::size_t{1} << 20;
+}  // namespace
+
+/// Drops the consumed text and appends the file's next chunk; false at the end of the file (or of the
+/// text given whole). A file that shrank while read ends where its bytes end.
+bool CsvReader::refill() {
+  if (!file_ || file_pos_ >= file_->size()) return false;
+  text_.erase(0, pos_);
+  pos_ = 0;
+  const std::size_t have = text_.size();
+  const auto want = static_cast<std::size_t>(std::min<std::uint64_t>(kReadChunk, file_->size() - file_pos_));
+  text_.resize(have + want);
+  const std::size_t got = file_->read_at(file_pos_, text_.data() + have, want);
+  text_.resize(have + got);
+  file_pos_ = got == 0 ? file_->size() : file_pos_ + got;
+  return got > 0;
+}
+
 bool CsvReader::next_line(std::string_view& line) {
-  if (pos_ >= text_.size()) return false;
-  const std::size_t nl = text_.find('\n', pos_);
+  if (pos_ >= text_.size() && !refill()) return false;
+  std::size_t nl = text_.find('\n', pos_);
+  while (nl == std::string::npos) {  // the line goes on in the file's next chunk
+    const std::size_t scanned = text_.size() - pos_;
+    if (!refill()) break;
+    nl = text_.find('\n', pos_ + scanned);
+  }
   const std::size_t end = nl == std::string::npos ? text_.size() : nl;
   line = std::string_view(text_).substr(pos_, end - pos_);
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
@@ -85,16 +115,44 @@ bool CsvReader::is_blank_or_comment(std::string_view line) const {
   return !opt_.comment_prefix.empty() && t.substr(0, opt_.comment_prefix.size()) == opt_.comment_prefix;
 }
 
-void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<std::string_view>& out) {
+/// The number that starts at line[at], when it ends where its field ends: at the line's end or at a
+/// character for which `field_end` is true. The text a field's parse (parse_double) sees then ends right
+/// there too, so it would get the same value and error code.
+template <typename FieldEnd>
+std::optional<CsvReader::Number> number_at(std::string_view line, std::size_t at, FieldEnd field_end,
+                                           std::size_t& end) {
+  const char* first = line.data() + at;
+  const char* last = line.data() + line.size();
+  if (first == last || *first == '+') return std::nullopt;  // parse_double's own handling of '+'
+  CsvReader::Number n;
+  const auto r = std::from_chars(first, last, n.value, std::chars_format::general);
+  if (r.ec == std::errc::invalid_argument) return std::nullopt;
+  end = static_cast<std::size_t>(r.ptr - line.data());
+  if (r.ptr != last && !field_end(*r.ptr)) return std::nullopt;
+  n.ec = r.ec;
+  return n;
+}
+
+void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<std::string_view>& out,
+                      std::vector<std::optional<Number>>* numbers) {
   out.clear();
+  if (numbers) numbers->clear();
+  // The number of each field read as a number in an earlier row (numbers != null) is parsed where the
+  // field is found: the parse finds the field's end, which spares a second pass over its characters.
+  // Other fields (never read as numbers, or not numbers) are split as text.
+  const auto numeric = [&] { return numbers && out.size() < numeric_.size() && numeric_[out.size()]; };
   if (opt_.whitespace_delimited) {
     std::size_t i = 0;
     while (i < line.size()) {
       while (i < line.size() && is_space(line[i])) ++i;
       if (i >= line.size()) break;
       const std::size_t start = i;
-      while (i < line.size() && !is_space(line[i])) ++i;
+      std::optional<Number> n;
+      if (numeric()) n = number_at(line, start, is_space, i);
+      if (!n)
+        for (i = start; i < line.size() && !is_space(line[i]);) ++i;
       out.push_back(line.substr(start, i - start));
+      if (numbers) numbers->push_back(n);
     }
     return;
   }
@@ -102,9 +160,8 @@ void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<s
   std::size_t i = 0;
   while (true) {
     // One field starting at i.
-    std::size_t j = i;
+    std::size_t j = i, k = i;  // k: the first character that is not a space
     if (opt_.trim || opt_.quotes) {
-      std::size_t k = i;
       while (k < line.size() && is_space(line[k]) && line[k] != d) ++k;
       if (opt_.quotes && k < line.size() && line[k] == '"') j = k;
     }
@@ -134,10 +191,28 @@ void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<s
                          {source_, line_no, static_cast<std::int64_t>(out.size() + 1)});
       unquoted_.push_back(std::move(value));
       out.push_back(unquoted_.back());
+      if (numbers) numbers->emplace_back();
       if (k >= line.size()) return;
       i = k + 1;
       continue;
     }
+    if (numeric()) {  // a number, then (trimmed) spaces, then the delimiter or the line's end
+      const std::size_t start = opt_.trim ? k : i;
+      std::size_t stop = 0;
+      const auto n = number_at(
+          line, start, [&](char c) { return c == d || (opt_.trim && is_space(c)); }, stop);
+      std::size_t q = stop;
+      if (n && opt_.trim)
+        while (q < line.size() && is_space(line[q]) && line[q] != d) ++q;
+      if (n && (q == line.size() || line[q] == d)) {
+        out.push_back(line.substr(start, stop - start));
+        numbers->push_back(n);
+        if (q == line.size()) return;
+        i = q + 1;
+        continue;
+      }
+    }
+    if (numbers) numbers->emplace_back();
     const std::size_t end = line.find(d, i);
     std::string_view f = line.substr(i, end == std::string_view::npos ? std::string_view::npos : end - i);
     out.push_back(opt_.trim ? trim(f) : f);
@@ -157,7 +232,7 @@ void CsvReader::read_header() {
     header_line_ = line_;
     std::vector<std::string_view> names;
     unquoted_.clear();
-    split(t, line_, names);
+    split(t, line_, names, nullptr);
     header_.assign(names.begin(), names.end());
     break;
   }
@@ -212,7 +287,7 @@ bool CsvReader::next() {
   while (next_line(line)) {
     if (is_blank_or_comment(line)) continue;
     unquoted_.clear();
-    split(line, line_, fields_);
+    split(line, line_, fields_, &numbers_);
     if (columns_ == 0) columns_ = fields_.size();
     if (!opt_.ragged && fields_.size() != columns_) {
       const std::size_t col = std::min(fields_.size(), columns_) + 1;
@@ -277,14 +352,21 @@ std::string_view CsvReader::field(std::size_t i) const {
 double CsvReader::parse_double(std::size_t i, bool allow_nonfinite) const {
   std::string_view f = field(i);
   if (f.empty()) throw error(i, "empty field, expected a number");
-  std::string_view s = f;
-  if (s.front() == '+') s.remove_prefix(1);
-  if (s.empty() || s.front() == '+') throw error(i, "not a number: " + shown(f));
+  if (i >= numeric_.size()) numeric_.resize(i + 1, 0);
+  numeric_[i] = 1;  // from the next row on, parsed while splitting
   double v = 0.0;
-  const auto r = std::from_chars(s.data(), s.data() + s.size(), v, std::chars_format::general);
-  if (r.ec == std::errc::invalid_argument) throw error(i, "not a number: " + shown(f));
-  if (r.ec == std::errc::result_out_of_range) throw error(i, "number out of range: " + shown(f));
-  if (r.ptr != s.data() + s.size()) throw error(i, "trailing characters after the number: " + shown(f));
+  if (i < numbers_.size() && numbers_[i]) {  // parsed while the row was split: the whole field, no '+'
+    v = numbers_[i]->value;
+    if (numbers_[i]->ec == std::errc::result_out_of_range) throw error(i, "number out of range: " + shown(f));
+  } else {
+    std::string_view s = f;
+    if (s.front() == '+') s.remove_prefix(1);
+    if (s.empty() || s.front() == '+') throw error(i, "not a number: " + shown(f));
+    const auto r = std::from_chars(s.data(), s.data() + s.size(), v, std::chars_format::general);
+    if (r.ec == std::errc::invalid_argument) throw error(i, "not a number: " + shown(f));
+    if (r.ec == std::errc::result_out_of_range) throw error(i, "number out of range: " + shown(f));
+    if (r.ptr != s.data() + s.size()) throw error(i, "trailing characters after the number: " + shown(f));
+  }
   if (!allow_nonfinite && !std::isfinite(v)) throw error(i, "non-finite value " + shown(f) + " not allowed");
   return v;
 }
@@ -325,24 +407,28 @@ std::int64_t CsvReader::get_seconds_ns(std::size_t i) const {
 }
 
 std::optional<std::int64_t> parse_seconds_ns(std::string_view s) {
-  // value = ±digits × 10^exp10, with the digits kept as text so nothing is rounded early.
+  // value = ±digits × 10^exp10, with the digits read from the text so nothing is rounded early: the
+  // integer part's digits and then the fraction's, as one sequence (no copy).
   bool negative = false;
   if (!s.empty() && (s.front() == '+' || s.front() == '-')) {
     negative = s.front() == '-';
     s.remove_prefix(1);
   }
-  std::string digits;
-  int exp10 = 0;
   std::size_t k = 0;
-  bool any_digit = false;
-  for (; k < s.size() && s[k] >= '0' && s[k] <= '9'; ++k, any_digit = true) digits += s[k];
+  while (k < s.size() && s[k] >= '0' && s[k] <= '9') ++k;
+  const std::string_view int_digits = s.substr(0, k);
+  std::string_view frac_digits;
   if (k < s.size() && s[k] == '.') {
-    for (++k; k < s.size() && s[k] >= '0' && s[k] <= '9'; ++k, any_digit = true) {
-      digits += s[k];
-      --exp10;
-    }
+    const std::size_t from = ++k;
+    while (k < s.size() && s[k] >= '0' && s[k] <= '9') ++k;
+    frac_digits = s.substr(from, k - from);
   }
-  if (!any_digit) return std::nullopt;
+  const std::size_t n_digits = int_digits.size() + frac_digits.size();
+  if (n_digits == 0) return std::nullopt;
+  const auto digit = [&](std::size_t i) {  // the i-th digit of the sequence, as a number
+    return static_cast<std::uint64_t>((i < int_digits.size() ? int_digits[i] : frac_digits[i - int_digits.size()]) - '0');
+  };
+  long exp10 = -static_cast<long>(frac_digits.size());
   if (k < s.size() && (s[k] == 'e' || s[k] == 'E')) {
     ++k;
     int e = 0;
@@ -355,29 +441,24 @@ std::optional<std::int64_t> parse_seconds_ns(std::string_view s) {
     k = s.size();
   }
   if (k != s.size()) return std::nullopt;
-  // Scale to nanoseconds: shift by 9 decimal places.
+  // Scale to nanoseconds: shift by 9 decimal places; digits below a nanosecond are dropped, rounding
+  // half away from zero on the first of them.
   exp10 += 9;
+  std::size_t keep = n_digits;
   bool round_up = false;
   if (exp10 < 0) {
-    const std::size_t drop = static_cast<std::size_t>(-exp10);
-    if (drop > digits.size()) {
-      digits.clear();  // |value| < 0.1 ns·10^-x: rounds to zero
-    } else {
-      round_up = digits[digits.size() - drop] >= '5';  // half away from zero
-      digits.resize(digits.size() - drop);
-    }
+    const auto drop = static_cast<std::size_t>(-exp10);
+    keep = drop > n_digits ? 0 : n_digits - drop;
+    round_up = drop <= n_digits && digit(keep) >= 5;
     exp10 = 0;
   }
-  const std::size_t first = digits.find_first_not_of('0');
-  digits = first == std::string::npos ? std::string() : digits.substr(first);
-  if (!digits.empty()) digits.append(static_cast<std::size_t>(exp10), '0');
-  if (digits.size() > 19) return std::nullopt;
-  std::uint64_t mag = 0;
-  for (char c : digits) {
-    const std::uint64_t d = static_cast<std::uint64_t>(c - '0');
-    if (mag > (std::numeric_limits<std::uint64_t>::max() - d) / 10) return std::nullopt;
-    mag = mag * 10 + d;
-  }
+  std::size_t first = 0;  // leading zeros do not count towards the 19 digits an int64 holds
+  while (first < keep && digit(first) == 0) ++first;
+  if (first < keep && keep - first + static_cast<std::size_t>(exp10) > 19) return std::nullopt;
+  std::uint64_t mag = 0;  // at most 19 digits: below 2^64
+  for (std::size_t i = first; i < keep; ++i) mag = mag * 10 + digit(i);
+  if (first < keep)
+    for (long z = 0; z < exp10; ++z) mag *= 10;
   if (round_up) ++mag;
   if (mag > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) return std::nullopt;
   const auto v = static_cast<std::int64_t>(mag);

@@ -12,6 +12,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/io/csv.hpp"
+#include "roe/io/input.hpp"
 #include "roe/io/output.hpp"
 
 namespace roe::io {
@@ -109,7 +110,11 @@ const std::vector<std::string> kPoseCov = {"Txx", "Txy", "Txz", "Txa", "Txb", "T
 
 }  // namespace
 
-TrajectoryFormat detect_trajectory_format(std::string_view text, const std::string& source) {
+namespace {
+
+/// The format from the first decisive line of `text`; nullopt when no line decides (only blank and
+/// comment lines). InputError for a bag or a line that fits no format.
+std::optional<TrajectoryFormat> detect_format_in(std::string_view text, const std::string& source) {
   if (text.substr(0, 8) == "#ROSBAG " || text.substr(0, 5) == "\x89MCAP")
     throw InputError(fmt::format("this is a ROS bag ({}), not a trajectory file: name the pose topic "
                                  "(BAG:TOPIC, a geometry_msgs PoseStamped/Odometry topic) or export it first "
@@ -157,6 +162,13 @@ TrajectoryFormat detect_trajectory_format(std::string_view text, const std::stri
                                  std::string(line.substr(0, 120))),
                      {source, line_no, 1});
   }
+  return std::nullopt;
+}
+
+}  // namespace
+
+TrajectoryFormat detect_trajectory_format(std::string_view text, const std::string& source) {
+  if (const auto f = detect_format_in(text, source)) return *f;
   throw InputError("the trajectory file has no data rows", {source});
 }
 
@@ -339,57 +351,78 @@ void read_csv(CsvReader& r, Trajectory& tr, bool ns) {
 
 }  // namespace
 
-Trajectory parse_trajectory(std::string text, const std::string& source, TrajectoryFormat format) {
-  if (format == TrajectoryFormat::kAuto) format = detect_trajectory_format(text, source);
-  Trajectory tr;
-  tr.format = format;
-  tr.source = source;
-  const std::size_t lines = static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1;
-  tr.t_ns.reserve(lines);
-  tr.poses.reserve(lines);
-  tr.lines.reserve(lines);
+namespace {
+
+CsvOptions csv_options(TrajectoryFormat format) {
   CsvOptions o;
   o.comment_prefix = "#";
+  const bool spaces = format == TrajectoryFormat::kTum || format == TrajectoryFormat::kKitti;
+  o.whitespace_delimited = spaces;
+  o.header = spaces ? CsvHeader::kNone : CsvHeader::kFirstLine;
+  o.columns = format == TrajectoryFormat::kTum ? 8 : format == TrajectoryFormat::kKitti ? 12 : 0;
+  return o;
+}
+
+/// The rows of `r` (a reader made with csv_options(format)); `rows` reserves room for that many poses.
+Trajectory read_rows(CsvReader& r, TrajectoryFormat format, std::size_t rows) {
+  Trajectory tr;
+  tr.format = format;
+  tr.source = r.source();
+  tr.t_ns.reserve(rows);
+  tr.poses.reserve(rows);
+  tr.lines.reserve(rows);
   switch (format) {
-    case TrajectoryFormat::kTum: {
-      o.whitespace_delimited = true;
-      o.header = CsvHeader::kNone;
-      o.columns = 8;
-      CsvReader r = CsvReader::from_text(std::move(text), source, o);
+    case TrajectoryFormat::kTum:
       read_tum(r, tr);
       break;
-    }
-    case TrajectoryFormat::kEuroc: {
-      o.header = CsvHeader::kFirstLine;
-      CsvReader r = CsvReader::from_text(std::move(text), source, o);
+    case TrajectoryFormat::kEuroc:
       read_euroc(r, tr);
       break;
-    }
-    case TrajectoryFormat::kKitti: {
-      o.whitespace_delimited = true;
-      o.header = CsvHeader::kNone;
-      o.columns = 12;
-      CsvReader r = CsvReader::from_text(std::move(text), source, o);
+    case TrajectoryFormat::kKitti:
       read_kitti(r, tr);
       break;
-    }
     case TrajectoryFormat::kCsv:
-    case TrajectoryFormat::kCsvNs: {
-      o.header = CsvHeader::kFirstLine;
-      CsvReader r = CsvReader::from_text(std::move(text), source, o);
+    case TrajectoryFormat::kCsvNs:
       read_csv(r, tr, format == TrajectoryFormat::kCsvNs);
       break;
-    }
     case TrajectoryFormat::kAuto:
       break;
   }
-  if (tr.empty()) throw InputError("the trajectory file has no poses", {source});
+  if (tr.empty()) throw InputError("the trajectory file has no poses", {tr.source});
   return tr;
 }
 
+/// Bytes of a file's head that format detection and the row estimate look at.
+constexpr std::size_t kHeadBytes = 64 * 1024;
+
+}  // namespace
+
+Trajectory parse_trajectory(std::string text, const std::string& source, TrajectoryFormat format) {
+  if (format == TrajectoryFormat::kAuto) format = detect_trajectory_format(text, source);
+  const std::size_t lines = static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1;
+  CsvReader r = CsvReader::from_text(std::move(text), source, csv_options(format));
+  return read_rows(r, format, lines);
+}
 
 Trajectory read_trajectory(const fs::path& file, TrajectoryFormat format) {
-  return parse_trajectory(read_file(file), file.string(), format);
+  // The file is parsed as it is read (CsvReader's chunks): its text is never held whole. The format is
+  // detected from its head, and from the whole file only when the head holds no decisive line.
+  const std::string source = file.string();
+  const std::string head = read_file_head(file, kHeadBytes);
+  const bool whole = head.size() < kHeadBytes;
+  const std::string_view complete_lines(head.data(), whole ? head.size() : head.rfind('\n') + 1);
+  if (format == TrajectoryFormat::kAuto) {
+    const auto f = detect_format_in(complete_lines, source);
+    format = f ? *f : detect_trajectory_format(read_file(file), source);
+  }
+  // Room for the rows: exact for a small file, else from the head's line length (+5 %).
+  const std::size_t head_lines = static_cast<std::size_t>(std::count(head.begin(), head.end(), '\n')) + 1;
+  const std::size_t rows =
+      whole ? head_lines
+            : static_cast<std::size_t>(1.05 * static_cast<double>(require_regular_file(file)) /
+                                       static_cast<double>(head.size()) * static_cast<double>(head_lines));
+  CsvReader r(file, csv_options(format));
+  return read_rows(r, format, rows);
 }
 
 void apply_kitti_times(Trajectory& tr, const fs::path& times_file) {

@@ -1,7 +1,9 @@
 // Benchmark of roe eval: a 1,000,000-pose pair (ground truth as EuRoC csv in ns, estimate as TUM in
 // seconds, 200 Hz, 5000 s), written by the small generator below, evaluated end to end (parsing,
 // association, SE(3) Umeyama, APE metrics), with and without writing the output files.
-//   bench_eval [N=1000000] [DIR=/tmp/roe_bench_eval]
+//   bench_eval [N=1000000] [DIR=/tmp/roe_bench_eval] [keep]
+// With `keep` the pair is left in DIR (and reused by the next run with the same N), so that whole-process
+// timings (`roe eval DIR/est.tum --gt DIR/gt.csv --no-out`) and old/new binaries read the same files.
 #include <fmt/format.h>
 
 #include <chrono>
@@ -12,6 +14,7 @@
 #include <string>
 
 #include "roe/app/eval.hpp"
+#include "roe/io/output.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "roe/math/euler.hpp"
 
@@ -29,12 +32,17 @@ double cpu() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 int main(int argc, char** argv) {
   const long n = argc > 1 ? std::atol(argv[1]) : 1000000;
   const fs::path dir = argc > 2 ? fs::path(argv[2]) : fs::temp_directory_path() / "roe_bench_eval";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const bool keep = argc > 3 && std::string(argv[3]) == "keep";
+  const fs::path stamp = dir / fmt::format("n{}", n);  // marks a complete pair of this size
+  const bool reuse = keep && fs::exists(stamp);
+  if (!reuse) {
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
   // Generator: a smooth 3D path; the estimate is in another world (yaw 30°, shifted) with small
   // deterministic errors and its own stamps jittered by up to ±1 ms.
   double t0 = now();
-  {
+  if (!reuse) {
     std::vector<Timestamp> tg(n), te(n);
     std::vector<Pose> pg(n), pe(n);
     const Pose T_E_G(Eigen::Quaterniond(math::from_euler_zyx(Eigen::Vector3d(0, 0, 0.5236))),
@@ -52,21 +60,26 @@ int main(int argc, char** argv) {
     }
     io::write_trajectory(dir / "gt.csv", tg, pg, io::TrajectoryFormat::kEuroc);
     io::write_trajectory(dir / "est.tum", te, pe, io::TrajectoryFormat::kTum);
+    io::write_file_atomic(stamp, "");
   }
   const double t_gen = now() - t0;
-  std::printf("generated %ld + %ld poses in %.2f s (gt.csv %.0f MB, est.tum %.0f MB)\n", n, n, t_gen,
-              fs::file_size(dir / "gt.csv") / 1e6, fs::file_size(dir / "est.tum") / 1e6);
+  std::printf("%s %ld + %ld poses in %.2f s (gt.csv %.0f MB, est.tum %.0f MB)\n",
+              reuse ? "reused" : "generated", n, n, t_gen, fs::file_size(dir / "gt.csv") / 1e6, fs::file_size(dir / "est.tum") / 1e6);
 
-  // Stages separately.
+  // Stages separately (wall; CPU of the process in brackets: single-threaded stages, so CPU is what an
+  // idle core would take).
   t0 = now();
+  double c0 = cpu();
   const io::Trajectory gt = io::read_trajectory(dir / "gt.csv");
-  const double t_read_gt = now() - t0;
+  const double t_read_gt = now() - t0, c_read_gt = cpu() - c0;
   t0 = now();
+  c0 = cpu();
   const io::Trajectory est = io::read_trajectory(dir / "est.tum");
-  const double t_read_est = now() - t0;
+  const double t_read_est = now() - t0, c_read_est = cpu() - c0;
   t0 = now();
+  c0 = cpu();
   const eval::Association a = eval::associate(est.t_ns, gt.t_ns);
-  const double t_assoc = now() - t0;
+  const double t_assoc = now() - t0, c_assoc = cpu() - c0;
   std::vector<Pose> e, g;
   e.reserve(a.size());
   g.reserve(a.size());
@@ -75,14 +88,18 @@ int main(int argc, char** argv) {
     g.push_back(gt.poses[a.gt_index[k]]);
   }
   t0 = now();
+  c0 = cpu();
   const eval::Alignment al = eval::compute_alignment(eval::AlignType::kSe3, e, g);
   eval::apply_alignment(al, e);
-  const double t_align = now() - t0;
+  const double t_align = now() - t0, c_align = cpu() - c0;
   t0 = now();
+  c0 = cpu();
   const eval::ApeResult ape = eval::compute_ape(e, g);
-  const double t_metrics = now() - t0;
-  std::printf("read gt %.3f s, read est %.3f s, associate %.3f s (%zu pairs), align %.3f s, metrics %.3f s\n",
-              t_read_gt, t_read_est, t_assoc, a.size(), t_align, t_metrics);
+  const double t_metrics = now() - t0, c_metrics = cpu() - c0;
+  std::printf("read gt %.3f s (%.3f CPU), read est %.3f s (%.3f CPU), associate %.3f s (%.3f CPU, %zu pairs), "
+              "align %.3f s (%.3f CPU), metrics %.3f s (%.3f CPU)\n",
+              t_read_gt, c_read_gt, t_read_est, c_read_est, t_assoc, c_assoc, a.size(), t_align, c_align,
+              t_metrics, c_metrics);
   std::printf("APE rmse %.6f m, rot rmse %.6f deg\n", ape.trans_m.rmse, ape.rot_deg.rmse);
 
   // End to end through the app function (what `roe eval` runs).
@@ -91,7 +108,7 @@ int main(int argc, char** argv) {
   o.gt = (dir / "gt.csv").string();
   o.no_out = true;
   t0 = now();
-  double c0 = cpu();
+  c0 = cpu();
   const auto r = app::run_eval(o);
   const double t_total = now() - t0, c_total = cpu() - c0;
   o.no_out = false;
@@ -104,6 +121,7 @@ int main(int argc, char** argv) {
       "run_eval (parse + associate + align + metrics): %.3f s wall, %.3f s CPU; with all output files: "
       "%.3f s wall, %.3f s CPU; matched %zu\n",
       t_total, c_total, t_total_out, c_total_out, r.report["association"]["n_matched"].get<std::size_t>());
-  fs::remove_all(dir);
+  fs::remove_all(dir / "out");
+  if (!keep) fs::remove_all(dir);
   return 0;
 }

@@ -472,3 +472,66 @@ TEST_CASE("csv: writer/reader round trip of arbitrary text fields", "[csv]") {
   }
   CHECK(i == 500);
 }
+
+TEST_CASE("csv: a number parsed while the row is split equals the field's own parse", "[csv]") {
+  // From the second row on, CsvReader parses the number of a column read as a number before where it
+  // finds the field (the parse finds the field's end); a field that is more than a number falls back to
+  // the text. Either way get_double sees the whole field: the same value, and the same error for "1.5x"
+  // or "1e999", in every mode, in the first row and in later ones.
+  struct Mode {
+    const char* name;
+    bool whitespace, trim, quotes;
+    char delim;
+  };
+  for (const Mode m : {Mode{"spaces", true, true, true, ' '}, Mode{"comma, trimmed", false, true, true, ','},
+                       Mode{"comma, untrimmed", false, false, false, ','}, Mode{"tab", false, true, true, '\t'},
+                       Mode{"space-delimited", false, true, true, ' '}}) {
+    CAPTURE(m.name);
+    CsvOptions o;
+    o.header = CsvHeader::kNone;
+    o.whitespace_delimited = m.whitespace;
+    o.trim = m.trim;
+    o.quotes = m.quotes;
+    o.delimiter = m.delim;
+    o.ragged = true;
+    const auto parse = [&](const std::string& field, bool later_row) -> std::string {  // the second field's
+      const std::string sep = m.whitespace ? " \t " : std::string(1, m.delim);
+      const std::string row = "7" + sep + field + sep + "8\n";
+      auto r = CsvReader::from_text(later_row ? "1" + sep + "2" + sep + "3\n" + row : row, "t", o);
+      try {
+        if (later_row) {
+          REQUIRE(r.next());
+          for (std::size_t c = 0; c < 3; ++c) CHECK(r.get_double(c) == static_cast<double>(c + 1));
+        }
+        REQUIRE(r.next());
+        const double v = r.get_double(1);
+        CHECK(r.get_double(0) == 7.0);
+        CHECK(r.get_double(r.size() - 1) == 8.0);
+        return std::to_string(v);
+      } catch (const InputError& e) {
+        return e.bare_message();
+      }
+    };
+    const auto value = [&](const std::string& field) {
+      const std::string first = parse(field, false), later = parse(field, true);
+      CHECK(first == later);
+      return later;
+    };
+    CHECK(value("1.5") == "1.500000");
+    CHECK(value("-2.25e-1") == "-0.225000");
+    CHECK(value(".5") == "0.500000");
+    CHECK(value("1.5x") == "trailing characters after the number: '1.5x'");
+    CHECK(value("1e999") == "number out of range: '1e999'");
+    CHECK(value("1e") == "trailing characters after the number: '1e'");
+    CHECK(value("+3") == "3.000000");
+    CHECK(value("++3") == "not a number: '++3'");
+    CHECK(value("nan") == "non-finite value 'nan' not allowed");
+    CHECK(value("0x10") == "trailing characters after the number: '0x10'");
+    if (m.trim && !m.whitespace && m.delim == ',') {
+      CHECK(value("  4.5\t ") == "4.500000");  // spaces around a number are trimmed
+      CHECK(value(" 4.5 x ") == "trailing characters after the number: '4.5 x'");
+      CHECK(value("\"6.5\"") == "6.500000");  // quoted: unquoted first
+    }
+    if (!m.trim && !m.whitespace) CHECK(value(" 4.5") == "not a number: ' 4.5'");
+  }
+}

@@ -1,7 +1,11 @@
 // Trajectory readers/writers: TUM, EuRoC, cnspy CSV (set-matched header, covariance columns), roe
 // csv-ns; format detection; exact seconds<->ns; malformed input with line and column.
+#include <fmt/format.h>
+
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <filesystem>
+#include <functional>
 
 #include "roe/core/error.hpp"
 #include "roe/io/trajectory_io.hpp"
@@ -283,4 +287,74 @@ TEST_CASE("real files in ../shared/data", "[io][trajectory][real]") {
   CHECK(cov.cov_position_local);
   const Trajectory tumvi = read_trajectory(d / "tumvi/dataset-room1_512_16_gt.csv");
   CHECK(tumvi.format == TrajectoryFormat::kEuroc);
+}
+
+namespace {
+
+/// What a reader made of a text: the poses (bit for bit) and their lines, or the error and its location.
+std::string outcome(const std::function<Trajectory()>& read) {
+  try {
+    const Trajectory t = read();
+    std::string s = fmt::format("{} poses, format {}\n", t.size(), to_string(t.format));
+    for (std::size_t i = 0; i < t.size(); ++i)
+      s += fmt::format("{} {} {} {} {} {} {} {} line {}\n", t.t_ns[i], t.poses[i].p.x(), t.poses[i].p.y(),
+                       t.poses[i].p.z(), t.poses[i].q.x(), t.poses[i].q.y(), t.poses[i].q.z(), t.poses[i].q.w(),
+                       t.lines[i]);
+    return s;
+  } catch (const InputError& e) {
+    return fmt::format("error at {}:{} [{}]: {}", e.context().line, e.context().column, e.context().key,
+                       e.bare_message());
+  }
+}
+
+}  // namespace
+
+TEST_CASE("a trajectory file is read in chunks exactly as its text is parsed whole", "[io][trajectory]") {
+  // read_trajectory parses the file as it reads it, 1 MiB at a time (CsvReader), and detects the format
+  // from its first 64 KiB; parse_trajectory holds the text whole. Each file below must give the same
+  // poses, lines and errors both ways: rows across chunk boundaries, a head of comments longer than
+  // the detection's 64 KiB, CRLF, a BOM, no final line end, and malformed rows deep in the file.
+  roe::test::TempDir dir("roe_traj_chunks");
+  std::string tum;  // ~2.5 MiB of TUM rows of varying length: rows straddle both chunk boundaries
+  for (int i = 0; i < 40000; ++i)
+    tum += fmt::format("{}.{:09d}   {} {} {}\t0 0 {} {}\n", 1000 + i, (i * 7919) % 1000000000, 0.1 * i, -1.0 / (i + 1),
+                       i % 3 ? "1e-3" : "42", std::sin(0.001 * i), std::cos(0.001 * i));
+  std::string euroc = "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\r\n";
+  for (int i = 0; i < 30000; ++i)
+    euroc += fmt::format("{}, {} ,{},{},{},0,0,{}\r\n", 1'000'000'000LL * i + 17, 0.5 * i, -0.25 * i, i % 7,
+                         std::cos(0.002 * i), std::sin(0.002 * i));
+  const std::string comments = std::string(70000, '#') + "\n# more\n\n";
+  const std::string csv = "t,tx,ty,tz,qx,qy,qz,qw\n1.5,\"2\",3,4,0,0,0,1\n2.5,+1,3 , 4,0,0,0,1\n";
+  std::vector<std::pair<std::string, std::string>> cases = {
+      {"tum", tum},
+      {"tum_unterminated", tum.substr(0, tum.size() - 1)},
+      {"tum_comment_head", comments + tum},
+      {"tum_bom", "\xEF\xBB\xBF" + tum},
+      {"euroc_crlf", euroc},
+      {"csv_quoted_plus", csv},
+      {"tum_bad_number_deep", tum + "99999.5 0 0 1.5x 0 0 0 1\n"},
+      {"tum_out_of_range_deep", tum + "99999.5 0 0 1e400 0 0 0 1\n"},
+      {"tum_short_row_deep", tum + "99999.5 0 0 0 0 0 1\n"},
+      {"tum_decreasing_deep", tum + "5.5 0 0 0 0 0 0 1\n"},
+      {"euroc_bad_stamp_deep", euroc + "12.5,0,0,0,1,0,0,0\r\n"},
+      {"euroc_nan_deep", euroc + "99999999999999,0,nan,0,1,0,0,0\r\n"},
+      {"only_comments", comments},
+  };
+  for (const auto& [name, text] : cases) {
+    INFO(name);
+    const fs::path file = dir.write(name + ".txt", text);
+    const std::string from_file = outcome([&] { return read_trajectory(file); });
+    const std::string from_text = outcome([&] { return parse_trajectory(text, file.string()); });
+    CHECK(from_file == from_text);
+    CHECK(from_file.size() > 20);
+  }
+  // The whole-text outcome itself is right: spot checks.
+  CHECK(outcome([&] { return parse_trajectory(tum, "t"); }).rfind("40000 poses, format tum", 0) == 0);
+  CHECK(outcome([&] { return parse_trajectory(euroc, "e"); }).rfind("30000 poses, format euroc", 0) == 0);
+  CHECK(outcome([&] { return parse_trajectory(csv, "c"); }) ==
+        "2 poses, format csv\n1500000000 2 3 4 0 0 0 1 line 2\n2500000000 1 3 4 0 0 0 1 line 3\n");
+  CHECK(outcome([&] { return parse_trajectory(tum + "99999.5 0 0 1.5x 0 0 0 1\n", "t"); }) ==
+        "error at 40001:4 []: trailing characters after the number: '1.5x'");
+  CHECK(outcome([&] { return parse_trajectory(tum + "99999.5 0 0 1e400 0 0 0 1\n", "t"); }) ==
+        "error at 40001:4 []: number out of range: '1e400'");
 }

@@ -22,7 +22,8 @@
 /// `symmetric_ids` without a described symmetry are left out: their rotation is defined only up to a
 /// symmetry the dataset does not describe.
 /// The cost is evaluated on a grid over `centre_s` ± `search_s` (centre: the offset the dataset
-/// declares); a parabola fitted over ±`fit_halfwidth_s` around its lowest point gives the offset and,
+/// declares), coarse to fine (`coarse_stride`: the full step only where the fits need it); a parabola
+/// fitted over ±`fit_halfwidth_s` around its lowest point gives the offset and,
 /// from its curvature, the standard error. R_I_C comes from the run (its estimate), because the
 /// residual axes depend on it.
 ///
@@ -61,6 +62,9 @@ struct TimeOffsetOptions {
   double min_rate_deg_s = 5.0;   ///< RMS gyro rate below which the offset is not observable
   std::size_t min_detections = 50;  ///< fewer usable detections: no estimate
   double fit_halfwidth_s = 0.05; ///< the first parabola fit spans ±this (the second ±3σ of the first)
+  /// Coarse to fine: the whole search is evaluated at every coarse_stride-th grid step, the full step only
+  /// around the lowest points and inside narrow fits (1: the full grid everywhere, as before 2026-12-02).
+  std::size_t coarse_stride = 4;
   /// Threads for the grid (0: every CPU the process may use). The result does not depend on it.
   unsigned threads = 0;
   /// Objects left out unless `symmetries` describes them: a symmetric object's detected rotation is
@@ -94,8 +98,8 @@ struct TimeOffsetEstimate {
   /// Whether the cost stays lowest at that edge with any one of the jackknife's blocks of windows left
   /// out (false: the edge rests on a part of the data, and is no evidence).
   bool edge_stable = false;
-  std::vector<double> grid_s;  ///< the candidate offsets
-  std::vector<double> cost;    ///< the cost per candidate (deg², truncated)
+  std::vector<double> grid_s;  ///< the candidate offsets (the full grid)
+  std::vector<double> cost;    ///< the cost per candidate (deg², truncated); NaN where not evaluated
 };
 
 /// Estimates the offset from `imu` (sorted, gyro in rad/s), a constant `gyro_bias` (rad/s), the

@@ -29,7 +29,9 @@
 
 #include <cstdint>
 #include <deque>
+#include <system_error>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -55,6 +57,8 @@ enum class StampKind {
   kNanoseconds,  ///< int64 (roe, EuRoC)
   kSeconds,      ///< double (TUM, cnspy)
 };
+
+class InputFile;
 
 struct CsvOptions {
   /// Field separator in delimited mode.
@@ -86,11 +90,15 @@ struct CsvOptions {
   StampOrder stamp_order = StampOrder::kStrictlyIncreasing;
 };
 
-/// Reads a table row by row. The whole file is read into memory at construction.
+/// Reads a table row by row. A file is read in chunks of 1 MiB as the rows are consumed (a row longer
+/// than a chunk is read whole), so its text is never held at once; a table given as text is held whole.
+/// The fields of a row stay valid until the next call of next().
 class CsvReader {
  public:
-  /// Opens and reads `path`, and parses/checks the header. InputError when unreadable or bad header.
+  /// Opens `path` (io::InputFile: a regular file, read up to its size at open time), and parses/checks
+  /// the header. InputError when unreadable or bad header.
   CsvReader(const fs::path& path, CsvOptions options = {});
+  ~CsvReader();
   /// A table given as text; `source` names it in errors.
   static CsvReader from_text(std::string text, std::string source, CsvOptions options = {});
   // Fields are views into the reader's buffer, so a reader is neither copied nor moved
@@ -150,15 +158,25 @@ class CsvReader {
   /// An InputError located at the current row, without a column.
   InputError row_error(const std::string& message) const;
 
+  /// A field's number as std::from_chars read it while the row was split (value and error code).
+  struct Number {
+    double value = 0.0;
+    std::errc ec{};
+  };
+
  private:
-  CsvReader(std::string text, std::string source, CsvOptions options, int);
+  CsvReader(std::string text, std::string source, CsvOptions options, std::unique_ptr<InputFile> file);
   bool next_line(std::string_view& line);
+  bool refill();
   bool is_blank_or_comment(std::string_view line) const;
-  void split(std::string_view line, std::int64_t line_no, std::vector<std::string_view>& out);
+  void split(std::string_view line, std::int64_t line_no, std::vector<std::string_view>& out,
+             std::vector<std::optional<Number>>* numbers);
   void read_header();
   double parse_double(std::size_t i, bool allow_nonfinite) const;
 
-  std::string text_;
+  std::string text_;                 ///< the text, or the file's bytes from the current line on
+  std::unique_ptr<InputFile> file_;  ///< the file text_ is refilled from (null for a table given as text)
+  std::uint64_t file_pos_ = 0;       ///< next byte of the file to read
   std::string source_;
   CsvOptions opt_;
   std::size_t pos_ = 0;
@@ -170,6 +188,8 @@ class CsvReader {
   std::size_t columns_ = 0;
   std::vector<std::string> header_;
   std::vector<std::string_view> fields_;
+  std::vector<std::optional<Number>> numbers_;  ///< per field: its number, when parsed while splitting
+  mutable std::vector<char> numeric_;           ///< per column: read as a number in some row
   std::deque<std::string> unquoted_;  // storage of fields that needed unescaping (stable addresses)
   bool have_prev_stamp_ = false;
   std::int64_t prev_ns_ = 0;

@@ -10,10 +10,11 @@
 /// twice, to detect its format and then to parse it).
 ///
 /// Memory bound: read_file allocates exactly the size the file had when it was opened (fstat), never
-/// more; bytes appended while it reads are not read. The readers on top of it (CSV, JSON, YAML,
-/// trajectories, PoET results) hold that text plus their parsed rows, so their peak memory is a small
-/// multiple of the file's size (docs/import.md gives the factors). ROS bags are read in place
-/// (pread), one chunk at a time.
+/// more; bytes appended while it reads are not read. The readers on top of it (JSON, YAML, PoET
+/// results) hold that text plus their parsed rows, so their peak memory is a small multiple of the
+/// file's size (docs/import.md gives the factors). CSV tables and trajectory files opened by path are
+/// parsed as they are read (io::CsvReader, 1 MiB at a time, up to the size at open time), and ROS bags
+/// are read in place (pread), one chunk at a time.
 ///
 /// Every query here uses the non-throwing std::filesystem forms: a problem with the path itself (a
 /// loop, a permission) is an InputError, never a std::filesystem::filesystem_error.
