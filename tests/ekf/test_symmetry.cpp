@@ -186,20 +186,11 @@ TEST_CASE("Monte-Carlo NEES and NIS of updates of a symmetric object with the re
   opt.residual_frame = ResidualFrame::kCamera;
   opt.meas_sigma_p_m = 0.01;
   opt.meas_sigma_rot_deg = 2.0;
-  opt.init_min_detections = 1;
-  opt.anchor_id = 1;
-  opt.require_anchor = false;
-  opt.chi2_gate = false;
-  Filter f0(opt, ImuNoiseParams{1e-3, 1e-4, 1e-2, 1e-3}, Pose(exp_quat(Vec3(0.1, -0.2, 0.05)), Vec3(0.02, 0.01, -0.03)));
-  f0.initialize(0, Vec3::Zero(), Vec3(0, 0, 9.81), Vec3(0.3, -0.2, 9.8));
-  Detection d1, d2;
-  d1.object_id = 1;
-  d1.T_C_O = Pose(exp_quat(Vec3(0.3, 0.2, -0.1)), Vec3(0.2, -0.1, 1.6));
-  d2.object_id = 2;
-  d2.T_C_O = Pose(exp_quat(Vec3(-0.6, 0.4, 0.3)), Vec3(-0.3, 0.2, 2.0));
-  f0.update({d1, d2});
-  f0.propagate(20'000'000, Vec3(0.05, -0.02, 0.01), Vec3(0.1, 0.0, 9.8));
+  Filter f0 = test::two_objects_started(opt, 1.6, 2.0);
   f0.set_symmetries({{2, s2}});
+  Detection d2;  // object 2's detection of each trial (its T_C_O set there)
+  d2.object_id = 2;
+  d2.T_C_O = f0.predict(2).inverse();
   const int n = f0.dim();
   const Eigen::MatrixXd P0 = f0.covariance();
   const Eigen::MatrixXd L = P0.llt().matrixL();

@@ -53,20 +53,7 @@ Filter prior(ResidualFrame frame) {
   opt.init_sigma_yaw_deg = 0.1;
   opt.extrinsics_sigma_p_m = 0.001;
   opt.extrinsics_sigma_rot_deg = 0.1;
-  opt.init_min_detections = 1;
-  opt.anchor_id = 1;
-  opt.require_anchor = false;
-  opt.chi2_gate = false;
-  Filter f(opt, ImuNoiseParams{1e-3, 1e-4, 1e-2, 1e-3}, Pose(exp_quat(Vec3(0.1, -0.2, 0.05)), Vec3(0.02, 0.01, -0.03)));
-  f.initialize(0, Vec3::Zero(), Vec3(0, 0, 9.81), Vec3(0.3, -0.2, 9.8));
-  Detection d1, d2;
-  d1.object_id = 1;
-  d1.T_C_O = Pose(exp_quat(Vec3(0.3, 0.2, -0.1)), Vec3(0.2, -0.1, 1.0));
-  d2.object_id = 2;
-  d2.T_C_O = Pose(exp_quat(Vec3(-0.6, 0.4, 0.3)), Vec3(-0.3, 0.2, 1.2));
-  f.update({d1, d2});
-  f.propagate(20'000'000, Vec3(0.05, -0.02, 0.01), Vec3(0.1, 0.0, 9.8));
-  return f;
+  return test::two_objects_started(opt, 1.0, 1.2);
 }
 
 // A detection T_C_O of the true T_C_O with noise ~ N(0, R) in the residual frame's convention (camera:
