@@ -148,6 +148,12 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
   Filter filter(opt, noise, T_I_C_prior);
   filter.set_symmetries(symmetries);
   filter.set_recording(recording);
+  if (recording != nullptr) {
+    // One step per IMU sample and per image between samples; a node per segment, per update and per new
+    // object. Reserved once: a growing vector would copy every node (~4 kB each) at each doubling.
+    recording->steps.reserve(imu.size() + images.size());
+    recording->nodes.reserve(2 * images.size() + 16);
+  }
   filter.initialize(t0, imu.front().gyro, imu.front().accel, summary.init.mean_accel, &summary.init_gyro_bias);
   observer.on_imu(filter);
   std::size_t j = 0;

@@ -4,8 +4,15 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <thread>
 
 #include "roe/core/error.hpp"
+#include "roe/core/parallel.hpp"
+#include "roe/ekf/measurement.hpp"
 #include "roe/math/so3.hpp"
 
 namespace roe::ekf {
@@ -42,20 +49,31 @@ Eigen::LLT<MatX> factor(const MatX& P, Timestamp t, const char* what) {
 
 MatX symmetric(const MatX& P) { return 0.5 * (P + P.transpose()); }
 
-/// One output row from a core state, its core covariance and the extrinsics' covariance.
-SmoothedState make_state(Timestamp t, const CoreState& x, const Pose& T_I_C, const Mat15& Pcc, const MatX& P,
-                         int extr) {
+/// The extrinsics' variances [δp_I_C, δθ_I_C] in a full covariance (0 when they are held fixed).
+Vec6 extrinsics_variance(const MatX& P, int extr) {
+  return extr >= 0 ? Vec6(P.diagonal().segment<6>(extr)) : Vec6::Zero();
+}
+
+/// One output row from a core state, the entries of its core covariance that the output holds (the
+/// variances and the [δp; δθ] block) and the extrinsics' variances.
+SmoothedState make_state(Timestamp t, const CoreState& x, const Pose& T_I_C, const Vec15& core_var,
+                         const Eigen::Matrix<double, 6, 6>& pose_cov, const Vec6& extr_var) {
   SmoothedState s;
   s.t_ns = t;
   s.x = x;
   s.T_I_C = T_I_C;
-  for (int i = 0; i < kCore; ++i) s.sigma(i) = std::sqrt(std::max(0.0, Pcc(i, i)));
-  if (extr >= 0)
-    for (int i = 0; i < 6; ++i) s.sigma(kCore + i) = std::sqrt(std::max(0.0, P(extr + i, extr + i)));
-  for (int a = 0; a < 2; ++a)
-    for (int b = 0; b < 2; ++b)
-      s.pose_cov.block<3, 3>(3 * a, 3 * b) = Pcc.block<3, 3>(a == 0 ? kP : kTheta, b == 0 ? kP : kTheta);
+  for (int i = 0; i < kCore; ++i) s.sigma(i) = std::sqrt(std::max(0.0, core_var(i)));
+  for (int i = 0; i < 6; ++i) s.sigma(kCore + i) = std::sqrt(std::max(0.0, extr_var(i)));
+  s.pose_cov = pose_cov;
   return s;
+}
+
+/// The [δp; δθ] block of a core covariance.
+Eigen::Matrix<double, 6, 6> pose_block(const Mat15& P) {
+  Eigen::Matrix<double, 6, 6> C;
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b) C.block<3, 3>(3 * a, 3 * b) = P.block<3, 3>(a == 0 ? kP : kTheta, b == 0 ? kP : kTheta);
+  return C;
 }
 
 /// What the backward pass needs from one propagation segment a → b (docs in smoother.hpp): with
@@ -86,33 +104,49 @@ SegmentGain segment_gain(const RecordedNode& nd, const MatX& Pa, const MatX& Ps,
   SegmentGain g;
   g.lambda_T = T.transpose() * lambda;
   const MatX DZ = D * Z;
-  g.M = Z.transpose() * DZ;
-  g.M = 0.5 * (g.M + g.M.transpose()).eval();
+  g.M.triangularView<Eigen::Lower>() = Z.transpose() * DZ;
+  g.M.triangularView<Eigen::StrictlyUpper>() = g.M.transpose();
 
   const Mat15 Phi_inv = nd.Phi.inverse();
   const Mat15 Q = nd.P_cc - nd.Phi * Pa.topLeftCorner<kCore, kCore>() * nd.Phi.transpose();
   g.delta_a = delta_b;
   g.delta_a.head<kCore>() = Phi_inv * (delta_b.head<kCore>() - Q * lambda.head<kCore>());
-  // G D Gᵀ: E = Q (P_b⁻⁻¹)_c: changes the core rows, then Eᵀ the core columns.
-  const MatX E = Q * Z.leftCols<kCore>().transpose();
-  D.topRows<kCore>() -= (E * D).eval();
-  D.leftCols<kCore>() -= (D * E.transpose()).eval();
-  D.topRows<kCore>() = (Phi_inv * D.topRows<kCore>()).eval();
-  D.leftCols<kCore>() = (D.leftCols<kCore>() * Phi_inv.transpose()).eval();
+  // Φ⁻¹ G D Gᵀ Φ⁻ᵀ changes only the core rows and columns: with H = Φ⁻¹ ([I 0] − Q (P_b⁻⁻¹)_c·) (15 x n),
+  // its core rows are X = H D, its core block X Hᵀ (the rest of D stays).
+  MatX H = -Phi_inv * (Q * Z.leftCols<kCore>().transpose());
+  H.leftCols<kCore>() += Phi_inv;
+  const MatX X = H * D;
+  D.topLeftCorner<kCore, kCore>().noalias() = X * H.transpose();
+  if (r > 0) {
+    D.topRightCorner(kCore, r) = X.rightCols(r);
+    D.bottomLeftCorner(r, kCore) = X.rightCols(r).transpose();
+  }
   g.Ps_a = symmetric(Pa + D);
   return g;
 }
 
+/// What the IMU steps inside one propagation segment a → b need from the backward pass: the segment
+/// (its kPropagate node b; a is the node before it), Tᵀλ and M of its SegmentGain, and the smoothed state
+/// at a's extrinsics (constant inside the segment).
+struct StepsTask {
+  std::size_t node = 0;
+  Eigen::Matrix<double, 30, 1> lambda_T;
+  Eigen::Matrix<double, 30, 30> M;
+  Pose T_I_C;
+  Vec6 extr_var = Vec6::Zero();
+};
+
 /// The smoothed core state and covariance at every IMU step inside a segment, written to res.states:
 /// P(t) and Φ(t, a) re-propagated from P_a with the recorded F and the same process noise, then backwards
 /// Ψ = Φ(b, t), A_t = [P_cc(t) Ψᵀ, Φ(t, a) P_a,cr] = G_t Tᵀ with G_t = [P_cc(t) Ψᵀ, Φ(t, a)] (15 x 30):
-/// δ_s(t) = G_t Tᵀλ, P_s(t) = P_cc(t) + G_t M G_tᵀ (fixed-size products only).
-void smooth_segment_steps(const FilterRecording& rec, const RecordedNode& nd, const MatX& Pa, const SegmentGain& g,
-                          const ImuNoiseParams& noise, const StateEstimate& xa, const MatX& Psa,
+/// δ_s(t) = G_t Tᵀλ, P_s(t) = P_cc(t) + G_t M G_tᵀ (fixed-size products only; of P_s(t) only the entries
+/// the output holds: the variances and the [δp; δθ] block).
+void smooth_segment_steps(const FilterRecording& rec, const StepsTask& task, const ImuNoiseParams& noise,
                           SmootherResult& res) {
+  const RecordedNode& nd = rec.nodes[task.node];
   const std::size_t m = nd.steps - nd.first_step;
   std::vector<Mat15> Pcc(m), Phi(m);
-  Mat15 Pc = Pa.topLeftCorner<kCore, kCore>();
+  Mat15 Pc = rec.nodes[task.node - 1].P.topLeftCorner<kCore, kCore>();
   Mat15 Ph = Mat15::Identity();
   for (std::size_t i = 0; i < m; ++i) {
     const CoreTransition& F = rec.steps[nd.first_step + i].F;
@@ -125,24 +159,102 @@ void smooth_segment_steps(const FilterRecording& rec, const RecordedNode& nd, co
     Phi[i] = Ph;
   }
   Mat15 Psi = Mat15::Identity();  // Φ(b, t_i)
-  Eigen::Matrix<double, kCore, 30> G;
+  Eigen::Matrix<double, kCore, 30> G, GM;
+  constexpr int kPose[6] = {kP, kP + 1, kP + 2, kTheta, kTheta + 1, kTheta + 2};
   for (std::size_t i = m; i-- > 0;) {
     const RecordedStep& st = rec.steps[nd.first_step + i];
     G.leftCols<kCore>().noalias() = Pcc[i] * Psi.transpose();
     G.rightCols<kCore>() = Phi[i];
     CoreState x = st.x;
-    boxplus_core(x, G * g.lambda_T);
-    const Eigen::Matrix<double, kCore, 30> GM = G * g.M;
-    Mat15 Psc = Pcc[i];
-    Psc.noalias() += GM * G.transpose();
-    res.states[nd.first_step + i + 1] = make_state(st.t_ns, x, xa.T_I_C, Psc, Psa, xa.extr_offset);
+    boxplus_core(x, G * task.lambda_T);
+    GM.noalias() = G * task.M;
+    const Vec15 var = Pcc[i].diagonal() + GM.cwiseProduct(G).rowwise().sum();
+    Eigen::Matrix<double, 6, 6> pose_cov;
+    for (int c = 0; c < 6; ++c)
+      for (int r = 0; r < 6; ++r) pose_cov(r, c) = Pcc[i](kPose[r], kPose[c]) + GM.row(kPose[r]).dot(G.row(kPose[c]));
+    res.states[nd.first_step + i + 1] = make_state(st.t_ns, x, task.T_I_C, var, pose_cov, task.extr_var);
     st.F.apply_right(Psi);
   }
 }
 
+/// Runs the segments' IMU steps (StepsTask) while the backward pass goes on: on a second thread when
+/// `threaded`, else at once on the caller's. Each task writes its own range of res.states, so the result
+/// does not depend on the threading. finish() waits for every task and rethrows a worker's exception; the
+/// destructor stops the worker without waiting for the rest (an exception in the backward pass).
+class StepsWorker {
+ public:
+  StepsWorker(const FilterRecording& rec, const ImuNoiseParams& noise, SmootherResult& res, bool threaded)
+      : rec_(rec), noise_(noise), res_(res) {
+    if (threaded) thread_ = std::thread([this] { loop(); });
+  }
+  StepsWorker(const StepsWorker&) = delete;
+  StepsWorker& operator=(const StepsWorker&) = delete;
+  ~StepsWorker() { stop(true); }
+
+  void push(StepsTask task) {
+    if (!thread_.joinable()) {
+      smooth_segment_steps(rec_, task, noise_, res_);
+      return;
+    }
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      queue_.push_back(std::move(task));
+    }
+    cv_.notify_one();
+  }
+
+  void finish() {
+    stop(false);
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ private:
+  void loop() {
+    for (;;) {
+      StepsTask task;
+      {
+        std::unique_lock<std::mutex> lock(mu_);
+        cv_.wait(lock, [this] { return !queue_.empty() || done_; });
+        if (queue_.empty() || abandon_) return;
+        task = std::move(queue_.front());
+        queue_.pop_front();
+      }
+      try {
+        smooth_segment_steps(rec_, task, noise_, res_);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(mu_);
+        if (!error_) error_ = std::current_exception();
+        abandon_ = true;
+        return;
+      }
+    }
+  }
+
+  void stop(bool abandon) {
+    if (!thread_.joinable()) return;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      done_ = true;
+      abandon_ = abandon_ || abandon;
+    }
+    cv_.notify_one();
+    thread_.join();
+  }
+
+  const FilterRecording& rec_;
+  const ImuNoiseParams& noise_;
+  SmootherResult& res_;
+  std::thread thread_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<StepsTask> queue_;
+  bool done_ = false, abandon_ = false;
+  std::exception_ptr error_;
+};
+
 }  // namespace
 
-SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise) {
+SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, unsigned threads) {
   const auto& nodes = rec.nodes;
   ROE_CHECK(!nodes.empty() && nodes.front().kind == RecordedNode::Kind::kInit,
             "smooth: the recording does not start with the filter's initialisation");
@@ -160,6 +272,7 @@ SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise) {
   MatX Ps = full_P(nodes.size() - 1);
   bool anchor_seen = false;
   std::size_t anchor_steps = 0;
+  StepsWorker steps(rec, noise, res, (threads ? threads : available_cpus()) > 1);
 
   for (std::size_t j = nodes.size() - 1; j >= 1; --j) {
     const RecordedNode& nd = nodes[j];
@@ -201,18 +314,20 @@ SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise) {
       case RecordedNode::Kind::kPropagate: {
         const RecordedNode& a = nodes[j - 1];
         ROE_CHECK(a.kind != RecordedNode::Kind::kPropagate, "smooth: two propagation nodes in a row");
-        const SegmentGain g = segment_gain(nd, a.P, Ps, boxminus(xs, nd.x));
+        SegmentGain g = segment_gain(nd, a.P, Ps, boxminus(xs, nd.x));
         StateEstimate xa = a.x;
         boxplus(xa, g.delta_a);
-        const MatX& Psa = g.Ps_a;
-        smooth_segment_steps(rec, nd, a.P, g, noise, xa, Psa, res);
+        steps.push({j, g.lambda_T, g.M, xa.T_I_C, extrinsics_variance(g.Ps_a, xa.extr_offset)});
         xs = std::move(xa);
-        Ps = Psa;
+        Ps = std::move(g.Ps_a);
         break;
       }
     }
   }
-  res.states[0] = make_state(xs.t_ns, xs.x, xs.T_I_C, Ps.topLeftCorner<kCore, kCore>(), Ps, xs.extr_offset);
+  steps.finish();
+  const Mat15 Pcc = Ps.topLeftCorner<kCore, kCore>();
+  res.states[0] = make_state(xs.t_ns, xs.x, xs.T_I_C, Pcc.diagonal(), pose_block(Pcc),
+                             extrinsics_variance(Ps, xs.extr_offset));
 
   // The states before the anchor's first sight into the new W (a rigid change of frame).
   if (anchor_seen) {

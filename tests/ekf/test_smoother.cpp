@@ -178,3 +178,155 @@ TEST_CASE("smoother: every anchor gauge and the paper's residual frame", "[ekf][
     }
   }
 }
+
+namespace {
+
+struct NullObserver : ekf::FilterObserver {};
+
+/// The textbook RTS over a recording, with full matrices at every IMU step: the transition diag(F, I), the
+/// gain C = P(t) Fᵀ P(t⁺)⁻¹ from a Cholesky solve, δ(t) = C δ(t⁺), P_s(t) = P(t) + C (P_s(t⁺) − P(t⁺)) Cᵀ.
+/// Updates pass the smoothed estimate unchanged; augmentations and the anchor's change of W follow
+/// smoother.hpp's definitions. Slow (n³ per IMU step), written for checking ekf::smooth's algebra.
+std::vector<ekf::SmoothedState> dense_rts(const ekf::FilterRecording& rec, const ekf::ImuNoiseParams& noise) {
+  using MatX = Eigen::MatrixXd;
+  using VecX = Eigen::VectorXd;
+  const auto& nodes = rec.nodes;
+  std::vector<ekf::SmoothedState> out(rec.steps.size() + 1);
+  const auto row = [](Timestamp t, const ekf::CoreState& x, const ekf::StateEstimate& xe, const MatX& P) {
+    ekf::SmoothedState s;
+    s.t_ns = t;
+    s.x = x;
+    s.T_I_C = xe.T_I_C;
+    for (int i = 0; i < ekf::kCore; ++i) s.sigma(i) = std::sqrt(std::max(0.0, P(i, i)));
+    if (xe.extr_offset >= 0)
+      for (int i = 0; i < 6; ++i) s.sigma(ekf::kCore + i) = std::sqrt(std::max(0.0, P(xe.extr_offset + i, xe.extr_offset + i)));
+    const int idx[6] = {ekf::kP, ekf::kP + 1, ekf::kP + 2, ekf::kTheta, ekf::kTheta + 1, ekf::kTheta + 2};
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) s.pose_cov(r, c) = P(idx[r], idx[c]);
+    return s;
+  };
+  // The full covariance at node j (a propagation node: re-propagated from the node before it).
+  std::vector<std::vector<MatX>> seg_P(nodes.size());
+  for (std::size_t j = 1; j < nodes.size(); ++j) {
+    if (nodes[j].kind != ekf::RecordedNode::Kind::kPropagate) continue;
+    MatX P = nodes[j - 1].P;
+    const Eigen::Index n = P.rows();
+    seg_P[j].push_back(P);
+    for (std::size_t s = nodes[j].first_step; s < nodes[j].steps; ++s) {
+      MatX F = MatX::Identity(n, n);
+      F.topLeftCorner<ekf::kCore, ekf::kCore>() = rec.steps[s].F.dense();
+      P = (F * P * F.transpose()).eval();
+      Eigen::Block<MatX, ekf::kCore, ekf::kCore> Pcc = P.topLeftCorner<ekf::kCore, ekf::kCore>();
+      ekf::add_process_noise(noise, rec.steps[s].F.dt, Pcc);
+      P = (0.5 * (P + P.transpose())).eval();
+      seg_P[j].push_back(P);
+    }
+  }
+  ekf::StateEstimate xs = nodes.back().x;
+  MatX Ps = nodes.back().kind == ekf::RecordedNode::Kind::kPropagate ? seg_P.back().back() : nodes.back().P;
+  Pose shift;
+  std::size_t anchor_steps = 0;
+  for (std::size_t j = nodes.size() - 1; j >= 1; --j) {
+    const auto& nd = nodes[j];
+    if (nd.kind == ekf::RecordedNode::Kind::kAugment) {
+      const MatX Pu = nodes[j - 1].kind == ekf::RecordedNode::Kind::kPropagate ? seg_P[j - 1].back() : nodes[j - 1].P;
+      const Eigen::Index n = Pu.rows();
+      const VecX d = ekf::boxminus(xs, nd.x);
+      MatX B = nd.append_only ? MatX::Identity(nd.P.rows(), n) : nd.B;
+      if (nd.append_only) B.bottomRows(nd.P.rows() - n).setZero();
+      // C = P_u Bᵀ P_y⁻¹ (with B = [I; 0] for a plain append, whose cross terms the filter's P holds).
+      const MatX C = nd.append_only ? MatX(MatX::Identity(n, nd.P.rows()))
+                                    : MatX(nd.P.llt().solve(B * Pu).transpose());
+      ekf::StateEstimate xu = nodes[j - 1].x;
+      ekf::boxplus(xu, C * d);
+      const MatX Psu = nd.append_only ? MatX(Ps.topLeftCorner(n, n)) : MatX(Pu + C * (Ps - nd.P) * C.transpose());
+      if (nd.anchor) {
+        shift = Pose(xs.x.q_W_I, xs.x.p_W_I) * Pose(xu.x.q_W_I, xu.x.p_W_I).inverse();
+        anchor_steps = nd.steps;
+      }
+      xs = xu;
+      Ps = 0.5 * (Psu + Psu.transpose());
+    } else if (nd.kind == ekf::RecordedNode::Kind::kPropagate) {
+      const auto& Pk = seg_P[j];  // Pk[k]: after k steps of the segment
+      const std::size_t m = Pk.size() - 1;
+      const ekf::StateEstimate& xa = nodes[j - 1].x;
+      VecX delta = ekf::boxminus(xs, nd.x);
+      MatX Pss = Ps;
+      for (std::size_t k = m; k-- > 0;) {
+        const Eigen::Index n = Pk[k].rows();
+        MatX F = MatX::Identity(n, n);
+        F.topLeftCorner<ekf::kCore, ekf::kCore>() = rec.steps[nd.first_step + k].F.dense();
+        const MatX C = Pk[k + 1].llt().solve(F * Pk[k]).transpose();
+        delta = (C * delta).eval();
+        Pss = (Pk[k] + C * (Pss - Pk[k + 1]) * C.transpose()).eval();
+        if (k > 0) {
+          ekf::CoreState x = rec.steps[nd.first_step + k - 1].x;
+          ekf::boxplus_core(x, delta.head<ekf::kCore>());
+          out[nd.first_step + k] = row(rec.steps[nd.first_step + k - 1].t_ns, x, xa, Pss);
+        }
+      }
+      // Row of the segment's last step (at b) from the smoothed b.
+      {
+        ekf::CoreState x = rec.steps[nd.steps - 1].x;
+        ekf::boxplus_core(x, ekf::boxminus(xs, nd.x).head<ekf::kCore>());
+        out[nd.steps] = row(rec.steps[nd.steps - 1].t_ns, x, xa, Ps);
+      }
+      ekf::StateEstimate xa_s = xa;
+      ekf::boxplus(xa_s, delta);
+      xs = xa_s;
+      Ps = 0.5 * (Pss + Pss.transpose());
+    }
+  }
+  out[0] = row(xs.t_ns, xs.x, xs, Ps);
+  for (std::size_t k = 0; k <= anchor_steps && anchor_steps > 0 && k < out.size(); ++k) {
+    auto& x = out[k].x;
+    x.p_W_I = shift.q * x.p_W_I + shift.p;
+    x.v_W_I = shift.q * x.v_W_I;
+    x.q_W_I = (shift.q * x.q_W_I).normalized();
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("smoother: equals the textbook RTS with full matrices at every IMU step, on any thread count",
+          "[ekf][smoother]") {
+  const Dataset d = test::simulate_preset("matched", 6, 4.0);
+  const auto images = ekf::group_images(d.detections.at("sim"));
+  const ekf::FilterOptions opt = matched_config("rts").filter;
+  const auto& imu_noise = d.manifest.imu->noise;
+  const ekf::ImuNoiseParams noise{imu_noise.gyro_noise_density, imu_noise.gyro_random_walk,
+                                  imu_noise.accel_noise_density, imu_noise.accel_random_walk};
+  NullObserver obs;
+  ekf::FilterRecording rec;
+  ekf::run_filter(d.imu, images, opt, noise, d.manifest.camera->T_I_C, obs, &rec);
+  REQUIRE(rec.steps.size() > 700);
+
+  const ekf::SmootherResult one = ekf::smooth(rec, noise, 1);
+  const ekf::SmootherResult two = ekf::smooth(rec, noise, 2);
+  const std::vector<ekf::SmoothedState> ref = dense_rts(rec, noise);
+  REQUIRE(one.states.size() == ref.size());
+  REQUIRE(two.states.size() == ref.size());
+  double max_dp = 0, max_dth = 0, max_dsig = 0, max_dcov = 0;
+  for (std::size_t k = 0; k < ref.size(); ++k) {
+    const auto &a = one.states[k], &b = two.states[k], &r = ref[k];
+    // The second thread changes nothing, bit for bit.
+    REQUIRE(a.t_ns == b.t_ns);
+    REQUIRE(a.x.p_W_I == b.x.p_W_I);
+    REQUIRE(a.x.q_W_I.coeffs() == b.x.q_W_I.coeffs());
+    REQUIRE(a.sigma == b.sigma);
+    REQUIRE(a.pose_cov == b.pose_cov);
+    REQUIRE(a.t_ns == r.t_ns);
+    max_dp = std::max({max_dp, (a.x.p_W_I - r.x.p_W_I).norm(), (a.x.v_W_I - r.x.v_W_I).norm()});
+    max_dth = std::max(max_dth, rot_diff(a.x.q_W_I, r.x.q_W_I));
+    max_dsig = std::max(max_dsig, ((a.sigma - r.sigma).array().abs() / (r.sigma.array() + 1e-12)).maxCoeff());
+    max_dcov = std::max(max_dcov, (a.pose_cov - r.pose_cov).norm() / r.pose_cov.norm());
+  }
+  // Measured (2026-12-02): position 2.2e-14 m, rotation 4.2e-15 rad, σ 2.0e-9 relative.
+  INFO("position " << max_dp << " m, rotation " << max_dth << " rad, sigma " << max_dsig << " rel, pose cov "
+                   << max_dcov << " rel");
+  CHECK(max_dp < 1e-9);
+  CHECK(max_dth < 1e-9);
+  CHECK(max_dsig < 1e-6);
+  CHECK(max_dcov < 1e-6);
+}

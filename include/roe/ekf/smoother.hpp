@@ -92,7 +92,9 @@ struct SmootherResult {
 
 /// Runs the backward pass. `noise` must be the filter's IMU noise (the process noise is re-derived from
 /// the recorded steps). Throws roe::NumericError when a covariance it must invert is not positive
-/// definite.
-SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise);
+/// definite. `threads`: 0 = as many as the process may use (its affinity mask), 1 = the caller's thread
+/// only; with more than one, the IMU steps inside each segment are smoothed on a second thread while the
+/// backward pass goes on (the result is bit-identical for every thread count).
+SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, unsigned threads = 0);
 
 }  // namespace roe::ekf
