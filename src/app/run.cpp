@@ -6,10 +6,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
+#include <memory>
 #include <set>
 
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
+#include "roe/core/parallel.hpp"
 #include "roe/ekf/smoother.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/output.hpp"
@@ -229,26 +232,35 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
 
 namespace {
 
-// trajectory.csv/.tum and states.csv (with a suffix: trajectory_filter.csv, ...) from state rows.
-void write_states(const std::vector<StateRow>& rows, const io::OutputDir& dir, const std::string& suffix) {
-  std::vector<Timestamp> t;
-  std::vector<Pose> poses;
-  t.reserve(rows.size());
-  poses.reserve(rows.size());
+// Writers of trajectory.csv and trajectory.tum (with a suffix: trajectory_filter.csv, ...) from state rows.
+void add_trajectory_writers(const std::vector<StateRow>& rows, const io::OutputDir& dir, const std::string& suffix,
+                            std::vector<std::function<void()>>& writers) {
+  auto t = std::make_shared<std::vector<Timestamp>>();
+  auto poses = std::make_shared<std::vector<Pose>>();
+  t->reserve(rows.size());
+  poses->reserve(rows.size());
   for (const auto& s : rows) {
-    t.push_back(s.t_ns);
-    poses.push_back(Pose(s.x.q_W_I, s.x.p_W_I));
+    t->push_back(s.t_ns);
+    poses->push_back(Pose(s.x.q_W_I, s.x.p_W_I));
   }
-  io::write_trajectory(dir.file("trajectory" + suffix + ".csv"), t, poses, io::TrajectoryFormat::kCsv);
-  io::write_trajectory(dir.file("trajectory" + suffix + ".tum"), t, poses, io::TrajectoryFormat::kTum);
-  io::write_states_csv(dir.file("states" + suffix + ".csv"), rows);
+  for (const auto format : {io::TrajectoryFormat::kCsv, io::TrajectoryFormat::kTum})
+    writers.push_back([t, poses, &dir, suffix, format] {
+      const std::string ext = format == io::TrajectoryFormat::kCsv ? ".csv" : ".tum";
+      io::write_trajectory(dir.file("trajectory" + suffix + ext), *t, *poses, format);
+    });
 }
 
+// The run's files, independent of each other, written by as many threads as the process may use, the
+// largest (the states tables) first: the same bytes as one after the other.
 void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
-  write_states(r.states, dir, "");
-  if (r.smoothed) write_states(r.filter_states, dir, "_filter");
-  io::write_objects_csv(dir.file("objects.csv"), r.objects);
-  io::write_reprojection_csv(dir.file("reprojection.csv"), r.reprojection);
+  std::vector<std::function<void()>> writers;
+  writers.push_back([&] { io::write_states_csv(dir.file("states.csv"), r.states); });
+  if (r.smoothed) writers.push_back([&] { io::write_states_csv(dir.file("states_filter.csv"), r.filter_states); });
+  writers.push_back([&] { io::write_objects_csv(dir.file("objects.csv"), r.objects); });
+  add_trajectory_writers(r.states, dir, "", writers);
+  if (r.smoothed) add_trajectory_writers(r.filter_states, dir, "_filter", writers);
+  writers.push_back([&] { io::write_reprojection_csv(dir.file("reprojection.csv"), r.reprojection); });
+  run_all(writers, available_cpus());
 }
 
 json counts_json(const ekf::DetectionCounts& c) {

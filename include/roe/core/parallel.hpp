@@ -2,12 +2,14 @@
 /// @file
 /// The CPUs a process may use, and a parallel loop whose outcome does not depend on the thread count.
 /// Used where one command's work splits into independent parts (calib-check's time-offset grid, the
-/// smoother's per-step outputs). Library code decides the split; the thread count comes from the
+/// smoother's per-step outputs, the files of `roe run`). Library code decides the split; the thread count comes from the
 /// process's affinity mask, so taskset, Slurm's cgroups and containers are respected.
 
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
+#include <exception>
+#include <functional>
 #include <thread>
 #include <vector>
 
@@ -34,6 +36,22 @@ void parallel_for(std::size_t n, unsigned threads, Fn&& fn) {
   for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
   work();
   for (auto& t : pool) t.join();
+}
+
+/// Runs every task once, on up to `threads` threads, in list order as threads free up (put the longest
+/// first); waits for all of them, then rethrows the exception of the first task in the list that threw.
+/// For independent pieces of one command's work, such as the output files of `roe run`.
+inline void run_all(const std::vector<std::function<void()>>& tasks, unsigned threads) {
+  std::vector<std::exception_ptr> errors(tasks.size());
+  parallel_for(tasks.size(), threads, [&](std::size_t i) {
+    try {
+      tasks[i]();
+    } catch (...) {
+      errors[i] = std::current_exception();
+    }
+  });
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
 }
 
 }  // namespace roe
