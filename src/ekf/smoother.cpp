@@ -179,13 +179,14 @@ void smooth_segment_steps(const FilterRecording& rec, const StepsTask& task, con
 
 /// Runs the segments' IMU steps (StepsTask) while the backward pass goes on: on a second thread when
 /// `threaded`, else at once on the caller's. Each task writes its own range of res.states, so the result
-/// does not depend on the threading. finish() waits for every task and rethrows a worker's exception; the
-/// destructor stops the worker without waiting for the rest (an exception in the backward pass).
+/// does not depend on the threading. finish() runs what is still queued on both threads, waits, and
+/// rethrows the first exception a task threw; the destructor stops the worker without waiting for the rest
+/// (an exception in the backward pass).
 class StepsWorker {
  public:
   StepsWorker(const FilterRecording& rec, const ImuNoiseParams& noise, SmootherResult& res, bool threaded)
       : rec_(rec), noise_(noise), res_(res) {
-    if (threaded) thread_ = std::thread([this] { loop(); });
+    if (threaded) thread_ = std::thread([this] { work(true); });
   }
   StepsWorker(const StepsWorker&) = delete;
   StepsWorker& operator=(const StepsWorker&) = delete;
@@ -204,17 +205,27 @@ class StepsWorker {
   }
 
   void finish() {
-    stop(false);
+    if (thread_.joinable()) {
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        done_ = true;
+      }
+      cv_.notify_one();
+      work(false);  // the caller's thread takes its share of the queue
+      thread_.join();
+    }
     if (error_) std::rethrow_exception(error_);
   }
 
  private:
-  void loop() {
+  /// Runs queued tasks until the queue is empty after finish() (or at once when not `wait`ing for more),
+  /// or a task has failed.
+  void work(bool wait) {
     for (;;) {
       StepsTask task;
       {
         std::unique_lock<std::mutex> lock(mu_);
-        cv_.wait(lock, [this] { return !queue_.empty() || done_; });
+        if (wait) cv_.wait(lock, [this] { return !queue_.empty() || done_; });
         if (queue_.empty() || abandon_) return;
         task = std::move(queue_.front());
         queue_.pop_front();
