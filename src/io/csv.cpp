@@ -602,4 +602,11 @@ void CsvWriter::write(const fs::path& file, bool overwrite) const {
   write_file_atomic(file, out_, overwrite);
 }
 
+void CsvWriter::flush_to(AtomicFile& file, std::size_t min_bytes) {
+  ROE_CHECK(row_fields_ == 0, "unfinished row");
+  if (out_.size() < min_bytes || out_.empty()) return;
+  file.append(out_);
+  out_.clear();
+}
+
 }  // namespace roe::io

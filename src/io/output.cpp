@@ -470,31 +470,67 @@ void OutputDir::commit() {
   if (!old.empty()) fs::remove_all(old, ec);
 }
 
-void write_file_atomic(const fs::path& path, std::string_view content, bool overwrite) {
+AtomicFile::AtomicFile(fs::path path, bool overwrite) : path_(std::move(path)) {
   std::error_code ec;
-  if (!overwrite && fs::exists(path, ec))
-    throw InputError("file exists (use --force to replace it)", {path.string()});
-  if (path.has_parent_path()) fs::create_directories(path.parent_path(), ec);
-  const fs::path tmp = path.parent_path() / ("." + path.filename().string() + unique_suffix());
-  struct Registered {  // removed by the signal handler while it exists
-    int slot;
-    ~Registered() { unregister_temporary(slot); }
-  } registered{register_temporary(tmp)};
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError("cannot write file", {tmp.string()});
-    out.write(content.data(), static_cast<std::streamsize>(content.size()));
-    out.flush();
-    if (!out) {
-      fs::remove(tmp, ec);
-      throw InputError("write failed (disk full?)", {tmp.string()});
-    }
+  if (!overwrite && fs::exists(path_, ec)) throw InputError("file exists (use --force to replace it)", {path_.string()});
+  if (path_.has_parent_path()) fs::create_directories(path_.parent_path(), ec);
+  tmp_ = path_.parent_path() / ("." + path_.filename().string() + unique_suffix());
+  slot_ = register_temporary(tmp_);
+  fd_ = ::open(tmp_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd_ < 0) {
+    unregister_temporary(slot_);
+    throw InputError("cannot write file", {tmp_.string()});
   }
-  fs::rename(tmp, path, ec);
+}
+
+AtomicFile::~AtomicFile() {
+  if (fd_ >= 0) {
+    ::close(fd_);
+    std::error_code ec;
+    fs::remove(tmp_, ec);
+  }
+  if (slot_ >= 0) unregister_temporary(slot_);
+}
+
+void AtomicFile::fail(const std::string& message, const fs::path& where) {
+  ::close(fd_);
+  fd_ = -1;
+  std::error_code ec;
+  fs::remove(tmp_, ec);
+  throw InputError(message, {where.string()});
+}
+
+void AtomicFile::append(std::string_view bytes) {
+  ROE_CHECK(fd_ >= 0, "AtomicFile: append after commit");
+  while (!bytes.empty()) {
+    const ssize_t n = ::write(fd_, bytes.data(), bytes.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) fail("write failed (disk full?)", tmp_);
+    bytes.remove_prefix(static_cast<std::size_t>(n));
+  }
+}
+
+void AtomicFile::commit() {
+  ROE_CHECK(fd_ >= 0, "AtomicFile: committed twice");
+  if (::close(fd_) != 0) {
+    fd_ = -1;
+    std::error_code ec;
+    fs::remove(tmp_, ec);
+    throw InputError("write failed (disk full?)", {tmp_.string()});
+  }
+  fd_ = -1;
+  std::error_code ec;
+  fs::rename(tmp_, path_, ec);
   if (ec) {
-    fs::remove(tmp, ec);
-    throw InputError("cannot rename temporary file into place", {path.string()});
+    fs::remove(tmp_, ec);
+    throw InputError("cannot rename temporary file into place", {path_.string()});
   }
+}
+
+void write_file_atomic(const fs::path& path, std::string_view content, bool overwrite) {
+  AtomicFile f(path, overwrite);
+  f.append(content);
+  f.commit();
 }
 
 std::string sha256_file(const fs::path& path) {

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "roe/io/csv.hpp"
+#include "roe/io/output.hpp"
 #include "roe/math/so3.hpp"
 
 namespace roe::io {
@@ -192,14 +193,17 @@ std::vector<std::string> names(const Table<W, R>& t) {
   return n;
 }
 
+/// The table's text; with a `sink`, streamed into it as it grows (the writer returned holds nothing then).
 template <class W, class R>
-CsvWriter fill_table(const Table<W, R>& t, const std::vector<W>& rows) {
+CsvWriter fill_table(const Table<W, R>& t, const std::vector<W>& rows, AtomicFile* sink = nullptr) {
   CsvWriter w;
   w.header(names(t));
   for (const W& row : rows) {
     for (const auto& c : t) c.write(w, row, c.k);
     w.end_row();
+    if (sink != nullptr) w.flush_to(*sink, CsvWriter::kFlushBytes);
   }
+  if (sink != nullptr) w.flush_to(*sink);
   return w;
 }
 
@@ -271,15 +275,22 @@ std::string format_objects_csv(const std::vector<ObjectRow>& rows) { return fill
 std::string format_reprojection_csv(const std::vector<ReprojectionRow>& rows) {
   return fill_table(reprojection_table(), rows).str();
 }
-// The writers write the table's buffer itself (no copy of a file's worth of text).
+// The writers stream the table into the file in pieces of CsvWriter::kFlushBytes (the same bytes as
+// format_*: fill_table with a sink).
 void write_states_csv(const fs::path& file, const std::vector<StateRow>& rows) {
-  fill_table(states_table(), rows).write(file);
+  AtomicFile f(file);
+  fill_table(states_table(), rows, &f);
+  f.commit();
 }
 void write_objects_csv(const fs::path& file, const std::vector<ObjectRow>& rows) {
-  fill_table(objects_table(), rows).write(file);
+  AtomicFile f(file);
+  fill_table(objects_table(), rows, &f);
+  f.commit();
 }
 void write_reprojection_csv(const fs::path& file, const std::vector<ReprojectionRow>& rows) {
-  fill_table(reprojection_table(), rows).write(file);
+  AtomicFile f(file);
+  fill_table(reprojection_table(), rows, &f);
+  f.commit();
 }
 
 std::vector<StateRow> read_states_csv(const fs::path& file, const RunFileRead& read) {

@@ -455,8 +455,12 @@ void apply_kitti_times(Trajectory& tr, const fs::path& times_file) {
 // Writing
 // -------------------------------------------------------------------------------------------------
 
-std::string format_trajectory(const std::vector<Timestamp>& t_ns, const std::vector<Pose>& poses,
-                              TrajectoryFormat format) {
+namespace {
+
+/// The text of a trajectory file; with a `sink`, streamed into it in pieces as it grows (the writer
+/// returned then holds nothing).
+CsvWriter fill_trajectory(const std::vector<Timestamp>& t_ns, const std::vector<Pose>& poses, TrajectoryFormat format,
+                          AtomicFile* sink) {
   ROE_CHECK(t_ns.size() == poses.size(), "one stamp per pose");
   if (format == TrajectoryFormat::kAuto) format = TrajectoryFormat::kCsv;
   const char delim = format == TrajectoryFormat::kTum || format == TrajectoryFormat::kKitti ? ' ' : ',';
@@ -466,8 +470,10 @@ std::string format_trajectory(const std::vector<Timestamp>& t_ns, const std::vec
       const Eigen::Matrix3d R = T.R();
       for (int i = 0; i < 3; ++i) w.add(R(i, 0)).add(R(i, 1)).add(R(i, 2)).add(T.p(i));
       w.end_row();
+      if (sink != nullptr) w.flush_to(*sink, CsvWriter::kFlushBytes);
     }
-    return w.str();
+    if (sink != nullptr) w.flush_to(*sink);
+    return w;
   }
   switch (format) {
     case TrajectoryFormat::kTum:
@@ -499,13 +505,24 @@ std::string format_trajectory(const std::vector<Timestamp>& t_ns, const std::vec
       w.add(T.q.x()).add(T.q.y()).add(T.q.z()).add(T.q.w());
     }
     w.end_row();
+    if (sink != nullptr) w.flush_to(*sink, CsvWriter::kFlushBytes);
   }
-  return w.str();
+  if (sink != nullptr) w.flush_to(*sink);
+  return w;
+}
+
+}  // namespace
+
+std::string format_trajectory(const std::vector<Timestamp>& t_ns, const std::vector<Pose>& poses,
+                              TrajectoryFormat format) {
+  return fill_trajectory(t_ns, poses, format, nullptr).str();
 }
 
 void write_trajectory(const fs::path& file, const std::vector<Timestamp>& t_ns,
                       const std::vector<Pose>& poses, TrajectoryFormat format) {
-  write_file_atomic(file, format_trajectory(t_ns, poses, format));
+  AtomicFile f(file);
+  fill_trajectory(t_ns, poses, format, &f);
+  f.commit();
 }
 
 void write_trajectory(const fs::path& file, const std::vector<StampedPose>& poses, TrajectoryFormat format) {

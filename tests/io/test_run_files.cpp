@@ -5,8 +5,10 @@
 #include <random>
 
 #include "roe/core/error.hpp"
+#include "roe/io/csv.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/run_files.hpp"
+#include "roe/io/trajectory_io.hpp"
 #include "support/test_util.hpp"
 
 using namespace roe;
@@ -293,4 +295,61 @@ TEST_CASE("run files: readers name the file, line and column of what is wrong", 
     CHECK(e.context().line == 2);
     CHECK(e.context().column == 3);
   }
+}
+
+TEST_CASE("run files: tables streamed into the file in pieces have the bytes of their text", "[io][run_files]") {
+  test::TempDir tmp("roe_run_files_stream");
+  std::mt19937 g(11);
+  // 6000 rows of ~560 bytes: 3.4 MB, so the writer appends several 1 MiB pieces and a tail.
+  std::vector<StateRow> rows(6000);
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    rows[i].t_ns = 1700000000000000000LL + static_cast<Timestamp>(i) * 5000000;
+    rows[i].x.p_W_I = random_vec(g);
+    rows[i].x.q_W_I = random_unit(g);
+    rows[i].T_I_C = Pose(random_unit(g), random_vec(g));
+    for (int k = 0; k < 21; ++k) rows[i].sigma(k) = std::abs(random_vec(g).x());
+  }
+  const std::string text = format_states_csv(rows);
+  REQUIRE(text.size() > 3 * CsvWriter::kFlushBytes);
+  write_states_csv(tmp / "states.csv", rows);
+  CHECK(read_file(tmp / "states.csv") == text);
+
+  std::vector<Timestamp> t;
+  std::vector<Pose> poses;
+  for (std::size_t i = 0; i < 40000; ++i) {  // ~3.4 MB of TUM text
+    t.push_back(rows[i % rows.size()].t_ns + static_cast<Timestamp>(i / rows.size()) * 100000000000LL);
+    poses.push_back(Pose(random_unit(g), random_vec(g)));
+  }
+  for (const auto format : {TrajectoryFormat::kTum, TrajectoryFormat::kCsv, TrajectoryFormat::kKitti}) {
+    write_trajectory(tmp / "traj.txt", t, poses, format);
+    CHECK(read_file(tmp / "traj.txt") == format_trajectory(t, poses, format));
+  }
+}
+
+TEST_CASE("AtomicFile: the final path appears only at commit, an abandoned one leaves nothing",
+          "[io][output]") {
+  test::TempDir tmp("roe_atomic_file");
+  const auto entries = [&] {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(tmp.path)) names.push_back(e.path().filename().string());
+    return names;
+  };
+  {
+    AtomicFile f(tmp / "a.csv");
+    f.append("x,y\n");
+    f.append("1,2\n");
+    CHECK_FALSE(fs::exists(tmp / "a.csv"));  // only the temporary so far
+    CHECK(entries().size() == 1);
+    f.commit();
+  }
+  CHECK(read_file(tmp / "a.csv") == "x,y\n1,2\n");
+  {
+    AtomicFile f(tmp / "a.csv");  // replacing: the old content stays until the commit that never comes
+    f.append("partial");
+  }
+  CHECK(read_file(tmp / "a.csv") == "x,y\n1,2\n");
+  CHECK(entries() == std::vector<std::string>{"a.csv"});
+  CHECK_THROWS_AS(AtomicFile(tmp / "a.csv", false), InputError);
+  CHECK_THROWS_AS(AtomicFile(tmp / "a.csv" / "under_a_file"), InputError);
+  CHECK(entries() == std::vector<std::string>{"a.csv"});
 }

@@ -20,6 +20,8 @@
 ///   w.header({"timestamp [ns]", "filename"}, "#");
 ///   w.add(t_ns).add(name).end_row();
 ///   w.write(path);    // write_file_atomic
+/// or streamed, for large tables: an AtomicFile f(path), w.flush_to(f, CsvWriter::kFlushBytes) after each
+/// row, then w.flush_to(f); f.commit().
 ///
 /// Header conventions: with CsvHeader::kFirstLine, the first non-blank line is the header; a comment
 /// prefix at its start is removed (EuRoC: "#timestamp [ns],..."), and each name is trimmed of
@@ -40,6 +42,8 @@
 #include "roe/core/error.hpp"
 
 namespace roe::io {
+
+class AtomicFile;  // io/output.hpp
 
 namespace fs = std::filesystem;
 
@@ -228,6 +232,12 @@ class CsvWriter {
   std::size_t rows() const { return rows_; }
   /// write_file_atomic(file, str(), overwrite).
   void write(const fs::path& file, bool overwrite = true) const;
+  /// Streaming a table of any size: when the text built so far holds at least `min_bytes`, appends it to
+  /// `file` and empties it (the header's field count is still checked on later rows). Call between rows;
+  /// flush_to(file) then file.commit() at the end.
+  void flush_to(AtomicFile& file, std::size_t min_bytes = 0);
+  /// The piece size the streaming writers of roe's tables use.
+  static constexpr std::size_t kFlushBytes = std::size_t{1} << 20;
 
  private:
   void sep();

@@ -168,8 +168,30 @@ void refuse_overwriting_inputs(const fs::path& out, const std::vector<fs::path>&
 /// in roe.json's sources[]: valid whatever folder the command ran from.
 std::string provenance_path(const fs::path& path);
 
-/// Writes `content` to `path` through a temporary file in the same folder and a rename.
-/// Refuses to replace an existing file unless `overwrite` is true (roe::InputError).
+/// A file written through a temporary file in the same folder, renamed into place by commit(): the content
+/// may come in pieces (append), so a table of any size needs only a piece's memory. The final path is
+/// untouched until commit(); the destructor of an uncommitted file (an exception, a failed write) removes
+/// the temporary, and so does the signal handler. Refuses to replace an existing file unless `overwrite`
+/// is true (roe::InputError, at construction).
+class AtomicFile {
+ public:
+  explicit AtomicFile(fs::path path, bool overwrite = true);
+  ~AtomicFile();
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+  /// roe::InputError naming the temporary when the write fails (disk full).
+  void append(std::string_view bytes);
+  /// Flushes, closes and renames the temporary into place; roe::InputError when that fails.
+  void commit();
+
+ private:
+  void fail(const std::string& message, const fs::path& where);
+  fs::path path_, tmp_;
+  int fd_ = -1;
+  int slot_ = -1;
+};
+
+/// Writes `content` to `path` in one piece (AtomicFile).
 void write_file_atomic(const fs::path& path, std::string_view content, bool overwrite = true);
 
 /// Lower-case hex SHA-256 of a byte string.
