@@ -3,6 +3,8 @@
 
 #include <cstring>
 
+#include "ros_layouts.hpp"
+
 namespace roe::io::cdr {
 
 Cursor::Cursor(std::string_view msg, std::string where) : d_(msg), where_(std::move(where)) {
@@ -55,14 +57,6 @@ std::uint32_t Cursor::u32() { return raw<std::uint32_t>(); }
 std::int32_t Cursor::i32() { return raw<std::int32_t>(); }
 double Cursor::f64() { return raw<double>(); }
 
-std::uint32_t Cursor::count(std::size_t min_bytes) {
-  const std::uint32_t n = u32();
-  if (static_cast<std::uint64_t>(n) * min_bytes > remaining())
-    fail("sequence length " + std::to_string(n) + " exceeds the message (" + std::to_string(remaining()) +
-         " bytes left)");
-  return n;
-}
-
 std::string Cursor::str() {
   const std::uint32_t n = u32();
   if (n > remaining())
@@ -76,7 +70,7 @@ std::string Cursor::str() {
 }
 
 std::string_view Cursor::byte_sequence() {
-  const std::uint32_t n = count(1);
+  const std::uint32_t n = layout::count(*this, 1);
   const std::string_view v = d_.substr(pos_, n);
   pos_ += n;
   return v;
@@ -92,137 +86,63 @@ ros::Header Cursor::header() {
   return h;
 }
 
-Eigen::Vector3d Cursor::vec3() {
-  Eigen::Vector3d v;
-  v.x() = f64();
-  v.y() = f64();
-  v.z() = f64();
-  return v;
-}
-
-Eigen::Quaterniond Cursor::quat_xyzw() {
-  const double x = f64(), y = f64(), z = f64(), w = f64();
-  return Eigen::Quaterniond(w, x, y, z);
-}
-
 void Cursor::finish() const {
   if (remaining() > 3) fail(std::to_string(remaining()) + " unexpected trailing bytes");
 }
 
-namespace {
-ros::Transform read_pose(Cursor& c) {  // geometry_msgs/Pose or Transform: vec3 + quaternion
-  ros::Transform t;
-  t.t = c.vec3();
-  t.q = c.quat_xyzw();
-  return t;
-}
-void skip_f64(Cursor& c, int n) {
-  for (int i = 0; i < n; ++i) c.f64();
-}
-}  // namespace
-
 ros::Image decode_image(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  ros::Image m;
-  m.header = c.header();
-  m.height = c.u32();
-  m.width = c.u32();
-  m.encoding = c.str();
-  m.is_bigendian = c.u8();
-  m.step = c.u32();
-  m.data = c.byte_sequence();
+  ros::Image m = layout::image(c);
   c.finish();
-  if (static_cast<std::uint64_t>(m.step) * m.height > m.data.size())
-    c.fail("image data has " + std::to_string(m.data.size()) + " bytes, step x height = " +
-           std::to_string(static_cast<std::uint64_t>(m.step) * m.height));
+  layout::check_image_size(c, m);
   return m;
 }
 
 ros::CompressedImage decode_compressed_image(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  ros::CompressedImage m;
-  m.header = c.header();
-  m.format = c.str();
-  m.data = c.byte_sequence();
+  ros::CompressedImage m = layout::compressed_image(c);
   c.finish();
   return m;
 }
 
 ros::CameraInfo decode_camera_info(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  ros::CameraInfo m;
-  m.header = c.header();
-  m.height = c.u32();
-  m.width = c.u32();
-  m.distortion_model = c.str();
-  const std::uint32_t nd = c.count(8);
-  if (nd > 64) c.fail("implausible distortion coefficient count " + std::to_string(nd));
-  m.D.resize(nd);
-  for (auto& d : m.D) d = c.f64();
-  c.f64_array(m.K);
-  c.f64_array(m.R);
-  c.f64_array(m.P);
-  m.binning_x = c.u32();
-  m.binning_y = c.u32();
-  m.roi_x = c.u32();
-  m.roi_y = c.u32();
-  m.roi_height = c.u32();
-  m.roi_width = c.u32();
-  m.roi_do_rectify = c.u8() != 0;
+  ros::CameraInfo m = layout::camera_info(c);
   c.finish();
   return m;
 }
 
 ros::Imu decode_imu(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  ros::Imu m;
-  m.header = c.header();
-  m.orientation = c.quat_xyzw();
-  c.f64_array(m.orientation_covariance);
-  m.angular_velocity = c.vec3();
-  c.f64_array(m.angular_velocity_covariance);
-  m.linear_acceleration = c.vec3();
-  c.f64_array(m.linear_acceleration_covariance);
+  ros::Imu m = layout::imu(c);
   c.finish();
   return m;
 }
 
 ros::StampedTransform decode_pose_stamped(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  ros::StampedTransform m;
-  m.header = c.header();
-  m.transform = read_pose(c);
+  ros::StampedTransform m = layout::pose_stamped(c);
   c.finish();
   return m;
 }
 
 ros::StampedTransform decode_pose_with_covariance_stamped(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  ros::StampedTransform m;
-  m.header = c.header();
-  m.transform = read_pose(c);
-  skip_f64(c, 36);
+  ros::StampedTransform m = layout::pose_with_covariance_stamped(c);
   c.finish();
   return m;
 }
 
 ros::StampedTransform decode_transform_stamped(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  ros::StampedTransform m;
-  m.header = c.header();
-  m.child_frame_id = c.str();
-  m.transform = read_pose(c);
+  ros::StampedTransform m = layout::transform_stamped(c);
   c.finish();
   return m;
 }
 
 ros::StampedTransform decode_odometry(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  ros::StampedTransform m;
-  m.header = c.header();
-  m.child_frame_id = c.str();
-  m.transform = read_pose(c);
-  skip_f64(c, 36 + 6 + 36);  // pose covariance, twist, twist covariance
+  ros::StampedTransform m = layout::odometry(c);
   c.finish();
   return m;
 }
@@ -230,13 +150,9 @@ ros::StampedTransform decode_odometry(std::string_view msg, const std::string& w
 std::vector<ros::StampedTransform> decode_tf_message(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
   // A TransformStamped takes at least 8 (stamp) + 4 + 4 (two empty strings) + 56 (pose) bytes.
-  const std::uint32_t n = c.count(72);
+  const std::uint32_t n = layout::count(c, 72);
   std::vector<ros::StampedTransform> out(n);
-  for (auto& m : out) {
-    m.header = c.header();
-    m.child_frame_id = c.str();
-    m.transform = read_pose(c);
-  }
+  for (auto& m : out) m = layout::transform_stamped(c);
   c.finish();
   return out;
 }

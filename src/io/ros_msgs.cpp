@@ -3,6 +3,8 @@
 
 #include <cstring>
 
+#include "ros_layouts.hpp"
+
 namespace roe::io::ros {
 
 // ---------------------------------------------------------------------------------------------
@@ -58,24 +60,13 @@ std::string Cursor::str() {
   const std::uint32_t n = u32();
   return std::string(bytes(n));
 }
-std::string_view Cursor::byte_array() { return bytes(u32()); }
+std::string_view Cursor::byte_sequence() { return bytes(u32()); }
 Header Cursor::header() {
   Header h;
   h.seq = u32();
   h.stamp_ns = time();
   h.frame_id = str();
   return h;
-}
-Eigen::Vector3d Cursor::vec3() {
-  Eigen::Vector3d v;
-  v.x() = f64();
-  v.y() = f64();
-  v.z() = f64();
-  return v;
-}
-Eigen::Quaterniond Cursor::quat_xyzw() {
-  const double x = f64(), y = f64(), z = f64(), w = f64();
-  return Eigen::Quaterniond(w, x, y, z);
 }
 void Cursor::finish() const {
   if (pos_ != d_.size()) fail(std::to_string(d_.size() - pos_) + " unexpected trailing bytes");
@@ -84,19 +75,6 @@ void Cursor::finish() const {
 // ---------------------------------------------------------------------------------------------
 // Decoders
 // ---------------------------------------------------------------------------------------------
-namespace {
-template <std::size_t N>
-void f64_array(Cursor& c, std::array<double, N>& a) {
-  for (auto& v : a) v = c.f64();
-}
-Transform read_pose(Cursor& c) {  // geometry_msgs/Pose or Transform: vec3 + quaternion
-  Transform t;
-  t.t = c.vec3();
-  t.q = c.quat_xyzw();
-  return t;
-}
-}  // namespace
-
 Header decode_header_only(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
   return c.header();
@@ -104,132 +82,77 @@ Header decode_header_only(std::string_view msg, const std::string& where) {
 
 Image decode_image(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  Image m;
-  m.header = c.header();
-  m.height = c.u32();
-  m.width = c.u32();
-  m.encoding = c.str();
-  m.is_bigendian = c.u8();
-  m.step = c.u32();
-  m.data = c.byte_array();
+  Image m = layout::image(c);
   // librealsense >= 2.49: header.version "1" (in the frame_id slot) appends float32 depth_units.
   // Exactly those 4 bytes are accepted; any other trailing bytes are still refused by finish().
   if (m.header.frame_id == kRealsenseImageVersion1 && c.remaining() == 4) m.depth_units = c.f32();
   c.finish();
-  if (static_cast<std::uint64_t>(m.step) * m.height > m.data.size())
-    c.fail("image data has " + std::to_string(m.data.size()) + " bytes, step x height = " +
-           std::to_string(static_cast<std::uint64_t>(m.step) * m.height));
+  layout::check_image_size(c, m);
   return m;
 }
 
 CompressedImage decode_compressed_image(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  CompressedImage m;
-  m.header = c.header();
-  m.format = c.str();
-  m.data = c.byte_array();
+  CompressedImage m = layout::compressed_image(c);
   c.finish();
   return m;
 }
 
 CameraInfo decode_camera_info(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  CameraInfo m;
-  m.header = c.header();
-  m.height = c.u32();
-  m.width = c.u32();
-  m.distortion_model = c.str();
-  const std::uint32_t nd = c.u32();
-  if (nd > 64) c.fail("implausible distortion coefficient count " + std::to_string(nd));
-  m.D.resize(nd);
-  for (auto& d : m.D) d = c.f64();
-  f64_array(c, m.K);
-  f64_array(c, m.R);
-  f64_array(c, m.P);
-  m.binning_x = c.u32();
-  m.binning_y = c.u32();
-  m.roi_x = c.u32();
-  m.roi_y = c.u32();
-  m.roi_height = c.u32();
-  m.roi_width = c.u32();
-  m.roi_do_rectify = c.u8() != 0;
+  CameraInfo m = layout::camera_info(c);
   c.finish();
   return m;
 }
 
 Imu decode_imu(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  Imu m;
-  m.header = c.header();
-  m.orientation = c.quat_xyzw();
-  f64_array(c, m.orientation_covariance);
-  m.angular_velocity = c.vec3();
-  f64_array(c, m.angular_velocity_covariance);
-  m.linear_acceleration = c.vec3();
-  f64_array(c, m.linear_acceleration_covariance);
+  Imu m = layout::imu(c);
   c.finish();
   return m;
 }
 
 Transform decode_transform(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  Transform t = read_pose(c);
+  Transform t = layout::pose(c);
   c.finish();
   return t;
 }
 
 StampedTransform decode_pose_stamped(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  StampedTransform m;
-  m.header = c.header();
-  m.transform = read_pose(c);
+  StampedTransform m = layout::pose_stamped(c);
   c.finish();
   return m;
 }
 
 StampedTransform decode_pose_with_covariance_stamped(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  StampedTransform m;
-  m.header = c.header();
-  m.transform = read_pose(c);
-  for (int i = 0; i < 36; ++i) c.f64();
+  StampedTransform m = layout::pose_with_covariance_stamped(c);
   c.finish();
   return m;
 }
 
 StampedTransform decode_transform_stamped(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  StampedTransform m;
-  m.header = c.header();
-  m.child_frame_id = c.str();
-  m.transform = read_pose(c);
+  StampedTransform m = layout::transform_stamped(c);
   c.finish();
   return m;
 }
 
 StampedTransform decode_odometry(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  StampedTransform m;
-  m.header = c.header();
-  m.child_frame_id = c.str();
-  m.transform = read_pose(c);
-  for (int i = 0; i < 36; ++i) c.f64();  // pose covariance
-  for (int i = 0; i < 6 + 36; ++i) c.f64();  // twist + covariance
+  StampedTransform m = layout::odometry(c);
   c.finish();
   return m;
 }
 
 std::vector<StampedTransform> decode_tf_message(std::string_view msg, const std::string& where) {
   Cursor c(msg, where);
-  const std::uint32_t n = c.u32();
-  // Each TransformStamped has at least 4+8+4+4+56 bytes: reject impossible counts before reserving.
-  if (static_cast<std::uint64_t>(n) * 76 > c.remaining()) c.fail("transform count exceeds the message size");
+  // Each TransformStamped has at least 4+8+4+4+56 bytes: impossible counts are refused before reserving.
+  const std::uint32_t n = layout::count(c, 76);
   std::vector<StampedTransform> out(n);
-  for (auto& m : out) {
-    m.header = c.header();
-    m.child_frame_id = c.str();
-    m.transform = read_pose(c);
-  }
+  for (auto& m : out) m = layout::transform_stamped(c);
   c.finish();
   return out;
 }
@@ -269,8 +192,8 @@ Extrinsics decode_rs2_extrinsics(std::string_view msg, const std::string& where)
   Cursor c(msg, where);
   Extrinsics m;
   m.header = c.header();
-  f64_array(c, m.rotation);
-  f64_array(c, m.translation);
+  layout::f64_array(c, m.rotation);
+  layout::f64_array(c, m.translation);
   c.finish();
   return m;
 }
@@ -333,20 +256,20 @@ Writer& Writer::str(std::string_view s) {
   out_.append(s.data(), s.size());
   return *this;
 }
-Writer& Writer::byte_array(std::string_view b) { return str(b); }
+Writer& Writer::byte_sequence(std::string_view b) { return str(b); }
 Writer& Writer::header(const Header& h) { return u32(h.seq).time(h.stamp_ns).str(h.frame_id); }
 Writer& Writer::vec3(const Eigen::Vector3d& v) { return f64(v.x()).f64(v.y()).f64(v.z()); }
 Writer& Writer::quat_xyzw(const Eigen::Quaterniond& q) { return f64(q.x()).f64(q.y()).f64(q.z()).f64(q.w()); }
 
 std::string encode_image(const Image& m) {
   Writer w;
-  w.header(m.header).u32(m.height).u32(m.width).str(m.encoding).u8(m.is_bigendian).u32(m.step).byte_array(m.data);
+  w.header(m.header).u32(m.height).u32(m.width).str(m.encoding).u8(m.is_bigendian).u32(m.step).byte_sequence(m.data);
   if (m.header.frame_id == kRealsenseImageVersion1) w.f32(m.depth_units);  // librealsense >= 2.49
   return w.bytes();
 }
 std::string encode_compressed_image(const CompressedImage& m) {
   Writer w;
-  w.header(m.header).str(m.format).byte_array(m.data);
+  w.header(m.header).str(m.format).byte_sequence(m.data);
   return w.bytes();
 }
 std::string encode_camera_info(const CameraInfo& m) {

@@ -21,7 +21,8 @@
 
 namespace roe::io::cdr {
 
-/// Bounds-checked CDR reader over one serialized message (encapsulation header included).
+/// Bounds-checked CDR reader over one serialized message (encapsulation header included): the
+/// primitives; the messages' field layouts are shared with the ROS 1 decoders (src/io/ros_layouts.hpp).
 class Cursor {
  public:
   Cursor(std::string_view msg, std::string where);
@@ -33,15 +34,7 @@ class Cursor {
   std::string str();
   /// uint8[] sequence: a view into the message.
   std::string_view byte_sequence();
-  /// The element count of a sequence whose elements take at least `min_bytes` each.
-  std::uint32_t count(std::size_t min_bytes);
   ros::Header header();
-  Eigen::Vector3d vec3();
-  Eigen::Quaterniond quat_xyzw();
-  template <std::size_t N>
-  void f64_array(std::array<double, N>& a) {
-    for (auto& v : a) v = f64();
-  }
   std::size_t remaining() const { return d_.size() - pos_; }
   /// InputError unless at most 3 (padding) bytes are left.
   void finish() const;

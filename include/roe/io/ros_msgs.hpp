@@ -120,7 +120,8 @@ struct KeyValue {
   std::string key, value;
 };
 
-/// Bounds-checked reader over one serialized message.
+/// Bounds-checked reader over one serialized message: the primitives; the messages' field layouts are
+/// shared with the ROS 2 decoders (src/io/ros_layouts.hpp).
 class Cursor {
  public:
   Cursor(std::string_view data, std::string where) : d_(data), where_(std::move(where)) {}
@@ -133,10 +134,8 @@ class Cursor {
   std::string str();
   std::string_view bytes(std::size_t n);
   /// uint8[] with a length prefix.
-  std::string_view byte_array();
+  std::string_view byte_sequence();
   Header header();
-  Eigen::Vector3d vec3();
-  Eigen::Quaterniond quat_xyzw();
   std::size_t remaining() const { return d_.size() - pos_; }
   /// InputError unless every byte was consumed.
   void finish() const;
@@ -179,7 +178,7 @@ class Writer {
   Writer& f64(double v);
   Writer& time(Timestamp ns);
   Writer& str(std::string_view s);
-  Writer& byte_array(std::string_view b);
+  Writer& byte_sequence(std::string_view b);
   Writer& header(const Header& h);
   Writer& vec3(const Eigen::Vector3d& v);
   Writer& quat_xyzw(const Eigen::Quaterniond& q);
