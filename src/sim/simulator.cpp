@@ -368,7 +368,7 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
   Truth truth;
   truth.T_I_C = config.camera.T_I_C;
   for (const auto& o : objects_M) {
-    m.objects.push_back({o.id, ycbv_name(o.id), syms.count(o.id) > 0});
+    m.objects.push_back({o.id, ycbv_name(o.id), syms.count(o.id) > 0, "", -1, {}});
     truth.objects.push_back({o.id, T_W_M * o.T_W_O});
   }
   truth.imu_noise = m.imu->noise;
@@ -628,7 +628,7 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
   Truth truth;
   truth.T_I_C = config.T_I_C;
   for (const auto& o : objects_W) {
-    m.objects.push_back({o.id, ycbv_name(o.id), syms.count(o.id) > 0});
+    m.objects.push_back({o.id, ycbv_name(o.id), syms.count(o.id) > 0, "", -1, {}});
     truth.objects.push_back(o);
   }
   truth.imu_noise = config.imu_noise;

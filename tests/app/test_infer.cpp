@@ -49,7 +49,7 @@ fs::path make_dataset(const fs::path& root, const std::vector<std::vector<Square
   cam.cx = 64.0 * scale;
   cam.cy = 48.0 * scale;
   d.manifest.camera = cam;
-  d.manifest.objects = {{11, "red_square", false}, {12, "green_square", false}, {13, "blue_square", true}};
+  d.manifest.objects = {{11, "red_square", false, "", -1, {}}, {12, "green_square", false, "", -1, {}}, {13, "blue_square", true, "", -1, {}}};
   for (std::size_t k = 0; k < frames.size(); ++k) {
     const Timestamp t = 1'000'000'000 + static_cast<Timestamp>(k) * 100'000'000;
     d.frames.push_back({t, std::to_string(t) + ".png"});

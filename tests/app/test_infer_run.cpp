@@ -34,7 +34,7 @@ TEST_CASE("roe infer then roe run on a small dataset with images", "[infer][run]
   cam.cx = 64.0;
   cam.cy = 48.0;
   d.manifest.camera = cam;
-  d.manifest.objects = {{11, "red_square", false}, {12, "green_square", false}, {13, "blue_square", true}};
+  d.manifest.objects = {{11, "red_square", false, "", -1, {}}, {12, "green_square", false, "", -1, {}}, {13, "blue_square", true, "", -1, {}}};
   const Timestamp t0 = 2'000'000'000;
   for (int k = 0; k <= 600; ++k) {  // 3 s at 200 Hz, at rest and level: specific force = +g
     ImuSample s;

@@ -65,7 +65,7 @@ Dataset make_dataset() {
   c.time_offset_s = -0.0123;
   m.camera = c;
   m.mocap = MocapInfo{"rig", random_pose(rng), 0.004};
-  m.objects = {{1, "002_master_chef_can", false}, {13, "024_bowl", true}};
+  m.objects = {{1, "002_master_chef_can", false, "", -1, {}}, {13, "024_bowl", true, "", -1, {}}};
   Truth t;
   t.T_I_C = random_pose(rng);
   t.objects = {{1, random_pose(rng)}, {13, random_pose(rng)}};
@@ -548,7 +548,7 @@ TEST_CASE("dataset: writers refuse unsorted streams and invalid manifests", "[da
   CHECK_THROWS_AS(io::write_detections_csv(tmp.path / "d.csv", dets), InternalError);  // 0 again, two rows back
   CHECK_FALSE(fs::exists(tmp.path / "imu.csv"));
   DatasetManifest m;
-  m.objects = {{3, "a", false}, {3, "b", true}};
+  m.objects = {{3, "a", false, "", -1, {}}, {3, "b", true, "", -1, {}}};
   CHECK_THROWS_AS(io::write_manifest(m, tmp.path / "roe.json"), InternalError);
   m.objects.pop_back();
   m.schema = "other";
