@@ -845,16 +845,15 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       auto PHt_k = PHt.middleCols<6>(6 * k);
       {
         // Gather P's columns at H_k's non-zero columns (contiguous n x nc), then one product
-        // P Hᵀ = Σ_j P[:, idx_j] H[:, j]ᵀ (ws_U_ serves as the gather buffer; it is reused below).
-        if (ws_U_.rows() != n_ || ws_U_.cols() < 18) {
-          const Eigen::Index cols = std::max<Eigen::Index>(18, ws_U_.rows() == n_ ? ws_U_.cols() : 0);
-          ws_U_.resize(n_, cols);
-          ws_V_.resize(n_, cols);
+        // P Hᵀ = Σ_j P[:, idx_j] H[:, j]ᵀ (ws_W_ serves as the gather buffer; it is reused below).
+        if (ws_W_.rows() != n_ || ws_W_.cols() < 18) {
+          const Eigen::Index cols = std::max<Eigen::Index>(18, ws_W_.rows() == n_ ? ws_W_.cols() : 0);
+          ws_W_.resize(n_, cols);
         }
         for (int r = 0; r < b.nruns; ++r)
-          ws_U_.middleCols(b.run_col[r], b.run_len[r]) = P_.middleCols(b.run_off[r], b.run_len[r]);
+          ws_W_.middleCols(b.run_col[r], b.run_len[r]) = P_.middleCols(b.run_off[r], b.run_len[r]);
         PHt_k.setZero();
-        add_abt(PHt_k.data(), PHt.outerStride(), ws_U_.data(), ws_U_.outerStride(), b.H.data(), 6, n_, 6,
+        add_abt(PHt_k.data(), PHt.outerStride(), ws_W_.data(), ws_W_.outerStride(), b.H.data(), 6, n_, 6,
                 b.nc, 1.0, /*lower=*/false);
       }
       const Mat6 S = h_pht(b, PHt_k) + b.R;
@@ -922,7 +921,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       }
       // K, δx and the Joseph-form posterior (stacked_update.hpp).
       Eigen::VectorXd& dx = ws_dx_;
-      if (!stacked_update(P_, Y, S, r, dx, {ws_L_, ws_U_, ws_V_}))
+      if (!stacked_update(P_, Y, S, r, dx, {ws_L_, ws_W_, ws_u_}))
         throw NumericError(
             fmt::format("filter failed at {}: stacked innovation covariance is not positive definite", when()));
       boxplus(dx);

@@ -5,7 +5,12 @@
 // machine the CPU time is the better measure of what the filter costs.
 // With the RTS smoother ("smoother": "rts"): the filter while recording, the backward pass, and the
 // recording's size.
-// usage: bench_filter [repetitions=15] [--each]   (--each: also print every repetition's filter wall time)
+// A second line per rate ("default") times the filter with roe run's built-in defaults (configs/default.json:
+// camera-frame residual, split gate, detection sigmas with the learned scale, relock, IMU noise x 4), causal,
+// with an observer that records nothing: what users run, without roe run's per-sample output rows.
+// usage: bench_filter [repetitions=15] [--each] [--filter-only]
+//   --each: also print every repetition's filter wall time; --filter-only: only the filter lines (no
+//   run_dataset, no smoother; for profiling the filter with perf).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -44,15 +49,21 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+double min_of(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::atoi(argv[1]) : 15;
-  const bool each = argc > 2 && std::string(argv[2]) == "--each";
+  bool each = false, filter_only = false;
+  for (int a = 2; a < argc; ++a) {
+    each |= std::string(argv[a]) == "--each";
+    filter_only |= std::string(argv[a]) == "--filter-only";
+  }
   fmt::print("bench_filter: paper-seq4, 60 s, seed 1, FilterOptions' plain defaults; {} repetitions, median (min) [ms]\n",
              reps);
   fmt::print("{:>8} {:>7} {:>8} {:>20} {:>14} {:>20} {:>20} {:>12}\n", "IMU Hz", "images", "updates",
-             "filter wall", "filter CPU", "propagation only", "run_dataset", "x real time");
+             "filter wall", "filter CPU (min)", "propagation only", "run_dataset", "x real time");
   for (double rate : {200.0, 400.0}) {
     sim::SimConfig c = app::sim_config_from_preset("paper-seq4");
     c.imu.rate_hz = rate;
@@ -69,13 +80,20 @@ int main(int argc, char** argv) {
         d.manifest.imu->noise.accel_noise_density, d.manifest.imu->noise.accel_random_walk};
     // run_filter picks the anchor as roe run does (ekf::choose_anchor).
     const ekf::FilterOptions opt = cfg.filter;
-    std::vector<double> t_filter, t_cpu, t_prop, t_run, t_rec, t_smooth, t_smooth_cpu;
+    // roe run's built-in defaults (app::RunConfig's filter, = configs/default.json), causal; the IMU noise
+    // scaled as roe run scales it.
+    const ekf::FilterOptions dopt = app::RunConfig{}.filter;
+    ekf::ImuNoiseParams dnoise = noise;
+    for (double* v : {&dnoise.gyro_noise_density, &dnoise.gyro_random_walk, &dnoise.accel_noise_density,
+                      &dnoise.accel_random_walk})
+      *v *= dopt.imu_noise_scale;
+    std::vector<double> t_filter, t_cpu, t_prop, t_run, t_rec, t_smooth, t_smooth_cpu, d_filter, d_cpu, d_prop;
     double rec_mb = 0.0;
-    std::size_t updates = 0;
+    std::size_t updates = 0, d_updates = 0;
     for (int r = 0; r < reps; ++r) {
       Null obs;
       auto t0 = Clock::now();
-      const double c0 = cpu_ms();
+      double c0 = cpu_ms();
       const auto s = ekf::run_filter(d.imu, images, opt, noise, d.manifest.camera->T_I_C, obs);
       t_cpu.push_back(cpu_ms() - c0);
       t_filter.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
@@ -83,6 +101,16 @@ int main(int argc, char** argv) {
       t0 = Clock::now();
       ekf::run_filter(d.imu, {}, opt, noise, d.manifest.camera->T_I_C, obs);
       t_prop.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      t0 = Clock::now();
+      c0 = cpu_ms();
+      const auto sd = ekf::run_filter(d.imu, images, dopt, dnoise, d.manifest.camera->T_I_C, obs);
+      d_cpu.push_back(cpu_ms() - c0);
+      d_filter.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      d_updates = sd.updates;
+      c0 = cpu_ms();
+      ekf::run_filter(d.imu, {}, dopt, dnoise, d.manifest.camera->T_I_C, obs);
+      d_prop.push_back(cpu_ms() - c0);
+      if (filter_only) continue;
       t0 = Clock::now();
       const auto out = app::run_dataset(d, "sim", cfg);
       t_run.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
@@ -106,17 +134,23 @@ int main(int argc, char** argv) {
       fmt::print("\n");
     }
     const double mf = median(t_filter);
+    if (filter_only) {
+      t_run.push_back(0.0);
+    }
     fmt::print(
-        "{:>8.0f} {:>7} {:>8} {:>12.2f} ({:>5.2f}) {:>14.2f} {:>12.2f} ({:>5.2f}) {:>12.2f} ({:>5.2f}) "
+        "{:>8.0f} {:>7} {:>8} {:>12.2f} ({:>5.2f}) {:>6.2f} ({:>5.2f}) {:>12.2f} ({:>5.2f}) {:>12.2f} ({:>5.2f}) "
         "{:>12.0f}\n",
-        rate, images.size(), updates, mf, *std::min_element(t_filter.begin(), t_filter.end()), median(t_cpu),
-        median(t_prop), *std::min_element(t_prop.begin(), t_prop.end()), median(t_run),
-        *std::min_element(t_run.begin(), t_run.end()), 60000.0 / median(t_cpu));
+        rate, images.size(), updates, mf, min_of(t_filter), median(t_cpu), min_of(t_cpu), median(t_prop),
+        min_of(t_prop), median(t_run), min_of(t_run), 60000.0 / median(t_cpu));
+    fmt::print("{:>8.0f} default: roe run's built-in filter options, causal, {} updates: filter {:.2f} ({:.2f}), "
+               "CPU {:.2f} ({:.2f}), propagation only CPU {:.2f} ({:.2f})\n",
+               rate, d_updates, median(d_filter), min_of(d_filter), median(d_cpu), min_of(d_cpu), median(d_prop),
+               min_of(d_prop));
+    if (filter_only) continue;
     fmt::print("{:>8.0f} RTS smoother: filter while recording {:.2f} ({:.2f}), backward pass {:.2f} ({:.2f}), "
                "CPU {:.2f} ({:.2f}), recording {:.1f} MB\n",
-               rate, median(t_rec), *std::min_element(t_rec.begin(), t_rec.end()), median(t_smooth),
-               *std::min_element(t_smooth.begin(), t_smooth.end()), median(t_smooth_cpu),
-               *std::min_element(t_smooth_cpu.begin(), t_smooth_cpu.end()), rec_mb);
+               rate, median(t_rec), min_of(t_rec), median(t_smooth), min_of(t_smooth), median(t_smooth_cpu),
+               min_of(t_smooth_cpu), rec_mb);
   }
   return 0;
 }

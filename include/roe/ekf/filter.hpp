@@ -244,9 +244,8 @@ class Filter {
   Eigen::MatrixXd ws_PHt_;  // n x 6·blocks: P H_kᵀ per block, inliers compacted to the left
   Eigen::MatrixXd ws_S_;    // stacked S (m x m, top-left)
   Eigen::MatrixXd ws_L_;    // its Cholesky factor (m x m, top-left)
-  Eigen::MatrixXd ws_U_;    // n x 2m: [E, K]
-  Eigen::MatrixXd ws_V_;    // n x 2m: [K, E]
-  Eigen::VectorXd ws_r_, ws_dx_;
+  Eigen::MatrixXd ws_W_;    // n x m: P Hᵀ L⁻ᵀ (S = L Lᵀ); first the gather buffer of P's columns
+  Eigen::VectorXd ws_r_, ws_dx_, ws_u_;
   std::vector<Pose> ws_z_;
   std::vector<char> ws_usable_;
   std::vector<int> ws_new_objects_, ws_inliers_, ws_row0_;

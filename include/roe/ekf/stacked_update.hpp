@@ -21,12 +21,12 @@ namespace roe::ekf {
 void add_abt(double* C, Eigen::Index ldc, const double* A, Eigen::Index lda, const double* B, Eigen::Index ldb,
              Eigen::Index M, Eigen::Index N, Eigen::Index K, double alpha, bool lower);
 
-/// Reusable buffers of stacked_update (sized on first use; no allocation afterwards). U and V are at
-/// least n x 2m (the filter also uses U as a gather buffer of its own).
+/// Reusable buffers of stacked_update (sized on first use; no allocation afterwards once they have
+/// reached the largest m; the filter also uses W as a gather buffer of its own).
 struct StackedUpdateBuffers {
   Eigen::MatrixXd& L;  ///< ≥ m x m: the Cholesky factor
-  Eigen::MatrixXd& U;  ///< n x ≥ 2m: [E, K]
-  Eigen::MatrixXd& V;  ///< n x ≥ 2m: [K, E]
+  Eigen::MatrixXd& W;  ///< n x ≥ m: Y L⁻ᵀ
+  Eigen::VectorXd& u;  ///< L⁻¹ r
 };
 
 /// One stacked update of the n x n covariance P with Y = P Hᵀ (n x m), S (m x m, symmetric) and r (m):
