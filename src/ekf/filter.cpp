@@ -172,13 +172,17 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
 
 StateEstimate Filter::snapshot() const {
   StateEstimate s;
+  snapshot_into(s);
+  return s;
+}
+
+void Filter::snapshot_into(StateEstimate& s) const {
   s.t_ns = t_ns_;
   s.x = x_;
   s.T_I_C = T_I_C_;
   s.extr_offset = extr_offset_;
   s.dim = n_;
-  s.objects = objects_;
-  return s;
+  s.objects = objects_;  // copy-assignment: reuses s.objects' storage
 }
 
 RecordedNode& Filter::push_node(RecordedNode::Kind kind) {
@@ -383,8 +387,10 @@ Mat6 Filter::object_covariance_relative_to_anchor(const ObjectEntry& o) const {
 
 void Filter::boxplus(const Eigen::VectorXd& dx) {
   ROE_CHECK(dx.size() == n_, "boxplus: wrong size");
-  // One definition of ⊞ (smoother.hpp), applied to a snapshot and written back.
-  StateEstimate s = snapshot();
+  // One definition of ⊞ (state.hpp), applied to a snapshot (a workspace: no allocation per update) and
+  // written back.
+  StateEstimate& s = ws_state_;
+  snapshot_into(s);
   ekf::boxplus(s, dx);
   x_ = s.x;
   T_I_C_ = s.T_I_C;

@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <ctime>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,17 @@
 
 using namespace roe;
 using Clock = std::chrono::steady_clock;
+
+// Heap allocations of this (single-threaded) benchmark, counted by the replaced global operator new: the
+// filter's allocations per image are (with images − propagation only) / images.
+static std::size_t g_allocations = 0;
+void* operator new(std::size_t n) {
+  ++g_allocations;
+  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace {
 
@@ -90,26 +102,33 @@ int main(int argc, char** argv) {
     std::vector<double> t_filter, t_cpu, t_prop, t_run, t_rec, t_smooth, t_smooth_cpu, d_filter, d_cpu, d_prop;
     double rec_mb = 0.0;
     std::size_t updates = 0, d_updates = 0;
+    double allocs = 0.0, d_allocs = 0.0;  // heap allocations per image (filter with images − propagation only)
     for (int r = 0; r < reps; ++r) {
       Null obs;
+      std::size_t a0 = g_allocations;
       auto t0 = Clock::now();
       double c0 = cpu_ms();
       const auto s = ekf::run_filter(d.imu, images, opt, noise, d.manifest.camera->T_I_C, obs);
       t_cpu.push_back(cpu_ms() - c0);
       t_filter.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
       updates = s.updates;
+      std::size_t a1 = g_allocations;
       t0 = Clock::now();
       ekf::run_filter(d.imu, {}, opt, noise, d.manifest.camera->T_I_C, obs);
       t_prop.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      allocs = (static_cast<double>(a1 - a0) - static_cast<double>(g_allocations - a1)) / images.size();
+      a0 = g_allocations;
       t0 = Clock::now();
       c0 = cpu_ms();
       const auto sd = ekf::run_filter(d.imu, images, dopt, dnoise, d.manifest.camera->T_I_C, obs);
       d_cpu.push_back(cpu_ms() - c0);
       d_filter.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
       d_updates = sd.updates;
+      a1 = g_allocations;
       c0 = cpu_ms();
       ekf::run_filter(d.imu, {}, dopt, dnoise, d.manifest.camera->T_I_C, obs);
       d_prop.push_back(cpu_ms() - c0);
+      d_allocs = (static_cast<double>(a1 - a0) - static_cast<double>(g_allocations - a1)) / images.size();
       if (filter_only) continue;
       t0 = Clock::now();
       const auto out = app::run_dataset(d, "sim", cfg);
@@ -143,9 +162,10 @@ int main(int argc, char** argv) {
         rate, images.size(), updates, mf, min_of(t_filter), median(t_cpu), min_of(t_cpu), median(t_prop),
         min_of(t_prop), median(t_run), min_of(t_run), 60000.0 / median(t_cpu));
     fmt::print("{:>8.0f} default: roe run's built-in filter options, causal, {} updates: filter {:.2f} ({:.2f}), "
-               "CPU {:.2f} ({:.2f}), propagation only CPU {:.2f} ({:.2f})\n",
+               "CPU {:.2f} ({:.2f}), propagation only CPU {:.2f} ({:.2f}); heap allocations per image: {:.1f} "
+               "(plain options {:.1f})\n",
                rate, d_updates, median(d_filter), min_of(d_filter), median(d_cpu), min_of(d_cpu), median(d_prop),
-               min_of(d_prop));
+               min_of(d_prop), d_allocs, allocs);
     if (filter_only) continue;
     fmt::print("{:>8.0f} RTS smoother: filter while recording {:.2f} ({:.2f}), backward pass {:.2f} ({:.2f}), "
                "CPU {:.2f} ({:.2f}), recording {:.1f} MB\n",

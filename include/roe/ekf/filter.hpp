@@ -199,6 +199,8 @@ class Filter {
   };
 
   void sync_cross_covariance();
+  /// snapshot() into an existing StateEstimate (its object list's storage reused).
+  void snapshot_into(StateEstimate& s) const;
   /// Recording: ends the propagation segment since the last node (a kPropagate node) if it has steps.
   void close_segment();
   /// Recording: a node of the given kind with the current state and (synchronised) covariance.
@@ -247,6 +249,7 @@ class Filter {
   Eigen::MatrixXd ws_W_;    // n x m: P Hᵀ L⁻ᵀ (S = L Lᵀ); first the gather buffer of P's columns
   Eigen::VectorXd ws_r_, ws_dx_, ws_u_;
   std::vector<Pose> ws_z_;
+  StateEstimate ws_state_;  // boxplus's snapshot
   std::vector<char> ws_usable_;
   std::vector<int> ws_new_objects_, ws_inliers_, ws_row0_;
   struct Pending {
