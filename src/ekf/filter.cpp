@@ -138,6 +138,7 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
   accel_ = accel0;
 
   P_.setZero();
+  cc_pending_ = false;
   const auto sq = [](double s) { return s * s; };
   const double d2r = math::kRadPerDeg;
   for (int i = 0; i < 3; ++i) {
@@ -206,6 +207,7 @@ void Filter::close_segment() {
   nd.steps = rec_->steps.size();
   nd.first_step = first;
   nd.Phi = rec_PhiT_.transpose();
+  sync_core();
   nd.P_cc = P_.topLeftCorner<15, 15>();
   rec_PhiT_.setIdentity();
 }
@@ -273,7 +275,13 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   // Of B[0:9, 0:9] = T Fᵀ (T = C[:, 0:9]ᵀ) only the lower block triangle is formed: its column p on all 9
   // rows, v on rows v, θ, θ on rows θ (so δθ's product, the costliest, on 3 rows instead of 9); the diagonal
   // blocks are symmetrised and the upper blocks mirrored. 675 + 297 multiply-adds instead of 2 x 675.
-  Mat15 C = P_.topLeftCorner<15, 15>();
+  // The core block is propagated in the fixed-size Pcc_ (no strided copies per sample); P_'s top-left block
+  // takes it back on the next sync_core().
+  if (!cc_pending_) {
+    Pcc_ = P_.topLeftCorner<15, 15>();
+    cc_pending_ = true;
+  }
+  Mat15& C = Pcc_;
   F.apply_right_transposed(C);
   const Eigen::Matrix<double, 9, 15> T = C.leftCols<9>().transpose();
   Eigen::Matrix<double, 9, 3> dv;  // (T Fᵀ)[:, v] − T[:, v]
@@ -294,11 +302,10 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   B.block<3, 3>(kP, kV) = B.block<3, 3>(kV, kP).transpose();
   B.block<3, 3>(kP, kTheta) = B.block<3, 3>(kTheta, kP).transpose();
   B.block<3, 3>(kV, kTheta) = B.block<3, 3>(kTheta, kV).transpose();
-  auto Pcc = P_.topLeftCorner<15, 15>();
-  Pcc.topLeftCorner<9, 9>() = B;
-  Pcc.block<6, 9>(9, 0) = C.block<6, 9>(9, 0);
-  Pcc.block<9, 6>(0, 9) = C.block<6, 9>(9, 0).transpose();
-  add_process_noise(noise_, dt, Pcc);
+  // C's rows b_g, b_a (columns 0:9) are B's; its bias block is P's.
+  C.topLeftCorner<9, 9>() = B;
+  C.block<9, 6>(0, 9) = C.block<6, 9>(9, 0).transpose();
+  add_process_noise(noise_, dt, C);
   if (n_ > kCore) {
     // Φᵀ ← Φᵀ Fᵀ (Φ = F_k⋯F_1 is kept transposed so that the products run on columns). Φ's columns p and v
     // (Φᵀ's rows p, v) stay [I; 0; 0; 0; 0] and [Σdt I; I; 0; 0; 0] (F's columns p, v are trivial), so
@@ -309,7 +316,7 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   }
   // Cheap guard rails every sample: core state and core variances.
   bool ok = x_.p_W_I.allFinite() && x_.v_W_I.allFinite() && x_.q_W_I.coeffs().allFinite();
-  for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(P_(i, i)) && P_(i, i) > 0.0;
+  for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(Pcc_(i, i)) && Pcc_(i, i) > 0.0;
   if (!ok) check_covariance(false, "propagation");
   // check_state(core_only) on squared norms: a state clearly inside the bounds (norm² ≤ (0.999999·max)², so
   // that the rounded norm is ≤ max) skips it; anything else (near or over a bound, non-finite: NaN fails every
@@ -324,7 +331,14 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
     check_state("propagation", /*core_only=*/true);
 }
 
+void Filter::sync_core() {
+  if (!cc_pending_) return;
+  P_.topLeftCorner<15, 15>() = Pcc_;
+  cc_pending_ = false;
+}
+
 void Filter::sync_cross_covariance() {
+  sync_core();
   if (!phi_pending_) return;
   const int r = n_ - kCore;
   if (r > 0) {
@@ -751,6 +765,7 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
 
 FrameResult Filter::update(const std::vector<Detection>& dets) {
   ROE_CHECK(initialized_, "update before initialize");
+  sync_core();
   FrameResult res;
   res.t_ns = t_ns_;
   res.detections.resize(dets.size());
@@ -1074,6 +1089,7 @@ void Filter::check_state(const char* where, bool core_only) const {
 
 void Filter::check_covariance(bool full, const char* where) {
   static const char* names[] = {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a"};
+  sync_core();
   for (int i = 0; i < n_; ++i) {
     const double d = P_(i, i);
     if (!std::isfinite(d) || d <= 0.0) {

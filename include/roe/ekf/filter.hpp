@@ -121,9 +121,9 @@ class Filter {
   int dim() const { return n_; }
   int extrinsics_offset() const { return extr_offset_; }
   /// Diagonal entry of P (always current, also between updates).
-  double variance(int i) const { return P_(i, i); }
+  double variance(int i) const { return cc_pending_ && i < kCore ? Pcc_(i, i) : P_(i, i); }
   /// Entry (i, j) of the core 15x15 block of P (always current).
-  double core_covariance(int i, int j) const { return P_(i, j); }
+  double core_covariance(int i, int j) const { return cc_pending_ ? Pcc_(i, j) : P_(i, j); }
   /// Covariance of an object's error state [δp_O_W; δθ_O_W] (6x6; rows/columns of components the
   /// anchor does not estimate are 0). Always current: propagation changes only the core rows/columns.
   Mat6 object_covariance(const ObjectEntry& o) const;
@@ -198,6 +198,9 @@ class Filter {
     int nruns = 0;
   };
 
+  /// Writes the propagated core block Pcc_ back into P_ (a copy; every reader of P_'s core block calls it).
+  void sync_core();
+  /// sync_core(), then applies the pending core transition Φ to the core/rest cross-covariance.
   void sync_cross_covariance();
   /// snapshot() into an existing StateEstimate (its object list's storage reused).
   void snapshot_into(StateEstimate& s) const;
@@ -237,6 +240,10 @@ class Filter {
   int extr_offset_ = -1;
   int n_ = kCore;
   Eigen::MatrixXd P_;
+  // The core block of P while propagating (authoritative while cc_pending_; P_'s top-left block is stale
+  // until sync_core()).
+  Mat15 Pcc_;
+  bool cc_pending_ = false;
   Mat15 PhiT_ = Mat15::Identity();  // Φᵀ, Φ = F_k⋯F_1 since the last cross-covariance sync
   bool phi_pending_ = false;
   Eigen::MatrixXd tmp_cross_;
