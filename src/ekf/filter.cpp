@@ -940,7 +940,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
           S.block(row0[c], row0[a], mc, ba.m) = Sac.transpose();
         }
       }
-      // K, δx and the Joseph-form posterior (stacked_update.hpp).
+      // K, δx and the posterior P − W Wᵀ (stacked_update.hpp).
       Eigen::VectorXd& dx = ws_dx_;
       if (!stacked_update(P_, Y, S, r, dx, {ws_L_, ws_W_, ws_u_}))
         throw NumericError(

@@ -20,17 +20,19 @@
 /// only the 9x9 block B[0:9, 0:9] of B = F C = Cᵀ Fᵀ needs a second product (B's bias rows/columns are C's),
 /// and of it only the lower block triangle (mirrored; diagonal blocks symmetrised), + Q. The core/rest cross-covariance is updated lazily with the accumulated transition
 /// Φ = F_k⋯F_1 (kept transposed, only its non-trivial columns θ, b_g, b_a multiplied) the next time it is
-/// needed (update, augmentation, covariance()). No heap allocation per IMU sample.
+/// needed (update, augmentation, covariance()). Between images P_cc lives in a fixed-size 15x15 member and
+/// goes back into P with that sync (a copy). No heap allocation per IMU sample; one per image (the
+/// FrameResult's detection list).
 ///
 /// Update per image: residual and H per detection of an initialised object (the paper's T_O_C
 /// residual, or the same model with the residual formed on T_C_O, FilterOptions::residual_frame), a χ² test
 /// per object on its own 6x6 S_k = H_k P H_kᵀ + R_k, all inliers stacked into one update. What is computed:
 /// P H_kᵀ from H_k's ≤ 18 non-zero columns (runs of contiguous state columns); the stacked S's diagonal
 /// blocks are the gate's S_k, its off-diagonal blocks H_a (P H_cᵀ) are evaluated once and mirrored; S = L Lᵀ
-/// (Cholesky in place; not positive definite → guard rail) and K = P Hᵀ L⁻ᵀ L⁻¹ by two triangular solves (no
-/// explicit inverse); the Joseph form (I−KH)P(I−KH)ᵀ + KRKᵀ is evaluated exactly (for the K actually
-/// computed) as P + E Kᵀ + K Eᵀ with E = ½ K S − P Hᵀ, as one product [E, K][K, E]ᵀ of inner size 2m on
-/// the lower triangle only (n²m multiply-adds), then mirrored (symmetrisation).
+/// (Cholesky in place; not positive definite → guard rail), W = P Hᵀ L⁻ᵀ by one triangular solve (no
+/// explicit inverse; K = W L⁻¹), δx = W L⁻¹ r, and the posterior P − W Wᵀ (the Joseph form
+/// (I−KH)P(I−KH)ᵀ + KRKᵀ for this optimal K) as a rank-m product on the lower triangle only (n²m/2
+/// multiply-adds), then mirrored (symmetrisation); stacked_update.hpp.
 /// Guard rails throw roe::NumericError naming the time and what broke: state bounds after every update
 /// and object initialisation (the core state after every IMU sample), the covariance diagonal every time,
 /// a full Cholesky test of P every FilterOptions::pd_check_every updates and after every augmentation.
