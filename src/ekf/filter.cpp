@@ -763,6 +763,35 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   }
 }
 
+void Filter::stacked_pht(int nb) {
+  // H_k's compact columns: p, θ [, the extrinsics' p, θ] (shared by every block), then the object's (one run
+  // of o.dim contiguous state columns; build_block).
+  const int ns = extr_offset_ >= 0 ? 12 : 6;
+  Eigen::MatrixXd& PHt = ws_PHt_;
+  if (ws_W_.rows() != n_ || ws_W_.cols() < ns) {
+    const Eigen::Index cols = std::max<Eigen::Index>(ns, ws_W_.rows() == n_ ? ws_W_.cols() : 0);
+    ws_W_.resize(n_, cols);
+  }
+  ws_W_.leftCols<3>() = P_.middleCols<3>(kP);
+  ws_W_.middleCols<3>(3) = P_.middleCols<3>(kTheta);
+  if (ns == 12) ws_W_.middleCols<6>(6) = P_.middleCols<6>(extr_offset_);
+  if (ws_Hs_.cols() != ns || ws_Hs_.rows() < 6 * nb)
+    ws_Hs_.resize(std::max<Eigen::Index>(6 * nb, ws_Hs_.cols() == ns ? ws_Hs_.rows() : 0), ns);
+  for (int k = 0; k < nb; ++k) ws_Hs_.middleRows<6>(6 * k) = blocks_[k].H.leftCols(ns);
+  // The shared columns of all blocks in one product, then each block's object columns (read in place).
+  PHt.leftCols(6 * nb).setZero();
+  add_abt(PHt.data(), PHt.outerStride(), ws_W_.data(), ws_W_.outerStride(), ws_Hs_.data(), ws_Hs_.outerStride(), n_,
+          6 * nb, ns, 1.0, /*lower=*/false);
+  for (int k = 0; k < nb; ++k) {
+    const MeasBlock& b = blocks_[k];
+    const ObjectEntry& o = objects_[b.obj];
+    ROE_CHECK(b.nc == ns + o.dim, "stacked_pht: unexpected measurement Jacobian layout");
+    if (o.dim > 0)
+      add_abt(&PHt(0, 6 * k), PHt.outerStride(), &P_(0, o.offset), P_.outerStride(), b.H.col(ns).data(), 6, n_, 6,
+              o.dim, 1.0, /*lower=*/false);
+  }
+}
+
 FrameResult Filter::update(const std::vector<Detection>& dets) {
   ROE_CHECK(initialized_, "update before initialize");
   sync_core();
@@ -861,22 +890,10 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     if (PHt.rows() != n_ || PHt.cols() < 6 * nb) PHt.resize(n_, std::max<Eigen::Index>(6 * nb, PHt.cols()));
     std::vector<int>& inliers = ws_inliers_;
     inliers.clear();
+    stacked_pht(nb);
     for (int k = 0; k < nb; ++k) {
       MeasBlock& b = blocks_[k];
       auto PHt_k = PHt.middleCols<6>(6 * k);
-      {
-        // Gather P's columns at H_k's non-zero columns (contiguous n x nc), then one product
-        // P Hᵀ = Σ_j P[:, idx_j] H[:, j]ᵀ (ws_W_ serves as the gather buffer; it is reused below).
-        if (ws_W_.rows() != n_ || ws_W_.cols() < 18) {
-          const Eigen::Index cols = std::max<Eigen::Index>(18, ws_W_.rows() == n_ ? ws_W_.cols() : 0);
-          ws_W_.resize(n_, cols);
-        }
-        for (int r = 0; r < b.nruns; ++r)
-          ws_W_.middleCols(b.run_col[r], b.run_len[r]) = P_.middleCols(b.run_off[r], b.run_len[r]);
-        PHt_k.setZero();
-        add_abt(PHt_k.data(), PHt.outerStride(), ws_W_.data(), ws_W_.outerStride(), b.H.data(), 6, n_, 6,
-                b.nc, 1.0, /*lower=*/false);
-      }
       const Mat6 S = h_pht(b, PHt_k) + b.R;
       b.S = 0.5 * (S + S.transpose());
       Eigen::LDLT<Mat6> ldlt(b.S);

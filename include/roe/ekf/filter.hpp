@@ -202,6 +202,9 @@ class Filter {
 
   /// Writes the propagated core block Pcc_ back into P_ (a copy; every reader of P_'s core block calls it).
   void sync_core();
+  /// ws_PHt_'s first 6·nb columns ← P H_kᵀ of blocks_[0 … nb−1]: the columns every H_k shares (core p, θ,
+  /// extrinsics; gathered once) in one product, each object's own columns in place.
+  void stacked_pht(int nb);
   /// sync_core(), then applies the pending core transition Φ to the core/rest cross-covariance.
   void sync_cross_covariance();
   /// snapshot() into an existing StateEstimate (its object list's storage reused).
@@ -253,6 +256,7 @@ class Filter {
   // Update workspaces, kept between images and only grown (no heap allocation per image once the state
   // dimension and the number of detections per image have been seen).
   Eigen::MatrixXd ws_PHt_;  // n x 6·blocks: P H_kᵀ per block, inliers compacted to the left
+  Eigen::MatrixXd ws_Hs_;   // 6·blocks x 12: the blocks' H on the shared columns (p, θ, extrinsics)
   Eigen::MatrixXd ws_S_;    // stacked S (m x m, top-left)
   Eigen::MatrixXd ws_L_;    // its Cholesky factor (m x m, top-left)
   Eigen::MatrixXd ws_W_;    // n x m: P Hᵀ L⁻ᵀ (S = L Lᵀ); first the gather buffer of P's columns
