@@ -138,6 +138,7 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
   accel_ = accel0;
 
   P_.setZero();
+  cc_pending_ = false;
   const auto sq = [](double s) { return s * s; };
   const double d2r = math::kRadPerDeg;
   for (int i = 0; i < 3; ++i) {
@@ -172,13 +173,17 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
 
 StateEstimate Filter::snapshot() const {
   StateEstimate s;
+  snapshot_into(s);
+  return s;
+}
+
+void Filter::snapshot_into(StateEstimate& s) const {
   s.t_ns = t_ns_;
   s.x = x_;
   s.T_I_C = T_I_C_;
   s.extr_offset = extr_offset_;
   s.dim = n_;
-  s.objects = objects_;
-  return s;
+  s.objects = objects_;  // copy-assignment: reuses s.objects' storage
 }
 
 RecordedNode& Filter::push_node(RecordedNode::Kind kind) {
@@ -202,6 +207,7 @@ void Filter::close_segment() {
   nd.steps = rec_->steps.size();
   nd.first_step = first;
   nd.Phi = rec_PhiT_.transpose();
+  sync_core();
   nd.P_cc = P_.topLeftCorner<15, 15>();
   rec_PhiT_.setIdentity();
 }
@@ -269,7 +275,13 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   // Of B[0:9, 0:9] = T Fᵀ (T = C[:, 0:9]ᵀ) only the lower block triangle is formed: its column p on all 9
   // rows, v on rows v, θ, θ on rows θ (so δθ's product, the costliest, on 3 rows instead of 9); the diagonal
   // blocks are symmetrised and the upper blocks mirrored. 675 + 297 multiply-adds instead of 2 x 675.
-  Mat15 C = P_.topLeftCorner<15, 15>();
+  // The core block is propagated in the fixed-size Pcc_ (no strided copies per sample); P_'s top-left block
+  // takes it back on the next sync_core().
+  if (!cc_pending_) {
+    Pcc_ = P_.topLeftCorner<15, 15>();
+    cc_pending_ = true;
+  }
+  Mat15& C = Pcc_;
   F.apply_right_transposed(C);
   const Eigen::Matrix<double, 9, 15> T = C.leftCols<9>().transpose();
   Eigen::Matrix<double, 9, 3> dv;  // (T Fᵀ)[:, v] − T[:, v]
@@ -290,11 +302,10 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   B.block<3, 3>(kP, kV) = B.block<3, 3>(kV, kP).transpose();
   B.block<3, 3>(kP, kTheta) = B.block<3, 3>(kTheta, kP).transpose();
   B.block<3, 3>(kV, kTheta) = B.block<3, 3>(kTheta, kV).transpose();
-  auto Pcc = P_.topLeftCorner<15, 15>();
-  Pcc.topLeftCorner<9, 9>() = B;
-  Pcc.block<6, 9>(9, 0) = C.block<6, 9>(9, 0);
-  Pcc.block<9, 6>(0, 9) = C.block<6, 9>(9, 0).transpose();
-  add_process_noise(noise_, dt, Pcc);
+  // C's rows b_g, b_a (columns 0:9) are B's; its bias block is P's.
+  C.topLeftCorner<9, 9>() = B;
+  C.block<9, 6>(0, 9) = C.block<6, 9>(9, 0).transpose();
+  add_process_noise(noise_, dt, C);
   if (n_ > kCore) {
     // Φᵀ ← Φᵀ Fᵀ (Φ = F_k⋯F_1 is kept transposed so that the products run on columns). Φ's columns p and v
     // (Φᵀ's rows p, v) stay [I; 0; 0; 0; 0] and [Σdt I; I; 0; 0; 0] (F's columns p, v are trivial), so
@@ -305,7 +316,7 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   }
   // Cheap guard rails every sample: core state and core variances.
   bool ok = x_.p_W_I.allFinite() && x_.v_W_I.allFinite() && x_.q_W_I.coeffs().allFinite();
-  for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(P_(i, i)) && P_(i, i) > 0.0;
+  for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(Pcc_(i, i)) && Pcc_(i, i) > 0.0;
   if (!ok) check_covariance(false, "propagation");
   // check_state(core_only) on squared norms: a state clearly inside the bounds (norm² ≤ (0.999999·max)², so
   // that the rounded norm is ≤ max) skips it; anything else (near or over a bound, non-finite: NaN fails every
@@ -320,7 +331,14 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
     check_state("propagation", /*core_only=*/true);
 }
 
+void Filter::sync_core() {
+  if (!cc_pending_) return;
+  P_.topLeftCorner<15, 15>() = Pcc_;
+  cc_pending_ = false;
+}
+
 void Filter::sync_cross_covariance() {
+  sync_core();
   if (!phi_pending_) return;
   const int r = n_ - kCore;
   if (r > 0) {
@@ -383,8 +401,10 @@ Mat6 Filter::object_covariance_relative_to_anchor(const ObjectEntry& o) const {
 
 void Filter::boxplus(const Eigen::VectorXd& dx) {
   ROE_CHECK(dx.size() == n_, "boxplus: wrong size");
-  // One definition of ⊞ (smoother.hpp), applied to a snapshot and written back.
-  StateEstimate s = snapshot();
+  // One definition of ⊞ (state.hpp), applied to a snapshot (a workspace: no allocation per update) and
+  // written back.
+  StateEstimate& s = ws_state_;
+  snapshot_into(s);
   ekf::boxplus(s, dx);
   x_ = s.x;
   T_I_C_ = s.T_I_C;
@@ -743,8 +763,38 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   }
 }
 
+void Filter::stacked_pht(int nb) {
+  // H_k's compact columns: p, θ [, the extrinsics' p, θ] (shared by every block), then the object's (one run
+  // of o.dim contiguous state columns; build_block).
+  const int ns = extr_offset_ >= 0 ? 12 : 6;
+  Eigen::MatrixXd& PHt = ws_PHt_;
+  if (ws_W_.rows() != n_ || ws_W_.cols() < ns) {
+    const Eigen::Index cols = std::max<Eigen::Index>(ns, ws_W_.rows() == n_ ? ws_W_.cols() : 0);
+    ws_W_.resize(n_, cols);
+  }
+  ws_W_.leftCols<3>() = P_.middleCols<3>(kP);
+  ws_W_.middleCols<3>(3) = P_.middleCols<3>(kTheta);
+  if (ns == 12) ws_W_.middleCols<6>(6) = P_.middleCols<6>(extr_offset_);
+  if (ws_Hs_.cols() != ns || ws_Hs_.rows() < 6 * nb)
+    ws_Hs_.resize(std::max<Eigen::Index>(6 * nb, ws_Hs_.cols() == ns ? ws_Hs_.rows() : 0), ns);
+  for (int k = 0; k < nb; ++k) ws_Hs_.middleRows<6>(6 * k) = blocks_[k].H.leftCols(ns);
+  // The shared columns of all blocks in one product, then each block's object columns (read in place).
+  PHt.leftCols(6 * nb).setZero();
+  add_abt(PHt.data(), PHt.outerStride(), ws_W_.data(), ws_W_.outerStride(), ws_Hs_.data(), ws_Hs_.outerStride(), n_,
+          6 * nb, ns, 1.0, /*lower=*/false);
+  for (int k = 0; k < nb; ++k) {
+    const MeasBlock& b = blocks_[k];
+    const ObjectEntry& o = objects_[b.obj];
+    ROE_CHECK(b.nc == ns + o.dim, "stacked_pht: unexpected measurement Jacobian layout");
+    if (o.dim > 0)
+      add_abt(&PHt(0, 6 * k), PHt.outerStride(), &P_(0, o.offset), P_.outerStride(), b.H.col(ns).data(), 6, n_, 6,
+              o.dim, 1.0, /*lower=*/false);
+  }
+}
+
 FrameResult Filter::update(const std::vector<Detection>& dets) {
   ROE_CHECK(initialized_, "update before initialize");
+  sync_core();
   FrameResult res;
   res.t_ns = t_ns_;
   res.detections.resize(dets.size());
@@ -840,23 +890,10 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     if (PHt.rows() != n_ || PHt.cols() < 6 * nb) PHt.resize(n_, std::max<Eigen::Index>(6 * nb, PHt.cols()));
     std::vector<int>& inliers = ws_inliers_;
     inliers.clear();
+    stacked_pht(nb);
     for (int k = 0; k < nb; ++k) {
       MeasBlock& b = blocks_[k];
       auto PHt_k = PHt.middleCols<6>(6 * k);
-      {
-        // Gather P's columns at H_k's non-zero columns (contiguous n x nc), then one product
-        // P Hᵀ = Σ_j P[:, idx_j] H[:, j]ᵀ (ws_U_ serves as the gather buffer; it is reused below).
-        if (ws_U_.rows() != n_ || ws_U_.cols() < 18) {
-          const Eigen::Index cols = std::max<Eigen::Index>(18, ws_U_.rows() == n_ ? ws_U_.cols() : 0);
-          ws_U_.resize(n_, cols);
-          ws_V_.resize(n_, cols);
-        }
-        for (int r = 0; r < b.nruns; ++r)
-          ws_U_.middleCols(b.run_col[r], b.run_len[r]) = P_.middleCols(b.run_off[r], b.run_len[r]);
-        PHt_k.setZero();
-        add_abt(PHt_k.data(), PHt.outerStride(), ws_U_.data(), ws_U_.outerStride(), b.H.data(), 6, n_, 6,
-                b.nc, 1.0, /*lower=*/false);
-      }
       const Mat6 S = h_pht(b, PHt_k) + b.R;
       b.S = 0.5 * (S + S.transpose());
       Eigen::LDLT<Mat6> ldlt(b.S);
@@ -920,9 +957,9 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
           S.block(row0[c], row0[a], mc, ba.m) = Sac.transpose();
         }
       }
-      // K, δx and the Joseph-form posterior (stacked_update.hpp).
+      // K, δx and the posterior P − W Wᵀ (stacked_update.hpp).
       Eigen::VectorXd& dx = ws_dx_;
-      if (!stacked_update(P_, Y, S, r, dx, {ws_L_, ws_U_, ws_V_}))
+      if (!stacked_update(P_, Y, S, r, dx, {ws_L_, ws_W_, ws_u_}))
         throw NumericError(
             fmt::format("filter failed at {}: stacked innovation covariance is not positive definite", when()));
       boxplus(dx);
@@ -1069,6 +1106,7 @@ void Filter::check_state(const char* where, bool core_only) const {
 
 void Filter::check_covariance(bool full, const char* where) {
   static const char* names[] = {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a"};
+  sync_core();
   for (int i = 0; i < n_; ++i) {
     const double d = P_(i, i);
     if (!std::isfinite(d) || d <= 0.0) {

@@ -27,27 +27,22 @@ bool stacked_update(Eigen::MatrixXd& P, const Eigen::Ref<const Eigen::MatrixXd>&
   L = S;
   Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(L);
   if (llt.info() != Eigen::Success || !(L.diagonal().array() > 0.0).all()) return false;
-  if (buf.U.rows() != n || buf.U.cols() < 2 * m) {
-    const Eigen::Index cols = std::max<Eigen::Index>(2 * m, buf.U.rows() == n ? buf.U.cols() : 0);
-    buf.U.resize(n, cols);
-    buf.V.resize(n, cols);
+  if (buf.W.rows() != n || buf.W.cols() < m) {
+    const Eigen::Index cols = std::max<Eigen::Index>(m, buf.W.rows() == n ? buf.W.cols() : 0);
+    buf.W.resize(n, cols);
   }
-  auto E = buf.U.leftCols(m);
-  auto K = buf.V.leftCols(m);
-  K = Y;
-  // K = Y S⁻¹ = Y L⁻ᵀ L⁻¹: solve X Lᵀ = Y, then K L = X (in place, Eigen's triangular solves).
-  L.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(K);
-  L.triangularView<Eigen::Lower>().solveInPlace<Eigen::OnTheRight>(K);
-  dx.noalias() = K * r;
-  // E = ½ K S − Y (K S as K Sᵀ, S symmetric), then P += [E, K][K, E]ᵀ on the lower triangle, mirrored.
-  E.setZero();
-  add_abt(E.data(), buf.U.outerStride(), K.data(), buf.V.outerStride(), S.data(), S.outerStride(), n, m, m, 1.0,
-          /*lower=*/false);
-  E = 0.5 * E - Y;
-  buf.U.middleCols(m, m) = K;
-  buf.V.middleCols(m, m) = E;
-  add_abt(P.data(), P.outerStride(), buf.U.data(), buf.U.outerStride(), buf.V.data(), buf.V.outerStride(), n, n,
-          2 * m, 1.0, /*lower=*/true);
+  // W = Y L⁻ᵀ (solve X Lᵀ = Y in place), u = L⁻¹ r; then K = W L⁻¹, δx = K r = W u and
+  // K S Kᵀ = W Wᵀ.
+  auto W = buf.W.leftCols(m);
+  W = Y;
+  L.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(W);
+  Eigen::VectorXd& u = buf.u;
+  u = r;
+  L.triangularView<Eigen::Lower>().solveInPlace(u);
+  dx.noalias() = W * u;
+  // P ← P − W Wᵀ on the lower triangle, mirrored.
+  add_abt(P.data(), P.outerStride(), W.data(), buf.W.outerStride(), W.data(), buf.W.outerStride(), n, n, m, -1.0,
+          /*lower=*/true);
   P.triangularView<Eigen::StrictlyUpper>() = P.transpose();
   return true;
 }

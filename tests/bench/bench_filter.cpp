@@ -6,13 +6,19 @@
 // With the RTS smoother ("smoother": "rts"): the filter while recording, the backward pass (wall, CPU of
 // the calling thread and of all threads: it smooths the IMU steps on a second thread where the process may
 // use two CPUs), the same pass on one thread, and the recording's size.
-// usage: bench_filter [repetitions=15] [--each]   (--each: also print every repetition's filter wall time)
+// A second line per rate ("default") times the filter with roe run's built-in defaults (configs/default.json:
+// camera-frame residual, split gate, detection sigmas with the learned scale, relock, IMU noise x 4), causal,
+// with an observer that records nothing: what users run, without roe run's per-sample output rows.
+// usage: bench_filter [repetitions=15] [--each] [--filter-only]
+//   --each: also print every repetition's filter wall time; --filter-only: only the filter lines (no
+//   run_dataset, no smoother; for profiling the filter with perf).
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <ctime>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -24,6 +30,17 @@
 
 using namespace roe;
 using Clock = std::chrono::steady_clock;
+
+// Heap allocations of this (single-threaded) benchmark, counted by the replaced global operator new: the
+// filter's allocations per image are (with images − propagation only) / images.
+static std::size_t g_allocations = 0;
+void* operator new(std::size_t n) {
+  ++g_allocations;
+  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace {
 
@@ -51,15 +68,21 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+double min_of(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::atoi(argv[1]) : 15;
-  const bool each = argc > 2 && std::string(argv[2]) == "--each";
+  bool each = false, filter_only = false;
+  for (int a = 2; a < argc; ++a) {
+    each |= std::string(argv[a]) == "--each";
+    filter_only |= std::string(argv[a]) == "--filter-only";
+  }
   fmt::print("bench_filter: paper-seq4, 60 s, seed 1, FilterOptions' plain defaults; {} repetitions, median (min) [ms]\n",
              reps);
   fmt::print("{:>8} {:>7} {:>8} {:>20} {:>14} {:>20} {:>20} {:>12}\n", "IMU Hz", "images", "updates",
-             "filter wall", "filter CPU", "propagation only", "run_dataset", "x real time");
+             "filter wall", "filter CPU (min)", "propagation only", "run_dataset", "x real time");
   for (double rate : {200.0, 400.0}) {
     sim::SimConfig c = app::sim_config_from_preset("paper-seq4");
     c.imu.rate_hz = rate;
@@ -76,20 +99,45 @@ int main(int argc, char** argv) {
         d.manifest.imu->noise.accel_noise_density, d.manifest.imu->noise.accel_random_walk};
     // run_filter picks the anchor as roe run does (ekf::choose_anchor).
     const ekf::FilterOptions opt = cfg.filter;
-    std::vector<double> t_filter, t_cpu, t_prop, t_run, t_rec, t_smooth, t_smooth_cpu, t_smooth_all, t_smooth_1;
+    // roe run's built-in defaults (app::RunConfig's filter, = configs/default.json), causal; the IMU noise
+    // scaled as roe run scales it.
+    const ekf::FilterOptions dopt = app::RunConfig{}.filter;
+    ekf::ImuNoiseParams dnoise = noise;
+    for (double* v : {&dnoise.gyro_noise_density, &dnoise.gyro_random_walk, &dnoise.accel_noise_density,
+                      &dnoise.accel_random_walk})
+      *v *= dopt.imu_noise_scale;
+    std::vector<double> t_filter, t_cpu, t_prop, t_run, t_rec, t_smooth, t_smooth_cpu, t_smooth_all, t_smooth_1,
+        d_filter, d_cpu, d_prop;
     double rec_mb = 0.0;
-    std::size_t updates = 0;
+    std::size_t updates = 0, d_updates = 0;
+    double allocs = 0.0, d_allocs = 0.0;  // heap allocations per image (filter with images − propagation only)
     for (int r = 0; r < reps; ++r) {
       Null obs;
+      std::size_t a0 = g_allocations;
       auto t0 = Clock::now();
-      const double c0 = cpu_ms();
+      double c0 = cpu_ms();
       const auto s = ekf::run_filter(d.imu, images, opt, noise, d.manifest.camera->T_I_C, obs);
       t_cpu.push_back(cpu_ms() - c0);
       t_filter.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
       updates = s.updates;
+      std::size_t a1 = g_allocations;
       t0 = Clock::now();
       ekf::run_filter(d.imu, {}, opt, noise, d.manifest.camera->T_I_C, obs);
       t_prop.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      allocs = (static_cast<double>(a1 - a0) - static_cast<double>(g_allocations - a1)) / images.size();
+      a0 = g_allocations;
+      t0 = Clock::now();
+      c0 = cpu_ms();
+      const auto sd = ekf::run_filter(d.imu, images, dopt, dnoise, d.manifest.camera->T_I_C, obs);
+      d_cpu.push_back(cpu_ms() - c0);
+      d_filter.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      d_updates = sd.updates;
+      a1 = g_allocations;
+      c0 = cpu_ms();
+      ekf::run_filter(d.imu, {}, dopt, dnoise, d.manifest.camera->T_I_C, obs);
+      d_prop.push_back(cpu_ms() - c0);
+      d_allocs = (static_cast<double>(a1 - a0) - static_cast<double>(g_allocations - a1)) / images.size();
+      if (filter_only) continue;
       t0 = Clock::now();
       const auto out = app::run_dataset(d, "sim", cfg);
       t_run.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
@@ -117,18 +165,26 @@ int main(int argc, char** argv) {
       fmt::print("\n");
     }
     const double mf = median(t_filter);
+    if (filter_only) {
+      t_run.push_back(0.0);
+    }
     fmt::print(
-        "{:>8.0f} {:>7} {:>8} {:>12.2f} ({:>5.2f}) {:>14.2f} {:>12.2f} ({:>5.2f}) {:>12.2f} ({:>5.2f}) "
+        "{:>8.0f} {:>7} {:>8} {:>12.2f} ({:>5.2f}) {:>6.2f} ({:>5.2f}) {:>12.2f} ({:>5.2f}) {:>12.2f} ({:>5.2f}) "
         "{:>12.0f}\n",
-        rate, images.size(), updates, mf, *std::min_element(t_filter.begin(), t_filter.end()), median(t_cpu),
-        median(t_prop), *std::min_element(t_prop.begin(), t_prop.end()), median(t_run),
-        *std::min_element(t_run.begin(), t_run.end()), 60000.0 / median(t_cpu));
-    const auto lo = [](const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); };
+        rate, images.size(), updates, mf, min_of(t_filter), median(t_cpu), min_of(t_cpu), median(t_prop),
+        min_of(t_prop), median(t_run), min_of(t_run), 60000.0 / median(t_cpu));
+    fmt::print("{:>8.0f} default: roe run's built-in filter options, causal, {} updates: filter {:.2f} ({:.2f}), "
+               "CPU {:.2f} ({:.2f}), propagation only CPU {:.2f} ({:.2f}); heap allocations per image: {:.1f} "
+               "(plain options {:.1f})\n",
+               rate, d_updates, median(d_filter), min_of(d_filter), median(d_cpu), min_of(d_cpu), median(d_prop),
+               min_of(d_prop), d_allocs, allocs);
+    if (filter_only) continue;
     fmt::print("{:>8.0f} RTS smoother: filter while recording {:.2f} ({:.2f}), backward pass {:.2f} ({:.2f}), "
                "CPU of the calling thread {:.2f} ({:.2f}), of all threads {:.2f} ({:.2f}); one thread {:.2f} "
                "({:.2f}) CPU; recording {:.1f} MB\n",
-               rate, median(t_rec), lo(t_rec), median(t_smooth), lo(t_smooth), median(t_smooth_cpu),
-               lo(t_smooth_cpu), median(t_smooth_all), lo(t_smooth_all), median(t_smooth_1), lo(t_smooth_1), rec_mb);
+               rate, median(t_rec), min_of(t_rec), median(t_smooth), min_of(t_smooth), median(t_smooth_cpu),
+               min_of(t_smooth_cpu), median(t_smooth_all), min_of(t_smooth_all), median(t_smooth_1),
+               min_of(t_smooth_1), rec_mb);
   }
   return 0;
 }

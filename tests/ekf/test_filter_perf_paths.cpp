@@ -1,7 +1,7 @@
 // The fast paths of the filter against dense reference computations: the block-sparse propagation
 // (P_cc column-wise, Φ kept transposed on its non-trivial columns, lazy cross-covariance sync) against
 // F P Fᵀ + Q on the whole covariance, and the stacked update (P Hᵀ from H's runs of non-zero columns,
-// S from the gate's 6x6 blocks, Cholesky + triangular solves, Joseph form as one rank-2m product on the
+// S from the gate's 6x6 blocks, Cholesky + one triangular solve, P − W Wᵀ as one rank-m product on the
 // lower triangle) against (I−KH)P(I−KH)ᵀ + KRKᵀ with the full 6 x n H of measurement_jacobian.
 #include <catch2/catch.hpp>
 #include <limits>
@@ -87,6 +87,10 @@ TEST_CASE("block-sparse propagation equals the dense F P Fᵀ + Q on the whole c
       for (int i = 0; i < 15; ++i)
         for (int j = 0; j < 15; ++j) d = std::max(d, std::abs(f.core_covariance(i, j) - P_ref(i, j)));
       REQUIRE(d <= 1e-12 * max_abs(P_ref.topLeftCorner<15, 15>()));
+      // variance() reads the propagated core block too (held apart from P until the next sync), and the
+      // unchanged rest of the diagonal.
+      for (int i = 0; i < n; ++i)
+        CHECK(std::abs(f.variance(i) - P_ref(i, i)) <= 1e-12 * max_abs(P_ref.topLeftCorner<15, 15>()));
       if (k % 10 == 9) {  // sync the cross-covariance now and then (as an update would)
         const Eigen::MatrixXd& P = f.covariance();
         CHECK(max_abs(P - P_ref) <= 1e-12 * max_abs(P_ref));

@@ -32,7 +32,8 @@ Eigen::MatrixXd random_matrix(int r, int c, std::mt19937& g) {
 
 TEST_CASE("stacked_update: K, dx and the Joseph posterior of the textbook formulas", "[ekf][update]") {
   std::mt19937 g(23);
-  Eigen::MatrixXd L, U, V;  // reused across problems of different sizes, as the filter does
+  Eigen::MatrixXd L, W;  // reused across problems of different sizes, as the filter does
+  Eigen::VectorXd u;
   for (const auto& [n, m] : {std::pair{21, 6}, std::pair{33, 18}, std::pair{27, 12}, std::pair{45, 24}}) {
     INFO("n = " << n << ", m = " << m);
     const Eigen::MatrixXd P0 = random_spd(n, g);
@@ -45,7 +46,7 @@ TEST_CASE("stacked_update: K, dx and the Joseph posterior of the textbook formul
 
     Eigen::MatrixXd P = P0;
     Eigen::VectorXd dx;
-    REQUIRE(stacked_update(P, Y, S, r, dx, {L, U, V}));
+    REQUIRE(stacked_update(P, Y, S, r, dx, {L, W, u}));
 
     const Eigen::MatrixXd K = Y * S.inverse();
     const Eigen::MatrixXd IKH = Eigen::MatrixXd::Identity(n, n) - K * H;
@@ -61,14 +62,15 @@ TEST_CASE("stacked_update: K, dx and the Joseph posterior of the textbook formul
 
 TEST_CASE("stacked_update: an S that is not positive definite is refused, P untouched", "[ekf][update]") {
   std::mt19937 g(5);
-  Eigen::MatrixXd L, U, V;
+  Eigen::MatrixXd L, W;
+  Eigen::VectorXd u;
   const Eigen::MatrixXd P0 = random_spd(15, g);
   const Eigen::MatrixXd Y = random_matrix(15, 6, g);
   Eigen::MatrixXd S = Eigen::MatrixXd::Identity(6, 6);
   S(3, 3) = -1.0;
   Eigen::MatrixXd P = P0;
   Eigen::VectorXd dx = Eigen::VectorXd::Constant(3, 7.0);
-  CHECK_FALSE(stacked_update(P, Y, S, Eigen::VectorXd::Ones(6), dx, {L, U, V}));
+  CHECK_FALSE(stacked_update(P, Y, S, Eigen::VectorXd::Ones(6), dx, {L, W, u}));
   CHECK(P == P0);
   CHECK(dx == Eigen::VectorXd::Constant(3, 7.0));
 }

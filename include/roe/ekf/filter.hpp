@@ -20,17 +20,19 @@
 /// only the 9x9 block B[0:9, 0:9] of B = F C = Cᵀ Fᵀ needs a second product (B's bias rows/columns are C's),
 /// and of it only the lower block triangle (mirrored; diagonal blocks symmetrised), + Q. The core/rest cross-covariance is updated lazily with the accumulated transition
 /// Φ = F_k⋯F_1 (kept transposed, only its non-trivial columns θ, b_g, b_a multiplied) the next time it is
-/// needed (update, augmentation, covariance()). No heap allocation per IMU sample.
+/// needed (update, augmentation, covariance()). Between images P_cc lives in a fixed-size 15x15 member and
+/// goes back into P with that sync (a copy). No heap allocation per IMU sample; one per image (the
+/// FrameResult's detection list).
 ///
 /// Update per image: residual and H per detection of an initialised object (the paper's T_O_C
 /// residual, or the same model with the residual formed on T_C_O, FilterOptions::residual_frame), a χ² test
 /// per object on its own 6x6 S_k = H_k P H_kᵀ + R_k, all inliers stacked into one update. What is computed:
 /// P H_kᵀ from H_k's ≤ 18 non-zero columns (runs of contiguous state columns); the stacked S's diagonal
 /// blocks are the gate's S_k, its off-diagonal blocks H_a (P H_cᵀ) are evaluated once and mirrored; S = L Lᵀ
-/// (Cholesky in place; not positive definite → guard rail) and K = P Hᵀ L⁻ᵀ L⁻¹ by two triangular solves (no
-/// explicit inverse); the Joseph form (I−KH)P(I−KH)ᵀ + KRKᵀ is evaluated exactly (for the K actually
-/// computed) as P + E Kᵀ + K Eᵀ with E = ½ K S − P Hᵀ, as one product [E, K][K, E]ᵀ of inner size 2m on
-/// the lower triangle only (n²m multiply-adds), then mirrored (symmetrisation).
+/// (Cholesky in place; not positive definite → guard rail), W = P Hᵀ L⁻ᵀ by one triangular solve (no
+/// explicit inverse; K = W L⁻¹), δx = W L⁻¹ r, and the posterior P − W Wᵀ (the Joseph form
+/// (I−KH)P(I−KH)ᵀ + KRKᵀ for this optimal K) as a rank-m product on the lower triangle only (n²m/2
+/// multiply-adds), then mirrored (symmetrisation); stacked_update.hpp.
 /// Guard rails throw roe::NumericError naming the time and what broke: state bounds after every update
 /// and object initialisation (the core state after every IMU sample), the covariance diagonal every time,
 /// a full Cholesky test of P every FilterOptions::pd_check_every updates and after every augmentation.
@@ -121,9 +123,9 @@ class Filter {
   int dim() const { return n_; }
   int extrinsics_offset() const { return extr_offset_; }
   /// Diagonal entry of P (always current, also between updates).
-  double variance(int i) const { return P_(i, i); }
+  double variance(int i) const { return cc_pending_ && i < kCore ? Pcc_(i, i) : P_(i, i); }
   /// Entry (i, j) of the core 15x15 block of P (always current).
-  double core_covariance(int i, int j) const { return P_(i, j); }
+  double core_covariance(int i, int j) const { return cc_pending_ ? Pcc_(i, j) : P_(i, j); }
   /// Covariance of an object's error state [δp_O_W; δθ_O_W] (6x6; rows/columns of components the
   /// anchor does not estimate are 0). Always current: propagation changes only the core rows/columns.
   Mat6 object_covariance(const ObjectEntry& o) const;
@@ -198,7 +200,15 @@ class Filter {
     int nruns = 0;
   };
 
+  /// Writes the propagated core block Pcc_ back into P_ (a copy; every reader of P_'s core block calls it).
+  void sync_core();
+  /// ws_PHt_'s first 6·nb columns ← P H_kᵀ of blocks_[0 … nb−1]: the columns every H_k shares (core p, θ,
+  /// extrinsics; gathered once) in one product, each object's own columns in place.
+  void stacked_pht(int nb);
+  /// sync_core(), then applies the pending core transition Φ to the core/rest cross-covariance.
   void sync_cross_covariance();
+  /// snapshot() into an existing StateEstimate (its object list's storage reused).
+  void snapshot_into(StateEstimate& s) const;
   /// Recording: ends the propagation segment since the last node (a kPropagate node) if it has steps.
   void close_segment();
   /// Recording: a node of the given kind with the current state and (synchronised) covariance.
@@ -235,6 +245,10 @@ class Filter {
   int extr_offset_ = -1;
   int n_ = kCore;
   Eigen::MatrixXd P_;
+  // The core block of P while propagating (authoritative while cc_pending_; P_'s top-left block is stale
+  // until sync_core()).
+  Mat15 Pcc_;
+  bool cc_pending_ = false;
   Mat15 PhiT_ = Mat15::Identity();  // Φᵀ, Φ = F_k⋯F_1 since the last cross-covariance sync
   bool phi_pending_ = false;
   Eigen::MatrixXd tmp_cross_;
@@ -242,12 +256,13 @@ class Filter {
   // Update workspaces, kept between images and only grown (no heap allocation per image once the state
   // dimension and the number of detections per image have been seen).
   Eigen::MatrixXd ws_PHt_;  // n x 6·blocks: P H_kᵀ per block, inliers compacted to the left
+  Eigen::MatrixXd ws_Hs_;   // 6·blocks x 12: the blocks' H on the shared columns (p, θ, extrinsics)
   Eigen::MatrixXd ws_S_;    // stacked S (m x m, top-left)
   Eigen::MatrixXd ws_L_;    // its Cholesky factor (m x m, top-left)
-  Eigen::MatrixXd ws_U_;    // n x 2m: [E, K]
-  Eigen::MatrixXd ws_V_;    // n x 2m: [K, E]
-  Eigen::VectorXd ws_r_, ws_dx_;
+  Eigen::MatrixXd ws_W_;    // n x m: P Hᵀ L⁻ᵀ (S = L Lᵀ); first the gather buffer of P's columns
+  Eigen::VectorXd ws_r_, ws_dx_, ws_u_;
   std::vector<Pose> ws_z_;
+  StateEstimate ws_state_;  // boxplus's snapshot
   std::vector<char> ws_usable_;
   std::vector<int> ws_new_objects_, ws_inliers_, ws_row0_;
   struct Pending {

@@ -4,10 +4,12 @@
 /// the anchor's masking, symmetric objects: Filter::update). Given the stacked P Hᵀ, S = H P Hᵀ + R and the
 /// residual r of m rows:
 ///   S = L Lᵀ (Cholesky in place, no pivoting: S is symmetric positive definite, failing that is reported),
-///   K = P Hᵀ S⁻¹ = Y L⁻ᵀ L⁻¹ by two triangular solves from the right (no inverse), δx = K r,
-///   P ← (I−KH)P(I−KH)ᵀ + KRKᵀ = P + E Kᵀ + K Eᵀ with E = ½ K S − P Hᵀ (the Joseph form, exact for the K
-///   computed), evaluated as one product [E, K][K, E]ᵀ of inner size 2m on the lower triangle only (n²m
-///   multiply-adds), then mirrored (P exactly symmetric).
+///   W = Y L⁻ᵀ by one triangular solve from the right (no inverse), so that K = P Hᵀ S⁻¹ = W L⁻¹ and
+///   K S Kᵀ = W Wᵀ; δx = K r = W (L⁻¹ r);
+///   P ← P − W Wᵀ: the Joseph form (I−KH)P(I−KH)ᵀ + KRKᵀ for this optimal K (both equal P − K S Kᵀ), as a
+///   rank-m product on the lower triangle only (n²m/2 multiply-adds), then mirrored (P exactly symmetric).
+///   (Until 2026-12-02: the Joseph form exact for the computed K, P + E Kᵀ + K Eᵀ with E = ½ K S − P Hᵀ, two
+///   solves and a rank-2m product; the results differ by round-off, docs/benchmarks/ekf.md.)
 /// I/O-free; tested against the textbook formulas on random problems (tests/ekf/test_stacked_update.cpp).
 
 #include <Eigen/Core>
@@ -21,12 +23,12 @@ namespace roe::ekf {
 void add_abt(double* C, Eigen::Index ldc, const double* A, Eigen::Index lda, const double* B, Eigen::Index ldb,
              Eigen::Index M, Eigen::Index N, Eigen::Index K, double alpha, bool lower);
 
-/// Reusable buffers of stacked_update (sized on first use; no allocation afterwards). U and V are at
-/// least n x 2m (the filter also uses U as a gather buffer of its own).
+/// Reusable buffers of stacked_update (sized on first use; no allocation afterwards once they have
+/// reached the largest m; the filter also uses W as a gather buffer of its own).
 struct StackedUpdateBuffers {
   Eigen::MatrixXd& L;  ///< ≥ m x m: the Cholesky factor
-  Eigen::MatrixXd& U;  ///< n x ≥ 2m: [E, K]
-  Eigen::MatrixXd& V;  ///< n x ≥ 2m: [K, E]
+  Eigen::MatrixXd& W;  ///< n x ≥ m: Y L⁻ᵀ
+  Eigen::VectorXd& u;  ///< L⁻¹ r
 };
 
 /// One stacked update of the n x n covariance P with Y = P Hᵀ (n x m), S (m x m, symmetric) and r (m):
