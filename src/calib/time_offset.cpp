@@ -1,16 +1,13 @@
 #include "roe/calib/time_offset.hpp"
 
-#include <sched.h>
-
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <fmt/format.h>
 #include <limits>
 #include <map>
 #include <optional>
-#include <thread>
 
+#include "roe/core/parallel.hpp"
 #include "roe/ekf/symmetry.hpp"
 #include "roe/math/so3.hpp"
 
@@ -87,33 +84,6 @@ class GyroRotation {
   std::vector<Eigen::Quaterniond> q_;
   std::vector<Arc> arc_;  ///< arc_[k]: from q_[k] to q_[k + 1]
 };
-
-/// The CPUs this process may run on (its affinity mask: what taskset, Slurm or a container grants).
-unsigned available_cpus() {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (sched_getaffinity(0, sizeof set, &set) != 0) return 1;
-  return static_cast<unsigned>(std::max(1, CPU_COUNT(&set)));
-}
-
-/// Runs fn(i) for i in [0, n) on up to `threads` threads; each i exactly once, results by index, so the
-/// outcome does not depend on the thread count.
-template <typename Fn>
-void parallel_for(std::size_t n, unsigned threads, Fn&& fn) {
-  threads = static_cast<unsigned>(std::min<std::size_t>(std::max(1u, threads), n));
-  if (threads <= 1) {
-    for (std::size_t i = 0; i < n; ++i) fn(i);
-    return;
-  }
-  std::atomic<std::size_t> next{0};
-  const auto work = [&] {
-    for (std::size_t i = next++; i < n; i = next++) fn(i);
-  };
-  std::vector<std::thread> pool;
-  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
-}
 
 /// Mean of unit quaternions (chordal) over the entries flagged in use, each sign aligned with `ref`
 /// (a point of the cluster, so that no entry is near-orthogonal to it).

@@ -5,6 +5,8 @@
 #include <Eigen/SVD>
 #include <cmath>
 
+#include "roe/core/parallel.hpp"
+
 namespace roe::eval {
 
 std::string to_string(AlignType type) {
@@ -39,20 +41,21 @@ Pose Alignment::apply(const Pose& T) const {
 
 Eigen::Quaterniond Alignment::q() const { return Eigen::Quaterniond(R).normalized(); }
 
+Pose aligned_pose(const Alignment& a, const Eigen::Quaterniond& qa, const Pose& T) {
+  Pose out;
+  out.p = a.apply(T.p);
+  out.q = (qa * T.q).normalized();
+  return out;
+}
+
 void apply_alignment(const Alignment& a, std::vector<Pose>& poses) {
   const Eigen::Quaterniond qa = a.q();
-  for (Pose& T : poses) {
-    T.p = a.apply(T.p);
-    T.q = (qa * T.q).normalized();
-  }
+  for (Pose& T : poses) T = aligned_pose(a, qa, T);
 }
 
 void apply_alignment(const Alignment& a, std::vector<StampedPose>& poses) {
   const Eigen::Quaterniond qa = a.q();
-  for (StampedPose& sp : poses) {
-    sp.T.p = a.apply(sp.T.p);
-    sp.T.q = (qa * sp.T.q).normalized();
-  }
+  for (StampedPose& sp : poses) sp.T = aligned_pose(a, qa, sp.T);
 }
 
 namespace {
@@ -177,17 +180,19 @@ Alignment align_pos_yaw_single(const Pose& est0, const Pose& gt0) {
   return a;
 }
 
-Alignment compute_alignment(AlignType type, const std::vector<Pose>& est, const std::vector<Pose>& gt,
-                            int n_align) {
-  check_sizes(static_cast<Eigen::Index>(est.size()), static_cast<Eigen::Index>(gt.size()));
-  if (type == AlignType::kNone) return Alignment{};
-  if (est.empty()) throw InputError("alignment needs at least one matched pose pair");
-  if (type == AlignType::kOrigin) return align_origin(est.front(), gt.front());
+namespace {
 
-  const std::size_t n = (n_align <= 0 || static_cast<std::size_t>(n_align) >= est.size())
-                            ? est.size()
-                            : static_cast<std::size_t>(n_align);
-  if (type == AlignType::kPosYaw && n == 1) return align_pos_yaw_single(est.front(), gt.front());
+/// compute_alignment over `size` pairs est(i) ↔ gt(i) (each returns the pose of pair i).
+template <typename EstAt, typename GtAt>
+Alignment alignment_of(AlignType type, std::size_t size, const EstAt& est, const GtAt& gt, int n_align,
+                       unsigned threads) {
+  if (type == AlignType::kNone) return Alignment{};
+  if (size == 0) throw InputError("alignment needs at least one matched pose pair");
+  if (type == AlignType::kOrigin) return align_origin(est(0), gt(0));
+
+  const std::size_t n =
+      (n_align <= 0 || static_cast<std::size_t>(n_align) >= size) ? size : static_cast<std::size_t>(n_align);
+  if (type == AlignType::kPosYaw && n == 1) return align_pos_yaw_single(est(0), gt(0));
   if ((type == AlignType::kSe3 || type == AlignType::kSim3) && n_align > 0 && n_align < 3) {
     throw InputError(fmt::format("--n-align {} cannot determine a {} alignment (needs ≥ 3 pairs); use "
                                  "--align origin for a first-pose alignment",
@@ -196,12 +201,33 @@ Alignment compute_alignment(AlignType type, const std::vector<Pose>& est, const 
   }
   Eigen::Matrix3Xd x(3, static_cast<Eigen::Index>(n));
   Eigen::Matrix3Xd y(3, static_cast<Eigen::Index>(n));
-  for (std::size_t i = 0; i < n; ++i) {
-    x.col(static_cast<Eigen::Index>(i)) = est[i].p;
-    y.col(static_cast<Eigen::Index>(i)) = gt[i].p;
-  }
+  parallel_ranges(n, 65536, threads ? threads : available_cpus(), [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      x.col(static_cast<Eigen::Index>(i)) = est(i).p;
+      y.col(static_cast<Eigen::Index>(i)) = gt(i).p;
+    }
+  });
   if (type == AlignType::kPosYaw) return align_pos_yaw(x, y);
   return umeyama_alignment(x, y, type == AlignType::kSim3);
+}
+
+}  // namespace
+
+Alignment compute_alignment(AlignType type, const std::vector<Pose>& est, const std::vector<Pose>& gt,
+                            int n_align) {
+  check_sizes(static_cast<Eigen::Index>(est.size()), static_cast<Eigen::Index>(gt.size()));
+  return alignment_of(
+      type, est.size(), [&](std::size_t i) -> const Pose& { return est[i]; },
+      [&](std::size_t i) -> const Pose& { return gt[i]; }, n_align, 1);
+}
+
+Alignment compute_alignment(AlignType type, const std::vector<Pose>& est, const std::vector<std::size_t>& est_index,
+                            const std::vector<Pose>& gt, const std::vector<std::size_t>& gt_index, int n_align,
+                            unsigned threads) {
+  check_sizes(static_cast<Eigen::Index>(est_index.size()), static_cast<Eigen::Index>(gt_index.size()));
+  return alignment_of(
+      type, est_index.size(), [&](std::size_t i) -> const Pose& { return est[est_index[i]]; },
+      [&](std::size_t i) -> const Pose& { return gt[gt_index[i]]; }, n_align, threads);
 }
 
 }  // namespace roe::eval

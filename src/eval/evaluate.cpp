@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "roe/core/error.hpp"
+#include "roe/core/parallel.hpp"
 
 namespace roe::eval {
 
@@ -166,17 +167,6 @@ Report evaluate(const EstimateInput& est, const GroundTruthInput& gt, const Eval
   const Association& a = r.association;
   warn_duplicates(a, ao.policy, r.warnings);
   if (a.size() == 0) throw InputError(explain_no_match(est.t_ns, gt.t_ns, ao), {est.source});
-  std::vector<Pose> pe;
-  pe.reserve(a.size());
-  r.gt.reserve(a.size());
-  r.t_est.reserve(a.size());
-  r.t_gt.reserve(a.size());
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    pe.push_back(est.poses[a.est_index[k]]);
-    r.gt.push_back(gt.poses[a.gt_index[k]]);
-    r.t_est.push_back(est.t_ns[a.est_index[k]]);
-    r.t_gt.push_back(gt.t_ns[a.gt_index[k]]);
-  }
   for (Timestamp d : a.dt_ns) r.max_abs_dt_s = std::max(r.max_abs_dt_s, std::abs(to_seconds(d)));
   // The most pairs to expect: the sparser stream's poses inside the span both trajectories cover (a
   // ground truth covering a longer session than the estimate is not a matching problem).
@@ -189,11 +179,25 @@ Report evaluate(const EstimateInput& est, const GroundTruthInput& gt, const Eval
         a.size(), ov.n_max(), ov.n_est, ov.n_gt, to_seconds(ov.begin_ns), to_seconds(ov.end_ns)));
   }
 
-  r.alignment = compute_alignment(params.align, pe, r.gt, params.n_align);
-  r.est_aligned = std::move(pe);
-  apply_alignment(r.alignment, r.est_aligned);
+  const unsigned threads = params.threads ? params.threads : available_cpus();
+  r.alignment = compute_alignment(params.align, est.poses, a.est_index, gt.poses, a.gt_index, params.n_align, threads);
+  // The matched pairs (the estimate aligned), each into its own slot.
+  const std::size_t n = a.size();
+  r.est_aligned.resize(n);
+  r.gt.resize(n);
+  r.t_est.resize(n);
+  r.t_gt.resize(n);
+  const Eigen::Quaterniond qa = r.alignment.q();
+  parallel_ranges(n, 16384, threads, [&](std::size_t b, std::size_t e) {
+    for (std::size_t k = b; k < e; ++k) {
+      r.est_aligned[k] = aligned_pose(r.alignment, qa, est.poses[a.est_index[k]]);
+      r.gt[k] = gt.poses[a.gt_index[k]];
+      r.t_est[k] = est.t_ns[a.est_index[k]];
+      r.t_gt[k] = gt.t_ns[a.gt_index[k]];
+    }
+  });
   r.cov = aligned_covariances(est, r, r.warnings);
-  r.ape = compute_ape(r.est_aligned, r.gt, r.cov);
+  r.ape = compute_ape(r.est_aligned, r.gt, r.cov, threads);
   if ((params.align == AlignType::kSe3 || params.align == AlignType::kSim3) && params.n_align < 0 &&
       r.ape.pos_mean_m.cwiseAbs().maxCoeff() > 1e-6)
     r.warnings.push_back("internal check: the mean position error after Umeyama is not ~0");
@@ -204,8 +208,9 @@ Report evaluate(const EstimateInput& est, const GroundTruthInput& gt, const Eval
   add_rpe(r);
   add_objects(est, gt, r);
   add_detection_calibration(est, gt, r);
-  r.path_length_est_m = path_length(r.est_aligned);
-  r.path_length_gt_m = path_length(r.gt);
+  parallel_for(2, threads, [&r](std::size_t k) {  // independent sums
+    (k == 0 ? r.path_length_est_m : r.path_length_gt_m) = path_length(k == 0 ? r.est_aligned : r.gt);
+  });
   return r;
 }
 

@@ -8,9 +8,15 @@
 #include <limits>
 
 #include "roe/core/error.hpp"
+#include "roe/core/parallel.hpp"
 #include "roe/math/euler.hpp"
 
 namespace roe::eval {
+
+namespace {
+/// Pairs per parallel task: large enough that handing out a task costs nothing, small enough to balance.
+constexpr std::size_t kPairsPerTask = 16384;
+}  // namespace
 
 Stats compute_stats(std::vector<double> v) {
   Stats s;
@@ -45,11 +51,11 @@ Stats compute_stats(std::vector<double> v) {
   return s;
 }
 
-Eigen::Vector3d rmse_per_axis(const std::vector<Eigen::Vector3d>& v) {
-  if (v.empty()) return Eigen::Vector3d::Zero();
+Eigen::Vector3d rmse_per_axis(const std::vector<PoseError>& errors, Eigen::Vector3d PoseError::*part) {
+  if (errors.empty()) return Eigen::Vector3d::Zero();
   Eigen::Vector3d acc = Eigen::Vector3d::Zero();
-  for (const auto& x : v) acc += x.cwiseAbs2();
-  return (acc / static_cast<double>(v.size())).cwiseSqrt();
+  for (const PoseError& e : errors) acc += (e.*part).cwiseAbs2();
+  return (acc / static_cast<double>(errors.size())).cwiseSqrt();
 }
 
 PoseError pose_error(const Pose& est, const Pose& gt) {
@@ -86,7 +92,7 @@ PoseCovariance align_covariance(const PoseCovariance& c, const Eigen::Matrix3d& 
 }
 
 ApeResult compute_ape(const std::vector<Pose>& est, const std::vector<Pose>& gt,
-                      const std::vector<PoseCovariance>& cov) {
+                      const std::vector<PoseCovariance>& cov, unsigned threads) {
   if (est.size() != gt.size()) {
     throw InputError(
         fmt::format("APE needs matched pairs: {} estimate vs {} ground-truth poses", est.size(), gt.size()));
@@ -94,35 +100,38 @@ ApeResult compute_ape(const std::vector<Pose>& est, const std::vector<Pose>& gt,
   if (!cov.empty() && cov.size() != est.size()) {
     throw InputError(fmt::format("APE: {} covariances for {} pairs", cov.size(), est.size()));
   }
+  if (threads == 0) threads = available_cpus();
   ApeResult r;
   const std::size_t n = est.size();
-  r.errors.reserve(n);
+  r.errors.resize(n);
+  if (!cov.empty()) r.nees.resize(n);
   std::vector<double> tn(n), an(n);
-  std::vector<Eigen::Vector3d> dp(n), rpy(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    r.errors.push_back(pose_error(est[i], gt[i]));
-    const PoseError& e = r.errors.back();
-    tn[i] = e.dp.norm();
-    an[i] = e.angle_deg;
-    dp[i] = e.dp;
-    rpy[i] = e.rpy_deg;
-    r.pos_mean_m += e.dp;
-  }
+  // Each pair's errors on its own (in parallel, into its own slot); every sum below runs in pair order
+  // on this thread, so the result does not depend on the thread count.
+  parallel_ranges(n, kPairsPerTask, threads, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      r.errors[i] = pose_error(est[i], gt[i]);
+      tn[i] = r.errors[i].dp.norm();
+      an[i] = r.errors[i].angle_deg;
+      if (!cov.empty()) r.nees[i] = pose_nees(est[i], gt[i], cov[i]);
+    }
+  });
+  for (const PoseError& e : r.errors) r.pos_mean_m += e.dp;
   if (n > 0) r.pos_mean_m /= static_cast<double>(n);
-  r.trans_m = compute_stats(tn);
-  r.rot_deg = compute_stats(an);
-  r.pos_rmse_m = rmse_per_axis(dp);
-  r.rpy_rmse_deg = rmse_per_axis(rpy);
+  r.pos_rmse_m = rmse_per_axis(r.errors, &PoseError::dp);
+  r.rpy_rmse_deg = rmse_per_axis(r.errors, &PoseError::rpy_deg);
+  parallel_for(2, threads, [&](std::size_t k) {  // the two statistics are independent
+    if (k == 0) r.trans_m = compute_stats(std::move(tn));
+    else r.rot_deg = compute_stats(std::move(an));
+  });
   r.armse_p_m = r.trans_m.mean;
   r.armse_r_deg = r.rot_deg.mean;
   if (!cov.empty()) {
-    r.nees.reserve(n);
     double sp = 0.0, sr = 0.0;
     std::size_t np = 0, nr = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      r.nees.push_back(pose_nees(est[i], gt[i], cov[i]));
-      if (std::isfinite(r.nees.back().pos)) sp += r.nees.back().pos, ++np;
-      if (std::isfinite(r.nees.back().rot)) sr += r.nees.back().rot, ++nr;
+    for (const Nees& e : r.nees) {
+      if (std::isfinite(e.pos)) sp += e.pos, ++np;
+      if (std::isfinite(e.rot)) sr += e.rot, ++nr;
     }
     if (np > 0) r.anees_p = sp / static_cast<double>(np);
     if (nr > 0) r.anees_r = sr / static_cast<double>(nr);

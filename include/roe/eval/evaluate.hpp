@@ -26,6 +26,8 @@ struct EvalParams {
   int n_align = -1;  ///< align on the first N matched pairs (-1 = all)
   AssociationOptions assoc;
   std::vector<RpeOptions> rpe;  ///< one relative-pose-error block per delta (none: no RPE)
+  /// Threads for the per-pair work (0: every CPU the process may use). The report does not depend on it.
+  unsigned threads = 0;
 };
 
 /// InputError (key path = the option's CLI name) for a bad max_dt, n_align, RPE block or a delta

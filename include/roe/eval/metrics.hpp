@@ -27,9 +27,6 @@ struct Stats {
 /// Statistics of `values` (copied: the median sorts). All zero for an empty input.
 Stats compute_stats(std::vector<double> values);
 
-/// Per-column RMSE √(Σ v_i² / n) of 3-vectors.
-Eigen::Vector3d rmse_per_axis(const std::vector<Eigen::Vector3d>& v);
-
 /// The errors of one pair.
 struct PoseError {
   Eigen::Vector3d dp = Eigen::Vector3d::Zero();               ///< p_est − p_gt (m)
@@ -39,6 +36,9 @@ struct PoseError {
 };
 
 PoseError pose_error(const Pose& est, const Pose& gt);
+
+/// Per-axis RMSE √(Σ v_i² / n) of one 3-vector part of the errors (dp or rpy_deg), summed in order.
+Eigen::Vector3d rmse_per_axis(const std::vector<PoseError>& errors, Eigen::Vector3d PoseError::*part);
 
 /// Position and orientation covariance of an estimate pose. Position: in the estimate's world
 /// frame; orientation: of the local (right) error δθ with R_true = R_est · Exp(δθ) (roe's error
@@ -72,9 +72,11 @@ struct ApeResult {
 };
 
 /// APE of aligned estimate poses against ground truth (same size; InputError otherwise).
-/// `cov` (empty, or one per pair, already rotated into the aligned frame) adds NEES.
+/// `cov` (empty, or one per pair, already rotated into the aligned frame) adds NEES. The pairs are
+/// evaluated on up to `threads` threads (0: every CPU the process may use); the result is the same,
+/// bit for bit, for any thread count (the sums run in pair order).
 ApeResult compute_ape(const std::vector<Pose>& est_aligned, const std::vector<Pose>& gt,
-                      const std::vector<PoseCovariance>& cov = {});
+                      const std::vector<PoseCovariance>& cov = {}, unsigned threads = 0);
 
 /// Rotates a covariance into the aligned frame: P_p' = s² R P_p Rᵀ; P_θ is local and unchanged.
 PoseCovariance align_covariance(const PoseCovariance& c, const Eigen::Matrix3d& R, double s);

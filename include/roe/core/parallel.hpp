@@ -1,0 +1,70 @@
+#pragma once
+/// @file
+/// Work spread over the CPUs the process may use, with results that do not depend on the thread
+/// count: each index is handled exactly once and writes its own slot; reductions stay with the caller,
+/// in index order. Used by calib's time-offset grid and eval's per-pair metrics.
+///
+///   parallel_for(n, available_cpus(), [&](std::size_t i) { out[i] = f(in[i]); });
+///   parallel_ranges(n, 16384, available_cpus(), [&](std::size_t b, std::size_t e) { ... });
+
+#include <algorithm>
+#include <atomic>
+#include <cstddef>
+#include <exception>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace roe {
+
+/// The CPUs this process may run on (its affinity mask: what taskset, Slurm or a container grants);
+/// at least 1.
+unsigned available_cpus();
+
+/// Runs fn(begin, end) over the consecutive ranges [k·grain, min((k + 1)·grain, n)) of [0, n), each
+/// exactly once, on up to `threads` threads (the calling thread is one of them; ranges are handed out
+/// in order as threads become free). With one thread or one range everything runs on the calling
+/// thread. An exception thrown by fn is rethrown here once every thread has stopped (the one of the
+/// lowest range when several throw; ranges not yet started are skipped).
+template <typename Fn>
+void parallel_ranges(std::size_t n, std::size_t grain, unsigned threads, Fn&& fn) {
+  grain = std::max<std::size_t>(grain, 1);
+  const std::size_t ranges = n / grain + (n % grain != 0);
+  threads = static_cast<unsigned>(std::min<std::size_t>(std::max(1u, threads), ranges));
+  if (threads <= 1) {
+    for (std::size_t b = 0; b < n; b += grain) fn(b, std::min(n, b + grain));
+    return;
+  }
+  std::atomic<std::size_t> next{0};
+  std::atomic<bool> failed{false};
+  std::mutex m;
+  std::exception_ptr error;
+  std::size_t error_range = ranges;
+  const auto work = [&] {
+    for (std::size_t k = next++; k < ranges && !failed; k = next++) {
+      try {
+        fn(k * grain, std::min(n, (k + 1) * grain));
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(m);
+        if (k < error_range) error_range = k, error = std::current_exception();
+        failed = true;
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+
+/// Runs fn(i) for i in [0, n) on up to `threads` threads, each i exactly once (one index at a time:
+/// for work items that are large and uneven).
+template <typename Fn>
+void parallel_for(std::size_t n, unsigned threads, Fn&& fn) {
+  parallel_ranges(n, 1, threads, [&fn](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) fn(i);
+  });
+}
+
+}  // namespace roe
