@@ -13,9 +13,20 @@ namespace roe::eval {
 
 namespace {
 
-double path_length(const std::vector<Pose>& p) {
+/// Pairs per parallel task: large enough that handing out a task costs nothing, small enough to balance.
+constexpr std::size_t kPairsPerTask = 16384;
+
+/// Length of the path through the positions position(0), position(1), ..., position(n - 1).
+template <typename PositionAt>
+double path_length(std::size_t n, const PositionAt& position) {
   double L = 0.0;
-  for (std::size_t i = 1; i < p.size(); ++i) L += (p[i].p - p[i - 1].p).norm();
+  if (n == 0) return L;
+  Eigen::Vector3d prev = position(0);
+  for (std::size_t i = 1; i < n; ++i) {
+    const Eigen::Vector3d p = position(i);
+    L += (p - prev).norm();
+    prev = p;
+  }
   return L;
 }
 
@@ -122,8 +133,22 @@ void add_detection_calibration(const EstimateInput& est, const GroundTruthInput&
 }
 
 void add_rpe(Report& r) {
+  if (r.params.rpe.empty()) return;
+  // The RPE walks the matched pairs in many orders: copies of them, only here.
+  const std::size_t n = r.n_pairs();
+  std::vector<Pose> est(n), gt(n);
+  std::vector<Timestamp> t_est(n), t_gt(n);
+  parallel_ranges(n, kPairsPerTask, r.params.threads ? r.params.threads : available_cpus(),
+                  [&](std::size_t b, std::size_t e) {
+                    for (std::size_t k = b; k < e; ++k) {
+                      est[k] = r.est_aligned(k);
+                      gt[k] = r.gt(k);
+                      t_est[k] = r.t_est(k);
+                      t_gt[k] = r.t_gt(k);
+                    }
+                  });
   for (const RpeOptions& ro : r.params.rpe) {
-    r.rpe.push_back(compute_rpe(r.est_aligned, r.gt, r.t_est, r.t_gt, ro));
+    r.rpe.push_back(compute_rpe(est, gt, t_est, t_gt, ro));
     if (r.rpe.back().pairs.empty())
       r.warnings.push_back(fmt::format("RPE delta {} {}: no pair of matched poses is that far apart{}", ro.delta,
                                        to_string(ro.unit),
@@ -181,23 +206,14 @@ Report evaluate(const EstimateInput& est, const GroundTruthInput& gt, const Eval
 
   const unsigned threads = params.threads ? params.threads : available_cpus();
   r.alignment = compute_alignment(params.align, est.poses, a.est_index, gt.poses, a.gt_index, params.n_align, threads);
-  // The matched pairs (the estimate aligned), each into its own slot.
-  const std::size_t n = a.size();
-  r.est_aligned.resize(n);
-  r.gt.resize(n);
-  r.t_est.resize(n);
-  r.t_gt.resize(n);
-  const Eigen::Quaterniond qa = r.alignment.q();
-  parallel_ranges(n, 16384, threads, [&](std::size_t b, std::size_t e) {
-    for (std::size_t k = b; k < e; ++k) {
-      r.est_aligned[k] = aligned_pose(r.alignment, qa, est.poses[a.est_index[k]]);
-      r.gt[k] = gt.poses[a.gt_index[k]];
-      r.t_est[k] = est.t_ns[a.est_index[k]];
-      r.t_gt[k] = gt.t_ns[a.gt_index[k]];
-    }
-  });
+  r.alignment_q = r.alignment.q();
+  r.est_t_ns = &est.t_ns;
+  r.est_poses = &est.poses;
+  r.gt_t_ns = &gt.t_ns;
+  r.gt_poses = &gt.poses;
   r.cov = aligned_covariances(est, r, r.warnings);
-  r.ape = compute_ape(r.est_aligned, r.gt, r.cov, threads);
+  r.ape = compute_ape(
+      r.n_pairs(), [&r](std::size_t k) { return std::pair<Pose, Pose>(r.est_aligned(k), r.gt(k)); }, r.cov, threads);
   if ((params.align == AlignType::kSe3 || params.align == AlignType::kSim3) && params.n_align < 0 &&
       r.ape.pos_mean_m.cwiseAbs().maxCoeff() > 1e-6)
     r.warnings.push_back("internal check: the mean position error after Umeyama is not ~0");
@@ -209,7 +225,12 @@ Report evaluate(const EstimateInput& est, const GroundTruthInput& gt, const Eval
   add_objects(est, gt, r);
   add_detection_calibration(est, gt, r);
   parallel_for(2, threads, [&r](std::size_t k) {  // independent sums
-    (k == 0 ? r.path_length_est_m : r.path_length_gt_m) = path_length(k == 0 ? r.est_aligned : r.gt);
+    const auto& poses = *(k == 0 ? r.est_poses : r.gt_poses);
+    const auto& index = k == 0 ? r.association.est_index : r.association.gt_index;
+    (k == 0 ? r.path_length_est_m : r.path_length_gt_m) = path_length(r.n_pairs(), [&](std::size_t i) {
+      const Eigen::Vector3d& p = poses[index[i]].p;
+      return k == 0 ? r.alignment.apply(p) : p;  // the aligned estimate's position, as est_aligned() has it
+    });
   });
   return r;
 }

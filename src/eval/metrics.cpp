@@ -51,13 +51,6 @@ Stats compute_stats(std::vector<double> v) {
   return s;
 }
 
-Eigen::Vector3d rmse_per_axis(const std::vector<PoseError>& errors, Eigen::Vector3d PoseError::*part) {
-  if (errors.empty()) return Eigen::Vector3d::Zero();
-  Eigen::Vector3d acc = Eigen::Vector3d::Zero();
-  for (const PoseError& e : errors) acc += (e.*part).cwiseAbs2();
-  return (acc / static_cast<double>(errors.size())).cwiseSqrt();
-}
-
 PoseError pose_error(const Pose& est, const Pose& gt) {
   PoseError e;
   e.dp = est.p - gt.p;
@@ -97,30 +90,52 @@ ApeResult compute_ape(const std::vector<Pose>& est, const std::vector<Pose>& gt,
     throw InputError(
         fmt::format("APE needs matched pairs: {} estimate vs {} ground-truth poses", est.size(), gt.size()));
   }
-  if (!cov.empty() && cov.size() != est.size()) {
-    throw InputError(fmt::format("APE: {} covariances for {} pairs", cov.size(), est.size()));
+  return compute_ape(
+      est.size(), [&](std::size_t i) { return std::pair<Pose, Pose>(est[i], gt[i]); }, cov, threads);
+}
+
+ApeResult compute_ape(std::size_t n, const PosePairAt& pair, const std::vector<PoseCovariance>& cov,
+                      unsigned threads) {
+  if (!cov.empty() && cov.size() != n) {
+    throw InputError(fmt::format("APE: {} covariances for {} pairs", cov.size(), n));
   }
-  if (threads == 0) threads = available_cpus();
   ApeResult r;
-  const std::size_t n = est.size();
-  r.errors.resize(n);
   if (!cov.empty()) r.nees.resize(n);
   std::vector<double> tn(n), an(n);
-  // Each pair's errors on its own (in parallel, into its own slot); every sum below runs in pair order
-  // on this thread, so the result does not depend on the thread count.
-  parallel_ranges(n, kPairsPerTask, threads, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) {
-      r.errors[i] = pose_error(est[i], gt[i]);
-      tn[i] = r.errors[i].dp.norm();
-      an[i] = r.errors[i].angle_deg;
-      if (!cov.empty()) r.nees[i] = pose_nees(est[i], gt[i], cov[i]);
-    }
-  });
-  for (const PoseError& e : r.errors) r.pos_mean_m += e.dp;
-  if (n > 0) r.pos_mean_m /= static_cast<double>(n);
-  r.pos_rmse_m = rmse_per_axis(r.errors, &PoseError::dp);
-  r.rpy_rmse_deg = rmse_per_axis(r.errors, &PoseError::rpy_deg);
-  parallel_for(2, threads, [&](std::size_t k) {  // the two statistics are independent
+  // Each pair's errors on its own (in parallel); the sums take the pairs in order, whichever thread
+  // computed them, so the result does not depend on the thread count. Only the norms stay (for the
+  // medians): a pair's errors are recomputed where they are written (Report::error).
+  using Parts = std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>;  // dp, rpy_deg
+  Eigen::Vector3d sum_dp = Eigen::Vector3d::Zero(), sq_dp = Eigen::Vector3d::Zero(),
+                  sq_rpy = Eigen::Vector3d::Zero();
+  parallel_ranges_ordered(
+      n, kPairsPerTask, threads ? threads : available_cpus(),
+      [&](std::size_t b, std::size_t e) {
+        Parts parts(e - b);
+        for (std::size_t i = b; i < e; ++i) {
+          const auto [est, gt] = pair(i);
+          const PoseError pe = pose_error(est, gt);
+          tn[i] = pe.dp.norm();
+          an[i] = pe.angle_deg;
+          parts[i - b] = {pe.dp, pe.rpy_deg};
+          if (!cov.empty()) r.nees[i] = pose_nees(est, gt, cov[i]);
+        }
+        return parts;
+      },
+      [&](Parts&& parts) {
+        for (const auto& [dp, rpy] : parts) {
+          sum_dp += dp;
+          sq_dp += dp.cwiseAbs2();
+          sq_rpy += rpy.cwiseAbs2();
+        }
+      });
+  if (n > 0) {
+    const double N = static_cast<double>(n);
+    r.pos_mean_m = sum_dp / N;
+    r.pos_rmse_m = (sq_dp / N).cwiseSqrt();
+    r.rpy_rmse_deg = (sq_rpy / N).cwiseSqrt();
+  }
+  parallel_for(2, threads ? threads : available_cpus(), [&](std::size_t k) {  // two independent statistics
     if (k == 0) r.trans_m = compute_stats(std::move(tn));
     else r.rot_deg = compute_stats(std::move(an));
   });

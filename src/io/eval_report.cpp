@@ -102,8 +102,8 @@ std::string errors_csv(const eval::Report& r) {
   }
   w.header(h);
   for (std::size_t k = 0; k < r.association.size(); ++k) {
-    const auto& e = r.ape.errors[k];
-    w.add_seconds(r.t_gt[k]).add_seconds(r.t_est[k]).add(to_seconds(r.association.dt_ns[k]));
+    const eval::PoseError e = r.error(k);
+    w.add_seconds(r.t_gt(k)).add_seconds(r.t_est(k)).add(to_seconds(r.association.dt_ns[k]));
     w.add(e.dp.x()).add(e.dp.y()).add(e.dp.z()).add(e.dp.norm());
     w.add(e.rpy_deg.x()).add(e.rpy_deg.y()).add(e.rpy_deg.z()).add(e.angle_deg);
     if (!r.cov.empty()) w.add(r.ape.nees[k].pos).add(r.ape.nees[k].rot);
@@ -118,8 +118,8 @@ std::string cnspy_errors_csv(const eval::Report& r) {
   w.header({"t", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "scale", "est_err_type"});
   const double scale = r.path_length_est_m > 0.0 ? r.path_length_gt_m / r.path_length_est_m : 1.0;
   for (std::size_t k = 0; k < r.association.size(); ++k) {
-    const auto& e = r.ape.errors[k];
-    w.add_seconds(r.t_gt[k]).add(e.dp.x()).add(e.dp.y()).add(e.dp.z());
+    const eval::PoseError e = r.error(k);
+    w.add_seconds(r.t_gt(k)).add(e.dp.x()).add(e.dp.y()).add(e.dp.z());
     w.add(e.q_err.x()).add(e.q_err.y()).add(e.q_err.z()).add(e.q_err.w()).add(scale).add("type5").end_row();
   }
   return w.str();
@@ -157,8 +157,8 @@ std::string rpe_csv(const eval::Report& r) {
   w.header({"delta", "unit", "t_i", "t_j", "dt_s", "path_gt_m", "trans_m", "rot_deg", "drift_pct"});
   for (const eval::RpeResult& e : r.rpe) {
     for (const eval::RpePair& p : e.pairs) {
-      w.add(e.options.delta).add(eval::to_string(e.options.unit)).add_seconds(r.t_gt[p.i]).add_seconds(r.t_gt[p.j]);
-      w.add(dt_seconds(r.t_gt[p.i], r.t_gt[p.j])).add(p.path_gt_m).add(p.trans_m).add(p.rot_deg);
+      w.add(e.options.delta).add(eval::to_string(e.options.unit)).add_seconds(r.t_gt(p.i)).add_seconds(r.t_gt(p.j));
+      w.add(dt_seconds(r.t_gt(p.i), r.t_gt(p.j))).add(p.path_gt_m).add(p.trans_m).add(p.rot_deg);
       if (std::isfinite(p.trans_pct))
         w.add(p.trans_pct);
       else
@@ -354,10 +354,12 @@ std::vector<std::string> write_eval_files(const OutputDir& dir, const eval::Repo
     write_file_atomic(dir.file(name), text);
     files.push_back(name);
   };
-  put("est_matched_aligned.csv", format_trajectory(r.t_est, r.est_aligned, TrajectoryFormat::kCsv));
-  put("gt_matched.csv", format_trajectory(r.t_gt, r.gt, TrajectoryFormat::kCsv));
-  put("est_matched_aligned.tum", format_trajectory(r.t_est, r.est_aligned, TrajectoryFormat::kTum));
-  put("gt_matched.tum", format_trajectory(r.t_gt, r.gt, TrajectoryFormat::kTum));
+  const auto est = [&r](std::size_t k) { return StampedPose{r.t_est(k), r.est_aligned(k)}; };
+  const auto gt = [&r](std::size_t k) { return StampedPose{r.t_gt(k), r.gt(k)}; };
+  put("est_matched_aligned.csv", format_trajectory(r.n_pairs(), est, TrajectoryFormat::kCsv));
+  put("gt_matched.csv", format_trajectory(r.n_pairs(), gt, TrajectoryFormat::kCsv));
+  put("est_matched_aligned.tum", format_trajectory(r.n_pairs(), est, TrajectoryFormat::kTum));
+  put("gt_matched.tum", format_trajectory(r.n_pairs(), gt, TrajectoryFormat::kTum));
   put("errors.csv", errors_csv(r));
   put("err_matched_aligned.csv", cnspy_errors_csv(r));
   put("summary.csv", summary_csv(r, c));

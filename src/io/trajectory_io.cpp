@@ -458,11 +458,18 @@ void apply_kitti_times(Trajectory& tr, const fs::path& times_file) {
 std::string format_trajectory(const std::vector<Timestamp>& t_ns, const std::vector<Pose>& poses,
                               TrajectoryFormat format) {
   ROE_CHECK(t_ns.size() == poses.size(), "one stamp per pose");
+  return format_trajectory(
+      poses.size(), [&](std::size_t i) { return StampedPose{t_ns[i], poses[i]}; }, format);
+}
+
+std::string format_trajectory(std::size_t n, const std::function<StampedPose(std::size_t)>& at,
+                              TrajectoryFormat format) {
   if (format == TrajectoryFormat::kAuto) format = TrajectoryFormat::kCsv;
   const char delim = format == TrajectoryFormat::kTum || format == TrajectoryFormat::kKitti ? ' ' : ',';
   CsvWriter w(delim);
   if (format == TrajectoryFormat::kKitti) {  // no header, no stamps
-    for (const Pose& T : poses) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const Pose T = at(i).T;
       const Eigen::Matrix3d R = T.R();
       for (int i = 0; i < 3; ++i) w.add(R(i, 0)).add(R(i, 1)).add(R(i, 2)).add(T.p(i));
       w.end_row();
@@ -485,12 +492,13 @@ std::string format_trajectory(const std::vector<Timestamp>& t_ns, const std::vec
       w.header({"t", "tx", "ty", "tz", "qx", "qy", "qz", "qw"});
       break;
   }
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    const Pose& T = poses[i];
+  for (std::size_t i = 0; i < n; ++i) {
+    const StampedPose sp = at(i);
+    const Pose& T = sp.T;
     if (format == TrajectoryFormat::kEuroc || format == TrajectoryFormat::kCsvNs) {
-      w.add(static_cast<std::int64_t>(t_ns[i]));
+      w.add(static_cast<std::int64_t>(sp.t_ns));
     } else {
-      w.add_seconds(t_ns[i]);
+      w.add_seconds(sp.t_ns);
     }
     w.add(T.p.x()).add(T.p.y()).add(T.p.z());
     if (format == TrajectoryFormat::kEuroc) {

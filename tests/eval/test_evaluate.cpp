@@ -50,7 +50,7 @@ TEST_CASE("evaluate: association, SE(3) alignment and APE in one typed report", 
   CHECK(r.ape.trans_m.rmse == Approx(0.02).epsilon(0.02));
   CHECK(r.ape.pos_rmse_m.x() < 1e-3);
   CHECK(r.ape.pos_rmse_m.z() == Approx(0.02).epsilon(0.02));
-  CHECK(r.est_aligned.size() == 200);
+  CHECK(r.n_pairs() == 200);
   CHECK(r.rpe.size() == 1);
   CHECK(r.path_length_gt_m > 0.0);
   CHECK_FALSE(r.has_detections);

@@ -6,11 +6,14 @@
 ///
 ///   parallel_for(n, available_cpus(), [&](std::size_t i) { out[i] = f(in[i]); });
 ///   parallel_ranges(n, 16384, available_cpus(), [&](std::size_t b, std::size_t e) { ... });
+///   parallel_ranges_ordered(n, 16384, threads, map_range, reduce_in_order);
 
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
 #include <exception>
+#include <map>
+#include <type_traits>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -56,6 +59,26 @@ void parallel_ranges(std::size_t n, std::size_t grain, unsigned threads, Fn&& fn
   work();
   for (auto& t : pool) t.join();
   if (error) std::rethrow_exception(error);
+}
+
+/// parallel_ranges where each range gives a partial result, map(begin, end) → T, and reduce(T&&) takes
+/// them in range order, one at a time, on whichever thread finished the range that completes the order:
+/// a reduction with the sequential loop's order of operations (so its bits), that never holds more than
+/// the results of the ranges in flight.
+template <typename Map, typename Reduce>
+void parallel_ranges_ordered(std::size_t n, std::size_t grain, unsigned threads, Map&& map, Reduce&& reduce) {
+  using T = std::decay_t<std::invoke_result_t<Map&, std::size_t, std::size_t>>;
+  grain = std::max<std::size_t>(grain, 1);
+  std::mutex m;
+  std::map<std::size_t, T> done;  // ranges computed, not yet reduced
+  std::size_t next = 0;           // the range to reduce next
+  parallel_ranges(n, grain, threads, [&](std::size_t b, std::size_t e) {
+    T part = map(b, e);
+    const std::lock_guard<std::mutex> lock(m);
+    done.emplace(b / grain, std::move(part));
+    for (auto it = done.begin(); it != done.end() && it->first == next; it = done.erase(it), ++next)
+      reduce(std::move(it->second));
+  });
 }
 
 /// Runs fn(i) for i in [0, n) on up to `threads` threads, each i exactly once (one index at a time:

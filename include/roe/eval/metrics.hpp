@@ -12,7 +12,9 @@
 /// ARMSE_p / ARMSE_R are cnspy's report values: the MEAN of the per-pair norms (not an RMSE).
 
 #include <Eigen/Core>
+#include <functional>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "roe/core/types.hpp"
@@ -37,9 +39,6 @@ struct PoseError {
 
 PoseError pose_error(const Pose& est, const Pose& gt);
 
-/// Per-axis RMSE √(Σ v_i² / n) of one 3-vector part of the errors (dp or rpy_deg), summed in order.
-Eigen::Vector3d rmse_per_axis(const std::vector<PoseError>& errors, Eigen::Vector3d PoseError::*part);
-
 /// Position and orientation covariance of an estimate pose. Position: in the estimate's world
 /// frame; orientation: of the local (right) error δθ with R_true = R_est · Exp(δθ) (roe's error
 /// state), in radians².
@@ -56,9 +55,9 @@ struct Nees {
 };
 Nees pose_nees(const Pose& est, const Pose& gt, const PoseCovariance& cov);
 
-/// Everything roe eval reports for one set of matched, aligned pairs.
+/// Everything roe eval reports for one set of matched, aligned pairs (the per-pair errors are not kept:
+/// pose_error() gives them again, bit for bit, where they are written).
 struct ApeResult {
-  std::vector<PoseError> errors;                           ///< one per pair
   Stats trans_m;                                           ///< of |e_p|
   Stats rot_deg;                                           ///< of the rotation angle
   Eigen::Vector3d pos_rmse_m = Eigen::Vector3d::Zero();    ///< per-axis RMSE of e_p
@@ -74,9 +73,14 @@ struct ApeResult {
 /// APE of aligned estimate poses against ground truth (same size; InputError otherwise).
 /// `cov` (empty, or one per pair, already rotated into the aligned frame) adds NEES. The pairs are
 /// evaluated on up to `threads` threads (0: every CPU the process may use); the result is the same,
-/// bit for bit, for any thread count (the sums run in pair order).
+/// bit for bit, for any thread count (every sum takes the pairs in order).
 ApeResult compute_ape(const std::vector<Pose>& est_aligned, const std::vector<Pose>& gt,
                       const std::vector<PoseCovariance>& cov = {}, unsigned threads = 0);
+/// Pair i of an APE: (aligned estimate pose, ground-truth pose). Called once per pair, from any thread.
+using PosePairAt = std::function<std::pair<Pose, Pose>(std::size_t)>;
+/// The same over n pairs given by `pair` (no copy of the matched poses needed).
+ApeResult compute_ape(std::size_t n, const PosePairAt& pair, const std::vector<PoseCovariance>& cov = {},
+                      unsigned threads = 0);
 
 /// Rotates a covariance into the aligned frame: P_p' = s² R P_p Rᵀ; P_θ is local and unchanged.
 PoseCovariance align_covariance(const PoseCovariance& c, const Eigen::Matrix3d& R, double s);

@@ -26,6 +26,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -82,6 +83,9 @@ Trajectory parse_trajectory(std::string text, const std::string& source,
 /// `# timestamp tx ty tz qx qy qz qw`; EuRoC with the mocap0 header; CSV `t,tx,ty,tz,qx,qy,qz,qw`
 /// (t with 9 decimals); CSV-ns. Numbers are written in the shortest round-trip form.
 std::string format_trajectory(const std::vector<Timestamp>& t_ns, const std::vector<Pose>& poses,
+                              TrajectoryFormat format);
+/// The same for the n poses at(0), at(1), ... (e.g. matched pairs picked by index, without a copy).
+std::string format_trajectory(std::size_t n, const std::function<StampedPose(std::size_t)>& at,
                               TrajectoryFormat format);
 /// format_trajectory + an atomic write.
 void write_trajectory(const fs::path& file, const std::vector<Timestamp>& t_ns,
