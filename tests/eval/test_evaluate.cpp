@@ -165,6 +165,17 @@ TEST_CASE("evaluate: the report is the same bit for bit on any number of threads
     const Alignment al = compute_alignment(type, pe, pg);
     CHECK(al.R == one.alignment.R);
     CHECK(al.t == one.alignment.t);
+    if (type == AlignType::kSe3 || type == AlignType::kSim3) {  // and as on positions copied into a matrix
+      Eigen::Matrix3Xd x(3, static_cast<Eigen::Index>(pe.size())), y(3, static_cast<Eigen::Index>(pe.size()));
+      for (std::size_t k = 0; k < pe.size(); ++k) {
+        x.col(static_cast<Eigen::Index>(k)) = pe[k].p;
+        y.col(static_cast<Eigen::Index>(k)) = pg[k].p;
+      }
+      const Alignment u = umeyama_alignment(x, y, type == AlignType::kSim3);
+      CHECK(u.R == one.alignment.R);
+      CHECK(u.t == one.alignment.t);
+      CHECK(u.s == one.alignment.s);
+    }
     apply_alignment(al, pe);
     bool same_poses = true;
     for (std::size_t k = 0; k < pe.size(); ++k) {
