@@ -2,12 +2,9 @@
 #include "roe/io/eval_report.hpp"
 
 #include <cmath>
-#include <functional>
-#include <utility>
 
 #include <fmt/format.h>
 
-#include "roe/core/parallel.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/trajectory_io.hpp"
@@ -352,33 +349,29 @@ json eval_report_json(const eval::Report& r, const EvalReportContext& c) {
 
 std::vector<std::string> write_eval_files(const OutputDir& dir, const eval::Report& r,
                                           const EvalReportContext& c) {
-  // Each table is formatted and written on its own: up to one per CPU at a time (a 1 M-pair evaluation
-  // writes 1 GB of text, formatting most of its time), the file list in this order.
-  std::vector<std::pair<std::string, std::function<std::string()>>> tables;
+  std::vector<std::string> files;
+  const auto put = [&](const std::string& name, const std::string& text) {
+    write_file_atomic(dir.file(name), text);
+    files.push_back(name);
+  };
   const auto est = [&r](std::size_t k) { return StampedPose{r.t_est(k), r.est_aligned(k)}; };
   const auto gt = [&r](std::size_t k) { return StampedPose{r.t_gt(k), r.gt(k)}; };
-  for (const auto format : {TrajectoryFormat::kCsv, TrajectoryFormat::kTum}) {
-    const std::string ext = format == TrajectoryFormat::kCsv ? ".csv" : ".tum";
-    tables.emplace_back("est_matched_aligned" + ext, [&r, est, format] { return format_trajectory(r.n_pairs(), est, format); });
-    tables.emplace_back("gt_matched" + ext, [&r, gt, format] { return format_trajectory(r.n_pairs(), gt, format); });
-  }
-  tables.emplace_back("errors.csv", [&r] { return errors_csv(r); });
-  tables.emplace_back("err_matched_aligned.csv", [&r] { return cnspy_errors_csv(r); });
-  tables.emplace_back("summary.csv", [&r, &c] { return summary_csv(r, c); });
+  put("est_matched_aligned.csv", format_trajectory(r.n_pairs(), est, TrajectoryFormat::kCsv));
+  put("gt_matched.csv", format_trajectory(r.n_pairs(), gt, TrajectoryFormat::kCsv));
+  put("est_matched_aligned.tum", format_trajectory(r.n_pairs(), est, TrajectoryFormat::kTum));
+  put("gt_matched.tum", format_trajectory(r.n_pairs(), gt, TrajectoryFormat::kTum));
+  put("errors.csv", errors_csv(r));
+  put("err_matched_aligned.csv", cnspy_errors_csv(r));
+  put("summary.csv", summary_csv(r, c));
   if (!r.rpe.empty()) {
-    tables.emplace_back("rpe.csv", [&r] { return rpe_csv(r); });
-    tables.emplace_back("rpe_summary.csv", [&r] { return rpe_summary_csv(r); });
+    put("rpe.csv", rpe_csv(r));
+    put("rpe_summary.csv", rpe_summary_csv(r));
   }
   if (r.has_detections) {
-    tables.emplace_back("reprojection_aligned.csv", [&r] { return reprojection_csv(r); });
-    tables.emplace_back("per_object.csv", [&r] { return per_object_csv(r); });
+    put("reprojection_aligned.csv", reprojection_csv(r));
+    put("per_object.csv", per_object_csv(r));
   }
-  if (r.detection_calibration)
-    tables.emplace_back("detection_sigmas.csv", [&r] { return detection_sigmas_csv(*r.detection_calibration); });
-  parallel_for(tables.size(), available_cpus(),
-               [&](std::size_t i) { write_file_atomic(dir.file(tables[i].first), tables[i].second()); });
-  std::vector<std::string> files;
-  for (const auto& t : tables) files.push_back(t.first);
+  if (r.detection_calibration) put("detection_sigmas.csv", detection_sigmas_csv(*r.detection_calibration));
   return files;
 }
 
