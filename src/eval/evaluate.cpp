@@ -13,9 +13,6 @@ namespace roe::eval {
 
 namespace {
 
-/// Pairs per parallel task: large enough that handing out a task costs nothing, small enough to balance.
-constexpr std::size_t kPairsPerTask = 16384;
-
 /// Length of the path through the positions position(0), position(1), ..., position(n - 1).
 template <typename PositionAt>
 double path_length(std::size_t n, const PositionAt& position) {

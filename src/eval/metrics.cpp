@@ -13,10 +13,6 @@
 
 namespace roe::eval {
 
-namespace {
-/// Pairs per parallel task: large enough that handing out a task costs nothing, small enough to balance.
-constexpr std::size_t kPairsPerTask = 16384;
-}  // namespace
 
 Stats compute_stats(std::vector<double> v) {
   Stats s;

@@ -55,7 +55,8 @@ struct DetectionSigmaInput {
 };
 
 /// The estimate: stamps and poses (non-decreasing stamps), optionally a covariance per pose and
-/// the run's raw detections. The vectors are referenced, not copied: they must outlive the call.
+/// the run's raw detections. The vectors are referenced, not copied: they must outlive the call, and
+/// the stamps and poses also the Report made from them (it indexes the matched pairs in them).
 struct EstimateInput {
   const std::vector<Timestamp>& t_ns;
   const std::vector<Pose>& poses;
@@ -65,6 +66,7 @@ struct EstimateInput {
   std::string source;  ///< names the estimate in errors (a path), never opened
   const DetectionSigmaInput* detection_sigmas = nullptr;  ///< null: no σ calibration
 };
+/// The ground truth (referenced as EstimateInput's vectors are).
 struct GroundTruthInput {
   const std::vector<Timestamp>& t_ns;
   const std::vector<Pose>& poses;

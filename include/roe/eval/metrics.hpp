@@ -76,6 +76,9 @@ struct ApeResult {
 /// bit for bit, for any thread count (every sum takes the pairs in order).
 ApeResult compute_ape(const std::vector<Pose>& est_aligned, const std::vector<Pose>& gt,
                       const std::vector<PoseCovariance>& cov = {}, unsigned threads = 0);
+/// Pairs per parallel task of the per-pair work: large enough that handing out a task costs nothing,
+/// small enough to balance the threads.
+inline constexpr std::size_t kPairsPerTask = 16384;
 /// Pair i of an APE: (aligned estimate pose, ground-truth pose). Called once per pair, from any thread.
 using PosePairAt = std::function<std::pair<Pose, Pose>(std::size_t)>;
 /// The same over n pairs given by `pair` (no copy of the matched poses needed).
