@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "roe/core/parallel.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/trajectory_io.hpp"
@@ -92,7 +93,16 @@ json association_json(const eval::Report& r) {
           {"rule", "nearest neighbour from the shorter trajectory, |t_gt - (t_est + offset)| <= max_dt (evo)"}};
 }
 
-std::string errors_csv(const eval::Report& r) {
+/// Every pair's errors (Report::error), computed on every allowed CPU for the two error tables.
+std::vector<eval::PoseError> pair_errors(const eval::Report& r) {
+  std::vector<eval::PoseError> e(r.n_pairs());
+  parallel_ranges(e.size(), eval::kPairsPerTask, available_cpus(), [&](std::size_t b, std::size_t end) {
+    for (std::size_t k = b; k < end; ++k) e[k] = r.error(k);
+  });
+  return e;
+}
+
+std::string errors_csv(const eval::Report& r, const std::vector<eval::PoseError>& errors) {
   CsvWriter w;
   std::vector<std::string> h = {"t_gt",     "t_est",    "dt",        "ex_m",    "ey_m",     "ez_m",
                                 "e_norm_m", "roll_deg", "pitch_deg", "yaw_deg", "angle_deg"};
@@ -102,7 +112,7 @@ std::string errors_csv(const eval::Report& r) {
   }
   w.header(h);
   for (std::size_t k = 0; k < r.association.size(); ++k) {
-    const eval::PoseError e = r.error(k);
+    const eval::PoseError& e = errors[k];
     w.add_seconds(r.t_gt(k)).add_seconds(r.t_est(k)).add(to_seconds(r.association.dt_ns[k]));
     w.add(e.dp.x()).add(e.dp.y()).add(e.dp.z()).add(e.dp.norm());
     w.add(e.rpy_deg.x()).add(e.rpy_deg.y()).add(e.rpy_deg.z()).add(e.angle_deg);
@@ -113,12 +123,12 @@ std::string errors_csv(const eval::Report& r) {
 }
 
 /// cnspy PoseTypedStamped error file (type5: p_est - p_gt, q = R_est^T R_gt).
-std::string cnspy_errors_csv(const eval::Report& r) {
+std::string cnspy_errors_csv(const eval::Report& r, const std::vector<eval::PoseError>& errors) {
   CsvWriter w;
   w.header({"t", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "scale", "est_err_type"});
   const double scale = r.path_length_est_m > 0.0 ? r.path_length_gt_m / r.path_length_est_m : 1.0;
   for (std::size_t k = 0; k < r.association.size(); ++k) {
-    const eval::PoseError e = r.error(k);
+    const eval::PoseError& e = errors[k];
     w.add_seconds(r.t_gt(k)).add(e.dp.x()).add(e.dp.y()).add(e.dp.z());
     w.add(e.q_err.x()).add(e.q_err.y()).add(e.q_err.z()).add(e.q_err.w()).add(scale).add("type5").end_row();
   }
@@ -360,8 +370,11 @@ std::vector<std::string> write_eval_files(const OutputDir& dir, const eval::Repo
   put("gt_matched.csv", format_trajectory(r.n_pairs(), gt, TrajectoryFormat::kCsv));
   put("est_matched_aligned.tum", format_trajectory(r.n_pairs(), est, TrajectoryFormat::kTum));
   put("gt_matched.tum", format_trajectory(r.n_pairs(), gt, TrajectoryFormat::kTum));
-  put("errors.csv", errors_csv(r));
-  put("err_matched_aligned.csv", cnspy_errors_csv(r));
+  {
+    const std::vector<eval::PoseError> errors = pair_errors(r);
+    put("errors.csv", errors_csv(r, errors));
+    put("err_matched_aligned.csv", cnspy_errors_csv(r, errors));
+  }
   put("summary.csv", summary_csv(r, c));
   if (!r.rpe.empty()) {
     put("rpe.csv", rpe_csv(r));
