@@ -5,6 +5,8 @@
 #include <Eigen/SVD>
 #include <cmath>
 
+#include "roe/core/parallel.hpp"
+
 namespace roe::eval {
 
 std::string to_string(AlignType type) {
@@ -39,20 +41,21 @@ Pose Alignment::apply(const Pose& T) const {
 
 Eigen::Quaterniond Alignment::q() const { return Eigen::Quaterniond(R).normalized(); }
 
+Pose aligned_pose(const Alignment& a, const Eigen::Quaterniond& qa, const Pose& T) {
+  Pose out;
+  out.p = a.apply(T.p);
+  out.q = (qa * T.q).normalized();
+  return out;
+}
+
 void apply_alignment(const Alignment& a, std::vector<Pose>& poses) {
   const Eigen::Quaterniond qa = a.q();
-  for (Pose& T : poses) {
-    T.p = a.apply(T.p);
-    T.q = (qa * T.q).normalized();
-  }
+  for (Pose& T : poses) T = aligned_pose(a, qa, T);
 }
 
 void apply_alignment(const Alignment& a, std::vector<StampedPose>& poses) {
   const Eigen::Quaterniond qa = a.q();
-  for (StampedPose& sp : poses) {
-    sp.T.p = a.apply(sp.T.p);
-    sp.T.q = (qa * sp.T.q).normalized();
-  }
+  for (StampedPose& sp : poses) sp.T = aligned_pose(a, qa, sp.T);
 }
 
 namespace {
@@ -177,31 +180,74 @@ Alignment align_pos_yaw_single(const Pose& est0, const Pose& gt0) {
   return a;
 }
 
-Alignment compute_alignment(AlignType type, const std::vector<Pose>& est, const std::vector<Pose>& gt,
-                            int n_align) {
-  check_sizes(static_cast<Eigen::Index>(est.size()), static_cast<Eigen::Index>(gt.size()));
-  if (type == AlignType::kNone) return Alignment{};
-  if (est.empty()) throw InputError("alignment needs at least one matched pose pair");
-  if (type == AlignType::kOrigin) return align_origin(est.front(), gt.front());
+namespace {
 
-  const std::size_t n = (n_align <= 0 || static_cast<std::size_t>(n_align) >= est.size())
-                            ? est.size()
-                            : static_cast<std::size_t>(n_align);
-  if (type == AlignType::kPosYaw && n == 1) return align_pos_yaw_single(est.front(), gt.front());
+/// The matched poses of one side: poses[index[k]], or poses[k] when index is null.
+struct Side {
+  const std::vector<Pose>& poses;
+  const std::vector<std::size_t>* index = nullptr;
+  const Pose& operator[](std::size_t k) const { return poses[index ? (*index)[k] : k]; }
+  bool in_order(std::size_t n) const {  // the first n pairs are poses 0, 1, ..., n - 1
+    if (!index) return true;
+    for (std::size_t k = 0; k < n; ++k)
+      if ((*index)[k] != k) return false;
+    return true;
+  }
+};
+
+/// The positions of the first n matched poses as a 3×n matrix: a view of the poses themselves when they
+/// are in order (no copy: the alignment reads the same numbers), else gathered into `store`.
+Eigen::Ref<const Eigen::Matrix3Xd> positions(const Side& side, std::size_t n, Eigen::Matrix3Xd& store,
+                                             unsigned threads) {
+  static_assert(sizeof(Pose) % sizeof(double) == 0, "a pose is a whole number of doubles");
+  const auto cols = static_cast<Eigen::Index>(n);
+  if (side.in_order(n))
+    return Eigen::Map<const Eigen::Matrix3Xd, 0, Eigen::OuterStride<>>(
+        side.poses.front().p.data(), 3, cols, Eigen::OuterStride<>(sizeof(Pose) / sizeof(double)));
+  store.resize(3, cols);
+  parallel_ranges(n, 65536, threads, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) store.col(static_cast<Eigen::Index>(i)) = side[i].p;
+  });
+  return store;
+}
+
+/// compute_alignment over `size` matched pairs est[k] ↔ gt[k].
+Alignment alignment_of(AlignType type, std::size_t size, const Side& est, const Side& gt, int n_align,
+                       unsigned threads) {
+  if (type == AlignType::kNone) return Alignment{};
+  if (size == 0) throw InputError("alignment needs at least one matched pose pair");
+  if (type == AlignType::kOrigin) return align_origin(est[0], gt[0]);
+
+  const std::size_t n =
+      (n_align <= 0 || static_cast<std::size_t>(n_align) >= size) ? size : static_cast<std::size_t>(n_align);
+  if (type == AlignType::kPosYaw && n == 1) return align_pos_yaw_single(est[0], gt[0]);
   if ((type == AlignType::kSe3 || type == AlignType::kSim3) && n_align > 0 && n_align < 3) {
     throw InputError(fmt::format("--n-align {} cannot determine a {} alignment (needs ≥ 3 pairs); use "
                                  "--align origin for a first-pose alignment",
                                  n_align, to_string(type)),
                      {"", 0, 0, "n_align"});
   }
-  Eigen::Matrix3Xd x(3, static_cast<Eigen::Index>(n));
-  Eigen::Matrix3Xd y(3, static_cast<Eigen::Index>(n));
-  for (std::size_t i = 0; i < n; ++i) {
-    x.col(static_cast<Eigen::Index>(i)) = est[i].p;
-    y.col(static_cast<Eigen::Index>(i)) = gt[i].p;
-  }
+  if (threads == 0) threads = available_cpus();
+  Eigen::Matrix3Xd x_store, y_store;
+  const Eigen::Ref<const Eigen::Matrix3Xd> x = positions(est, n, x_store, threads);
+  const Eigen::Ref<const Eigen::Matrix3Xd> y = positions(gt, n, y_store, threads);
   if (type == AlignType::kPosYaw) return align_pos_yaw(x, y);
   return umeyama_alignment(x, y, type == AlignType::kSim3);
+}
+
+}  // namespace
+
+Alignment compute_alignment(AlignType type, const std::vector<Pose>& est, const std::vector<Pose>& gt,
+                            int n_align) {
+  check_sizes(static_cast<Eigen::Index>(est.size()), static_cast<Eigen::Index>(gt.size()));
+  return alignment_of(type, est.size(), Side{est}, Side{gt}, n_align, 1);
+}
+
+Alignment compute_alignment(AlignType type, const std::vector<Pose>& est, const std::vector<std::size_t>& est_index,
+                            const std::vector<Pose>& gt, const std::vector<std::size_t>& gt_index, int n_align,
+                            unsigned threads) {
+  check_sizes(static_cast<Eigen::Index>(est_index.size()), static_cast<Eigen::Index>(gt_index.size()));
+  return alignment_of(type, est_index.size(), Side{est, &est_index}, Side{gt, &gt_index}, n_align, threads);
 }
 
 }  // namespace roe::eval

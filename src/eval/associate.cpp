@@ -43,12 +43,19 @@ Timestamp seconds_to_ns_checked(double s, const char* what) {
 }
 
 /// Index of the element of sorted `s` (+ shift) nearest to `t`; on equal distance the earlier one,
-/// and for a run of equal stamps its first element (numpy argmin semantics).
-std::size_t nearest(const std::vector<Timestamp>& s, Timestamp shift, Timestamp t) {
-  // lower_bound on s[i] + shift >= t  <=>  s[i] >= t - shift
+/// and for a run of equal stamps its first element (numpy argmin semantics). `from` is where the search
+/// starts: a lower bound of the answer's insertion point (0, or what the previous call with a smaller or
+/// equal `t - shift` left there); it is advanced to the insertion point of `t - shift`.
+std::size_t nearest(const std::vector<Timestamp>& s, Timestamp shift, Timestamp t, std::size_t& from) {
+  // lower_bound on s[i] + shift >= t  <=>  s[i] >= t - shift, galloping from `from` (the association's
+  // keys increase, so each search is short)
   const Timestamp key = t - shift;
-  auto it = std::lower_bound(s.begin(), s.end(), key);
-  std::size_t j = static_cast<std::size_t>(it - s.begin());
+  std::size_t lo = from, step = 1;
+  while (lo + step < s.size() && s[lo + step] < key) lo += step, step *= 2;
+  const auto first = s.begin() + static_cast<std::ptrdiff_t>(lo);
+  const auto last = s.begin() + static_cast<std::ptrdiff_t>(std::min(s.size(), lo + step + 1));
+  std::size_t j = static_cast<std::size_t>(std::lower_bound(first, last, key) - s.begin());
+  from = j;
   if (j == s.size()) {
     j = s.size() - 1;
   } else if (j > 0) {
@@ -104,14 +111,15 @@ Association associate(const std::vector<Timestamp>& t_est, const std::vector<Tim
   a.est_index.reserve(n_short);
   a.gt_index.reserve(n_short);
   a.dt_ns.reserve(n_short);
+  std::size_t from = 0;  // the stamps of the shorter one increase: so do the insertion points
   for (std::size_t k = 0; k < n_short; ++k) {
     std::size_t ie, ig;
     if (est_short) {
       ie = k;
-      ig = nearest(t_gt, 0, t_est[k] + offset);
+      ig = nearest(t_gt, 0, t_est[k] + offset, from);
     } else {
       ig = k;
-      ie = nearest(t_est, offset, t_gt[k]);
+      ie = nearest(t_est, offset, t_gt[k], from);
     }
     const Timestamp dt = t_gt[ig] - (t_est[ie] + offset);
     if (std::abs(dt) <= max_dt) {
@@ -192,7 +200,8 @@ std::string explain_no_match(const std::vector<Timestamp>& t_est, const std::vec
   std::sort(gs.begin(), gs.end());
   Timestamp best = std::numeric_limits<Timestamp>::max();
   for (Timestamp te : t_est) {
-    const std::size_t j = nearest(gs, 0, te + offset);
+    std::size_t from = 0;
+    const std::size_t j = nearest(gs, 0, te + offset, from);
     best = std::min(best, static_cast<Timestamp>(std::abs(gs[j] - (te + offset))));
   }
   std::string msg = fmt::format(

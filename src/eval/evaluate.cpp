@@ -7,14 +7,23 @@
 #include <cmath>
 
 #include "roe/core/error.hpp"
+#include "roe/core/parallel.hpp"
 
 namespace roe::eval {
 
 namespace {
 
-double path_length(const std::vector<Pose>& p) {
+/// Length of the path through the positions position(0), position(1), ..., position(n - 1).
+template <typename PositionAt>
+double path_length(std::size_t n, const PositionAt& position) {
   double L = 0.0;
-  for (std::size_t i = 1; i < p.size(); ++i) L += (p[i].p - p[i - 1].p).norm();
+  if (n == 0) return L;
+  Eigen::Vector3d prev = position(0);
+  for (std::size_t i = 1; i < n; ++i) {
+    const Eigen::Vector3d p = position(i);
+    L += (p - prev).norm();
+    prev = p;
+  }
   return L;
 }
 
@@ -121,8 +130,22 @@ void add_detection_calibration(const EstimateInput& est, const GroundTruthInput&
 }
 
 void add_rpe(Report& r) {
+  if (r.params.rpe.empty()) return;
+  // The RPE walks the matched pairs in many orders: copies of them, only here.
+  const std::size_t n = r.n_pairs();
+  std::vector<Pose> est(n), gt(n);
+  std::vector<Timestamp> t_est(n), t_gt(n);
+  parallel_ranges(n, kPairsPerTask, r.params.threads ? r.params.threads : available_cpus(),
+                  [&](std::size_t b, std::size_t e) {
+                    for (std::size_t k = b; k < e; ++k) {
+                      est[k] = r.est_aligned(k);
+                      gt[k] = r.gt(k);
+                      t_est[k] = r.t_est(k);
+                      t_gt[k] = r.t_gt(k);
+                    }
+                  });
   for (const RpeOptions& ro : r.params.rpe) {
-    r.rpe.push_back(compute_rpe(r.est_aligned, r.gt, r.t_est, r.t_gt, ro));
+    r.rpe.push_back(compute_rpe(est, gt, t_est, t_gt, ro));
     if (r.rpe.back().pairs.empty())
       r.warnings.push_back(fmt::format("RPE delta {} {}: no pair of matched poses is that far apart{}", ro.delta,
                                        to_string(ro.unit),
@@ -166,17 +189,6 @@ Report evaluate(const EstimateInput& est, const GroundTruthInput& gt, const Eval
   const Association& a = r.association;
   warn_duplicates(a, ao.policy, r.warnings);
   if (a.size() == 0) throw InputError(explain_no_match(est.t_ns, gt.t_ns, ao), {est.source});
-  std::vector<Pose> pe;
-  pe.reserve(a.size());
-  r.gt.reserve(a.size());
-  r.t_est.reserve(a.size());
-  r.t_gt.reserve(a.size());
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    pe.push_back(est.poses[a.est_index[k]]);
-    r.gt.push_back(gt.poses[a.gt_index[k]]);
-    r.t_est.push_back(est.t_ns[a.est_index[k]]);
-    r.t_gt.push_back(gt.t_ns[a.gt_index[k]]);
-  }
   for (Timestamp d : a.dt_ns) r.max_abs_dt_s = std::max(r.max_abs_dt_s, std::abs(to_seconds(d)));
   // The most pairs to expect: the sparser stream's poses inside the span both trajectories cover (a
   // ground truth covering a longer session than the estimate is not a matching problem).
@@ -189,11 +201,16 @@ Report evaluate(const EstimateInput& est, const GroundTruthInput& gt, const Eval
         a.size(), ov.n_max(), ov.n_est, ov.n_gt, to_seconds(ov.begin_ns), to_seconds(ov.end_ns)));
   }
 
-  r.alignment = compute_alignment(params.align, pe, r.gt, params.n_align);
-  r.est_aligned = std::move(pe);
-  apply_alignment(r.alignment, r.est_aligned);
+  const unsigned threads = params.threads ? params.threads : available_cpus();
+  r.alignment = compute_alignment(params.align, est.poses, a.est_index, gt.poses, a.gt_index, params.n_align, threads);
+  r.alignment_q = r.alignment.q();
+  r.est_t_ns = &est.t_ns;
+  r.est_poses = &est.poses;
+  r.gt_t_ns = &gt.t_ns;
+  r.gt_poses = &gt.poses;
   r.cov = aligned_covariances(est, r, r.warnings);
-  r.ape = compute_ape(r.est_aligned, r.gt, r.cov);
+  r.ape = compute_ape(
+      r.n_pairs(), [&r](std::size_t k) { return std::pair<Pose, Pose>(r.est_aligned(k), r.gt(k)); }, r.cov, threads);
   if ((params.align == AlignType::kSe3 || params.align == AlignType::kSim3) && params.n_align < 0 &&
       r.ape.pos_mean_m.cwiseAbs().maxCoeff() > 1e-6)
     r.warnings.push_back("internal check: the mean position error after Umeyama is not ~0");
@@ -204,8 +221,14 @@ Report evaluate(const EstimateInput& est, const GroundTruthInput& gt, const Eval
   add_rpe(r);
   add_objects(est, gt, r);
   add_detection_calibration(est, gt, r);
-  r.path_length_est_m = path_length(r.est_aligned);
-  r.path_length_gt_m = path_length(r.gt);
+  parallel_for(2, threads, [&r](std::size_t k) {  // independent sums
+    const auto& poses = *(k == 0 ? r.est_poses : r.gt_poses);
+    const auto& index = k == 0 ? r.association.est_index : r.association.gt_index;
+    (k == 0 ? r.path_length_est_m : r.path_length_gt_m) = path_length(r.n_pairs(), [&](std::size_t i) {
+      const Eigen::Vector3d& p = poses[index[i]].p;
+      return k == 0 ? r.alignment.apply(p) : p;  // the aligned estimate's position, as est_aligned() has it
+    });
+  });
   return r;
 }
 

@@ -8,9 +8,11 @@
 #include <limits>
 
 #include "roe/core/error.hpp"
+#include "roe/core/parallel.hpp"
 #include "roe/math/euler.hpp"
 
 namespace roe::eval {
+
 
 Stats compute_stats(std::vector<double> v) {
   Stats s;
@@ -43,13 +45,6 @@ Stats compute_stats(std::vector<double> v) {
     s.median = 0.5 * (lower + upper);
   }
   return s;
-}
-
-Eigen::Vector3d rmse_per_axis(const std::vector<Eigen::Vector3d>& v) {
-  if (v.empty()) return Eigen::Vector3d::Zero();
-  Eigen::Vector3d acc = Eigen::Vector3d::Zero();
-  for (const auto& x : v) acc += x.cwiseAbs2();
-  return (acc / static_cast<double>(v.size())).cwiseSqrt();
 }
 
 PoseError pose_error(const Pose& est, const Pose& gt) {
@@ -86,43 +81,68 @@ PoseCovariance align_covariance(const PoseCovariance& c, const Eigen::Matrix3d& 
 }
 
 ApeResult compute_ape(const std::vector<Pose>& est, const std::vector<Pose>& gt,
-                      const std::vector<PoseCovariance>& cov) {
+                      const std::vector<PoseCovariance>& cov, unsigned threads) {
   if (est.size() != gt.size()) {
     throw InputError(
         fmt::format("APE needs matched pairs: {} estimate vs {} ground-truth poses", est.size(), gt.size()));
   }
-  if (!cov.empty() && cov.size() != est.size()) {
-    throw InputError(fmt::format("APE: {} covariances for {} pairs", cov.size(), est.size()));
+  return compute_ape(
+      est.size(), [&](std::size_t i) { return std::pair<Pose, Pose>(est[i], gt[i]); }, cov, threads);
+}
+
+ApeResult compute_ape(std::size_t n, const PosePairAt& pair, const std::vector<PoseCovariance>& cov,
+                      unsigned threads) {
+  if (!cov.empty() && cov.size() != n) {
+    throw InputError(fmt::format("APE: {} covariances for {} pairs", cov.size(), n));
   }
   ApeResult r;
-  const std::size_t n = est.size();
-  r.errors.reserve(n);
+  if (!cov.empty()) r.nees.resize(n);
   std::vector<double> tn(n), an(n);
-  std::vector<Eigen::Vector3d> dp(n), rpy(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    r.errors.push_back(pose_error(est[i], gt[i]));
-    const PoseError& e = r.errors.back();
-    tn[i] = e.dp.norm();
-    an[i] = e.angle_deg;
-    dp[i] = e.dp;
-    rpy[i] = e.rpy_deg;
-    r.pos_mean_m += e.dp;
+  // Each pair's errors on its own (in parallel); the sums take the pairs in order, whichever thread
+  // computed them, so the result does not depend on the thread count. Only the norms stay (for the
+  // medians): a pair's errors are recomputed where they are written (Report::error).
+  using Parts = std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>;  // dp, rpy_deg
+  Eigen::Vector3d sum_dp = Eigen::Vector3d::Zero(), sq_dp = Eigen::Vector3d::Zero(),
+                  sq_rpy = Eigen::Vector3d::Zero();
+  parallel_ranges_ordered(
+      n, kPairsPerTask, threads ? threads : available_cpus(),
+      [&](std::size_t b, std::size_t e) {
+        Parts parts(e - b);
+        for (std::size_t i = b; i < e; ++i) {
+          const auto [est, gt] = pair(i);
+          const PoseError pe = pose_error(est, gt);
+          tn[i] = pe.dp.norm();
+          an[i] = pe.angle_deg;
+          parts[i - b] = {pe.dp, pe.rpy_deg};
+          if (!cov.empty()) r.nees[i] = pose_nees(est, gt, cov[i]);
+        }
+        return parts;
+      },
+      [&](Parts&& parts) {
+        for (const auto& [dp, rpy] : parts) {
+          sum_dp += dp;
+          sq_dp += dp.cwiseAbs2();
+          sq_rpy += rpy.cwiseAbs2();
+        }
+      });
+  if (n > 0) {
+    const double N = static_cast<double>(n);
+    r.pos_mean_m = sum_dp / N;
+    r.pos_rmse_m = (sq_dp / N).cwiseSqrt();
+    r.rpy_rmse_deg = (sq_rpy / N).cwiseSqrt();
   }
-  if (n > 0) r.pos_mean_m /= static_cast<double>(n);
-  r.trans_m = compute_stats(tn);
-  r.rot_deg = compute_stats(an);
-  r.pos_rmse_m = rmse_per_axis(dp);
-  r.rpy_rmse_deg = rmse_per_axis(rpy);
+  parallel_for(2, threads ? threads : available_cpus(), [&](std::size_t k) {  // two independent statistics
+    if (k == 0) r.trans_m = compute_stats(std::move(tn));
+    else r.rot_deg = compute_stats(std::move(an));
+  });
   r.armse_p_m = r.trans_m.mean;
   r.armse_r_deg = r.rot_deg.mean;
   if (!cov.empty()) {
-    r.nees.reserve(n);
     double sp = 0.0, sr = 0.0;
     std::size_t np = 0, nr = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      r.nees.push_back(pose_nees(est[i], gt[i], cov[i]));
-      if (std::isfinite(r.nees.back().pos)) sp += r.nees.back().pos, ++np;
-      if (std::isfinite(r.nees.back().rot)) sr += r.nees.back().rot, ++nr;
+    for (const Nees& e : r.nees) {
+      if (std::isfinite(e.pos)) sp += e.pos, ++np;
+      if (std::isfinite(e.rot)) sr += e.rot, ++nr;
     }
     if (np > 0) r.anees_p = sp / static_cast<double>(np);
     if (nr > 0) r.anees_r = sr / static_cast<double>(nr);

@@ -115,26 +115,26 @@ bool CsvReader::is_blank_or_comment(std::string_view line) const {
   return !opt_.comment_prefix.empty() && t.substr(0, opt_.comment_prefix.size()) == opt_.comment_prefix;
 }
 
-/// The number that starts at line[at], when it ends where its field ends: at the line's end or at a
-/// character for which `field_end` is true. The text a field's parse (parse_double) sees then ends right
-/// there too, so it would get the same value and error code.
+/// Parses the number that starts at line[at] into `n` (value and error code) and sets `end` after it;
+/// true when it ends where its field ends: at the line's end or at a character for which `field_end` is
+/// true. The text a field's parse (parse_double) sees then ends right there too, so it would get the same
+/// value and error code. (The result is written in place: a Number returned by value and copied into
+/// the row's vector cost a store-forwarding stall per field.)
 template <typename FieldEnd>
-std::optional<CsvReader::Number> number_at(std::string_view line, std::size_t at, FieldEnd field_end,
-                                           std::size_t& end) {
+bool number_at(std::string_view line, std::size_t at, FieldEnd field_end, std::size_t& end, CsvReader::Number& n) {
   const char* first = line.data() + at;
   const char* last = line.data() + line.size();
-  if (first == last || *first == '+') return std::nullopt;  // parse_double's own handling of '+'
-  CsvReader::Number n;
+  if (first == last || *first == '+') return false;  // parse_double's own handling of '+'
   const auto r = std::from_chars(first, last, n.value, std::chars_format::general);
-  if (r.ec == std::errc::invalid_argument) return std::nullopt;
+  if (r.ec == std::errc::invalid_argument) return false;
   end = static_cast<std::size_t>(r.ptr - line.data());
-  if (r.ptr != last && !field_end(*r.ptr)) return std::nullopt;
+  if (r.ptr != last && !field_end(*r.ptr)) return false;
   n.ec = r.ec;
-  return n;
+  return true;
 }
 
 void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<std::string_view>& out,
-                      std::vector<std::optional<Number>>* numbers) {
+                      std::vector<Number>* numbers) {
   out.clear();
   if (numbers) numbers->clear();
   // The number of each field read as a number in an earlier row (numbers != null) is parsed where the
@@ -147,12 +147,12 @@ void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<s
       while (i < line.size() && is_space(line[i])) ++i;
       if (i >= line.size()) break;
       const std::size_t start = i;
-      std::optional<Number> n;
-      if (numeric()) n = number_at(line, start, is_space, i);
-      if (!n)
+      const bool as_number = numeric();
+      Number* n = numbers ? &numbers->emplace_back() : nullptr;
+      if (as_number) n->parsed = number_at(line, start, is_space, i, *n);
+      if (!n || !n->parsed)
         for (i = start; i < line.size() && !is_space(line[i]);) ++i;
-      out.push_back(line.substr(start, i - start));
-      if (numbers) numbers->push_back(n);
+      out.emplace_back(line.data() + start, i - start);
     }
     return;
   }
@@ -199,18 +199,20 @@ void CsvReader::split(std::string_view line, std::int64_t line_no, std::vector<s
     if (numeric()) {  // a number, then (trimmed) spaces, then the delimiter or the line's end
       const std::size_t start = opt_.trim ? k : i;
       std::size_t stop = 0;
-      const auto n = number_at(
-          line, start, [&](char c) { return c == d || (opt_.trim && is_space(c)); }, stop);
+      Number& n = numbers->emplace_back();
+      const bool ok = number_at(
+          line, start, [&](char c) { return c == d || (opt_.trim && is_space(c)); }, stop, n);
       std::size_t q = stop;
-      if (n && opt_.trim)
+      if (ok && opt_.trim)
         while (q < line.size() && is_space(line[q]) && line[q] != d) ++q;
-      if (n && (q == line.size() || line[q] == d)) {
-        out.push_back(line.substr(start, stop - start));
-        numbers->push_back(n);
+      if (ok && (q == line.size() || line[q] == d)) {
+        n.parsed = true;
+        out.emplace_back(line.data() + start, stop - start);
         if (q == line.size()) return;
         i = q + 1;
         continue;
       }
+      numbers->pop_back();  // split as text below
     }
     if (numbers) numbers->emplace_back();
     const std::size_t end = line.find(d, i);
@@ -355,9 +357,9 @@ double CsvReader::parse_double(std::size_t i, bool allow_nonfinite) const {
   if (i >= numeric_.size()) numeric_.resize(i + 1, 0);
   numeric_[i] = 1;  // from the next row on, parsed while splitting
   double v = 0.0;
-  if (i < numbers_.size() && numbers_[i]) {  // parsed while the row was split: the whole field, no '+'
-    v = numbers_[i]->value;
-    if (numbers_[i]->ec == std::errc::result_out_of_range) throw error(i, "number out of range: " + shown(f));
+  if (i < numbers_.size() && numbers_[i].parsed) {  // parsed while the row was split: the whole field, no '+'
+    v = numbers_[i].value;
+    if (numbers_[i].ec == std::errc::result_out_of_range) throw error(i, "number out of range: " + shown(f));
   } else {
     std::string_view s = f;
     if (s.front() == '+') s.remove_prefix(1);

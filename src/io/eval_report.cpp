@@ -2,9 +2,11 @@
 #include "roe/io/eval_report.hpp"
 
 #include <cmath>
+#include <functional>
 
 #include <fmt/format.h>
 
+#include "roe/core/parallel.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/trajectory_io.hpp"
@@ -92,7 +94,16 @@ json association_json(const eval::Report& r) {
           {"rule", "nearest neighbour from the shorter trajectory, |t_gt - (t_est + offset)| <= max_dt (evo)"}};
 }
 
-std::string errors_csv(const eval::Report& r) {
+/// Every pair's errors (Report::error), computed on every allowed CPU for the two error tables.
+std::vector<eval::PoseError> pair_errors(const eval::Report& r) {
+  std::vector<eval::PoseError> e(r.n_pairs());
+  parallel_ranges(e.size(), eval::kPairsPerTask, available_cpus(), [&](std::size_t b, std::size_t end) {
+    for (std::size_t k = b; k < end; ++k) e[k] = r.error(k);
+  });
+  return e;
+}
+
+std::string errors_csv(const eval::Report& r, const std::vector<eval::PoseError>& errors) {
   CsvWriter w;
   std::vector<std::string> h = {"t_gt",     "t_est",    "dt",        "ex_m",    "ey_m",     "ez_m",
                                 "e_norm_m", "roll_deg", "pitch_deg", "yaw_deg", "angle_deg"};
@@ -102,8 +113,8 @@ std::string errors_csv(const eval::Report& r) {
   }
   w.header(h);
   for (std::size_t k = 0; k < r.association.size(); ++k) {
-    const auto& e = r.ape.errors[k];
-    w.add_seconds(r.t_gt[k]).add_seconds(r.t_est[k]).add(to_seconds(r.association.dt_ns[k]));
+    const eval::PoseError& e = errors[k];
+    w.add_seconds(r.t_gt(k)).add_seconds(r.t_est(k)).add(to_seconds(r.association.dt_ns[k]));
     w.add(e.dp.x()).add(e.dp.y()).add(e.dp.z()).add(e.dp.norm());
     w.add(e.rpy_deg.x()).add(e.rpy_deg.y()).add(e.rpy_deg.z()).add(e.angle_deg);
     if (!r.cov.empty()) w.add(r.ape.nees[k].pos).add(r.ape.nees[k].rot);
@@ -113,13 +124,13 @@ std::string errors_csv(const eval::Report& r) {
 }
 
 /// cnspy PoseTypedStamped error file (type5: p_est - p_gt, q = R_est^T R_gt).
-std::string cnspy_errors_csv(const eval::Report& r) {
+std::string cnspy_errors_csv(const eval::Report& r, const std::vector<eval::PoseError>& errors) {
   CsvWriter w;
   w.header({"t", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "scale", "est_err_type"});
   const double scale = r.path_length_est_m > 0.0 ? r.path_length_gt_m / r.path_length_est_m : 1.0;
   for (std::size_t k = 0; k < r.association.size(); ++k) {
-    const auto& e = r.ape.errors[k];
-    w.add_seconds(r.t_gt[k]).add(e.dp.x()).add(e.dp.y()).add(e.dp.z());
+    const eval::PoseError& e = errors[k];
+    w.add_seconds(r.t_gt(k)).add(e.dp.x()).add(e.dp.y()).add(e.dp.z());
     w.add(e.q_err.x()).add(e.q_err.y()).add(e.q_err.z()).add(e.q_err.w()).add(scale).add("type5").end_row();
   }
   return w.str();
@@ -157,8 +168,8 @@ std::string rpe_csv(const eval::Report& r) {
   w.header({"delta", "unit", "t_i", "t_j", "dt_s", "path_gt_m", "trans_m", "rot_deg", "drift_pct"});
   for (const eval::RpeResult& e : r.rpe) {
     for (const eval::RpePair& p : e.pairs) {
-      w.add(e.options.delta).add(eval::to_string(e.options.unit)).add_seconds(r.t_gt[p.i]).add_seconds(r.t_gt[p.j]);
-      w.add(dt_seconds(r.t_gt[p.i], r.t_gt[p.j])).add(p.path_gt_m).add(p.trans_m).add(p.rot_deg);
+      w.add(e.options.delta).add(eval::to_string(e.options.unit)).add_seconds(r.t_gt(p.i)).add_seconds(r.t_gt(p.j));
+      w.add(dt_seconds(r.t_gt(p.i), r.t_gt(p.j))).add(p.path_gt_m).add(p.trans_m).add(p.rot_deg);
       if (std::isfinite(p.trans_pct))
         w.add(p.trans_pct);
       else
@@ -354,12 +365,25 @@ std::vector<std::string> write_eval_files(const OutputDir& dir, const eval::Repo
     write_file_atomic(dir.file(name), text);
     files.push_back(name);
   };
-  put("est_matched_aligned.csv", format_trajectory(r.t_est, r.est_aligned, TrajectoryFormat::kCsv));
-  put("gt_matched.csv", format_trajectory(r.t_gt, r.gt, TrajectoryFormat::kCsv));
-  put("est_matched_aligned.tum", format_trajectory(r.t_est, r.est_aligned, TrajectoryFormat::kTum));
-  put("gt_matched.tum", format_trajectory(r.t_gt, r.gt, TrajectoryFormat::kTum));
-  put("errors.csv", errors_csv(r));
-  put("err_matched_aligned.csv", cnspy_errors_csv(r));
+  // The matched trajectories, streamed (the largest tables: memory does not grow with them).
+  const std::function<StampedPose(std::size_t)> est = [&r](std::size_t k) {
+    return StampedPose{r.t_est(k), r.est_aligned(k)};
+  };
+  const std::function<StampedPose(std::size_t)> gt = [&r](std::size_t k) { return StampedPose{r.t_gt(k), r.gt(k)}; };
+  const auto put_trajectory = [&](const std::string& name, const std::function<StampedPose(std::size_t)>& at,
+                                  TrajectoryFormat format) {
+    write_trajectory(dir.file(name), r.n_pairs(), at, format);
+    files.push_back(name);
+  };
+  put_trajectory("est_matched_aligned.csv", est, TrajectoryFormat::kCsv);
+  put_trajectory("gt_matched.csv", gt, TrajectoryFormat::kCsv);
+  put_trajectory("est_matched_aligned.tum", est, TrajectoryFormat::kTum);
+  put_trajectory("gt_matched.tum", gt, TrajectoryFormat::kTum);
+  {
+    const std::vector<eval::PoseError> errors = pair_errors(r);
+    put("errors.csv", errors_csv(r, errors));
+    put("err_matched_aligned.csv", cnspy_errors_csv(r, errors));
+  }
   put("summary.csv", summary_csv(r, c));
   if (!r.rpe.empty()) {
     put("rpe.csv", rpe_csv(r));

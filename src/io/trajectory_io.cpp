@@ -457,16 +457,16 @@ void apply_kitti_times(Trajectory& tr, const fs::path& times_file) {
 
 namespace {
 
-/// The text of a trajectory file; with a `sink`, streamed into it in pieces as it grows (the writer
-/// returned then holds nothing).
-CsvWriter fill_trajectory(const std::vector<Timestamp>& t_ns, const std::vector<Pose>& poses, TrajectoryFormat format,
+/// The text of a trajectory file of n poses, at(i) the i-th; with a `sink`, streamed into it in pieces as it
+/// grows (the writer returned then holds nothing).
+CsvWriter fill_trajectory(std::size_t n, const std::function<StampedPose(std::size_t)>& at, TrajectoryFormat format,
                           AtomicFile* sink) {
-  ROE_CHECK(t_ns.size() == poses.size(), "one stamp per pose");
   if (format == TrajectoryFormat::kAuto) format = TrajectoryFormat::kCsv;
   const char delim = format == TrajectoryFormat::kTum || format == TrajectoryFormat::kKitti ? ' ' : ',';
   CsvWriter w(delim);
   if (format == TrajectoryFormat::kKitti) {  // no header, no stamps
-    for (const Pose& T : poses) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const Pose T = at(i).T;
       const Eigen::Matrix3d R = T.R();
       for (int i = 0; i < 3; ++i) w.add(R(i, 0)).add(R(i, 1)).add(R(i, 2)).add(T.p(i));
       w.end_row();
@@ -491,12 +491,13 @@ CsvWriter fill_trajectory(const std::vector<Timestamp>& t_ns, const std::vector<
       w.header({"t", "tx", "ty", "tz", "qx", "qy", "qz", "qw"});
       break;
   }
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    const Pose& T = poses[i];
+  for (std::size_t i = 0; i < n; ++i) {
+    const StampedPose sp = at(i);
+    const Pose& T = sp.T;
     if (format == TrajectoryFormat::kEuroc || format == TrajectoryFormat::kCsvNs) {
-      w.add(static_cast<std::int64_t>(t_ns[i]));
+      w.add(static_cast<std::int64_t>(sp.t_ns));
     } else {
-      w.add_seconds(t_ns[i]);
+      w.add_seconds(sp.t_ns);
     }
     w.add(T.p.x()).add(T.p.y()).add(T.p.z());
     if (format == TrajectoryFormat::kEuroc) {
@@ -511,18 +512,33 @@ CsvWriter fill_trajectory(const std::vector<Timestamp>& t_ns, const std::vector<
   return w;
 }
 
+std::function<StampedPose(std::size_t)> pose_at(const std::vector<Timestamp>& t_ns, const std::vector<Pose>& poses) {
+  ROE_CHECK(t_ns.size() == poses.size(), "one stamp per pose");
+  return [&t_ns, &poses](std::size_t i) { return StampedPose{t_ns[i], poses[i]}; };
+}
+
 }  // namespace
+
+std::string format_trajectory(std::size_t n, const std::function<StampedPose(std::size_t)>& at,
+                              TrajectoryFormat format) {
+  return fill_trajectory(n, at, format, nullptr).str();
+}
 
 std::string format_trajectory(const std::vector<Timestamp>& t_ns, const std::vector<Pose>& poses,
                               TrajectoryFormat format) {
-  return fill_trajectory(t_ns, poses, format, nullptr).str();
+  return format_trajectory(poses.size(), pose_at(t_ns, poses), format);
+}
+
+void write_trajectory(const fs::path& file, std::size_t n, const std::function<StampedPose(std::size_t)>& at,
+                      TrajectoryFormat format) {
+  AtomicFile f(file);
+  fill_trajectory(n, at, format, &f);
+  f.commit();
 }
 
 void write_trajectory(const fs::path& file, const std::vector<Timestamp>& t_ns,
                       const std::vector<Pose>& poses, TrajectoryFormat format) {
-  AtomicFile f(file);
-  fill_trajectory(t_ns, poses, format, &f);
-  f.commit();
+  write_trajectory(file, poses.size(), pose_at(t_ns, poses), format);
 }
 
 void write_trajectory(const fs::path& file, const std::vector<StampedPose>& poses, TrajectoryFormat format) {

@@ -773,3 +773,56 @@ TEST_CASE("roe eval --plot: interpreter not found vs matplotlib import failure",
     CHECK_FALSE(fs::exists(eval_dir));
   }
 }
+
+TEST_CASE("roe eval: the two inputs are read at once, their errors as a sequential read reports them",
+          "[app][eval]") {
+  // The estimate is read on this thread while the ground truth is read on another: a bad file is named
+  // with its line and column, and when both are bad it is the estimate (the file a sequential read
+  // opens first), every time.
+  const fs::path dir = fs::temp_directory_path() / "roe_test_eval_concurrent_errors";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const auto write = [&](const std::string& name, bool tum, int bad_line) {
+    std::ofstream f(dir / name);
+    if (!tum) f << "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n";
+    for (int i = 0; i < 20000; ++i) {
+      const int line = i + (tum ? 1 : 2);
+      const std::string x = line == bad_line ? "1.5x" : std::to_string(0.01 * i);
+      if (tum)
+        f << fmt::format("{}.{:09d} {} {} {} 0 0 0 1\n", 1000 + i / 100, (i % 100) * 10'000'000, x, i % 7, i % 5);
+      else
+        f << fmt::format("{},{},{},{},1,0,0,0\n", 1'000'000'000'000LL + i * 10'000'000LL, x, i % 7, i % 5);
+    }
+  };
+  write("est.tum", true, 0);
+  write("est_bad.tum", true, 15000);
+  write("gt.csv", false, 0);
+  write("gt_bad.csv", false, 123);
+  app::EvalOptions o;
+  o.no_out = true;
+  const auto error_of = [&](const std::string& est, const std::string& gt) {
+    o.est = (dir / est).string();
+    o.gt = (dir / gt).string();
+    try {
+      app::run_eval(o);
+    } catch (const InputError& e) {
+      return e.context();
+    }
+    return ErrorContext("");
+  };
+  CHECK(error_of("est.tum", "gt.csv").file.empty());
+  for (int rep = 0; rep < 10; ++rep) {
+    const ErrorContext est_bad = error_of("est_bad.tum", "gt.csv");
+    CHECK(est_bad.file == (dir / "est_bad.tum").string());
+    CHECK(est_bad.line == 15000);
+    CHECK(est_bad.column == 2);
+    const ErrorContext gt_bad = error_of("est.tum", "gt_bad.csv");
+    CHECK(gt_bad.file == (dir / "gt_bad.csv").string());
+    CHECK(gt_bad.line == 123);
+    CHECK(gt_bad.column == 2);
+    const ErrorContext both = error_of("est_bad.tum", "gt_bad.csv");  // the ground truth fails first in time
+    CHECK(both.file == (dir / "est_bad.tum").string());
+    CHECK(both.line == 15000);
+  }
+  fs::remove_all(dir);
+}

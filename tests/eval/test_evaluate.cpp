@@ -50,7 +50,7 @@ TEST_CASE("evaluate: association, SE(3) alignment and APE in one typed report", 
   CHECK(r.ape.trans_m.rmse == Approx(0.02).epsilon(0.02));
   CHECK(r.ape.pos_rmse_m.x() < 1e-3);
   CHECK(r.ape.pos_rmse_m.z() == Approx(0.02).epsilon(0.02));
-  CHECK(r.est_aligned.size() == 200);
+  CHECK(r.n_pairs() == 200);
   CHECK(r.rpe.size() == 1);
   CHECK(r.path_length_gt_m > 0.0);
   CHECK_FALSE(r.has_detections);
@@ -119,4 +119,76 @@ TEST_CASE("evaluate: no match and bad parameters are InputErrors naming the sour
   origin.align = AlignType::kOrigin;
   origin.n_align = 5;
   CHECK(check_params(origin).size() == 1);  // --n-align is ignored with origin: said, not silent
+}
+
+TEST_CASE("evaluate: the report is the same bit for bit on any number of threads, and as on copied pairs",
+          "[eval][evaluate]") {
+  // 40000 poses: several parallel tasks. The estimate at every third ground-truth stamp (shifted by
+  // 2 ms), so the pairs' indices differ from 0, 1, 2, ...
+  const Pair p = helix(40000);
+  std::vector<Timestamp> t_est;
+  std::vector<Pose> est;
+  for (std::size_t i = 0; i < p.t.size(); i += 3) {
+    t_est.push_back(p.t[i] + 2'000'000);
+    est.push_back(p.est[i]);
+  }
+  const std::vector<std::optional<PoseCovariance>> no_cov;
+  for (const AlignType type : {AlignType::kSe3, AlignType::kSim3, AlignType::kPosYaw, AlignType::kOrigin}) {
+    CAPTURE(to_string(type));
+    EvalParams params;
+    params.align = type;
+    params.rpe.push_back(RpeOptions{});
+    params.threads = 1;
+    const Report one = evaluate({t_est, est, no_cov, nullptr, "est"}, {p.t, p.gt}, params);
+    params.threads = 3;
+    const Report three = evaluate({t_est, est, no_cov, nullptr, "est"}, {p.t, p.gt}, params);
+    REQUIRE(one.n_pairs() == est.size());
+    REQUIRE(three.n_pairs() == est.size());
+    CHECK(one.association.gt_index[100] == 300);
+    CHECK(one.alignment.R == three.alignment.R);
+    CHECK(one.alignment.t == three.alignment.t);
+    CHECK(one.alignment.s == three.alignment.s);
+    CHECK(one.ape.trans_m.rmse == three.ape.trans_m.rmse);
+    CHECK(one.ape.trans_m.median == three.ape.trans_m.median);
+    CHECK(one.ape.rot_deg.mean == three.ape.rot_deg.mean);
+    CHECK(one.ape.pos_rmse_m == three.ape.pos_rmse_m);
+    CHECK(one.ape.rpy_rmse_deg == three.ape.rpy_rmse_deg);
+    CHECK(one.path_length_est_m == three.path_length_est_m);
+    CHECK(one.path_length_gt_m == three.path_length_gt_m);
+    CHECK(one.rpe[0].trans_m.rmse == three.rpe[0].trans_m.rmse);
+    // The same as on copies of the matched pairs, aligned in place (the evaluation before 2026-12-02).
+    std::vector<Pose> pe, pg;
+    for (std::size_t k = 0; k < one.n_pairs(); ++k) {
+      pe.push_back(est[one.association.est_index[k]]);
+      pg.push_back(p.gt[one.association.gt_index[k]]);
+    }
+    const Alignment al = compute_alignment(type, pe, pg);
+    CHECK(al.R == one.alignment.R);
+    CHECK(al.t == one.alignment.t);
+    if (type == AlignType::kSe3 || type == AlignType::kSim3) {  // and as on positions copied into a matrix
+      Eigen::Matrix3Xd x(3, static_cast<Eigen::Index>(pe.size())), y(3, static_cast<Eigen::Index>(pe.size()));
+      for (std::size_t k = 0; k < pe.size(); ++k) {
+        x.col(static_cast<Eigen::Index>(k)) = pe[k].p;
+        y.col(static_cast<Eigen::Index>(k)) = pg[k].p;
+      }
+      const Alignment u = umeyama_alignment(x, y, type == AlignType::kSim3);
+      CHECK(u.R == one.alignment.R);
+      CHECK(u.t == one.alignment.t);
+      CHECK(u.s == one.alignment.s);
+    }
+    apply_alignment(al, pe);
+    bool same_poses = true;
+    for (std::size_t k = 0; k < pe.size(); ++k) {
+      const Pose a = one.est_aligned(k);
+      same_poses = same_poses && a.p == pe[k].p && a.q.coeffs() == pe[k].q.coeffs() && one.gt(k).p == pg[k].p &&
+                   one.t_est(k) == t_est[one.association.est_index[k]];
+    }
+    CHECK(same_poses);
+    const ApeResult ape = compute_ape(pe, pg, {}, 1);
+    CHECK(ape.trans_m.rmse == one.ape.trans_m.rmse);
+    CHECK(ape.rot_deg.median == one.ape.rot_deg.median);
+    CHECK(ape.rpy_rmse_deg == one.ape.rpy_rmse_deg);
+    const PoseError e = one.error(777);
+    CHECK(e.dp == pose_error(pe[777], pg[777]).dp);
+  }
 }

@@ -144,3 +144,71 @@ TEST_CASE("compute_stats: sigma of values far from zero", "[eval][metrics]") {
   CHECK(far.std == Approx(near.std).epsilon(1e-6));
   CHECK(far.median == Approx(1.0e8 + near.median).epsilon(1e-15));
 }
+
+TEST_CASE("compute_ape: the parallel pairs give the sequential loop's figures bit for bit", "[eval][metrics]") {
+  // Random pairs far from the origin with errors spread over orders of magnitude, so that any other
+  // order of summation would show in the last bits; with covariances (NEES, some not positive definite).
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const std::size_t n = 40000;  // three parallel tasks of pairs, the last one shorter
+  std::vector<Pose> est, gt;
+  std::vector<PoseCovariance> cov;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Pose t(Eigen::Quaterniond(Eigen::Vector4d(g(rng), g(rng), g(rng), g(rng)).normalized()),
+                 Vector3d(1e3 + 50 * u(rng), -2e3 + 50 * u(rng), 10 * u(rng)));
+    const double scale = std::pow(10.0, 4 * u(rng) - 3);  // errors from 1e-7 to 10
+    const Pose d(Eigen::Quaterniond(math::exp_so3(Vector3d(g(rng), g(rng), g(rng)) * 0.3 * scale)),
+                 Vector3d(g(rng), g(rng), g(rng)) * scale);
+    gt.push_back(t);
+    est.push_back(t * d);
+    PoseCovariance c;
+    const Eigen::Matrix3d A = Eigen::Matrix3d::Random();
+    c.P_p = A * A.transpose() + 1e-3 * Eigen::Matrix3d::Identity();
+    c.P_theta = (i % 97 == 0) ? Eigen::Matrix3d(-Eigen::Matrix3d::Identity()) : Eigen::Matrix3d(c.P_p * 0.01);
+    cov.push_back(c);
+  }
+  // The reference: one pass in pair order, as compute_ape did it on one thread.
+  std::vector<double> tn, an;
+  Vector3d sum_dp = Vector3d::Zero(), sq_dp = Vector3d::Zero(), sq_rpy = Vector3d::Zero();
+  double sp = 0.0, sr = 0.0;
+  std::size_t np = 0, nr = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const PoseError e = pose_error(est[i], gt[i]);
+    tn.push_back(e.dp.norm());
+    an.push_back(e.angle_deg);
+    sum_dp += e.dp;
+    sq_dp += e.dp.cwiseAbs2();
+    sq_rpy += e.rpy_deg.cwiseAbs2();
+    const Nees ne = pose_nees(est[i], gt[i], cov[i]);
+    if (std::isfinite(ne.pos)) sp += ne.pos, ++np;
+    if (std::isfinite(ne.rot)) sr += ne.rot, ++nr;
+  }
+  const Stats t_ref = compute_stats(tn), r_ref = compute_stats(an);
+  const auto same = [](const Stats& a, const Stats& b) {
+    return a.rmse == b.rmse && a.mean == b.mean && a.median == b.median && a.std == b.std && a.min == b.min &&
+           a.max == b.max && a.sse == b.sse && a.n == b.n;
+  };
+  CHECK(nr < n);  // some orientation covariances are not positive definite
+  for (const unsigned threads : {1u, 2u, 3u, 8u}) {
+    CAPTURE(threads);
+    const ApeResult r = compute_ape(est, gt, cov, threads);
+    CHECK(same(r.trans_m, t_ref));
+    CHECK(same(r.rot_deg, r_ref));
+    CHECK(r.pos_mean_m == sum_dp / static_cast<double>(n));
+    CHECK(r.pos_rmse_m == (sq_dp / static_cast<double>(n)).cwiseSqrt());
+    CHECK(r.rpy_rmse_deg == (sq_rpy / static_cast<double>(n)).cwiseSqrt());
+    CHECK(r.armse_p_m == t_ref.mean);
+    REQUIRE(r.anees_p.has_value());
+    REQUIRE(r.anees_r.has_value());
+    CHECK(*r.anees_p == sp / static_cast<double>(np));
+    CHECK(*r.anees_r == sr / static_cast<double>(nr));
+    REQUIRE(r.nees.size() == n);
+    CHECK(r.nees[1234].pos == pose_nees(est[1234], gt[1234], cov[1234]).pos);
+  }
+  // The pairs given by index (as evaluate() does) are the same pairs.
+  const ApeResult by_index = compute_ape(
+      n, [&](std::size_t i) { return std::pair<Pose, Pose>(est[i], gt[i]); }, {}, 2);
+  CHECK(same(by_index.trans_m, t_ref));
+  CHECK(by_index.nees.empty());
+}

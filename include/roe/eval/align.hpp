@@ -62,6 +62,9 @@ struct Alignment {
   Eigen::Quaterniond q() const;
 };
 
+/// The pose T aligned by `a` as apply_alignment does it: position s R p + t, orientation qa · q
+/// re-normalised, with qa = a.q().
+Pose aligned_pose(const Alignment& a, const Eigen::Quaterniond& qa, const Pose& T);
 /// Applies an alignment to every pose (in place).
 void apply_alignment(const Alignment& a, std::vector<Pose>& poses);
 void apply_alignment(const Alignment& a, std::vector<StampedPose>& poses);
@@ -97,5 +100,11 @@ Alignment align_pos_yaw_single(const Pose& est0, const Pose& gt0);
 /// InputError when the vectors differ in size or are empty (except for kNone).
 Alignment compute_alignment(AlignType type, const std::vector<Pose>& est, const std::vector<Pose>& gt,
                             int n_align = -1);
+/// The same for the pairs est[est_index[k]] ↔ gt[gt_index[k]] (an association's indices), without a
+/// copy of the matched poses; their positions are gathered on up to `threads` threads (0: every CPU
+/// the process may use). The result is the same as for the copied pairs, bit for bit.
+Alignment compute_alignment(AlignType type, const std::vector<Pose>& est, const std::vector<std::size_t>& est_index,
+                            const std::vector<Pose>& gt, const std::vector<std::size_t>& gt_index, int n_align = -1,
+                            unsigned threads = 0);
 
 }  // namespace roe::eval

@@ -26,6 +26,8 @@ struct EvalParams {
   int n_align = -1;  ///< align on the first N matched pairs (-1 = all)
   AssociationOptions assoc;
   std::vector<RpeOptions> rpe;  ///< one relative-pose-error block per delta (none: no RPE)
+  /// Threads for the per-pair work (0: every CPU the process may use). The report does not depend on it.
+  unsigned threads = 0;
 };
 
 /// InputError (key path = the option's CLI name) for a bad max_dt, n_align, RPE block or a delta
@@ -53,7 +55,8 @@ struct DetectionSigmaInput {
 };
 
 /// The estimate: stamps and poses (non-decreasing stamps), optionally a covariance per pose and
-/// the run's raw detections. The vectors are referenced, not copied: they must outlive the call.
+/// the run's raw detections. The vectors are referenced, not copied: they must outlive the call, and
+/// the stamps and poses also the Report made from them (it indexes the matched pairs in them).
 struct EstimateInput {
   const std::vector<Timestamp>& t_ns;
   const std::vector<Pose>& poses;
@@ -63,6 +66,7 @@ struct EstimateInput {
   std::string source;  ///< names the estimate in errors (a path), never opened
   const DetectionSigmaInput* detection_sigmas = nullptr;  ///< null: no σ calibration
 };
+/// The ground truth (referenced as EstimateInput's vectors are).
 struct GroundTruthInput {
   const std::vector<Timestamp>& t_ns;
   const std::vector<Pose>& poses;
@@ -96,10 +100,14 @@ struct Report {
   Association association;
   Overlap overlap;
   double max_abs_dt_s = 0.0;
-  /// The matched pairs, in association order: stamps, aligned estimate and ground-truth poses.
-  std::vector<Timestamp> t_est, t_gt;
-  std::vector<Pose> est_aligned, gt;
   Alignment alignment;
+  Eigen::Quaterniond alignment_q = Eigen::Quaterniond::Identity();  ///< alignment.q()
+  /// The inputs the matched pairs index (set by evaluate()): the report refers to them instead of
+  /// copying the matched poses, so they must outlive it.
+  const std::vector<Timestamp>* est_t_ns = nullptr;
+  const std::vector<Pose>* est_poses = nullptr;
+  const std::vector<Timestamp>* gt_t_ns = nullptr;
+  const std::vector<Pose>* gt_poses = nullptr;
   /// The matched estimate covariances rotated into the aligned frame (empty: no NEES).
   std::vector<PoseCovariance> cov;
   ApeResult ape;
@@ -112,6 +120,17 @@ struct Report {
   /// alignment: T_C_O is relative.
   std::optional<DetectionCalibration> detection_calibration;
   std::vector<std::string> warnings;  ///< what the data implies (duplicates, few matches, ...)
+
+  /// The matched pairs, in association order: pair k is the estimate's pose association.est_index[k]
+  /// and the ground truth's pose association.gt_index[k].
+  std::size_t n_pairs() const { return association.size(); }
+  Timestamp t_est(std::size_t k) const { return (*est_t_ns)[association.est_index[k]]; }
+  Timestamp t_gt(std::size_t k) const { return (*gt_t_ns)[association.gt_index[k]]; }
+  /// The estimate pose of pair k in the ground truth's frame (aligned_pose() with the alignment).
+  Pose est_aligned(std::size_t k) const { return aligned_pose(alignment, alignment_q, (*est_poses)[association.est_index[k]]); }
+  const Pose& gt(std::size_t k) const { return (*gt_poses)[association.gt_index[k]]; }
+  /// Pair k's errors, as the APE statistics saw them.
+  PoseError error(std::size_t k) const { return pose_error(est_aligned(k), gt(k)); }
 
   /// The alignment type to report: the one requested when nothing was aligned.
   AlignType align_type() const { return alignment.type == AlignType::kNone ? params.align : alignment.type; }

@@ -12,7 +12,9 @@
 /// ARMSE_p / ARMSE_R are cnspy's report values: the MEAN of the per-pair norms (not an RMSE).
 
 #include <Eigen/Core>
+#include <functional>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "roe/core/types.hpp"
@@ -26,9 +28,6 @@ struct Stats {
 
 /// Statistics of `values` (copied: the median sorts). All zero for an empty input.
 Stats compute_stats(std::vector<double> values);
-
-/// Per-column RMSE √(Σ v_i² / n) of 3-vectors.
-Eigen::Vector3d rmse_per_axis(const std::vector<Eigen::Vector3d>& v);
 
 /// The errors of one pair.
 struct PoseError {
@@ -56,9 +55,9 @@ struct Nees {
 };
 Nees pose_nees(const Pose& est, const Pose& gt, const PoseCovariance& cov);
 
-/// Everything roe eval reports for one set of matched, aligned pairs.
+/// Everything roe eval reports for one set of matched, aligned pairs (the per-pair errors are not kept:
+/// pose_error() gives them again, bit for bit, where they are written).
 struct ApeResult {
-  std::vector<PoseError> errors;                           ///< one per pair
   Stats trans_m;                                           ///< of |e_p|
   Stats rot_deg;                                           ///< of the rotation angle
   Eigen::Vector3d pos_rmse_m = Eigen::Vector3d::Zero();    ///< per-axis RMSE of e_p
@@ -72,9 +71,19 @@ struct ApeResult {
 };
 
 /// APE of aligned estimate poses against ground truth (same size; InputError otherwise).
-/// `cov` (empty, or one per pair, already rotated into the aligned frame) adds NEES.
+/// `cov` (empty, or one per pair, already rotated into the aligned frame) adds NEES. The pairs are
+/// evaluated on up to `threads` threads (0: every CPU the process may use); the result is the same,
+/// bit for bit, for any thread count (every sum takes the pairs in order).
 ApeResult compute_ape(const std::vector<Pose>& est_aligned, const std::vector<Pose>& gt,
-                      const std::vector<PoseCovariance>& cov = {});
+                      const std::vector<PoseCovariance>& cov = {}, unsigned threads = 0);
+/// Pairs per parallel task of the per-pair work: large enough that handing out a task costs nothing,
+/// small enough to balance the threads.
+inline constexpr std::size_t kPairsPerTask = 16384;
+/// Pair i of an APE: (aligned estimate pose, ground-truth pose). Called once per pair, from any thread.
+using PosePairAt = std::function<std::pair<Pose, Pose>(std::size_t)>;
+/// The same over n pairs given by `pair` (no copy of the matched poses needed).
+ApeResult compute_ape(std::size_t n, const PosePairAt& pair, const std::vector<PoseCovariance>& cov = {},
+                      unsigned threads = 0);
 
 /// Rotates a covariance into the aligned frame: P_p' = s² R P_p Rᵀ; P_θ is local and unchanged.
 PoseCovariance align_covariance(const PoseCovariance& c, const Eigen::Matrix3d& R, double s);

@@ -166,6 +166,7 @@ class CsvReader {
   struct Number {
     double value = 0.0;
     std::errc ec{};
+    bool parsed = false;  ///< false: the field was not read as a number while splitting
   };
 
  private:
@@ -174,7 +175,7 @@ class CsvReader {
   bool refill();
   bool is_blank_or_comment(std::string_view line) const;
   void split(std::string_view line, std::int64_t line_no, std::vector<std::string_view>& out,
-             std::vector<std::optional<Number>>* numbers);
+             std::vector<Number>* numbers);
   void read_header();
   double parse_double(std::size_t i, bool allow_nonfinite) const;
 
@@ -192,7 +193,7 @@ class CsvReader {
   std::size_t columns_ = 0;
   std::vector<std::string> header_;
   std::vector<std::string_view> fields_;
-  std::vector<std::optional<Number>> numbers_;  ///< per field: its number, when parsed while splitting
+  std::vector<Number> numbers_;  ///< per field: its number, when parsed while splitting
   mutable std::vector<char> numeric_;           ///< per column: read as a number in some row
   std::deque<std::string> unquoted_;  // storage of fields that needed unescaping (stable addresses)
   bool have_prev_stamp_ = false;

@@ -26,6 +26,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -83,9 +84,15 @@ Trajectory parse_trajectory(std::string text, const std::string& source,
 /// (t with 9 decimals); CSV-ns. Numbers are written in the shortest round-trip form.
 std::string format_trajectory(const std::vector<Timestamp>& t_ns, const std::vector<Pose>& poses,
                               TrajectoryFormat format);
-/// format_trajectory + an atomic write.
+/// The same for the n poses at(0), at(1), ... (e.g. matched pairs picked by index, without a copy).
+std::string format_trajectory(std::size_t n, const std::function<StampedPose(std::size_t)>& at,
+                              TrajectoryFormat format);
+/// format_trajectory's text written atomically (io::AtomicFile), streamed in pieces of
+/// CsvWriter::kFlushBytes: memory does not grow with the trajectory.
 void write_trajectory(const fs::path& file, const std::vector<Timestamp>& t_ns,
                       const std::vector<Pose>& poses, TrajectoryFormat format);
+void write_trajectory(const fs::path& file, std::size_t n, const std::function<StampedPose(std::size_t)>& at,
+                      TrajectoryFormat format);
 void write_trajectory(const fs::path& file, const std::vector<StampedPose>& poses, TrajectoryFormat format);
 
 }  // namespace roe::io
