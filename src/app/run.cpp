@@ -7,7 +7,6 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
-#include <memory>
 #include <set>
 
 #include "roe/core/error.hpp"
@@ -232,21 +231,16 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
 
 namespace {
 
-// Writers of trajectory.csv and trajectory.tum (with a suffix: trajectory_filter.csv, ...) from state rows.
+// Writers of trajectory.csv and trajectory.tum (with a suffix: trajectory_filter.csv, ...) from state rows,
+// read in place.
 void add_trajectory_writers(const std::vector<StateRow>& rows, const io::OutputDir& dir, const std::string& suffix,
                             std::vector<std::function<void()>>& writers) {
-  auto t = std::make_shared<std::vector<Timestamp>>();
-  auto poses = std::make_shared<std::vector<Pose>>();
-  t->reserve(rows.size());
-  poses->reserve(rows.size());
-  for (const auto& s : rows) {
-    t->push_back(s.t_ns);
-    poses->push_back(Pose(s.x.q_W_I, s.x.p_W_I));
-  }
   for (const auto format : {io::TrajectoryFormat::kCsv, io::TrajectoryFormat::kTum})
-    writers.push_back([t, poses, &dir, suffix, format] {
+    writers.push_back([&rows, &dir, suffix, format] {
       const std::string ext = format == io::TrajectoryFormat::kCsv ? ".csv" : ".tum";
-      io::write_trajectory(dir.file("trajectory" + suffix + ext), *t, *poses, format);
+      io::write_trajectory(dir.file("trajectory" + suffix + ext), rows.size(),
+                           [&rows](std::size_t i) { return StampedPose{rows[i].t_ns, Pose(rows[i].x.q_W_I, rows[i].x.p_W_I)}; },
+                           format);
     });
 }
 
