@@ -6,7 +6,7 @@
 #include <fmt/format.h>
 
 #include "roe/core/error.hpp"
-#include "roe/ekf/chi2.hpp"
+#include "roe/math/distributions.hpp"
 #include "roe/ekf/symmetry.hpp"
 #include "roe/math/so3.hpp"
 
@@ -82,7 +82,7 @@ CheckResult extrinsics_settled(const CalibInput& in, const CalibThresholds& th) 
   for (const auto& s : tr)
     if (s.t_ns >= from) v = v.cwiseMax(s.sigma.cwiseProduct(s.sigma) - v_end);
   const double alpha = 1.0 - th.confidence;
-  const double limit_z = std::sqrt(ekf::chi2_quantile(1.0 - alpha / 12.0, 1.0));
+  const double limit_z = std::sqrt(math::chi2_quantile(1.0 - alpha / 12.0, 1.0));
   double dp = 0.0, dr = 0.0, z_beyond = 0.0;
   int worst = -1;
   double worst_t = 0.0;
@@ -150,7 +150,7 @@ CheckResult extrinsics_prior(const CalibInput& in, const CalibThresholds& th) {
   if (dof == 0)
     return inconclusive(name, moved + "; the data hardly informed the extrinsics (σ above 95 % of the prior's on "
                                       "every axis), so the shift says nothing");
-  const double limit = ekf::chi2_quantile(th.confidence, dof);
+  const double limit = math::chi2_quantile(th.confidence, dof);
   CheckResult r{name, d2 <= limit ? CheckStatus::kPass : CheckStatus::kFail, "", {}};
   static const char* axes[6] = {"p_x", "p_y", "p_z", "θ_x", "θ_y", "θ_z"};
   static const char* sub[7] = {"₀", "₁", "₂", "₃", "₄", "₅", "₆"};
@@ -226,7 +226,7 @@ CheckResult truth_extrinsics(const CalibInput& in, const CalibThresholds& th) {
   // extrinsics held fixed) the limits alone decide.
   const bool have_sigma = (last.sigma.array() > 0).all();
   const double nees = have_sigma ? e.cwiseQuotient(last.sigma).squaredNorm() : 0.0;
-  const double limit_nees = ekf::chi2_quantile(th.confidence, 6.0);
+  const double limit_nees = math::chi2_quantile(th.confidence, 6.0);
   const bool fail = beyond && (!have_sigma || nees > limit_nees);
   CheckResult r{name, fail ? CheckStatus::kFail : beyond ? CheckStatus::kWithinSigma : CheckStatus::kPass, "", {}};
   r.message = fmt::format("error {:.1f} mm / {:.2f}°, limits {:.1f} mm / {:.2f}°", ep * 1e3, er, th.max_err_p_m * 1e3,
@@ -262,7 +262,7 @@ CheckResult truth_objects(const CalibInput& in, const CalibThresholds& th) {
   std::vector<std::string> over, missing;
   std::size_t checked = 0, explained = 0;
   double wp = 0.0, wr = 0.0;
-  const double limit_nees = ekf::chi2_quantile(th.confidence, 6.0);
+  const double limit_nees = math::chi2_quantile(th.confidence, 6.0);
   for (const auto& o : in.objects) {
     if (o.anchor || !o.T_O_W) continue;
     const auto t = in.true_T_W_O.find(o.id);
@@ -324,7 +324,7 @@ CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) 
     // The cost still falling at the edge of the search, with a likelihood ratio against the
     // declared offset beyond χ²₁: the offset is more than the search away from it.
     // Only when the search reaches beyond the limit does "beyond the search" mean "beyond the limit".
-    const double limit_lr = ekf::chi2_quantile(th.confidence, 1.0);
+    const double limit_lr = math::chi2_quantile(th.confidence, 1.0);
     if (e.at_edge && e.edge_stable && e.edge_evidence > limit_lr &&
         std::abs(e.edge_offset_s - in.declared_time_offset_s) > th.max_time_offset_s) {
       r.status = CheckStatus::kFail;
@@ -344,7 +344,7 @@ CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) 
   const double lim = th.max_time_offset_s;
   // Decided only with `confidence` (one-sided): fail when |d| − zσ is beyond the limit, pass when
   // |d| + zσ is within it; in between the estimate is too uncertain.
-  const double z = std::sqrt(ekf::chi2_quantile(2.0 * th.confidence - 1.0, 1.0));
+  const double z = std::sqrt(math::chi2_quantile(2.0 * th.confidence - 1.0, 1.0));
   if (std::abs(d) - z * e.sigma_s > lim)
     r.status = CheckStatus::kFail;
   else if (std::abs(d) + z * e.sigma_s <= lim)

@@ -9,7 +9,7 @@
 #include <type_traits>
 
 #include "roe/core/error.hpp"
-#include "roe/ekf/chi2.hpp"
+#include "roe/math/distributions.hpp"
 #include "roe/ekf/images.hpp"
 #include "roe/ekf/stacked_update.hpp"
 #include "roe/math/euler.hpp"
@@ -98,12 +98,12 @@ Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const 
       T_I_C_(T_I_C_prior),
       lost_position_(options.relock_after_s, options.relock_min_detections, options.init_gate_p_m) {
   ROE_CHECK(opt_.chi2_confidence > 0.0 && opt_.chi2_confidence < 1.0, "chi2_confidence must be in (0, 1)");
-  gate_ = chi2_quantile(opt_.chi2_confidence, 6.0);
-  gate3_ = chi2_quantile(opt_.chi2_confidence, 3.0);
-  gate5_ = chi2_quantile(opt_.chi2_confidence, 5.0);
-  gate2_ = chi2_quantile(opt_.chi2_confidence, 2.0);
-  chi2_median6_ = chi2_quantile(0.5, 6.0);
-  chi2_median5_ = chi2_quantile(0.5, 5.0);
+  gate_ = math::chi2_quantile(opt_.chi2_confidence, 6.0);
+  gate3_ = math::chi2_quantile(opt_.chi2_confidence, 3.0);
+  gate5_ = math::chi2_quantile(opt_.chi2_confidence, 5.0);
+  gate2_ = math::chi2_quantile(opt_.chi2_confidence, 2.0);
+  chi2_median6_ = math::chi2_quantile(0.5, 6.0);
+  chi2_median5_ = math::chi2_quantile(0.5, 5.0);
   if (opt_.estimate_extrinsics) {
     extr_offset_ = kCore;
     n_ = kCore + 6;

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "roe/ekf/chi2.hpp"
+#include "roe/math/distributions.hpp"
 
 namespace roe::ekf {
 namespace {
@@ -94,7 +94,7 @@ NisStats nis_stats(std::vector<double> nis, double gate) {
   n.p95 = quantile(nis, 0.95);
   n.max = nis.back();
   n.fraction_above_gate = static_cast<double>(above) / static_cast<double>(nis.size());
-  n.median_ratio = n.median / chi2_quantile(0.5, 6.0);
+  n.median_ratio = n.median / math::chi2_quantile(0.5, 6.0);
   return n;
 }
 
@@ -103,7 +103,7 @@ RunHealth assess_health(const FilterRunSummary& s, const FilterOptions& options,
   const Timestamp t0 = s.t_first_ns, t1 = s.t_last_ns;
   h.duration_s = to_seconds(t1 - t0);
   h.accepted_updates = s.update_times.size();
-  h.nis = nis_stats(s.nis, chi2_quantile(options.chi2_confidence, 6.0));
+  h.nis = nis_stats(s.nis, math::chi2_quantile(options.chi2_confidence, 6.0));
   // Supported time: after each accepted update, up to support_window_s or the next update.
   const Timestamp window = from_seconds(std::max(0.0, limits.support_window_s));
   Timestamp supported = 0, prev = t0;

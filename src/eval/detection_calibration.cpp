@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "roe/core/error.hpp"
-#include "roe/ekf/chi2.hpp"
+#include "roe/math/distributions.hpp"
 #include "roe/math/interpolate.hpp"
 #include "roe/math/so3.hpp"
 
@@ -51,16 +51,16 @@ Vector6d detection_error(const Pose& T_C_O_meas, const Pose& T_C_O_true) {
 }
 
 std::array<double, 3> expected_within() {
-  return {ekf::chi2_cdf(1.0, 1.0), ekf::chi2_cdf(4.0, 1.0), ekf::chi2_cdf(9.0, 1.0)};
+  return {math::chi2_cdf(1.0, 1.0), math::chi2_cdf(4.0, 1.0), math::chi2_cdf(9.0, 1.0)};
 }
 
 std::array<double, 5> chi2_6_quantiles() {
   std::array<double, 5> q{};
-  for (std::size_t i = 0; i < q.size(); ++i) q[i] = ekf::chi2_quantile(kNisProbabilities[i], 6.0);
+  for (std::size_t i = 0; i < q.size(); ++i) q[i] = math::chi2_quantile(kNisProbabilities[i], 6.0);
   return q;
 }
 
-double nis_gate() { return ekf::chi2_quantile(0.95, 6.0); }
+double nis_gate() { return math::chi2_quantile(0.95, 6.0); }
 
 SigmaCalibration calibrate(const std::vector<DetectionResidual>& residuals) {
   SigmaCalibration c;
@@ -94,18 +94,18 @@ SigmaCalibration calibrate(const std::vector<DetectionResidual>& residuals) {
   for (std::size_t i = 0; i < c.nis_quantiles.size(); ++i) c.nis_quantiles[i] = quantile_sorted(nis, kNisProbabilities[i]);
   // KS distance of the empirical CDF (a step at each sorted value) from χ²₆.
   for (std::size_t i = 0; i < nis.size(); ++i) {
-    const double F = ekf::chi2_cdf(nis[i], 6.0);
+    const double F = math::chi2_cdf(nis[i], 6.0);
     c.ks_statistic = std::max({c.ks_statistic, static_cast<double>(i + 1) / n - F, F - static_cast<double>(i) / n});
   }
   c.ks_p_value = ks_p_value(c.ks_statistic, c.n);
   // Errors N(0, s² diag σ²): the likelihood in s² peaks at Σ NIS / (6n); Σ NIS / s² ~ χ²_{6n}.
   const double dof = 6.0 * n;
   c.sigma_scale = std::sqrt(sum / dof);
-  c.sigma_scale_lo = std::sqrt(sum / ekf::chi2_quantile(0.975, dof));
-  c.sigma_scale_hi = std::sqrt(sum / ekf::chi2_quantile(0.025, dof));
+  c.sigma_scale_lo = std::sqrt(sum / math::chi2_quantile(0.975, dof));
+  c.sigma_scale_hi = std::sqrt(sum / math::chi2_quantile(0.025, dof));
   c.sigma_scale_t = std::sqrt(sum_t / (3.0 * n));
   c.sigma_scale_r = std::sqrt(sum_r / (3.0 * n));
-  c.sigma_scale_median = std::sqrt(quantile_sorted(nis, 0.5) / ekf::chi2_quantile(0.5, 6.0));
+  c.sigma_scale_median = std::sqrt(quantile_sorted(nis, 0.5) / math::chi2_quantile(0.5, 6.0));
   return c;
 }
 

@@ -8,56 +8,12 @@
 
 #include "roe/core/error.hpp"
 #include "roe/eval/metrics.hpp"
+#include "roe/math/distributions.hpp"
 
 namespace roe::eval {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-/// Continued fraction of the regularised incomplete beta function (modified Lentz), valid for
-/// x < (a + 1) / (a + b + 2).
-double beta_continued_fraction(double a, double b, double x) {
-  constexpr double kTiny = 1e-300;
-  constexpr double kEps = 1e-16;
-  double c = 1.0;
-  double d = 1.0 - (a + b) * x / (a + 1.0);
-  if (std::abs(d) < kTiny) d = kTiny;
-  d = 1.0 / d;
-  double f = d;
-  for (int m = 1; m <= 10000; ++m) {
-    const double m2 = 2.0 * m;
-    // even step
-    double num = m * (b - m) * x / ((a + m2 - 1.0) * (a + m2));
-    d = 1.0 + num * d;
-    c = 1.0 + num / c;
-    if (std::abs(d) < kTiny) d = kTiny;
-    if (std::abs(c) < kTiny) c = kTiny;
-    d = 1.0 / d;
-    f *= d * c;
-    // odd step
-    num = -(a + m) * (a + b + m) * x / ((a + m2) * (a + m2 + 1.0));
-    d = 1.0 + num * d;
-    c = 1.0 + num / c;
-    if (std::abs(d) < kTiny) d = kTiny;
-    if (std::abs(c) < kTiny) c = kTiny;
-    d = 1.0 / d;
-    const double delta = d * c;
-    f *= delta;
-    if (std::abs(delta - 1.0) < kEps) break;
-  }
-  return f;
-}
-
-/// Regularised incomplete beta I_x(a, b).
-double incomplete_beta(double a, double b, double x) {
-  if (x <= 0.0) return 0.0;
-  if (x >= 1.0) return 1.0;
-  const double log_front =
-      std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log1p(-x);
-  const double front = std::exp(log_front);
-  if (x < (a + 1.0) / (a + b + 2.0)) return front * beta_continued_fraction(a, b, x) / a;
-  return 1.0 - front * beta_continued_fraction(b, a, 1.0 - x) / b;
-}
 
 double normal_sf(double z) { return 0.5 * std::erfc(z / std::sqrt(2.0)); }
 
@@ -90,30 +46,6 @@ std::vector<double> signed_rank_counts(std::size_t n) {
 
 }  // namespace
 
-double student_t_cdf(double t, double dof) {
-  ROE_CHECK(dof > 0.0, "degrees of freedom must be positive");
-  if (std::isnan(t)) return kNaN;
-  if (std::isinf(t)) return t > 0 ? 1.0 : 0.0;
-  const double tail = 0.5 * incomplete_beta(0.5 * dof, 0.5, dof / (dof + t * t));
-  return t > 0.0 ? 1.0 - tail : tail;
-}
-
-double student_t_quantile(double p, double dof) {
-  ROE_CHECK(p > 0.0 && p < 1.0, "a quantile needs 0 < p < 1");
-  ROE_CHECK(dof > 0.0, "degrees of freedom must be positive");
-  if (p == 0.5) return 0.0;
-  // The distribution is symmetric: solve for the upper half and mirror.
-  const double q = p > 0.5 ? p : 1.0 - p;
-  double lo = 0.0, hi = 1.0;
-  while (student_t_cdf(hi, dof) < q) hi *= 2.0;
-  for (int i = 0; i < 200 && hi - lo > 1e-15 * hi; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (student_t_cdf(mid, dof) < q ? lo : hi) = mid;
-  }
-  const double t = 0.5 * (lo + hi);
-  return p > 0.5 ? t : -t;
-}
-
 SampleSummary summarize_sample(const std::vector<double>& values, double confidence) {
   ROE_CHECK(confidence > 0.0 && confidence < 1.0, "confidence must be in (0, 1)");
   for (double v : values) ROE_CHECK(!std::isnan(v), "a sample value is NaN");
@@ -136,7 +68,7 @@ SampleSummary summarize_sample(const std::vector<double>& values, double confide
   }
   const double n = static_cast<double>(s.n);
   s.std = st.std * std::sqrt(n / (n - 1.0));
-  const double half = student_t_quantile(0.5 * (1.0 + confidence), n - 1.0) * s.std / std::sqrt(n);
+  const double half = math::student_t_quantile(0.5 * (1.0 + confidence), n - 1.0) * s.std / std::sqrt(n);
   s.ci_low = s.mean - half;
   s.ci_high = s.mean + half;
   return s;

@@ -102,7 +102,7 @@ TEST_CASE("calib-check: a wrong extrinsics prior fails extrinsics.prior even whe
   CHECK(r.exit_code() == 1);
 }
 
-TEST_CASE("calib-check: camera stamps 30 ms early fail camera.time_offset; declaring the offset passes it",
+TEST_CASE("calib-check: camera stamps 30 ms early fail camera.time_offset, declaring the offset passes it",
           "[app][calib]") {
   Dataset d = calibration_dataset();
   for (auto& [name, set] : d.detections)

@@ -190,7 +190,7 @@ TEST_CASE("roe eval: run folder vs dataset (mocap with T_B_I and time offset)", 
   }
 }
 
-TEST_CASE("roe eval: cnspy covariance in the body frame (type1) is rotated into the world; path lengths",
+TEST_CASE("roe eval: cnspy covariance in the body frame (type1) is rotated into the world, path lengths",
           "[app][eval]") {
   const fs::path root = fs::temp_directory_path() / "roe_test_eval_cnspy_cov";
   fs::remove_all(root);
@@ -671,7 +671,7 @@ TEST_CASE("roe eval --summary: mixed settings are warned about and listed per ru
   CHECK(s.markdown.find("Settings of every run: alignment se3") != std::string::npos);
 }
 
-TEST_CASE("roe eval --summary --out: a folder gets summary.*; the input reports are never replaced",
+TEST_CASE("roe eval --summary --out: a folder gets summary.*, the input reports are never replaced",
           "[app][eval]") {
   Fixture f("summary_out");
   app::EvalOptions o;

@@ -67,7 +67,7 @@ fs::path dataset_with_camera(const TempDir& d, int width, int height, double f) 
 
 }  // namespace
 
-TEST_CASE("import kalibr: T_I_C is the inverse of T_cam_imu; noise and time shift", "[app][import][kalibr]") {
+TEST_CASE("import kalibr: T_I_C is the inverse of T_cam_imu, noise and time shift", "[app][import][kalibr]") {
   TempDir d;
   const fs::path ds = d.path / "ds";
   const auto s = app::import_kalibr(d.write("cc.yaml", kCamchain), d.write("imu.yaml", kImu), ds, {});
@@ -189,7 +189,7 @@ TEST_CASE("import kalibr: invalid files are InputErrors naming file, line and ke
   CHECK_FALSE(fs::exists(ds));
 }
 
-TEST_CASE("import kalibr onto undistorted images keeps their model and intrinsics, and warns; all-zero "
+TEST_CASE("import kalibr onto undistorted images keeps their model and intrinsics, and warns, all-zero "
           "coefficients are imported as they are",
           "[app][import][kalibr]") {
   const auto import_with = [](const std::string& coeffs, DatasetManifest& after) {

@@ -297,7 +297,7 @@ TEST_CASE("import mocap: --time-offset and --max-offset are checked before anyth
   CHECK(io::read_manifest(d.path / "ds").mocap->time_offset_s == 1.7e9);
 }
 
-TEST_CASE("import mocap: --name cannot land on another stream; T_B_I follows its body; Motive's start time is kept",
+TEST_CASE("import mocap: --name cannot land on another stream, T_B_I follows its body, Motive's start time is kept",
           "[app][import]") {
   TempDir d;
   const fs::path v = d.path / "tracker.csv";

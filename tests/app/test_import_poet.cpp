@@ -100,7 +100,7 @@ TEST_CASE("ns-named frames: ids are timestamps, classes map by YCB-V name", "[im
   CHECK(io::read_manifest(ds).sources.size() == 1);
 }
 
-TEST_CASE("other file names: PoET ids and stems match; unknown ids are skipped", "[import_poet]") {
+TEST_CASE("other file names: PoET ids and stems match, unknown ids are skipped", "[import_poet]") {
   TmpDir tmp("stem");
   const fs::path ds = make_dataset(tmp.path, {{10, "rgb_000123.png"}, {20, "rgb_000124.png"}, {30, "cam_rgb_17.png"}}, {});
   const fs::path res = write(tmp.path, "results.json",
@@ -211,7 +211,7 @@ TEST_CASE("class map file, class names file, and datasets without cam0/data.csv"
   CHECK_THROWS_AS(app::import_poet(res, ds, o), InputError);
 }
 
-TEST_CASE("aleatoric log-variances and covariances become the sigma columns; malformed ones write nothing",
+TEST_CASE("aleatoric log-variances and covariances become the sigma columns, malformed ones write nothing",
           "[import_poet][uncertainty]") {
   TmpDir tmp("sigma");
   const fs::path fx = fs::path(ROE_SOURCE_DIR) / "tests/fixtures/poet_uncertainty";

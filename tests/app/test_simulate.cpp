@@ -224,7 +224,7 @@ TEST_CASE("simulate: config files are strict and layered on presets", "[app][sim
   fs::remove_all(dir);
 }
 
-TEST_CASE("simulate: same seed gives byte-identical folders; noise-free detections equal the truth",
+TEST_CASE("simulate: same seed gives byte-identical folders, noise-free detections equal the truth",
           "[app][simulate]") {
   const fs::path dir = temp_dir("det");
   app::SimulateOptions opt;

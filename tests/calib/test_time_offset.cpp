@@ -117,7 +117,7 @@ TEST_CASE("time offset: exact detections give the offset to 0.1 ms, either sign"
   }
 }
 
-TEST_CASE("time offset: white errors, outliers and a gyro bias; the spread over seeds matches sigma_s",
+TEST_CASE("time offset: white errors, outliers and a gyro bias, the spread over seeds matches sigma_s",
           "[calib][time]") {
   // 3° per axis, 5 % outliers (any rotation), a 0.05 rad/s gyro bias the estimator is not told about
   // (the per-window drift absorbs it). The estimate must sit within 4σ of the truth on every seed, and

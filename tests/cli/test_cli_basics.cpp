@@ -50,7 +50,7 @@ TEST_CASE("bad usage says 'roe: error:' like every other error, and names the co
   CHECK(r.out.find("(see roe --help)") != std::string::npos);
 }
 
-TEST_CASE("verbose: -v logs what simulate and run read and wrote on stderr; -q keeps it quiet", "[cli]") {
+TEST_CASE("verbose: -v logs what simulate and run read and wrote on stderr, -q keeps it quiet", "[cli]") {
   roe::test::TempDir d;
   const std::string ds = (d / "ds").string(), out = (d / "run").string();
   auto r = run_roe("-v simulate --preset paper-seq4 --duration 1 --out " + ds);

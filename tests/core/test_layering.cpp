@@ -51,7 +51,7 @@ TEST_CASE("I/O-free areas include no I/O, JSON, OpenCV or CLI headers", "[layeri
   CHECK(v.empty());
 }
 
-TEST_CASE("eval does not depend on ekf; math does not depend on higher areas", "[layering]") {
+TEST_CASE("eval does not depend on ekf, math does not depend on higher areas", "[layering]") {
   CHECK(violations({"eval"}, {"roe/ekf/", "roe/sim/"}).empty());
   CHECK(violations({"math"}, {"roe/ekf/", "roe/sim/", "roe/eval/", "roe/calib/"}).empty());
 }

@@ -11,7 +11,7 @@
 
 #include "roe/app/run.hpp"
 #include "roe/app/simulate.hpp"
-#include "roe/ekf/chi2.hpp"
+#include "roe/math/distributions.hpp"
 #include "roe/eval/align.hpp"
 #include "roe/math/euler.hpp"
 #include "roe/math/so3.hpp"
@@ -154,8 +154,8 @@ inline MonteCarlo monte_carlo(const std::string& preset, int N, double duration,
   }
   for (double v : nees_sum) mc.anees += v / N;
   mc.anees /= nees_sum.size();
-  mc.lo = ekf::chi2_quantile(0.025, 6.0 * N) / N;
-  mc.hi = ekf::chi2_quantile(0.975, 6.0 * N) / N;
+  mc.lo = math::chi2_quantile(0.025, 6.0 * N) / N;
+  mc.hi = math::chi2_quantile(0.975, 6.0 * N) / N;
   mc.rejection_rate = static_cast<double>(rejected) / mc.gated;
   mc.pos_rms_m = std::sqrt(sq / rows);
   return mc;

@@ -7,7 +7,7 @@
 #include <fmt/format.h>
 
 #include "filter_support.hpp"
-#include "roe/ekf/chi2.hpp"
+#include "roe/math/distributions.hpp"
 
 using namespace roe;
 using ekf::Vec3;

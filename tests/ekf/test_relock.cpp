@@ -114,7 +114,7 @@ FilterOptions rest_options(double relock_after_s) {
 
 }  // namespace
 
-TEST_CASE("relock: a filter pushed 1 m off comes back; the paper's gate never does", "[ekf][relock]") {
+TEST_CASE("relock: a filter pushed 1 m off comes back, the paper's gate never does", "[ekf][relock]") {
   for (const double after : {0.0, 0.5}) {
     INFO("relock_after_s " << after);
     AtRest s(rest_options(after));

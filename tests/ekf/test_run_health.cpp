@@ -45,7 +45,7 @@ struct Ids : FilterObserver {
 
 }  // namespace
 
-TEST_CASE("group_images: one entry per stamp, shifted into the IMU clock; unsorted stamps refused", "[ekf][run]") {
+TEST_CASE("group_images: one entry per stamp, shifted into the IMU clock, unsorted stamps refused", "[ekf][run]") {
   const std::vector<Detection> dets = {det(0.0, 1), det(0.0, 2), det(0.1, 2), det(0.2, 1), det(0.2, 3)};
   const auto im = group_images(dets, from_seconds(0.5));
   REQUIRE(im.size() == 3);
@@ -87,7 +87,7 @@ TEST_CASE("choose_anchor: the first usable image's most-seen object, then the lo
   CHECK(c.id == 2);
 }
 
-TEST_CASE("run_filter and Filter::update follow the same anchor rule; the summary's counts are the outcomes",
+TEST_CASE("run_filter and Filter::update follow the same anchor rule, the summary's counts are the outcomes",
           "[ekf][run][anchor]") {
   // paper-seq1 (3 objects in view from the start). The lowest id is dropped from all but the first 10
   // images, so the rule (most images) and "lowest id" disagree.
@@ -130,7 +130,7 @@ TEST_CASE("run_filter and Filter::update follow the same anchor rule; the summar
   CHECK(f.anchor_id() == lowest);
 }
 
-TEST_CASE("nis_stats: quantiles as Python's statistics.quantiles(method='inclusive'); one outlier moves only the mean",
+TEST_CASE("nis_stats: quantiles as Python's statistics.quantiles(method='inclusive'), one outlier moves only the mean",
           "[ekf][run][health]") {
   // Expected values: python3 -c "import statistics as s; d=[...]; print(s.quantiles(d, n=4,
   // method='inclusive'), s.quantiles(d, n=20, method='inclusive')[18], s.mean(d))"
@@ -148,7 +148,7 @@ TEST_CASE("nis_stats: quantiles as Python's statistics.quantiles(method='inclusi
   CHECK(nis_stats({}, 1.0).count == 0);
 }
 
-TEST_CASE("assess_health: supported share, longest dead reckoning, NIS median; the 5-frame case is unhealthy",
+TEST_CASE("assess_health: supported share, longest dead reckoning, NIS median, the 5-frame case is unhealthy",
           "[ekf][run][health]") {
   FilterOptions o;
   HealthLimits l;  // 1 s window, 50 %, 10 s, NIS median ratio 10

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <limits>
 
-#include "roe/ekf/chi2.hpp"
+#include "roe/math/distributions.hpp"
 #include "roe/ekf/filter.hpp"
 #include "roe/math/so3.hpp"
 
@@ -24,7 +24,7 @@ TEST_CASE("split_gate tests the position and rotation parts on their marginal S 
       0.2, 0.0, 0.0, 0.0, 1.1, 0.2,   //
       0.0, 0.0, 0.3, 0.1, 0.0, 1.0;
   const Mat6 S = A * A.transpose();
-  const double g3 = chi2_quantile(0.95, 3.0);
+  const double g3 = math::chi2_quantile(0.95, 3.0);
   Vec6 r;
   r << 0.1, -0.2, 0.05, 0.1, 0.0, -0.1;
   SplitGate g = split_gate(r, S, g3, g3);
@@ -115,7 +115,7 @@ TEST_CASE("split gate: a gross rotation outlier with a good position updates the
   REQUIRE(res.detections.size() == 1);
   CHECK(res.detections[0].status == DetectionStatus::kAccepted);
   CHECK(res.detections[0].used == ResidualPart::kPosition);
-  CHECK(res.detections[0].nis > chi2_quantile(0.95, 6.0));  // the joint 6-dof NIS, as reported
+  CHECK(res.detections[0].nis > math::chi2_quantile(0.95, 6.0));  // the joint 6-dof NIS, as reported
   CHECK(res.n_inliers == 1);
   CHECK((f.covariance() - P_post).cwiseAbs().maxCoeff() < 1e-12);
   CHECK((f.core().p_W_I - expect.core().p_W_I).norm() < 1e-12);
@@ -135,7 +135,7 @@ TEST_CASE("split gate: a gross rotation outlier with a good position updates the
   CHECK(j.core().p_W_I == pj);
 }
 
-TEST_CASE("split gate: inliers use both parts and match the joint update; stacked with a split block",
+TEST_CASE("split gate: inliers use both parts and match the joint update, stacked with a split block",
           "[ekf][split]") {
   for (const ResidualFrame frame : {ResidualFrame::kObject, ResidualFrame::kCamera}) {
     INFO("frame " << to_string(frame));

@@ -109,7 +109,7 @@ TEST_CASE("nearest_equivalent undoes a discrete flip and a turn about a continuo
   CHECK(math::log_quat(z_hat.q.conjugate() * ab.q).norm() < 0.05);
 }
 
-TEST_CASE("symmetry_reduction removes the symmetry direction; block form when it has no position part",
+TEST_CASE("symmetry_reduction removes the symmetry direction, block form when it has no position part",
           "[ekf][symmetry]") {
   const Pose z_hat(exp_quat(Vec3(0.3, -0.5, 0.2)), Vec3(0.1, -0.2, 1.5));
   for (ResidualFrame frame : {ResidualFrame::kCamera, ResidualFrame::kObject}) {

@@ -14,7 +14,7 @@
 #include <random>
 
 #include "roe/core/error.hpp"
-#include "roe/ekf/chi2.hpp"
+#include "roe/math/distributions.hpp"
 #include "roe/ekf/filter.hpp"
 #include "roe/ekf/symmetry.hpp"
 #include "roe/math/so3.hpp"
@@ -127,10 +127,10 @@ Mc sequential_mc(ResidualFrame frame, const ObjectSymmetry& sym, int N, int K, s
   mc.nees /= N;
   mc.nees_kept /= N;
   mc.nis /= N * K;
-  mc.nees_lo = chi2_quantile(0.025, double(n) * N) / N;
-  mc.nees_hi = chi2_quantile(0.975, double(n) * N) / N;
-  mc.nis_lo = chi2_quantile(0.025, double(m) * N * K) / (N * K);
-  mc.nis_hi = chi2_quantile(0.975, double(m) * N * K) / (N * K);
+  mc.nees_lo = math::chi2_quantile(0.025, double(n) * N) / N;
+  mc.nees_hi = math::chi2_quantile(0.975, double(n) * N) / N;
+  mc.nis_lo = math::chi2_quantile(0.025, double(m) * N * K) / (N * K);
+  mc.nis_hi = math::chi2_quantile(0.975, double(m) * N * K) / (N * K);
   return mc;
 }
 

@@ -112,7 +112,7 @@ TEST_CASE("quantiles, KS distance and scales of a small NIS sample match numpy/s
   CHECK(c.within_t[0] == Approx((1.0 + 16.0) / 24));  // NIS 0.5 on x, and the zero y and z axes of all eight
 }
 
-TEST_CASE("a simulated σ scale of 0.5 and 2.0 is recovered within 20 %; the fractions are scipy's", "[detection_calibration]") {
+TEST_CASE("a simulated σ scale of 0.5 and 2.0 is recovered within 20 %, the fractions are scipy's", "[detection_calibration]") {
   const eval::DetectionTruth truth = make_truth();
   std::uint64_t seed = 7;
   for (const auto& [scale, within] : {std::pair{1.0, kWithin}, std::pair{0.5, kWithinS05}, std::pair{2.0, kWithinS2}}) {
@@ -144,7 +144,7 @@ TEST_CASE("a simulated σ scale of 0.5 and 2.0 is recovered within 20 %; the fra
   }
 }
 
-TEST_CASE("detections without sigma, truth or time are counted and named; camera offset applied", "[detection_calibration]") {
+TEST_CASE("detections without sigma, truth or time are counted and named, camera offset applied", "[detection_calibration]") {
   eval::DetectionTruth truth = make_truth();
   truth.camera_time_offset_s = 2.0;
   auto dets = simulate(truth, 1.0, 3, 2.0);  // camera stamps 2 s behind the IMU clock

@@ -111,7 +111,7 @@ TEST_CASE("compute_stats: median of long shuffled lists", "[eval][metrics]") {
 
 // The mean position error is signed (est − gt) per axis, and the rotation NEES uses the local error
 // Log(R_estᵀ R_gt), also far from the identity.
-TEST_CASE("compute_ape: signed mean position error; rotation NEES away from the identity", "[eval][metrics]") {
+TEST_CASE("compute_ape: signed mean position error, rotation NEES away from the identity", "[eval][metrics]") {
   const Eigen::Quaterniond q_gt(math::from_euler_zyx(Vector3d(0.4, -0.7, 2.1)));
   const Vector3d dtheta(0.01, -0.02, 0.015);
   std::vector<Pose> gt{Pose(q_gt, Vector3d(1, 2, 3)), Pose(q_gt, Vector3d(-1, 0, 2))};

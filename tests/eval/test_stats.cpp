@@ -7,8 +7,11 @@
 
 #include "roe/core/error.hpp"
 #include "roe/eval/stats.hpp"
+#include "roe/math/distributions.hpp"
 
 using namespace roe::eval;
+using roe::math::student_t_cdf;
+using roe::math::student_t_quantile;
 
 namespace {
 nlohmann::json reference() {

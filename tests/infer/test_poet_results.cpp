@@ -82,7 +82,7 @@ TEST_CASE("w-first quaternions (PoET quat models) become rotations", "[poet_resu
   CHECK(expect_error(R"({"a": {"0": {"t": [0,0,1], "rot": [2, 0, 0, 0], "class": 1}}})").find("unit norm") != std::string::npos);
 }
 
-TEST_CASE("float32 rounding of R is removed; non-rotations are errors with line and column", "[poet_results]") {
+TEST_CASE("float32 rounding of R is removed, non-rotations are errors with line and column", "[poet_results]") {
   const auto r = parse_poet_results(R"({"a": {"0": {"t": [0,0,1], "rot": [[1.0000001,0,0],[0,0.9999999,0],[0,0,1]], "class": 1}}})",
                                     "r.json");
   const auto& R = r.images[0].detections[0].R_C_O;

@@ -133,7 +133,7 @@ TEST_CASE("input class: a folder or a symlink loop where roe.json or a stream fi
   CHECK_THAT(expect_input_error([&] { roe::io::read_dataset(e.path, {}); }).what(), Contains("symlink loop"));
 }
 
-TEST_CASE("truncation class: the last line without its line end is a warning naming file and line; a short one says "
+TEST_CASE("truncation class: the last line without its line end is a warning naming file and line, a short one says "
           "the file looks cut",
           "[io][hostile][csv]") {
   roe::test::TempDir d("roe_hostile");

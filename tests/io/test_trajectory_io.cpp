@@ -66,7 +66,7 @@ TEST_CASE("format detection from the header", "[io][trajectory]") {
   CHECK_THROWS_AS(parse_trajectory_format("kitty"), InputError);
 }
 
-TEST_CASE("KITTI poses: 12 fields [R|t] row-major, stamped by index; a times file; a bag is named", "[trajectory_io]") {
+TEST_CASE("KITTI poses: 12 fields [R|t] row-major, stamped by index, a times file, a bag is named", "[trajectory_io]") {
   // Rz(90°) then identity: evo's kitti layout r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz.
   const std::string text = "0 -1 0 1.5 1 0 0 -2 0 0 1 0.25\n1 0 0 0 0 1 0 0 0 0 1 0\n";
   CHECK(detect_trajectory_format(text, "k.txt") == TrajectoryFormat::kKitti);

@@ -20,11 +20,6 @@
 
 namespace roe::eval {
 
-/// Quantile of Student's t distribution with `dof` > 0 degrees of freedom, 0 < p < 1.
-double student_t_quantile(double p, double dof);
-/// CDF of Student's t distribution.
-double student_t_cdf(double t, double dof);
-
 struct SampleSummary {
   std::size_t n = 0;
   double mean = 0.0, std = 0.0, std_pop = 0.0, median = 0.0, min = 0.0, max = 0.0;

@@ -3,13 +3,13 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "roe/ekf/chi2.hpp"
+#include "roe/math/distributions.hpp"
 
-using roe::ekf::chi2_cdf;
-using roe::ekf::chi2_quantile;
-using roe::ekf::normal_quantile;
+using roe::math::chi2_cdf;
+using roe::math::chi2_quantile;
+using roe::math::normal_quantile;
 
-TEST_CASE("chi2 quantile matches table values", "[ekf][chi2]") {
+TEST_CASE("chi2 quantile matches table values", "[math][chi2]") {
   struct Row {
     double p, k, q;
   };
@@ -24,7 +24,7 @@ TEST_CASE("chi2 quantile matches table values", "[ekf][chi2]") {
   }
 }
 
-TEST_CASE("chi2 cdf inverts the quantile", "[ekf][chi2]") {
+TEST_CASE("chi2 cdf inverts the quantile", "[math][chi2]") {
   for (double k : {1.0, 2.0, 6.0, 12.0, 60.0, 600.0, 6000.0})
     for (double p : {1e-6, 0.01, 0.025, 0.5, 0.95, 0.975, 0.999999}) {
       INFO("p = " << p << " k = " << k);
@@ -35,7 +35,7 @@ TEST_CASE("chi2 cdf inverts the quantile", "[ekf][chi2]") {
     CHECK(chi2_cdf(x, 2.0) == Approx(1.0 - std::exp(-0.5 * x)).epsilon(1e-13));
 }
 
-TEST_CASE("normal quantile", "[ekf][chi2]") {
+TEST_CASE("normal quantile", "[math][chi2]") {
   CHECK(normal_quantile(0.975) == Approx(1.959963985).epsilon(1e-9));
   CHECK(normal_quantile(0.5) == Approx(0.0).margin(1e-12));
   CHECK(normal_quantile(1e-5) == Approx(-4.264890794).epsilon(1e-8));
@@ -43,7 +43,7 @@ TEST_CASE("normal quantile", "[ekf][chi2]") {
 
 // Both tails to 1e-13 against Python's statistics.NormalDist().inv_cdf (Wichura's AS241, ~1e-16),
 // for the same double p: near p = 1 a Halley step on 0.5·erfc(−x/√2) − p would lose ~8 digits.
-TEST_CASE("normal quantile: both tails to full precision, odd symmetry", "[ekf][chi2]") {
+TEST_CASE("normal quantile: both tails to full precision, odd symmetry", "[math][chi2]") {
   struct Row {
     double p, x;
   };
