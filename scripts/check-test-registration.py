@@ -40,18 +40,16 @@ def main():
     if len(sys.argv) != 2:
         print(__doc__, file=sys.stderr)
         return 2
-    build = pathlib.Path(sys.argv[1])
+    build = pathlib.Path(sys.argv[1]).resolve()
     registered = ctest_names(build)
     explicit = explicit_names(build)
     problems = []
-    binaries = sorted(build.glob("test_*"))
+    binaries = sorted(b for b in build.glob("test_*") if b.is_file() and b.stat().st_mode & 0o111)
     if not binaries:
         print(f"no test_* binaries in {build}", file=sys.stderr)
         return 1
     expected = set()
     for b in binaries:
-        if not b.is_file() or not b.stat().st_mode & 0o111:
-            continue
         area = b.name[len("test_"):]
         for name in catch_names(b):
             full = f"{area}/{name}"
