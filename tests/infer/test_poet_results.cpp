@@ -143,7 +143,7 @@ TEST_CASE("PoET's image id rule", "[poet_results]") {
   CHECK(ycbv_class_names()[21] == "061_foam_brick");
 }
 
-TEST_CASE("the tokenizer: -Infinity, keywords run on into names, \\u escapes, nesting depth", "[poet_results]") {
+TEST_CASE("the tokenizer: -Infinity, keywords run on into names, backslash-u escapes, nesting depth", "[poet_results]") {
   const auto one = [](const std::string& id, const std::string& t) {
     return R"({")" + id + R"(": {"0": {"t": )" + t + R"(, "rot": [1,0,0,0], "class": 1}}})";
   };
