@@ -9,11 +9,14 @@
 #include "roe/ekf/imu.hpp"
 #include "roe/ekf/measurement.hpp"
 #include "roe/math/so3.hpp"
+#include "support/jacobian.hpp"
 
 using namespace roe;
 using namespace roe::ekf;
 using math::exp_quat;
 using math::log_quat;
+using roe::test::check_jacobian;
+using roe::test::numeric_jacobian;
 
 namespace {
 
@@ -71,18 +74,11 @@ TEST_CASE("discrete F equals finite differences of the nominal integration", "[e
       CoreTransition F;
       integrate(x, w0, a0, w1, a1, dt, &F);
       const Mat15 Fa = F.dense();
-      Mat15 Fn;
-      const double eps = 1e-6;
-      for (int i = 0; i < 15; ++i) {
-        Eigen::Matrix<double, 15, 1> d = Eigen::Matrix<double, 15, 1>::Zero();
-        d(i) = eps;
-        const CoreState y0 = integrate(x, w0, a0, w1, a1, dt);
-        const CoreState yp = integrate(plus(x, d), w0, a0, w1, a1, dt);
-        const CoreState ym = integrate(plus(x, -d), w0, a0, w1, a1, dt);
-        Fn.col(i) = (minus(yp, y0) - minus(ym, y0)) / (2 * eps);
-      }
-      INFO("dt = " << dt << "\nanalytic\n" << Fa << "\nnumeric\n" << Fn);
-      CHECK((Fa - Fn).cwiseAbs().maxCoeff() < 1e-7);
+      const CoreState y0 = integrate(x, w0, a0, w1, a1, dt);
+      INFO("dt = " << dt);
+      check_jacobian(Fa, [&](const Eigen::VectorXd& d) -> Eigen::VectorXd {
+        return minus(integrate(plus(x, d), w0, a0, w1, a1, dt), y0);
+      });
       // The block-sparse application equals the dense product.
       Eigen::Matrix<double, 15, 20> X = Eigen::Matrix<double, 15, 20>::Random();
       Eigen::Matrix<double, 15, 20> Y = X;
@@ -140,40 +136,21 @@ TEST_CASE("object measurement H blocks equal finite differences", "[ekf][jacobia
     const CoreState x = random_core();
     const Pose T_I_C = Upose(0.1), T_O_W = Upose(2.0);
     const ObjectPrediction pr = predict_object(x, T_I_C, T_O_W);
-    const double eps = 1e-6;
     // Columns: δp_W_I, δθ_W_I via the core; δp_I_C, δθ_I_C; δp_O_W, δθ_O_W.
-    Eigen::Matrix<double, 6, 12> Hn, Ha;
+    Eigen::Matrix<double, 6, 12> Ha;
     Ha << pr.H_p_WI, pr.H_theta_WI, pr.H_p_IC, pr.H_theta_IC;
-    for (int i = 0; i < 12; ++i) {
-      Vec6 dp[2];
-      for (int s = 0; s < 2; ++s) {
-        const double e = s == 0 ? eps : -eps;
-        CoreState xs = x;
-        Pose cs = T_I_C;
-        Eigen::Matrix<double, 15, 1> d = Eigen::Matrix<double, 15, 1>::Zero();
-        if (i < 3)
-          d(kP + i) = e;
-        else if (i < 6)
-          d(kTheta + i - 3) = e;
-        xs = plus(x, d);
-        Vec6 dc = Vec6::Zero();
-        if (i >= 6) dc(i - 6) = e;
-        cs = pose_plus(T_I_C, dc);
-        dp[s] = pose_minus(predict_object(xs, cs, T_O_W).T_O_C_hat, pr.T_O_C_hat);
-      }
-      Hn.col(i) = (dp[0] - dp[1]) / (2 * eps);
-    }
-    CHECK((Ha - Hn).cwiseAbs().maxCoeff() < 1e-7);
-    Eigen::Matrix<double, 6, 6> Hon, Hoa;
+    check_jacobian(Ha, [&](const Eigen::VectorXd& e) -> Eigen::VectorXd {
+      Eigen::Matrix<double, 15, 1> d = Eigen::Matrix<double, 15, 1>::Zero();
+      d.segment<3>(kP) = e.segment<3>(0);
+      d.segment<3>(kTheta) = e.segment<3>(3);
+      return pose_minus(predict_object(plus(x, d), pose_plus(T_I_C, e.tail<6>()), T_O_W).T_O_C_hat,
+                        pr.T_O_C_hat);
+    });
+    Eigen::Matrix<double, 6, 6> Hoa;
     Hoa << pr.H_p_OW, pr.H_theta_OW;
-    for (int i = 0; i < 6; ++i) {
-      Vec6 d = Vec6::Zero();
-      d(i) = eps;
-      Hon.col(i) = (pose_minus(predict_object(x, T_I_C, pose_plus(T_O_W, d)).T_O_C_hat, pr.T_O_C_hat) -
-                    pose_minus(predict_object(x, T_I_C, pose_plus(T_O_W, -d)).T_O_C_hat, pr.T_O_C_hat)) /
-                   (2 * eps);
-    }
-    CHECK((Hoa - Hon).cwiseAbs().maxCoeff() < 1e-7);
+    check_jacobian(Hoa, [&](const Eigen::VectorXd& d) -> Eigen::VectorXd {
+      return pose_minus(predict_object(x, T_I_C, pose_plus(T_O_W, d)).T_O_C_hat, pr.T_O_C_hat);
+    });
     // v and the biases do not enter: their blocks are zero by construction (checked on the full H below).
   }
 }
@@ -197,29 +174,16 @@ TEST_CASE("first-sight initialisation Jacobians equal finite differences", "[ekf
     // Consistency of the value: T_O_W · T_W_I · T_I_C = z.
     const Pose back = in.T_O_W * Pose(x.q_W_I, x.p_W_I) * T_I_C;
     CHECK(pose_minus(back, z).norm() < 1e-12);
-    Eigen::Matrix<double, 6, 18> Ja, Jn;
+    Eigen::Matrix<double, 6, 18> Ja;
     Ja << in.J_p_WI, in.J_theta_WI, in.J_p_IC, in.J_theta_IC, in.J_z;
-    const double eps = 1e-6;
-    for (int i = 0; i < 18; ++i) {
-      Vec6 v[2];
-      for (int s = 0; s < 2; ++s) {
-        const double e = s == 0 ? eps : -eps;
-        Eigen::Matrix<double, 15, 1> d = Eigen::Matrix<double, 15, 1>::Zero();
-        Vec6 dc = Vec6::Zero(), dz = Vec6::Zero();
-        if (i < 3)
-          d(kP + i) = e;
-        else if (i < 6)
-          d(kTheta + i - 3) = e;
-        else if (i < 12)
-          dc(i - 6) = e;
-        else
-          dz(i - 12) = e;
-        v[s] = pose_minus(init_object(plus(x, d), pose_plus(T_I_C, dc), pose_plus(z, dz)).T_O_W, in.T_O_W);
-      }
-      Jn.col(i) = (v[0] - v[1]) / (2 * eps);
-    }
-    INFO("analytic\n" << Ja << "\nnumeric\n" << Jn);
-    CHECK((Ja - Jn).cwiseAbs().maxCoeff() < 1e-7);
+    check_jacobian(Ja, [&](const Eigen::VectorXd& e) -> Eigen::VectorXd {
+      Eigen::Matrix<double, 15, 1> d = Eigen::Matrix<double, 15, 1>::Zero();
+      d.segment<3>(kP) = e.segment<3>(0);
+      d.segment<3>(kTheta) = e.segment<3>(3);
+      return pose_minus(
+          init_object(plus(x, d), pose_plus(T_I_C, e.segment<6>(6)), pose_plus(z, e.segment<6>(12))).T_O_W,
+          in.T_O_W);
+    });
   }
 }
 
@@ -228,19 +192,11 @@ TEST_CASE("per-detection sigmas are mapped through the T_C_O inversion", "[ekf][
   const Vec6 sigma = (Vec6() << 0.01, 0.02, 0.05, 0.03, 0.04, 0.05).finished();
   const Mat6 S = detection_covariance_in_residual_frame(T_C_O, sigma);
   // Numeric Jacobian of z = T_C_O⁻¹ w.r.t. (n_t, n_r) with t + n_t, Exp(n_r) R.
-  Mat6 J;
-  const double eps = 1e-6;
   const Pose z0 = T_C_O.inverse();
-  for (int i = 0; i < 6; ++i) {
-    Vec6 v[2];
-    for (int s = 0; s < 2; ++s) {
-      Vec6 n = Vec6::Zero();
-      n(i) = s == 0 ? eps : -eps;
-      const Pose pert(exp_quat(n.tail<3>()) * T_C_O.q, T_C_O.p + n.head<3>());
-      v[s] = pose_minus(pert.inverse(), z0);
-    }
-    J.col(i) = (v[0] - v[1]) / (2 * eps);
-  }
+  const Mat6 J = numeric_jacobian(6, [&](const Eigen::VectorXd& n) -> Eigen::VectorXd {
+    const Pose pert(exp_quat(n.tail<3>()) * T_C_O.q, T_C_O.p + n.head<3>());
+    return pose_minus(pert.inverse(), z0);
+  });
   const Mat6 Sn = J * sigma.cwiseProduct(sigma).asDiagonal() * J.transpose();
   CHECK((S - Sn).cwiseAbs().maxCoeff() < 1e-9);
   // A full covariance with translation-rotation cross terms (the blocks' signs only show through them).
@@ -256,20 +212,11 @@ TEST_CASE("inverse_pose_jacobian equals finite differences of T_O_W -> T_W_O", "
   for (int trial = 0; trial < 20; ++trial) {
     const Pose T_O_W = Upose(2.0);
     const Mat6 J = inverse_pose_jacobian(T_O_W);
-    Mat6 Jn;
-    const double eps = 1e-6;
-    for (int i = 0; i < 6; ++i) {
-      Vec6 v[2];
-      for (int s = 0; s < 2; ++s) {
-        Vec6 d = Vec6::Zero();
-        d(i) = s == 0 ? eps : -eps;
-        const Pose pert(T_O_W.q * exp_quat(d.tail<3>()), T_O_W.p + d.head<3>());
-        v[s] = pose_minus(pert.inverse(), T_O_W.inverse());
-      }
-      Jn.col(i) = (v[0] - v[1]) / (2 * eps);
-    }
-    INFO("trial " << trial << "\nanalytic\n" << J << "\nnumeric\n" << Jn);
-    CHECK((J - Jn).cwiseAbs().maxCoeff() < 1e-7);
+    INFO("trial " << trial);
+    check_jacobian(J, [&](const Eigen::VectorXd& d) -> Eigen::VectorXd {
+      const Pose pert(T_O_W.q * exp_quat(d.tail<3>()), T_O_W.p + d.head<3>());
+      return pose_minus(pert.inverse(), T_O_W.inverse());
+    });
   }
 }
 
@@ -278,22 +225,13 @@ TEST_CASE("relative_pose_jacobian equals finite differences of (T_A_W, T_O_W) ->
   for (int trial = 0; trial < 20; ++trial) {
     const Pose T_A_W = Upose(2.0), T_O_W = Upose(2.0);
     const Eigen::Matrix<double, 6, 12> J = relative_pose_jacobian(T_A_W, T_O_W);
-    Eigen::Matrix<double, 6, 12> Jn;
     const Pose rel0 = T_A_W * T_O_W.inverse();
-    const double eps = 1e-6;
-    for (int i = 0; i < 12; ++i) {
-      Vec6 v[2];
-      for (int s = 0; s < 2; ++s) {
-        Eigen::Matrix<double, 12, 1> d = Eigen::Matrix<double, 12, 1>::Zero();
-        d(i) = s == 0 ? eps : -eps;
-        const Pose X(T_A_W.q * exp_quat(d.segment<3>(3)), T_A_W.p + d.segment<3>(0));
-        const Pose Y(T_O_W.q * exp_quat(d.segment<3>(9)), T_O_W.p + d.segment<3>(6));
-        v[s] = pose_minus(X * Y.inverse(), rel0);
-      }
-      Jn.col(i) = (v[0] - v[1]) / (2 * eps);
-    }
-    INFO("trial " << trial << "\nanalytic\n" << J << "\nnumeric\n" << Jn);
-    CHECK((J - Jn).cwiseAbs().maxCoeff() < 1e-7);
+    INFO("trial " << trial);
+    check_jacobian(J, [&](const Eigen::VectorXd& d) -> Eigen::VectorXd {
+      const Pose X(T_A_W.q * exp_quat(d.segment<3>(3)), T_A_W.p + d.segment<3>(0));
+      const Pose Y(T_O_W.q * exp_quat(d.segment<3>(9)), T_O_W.p + d.segment<3>(6));
+      return pose_minus(X * Y.inverse(), rel0);
+    });
   }
 }
 
@@ -359,23 +297,14 @@ TEST_CASE("full H of the filter equals finite differences, incl. zero and anchor
           Vec6 r;
           Eigen::MatrixXd H;
           f.measurement_jacobian(id, z, r, H);
-          Eigen::MatrixXd Hn(6, f.dim());
           const Pose zh0 = f.predict(id);
-          const double eps = 1e-6;
-          for (int i = 0; i < f.dim(); ++i) {
-            Vec6 v[2];
-            for (int s = 0; s < 2; ++s) {
-              Filter g = f;
-              Eigen::VectorXd d = Eigen::VectorXd::Zero(f.dim());
-              d(i) = s == 0 ? eps : -eps;
-              g.boxplus(d);
-              v[s] = diff(g.predict(id), zh0);
-            }
-            Hn.col(i) = (v[0] - v[1]) / (2 * eps);
-          }
           INFO("gauge " << to_string(gauge) << " extrinsics " << extr << " frame " << to_string(frame)
                         << " object " << id);
-          CHECK((H - Hn).cwiseAbs().maxCoeff() < 1e-7);
+          const Eigen::MatrixXd Hn = check_jacobian(H, [&](const Eigen::VectorXd& d) -> Eigen::VectorXd {
+            Filter g = f;
+            g.boxplus(d);
+            return diff(g.predict(id), zh0);
+          });
           // Structural zeros: v, biases, every other object's block (incl. the anchor's two tilt
           // columns for a non-anchor detection), and for the anchor its fixed components.
           CHECK(H.middleCols(kV, 3).cwiseAbs().maxCoeff() == 0.0);
@@ -409,35 +338,27 @@ TEST_CASE("gauge generator equals finite differences of a change of world frame"
   for (AnchorGauge gauge : {AnchorGauge::kPosition, AnchorGauge::kPositionYaw}) {
     Filter f = make_filter(gauge, true);
     const Eigen::MatrixXd G = f.gauge_generator();
-    const double eps = 1e-6;
+    REQUIRE(G.cols() == 6);
     const CoreState x = f.core();
-    for (int i = 0; i < 6; ++i) {
-      Eigen::VectorXd v[2];
-      for (int s = 0; s < 2; ++s) {
-        Vec6 gam = Vec6::Zero();
-        gam(i) = s == 0 ? eps : -eps;
-        const Pose T_W_Wp(exp_quat(gam.tail<3>()), gam.head<3>());  // x_W = Exp(φ) x_W' + t
-        const Pose T_Wp_W = T_W_Wp.inverse();
-        Eigen::VectorXd d = Eigen::VectorXd::Zero(f.dim());
-        const Pose Ti = T_Wp_W * Pose(x.q_W_I, x.p_W_I);
-        d.segment<3>(kP) = Ti.p - x.p_W_I;
-        d.segment<3>(kV) = T_Wp_W.q * x.v_W_I - x.v_W_I;
-        d.segment<3>(kTheta) = log_quat(x.q_W_I.conjugate() * Ti.q);
-        for (const auto& o : f.objects()) {
-          if (o.dim == 0) continue;
-          const Pose To = o.T_O_W * T_W_Wp;
-          const Vec6 e = pose_minus(To, o.T_O_W);
-          if (o.dim == 6)
-            d.segment<6>(o.offset) = e;
-          else
-            d.segment(o.offset, o.dim) = e.segment(3, o.dim);
-        }
-        v[s] = d;
+    // The error state of the same estimate expressed in the world W' of a change of world frame γ.
+    check_jacobian(G, [&](const Eigen::VectorXd& gam) -> Eigen::VectorXd {
+      const Pose T_W_Wp(exp_quat(gam.tail<3>()), gam.head<3>());  // x_W = Exp(φ) x_W' + t
+      const Pose T_Wp_W = T_W_Wp.inverse();
+      Eigen::VectorXd d = Eigen::VectorXd::Zero(f.dim());
+      const Pose Ti = T_Wp_W * Pose(x.q_W_I, x.p_W_I);
+      d.segment<3>(kP) = Ti.p - x.p_W_I;
+      d.segment<3>(kV) = T_Wp_W.q * x.v_W_I - x.v_W_I;
+      d.segment<3>(kTheta) = log_quat(x.q_W_I.conjugate() * Ti.q);
+      for (const auto& o : f.objects()) {
+        if (o.dim == 0) continue;
+        const Vec6 e = pose_minus(o.T_O_W * T_W_Wp, o.T_O_W);
+        if (o.dim == 6)
+          d.segment<6>(o.offset) = e;
+        else
+          d.segment(o.offset, o.dim) = e.segment(3, o.dim);
       }
-      const Eigen::VectorXd col = (v[0] - v[1]) / (2 * eps);
-      INFO("gamma component " << i << "\nG " << G.col(i).transpose() << "\nnum " << col.transpose());
-      CHECK((G.col(i) - col).cwiseAbs().maxCoeff() < 1e-7);
-    }
+      return d;
+    });
   }
 }
 
@@ -467,21 +388,11 @@ TEST_CASE("the rows a split-gate update uses equal finite differences of their r
           REQUIRE(H.cols() == f.dim());
           CHECK((r - r6.segment(first, m)).norm() == 0.0);
           // Numeric Jacobian of the part's rows of the predicted measurement's error.
-          Eigen::MatrixXd Hn(m, f.dim());
-          const double eps = 1e-6;
-          for (int i = 0; i < f.dim(); ++i) {
-            Eigen::VectorXd v[2];
-            for (int s = 0; s < 2; ++s) {
-              Filter g = f;
-              Eigen::VectorXd d = Eigen::VectorXd::Zero(f.dim());
-              d(i) = s == 0 ? eps : -eps;
-              g.boxplus(d);
-              v[s] = prediction_error(frame, g.predict(id), zh0).segment(first, m);
-            }
-            Hn.col(i) = (v[0] - v[1]) / (2 * eps);
-          }
-          INFO("analytic\n" << H << "\nnumeric\n" << Hn);
-          CHECK((H - Hn).cwiseAbs().maxCoeff() < 1e-7);
+          check_jacobian(H, [&](const Eigen::VectorXd& d) -> Eigen::VectorXd {
+            Filter g = f;
+            g.boxplus(d);
+            return prediction_error(frame, g.predict(id), zh0).segment(first, m);
+          });
         }
       }
     }

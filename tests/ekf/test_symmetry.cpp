@@ -10,6 +10,7 @@
 #include "roe/ekf/filter.hpp"
 #include "roe/ekf/symmetry.hpp"
 #include "roe/math/so3.hpp"
+#include "support/jacobian.hpp"
 #include "symmetry_support.hpp"
 
 using namespace roe;
@@ -59,22 +60,14 @@ Filter symmetric_filter(ResidualFrame frame, const ObjectSymmetry& s2, const Obj
 // −∂r/∂δx of measurement_rows(part) by central differences, r re-evaluated (alignment, projection and
 // row selection included) at every perturbed state.
 Eigen::MatrixXd numeric_H(const Filter& f, int id, const Pose& z, ResidualPart part) {
-  const double eps = 1e-6;
-  Eigen::MatrixXd Hn;
-  for (int i = 0; i < f.dim(); ++i) {
-    Eigen::VectorXd v[2];
-    for (int sgn = 0; sgn < 2; ++sgn) {
-      Filter g = f;
-      Eigen::VectorXd dx = Eigen::VectorXd::Zero(f.dim());
-      dx(i) = sgn == 0 ? eps : -eps;
-      g.boxplus(dx);
-      Eigen::MatrixXd Hg;
-      g.measurement_rows(id, z, part, v[sgn], Hg);
-    }
-    if (i == 0) Hn.resize(v[0].size(), f.dim());
-    Hn.col(i) = -(v[0] - v[1]) / (2 * eps);
-  }
-  return Hn;
+  return roe::test::numeric_jacobian(f.dim(), [&](const Eigen::VectorXd& dx) -> Eigen::VectorXd {
+    Filter g = f;
+    g.boxplus(dx);
+    Eigen::VectorXd r;
+    Eigen::MatrixXd Hg;
+    g.measurement_rows(id, z, part, r, Hg);
+    return -r;
+  });
 }
 
 }  // namespace
