@@ -8,7 +8,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/math/distributions.hpp"
-#include "roe/math/interpolate.hpp"
+#include "roe/eval/interpolate.hpp"
 #include "roe/math/so3.hpp"
 
 namespace roe::eval {
@@ -126,7 +126,7 @@ DetectionCalibration calibrate_detection_sigmas(const std::vector<Detection>& de
       ++no_truth[d.object_id];
       continue;
     }
-    const auto T_W_I = math::interpolate_pose_at(truth.T_W_I, d.t_ns + offset, truth.max_gap_ns);
+    const auto T_W_I = interpolate_pose_at(truth.T_W_I, d.t_ns + offset, truth.max_gap_ns);
     if (!T_W_I) {
       ++out.n_outside_truth;
       continue;

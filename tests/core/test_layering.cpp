@@ -56,6 +56,38 @@ TEST_CASE("eval does not depend on ekf, math does not depend on higher areas", "
   CHECK(violations({"math"}, {"roe/ekf/", "roe/sim/", "roe/eval/", "roe/calib/"}).empty());
 }
 
+TEST_CASE("math is the ground floor: it includes only math and the error types, which include no roe header",
+          "[layering]") {
+  // One direction between core and math: core/types.hpp uses math's Pose; math uses core's error types
+  // alone (core/error.hpp is a leaf). Interpolation of stamped poses (core types) lives in eval.
+  std::vector<std::string> v;
+  const std::regex inc(R"(^\s*#\s*include\s*[<"](roe/[^>"]+)[>"])");
+  for (const char* root : {"include/roe/math", "src/math"}) {
+    for (const auto& e : fs::recursive_directory_iterator(fs::path(ROE_SOURCE_DIR) / root)) {
+      if (!e.is_regular_file()) continue;
+      std::ifstream f(e.path());
+      std::string l;
+      for (int n = 1; std::getline(f, l); ++n) {
+        std::smatch m;
+        if (!std::regex_search(l, m, inc)) continue;
+        const std::string h = m[1].str();
+        if (h.rfind("roe/math/", 0) != 0 && h != "roe/core/error.hpp")
+          v.push_back(e.path().string() + ":" + std::to_string(n) + ": " + h);
+      }
+    }
+  }
+  for (const auto& x : v) UNSCOPED_INFO(x);
+  CHECK(v.empty());
+  std::ifstream in(fs::path(ROE_SOURCE_DIR) / "include/roe/core/error.hpp");
+  REQUIRE(in);
+  const std::regex roe_inc(R"(^\s*#\s*include\s*[<"]roe/)");
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    INFO("include/roe/core/error.hpp:" << n << ": " << line);
+    CHECK_FALSE(std::regex_search(line, roe_inc));
+  }
+}
+
 TEST_CASE("JSON is serialised only through io::dump_json (invalid UTF-8 must not throw)", "[layering]") {
   // nlohmann's dump() throws on a string that is not UTF-8 (a path, a body name from a cp1252 file);
   // io::dump_json replaces such bytes. A plain .dump( anywhere else would bring the crash back.

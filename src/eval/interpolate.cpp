@@ -1,9 +1,11 @@
-#include "roe/math/interpolate.hpp"
+#include "roe/eval/interpolate.hpp"
+
+#include "roe/math/se3.hpp"
 
 #include <algorithm>
 #include <limits>
 
-namespace roe::math {
+namespace roe::eval {
 
 std::optional<Pose> interpolate_pose_at(const std::vector<StampedPose>& poses, Timestamp t_ns,
                                         Timestamp max_gap_ns) {
@@ -17,11 +19,11 @@ std::optional<Pose> interpolate_pose_at(const std::vector<StampedPose>& poses, T
   const Timestamp span = b.t_ns - a.t_ns;
   if (span > max_gap_ns) return std::nullopt;
   const double alpha = static_cast<double>(t_ns - a.t_ns) / static_cast<double>(span);
-  return interpolate(a.T, b.T, alpha);
+  return math::interpolate(a.T, b.T, alpha);
 }
 
 std::optional<Pose> interpolate_pose_at(const std::vector<StampedPose>& poses, Timestamp t_ns) {
   return interpolate_pose_at(poses, t_ns, std::numeric_limits<Timestamp>::max());
 }
 
-}  // namespace roe::math
+}  // namespace roe::eval

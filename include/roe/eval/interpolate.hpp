@@ -7,7 +7,7 @@
 
 #include "roe/core/types.hpp"
 
-namespace roe::math {
+namespace roe::eval {
 
 /// The pose of `poses` (sorted by strictly increasing t_ns) at time `t_ns`: a stamp equal to a
 /// sample returns that sample's pose exactly; a stamp between two samples interpolates them with
@@ -22,4 +22,4 @@ std::optional<Pose> interpolate_pose_at(const std::vector<StampedPose>& poses, T
 std::optional<Pose> interpolate_pose_at(const std::vector<StampedPose>& poses, Timestamp t_ns,
                                         Timestamp max_gap_ns);
 
-}  // namespace roe::math
+}  // namespace roe::eval
