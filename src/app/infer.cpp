@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <set>
 
@@ -109,123 +110,92 @@ nlohmann::json InferSummary::to_json() const {
           {"warnings", warnings}};
 }
 
-InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const ProgressCallback& progress) {
-  InferSummary s;
-  auto warn = [&s](const std::string& w) {
-    log::warn("{}", w);
-    s.warnings.push_back(w);
-  };
-  if (opt.every < 1) throw InputError("--every must be at least 1");
-  if (opt.model_dir.empty()) throw InputError("--model BUNDLE_DIR is required");
-  DatasetManifest manifest = io::read_manifest(dataset);
-  const fs::path cam_csv = io::cam_csv_path(dataset);
-  if (!io::path_exists(cam_csv)) throw InputError("the dataset has no frames (missing " + cam_csv.string() + ")", {dataset.string()});
-  const std::vector<CameraFrame> frames = io::read_cam_csv(cam_csv);
-  s.frames_in_dataset = frames.size();
-  if (frames.empty()) throw InputError("the dataset has no frames", {cam_csv.string()});
+namespace {
 
-  infer::PoetBundle bundle = infer::read_bundle(opt.model_dir);
-  const std::string name = opt.name.empty() ? bundle.model_id : opt.name;
-  if (name.find('/') != std::string::npos || name == "." || name == "..")
-    throw InputError("--name must be a plain folder name, got \"" + name + "\"");
-  if (!infer::PoseHead::available())
-    throw InputError("this roe was built without LibTorch, so `roe infer` cannot run PoET; rebuild with libtorch-dev "
-                     "(cmake -DROE_WITH_TORCH=ON), or run PoET's own inference and `roe import poet`");
-  if (bundle.detector == infer::DetectorKind::kExternal && opt.boxes_file.empty())
-    throw InputError("model " + bundle.model_id + " has an external detector: give the boxes with --boxes FILE");
-  // The output set: an existing one is refused (without --force) before any frame is computed; the
-  // folder itself is created only at the end (an interrupted run leaves no temporary folder).
-  io::OutputDir::check(io::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
+using Warn = std::function<void(const std::string&)>;
+using BoxesByStamp = std::map<Timestamp, std::vector<infer::BoxDetection>>;
 
-  // Selection, and everything that can be checked before the model is loaded and a frame computed.
-  const auto [first, last] = parse_frame_range(opt.frames, frames.size());
-  std::vector<std::size_t> sel;
-  for (std::size_t i = first; i < last; i += static_cast<std::size_t>(opt.every)) sel.push_back(i);
-  s.frames_selected = sel.size();
-  const fs::path img_dir = io::cam_image_dir(dataset);
-  {
-    std::size_t missing = 0;
-    const CameraFrame* first_missing = nullptr;
-    std::error_code ec;
-    for (std::size_t i : sel) {
-      if (!frames[i].filename.empty() && fs::is_regular_file(img_dir / frames[i].filename, ec)) continue;
-      if (!missing++) first_missing = &frames[i];
-    }
-    if (missing) {
-      const std::string what = first_missing->filename.empty()
-                                   ? "frame " + std::to_string(first_missing->t_ns) + " has no image file name"
-                                   : "frame " + std::to_string(first_missing->t_ns) + ": " +
-                                         (img_dir / first_missing->filename).string() + " is missing";
-      throw InputError(std::to_string(missing) + " of the " + std::to_string(sel.size()) + " selected frame(s) have no image (" +
-                           what + "); a dataset without images (e.g. from roe simulate) cannot be inferred",
-                       {cam_csv.string()});
+/// Every selected frame must have its image: an InputError naming the first missing one otherwise.
+void check_selected_images(const std::vector<CameraFrame>& frames, const std::vector<std::size_t>& sel,
+                           const fs::path& img_dir, const fs::path& cam_csv) {
+  std::size_t missing = 0;
+  const CameraFrame* first_missing = nullptr;
+  std::error_code ec;
+  for (std::size_t i : sel) {
+    if (!frames[i].filename.empty() && fs::is_regular_file(img_dir / frames[i].filename, ec)) continue;
+    if (!missing++) first_missing = &frames[i];
+  }
+  if (!missing) return;
+  const std::string what = first_missing->filename.empty()
+                               ? "frame " + std::to_string(first_missing->t_ns) + " has no image file name"
+                               : "frame " + std::to_string(first_missing->t_ns) + ": " +
+                                     (img_dir / first_missing->filename).string() + " is missing";
+  throw InputError(std::to_string(missing) + " of the " + std::to_string(sel.size()) + " selected frame(s) have no image (" +
+                       what + "); a dataset without images (e.g. from roe simulate) cannot be inferred",
+                   {cam_csv.string()});
+}
+
+/// The external boxes against the frames: none matching a selected frame is an error, boxes at stamps of no
+/// frame a warning.
+void check_boxes_match(const BoxesByStamp& ext, const std::vector<CameraFrame>& frames,
+                       const std::vector<std::size_t>& sel, const fs::path& cam_csv, const std::string& boxes_file,
+                       const Warn& warn) {
+  std::set<Timestamp> in_dataset, selected;
+  for (const auto& f : frames) in_dataset.insert(f.t_ns);
+  for (std::size_t i : sel) selected.insert(frames[i].t_ns);
+  std::size_t stamps_unknown = 0, rows_unknown = 0, stamps_selected = 0, stamps_elsewhere = 0;
+  for (const auto& [t, b] : ext) {
+    if (selected.count(t)) ++stamps_selected;
+    else if (in_dataset.count(t)) ++stamps_elsewhere;
+    else {
+      ++stamps_unknown;
+      rows_unknown += b.size();
     }
   }
-  std::map<Timestamp, std::vector<infer::BoxDetection>> ext;
-  if (!opt.boxes_file.empty()) {
-    ext = read_boxes_csv(opt.boxes_file, bundle);
-    std::set<Timestamp> in_dataset, selected;
-    for (const auto& f : frames) in_dataset.insert(f.t_ns);
-    for (std::size_t i : sel) selected.insert(frames[i].t_ns);
-    std::size_t stamps_unknown = 0, rows_unknown = 0, stamps_selected = 0, stamps_elsewhere = 0;
-    for (const auto& [t, b] : ext) {
-      if (selected.count(t)) ++stamps_selected;
-      else if (in_dataset.count(t)) ++stamps_elsewhere;
-      else {
-        ++stamps_unknown;
-        rows_unknown += b.size();
-      }
-    }
-    if (ext.empty()) throw InputError("the boxes file has no rows: no frame would get a detection", {opt.boxes_file});
-    if (stamps_selected == 0) {
-      std::string msg = "none of the " + std::to_string(ext.size()) + " timestamp(s) of the boxes matches " +
-                        (sel.size() < frames.size() ? "a selected frame" : "a frame of the dataset");
-      if (stamps_elsewhere)
-        msg += " (" + std::to_string(stamps_elsewhere) + " match frames outside --frames/--every)";
-      else
-        msg += "; the boxes span " + std::to_string(ext.begin()->first) + ".." + std::to_string(ext.rbegin()->first) +
-               " ns, the frames " + std::to_string(frames.front().t_ns) + ".." + std::to_string(frames.back().t_ns) +
-               " ns (timestamp_ns must equal the stamps of " + cam_csv.filename().string() + ")";
-      throw InputError(msg, {opt.boxes_file});
-    }
-    if (stamps_unknown)
-      warn(std::to_string(rows_unknown) + " box(es) at " + std::to_string(stamps_unknown) + " timestamp(s) of " + opt.boxes_file +
-           " match no frame of the dataset and were ignored");
+  if (ext.empty()) throw InputError("the boxes file has no rows: no frame would get a detection", {boxes_file});
+  if (stamps_selected == 0) {
+    std::string msg = "none of the " + std::to_string(ext.size()) + " timestamp(s) of the boxes matches " +
+                      (sel.size() < frames.size() ? "a selected frame" : "a frame of the dataset");
+    if (stamps_elsewhere)
+      msg += " (" + std::to_string(stamps_elsewhere) + " match frames outside --frames/--every)";
+    else
+      msg += "; the boxes span " + std::to_string(ext.begin()->first) + ".." + std::to_string(ext.rbegin()->first) +
+             " ns, the frames " + std::to_string(frames.front().t_ns) + ".." + std::to_string(frames.back().t_ns) +
+             " ns (timestamp_ns must equal the stamps of " + cam_csv.filename().string() + ")";
+    throw InputError(msg, {boxes_file});
   }
+  if (stamps_unknown)
+    warn(std::to_string(rows_unknown) + " box(es) at " + std::to_string(stamps_unknown) + " timestamp(s) of " + boxes_file +
+         " match no frame of the dataset and were ignored");
+}
 
-  infer::ModelOptions mo;
-  mo.warp = opt.warp;
-  mo.device = opt.device;
-  mo.tuning.threads = opt.threads;
-  infer::PoetModel model(bundle, mo);
-  s.model_id = bundle.model_id;
-  s.selftest = model.selftest_report().to_json();
-  s.device = model.device();
-
-  // Camera → warp decision.
+/// The camera the model warps from: roe.json's, or (without one) the size of the first selected image.
+void set_model_camera(infer::PoetModel& model, const DatasetManifest& manifest, const fs::path& dataset,
+                      const fs::path& first_image, const Warn& warn) {
   if (manifest.camera && manifest.camera->width > 0) {
     const auto& c = *manifest.camera;
     if (c.distortion_model != "none" && !c.distortion.empty() &&
         std::any_of(c.distortion.begin(), c.distortion.end(), [](double d) { return d != 0.0; }))
       warn("roe.json's camera has distortion " + c.distortion_model + "; roe infer assumes undistorted (processed) images");
     model.set_camera(c.width, c.height, infer::Intrinsics{c.fx, c.fy, c.cx, c.cy});
-  } else {
-    // No camera in roe.json: take the size from the first image; no warp is possible.
-    const std::string bytes = io::read_file(img_dir / frames[sel.front()].filename);
-    const infer::HostTensor probe = [&] {
-      try {
-        return model.preprocess(bytes, (img_dir / frames[sel.front()].filename).string());
-      } catch (const InputError&) {
-        throw InputError("roe.json has no camera and the images are not at the model's size; add the camera intrinsics so "
-                         "that roe can warp them", {io::manifest_path(dataset).string()});
-      }
-    }();
-    model.set_camera(static_cast<int>(probe.shape[3]), static_cast<int>(probe.shape[2]), std::nullopt);
-    warn("roe.json has no camera: the images are used as they are (no virtual-camera warp)");
+    return;
   }
-  s.warp = model.warping();
+  const std::string bytes = io::read_file(first_image);
+  const infer::HostTensor probe = [&] {
+    try {
+      return model.preprocess(bytes, first_image.string());
+    } catch (const InputError&) {
+      throw InputError("roe.json has no camera and the images are not at the model's size; add the camera intrinsics so "
+                       "that roe can warp them", {io::manifest_path(dataset).string()});
+    }
+  }();
+  model.set_camera(static_cast<int>(probe.shape[3]), static_cast<int>(probe.shape[2]), std::nullopt);
+  warn("roe.json has no camera: the images are used as they are (no virtual-camera warp)");
+}
 
-  // Config hash: every file of the bundle that shapes the output, the camera/warp and the device.
+/// What shapes the output besides the images: every file of the bundle that matters, the camera/warp and
+/// the device. Its hash names the cache.
+nlohmann::json output_config(const infer::PoetBundle& bundle, const infer::PoetModel& model, const InferOptions& opt) {
   nlohmann::json cfg = {{"bundle_manifest_sha256", io::sha256_hex(io::dump_json(bundle.manifest))},
                         {"pose_head_sha256", io::sha256_file(bundle.pose.file)},
                         {"camera", model.camera_json()},
@@ -236,81 +206,113 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
     cfg["detector_cfg_sha256"] = io::sha256_file(bundle.darknet.cfg);
     cfg["detector_weights_sha256"] = io::sha256_file(bundle.darknet.weights);
   }
-  s.config_hash = io::sha256_hex(io::dump_json(cfg)).substr(0, 16);
-  infer::DetectionCache cache(dataset / "cache" / "infer" / bundle.model_id / s.config_hash / "frames.jsonl", bundle.model_id,
-                              s.config_hash);
-  s.cache_file = cache.file();
+  return cfg;
+}
 
-  // Class names by PoET id for the mapping to dataset objects.
-  std::vector<std::string> class_names;
+/// Class names indexed by PoET class id (gaps empty), for the mapping to dataset objects.
+std::vector<std::string> class_names_by_id(const infer::PoetBundle& bundle) {
+  std::vector<std::string> names;
   for (const auto& c : bundle.classes) {
-    if (static_cast<std::size_t>(c.id) >= class_names.size()) class_names.resize(static_cast<std::size_t>(c.id) + 1);
-    class_names[static_cast<std::size_t>(c.id)] = c.name;
+    if (static_cast<std::size_t>(c.id) >= names.size()) names.resize(static_cast<std::size_t>(c.id) + 1);
+    names[static_cast<std::size_t>(c.id)] = c.name;
   }
-  ClassMapper mapper(manifest, class_names, opt.class_map_file, io::manifest_path(dataset).string());
-  if (mapper.identity()) warn("roe.json lists no objects: object ids are the model's class ids");
+  return names;
+}
 
-  std::vector<Detection> out;
+/// The detections of all selected frames and what the loop counted.
+struct FrameResults {
+  std::vector<Detection> detections;
   nlohmann::json per_frame = nlohmann::json::array();
   std::vector<double> computed_ms;
-  std::map<int, std::size_t> unmapped;
+  std::map<int, std::size_t> unmapped;  ///< class id -> detections without an object
+};
+
+/// One frame's cache entry: reused when the cache has its key, computed (and appended) otherwise.
+infer::CachedFrame frame_entry(infer::PoetModel& model, infer::DetectionCache& cache, const CameraFrame& f,
+                               const fs::path& img, const BoxesByStamp* ext, bool use_cache, bool& reused) {
+  const std::string bytes = io::read_file(img);
+  std::string key = io::sha256_hex(bytes);
+  const std::vector<infer::BoxDetection>* boxes = nullptr;
+  static const std::vector<infer::BoxDetection> kNone;
+  if (ext) {
+    auto it = ext->find(f.t_ns);
+    boxes = it == ext->end() ? &kNone : &it->second;
+    key = io::sha256_hex(key + "|" + boxes_key(*boxes));
+  }
+  const infer::CachedFrame* hit = use_cache ? cache.find(key) : nullptr;
+  reused = hit != nullptr;
+  if (hit) return *hit;
+  const auto r = model.infer(bytes, boxes, img.string());
+  infer::CachedFrame cf;
+  cf.key = key;
+  cf.t_ns = f.t_ns;
+  cf.ms = r.timings.total_ms;
+  cf.detections = r.detections;
+  cf.dropped_invalid = r.dropped_invalid;
+  cache.append(cf);
+  return cf;
+}
+
+/// The frame's detections mapped to dataset objects (one per object, the first, i.e. highest-scoring).
+void map_frame_detections(const infer::CachedFrame& cf, Timestamp t_ns, ClassMapper& mapper, InferSummary& s,
+                          FrameResults& r) {
+  std::set<int> seen;
+  for (const auto& d : cf.detections) {
+    const auto obj = mapper.object_of(d.class_id);
+    if (!obj) {
+      ++s.dropped_unmapped_class;
+      ++r.unmapped[d.class_id];
+      continue;
+    }
+    if (!seen.insert(*obj).second) {
+      ++s.dropped_duplicate;
+      continue;
+    }
+    Detection det;
+    det.t_ns = t_ns;
+    det.object_id = *obj;
+    det.T_C_O = d.T_C_O;
+    det.score = d.score;
+    det.sigma = d.sigma;
+    r.detections.push_back(det);
+  }
+}
+
+struct FrameLoop {
+  infer::PoetModel& model;
+  infer::DetectionCache& cache;
+  ClassMapper& mapper;
+  const BoxesByStamp* ext;  ///< external boxes, or null
+  bool use_cache;
+};
+
+FrameResults infer_frames(const FrameLoop& loop, const std::vector<CameraFrame>& frames,
+                          const std::vector<std::size_t>& sel, const fs::path& img_dir, InferSummary& s,
+                          const ProgressCallback& progress) {
+  FrameResults r;
   if (progress) progress(0, sel.size());
   for (std::size_t k = 0; k < sel.size(); ++k) {
     const CameraFrame& f = frames[sel[k]];
-    const fs::path img = img_dir / f.filename;
-    const std::string bytes = io::read_file(img);
-    std::string key = io::sha256_hex(bytes);
-    const std::vector<infer::BoxDetection>* boxes = nullptr;
-    static const std::vector<infer::BoxDetection> kNone;
-    if (!opt.boxes_file.empty()) {
-      auto it = ext.find(f.t_ns);
-      boxes = it == ext.end() ? &kNone : &it->second;
-      key = io::sha256_hex(key + "|" + boxes_key(*boxes));
-    }
-    infer::CachedFrame cf;
-    const infer::CachedFrame* hit = opt.use_cache ? cache.find(key) : nullptr;
     bool reused = false;
-    if (hit) {
-      cf = *hit;
-      reused = true;
+    const infer::CachedFrame cf =
+        frame_entry(loop.model, loop.cache, f, img_dir / f.filename, loop.ext, loop.use_cache, reused);
+    if (reused) {
       ++s.frames_reused;
     } else {
-      const auto r = model.infer(bytes, boxes, img.string());
-      cf.key = key;
-      cf.t_ns = f.t_ns;
-      cf.ms = r.timings.total_ms;
-      cf.detections = r.detections;
-      cf.dropped_invalid = r.dropped_invalid;
-      cache.append(cf);
-      computed_ms.push_back(cf.ms);
+      r.computed_ms.push_back(cf.ms);
       ++s.frames_computed;
     }
     s.dropped_invalid += cf.dropped_invalid;
-    std::set<int> seen;
-    for (const auto& d : cf.detections) {
-      const auto obj = mapper.object_of(d.class_id);
-      if (!obj) {
-        ++s.dropped_unmapped_class;
-        ++unmapped[d.class_id];
-        continue;
-      }
-      if (!seen.insert(*obj).second) {
-        ++s.dropped_duplicate;
-        continue;
-      }
-      Detection det;
-      det.t_ns = f.t_ns;
-      det.object_id = *obj;
-      det.T_C_O = d.T_C_O;
-      det.score = d.score;
-      det.sigma = d.sigma;
-      out.push_back(det);
-    }
-    per_frame.push_back({{"t_ns", f.t_ns}, {"ms", cf.ms}, {"cached", reused}, {"detections", cf.detections.size()}});
+    map_frame_detections(cf, f.t_ns, loop.mapper, s, r);
+    r.per_frame.push_back({{"t_ns", f.t_ns}, {"ms", cf.ms}, {"cached", reused}, {"detections", cf.detections.size()}});
     if (progress) progress(k + 1, sel.size());
   }
-  cache.compact();  // one line per frame: entries recomputed by this run (--no-cache) replace the old ones
-  for (const auto& [c, n] : unmapped)
+  return r;
+}
+
+/// The warnings about what the loop dropped.
+void warn_dropped(const FrameResults& r, const InferSummary& s, const infer::PoetBundle& bundle, const Warn& warn) {
+  for (const auto& [c, n] : r.unmapped)
     warn(std::to_string(n) + " detection(s) of class " + std::to_string(c) + " (" + bundle.class_name(c) +
          ") map to no object of roe.json and were dropped");
   if (s.dropped_invalid)
@@ -318,40 +320,130 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
          " pose(s) the model returned with a degenerate rotation or a non-finite translation were dropped");
   if (s.dropped_duplicate)
     warn(std::to_string(s.dropped_duplicate) + " repeated detection(s) of an object in one frame dropped (the highest score is kept)");
-  s.detections_written = out.size();
-  double sum = 0;
-  for (double v : computed_ms) sum += v;
-  s.mean_ms_computed = computed_ms.empty() ? 0.0 : sum / static_cast<double>(computed_ms.size());
+}
 
-  io::OutputDir dir(io::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
-  io::write_detections_csv(dir.file("detections.csv"), out);
+/// detections/<name>/meta.json.
+nlohmann::json detection_set_meta(const InferSummary& s, const InferOptions& opt, const infer::PoetBundle& bundle,
+                                  const infer::PoetModel& model, const nlohmann::json& cfg, const ClassMapper& mapper,
+                                  const FrameResults& r, std::size_t frames_processed) {
   nlohmann::json class_map = nlohmann::json::object();
   for (const auto& [c, o] : mapper.used()) class_map[std::to_string(c)] = o;
-  nlohmann::json meta = {
-      {"producer", "roe infer"},
-      {"roe_version", kVersion},
-      {"model",
-       {{"model_id", bundle.model_id},
-        {"bundle", fs::absolute(opt.model_dir).lexically_normal().string()},
-        {"provenance", bundle.provenance},
-        {"libtorch", infer::PoseHead::runtime_version()},
-        {"device", s.device},
-        {"pose_head_optimized", model.pose_head_optimized()},
-        {"cpu_threads", infer::PoseHead::threads()}}},
-      {"config_hash", s.config_hash},
-      {"config", cfg},
-      {"options",
-       {{"frames", opt.frames}, {"every", opt.every}, {"warp", opt.warp}, {"boxes", opt.boxes_file}, {"class_map", opt.class_map_file},
-        {"use_cache", opt.use_cache}, {"threads", opt.threads}}},
-      {"class_map", class_map},
-      {"selftest", s.selftest},
-      {"frames_processed", sel.size()},
-      {"frames_computed", s.frames_computed},
-      {"frames_reused", s.frames_reused},
-      {"mean_ms_computed", s.mean_ms_computed},
-      {"score", "detector confidence (objectness x class probability) of the box the pose belongs to"},
-      {"per_frame", per_frame},
-      {"warnings", s.warnings}};
+  return {{"producer", "roe infer"},
+          {"roe_version", kVersion},
+          {"model",
+           {{"model_id", bundle.model_id},
+            {"bundle", fs::absolute(opt.model_dir).lexically_normal().string()},
+            {"provenance", bundle.provenance},
+            {"libtorch", infer::PoseHead::runtime_version()},
+            {"device", s.device},
+            {"pose_head_optimized", model.pose_head_optimized()},
+            {"cpu_threads", infer::PoseHead::threads()}}},
+          {"config_hash", s.config_hash},
+          {"config", cfg},
+          {"options",
+           {{"frames", opt.frames}, {"every", opt.every}, {"warp", opt.warp}, {"boxes", opt.boxes_file},
+            {"class_map", opt.class_map_file}, {"use_cache", opt.use_cache}, {"threads", opt.threads}}},
+          {"class_map", class_map},
+          {"selftest", s.selftest},
+          {"frames_processed", frames_processed},
+          {"frames_computed", s.frames_computed},
+          {"frames_reused", s.frames_reused},
+          {"mean_ms_computed", s.mean_ms_computed},
+          {"score", "detector confidence (objectness x class probability) of the box the pose belongs to"},
+          {"per_frame", r.per_frame},
+          {"warnings", s.warnings}};
+}
+
+/// The output set's name, checked: a plain folder name.
+std::string detection_set_name(const InferOptions& opt, const infer::PoetBundle& bundle) {
+  const std::string name = opt.name.empty() ? bundle.model_id : opt.name;
+  if (name.find('/') != std::string::npos || name == "." || name == "..")
+    throw InputError("--name must be a plain folder name, got \"" + name + "\"");
+  return name;
+}
+
+/// What can be refused before the bundle is read.
+void check_options(const InferOptions& opt) {
+  if (opt.every < 1) throw InputError("--every must be at least 1");
+  if (opt.model_dir.empty()) throw InputError("--model BUNDLE_DIR is required");
+}
+
+/// What can be refused once the bundle is read, before the model is loaded.
+void check_bundle_usable(const infer::PoetBundle& bundle, const InferOptions& opt) {
+  if (!infer::PoseHead::available())
+    throw InputError("this roe was built without LibTorch, so `roe infer` cannot run PoET; rebuild with libtorch-dev "
+                     "(cmake -DROE_WITH_TORCH=ON), or run PoET's own inference and `roe import poet`");
+  if (bundle.detector == infer::DetectorKind::kExternal && opt.boxes_file.empty())
+    throw InputError("model " + bundle.model_id + " has an external detector: give the boxes with --boxes FILE");
+}
+
+}  // namespace
+
+InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const ProgressCallback& progress) {
+  InferSummary s;
+  const Warn warn = [&s](const std::string& w) {
+    log::warn("{}", w);
+    s.warnings.push_back(w);
+  };
+  check_options(opt);
+  DatasetManifest manifest = io::read_manifest(dataset);
+  const fs::path cam_csv = io::cam_csv_path(dataset);
+  if (!io::path_exists(cam_csv)) throw InputError("the dataset has no frames (missing " + cam_csv.string() + ")", {dataset.string()});
+  const std::vector<CameraFrame> frames = io::read_cam_csv(cam_csv);
+  s.frames_in_dataset = frames.size();
+  if (frames.empty()) throw InputError("the dataset has no frames", {cam_csv.string()});
+
+  infer::PoetBundle bundle = infer::read_bundle(opt.model_dir);
+  const std::string name = detection_set_name(opt, bundle);
+  check_bundle_usable(bundle, opt);
+  // The output set: an existing one is refused (without --force) before any frame is computed; the
+  // folder itself is created only at the end (an interrupted run leaves no temporary folder).
+  io::OutputDir::check(io::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
+
+  // Selection, and everything that can be checked before the model is loaded and a frame computed.
+  const auto [first, last] = parse_frame_range(opt.frames, frames.size());
+  std::vector<std::size_t> sel;
+  for (std::size_t i = first; i < last; i += static_cast<std::size_t>(opt.every)) sel.push_back(i);
+  s.frames_selected = sel.size();
+  const fs::path img_dir = io::cam_image_dir(dataset);
+  check_selected_images(frames, sel, img_dir, cam_csv);
+  BoxesByStamp ext;
+  if (!opt.boxes_file.empty()) {
+    ext = read_boxes_csv(opt.boxes_file, bundle);
+    check_boxes_match(ext, frames, sel, cam_csv, opt.boxes_file, warn);
+  }
+
+  infer::ModelOptions mo;
+  mo.warp = opt.warp;
+  mo.device = opt.device;
+  mo.tuning.threads = opt.threads;
+  infer::PoetModel model(bundle, mo);
+  s.model_id = bundle.model_id;
+  s.selftest = model.selftest_report().to_json();
+  s.device = model.device();
+  set_model_camera(model, manifest, dataset, sel.empty() ? fs::path() : img_dir / frames[sel.front()].filename, warn);
+  s.warp = model.warping();
+
+  const nlohmann::json cfg = output_config(bundle, model, opt);
+  s.config_hash = io::sha256_hex(io::dump_json(cfg)).substr(0, 16);
+  infer::DetectionCache cache(dataset / "cache" / "infer" / bundle.model_id / s.config_hash / "frames.jsonl", bundle.model_id,
+                              s.config_hash);
+  s.cache_file = cache.file();
+  ClassMapper mapper(manifest, class_names_by_id(bundle), opt.class_map_file, io::manifest_path(dataset).string());
+  if (mapper.identity()) warn("roe.json lists no objects: object ids are the model's class ids");
+
+  const FrameLoop loop{model, cache, mapper, opt.boxes_file.empty() ? nullptr : &ext, opt.use_cache};
+  const FrameResults r = infer_frames(loop, frames, sel, img_dir, s, progress);
+  cache.compact();  // one line per frame: entries recomputed by this run (--no-cache) replace the old ones
+  warn_dropped(r, s, bundle, warn);
+  s.detections_written = r.detections.size();
+  double sum = 0;
+  for (double v : r.computed_ms) sum += v;
+  s.mean_ms_computed = r.computed_ms.empty() ? 0.0 : sum / static_cast<double>(r.computed_ms.size());
+
+  io::OutputDir dir(io::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
+  io::write_detections_csv(dir.file("detections.csv"), r.detections);
+  const nlohmann::json meta = detection_set_meta(s, opt, bundle, model, cfg, mapper, r, sel.size());
   io::write_file_atomic(dir.file("meta.json"), io::dump_json(meta, 2) + "\n");
   dir.commit();
   s.output_dir = dir.final_dir();
