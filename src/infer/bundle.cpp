@@ -51,61 +51,49 @@ std::string PoetBundle::class_name(int id) const {
   return "";
 }
 
-PoetBundle bundle_from_json(const nlohmann::json& j, const fs::path& dir, const std::string& source) {
-  PoetBundle b;
-  b.dir = dir;
-  b.manifest = j;
-  JsonObject r(j, source);
-  std::string schema;
-  r.require("schema", schema);
-  if (schema != kBundleSchema)
-    bad(r, "schema", "unsupported bundle schema \"" + schema + "\" (this roe reads \"" + kBundleSchema + "\")");
-  r.require("model_id", b.model_id);
-  if (b.model_id.empty() || b.model_id.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") != std::string::npos ||
-      b.model_id[0] == '.')
-    bad(r, "model_id", "must be a non-empty name of letters, digits, '.', '_' or '-' (it names cache and output folders)");
-  r.get("description", b.description);
+namespace {
 
-  {
-    auto im = r.child("image");
-    if (!r.has("image")) bad(r, "image", "missing required key");
-    im.require("width", b.image.width);
-    im.require("height", b.image.height);
-    if (b.image.width <= 0 || b.image.width > 16384) bad(im, "width", "must be a positive image width");
-    if (b.image.height <= 0 || b.image.height > 16384) bad(im, "height", "must be a positive image height");
-    std::string color = "RGB";
-    im.get("color", color);
-    if (color != "RGB" && color != "BGR") bad(im, "color", "must be \"RGB\" or \"BGR\"");
-    b.image.rgb = color == "RGB";
-    im.get("scale", b.image.scale);
-    if (!std::isfinite(b.image.scale) || b.image.scale <= 0) bad(im, "scale", "must be a positive number");
-    std::vector<double> mean{0, 0, 0}, stdv{1, 1, 1};
-    im.get("mean", mean);
-    im.get("std", stdv);
-    if (mean.size() != 3) bad(im, "mean", "must have 3 values (per channel)");
-    if (stdv.size() != 3) bad(im, "std", "must have 3 values (per channel)");
-    for (int c = 0; c < 3; ++c) {
-      if (!std::isfinite(mean[c])) bad(im, "mean", "must be finite");
-      if (!std::isfinite(stdv[c]) || stdv[c] <= 0) bad(im, "std", "must be positive");
-      b.image.mean[c] = mean[c];
-      b.image.std[c] = stdv[c];
-    }
-    im.finish();
+void read_image(JsonObject& r, PoetBundle& b) {
+  auto im = r.child("image");
+  if (!r.has("image")) bad(r, "image", "missing required key");
+  im.require("width", b.image.width);
+  im.require("height", b.image.height);
+  if (b.image.width <= 0 || b.image.width > 16384) bad(im, "width", "must be a positive image width");
+  if (b.image.height <= 0 || b.image.height > 16384) bad(im, "height", "must be a positive image height");
+  std::string color = "RGB";
+  im.get("color", color);
+  if (color != "RGB" && color != "BGR") bad(im, "color", "must be \"RGB\" or \"BGR\"");
+  b.image.rgb = color == "RGB";
+  im.get("scale", b.image.scale);
+  if (!std::isfinite(b.image.scale) || b.image.scale <= 0) bad(im, "scale", "must be a positive number");
+  std::vector<double> mean{0, 0, 0}, stdv{1, 1, 1};
+  im.get("mean", mean);
+  im.get("std", stdv);
+  if (mean.size() != 3) bad(im, "mean", "must have 3 values (per channel)");
+  if (stdv.size() != 3) bad(im, "std", "must have 3 values (per channel)");
+  for (int c = 0; c < 3; ++c) {
+    if (!std::isfinite(mean[c])) bad(im, "mean", "must be finite");
+    if (!std::isfinite(stdv[c]) || stdv[c] <= 0) bad(im, "std", "must be positive");
+    b.image.mean[c] = mean[c];
+    b.image.std[c] = stdv[c];
   }
-  {
-    if (!r.has("train_intrinsics")) bad(r, "train_intrinsics", "missing required key");
-    auto k = r.child("train_intrinsics");
-    b.train_intrinsics.fx = positive(k, "fx");
-    b.train_intrinsics.fy = positive(k, "fy");
-    k.require("cx", b.train_intrinsics.cx);
-    k.require("cy", b.train_intrinsics.cy);
-    if (!std::isfinite(b.train_intrinsics.cx)) bad(k, "cx", "must be finite");
-    if (!std::isfinite(b.train_intrinsics.cy)) bad(k, "cy", "must be finite");
-    k.finish();
-  }
-  r.require("num_queries", b.num_queries);
-  if (b.num_queries < 1 || b.num_queries > 1000) bad(r, "num_queries", "must be in 1..1000");
+  im.finish();
+}
 
+void read_train_intrinsics(JsonObject& r, PoetBundle& b) {
+  if (!r.has("train_intrinsics")) bad(r, "train_intrinsics", "missing required key");
+  auto k = r.child("train_intrinsics");
+  b.train_intrinsics.fx = positive(k, "fx");
+  b.train_intrinsics.fy = positive(k, "fy");
+  k.require("cx", b.train_intrinsics.cx);
+  k.require("cy", b.train_intrinsics.cy);
+  if (!std::isfinite(b.train_intrinsics.cx)) bad(k, "cx", "must be finite");
+  if (!std::isfinite(b.train_intrinsics.cy)) bad(k, "cy", "must be finite");
+  k.finish();
+}
+
+/// "classes" (1-based, unique ids and names) and "symmetric" (a subset of the ids).
+void read_classes(JsonObject& r, PoetBundle& b, const std::string& source) {
   const nlohmann::json* classes = r.raw("classes");
   if (!classes || !classes->is_array() || classes->empty()) bad(r, "classes", "must be a non-empty list of {\"id\", \"name\"}");
   std::set<int> ids;
@@ -125,7 +113,10 @@ PoetBundle bundle_from_json(const nlohmann::json& j, const fs::path& dir, const 
   r.get("symmetric", b.symmetric);
   for (int s : b.symmetric)
     if (!ids.count(s)) bad(r, "symmetric", "lists " + std::to_string(s) + ", which is not a class id");
+}
 
+/// "rotation" and "translation_unit": how the pose head's outputs are read.
+void read_output_format(JsonObject& r, PoetBundle& b) {
   std::string rot;
   r.require("rotation", rot);
   const auto rf = parse_rotation_format(rot);
@@ -136,105 +127,142 @@ PoetBundle bundle_from_json(const nlohmann::json& j, const fs::path& dir, const 
   if (unit == "m") b.translation_scale = 1.0;
   else if (unit == "mm") b.translation_scale = 1e-3;
   else bad(r, "translation_unit", "must be \"m\" or \"mm\"");
+}
 
-  {
-    if (!r.has("pose")) bad(r, "pose", "missing required key");
-    auto p = r.child("pose");
-    b.pose.file = existing_file(p, "file", dir, true);
-    p.get("torch_version", b.pose.torch_version);
-    std::string inputs = "features";
-    p.get("inputs", inputs);
-    if (inputs == "features") b.pose.inputs = PoseInputs::kFeatures;
-    else if (inputs == "image") b.pose.inputs = PoseInputs::kImage;
-    else bad(p, "inputs", "must be \"features\" (detector feature maps) or \"image\"");
-    p.get("aleatoric", b.pose.aleatoric);
-    p.finish();
+void read_pose_head(JsonObject& r, PoetBundle& b, const fs::path& dir) {
+  if (!r.has("pose")) bad(r, "pose", "missing required key");
+  auto p = r.child("pose");
+  b.pose.file = existing_file(p, "file", dir, true);
+  p.get("torch_version", b.pose.torch_version);
+  std::string inputs = "features";
+  p.get("inputs", inputs);
+  if (inputs == "features") b.pose.inputs = PoseInputs::kFeatures;
+  else if (inputs == "image") b.pose.inputs = PoseInputs::kImage;
+  else bad(p, "inputs", "must be \"features\" (detector feature maps) or \"image\"");
+  p.get("aleatoric", b.pose.aleatoric);
+  p.finish();
+}
+
+/// detector.selftest of a darknet detector: an image and the tapped layers' reference outputs.
+void read_darknet_selftest(JsonObject& d, DarknetSpec& s, const fs::path& dir) {
+  auto st = d.child("selftest");
+  s.selftest_image = existing_file(st, "image", dir, true);
+  auto outs = st.child("outputs");
+  const nlohmann::json* raw = st.raw("outputs");
+  if (!raw || !raw->is_object() || raw->empty()) bad(st, "outputs", "must map layer names to .npy files");
+  for (auto it = raw->begin(); it != raw->end(); ++it) {
+    const fs::path f = existing_file(outs, it.key().c_str(), dir, true);
+    s.selftest_outputs.emplace_back(it.key(), f);
   }
-  {
-    if (!r.has("detector")) bad(r, "detector", "missing required key");
-    auto d = r.child("detector");
-    std::string kind;
-    d.require("kind", kind);
-    if (kind == "darknet") {
-      b.detector = DetectorKind::kDarknet;
-      auto& s = b.darknet;
-      s.cfg = existing_file(d, "cfg", dir, true);
-      s.weights = existing_file(d, "weights", dir, true);
-      s.nms.conf_thresh = unit_interval(d, "conf_thresh", 0.4);
-      s.nms.iou_thresh = unit_interval(d, "iou_thresh", 0.5);
-      int max_det = 300;
-      d.get("max_detections", max_det);
-      if (max_det < 1) bad(d, "max_detections", "must be at least 1");
-      s.nms.max_detections = static_cast<std::size_t>(max_det);
-      d.get("multi_label", s.nms.multi_label);
-      d.get("class_aware", s.nms.class_aware);
-      d.get("class_offset", s.nms.class_offset);
-      d.get("feature_layers", s.feature_layers);
-      if (b.pose.inputs == PoseInputs::kFeatures && s.feature_layers.empty())
-        bad(d, "feature_layers", "must name the tapped layers when pose.inputs is \"features\"");
-      if (b.image.width % 32 != 0 || b.image.height % 32 != 0)
-        throw ConfigError("a YOLO (darknet) detector needs an image size divisible by 32, got " +
-                              std::to_string(b.image.width) + "x" + std::to_string(b.image.height),
-                          {source, 0, 0, "image"});
-      if (d.has("selftest")) {
-        auto st = d.child("selftest");
-        s.selftest_image = existing_file(st, "image", dir, true);
-        auto outs = st.child("outputs");
-        const nlohmann::json* raw = st.raw("outputs");
-        if (!raw || !raw->is_object() || raw->empty()) bad(st, "outputs", "must map layer names to .npy files");
-        for (auto it = raw->begin(); it != raw->end(); ++it) {
-          const fs::path f = existing_file(outs, it.key().c_str(), dir, true);
-          s.selftest_outputs.emplace_back(it.key(), f);
-        }
-        if (st.has("detections")) s.selftest_detections = existing_file(st, "detections", dir, true);
-        st.get("atol", s.selftest_atol);
-        if (!(s.selftest_atol > 0)) bad(st, "atol", "must be positive");
-        st.finish();
-      }
-    } else if (kind == "external") {
-      b.detector = DetectorKind::kExternal;
-      if (b.pose.inputs != PoseInputs::kImage)
-        throw ConfigError("an external detector gives boxes only: pose.inputs must be \"image\"", {source, 0, 0, "pose.inputs"});
-    } else {
-      bad(d, "kind", "must be \"darknet\" or \"external\", got \"" + kind + "\"");
+  if (st.has("detections")) s.selftest_detections = existing_file(st, "detections", dir, true);
+  st.get("atol", s.selftest_atol);
+  if (!(s.selftest_atol > 0)) bad(st, "atol", "must be positive");
+  st.finish();
+}
+
+void read_darknet(JsonObject& d, PoetBundle& b, const fs::path& dir, const std::string& source) {
+  b.detector = DetectorKind::kDarknet;
+  auto& s = b.darknet;
+  s.cfg = existing_file(d, "cfg", dir, true);
+  s.weights = existing_file(d, "weights", dir, true);
+  s.nms.conf_thresh = unit_interval(d, "conf_thresh", 0.4);
+  s.nms.iou_thresh = unit_interval(d, "iou_thresh", 0.5);
+  int max_det = 300;
+  d.get("max_detections", max_det);
+  if (max_det < 1) bad(d, "max_detections", "must be at least 1");
+  s.nms.max_detections = static_cast<std::size_t>(max_det);
+  d.get("multi_label", s.nms.multi_label);
+  d.get("class_aware", s.nms.class_aware);
+  d.get("class_offset", s.nms.class_offset);
+  d.get("feature_layers", s.feature_layers);
+  if (b.pose.inputs == PoseInputs::kFeatures && s.feature_layers.empty())
+    bad(d, "feature_layers", "must name the tapped layers when pose.inputs is \"features\"");
+  if (b.image.width % 32 != 0 || b.image.height % 32 != 0)
+    throw ConfigError("a YOLO (darknet) detector needs an image size divisible by 32, got " +
+                          std::to_string(b.image.width) + "x" + std::to_string(b.image.height),
+                      {source, 0, 0, "image"});
+  if (d.has("selftest")) read_darknet_selftest(d, s, dir);
+}
+
+void read_detector(JsonObject& r, PoetBundle& b, const fs::path& dir, const std::string& source) {
+  if (!r.has("detector")) bad(r, "detector", "missing required key");
+  auto d = r.child("detector");
+  std::string kind;
+  d.require("kind", kind);
+  if (kind == "darknet") {
+    read_darknet(d, b, dir, source);
+  } else if (kind == "external") {
+    b.detector = DetectorKind::kExternal;
+    if (b.pose.inputs != PoseInputs::kImage)
+      throw ConfigError("an external detector gives boxes only: pose.inputs must be \"image\"", {source, 0, 0, "pose.inputs"});
+  } else {
+    bad(d, "kind", "must be \"darknet\" or \"external\", got \"" + kind + "\"");
+  }
+  d.finish();
+}
+
+/// The pose head's self-test: .npy inputs and outputs, as many as the head's inputs and outputs.
+void read_selftest(JsonObject& r, PoetBundle& b, const fs::path& dir) {
+  if (!r.has("selftest")) bad(r, "selftest", "missing required key (roe checks the pose head on load)");
+  auto st = r.child("selftest");
+  const nlohmann::json* in = st.raw("inputs");
+  const nlohmann::json* out = st.raw("outputs");
+  auto files = [&](const nlohmann::json* list, const char* key) {
+    std::vector<fs::path> v;
+    if (!list || !list->is_array()) bad(st, key, "must be a list of .npy files");
+    for (std::size_t i = 0; i < list->size(); ++i) {
+      if (!(*list)[i].is_string()) bad(st, key, "must be a list of .npy files");
+      fs::path p = (*list)[i].get<std::string>();
+      if (p.is_relative()) p = dir / p;
+      std::error_code ec;
+      if (!fs::is_regular_file(p, ec)) bad(st, std::string(key) + "[" + std::to_string(i) + "]", "file not found: " + p.string());
+      v.push_back(p);
     }
-    d.finish();
-  }
+    return v;
+  };
+  b.selftest.inputs = files(in, "inputs");
+  b.selftest.outputs = files(out, "outputs");
+  st.get("atol", b.selftest.atol);
+  if (!(b.selftest.atol > 0)) bad(st, "atol", "must be positive");
+  st.finish();
+  const std::size_t n_in = 2 + (b.pose.inputs == PoseInputs::kImage ? 1 : b.darknet.feature_layers.size());
+  if (b.selftest.inputs.size() != n_in)
+    bad(st, "inputs", "needs " + std::to_string(n_in) + " files (boxes, classes, " +
+                          (b.pose.inputs == PoseInputs::kImage ? "image" : "one per feature layer") + ")");
+  const std::size_t n_out = b.pose.aleatoric ? 4 : 2;
+  if (b.selftest.outputs.size() != n_out)
+    bad(st, "outputs", "needs " + std::to_string(n_out) + " files (t, rotation" + (b.pose.aleatoric ? ", logvar_t, logvar_r)" : ")"));
+}
+
+}  // namespace
+
+PoetBundle bundle_from_json(const nlohmann::json& j, const fs::path& dir, const std::string& source) {
+  PoetBundle b;
+  b.dir = dir;
+  b.manifest = j;
+  JsonObject r(j, source);
+  std::string schema;
+  r.require("schema", schema);
+  if (schema != kBundleSchema)
+    bad(r, "schema", "unsupported bundle schema \"" + schema + "\" (this roe reads \"" + kBundleSchema + "\")");
+  r.require("model_id", b.model_id);
+  if (b.model_id.empty() || b.model_id.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") != std::string::npos ||
+      b.model_id[0] == '.')
+    bad(r, "model_id", "must be a non-empty name of letters, digits, '.', '_' or '-' (it names cache and output folders)");
+  r.get("description", b.description);
+  read_image(r, b);
+  read_train_intrinsics(r, b);
+  r.require("num_queries", b.num_queries);
+  if (b.num_queries < 1 || b.num_queries > 1000) bad(r, "num_queries", "must be in 1..1000");
+  read_classes(r, b, source);
+  read_output_format(r, b);
+  read_pose_head(r, b, dir);
+  read_detector(r, b, dir, source);
   if (const nlohmann::json* prov = r.raw("provenance")) {
     if (!prov->is_object()) bad(r, "provenance", "must be an object");
     b.provenance = *prov;
   }
-  {
-    if (!r.has("selftest")) bad(r, "selftest", "missing required key (roe checks the pose head on load)");
-    auto st = r.child("selftest");
-    const nlohmann::json* in = st.raw("inputs");
-    const nlohmann::json* out = st.raw("outputs");
-    auto files = [&](const nlohmann::json* list, const char* key) {
-      std::vector<fs::path> v;
-      if (!list || !list->is_array()) bad(st, key, "must be a list of .npy files");
-      for (std::size_t i = 0; i < list->size(); ++i) {
-        if (!(*list)[i].is_string()) bad(st, key, "must be a list of .npy files");
-        fs::path p = (*list)[i].get<std::string>();
-        if (p.is_relative()) p = dir / p;
-        std::error_code ec;
-        if (!fs::is_regular_file(p, ec)) bad(st, std::string(key) + "[" + std::to_string(i) + "]", "file not found: " + p.string());
-        v.push_back(p);
-      }
-      return v;
-    };
-    b.selftest.inputs = files(in, "inputs");
-    b.selftest.outputs = files(out, "outputs");
-    st.get("atol", b.selftest.atol);
-    if (!(b.selftest.atol > 0)) bad(st, "atol", "must be positive");
-    st.finish();
-    const std::size_t n_in = 2 + (b.pose.inputs == PoseInputs::kImage ? 1 : b.darknet.feature_layers.size());
-    if (b.selftest.inputs.size() != n_in)
-      bad(st, "inputs", "needs " + std::to_string(n_in) + " files (boxes, classes, " +
-                            (b.pose.inputs == PoseInputs::kImage ? "image" : "one per feature layer") + ")");
-    const std::size_t n_out = b.pose.aleatoric ? 4 : 2;
-    if (b.selftest.outputs.size() != n_out)
-      bad(st, "outputs", "needs " + std::to_string(n_out) + " files (t, rotation" + (b.pose.aleatoric ? ", logvar_t, logvar_r)" : ")"));
-  }
+  read_selftest(r, b, dir);
   r.finish();
   return b;
 }
