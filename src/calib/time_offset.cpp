@@ -225,32 +225,25 @@ Cost evaluate(const GyroRotation& gyro, const Eigen::Quaterniond& q_I_C, const s
   return c;
 }
 
-}  // namespace
-
-TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu, const Eigen::Vector3d& gyro_bias,
-                                               const Eigen::Quaterniond& q_I_C,
-                                               const std::vector<Detection>& detections,
-                                               const TimeOffsetOptions& o) {
-  TimeOffsetEstimate e;
+/// Why the options cannot give an estimate, or "" when they can.
+std::string invalid_options(const TimeOffsetOptions& o, std::size_t imu_samples) {
   if (!(o.search_s > 0) || !(o.step_s > 0) || o.step_s > o.search_s || !(o.window_s > 0) ||
-      !(o.truncate_deg > 0) || !(o.fit_halfwidth_s > 0)) {
-    e.reason = "invalid options (search, step, window and truncation must be positive, step <= search)";
-    return e;
-  }
-  if (imu.size() < 2) {
-    e.reason = "fewer than 2 IMU samples";
-    return e;
-  }
-  if (!std::isfinite(o.centre_s) || std::abs(o.centre_s) > 10.0) {
-    e.reason = fmt::format("the declared offset {} s is not a plausible camera-IMU offset", o.centre_s);
-    return e;
-  }
-  const GyroRotation gyro(imu, gyro_bias);
-  const Timestamp lo = from_seconds(o.centre_s - o.search_s) - 1, hi = from_seconds(o.centre_s + o.search_s) + 1;
+      !(o.truncate_deg > 0) || !(o.fit_halfwidth_s > 0))
+    return "invalid options (search, step, window and truncation must be positive, step <= search)";
+  if (imu_samples < 2) return "fewer than 2 IMU samples";
+  if (!std::isfinite(o.centre_s) || std::abs(o.centre_s) > 10.0)
+    return fmt::format("the declared offset {} s is not a plausible camera-IMU offset", o.centre_s);
+  return "";
+}
 
-  // Windows per object over the detections whose every shifted stamp lies inside the IMU span.
-  // Objects with a described symmetry are used through it; symmetric objects without one are left out
-  // (docs/calib-check.md §3): their rotation is known only up to a symmetry the dataset does not describe.
+/// Windows per object over the detections whose every shifted stamp lies inside the IMU span. Objects with
+/// a described symmetry are used through it; symmetric objects without one are left out (docs/calib-check.md
+/// §3): their rotation is known only up to a symmetry the dataset does not describe. Counts what it used and
+/// left out in `e`; `rate2` receives the sum of the squared gyro rates at the used detections.
+std::vector<Window> make_windows(const GyroRotation& gyro, const Eigen::Vector3d& gyro_bias,
+                                 const Eigen::Quaterniond& q_I_C, const std::vector<Detection>& detections,
+                                 const TimeOffsetOptions& o, TimeOffsetEstimate& e, double& rate2) {
+  const Timestamp lo = from_seconds(o.centre_s - o.search_s) - 1, hi = from_seconds(o.centre_s + o.search_s) + 1;
   std::map<int, std::vector<const Detection*>> per_object;
   const auto symmetry_of = [&](int id) -> const ObjectSymmetry* {
     const auto it = o.symmetries.find(id);
@@ -268,7 +261,7 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
   }
   std::vector<Window> windows;
   const Timestamp win = from_seconds(o.window_s), declared = from_seconds(o.centre_s);
-  double rate2 = 0.0;
+  rate2 = 0.0;
   for (auto& [id, v] : per_object) {
     std::stable_sort(v.begin(), v.end(), [](const Detection* a, const Detection* b) { return a->t_ns < b->t_ns; });
     std::size_t i = 0;
@@ -288,6 +281,312 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
     }
   }
   e.windows = windows.size();
+  return windows;
+}
+
+/// The search over the grid of candidate offsets: the cost evaluated on demand (coarse to fine), parabola
+/// fits to it, their standard errors, and the same estimate without each block of windows (jackknife).
+/// Writes the grid and the costs into the estimate it is given.
+class OffsetSearch {
+ public:
+  OffsetSearch(const GyroRotation& gyro, const Eigen::Quaterniond& q_I_C, const std::vector<Window>& windows,
+               const TimeOffsetOptions& o, TimeOffsetEstimate& e)
+      : gyro_(gyro), q_I_C_(q_I_C), windows_(windows), o_(o), e_(e) {
+    n_ = static_cast<int>(std::llround(o.search_s / o.step_s));
+    for (int k = -n_; k <= n_; ++k) e.grid_s.push_back(o.centre_s + k * o.step_s);
+    N_ = e.grid_s.size();
+    // Coarse to fine (docs/calib-check.md §3): the cost is evaluated on every `coarse_stride`-th candidate
+    // of the grid, then at the full step only where the estimate looks: around each lowest point and
+    // inside the parabola fits whose width asks for it. The candidates are evaluated on demand, once each,
+    // in parallel batches; each into its own slot, so the result does not depend on the thread count.
+    S_ = std::clamp<std::size_t>(o.coarse_stride, 1, N_ - 1);
+    e.cost.assign(N_, std::numeric_limits<double>::quiet_NaN());
+    per_window_.resize(N_);
+    done_.assign(N_, 0);
+    threads_ = o.threads ? o.threads : available_cpus();
+    std::vector<std::size_t> coarse;
+    for (std::size_t k = 0; k < N_; ++k)
+      if (on_grid(k, S_)) coarse.push_back(k);
+    ensure(coarse);
+    // The blocks of the delete-a-block jackknife: K blocks of windows, contiguous in time (so that
+    // windows of objects seen together go together).
+    G_ = windows.size();
+    K_ = std::min<std::size_t>(kJackknifeBlocks, G_);
+    order_.resize(G_);
+    for (std::size_t w = 0; w < G_; ++w) order_[w] = w;
+    std::stable_sort(order_.begin(), order_.end(), [&](std::size_t a, std::size_t b) {
+      return windows[a].dets.front()->t_ns < windows[b].dets.front()->t_ns;
+    });
+  }
+
+  std::size_t size() const { return N_; }
+  std::size_t blocks() const { return K_; }
+  std::size_t centre_index() const { return static_cast<std::size_t>(n_); }
+  std::size_t window_count() const { return G_; }
+
+  /// Evaluates the candidates not yet evaluated.
+  void ensure(const std::vector<std::size_t>& ks) {
+    std::vector<std::size_t> todo;
+    for (const std::size_t k : ks)
+      if (!done_[k]) done_[k] = 1, todo.push_back(k);
+    parallel_for(todo.size(), threads_, [&](std::size_t i) {
+      Cost c = evaluate(gyro_, q_I_C_, windows_, from_seconds(e_.grid_s[todo[i]]), o_.truncate_deg);
+      e_.cost[todo[i]] = c.truncated;
+      per_window_[todo[i]] = std::move(c.per_window);
+    });
+  }
+
+  /// The cost at candidate k without block b (b = K: with every window).
+  double value(std::size_t b, std::size_t k) const {
+    double c = e_.cost[k];
+    for (std::size_t j = b < K_ ? b * G_ / K_ : 0; b < K_ && j < (b + 1) * G_ / K_; ++j) c -= per_window_[k][order_[j]];
+    return c;
+  }
+
+  /// The lowest candidate of a cost: the lowest coarse one, then (`refine`) the lowest of the full-step
+  /// candidates between its coarse neighbours (the first on ties). The jackknife's replicates start
+  /// their fits from the coarse one: a fit over ±fit_halfwidth_s does not depend on where it starts.
+  std::size_t lowest(std::size_t b, bool refine) {
+    std::size_t best = 0;
+    for (std::size_t k = 0; k < N_; ++k)
+      if (on_grid(k, S_) && value(b, k) < value(b, best)) best = k;
+    if (!refine) return best;
+    std::vector<std::size_t> near;
+    for (std::size_t k = best >= S_ - 1 ? best - (S_ - 1) : 0; k < N_ && k <= best + (S_ - 1); ++k) near.push_back(k);
+    ensure(near);
+    for (const std::size_t k : near)
+      if (value(b, k) < value(b, best) || (value(b, k) == value(b, best) && k < best)) best = k;
+    return best;
+  }
+
+  /// Residual variance per scalar residual at a grid point (3 per detection; 6 per window absorbed by
+  /// the constant and the drift) and the variance inflation (1 + ρ)/(1 − ρ) for their lag-1
+  /// correlation ρ between consecutive detections of a window. False when there are too few residuals.
+  bool residual_stats(std::size_t at, Cost& cb, double& s2, double& inflation) const {
+    cb = evaluate(gyro_, q_I_C_, windows_, from_seconds(e_.grid_s[at]), o_.truncate_deg);
+    const double dof = 3.0 * static_cast<double>(cb.inliers) - 6.0 * static_cast<double>(windows_.size()) - 1.0;
+    if (dof <= 0) return false;
+    const double rho = cb.lag1_den > 0 ? std::clamp(cb.lag1_num / cb.lag1_den, 0.0, 0.95) : 0.0;
+    s2 = cb.inlier_sum / dof;
+    inflation = (1.0 + rho) / (1.0 - rho);
+    return true;
+  }
+
+  std::string block_text(std::size_t b) const {
+    const std::size_t w0 = b * G_ / K_, w1 = (b + 1) * G_ / K_;
+    return fmt::format("without the windows from {:.1f} s to {:.1f} s (block {} of {})",
+                       dt_seconds(gyro_.begin(), windows_[order_[w0]].dets.front()->t_ns),
+                       dt_seconds(gyro_.begin(), windows_[order_[w1 - 1]].dets.back()->t_ns), b + 1, K_);
+  }
+
+  /// The cost is rough on the scale of the grid step (inlier sets change, the gyro is sampled), so the
+  /// minimum and the curvature come from a parabola fitted to it. The window is re-centred on the fitted
+  /// minimum until it stays, and its half-width is ±3σ of a first fit over ±fit_halfwidth_s (at least
+  /// ten grid steps): wide enough to average the roughness, narrow enough that the cost's departure
+  /// from a parabola (it is not quadratic over tens of ms when the motion is fast) does not bias the
+  /// vertex.
+  double fit(std::size_t b, double centre, double half, double& curv) {
+    double base = std::numeric_limits<double>::infinity();  // a constant, for the conditioning
+    for (std::size_t k = 0; k < N_; ++k)
+      if (done_[k]) base = std::min(base, value(b, k));
+    for (int iter = 0; iter < 8; ++iter) {
+      Eigen::Matrix3d NtN = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d r = Eigen::Vector3d::Zero();
+      for (const std::size_t k : window_points(centre, half, stride_for(half))) {
+        const double x = e_.grid_s[k] - centre;
+        const Eigen::Vector3d f(1.0, x, x * x);
+        NtN += f * f.transpose();
+        r += f * (value(b, k) - base);
+      }
+      const Eigen::Vector3d abc = NtN.ldlt().solve(r);
+      curv = 2.0 * abc(2);  // d²cost/dδ² [deg²/s²]
+      if (!(curv > 0)) return centre;
+      const double next = centre - abc(1) / curv;
+      const bool settled = std::abs(next - centre) < 0.25 * o_.step_s;
+      centre = next;
+      if (settled || std::abs(centre - o_.centre_s) > o_.search_s) break;
+    }
+    return centre;
+  }
+
+  /// The whole estimate (lowest grid point, a fit over ±fit_halfwidth_s, then over ±`half`) of the cost
+  /// without block b; false when it has no minimum inside the search.
+  bool estimate(std::size_t b, double half, double& offset) {
+    const std::size_t low = lowest(b, false);
+    if (low == 0 || low + 1 == N_) return false;
+    double c = 0.0;
+    offset = fit(b, fit(b, e_.grid_s[low], o_.fit_halfwidth_s, c), half, c);
+    return c > 0 && std::abs(offset - o_.centre_s) <= o_.search_s;
+  }
+
+  /// The curvature-based standard error at an offset: var(δ) = 2 s² / cost'', inflated for the
+  /// residuals' lag-1 correlation; −1 when there are too few residuals.
+  double sigma_at(double offset, double curv, Cost& cb) const {
+    const double u = std::round((offset - o_.centre_s + o_.search_s) / o_.step_s);
+    const auto at = std::min(static_cast<std::size_t>(std::max(0.0, u)), N_ - 1);
+    double s2 = 0.0, inflation = 1.0;
+    if (!residual_stats(at, cb, s2, inflation) || !(curv > 0)) return -1.0;
+    return std::sqrt(2.0 * s2 / curv * inflation);
+  }
+
+  /// The cluster-robust standard error: each window's slope at the vertex, from the same least-squares
+  /// parabola as the total (the fit is linear in the costs, so the windows' slopes add up to the
+  /// total's, ≈ 0 at its vertex); var(δ) = G/(G−1) Σ_w slope_w² / cost''².
+  double cluster_sigma(double centre, double half, double curv) {
+    if (G_ < 2 || !(curv > 0)) return 0.0;
+    Eigen::Matrix3d NtN = Eigen::Matrix3d::Zero();
+    std::vector<Eigen::Vector3d> r(G_, Eigen::Vector3d::Zero());
+    for (const std::size_t k : window_points(centre, half, stride_for(half))) {
+      const double x = e_.grid_s[k] - centre;
+      const Eigen::Vector3d f(1.0, x, x * x);
+      NtN += f * f.transpose();
+      for (std::size_t w = 0; w < G_; ++w) r[w] += f * per_window_[k][w];
+    }
+    const auto ldlt = NtN.ldlt();
+    double sum2 = 0.0;
+    for (std::size_t w = 0; w < G_; ++w) sum2 += std::pow(ldlt.solve(r[w])(1), 2);
+    return std::sqrt(static_cast<double>(G_) / static_cast<double>(G_ - 1) * sum2) / curv;
+  }
+
+ private:
+  /// The candidates of a sub-grid of every `stride`-th point (and the search's upper edge).
+  bool on_grid(std::size_t k, std::size_t stride) const { return k % stride == 0 || k + 1 == N_; }
+  /// A fit over ±half uses every stride-th candidate, at least kFitPointsPerSide per side (finer only where
+  /// the window is narrow: coarse points average the roughness of a wide window as well as fine ones).
+  std::size_t stride_for(double half) const {
+    return std::clamp<std::size_t>(static_cast<std::size_t>(half / (kFitPointsPerSide * o_.step_s)), 1, S_);
+  }
+  std::vector<std::size_t> window_points(double centre, double half, std::size_t stride) {
+    std::vector<std::size_t> ks;
+    for (std::size_t k = 0; k < N_; ++k)
+      if (on_grid(k, stride) && std::abs(e_.grid_s[k] - centre) <= half + 1e-12) ks.push_back(k);
+    ensure(ks);
+    return ks;
+  }
+
+  const GyroRotation& gyro_;
+  const Eigen::Quaterniond& q_I_C_;
+  const std::vector<Window>& windows_;
+  const TimeOffsetOptions& o_;
+  TimeOffsetEstimate& e_;
+  int n_ = 0;                 ///< candidates each side of the centre
+  std::size_t N_ = 0, S_ = 1;  ///< grid size, coarse stride
+  std::size_t G_ = 0, K_ = 0;  ///< windows, jackknife blocks
+  unsigned threads_ = 1;
+  std::vector<std::vector<double>> per_window_;  ///< [grid point][window]
+  std::vector<char> done_;
+  std::vector<std::size_t> order_;  ///< windows in time order
+};
+
+/// The lowest candidate is the edge of the search: the offset may lie beyond it. Says how strongly the
+/// cost points there, and whether it does without any one block of windows too.
+TimeOffsetEstimate& edge_result(OffsetSearch& search, std::size_t best, const TimeOffsetOptions& o,
+                                TimeOffsetEstimate& e) {
+  e.reason = fmt::format("the cost is lowest at the edge of the search ({:+.1f} ms ± {:.1f} ms): the offset may "
+                         "lie beyond it",
+                         o.centre_s * 1e3, o.search_s * 1e3);
+  e.offset_s = e.grid_s[best];
+  e.at_edge = true;
+  e.edge_offset_s = e.grid_s[best];
+  Cost cb;
+  double s2 = 0.0, inflation = 1.0;
+  const std::size_t centre = search.centre_index();
+  search.ensure({centre});
+  if (search.residual_stats(best, cb, s2, inflation) && s2 > 0)
+    e.edge_evidence = (e.cost[centre] - e.cost[best]) / (s2 * inflation);
+  // The edge is evidence only when no part of the data carries it alone: without any one block the
+  // cost must still be lowest there.
+  e.edge_stable = true;
+  const std::size_t K = search.blocks();
+  for (std::size_t b = 0; K >= 2 && b < K && e.edge_stable; ++b) {
+    if (search.lowest(b, true) != best) {
+      e.edge_stable = false;
+      e.reason += "; but not stably: " + search.block_text(b) + " it is lowest elsewhere";
+    }
+  }
+  return e;
+}
+
+/// The delete-a-block jackknife: the whole estimate again with each of K blocks of windows (contiguous
+/// in time, so that windows of objects seen together go together) left out. Both standard errors
+/// of the vertex are local to it; when the cost is jagged (a dip made by a few windows, inlier sets
+/// that change with the offset) they can be far too small, and the replicates show it by moving.
+/// var(δ) = (K−1)/K Σ_b (δ_b − δ̄)². A replicate without a minimum inside the search means the
+/// minimum rests on a part of the data: false, with the reason in `e`.
+bool jackknife(OffsetSearch& search, double half, TimeOffsetEstimate& e) {
+  const std::size_t K = search.blocks();
+  std::vector<double> replicate;
+  for (std::size_t b = 0; K >= 2 && b < K; ++b) {
+    double offset = 0.0;
+    if (!search.estimate(b, half, offset)) {
+      e.reason = "the minimum is not stable: " + search.block_text(b) + " the cost has no minimum inside the search";
+      return false;
+    }
+    replicate.push_back(offset);
+  }
+  if (replicate.size() >= 2) {
+    double mean = 0.0, ss = 0.0;
+    for (double r : replicate) mean += r / static_cast<double>(replicate.size());
+    for (double r : replicate) ss += (r - mean) * (r - mean);
+    e.sigma_jackknife_s = std::sqrt((static_cast<double>(K) - 1.0) / static_cast<double>(K) * ss);
+  }
+  return true;
+}
+
+/// The vertex of the cost near its lowest candidate `best` and its three standard errors.
+TimeOffsetEstimate& vertex_result(OffsetSearch& search, std::size_t best, const TimeOffsetOptions& o,
+                                  TimeOffsetEstimate& e) {
+  const auto not_observable = [&]() -> TimeOffsetEstimate& {
+    e.reason = "the cost has no minimum near its lowest point: the offset is not observable from this motion";
+    return e;
+  };
+  const std::size_t K = search.blocks();
+  double curv = 0.0;
+  Cost cb;
+  double centre = search.fit(K, e.grid_s[best], o.fit_halfwidth_s, curv);
+  if (!(curv > 0)) return not_observable();
+  const double sigma1 = search.sigma_at(centre, curv, cb);
+  if (sigma1 < 0) {
+    e.reason = "too few inlier detections per window for an estimate";
+    return e;
+  }
+  const double half = std::clamp(3.0 * std::max(sigma1, search.cluster_sigma(centre, o.fit_halfwidth_s, curv)),
+                                 10.0 * o.step_s, o.fit_halfwidth_s);
+  centre = search.fit(K, centre, half, curv);
+  if (!(curv > 0)) return not_observable();
+  e.offset_s = centre;
+  if (std::abs(e.offset_s - o.centre_s) > o.search_s) {
+    e.reason = fmt::format("the fitted minimum lies outside the search ({:+.1f} ms ± {:.1f} ms): the offset may "
+                           "lie beyond it",
+                           o.centre_s * 1e3, o.search_s * 1e3);
+    return e;
+  }
+  e.sigma_curvature_s = search.sigma_at(centre, curv, cb);
+  if (e.sigma_curvature_s < 0) {
+    e.reason = "too few inlier detections per window for an estimate";
+    return e;
+  }
+  e.sigma_cluster_s = search.cluster_sigma(centre, half, curv);
+  if (!jackknife(search, half, e)) return e;
+  e.sigma_s = std::max({e.sigma_curvature_s, e.sigma_cluster_s, e.sigma_jackknife_s});
+  e.rms_residual_deg = cb.inliers ? std::sqrt(cb.inlier_sum / static_cast<double>(cb.inliers)) : 0.0;
+  e.residual_correlation = cb.lag1_den > 0 ? std::clamp(cb.lag1_num / cb.lag1_den, 0.0, 0.95) : 0.0;
+  e.valid = true;
+  return e;
+}
+
+}  // namespace
+
+TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu, const Eigen::Vector3d& gyro_bias,
+                                               const Eigen::Quaterniond& q_I_C,
+                                               const std::vector<Detection>& detections,
+                                               const TimeOffsetOptions& o) {
+  TimeOffsetEstimate e;
+  e.reason = invalid_options(o, imu.size());
+  if (!e.reason.empty()) return e;
+  const GyroRotation gyro(imu, gyro_bias);
+  double rate2 = 0.0;
+  const std::vector<Window> windows = make_windows(gyro, gyro_bias, q_I_C, detections, o, e, rate2);
   if (e.detections < o.min_detections) {
     e.reason = fmt::format("{} detection(s) in windows of >= {} inside the IMU span; at least {} are needed",
                            e.detections, o.min_window, o.min_detections);
@@ -300,243 +599,10 @@ TimeOffsetEstimate estimate_camera_time_offset(const std::vector<ImuSample>& imu
                            e.rms_rate_deg_s, o.min_rate_deg_s);
     return e;
   }
-
-  const auto n = static_cast<int>(std::llround(o.search_s / o.step_s));
-  for (int k = -n; k <= n; ++k) e.grid_s.push_back(o.centre_s + k * o.step_s);
-  const std::size_t N = e.grid_s.size();
-  // Coarse to fine (docs/calib-check.md §3): the cost is evaluated on every `coarse_stride`-th candidate
-  // of the grid, then at the full step only where the estimate looks: around each lowest point and
-  // inside the parabola fits whose width asks for it. The candidates are evaluated on demand, once each,
-  // in parallel batches; each into its own slot, so the result does not depend on the thread count.
-  const std::size_t S = std::clamp<std::size_t>(o.coarse_stride, 1, N - 1);
-  e.cost.assign(N, std::numeric_limits<double>::quiet_NaN());
-  std::vector<std::vector<double>> per_window(N);  // [grid point][window]
-  std::vector<char> done(N, 0);
-  const unsigned threads = o.threads ? o.threads : available_cpus();
-  const auto ensure = [&](const std::vector<std::size_t>& ks) {
-    std::vector<std::size_t> todo;
-    for (const std::size_t k : ks)
-      if (!done[k]) done[k] = 1, todo.push_back(k);
-    parallel_for(todo.size(), threads, [&](std::size_t i) {
-      Cost c = evaluate(gyro, q_I_C, windows, from_seconds(e.grid_s[todo[i]]), o.truncate_deg);
-      e.cost[todo[i]] = c.truncated;
-      per_window[todo[i]] = std::move(c.per_window);
-    });
-  };
-  // The candidates of a sub-grid of every `stride`-th point (and the search's upper edge).
-  const auto on_grid = [&](std::size_t k, std::size_t stride) { return k % stride == 0 || k + 1 == N; };
-  // A fit over ±half uses every stride-th candidate, at least kFitPointsPerSide per side (finer only where
-  // the window is narrow: coarse points average the roughness of a wide window as well as fine ones).
-  const auto stride_for = [&](double half) {
-    return std::clamp<std::size_t>(static_cast<std::size_t>(half / (kFitPointsPerSide * o.step_s)), 1, S);
-  };
-  const auto window_points = [&](double centre, double half, std::size_t stride) {
-    std::vector<std::size_t> ks;
-    for (std::size_t k = 0; k < N; ++k)
-      if (on_grid(k, stride) && std::abs(e.grid_s[k] - centre) <= half + 1e-12) ks.push_back(k);
-    ensure(ks);
-    return ks;
-  };
-  {
-    std::vector<std::size_t> coarse;
-    for (std::size_t k = 0; k < N; ++k)
-      if (on_grid(k, S)) coarse.push_back(k);
-    ensure(coarse);
-  }
-  // The blocks of the delete-a-block jackknife: K blocks of windows, contiguous in time (so that
-  // windows of objects seen together go together). value(b, k) is the cost at candidate k without block
-  // b (b = K: with every window).
-  const std::size_t G = windows.size(), K = std::min<std::size_t>(kJackknifeBlocks, G);
-  std::vector<std::size_t> order(G);
-  for (std::size_t w = 0; w < G; ++w) order[w] = w;
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return windows[a].dets.front()->t_ns < windows[b].dets.front()->t_ns;
-  });
-  const auto value = [&](std::size_t b, std::size_t k) {
-    double c = e.cost[k];
-    for (std::size_t j = b < K ? b * G / K : 0; b < K && j < (b + 1) * G / K; ++j) c -= per_window[k][order[j]];
-    return c;
-  };
-  // The lowest candidate of a cost: the lowest coarse one, then (`refine`) the lowest of the full-step
-  // candidates between its coarse neighbours (the first on ties). The jackknife's replicates start
-  // their fits from the coarse one: a fit over ±fit_halfwidth_s does not depend on where it starts.
-  const auto lowest = [&](std::size_t b, bool refine) {
-    std::size_t best = 0;
-    for (std::size_t k = 0; k < N; ++k)
-      if (on_grid(k, S) && value(b, k) < value(b, best)) best = k;
-    if (!refine) return best;
-    std::vector<std::size_t> near;
-    for (std::size_t k = best >= S - 1 ? best - (S - 1) : 0; k < N && k <= best + (S - 1); ++k) near.push_back(k);
-    ensure(near);
-    for (const std::size_t k : near)
-      if (value(b, k) < value(b, best) || (value(b, k) == value(b, best) && k < best)) best = k;
-    return best;
-  };
-  const std::size_t best = lowest(K, true);
-  // Residual variance per scalar residual at a grid point (3 per detection; 6 per window absorbed by
-  // the constant and the drift) and the variance inflation (1 + ρ)/(1 − ρ) for their lag-1
-  // correlation ρ between consecutive detections of a window. False when there are too few residuals.
-  const auto residual_stats = [&](std::size_t at, Cost& cb, double& s2, double& inflation) {
-    cb = evaluate(gyro, q_I_C, windows, from_seconds(e.grid_s[at]), o.truncate_deg);
-    const double dof = 3.0 * static_cast<double>(cb.inliers) - 6.0 * static_cast<double>(windows.size()) - 1.0;
-    if (dof <= 0) return false;
-    const double rho = cb.lag1_den > 0 ? std::clamp(cb.lag1_num / cb.lag1_den, 0.0, 0.95) : 0.0;
-    s2 = cb.inlier_sum / dof;
-    inflation = (1.0 + rho) / (1.0 - rho);
-    return true;
-  };
-  const auto block_text = [&](std::size_t b) {
-    const std::size_t w0 = b * G / K, w1 = (b + 1) * G / K;
-    return fmt::format("without the windows from {:.1f} s to {:.1f} s (block {} of {})",
-                       dt_seconds(gyro.begin(), windows[order[w0]].dets.front()->t_ns),
-                       dt_seconds(gyro.begin(), windows[order[w1 - 1]].dets.back()->t_ns), b + 1, K);
-  };
-  if (best == 0 || best + 1 == N) {
-    e.reason = fmt::format("the cost is lowest at the edge of the search ({:+.1f} ms ± {:.1f} ms): the offset may "
-                           "lie beyond it",
-                           o.centre_s * 1e3, o.search_s * 1e3);
-    e.offset_s = e.grid_s[best];
-    e.at_edge = true;
-    e.edge_offset_s = e.grid_s[best];
-    Cost cb;
-    double s2 = 0.0, inflation = 1.0;
-    ensure({static_cast<std::size_t>(n)});
-    if (residual_stats(best, cb, s2, inflation) && s2 > 0)
-      e.edge_evidence = (e.cost[static_cast<std::size_t>(n)] - e.cost[best]) / (s2 * inflation);
-    // The edge is evidence only when no part of the data carries it alone: without any one block the
-    // cost must still be lowest there.
-    e.edge_stable = true;
-    for (std::size_t b = 0; K >= 2 && b < K && e.edge_stable; ++b) {
-      if (lowest(b, true) != best) {
-        e.edge_stable = false;
-        e.reason += "; but not stably: " + block_text(b) + " it is lowest elsewhere";
-      }
-    }
-    return e;
-  }
-  // The cost is rough on the scale of the grid step (inlier sets change, the gyro is sampled), so the
-  // minimum and the curvature come from a parabola fitted to it. The window is re-centred on the fitted
-  // minimum until it stays, and its half-width is ±3σ of a first fit over ±fit_halfwidth_s (at least
-  // ten grid steps): wide enough to average the roughness, narrow enough that the cost's departure
-  // from a parabola (it is not quadratic over tens of ms when the motion is fast) does not bias the
-  // vertex.
-  const auto fit = [&](std::size_t b, double centre, double half, double& curv) {
-    double base = std::numeric_limits<double>::infinity();  // a constant, for the conditioning
-    for (std::size_t k = 0; k < N; ++k)
-      if (done[k]) base = std::min(base, value(b, k));
-    for (int iter = 0; iter < 8; ++iter) {
-      Eigen::Matrix3d NtN = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d r = Eigen::Vector3d::Zero();
-      for (const std::size_t k : window_points(centre, half, stride_for(half))) {
-        const double x = e.grid_s[k] - centre;
-        const Eigen::Vector3d f(1.0, x, x * x);
-        NtN += f * f.transpose();
-        r += f * (value(b, k) - base);
-      }
-      const Eigen::Vector3d abc = NtN.ldlt().solve(r);
-      curv = 2.0 * abc(2);  // d²cost/dδ² [deg²/s²]
-      if (!(curv > 0)) return centre;
-      const double next = centre - abc(1) / curv;
-      const bool settled = std::abs(next - centre) < 0.25 * o.step_s;
-      centre = next;
-      if (settled || std::abs(centre - o.centre_s) > o.search_s) break;
-    }
-    return centre;
-  };
-  // The whole estimate (lowest grid point, a fit over ±fit_halfwidth_s, then over ±`half`) of the cost
-  // without block b; false when it has no minimum inside the search.
-  const auto estimate = [&](std::size_t b, double half, double& offset) {
-    const std::size_t low = lowest(b, false);
-    if (low == 0 || low + 1 == N) return false;
-    double c = 0.0;
-    offset = fit(b, fit(b, e.grid_s[low], o.fit_halfwidth_s, c), half, c);
-    return c > 0 && std::abs(offset - o.centre_s) <= o.search_s;
-  };
-  // The curvature-based standard error at an offset: var(δ) = 2 s² / cost'', inflated for the
-  // residuals' lag-1 correlation; −1 when there are too few residuals.
-  const auto sigma_at = [&](double offset, double curv, Cost& cb) {
-    const double u = std::round((offset - o.centre_s + o.search_s) / o.step_s);
-    const auto at = std::min(static_cast<std::size_t>(std::max(0.0, u)), N - 1);
-    double s2 = 0.0, inflation = 1.0;
-    if (!residual_stats(at, cb, s2, inflation) || !(curv > 0)) return -1.0;
-    return std::sqrt(2.0 * s2 / curv * inflation);
-  };
-  // The cluster-robust standard error: each window's slope at the vertex, from the same least-squares
-  // parabola as the total (the fit is linear in the costs, so the windows' slopes add up to the
-  // total's, ≈ 0 at its vertex); var(δ) = G/(G−1) Σ_w slope_w² / cost''².
-  const auto cluster_sigma = [&](double centre, double half, double curv) {
-    if (G < 2 || !(curv > 0)) return 0.0;
-    Eigen::Matrix3d NtN = Eigen::Matrix3d::Zero();
-    std::vector<Eigen::Vector3d> r(G, Eigen::Vector3d::Zero());
-    for (const std::size_t k : window_points(centre, half, stride_for(half))) {
-      const double x = e.grid_s[k] - centre;
-      const Eigen::Vector3d f(1.0, x, x * x);
-      NtN += f * f.transpose();
-      for (std::size_t w = 0; w < G; ++w) r[w] += f * per_window[k][w];
-    }
-    const auto ldlt = NtN.ldlt();
-    double sum2 = 0.0;
-    for (std::size_t w = 0; w < G; ++w) sum2 += std::pow(ldlt.solve(r[w])(1), 2);
-    return std::sqrt(static_cast<double>(G) / static_cast<double>(G - 1) * sum2) / curv;
-  };
-  const auto not_observable = [&]() {
-    e.reason = "the cost has no minimum near its lowest point: the offset is not observable from this motion";
-    return e;
-  };
-  double curv = 0.0;
-  Cost cb;
-  double centre = fit(K, e.grid_s[best], o.fit_halfwidth_s, curv);
-  if (!(curv > 0)) return not_observable();
-  const double sigma1 = sigma_at(centre, curv, cb);
-  if (sigma1 < 0) {
-    e.reason = "too few inlier detections per window for an estimate";
-    return e;
-  }
-  const double half = std::clamp(3.0 * std::max(sigma1, cluster_sigma(centre, o.fit_halfwidth_s, curv)),
-                                 10.0 * o.step_s, o.fit_halfwidth_s);
-  centre = fit(K, centre, half, curv);
-  if (!(curv > 0)) return not_observable();
-  e.offset_s = centre;
-  if (std::abs(e.offset_s - o.centre_s) > o.search_s) {
-    e.reason = fmt::format("the fitted minimum lies outside the search ({:+.1f} ms ± {:.1f} ms): the offset may "
-                           "lie beyond it",
-                           o.centre_s * 1e3, o.search_s * 1e3);
-    return e;
-  }
-  e.sigma_curvature_s = sigma_at(centre, curv, cb);
-  if (e.sigma_curvature_s < 0) {
-    e.reason = "too few inlier detections per window for an estimate";
-    return e;
-  }
-  e.sigma_cluster_s = cluster_sigma(centre, half, curv);
-  // The delete-a-block jackknife: the whole estimate again with each of K blocks of windows (contiguous
-  // in time, so that windows of objects seen together go together) left out. Both standard errors
-  // above are local to the vertex; when the cost is jagged (a dip made by a few windows, inlier sets
-  // that change with the offset) they can be far too small, and the replicates show it by moving.
-  // var(δ) = (K−1)/K Σ_b (δ_b − δ̄)². A replicate without a minimum inside the search means the
-  // minimum rests on a part of the data: no estimate.
-  {
-    std::vector<double> replicate;
-    for (std::size_t b = 0; K >= 2 && b < K; ++b) {
-      double offset = 0.0;
-      if (!estimate(b, half, offset)) {
-        e.reason = "the minimum is not stable: " + block_text(b) + " the cost has no minimum inside the search";
-        return e;
-      }
-      replicate.push_back(offset);
-    }
-    if (replicate.size() >= 2) {
-      double mean = 0.0, ss = 0.0;
-      for (double r : replicate) mean += r / static_cast<double>(replicate.size());
-      for (double r : replicate) ss += (r - mean) * (r - mean);
-      e.sigma_jackknife_s = std::sqrt((static_cast<double>(K) - 1.0) / static_cast<double>(K) * ss);
-    }
-  }
-  e.sigma_s = std::max({e.sigma_curvature_s, e.sigma_cluster_s, e.sigma_jackknife_s});
-  e.rms_residual_deg = cb.inliers ? std::sqrt(cb.inlier_sum / static_cast<double>(cb.inliers)) : 0.0;
-  e.residual_correlation = cb.lag1_den > 0 ? std::clamp(cb.lag1_num / cb.lag1_den, 0.0, 0.95) : 0.0;
-  e.valid = true;
-  return e;
+  OffsetSearch search(gyro, q_I_C, windows, o, e);
+  const std::size_t best = search.lowest(search.blocks(), true);
+  if (best == 0 || best + 1 == search.size()) return edge_result(search, best, o, e);
+  return vertex_result(search, best, o, e);
 }
 
 }  // namespace roe::calib
