@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "command.hpp"
+#include "evo_syntax.hpp"
 #include "figure_options.hpp"
 #include "roe/app/eval.hpp"
 #include "roe/core/error.hpp"
@@ -18,6 +19,10 @@ struct Args {
   app::EvalOptions opt;
   bool evo_align = false, evo_scale = false, evo_origin = false;  // evo's -a, -s (-as), --align_origin
   std::string evo_save_results;
+  std::vector<std::string> words;   // positional: EST, or evo's FORMAT REF EST / bag BAG REF EST
+  std::string evo_ref;              // evo_traj's --ref
+  std::string evo_pose_relation;    // evo's -r/--pose_relation
+  bool evo_pairs_from_reference = false;
   std::vector<std::string> summary;
   std::vector<CLI::Option*> eval_only;  // options of an evaluation, meaningless with --summary
   std::vector<CLI::Option*> plot_only;  // figure options, meaningless without --plot
@@ -39,10 +44,34 @@ void apply_evo_alignment(Args& a, bool align_given) {
   a.opt.align = a.evo_origin ? "origin" : a.evo_scale ? "sim3" : "se3";
 }
 
+/// The positional words and --ref as the estimate, the ground truth and their formats; the reference or a
+/// format named twice (evo's form and --gt / --est-format) is refused.
+void apply_eval_words(Args& a) {
+  const EvalInputs in = read_eval_words(a.words, a.evo_ref);
+  a.opt.est = in.est;
+  if (!in.gt.empty()) {
+    if (!a.opt.gt.empty())
+      throw InputError(fmt::format("the ground truth is named twice: --gt {} and {}", a.opt.gt, in.gt),
+                       {"roe eval", 0, 0, "gt"});
+    a.opt.gt = in.gt;
+  }
+  const auto set_format = [](std::string& f, const std::string& v, const char* key) {
+    if (v == "auto") return;
+    if (f != "auto" && f != v)
+      throw InputError(fmt::format("--{} {} contradicts evo's form, which reads it as {}", key, f, v),
+                       {"roe eval", 0, 0, key});
+    f = v;
+  };
+  set_format(a.opt.est_format, in.est_format, "est-format");
+  set_format(a.opt.gt_format, in.gt_format, "gt-format");
+  if (a.evo_pairs_from_reference) a.opt.rpe_pairs_from = "gt";
+}
+
 RunFn setup(CLI::App& sub) {
   auto a = std::make_shared<Args>();
-  sub.add_option("estimate", a->opt.est,
-                 "Run folder (trajectory.csv [+ reprojection.csv, states.csv]), trajectory file, or BAG:TOPIC (ROS 1/2 bag)");
+  sub.add_option("estimate", a->words,
+                 "Run folder (trajectory.csv [+ reprojection.csv, states.csv]), trajectory file, or BAG:TOPIC (ROS 1/2 "
+                 "bag); or evo's form: tum|kitti|euroc REF EST, bag|bag2 BAG REF_TOPIC EST_TOPIC");
   a->eval_only.push_back(sub.add_option(
       "--gt", a->opt.gt,
       "Ground truth: dataset folder (state_groundtruth_estimate0 or mocap0), trajectory file or BAG:TOPIC "
@@ -88,12 +117,12 @@ RunFn setup(CLI::App& sub) {
   a->eval_only.push_back(
       sub.add_option("--label", a->opt.label, "Name of this run in reports and summaries"));
   a->eval_only.push_back(sub.add_flag(
-      "--plot", a->opt.plot,
+      "-p,--plot", a->opt.plot,
       "Draw the figures (PNG + PDF) into OUT/plots with /usr/bin/python3 + matplotlib (docs/report.md)"));
   a->plot_only = add_figure_options(sub, a->opt.figures);
   a->eval_only.insert(a->eval_only.end(), a->plot_only.begin(), a->plot_only.end());
   auto* rpe_delta =
-      sub.add_option("--rpe-delta", a->opt.rpe_delta,
+      sub.add_option("--rpe-delta,--delta", a->opt.rpe_delta,
                      "Relative pose error over this delta (several: 1,2,5); unit from --rpe-unit")
           ->delimiter(',')
           ->group("Relative pose error");
@@ -105,7 +134,7 @@ RunFn setup(CLI::App& sub) {
                          ->capture_default_str()
                          ->transform(CLI::Transformer({{"d", "deg"}, {"r", "rad"}}))
                          ->group("Relative pose error"));
-  rpe_only.push_back(sub.add_flag("--rpe-all-pairs", a->opt.rpe_all_pairs,
+  rpe_only.push_back(sub.add_flag("--rpe-all-pairs,--all_pairs", a->opt.rpe_all_pairs,
                                   "Every pose pair at the delta (evo --all_pairs), not consecutive ones")
                          ->group("Relative pose error"));
   rpe_only.push_back(sub.add_option("--rpe-pairs-from", a->opt.rpe_pairs_from,
@@ -127,13 +156,27 @@ RunFn setup(CLI::App& sub) {
       sub.add_flag("--align_origin", a->evo_origin, "evo's --align_origin: the same as --align origin")
           ->group("evo spellings")};
   a->eval_only.insert(a->eval_only.end(), evo_align.begin(), evo_align.end());
+  a->eval_only.push_back(sub.add_option("--ref", a->evo_ref, "evo_traj's --ref: the ground truth (roe's --gt)")
+                             ->group("evo spellings"));
+  a->eval_only.push_back(sub.add_option("-r,--pose_relation", a->evo_pose_relation,
+                                        "evo's pose relation: trans_part, point_distance and angle_deg are all in "
+                                        "roe's report (ape_trans_m, ape_rot_deg)")
+                             ->group("evo spellings"));
+  rpe_only.push_back(sub.add_flag("--pairs_from_reference", a->evo_pairs_from_reference,
+                                  "evo's spelling of --rpe-pairs-from gt")
+                         ->group("evo spellings"));
+  a->eval_only.push_back(rpe_only.back());
+  const auto evo_refusals = add_evo_refusals(sub);
   a->eval_only.push_back(sub.add_option("--save_results", a->evo_save_results,
                                         "evo's results zip: roe writes its results to --out DIR instead")
                              ->group("evo spellings"));
   sub.add_option("--summary", a->summary,
                  "Summarise report.json files: mean and std over runs (paper table layout)")
       ->expected(1, -1);
-  return [a, rpe_delta, rpe_only, align]() {
+  return [a, rpe_delta, rpe_only, align, evo_refusals]() {
+    evo_refusals();
+    check_pose_relation(a->evo_pose_relation);
+    apply_eval_words(*a);
     if (!a->evo_save_results.empty())
       throw InputError(fmt::format("--save_results is evo's results zip: roe writes report.json and the CSV "
                                    "files into a folder: --out {} (read them with `roe eval --summary`)",

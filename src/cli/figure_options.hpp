@@ -14,7 +14,7 @@ inline std::vector<CLI::Option*> add_figure_options(CLI::App& sub, app::FigureOp
                      "Reprojected raw detections drawn in Fig. 3 and the trajectory: anchor, all or ID[,ID...]")
           ->capture_default_str()
           ->group("Figures"),
-      sub.add_option("--plot-mode", o.plot_mode, "Trajectory figure: the plane xy, xz, yz, or 3-D xyz")
+      sub.add_option("--plot-mode,--plot_mode", o.plot_mode, "Trajectory figure: the plane xy, xz, yz, or 3-D xyz")
           ->capture_default_str()
           ->check(CLI::IsMember({"xy", "xz", "yz", "xyz"}))
           ->group("Figures"),

@@ -1,0 +1,102 @@
+// evo's command line in `roe eval` (src/cli/evo_syntax.cpp, docs/eval.md "evo's command line"): each evo form
+// gives the same report as roe's own spelling of the call, on the real files in ../shared/data; refused
+// forms and options name the roe spelling.
+#include "support/test_util.hpp"
+
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kData = fs::path(ROE_SHARED_DATA_DIR);
+
+nlohmann::json report(const std::string& args) {
+  const auto r = roe::test::run_roe("--json eval " + args + " --no-out", false);
+  INFO("roe --json eval " << args << "\n" << r.out);
+  REQUIRE(r.code == 0);
+  return nlohmann::json::parse(r.out);
+}
+
+/// The figures that must not depend on how the call was spelled.
+void check_same(const nlohmann::json& a, const nlohmann::json& b) {
+  CHECK(a["ape_trans_m"]["rmse"].get<double>() == b["ape_trans_m"]["rmse"].get<double>());
+  CHECK(a["ape_rot_deg"]["rmse"].get<double>() == b["ape_rot_deg"]["rmse"].get<double>());
+  CHECK(a["association"] == b["association"]);
+  CHECK(a["alignment"]["type"] == b["alignment"]["type"]);
+  CHECK(a["rpe"] == b["rpe"]);
+}
+
+roe::test::RunResult fails(const std::string& args) {
+  const auto r = roe::test::run_roe("eval " + args, true);
+  INFO("roe eval " << args << "\n" << r.out);
+  CHECK(r.code == 2);
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("evo's file forms: tum, euroc and --ref give roe's own call's report", "[cli][eval][evo]") {
+  const fs::path gt = kData / "eval/freiburg1_xyz-groundtruth.txt", est = kData / "eval/freiburg1_xyz-rgbdslam.txt";
+  if (!fs::exists(gt)) {
+    WARN("skipped: " << gt << " absent");
+    return;
+  }
+  const auto roe_call = report(est.string() + " --gt " + gt.string() + " --align se3 --est-format tum --gt-format tum");
+  check_same(report("tum " + gt.string() + " " + est.string() + " -a"), roe_call);
+  check_same(report("tum " + est.string() + " --ref " + gt.string() + " -a"), roe_call);
+  check_same(report(est.string() + " --ref " + gt.string() + " -a"), roe_call);
+  // -r: the relations roe's report holds are accepted and change nothing.
+  check_same(report("tum " + gt.string() + " " + est.string() + " -a -r trans_part"), roe_call);
+  check_same(report("tum " + gt.string() + " " + est.string() + " -a --pose_relation angle_deg"), roe_call);
+  // evo_ape euroc: EuRoC ground truth, TUM estimate; RPE with evo's option names.
+  const fs::path vgt = kData / "eval/V102_groundtruth.csv", vest = kData / "eval/V102.txt";
+  const auto evo_rpe = report("euroc " + vgt.string() + " " + vest.string() +
+                              " -as --delta 1 --delta_unit m --all_pairs --pairs_from_reference");
+  const auto roe_rpe = report(vest.string() + " --gt " + vgt.string() + " --gt-format euroc --est-format tum " +
+                              "--align sim3 --rpe-delta 1 --rpe-unit m --rpe-all-pairs --rpe-pairs-from gt");
+  check_same(evo_rpe, roe_rpe);
+  CHECK(evo_rpe["rpe"][0]["all_pairs"] == true);
+}
+
+TEST_CASE("evo's bag forms: bag2 and bag BAG REF_TOPIC EST_TOPIC", "[cli][eval][evo]") {
+  const fs::path mcap = kData / "rosbag2/nav2_turtlebot.mcap", bag = kData / "rosbag/evo_ROS_example.bag";
+  if (!fs::exists(mcap)) {
+    WARN("skipped: " << mcap << " absent");
+    return;
+  }
+  check_same(report("bag2 " + mcap.string() + " /amcl_pose /odom -a"),
+             report(mcap.string() + ":/odom --gt " + mcap.string() + ":/amcl_pose --align se3"));
+  check_same(report("bag " + bag.string() + " groundtruth ORB-SLAM -a"),
+             report(bag.string() + ":ORB-SLAM --gt " + bag.string() + ":groundtruth --align se3"));
+  check_same(report("bag " + bag.string() + " S-PTAM --ref groundtruth -as"),
+             report(bag.string() + ":S-PTAM --gt " + bag.string() + ":groundtruth --align sim3"));
+}
+
+TEST_CASE("evo's forms that roe cannot take are answered with roe's spelling", "[cli][eval][evo]") {
+  // Two plain words: the ground truth goes after --gt (evo's order would need its format word).
+  auto r = fails("ref.txt est.txt");
+  CHECK_THAT(r.out, Catch::Contains("roe eval est.txt --gt ref.txt"));
+  CHECK_THAT(r.out, Catch::Contains("roe eval tum|kitti|euroc ref.txt est.txt"));
+  // Several estimates (evo_traj style).
+  CHECK_THAT(fails("tum ref.txt a.txt b.txt").out, Catch::Contains("one estimate at a time"));
+  CHECK_THAT(fails("bag2 x.mcap /gt").out, Catch::Contains("roe eval bag2 BAG REF_TOPIC EST_TOPIC"));
+  // The reference twice, a format contradicting evo's form.
+  CHECK_THAT(fails("tum ref.txt est.txt --gt other.txt").out, Catch::Contains("named twice"));
+  CHECK_THAT(fails("tum ref.txt est.txt --est-format kitti").out, Catch::Contains("--est-format kitti"));
+  // Pose relations roe does not compute, and evo options it has no use for.
+  CHECK_THAT(fails("tum ref.txt est.txt -r full").out, Catch::Contains("ape_rot_deg"));
+  CHECK_THAT(fails("tum ref.txt est.txt -r rot_part").out, Catch::Contains("angle_deg"));
+  CHECK_THAT(fails("tum ref.txt est.txt -r angle_rad").out, Catch::Contains("degrees"));
+  CHECK_THAT(fails("tum ref.txt est.txt -r sideways").out, Catch::Contains("point_distance"));
+  CHECK_THAT(fails("tum ref.txt est.txt --save_plot p.pdf").out, Catch::Contains("--plot"));
+  CHECK_THAT(fails("tum ref.txt est.txt --project_to_plane xy").out, Catch::Contains("--plot-mode"));
+  CHECK_THAT(fails("tum ref.txt est.txt --silent").out, Catch::Contains("-q"));
+  // evo's --plot_mode is roe's --plot-mode (an option of the figures: it needs -p/--plot).
+  CHECK_THAT(fails("tum ref.txt est.txt --plot_mode xz").out, Catch::Contains("needs --plot"));
+  // A run folder named like a format word is still a run folder when it stands alone.
+  CHECK_THAT(fails("tum").out, Catch::Contains("tum"));
+}
