@@ -6,6 +6,8 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include <fmt/format.h>
@@ -63,6 +65,26 @@ int fail(int code, const std::string& command, const std::string& prefix, const 
 }  // namespace
 
 }  // namespace roe::cli
+
+/// CLI11 lists the arguments it did not expect last one first; the user typed them in argv's order.
+static std::string extras_in_order(const std::string& what, int argc, char** argv) {
+  const std::string::size_type colon = what.find(": ");
+  if (colon == std::string::npos) return what;
+  std::vector<std::string> extras;
+  std::istringstream words(what.substr(colon + 2));
+  for (std::string w; words >> w;) extras.push_back(w);
+  std::vector<std::string> ordered;
+  for (int i = 1; i < argc; ++i) {
+    const auto it = std::find(extras.begin(), extras.end(), std::string(argv[i]));
+    if (it == extras.end()) continue;
+    ordered.push_back(*it);
+    extras.erase(it);
+  }
+  ordered.insert(ordered.end(), extras.begin(), extras.end());  // anything not found as typed
+  std::string out = what.substr(0, colon + 2);
+  for (std::size_t i = 0; i < ordered.size(); ++i) out += (i ? " " : "") + ordered[i];
+  return out;
+}
 
 int main(int argc, char** argv) {
   using namespace roe::cli;
@@ -186,8 +208,10 @@ int main(int argc, char** argv) {
       }
     }
     // DESIGN §1: bad usage is exit code 2
+    const std::string what = dynamic_cast<const CLI::ExtrasError*>(&e) ? extras_in_order(e.what(), argc, argv)
+                                                                         : std::string(e.what());
     return fail(2, path.substr(std::min<std::size_t>(path.size(), 4)), "error: ",
-                std::string(e.what()) + "\n(see " + path + " --help)", nullptr, e.what());
+                what + "\n(see " + path + " --help)", nullptr, what.c_str());
   }
 
   roe::log::set_level(g_globals.quiet          ? roe::log::Level::kWarn

@@ -100,3 +100,8 @@ TEST_CASE("evo's forms that roe cannot take are answered with roe's spelling", "
   // A run folder named like a format word is still a run folder when it stands alone.
   CHECK_THAT(fails("tum").out, Catch::Contains("tum"));
 }
+
+TEST_CASE("arguments roe did not expect are listed in the order they were typed", "[cli][eval][evo]") {
+  const auto r = fails("est.txt --first 1 --second 2 --third");
+  CHECK_THAT(r.out, Catch::Contains("not expected: --first --second --third"));
+}
