@@ -9,7 +9,7 @@ calib-check --json), the demo's run and eval of datasets/sample, every preset x 
 eval), and the evaluations of the real bags in ../shared/data (a ROS 2 MCAP and a ROS 1 bag), when
 present. Every file either build writes is compared: JSON after removing the fields that name the roe
 version or measure time (roe_version, timing_s, wall/elapsed seconds) and paths inside the work folder;
-every other file byte for byte. Prints one line per difference and a summary; exit 0 when all match.
+every other file byte for byte, after the same replacement of the work folders in text files. Prints one line per difference and a summary; exit 0 when all match.
 """
 import argparse
 import json
@@ -90,10 +90,12 @@ def compare(a, b):
                     continue
             except ValueError:
                 pass
-        elif f.name == "exit_codes.txt" or f.suffix in (".md", ".txt"):
-            if x.decode(errors="replace").replace(roots[0], "<work>") == \
-                    y.decode(errors="replace").replace(roots[1], "<work>"):
-                continue
+        else:  # text that names the work folder (a dataset path in summary.csv, table.md)
+            try:
+                if x.decode().replace(roots[0], "<work>") == y.decode().replace(roots[1], "<work>"):
+                    continue
+            except UnicodeDecodeError:
+                pass
         diffs.append(f"differs: {f}")
     return diffs, len(files_a | files_b)
 
