@@ -216,6 +216,11 @@ TEST_CASE("roe report: usage and output errors", "[cli][report]") {
     const auto r2 = run_roe("report " + t.path.string() + " --out " + (t / "r.html").string() + " --objects 1,x");
     CHECK(r2.code == 2);
     CHECK(r2.out.find("--objects") != std::string::npos);
+    const auto r3 = run_roe("report " + t.path.string() + " --out " + (t / "r.html").string() + " --style poster");
+    CHECK(r3.code == 2);
+    const auto r4 = run_roe("report " + t.path.string() + " --out " + (t / "r.html").string() + " --rpe-unit s");
+    CHECK(r4.code == 2);
+    CHECK(r4.out.find("--rpe-delta") != std::string::npos);
     CHECK_FALSE(fs::exists(t / "r.html"));
   }
   SECTION("the folder of --out must exist") {
