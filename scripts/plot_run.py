@@ -3,32 +3,42 @@
 
     /usr/bin/python3 scripts/plot_run.py --eval EVAL_DIR [--run RUN_DIR] [--dataset DATASET] --out DIR
         [--objects anchor|all|ID[,ID...]] [--plot-mode xy|xz|yz|xyz] [--color-by-error]
-        [--vector pdf|svg|none] [--dpi N]
+        [--vector pdf|svg|none] [--style default|paper] [--symmetries FILE] [--dpi N]
 
 Reads the output folder of `roe eval` (est_matched_aligned.csv, gt_matched.csv, errors.csv, report.json,
-reprojection_aligned.csv, rpe.csv), the run folder (states.csv, objects.csv, run.json) and the dataset's
-roe.json (the truth of a simulation), and writes into DIR, each as PNG and as PDF or SVG:
+reprojection_aligned.csv, rpe.csv), the run folder (states.csv, states_filter.csv, objects.csv, run.json),
+the dataset's roe.json (the truth of a simulation) and the objects' symmetries (--symmetries, written by
+roe from the dataset's models_info), and writes into DIR, each as PNG and as PDF or SVG:
   fig3          the paper's Fig. 3: x, y, z and roll, pitch, yaw over time, estimate vs ground truth, with
                 the IMU pose reprojected from the raw detections of the chosen objects (used and rejected
                 marked apart; points beyond the estimate's range drawn at the axis edge as triangles)
   fig4_obj<ID>  the paper's Fig. 4 for each non-anchor object: its pose relative to the anchor T_A_O over
-                time from first sight, +-sigma bands, the truth when the dataset has it
-  extrinsics    T_I_C over time: p_I_C and the rotation away from the prior, +-sigma, prior and truth
+                time from first sight, +-sigma bands, the truth when the dataset has it; a symmetric
+                object's estimate is shown as the symmetry-equivalent pose nearest the truth (or its own
+                previous value), its angles unwrapped in time
+  extrinsics    T_I_C over time as the causal filter estimated it (states_filter.csv when the smoother ran,
+                else states.csv), +-sigma, the smoothed final value, prior and truth
   consistency   NEES of the IMU position and orientation (after the alignment) and NIS per detection,
                 with their chi-square bounds
   trajectory    the trajectory in a plane or in 3-D, optionally coloured by the position error
   errors        position and rotation errors over time
   rpe           relative pose error per delta (only when rpe.csv is there)
-and figures.json: what was drawn (name, title, caption, files) and what was skipped, and why.
+and figures.json: what was drawn (name, title, caption, files, the layers drawn and skipped and why, a
+few numbers of the drawn series) and which figures were skipped, and why. Titles and captions there use
+no TeX: plain Unicode with X_{sub} and X^{sup} marks, which roe report turns into HTML <sub>/<sup>.
+Styles: `default` (titles, a footer with the run and its metrics, screen sizes) and `paper` (no titles or
+footers, 3.5 in / 7.16 in wide, TrueType fonts embedded, scatters rasterised inside the vector file).
 Exit code 0 on success, 2 on bad input, 3 when matplotlib or numpy is missing.
 Euler angles: ZYX, R = Rz(yaw) Ry(pitch) Rx(roll), wrapped to [-180, 180); lines break at wrap and
-gimbal-lock jumps instead of drawing them.
+gimbal-lock jumps instead of drawing them (Fig. 4: unwrapped in time instead).
 """
 import argparse
 import csv
+import io
 import json
 import math
 import os
+import re
 import sys
 
 try:
@@ -43,17 +53,29 @@ except ImportError as e:  # pragma: no cover
     sys.exit(3)
 
 # ---------------------------------------------------------------------------------------------- style
-plt.rcParams.update({
-    "font.size": 9, "axes.titlesize": 9, "axes.labelsize": 9, "legend.fontsize": 7.5,
-    "xtick.labelsize": 8, "ytick.labelsize": 8, "axes.grid": True, "grid.alpha": 0.3,
-    "lines.linewidth": 1.1, "figure.dpi": 100, "savefig.dpi": 130, "pdf.fonttype": 42,
+BASE_RC = {
+    "axes.grid": True, "grid.alpha": 0.3, "figure.dpi": 100,
     "svg.fonttype": "none", "path.simplify": True, "agg.path.chunksize": 20000,
-})
-C_EST, C_GT, C_PRIOR = "#1f77b4", "#000000", "#7f7f7f"
+}
+# default: today's informative screen figures; paper: column widths, small type, no titles or footers.
+STYLES = {
+    "default": {"rc": {"font.size": 9, "axes.titlesize": 9, "axes.labelsize": 9, "legend.fontsize": 7.5,
+                       "xtick.labelsize": 8, "ytick.labelsize": 8, "lines.linewidth": 1.1, "savefig.dpi": 130,
+                       "pdf.fonttype": 3, "ps.fonttype": 3},  # Type 3 subsets: a third faster to write
+                "title": True, "footer": True, "single": 7.5, "double": 10.0, "dpi": 130,
+                "png_compression": 3},
+    "paper": {"rc": {"font.size": 7, "axes.titlesize": 7, "axes.labelsize": 7, "legend.fontsize": 6,
+                     "xtick.labelsize": 6, "ytick.labelsize": 6, "lines.linewidth": 0.8, "savefig.dpi": 300,
+                     "axes.linewidth": 0.6, "grid.linewidth": 0.4, "xtick.major.width": 0.6,
+                     "ytick.major.width": 0.6, "legend.handlelength": 1.6, "legend.columnspacing": 1.0,
+                     "pdf.fonttype": 42, "ps.fonttype": 42},  # TrueType embedded, as publishers' checkers ask
+              "title": False, "footer": False, "single": 3.5, "double": 7.16, "dpi": 300,
+              "png_compression": 6},
+}
+C_EST, C_GT, C_PRIOR, C_SMOOTH = "#1f77b4", "#000000", "#7f7f7f", "#d62728"
 # Objects: one colour each, the same in every figure (tab10 without the estimate's blue, and grey).
 OBJ_PALETTE = ["#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#bcbd22", "#17becf"]
 USED = ("accepted", "initialized")
-SCREEN_BINS = 1600  # lines are decimated to min/max per bin: about one bin per pixel column
 
 
 class BadInput(Exception):
@@ -61,17 +83,85 @@ class BadInput(Exception):
 
 
 # ------------------------------------------------------------------------------------------------ I/O
+TABLES = {}  # CSV path -> {"bin", "columns", "rows"}: the tables roe already parsed (--tables)
+
+
 def read_table(path, required=True):
-    """CSV with a header -> {column: np.array (float) or list (str)}; None when absent and optional."""
+    """CSV with a header -> {column: np.array (float) or list (str)}; None when absent and optional.
+    A table roe handed over as raw float64 (--tables) is mapped from that file; otherwise the numbers
+    are parsed by numpy's C reader, and a file it cannot take whole (empty fields, a short row) goes
+    through the checking reader, which names the row."""
     if not os.path.exists(path):
         if required:
             raise BadInput(f"{path}: not found")
         return None
+    entry = TABLES.get(os.path.abspath(path)) or TABLES.get(path)
+    if entry is not None:
+        cols = entry["columns"]
+        data = np.fromfile(entry["bin"], dtype=np.float64).reshape(int(entry["rows"]), len(cols))
+        out = {c: data[:, k] for k, c in enumerate(cols)}
+        out["_n"], out["_path"] = int(entry["rows"]), path
+        return out
     with open(path, newline="") as f:
-        rows = list(csv.reader(f))
-    if not rows:
+        text = f.read()
+    head, _, body = text.partition("\n")
+    if not head.strip():
         raise BadInput(f"{path}: empty file")
-    header = [h.strip().lstrip("#").strip() for h in rows[0]]
+    header = [h.strip().lstrip("#").strip() for h in head.rstrip("\r").split(",")]
+    first = body.split("\n", 1)[0].rstrip("\r").split(",") if body.strip() else []
+    out = fast_table(body, header, first) if len(first) == len(header) else None
+    if out is None:
+        out = checked_table(path, text, header)
+    out["_path"] = path
+    return out
+
+
+def read_last_row(path):
+    """The header and the last row of a CSV, as read_table gives them (None when absent)."""
+    if not os.path.exists(path):
+        return None
+    with open(path, "rb") as f:
+        head = f.readline().decode()
+        f.seek(0, os.SEEK_END)
+        size = f.tell()
+        f.seek(max(len(head), size - 65536))
+        tail = f.read().decode(errors="replace").rstrip("\r\n").rsplit("\n", 1)[-1]
+    if not tail.strip() or size <= len(head):
+        return checked_table(path, head, [h.strip() for h in head.strip().lstrip("#").split(",")]) | {"_path": path}
+    out = checked_table(path, head + tail + "\n", [h.strip() for h in head.strip().lstrip("#").split(",")])
+    out["_path"] = path
+    return out
+
+
+def is_number(v):
+    try:
+        float(v)
+        return True
+    except ValueError:
+        return v == ""
+
+
+def fast_table(body, header, first):
+    """The columns via np.loadtxt (numbers) and one split per text column; None when numpy refuses."""
+    num = [j for j, v in enumerate(first) if is_number(v) and v != ""]
+    txt = [j for j in range(len(header)) if j not in num]
+    try:
+        data = np.loadtxt(io.StringIO(body), delimiter=",", usecols=num, ndmin=2, dtype=float,
+                          comments=None) if num else np.zeros((0, 0))
+    except ValueError:
+        return None
+    out = {header[j]: data[:, k] for k, j in enumerate(num)}
+    out["_n"] = data.shape[0] if num else 0
+    if txt:
+        rows = [ln.split(",") for ln in body.splitlines() if ln.strip()]
+        for j in txt:
+            out[header[j]] = [r[j].strip() for r in rows]
+        out["_n"] = len(rows)
+    return out
+
+
+def checked_table(path, text, header):
+    rows = list(csv.reader(io.StringIO(text)))
     body = rows[1:]
     for n, r in enumerate(body, start=2):
         if len(r) != len(header):
@@ -84,7 +174,6 @@ def read_table(path, required=True):
         except ValueError:
             out[h] = col
     out["_n"] = len(body)
-    out["_path"] = path
     return out
 
 
@@ -173,21 +262,31 @@ def chi2_ppf(p, k):
 
 
 # ------------------------------------------------------------------------------------------- drawing
-def decimate(t, ys):
-    """Indices keeping each series' min and max per screen bin (a line drawn from them looks the same)."""
+def pixel_columns(ax):
+    """Pixel columns the axes span in the saved image (savefig.dpi)."""
+    fig = ax.figure
+    return max(1, int(math.ceil(ax.get_position().width * fig.get_figwidth() * plt.rcParams["savefig.dpi"])))
+
+
+def decimate(t, ys, bins):
+    """Indices keeping, for each of `bins` equal time bins (at least one per pixel column), the first and
+    last sample and each series' minimum and maximum, in time order: a line drawn through them covers
+    the same pixels in every column as the full line (every extremum kept), within one pixel."""
     n = len(t)
-    if n <= 4 * SCREEN_BINS:
+    if n <= 4 * bins:
         return np.arange(n)
     span = (t[-1] - t[0]) or 1.0
-    bins = np.minimum(((t - t[0]) / span * SCREEN_BINS).astype(int), SCREEN_BINS - 1)
-    keep = [np.array([0, n - 1])]
-    starts = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
+    b = np.minimum(((t - t[0]) / span * bins).astype(int), bins - 1)
+    starts = np.flatnonzero(np.r_[True, b[1:] != b[:-1]])
+    ends = np.r_[starts[1:], n] - 1
+    keep = [starts, ends]
     for y in ys:
-        yy = np.where(np.isnan(y), np.inf, y)
-        order = np.lexsort((yy, bins))
-        ends = np.r_[starts[1:], n] - 1
-        keep.append(order[starts])
-        keep.append(order[ends])
+        lo = np.where(np.isnan(y), np.inf, y)
+        hi = np.where(np.isnan(y), -np.inf, y)
+        keep.append(np.lexsort((lo, b))[starts])  # t is sorted: a bin's rows stay together, minimum first
+        keep.append(np.lexsort((hi, b))[ends])    # ... and the maximum last
+        if np.isnan(y).any():  # the gaps stay gaps
+            keep.append(np.flatnonzero(np.isnan(y)))
     return np.unique(np.concatenate(keep))
 
 
@@ -200,11 +299,34 @@ def broken(t, y, jump):
 
 
 def line(ax, t, y, angle=False, **kw):
-    i = decimate(t, [y])
+    i = decimate(t, [y], pixel_columns(ax))
     tt, yy = t[i], y[i]
     if angle:
         tt, yy = broken(tt, yy, 90.0)
     return ax.plot(tt, yy, **kw)
+
+
+def thin(ax, x, y):
+    """Indices of the points that fall on distinct half-pixels of the saved image, in order: a dot drawn
+    exactly on an identical dot adds nothing but opacity, so a dense scatter keeps its look (every
+    isolated point and every extreme stays) at a fraction of the drawing cost. The axes' limits and
+    position must be final."""
+    n = len(x)
+    if n < 1500:
+        return np.arange(n)
+    scale = 2.0 * plt.rcParams["savefig.dpi"] / ax.figure.dpi
+    px = ax.transData.transform(np.column_stack([x, y])) * scale
+    ok = np.isfinite(px).all(axis=1)
+    k = np.floor(px[ok]).astype(np.int64)
+    key = (k[:, 0] - k[:, 0].min(initial=0)) * (1 << 31) + (k[:, 1] - k[:, 1].min(initial=0))
+    _, first = np.unique(key, return_index=True)
+    return np.flatnonzero(ok)[np.sort(first)]
+
+
+def scatter(ax, x, y, **kw):
+    """ax.scatter of the points that show (thin), rasterised inside vector files."""
+    i = thin(ax, x, y)
+    return ax.scatter(x[i], y[i], rasterized=True, **kw)
 
 
 def wrap_window(a):
@@ -240,7 +362,8 @@ def robust_limits(series, floor):
 
 def scatter_clipped(ax, t, y, used, color, lim, label):
     """Reprojected detections: used (filled dots) and rejected (crosses); those beyond `lim` drawn at
-    the edge as triangles (pointing out), so outliers never stretch the axis over the estimate."""
+    the edge as triangles (pointing out), so outliers never stretch the axis over the estimate. The
+    axes' limits must be set. Returns the number drawn at the edge."""
     lo, hi = lim
     inside = (y >= lo) & (y <= hi)
     n_out = 0
@@ -248,34 +371,82 @@ def scatter_clipped(ax, t, y, used, color, lim, label):
                                            (~used, "x", 0.55, 9.0, f"{label} rejected")):
         m = mask & inside
         if m.any():
-            ax.scatter(t[m], y[m], s=size, marker=marker, color=color, alpha=alpha, linewidths=0.6,
-                       label=lab, rasterized=True, zorder=2)
+            scatter(ax, t[m], y[m], s=size, marker=marker, color=color, alpha=alpha, linewidths=0.6,
+                    label=lab, zorder=2)
     edge = (hi - lo) * 0.012
     for mask, marker, yv in (((y > hi), "^", hi - edge), ((y < lo), "v", lo + edge)):
         if mask.any():
             n_out += int(mask.sum())
-            ax.scatter(t[mask], np.full(mask.sum(), yv), s=12, marker=marker, color=color, alpha=0.8,
-                       edgecolors="none", rasterized=True, zorder=3, clip_on=False)
+            scatter(ax, t[mask], np.full(mask.sum(), yv), s=12, marker=marker, color=color, alpha=0.8,
+                    edgecolors="none", zorder=3, clip_on=False)
     return n_out
 
 
+def mathtext(s):
+    """A title/label written with X_{sub} / X^{sup} marks (figures.json's form) as matplotlib mathtext."""
+    return re.sub(r"([A-Za-zδθσ]+)((?:[_^]\{[^}]*\})+)", lambda m: "$" + m.group(1).replace("δ", r"\delta ")
+                  .replace("θ", r"\theta ").replace("σ", r"\sigma ") + m.group(2) + "$", s)
+
+
 class Figures:
-    def __init__(self, out, vector, dpi, footer):
-        self.out, self.vector, self.dpi, self.footer = out, vector, dpi, footer
+    """The figure set being drawn: style, output, manifest entries."""
+
+    def __init__(self, out, vector, style, footer):
+        self.out, self.vector, self.footer = out, vector, footer
+        self.style = STYLES[style]
+        self.style_name = style
         self.items, self.skipped = [], []
 
     task = 0  # the drawing task in progress: keeps the manifest in task order across workers
 
-    def save(self, fig, name, title, caption):
-        fig.suptitle(title, fontsize=10, y=0.995)
-        fig.text(0.005, 0.004, self.footer, fontsize=6.5, color="#444444", ha="left", va="bottom")
+    def new(self, nrows, ncols, width, height, **kw):
+        """A figure `width` ("single" or "double" column) wide, `height` inches at the default style
+        (scaled for the paper), with room at the top for the title (default style) and legend rows."""
+        w, h = self.new_size(width, height)
+        fig, axs = plt.subplots(nrows, ncols, figsize=(w, h), **kw)
+        return fig, axs
+
+    def new_size(self, width, height):
+        """(w, h) inches of a figure `width` ("single"/"double" column) of `height` in at the default style."""
+        w = self.style[width]
+        default_w = STYLES["default"][width]
+        return w, (height if w == default_w else height * w / default_w * 1.12)
+
+    def adjust(self, fig, legend_rows=1, left=0.08, right=0.99, xlabel=True, **kw):
+        """Margins in inches turned into fractions: title, legend rows, x labels and footer."""
+        h = fig.get_figheight()
+        pt = plt.rcParams["font.size"] / 72.0
+        top = (2.2 * pt if self.style["title"] else 0.6 * pt) + legend_rows * 1.9 * pt
+        bottom = (3.4 * pt if xlabel else 1.5 * pt) + (1.6 * pt if self.style["footer"] else 0.0)
+        fig.subplots_adjust(left=left, right=right, top=1 - top / h, bottom=bottom / h, **kw)
+
+    def legend(self, fig, handles, labels, ncol, **kw):
+        """The figure's legend, in the row below the title."""
+        h = fig.get_figheight()
+        pt = plt.rcParams["font.size"] / 72.0
+        y = 1 - (2.0 * pt if self.style["title"] else 0.3 * pt) / h
+        fig.legend(handles, labels, loc="upper center", ncol=ncol, bbox_to_anchor=(0.5, y), frameon=False, **kw)
+
+    def save(self, fig, name, title, caption, layers=None, skipped_layers=None, data=None):
+        """Writes the figure; `title`/`caption` use X_{sub} marks (no TeX), `layers` what was drawn,
+        `skipped_layers` [(layer, why)] what was asked for and not drawn, `data` numbers of the series."""
+        if self.style["title"]:
+            fig.suptitle(mathtext(title), fontsize=plt.rcParams["font.size"] + 1, y=0.995)
+        if self.style["footer"]:
+            fig.text(0.005, 0.004, self.footer, fontsize=6.5, color="#444444", ha="left", va="bottom")
         files = {"png": f"{name}.png"}
-        fig.savefig(os.path.join(self.out, files["png"]), dpi=self.dpi)
+        # zlib level 3: faster than the default 6 and no larger on flat plot colours.
+        fig.savefig(os.path.join(self.out, files["png"]), dpi=self.style["dpi"],
+                    pil_kwargs={"compress_level": self.style["png_compression"]})
         if self.vector != "none":
             files[self.vector] = f"{name}.{self.vector}"
-            fig.savefig(os.path.join(self.out, files[self.vector]))
+            fig.savefig(os.path.join(self.out, files[self.vector]), dpi=self.style["dpi"])
+        size = [round(v, 3) for v in fig.get_size_inches()]
         plt.close(fig)
-        self.items.append({"task": self.task, "name": name, "title": title, "caption": caption, "files": files})
+        self.items.append({"task": self.task, "name": name, "title": title, "caption": caption, "files": files,
+                           "size_in": size, "layers": layers or [],
+                           "skipped_layers": [{"layer": k, "reason": r} for k, r in (skipped_layers or [])],
+                           "data": data or {}})
 
     def skip(self, name, reason):
         self.skipped.append({"task": self.task, "name": name, "reason": reason})
@@ -338,12 +509,20 @@ def run_tasks(F, tasks, jobs):
 
 
 # ------------------------------------------------------------------------------------------- figures
+def time_limits(*ts):
+    v = np.concatenate([t[np.isfinite(t)] for t in ts if len(t)] or [np.zeros(1)])
+    lo, hi = (float(v.min()), float(v.max())) if len(v) else (0.0, 1.0)
+    return lo, hi if hi > lo else lo + 1.0
+
+
 def fig3(F, est, gt, reps, chosen, colors, t0):
-    fig, axs = plt.subplots(3, 2, figsize=(11, 7.2), sharex=True)
-    fig.subplots_adjust(left=0.07, right=0.99, top=0.91, bottom=0.1, hspace=0.12, wspace=0.16)
+    fig, axs = F.new(3, 2, "double", 7.2, sharex=True)
+    F.adjust(fig, left=0.07, hspace=0.12, wspace=0.16)
     tg, te = gt["t"] - t0, est["t"] - t0
     names = [("x", "$x$ [m]"), ("y", "$y$ [m]"), ("z", "$z$ [m]"),
              ("roll", r"roll $\phi$ [°]"), ("pitch", r"pitch $\theta$ [°]"), ("yaw", r"yaw $\psi$ [°]")]
+    drawn = [oid for oid in chosen if oid in reps]
+    xlim = time_limits(tg, te, *[reps[o]["t"] - t0 for o in drawn])
     out_total = 0
     for k, (key, lab) in enumerate(names):
         ax = axs[k % 3][k // 3]
@@ -351,27 +530,34 @@ def fig3(F, est, gt, reps, chosen, colors, t0):
         g = wrap_window(gt[key]) if angle else gt[key]
         e = onto(est["t"], est[key], gt["t"], g) if angle else est[key]
         lim = robust_limits([g, e], 5.0 if angle else 0.05)
-        for oid in chosen:
-            r = reps.get(oid)
-            if r is None:
-                continue
+        ax.set_xlim(*xlim)
+        ax.set_ylim(*lim)
+        for oid in drawn:
+            r = reps[oid]
             y = onto(r["t"], r[key], gt["t"], g) if angle else r[key]
             out_total += scatter_clipped(ax, r["t"] - t0, y, r["used"], colors[oid], lim, f"obj {oid}")
         line(ax, tg, g, angle, color=C_GT, lw=1.3, label="ground truth", zorder=4)
         line(ax, te, e, angle, color=C_EST, lw=1.0, label="estimate", zorder=5)
-        ax.set_ylim(*lim)
         ax.set_ylabel(lab)
     for ax in axs[-1]:
         ax.set_xlabel("time [s]")
     h, l = axs[0][0].get_legend_handles_labels()
-    fig.legend(h, l, loc="upper center", ncol=min(len(l), 8), bbox_to_anchor=(0.5, 0.965), frameon=False,
-               markerscale=2.0)
+    ncol = min(len(l), 8)
+    F.adjust(fig, legend_rows=-(-len(l) // ncol), left=0.07, hspace=0.12, wspace=0.16)  # room for every row
+    F.legend(fig, h, l, ncol=ncol, markerscale=2.0)
     cap = ("Position and Euler angles (ZYX, each wrapped into the 360° window in which the ground truth wraps "
-           "least; lines break at wrap and gimbal-lock jumps) of the aligned estimate and the ground truth, with the IMU pose reprojected from each raw "
-           f"detection of object(s) {', '.join(str(o) for o in chosen) or '(none)'} (dots: used by the filter; "
-           "crosses: rejected). The axes cover the estimate and the truth; "
-           f"{out_total} reprojected values beyond them are drawn as triangles at the edge.")
-    F.save(fig, "fig3", "Estimate vs ground truth with reprojected raw detections (paper Fig. 3)", cap)
+           "least; lines break at wrap and gimbal-lock jumps) of the aligned estimate and the ground truth")
+    if drawn:
+        cap += (f", with the IMU pose reprojected from each raw detection of object(s) {', '.join(map(str, drawn))} "
+                "(dots: used by the filter; crosses: rejected). The axes cover the estimate and the truth; "
+                f"{out_total} reprojected values beyond them are drawn as triangles at the edge.")
+        title = "Estimate vs ground truth with reprojected raw detections (paper Fig. 3)"
+    else:
+        cap += " (no reprojected detections: the estimate is not a run folder, or no object was detected)."
+        title = "Estimate vs ground truth (paper Fig. 3)"
+    layers = ["ground truth", "estimate"] + [f"reprojected detections of object {o}" for o in drawn]
+    skipped = [(f"reprojected detections of object {o}", "no reprojected detection") for o in chosen if o not in reps]
+    F.save(fig, "fig3", title, cap, layers, skipped, {"edge_triangles": out_total})
 
 
 def relative_to_anchor(objs, anchor):
@@ -384,98 +570,204 @@ def relative_to_anchor(objs, anchor):
     sig = np.stack(need(objs, "sigma_p_A_O_x", "sigma_p_A_O_y", "sigma_p_A_O_z",
                         "sigma_theta_A_O_x", "sigma_theta_A_O_y", "sigma_theta_A_O_z"), axis=1)
     a = ids == anchor
-    a_index = {t: i for i, t in zip(np.flatnonzero(a), ts[a])}
+    a_t, a_i = ts[a], np.flatnonzero(a)
+    order = np.argsort(a_t, kind="stable")
+    a_t, a_i = a_t[order], a_i[order]
     out = {}
+    if not len(a_t):
+        return out
     for oid in sorted(set(ids.tolist()) - {anchor}):
-        rows = [i for i in np.flatnonzero(ids == oid) if ts[i] in a_index]
-        if not rows:
+        rows = np.flatnonzero(ids == oid)
+        j = np.clip(np.searchsorted(a_t, ts[rows]), 0, len(a_t) - 1)
+        ok = a_t[j] == ts[rows]
+        rows, ai = rows[ok], a_i[j[ok]]
+        if not len(rows):
             continue
-        rows = np.array(rows)
-        ai = np.array([a_index[ts[i]] for i in rows])
         R_AO = R[ai] @ np.transpose(R[rows], (0, 2, 1))
         p_AO = p[ai] - np.einsum("nij,nj->ni", R_AO, p[rows])
         out[oid] = {"t": ts[rows] * 1e-9, "p": p_AO, "R": R_AO, "sigma": sig[rows]}
     return out
 
 
-def fig4_tasks(F, objs, anchor, truth_objects, colors, t0, label_of):
+def rot_about(axis, chi):
+    """(N,3,3) rotations by the angles chi (N) about the unit axis."""
+    a = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    c, s = np.cos(chi)[:, None, None], np.sin(chi)[:, None, None]
+    return np.eye(3) + s * K + (1 - c) * (K @ K)
+
+
+def equivalents(p, R, sym):
+    """The symmetry-equivalent poses T_A_O · S of each sample (lists of (N,3), (N,3,3)), identity first.
+    `sym`: {"discrete": [{"p", "q"}...], "continuous": {"axis", "offset"} or None} (BOP, metres)."""
+    cands = [(p, R)]
+    for d in sym.get("discrete", []):
+        pS, RS = pose_q(d["p"], d["q"])
+        cands.append((p + np.einsum("nij,j->ni", R, pS[0]), R @ RS[0]))
+    return cands
+
+
+def nearest_continuous(p, R, R_ref, cont):
+    """T_A_O · S(χ) with χ per sample bringing the rotation nearest R_ref (N,3,3): for B = R_refᵀ R,
+    tr(B Exp(χa)) is largest at χ = atan2(tr(B [a]×), tr B − aᵀ B a)."""
+    a = np.asarray(cont["axis"], dtype=float)
+    a = a / np.linalg.norm(a)
+    o = np.asarray(cont.get("offset", [0, 0, 0]), dtype=float)
+    B = np.transpose(R_ref, (0, 2, 1)) @ R
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    chi = np.arctan2(np.einsum("nij,ji->n", B, K), np.trace(B, axis1=1, axis2=2) - np.einsum("i,nij,j->n", a, B, a))
+    E = rot_about(a, chi)
+    pS = o - np.einsum("nij,j->ni", E, o)
+    return p + np.einsum("nij,nj->ni", R, pS), R @ E
+
+
+def resolve_symmetry(p, R, sym, R_truth=None):
+    """Each sample of a symmetric object's T_A_O replaced by its symmetry-equivalent nearest (rotation
+    angle) the truth R_truth (3,3), or, without truth, nearest the previous resolved sample (the first
+    kept). Returns (p, R)."""
+    n = len(R)
+    if n == 0 or not sym or (not sym.get("discrete") and not sym.get("continuous")):
+        return p, R
+    cont = sym.get("continuous")
+
+    def best(ps, Rs, R_ref):
+        cands = equivalents(ps, Rs, sym)
+        if cont:
+            cands = [nearest_continuous(cp, cR, R_ref, cont) for cp, cR in cands]
+        score = np.stack([np.einsum("nij,nij->n", R_ref, cR) for _, cR in cands])  # tr(R_refᵀ R)
+        k = np.argmax(score, axis=0)
+        rows = np.arange(len(Rs))
+        return (np.stack([c[0] for c in cands])[k, rows], np.stack([c[1] for c in cands])[k, rows])
+
+    if R_truth is not None:
+        return best(p, R, np.broadcast_to(R_truth, R.shape))
+    out_p, out_R = p.copy(), R.copy()
+    for i in range(1, n):
+        bp, bR = best(p[i:i + 1], R[i:i + 1], out_R[i - 1:i])
+        out_p[i], out_R[i] = bp[0], bR[0]
+    return out_p, out_R
+
+
+def unwrapped_euler(R, ref=None):
+    """ZYX Euler angles (deg) of each R, unwrapped in time (no step beyond 180° between samples), shifted
+    by whole turns so that the median lies within 180° of `ref` (3,) (the truth) or of [-180, 180)."""
+    ang = np.degrees(np.unwrap(np.radians(euler_deg(R)), axis=0))
+    if len(ang):
+        mid = np.median(ang, axis=0)
+        target = np.zeros(3) if ref is None else np.asarray(ref, dtype=float)
+        ang -= 360.0 * np.round((mid - target) / 360.0)
+    return ang
+
+
+def fig4_tasks(F, objs, anchor, truth_objects, symmetries, colors, t0, label_of):
     """One drawing task per non-anchor object (the paper's Fig. 4)."""
     rel = relative_to_anchor(objs, anchor)
     if not rel:
         return [(0.1, lambda: F.skip("fig4", "no non-anchor object was initialised"))]
-    return [(1.5, (lambda oid=oid, r=r: fig4(F, oid, r, anchor, truth_objects, colors, t0, label_of)))
+    return [(1.5, (lambda oid=oid, r=r: fig4(F, oid, r, anchor, truth_objects, symmetries.get(oid), colors, t0,
+                                             label_of)))
             for oid, r in rel.items()]
 
 
-def fig4(F, oid, r, anchor, truth_objects, colors, t0, label_of):
+def relative_truth(truth_objects, anchor, oid):
+    """The true T_A_O (p (3,), R (3,3)) from the dataset's T_W_O of both objects, or None."""
     tA = truth_objects.get(anchor)
-    if True:
-        t = r["t"] - t0
-        ang = euler_deg(r["R"])
-        truth = None
-        if tA is not None and oid in truth_objects:
-            pA, RA = tA
-            pO, RO = truth_objects[oid]
-            R_AO = np.transpose(RA, (0, 2, 1)) @ RO
-            p_AO = (np.transpose(RA, (0, 2, 1)) @ (pO - pA).reshape(1, 3, 1)).reshape(3)
-            truth = (p_AO, euler_deg(R_AO)[0])
-        fig, axs = plt.subplots(3, 2, figsize=(10, 6.5), sharex=True)
-        fig.subplots_adjust(left=0.08, right=0.99, top=0.9, bottom=0.1, hspace=0.12, wspace=0.2)
-        c = colors.get(oid, C_EST)
-        labels = ["$x$ [m]", "$y$ [m]", "$z$ [m]", r"roll $\phi$ [°]", r"pitch $\theta$ [°]", r"yaw $\psi$ [°]"]
-        for k in range(6):
-            ax = axs[k % 3][k // 3]
-            if k < 3:
-                y, s = r["p"][:, k], r["sigma"][:, k]
-            else:
-                ref = truth[1][k - 3] if truth is not None else ang[-1, k - 3]
-                y = ref + wrap180(ang[:, k - 3] - ref)
-                s = np.degrees(r["sigma"][:, k])
-            i = decimate(t, [y, s])
-            ax.fill_between(t[i], (y - s)[i], (y + s)[i], color=c, alpha=0.22, lw=0, label=r"$\pm1\sigma$")
-            ax.plot(t[i], y[i], color=c, lw=1.2, label="estimate")
-            if truth is not None:
-                tv = truth[0][k] if k < 3 else truth[1][k - 3]
-                ax.axhline(tv, color=C_GT, ls="--", lw=1.0, label="truth")
-            # The whole estimate and the truth, but the σ band only after the first fifth: the first
-            # (uninformed) σ must not squash the converged part; it runs off the axes instead.
-            tail = slice(len(y) // 5, None)
-            ref_vals = np.concatenate([y, y[tail] - 2 * s[tail], y[tail] + 2 * s[tail]] +
-                                      ([np.array([tv])] if truth is not None else []))
-            lo, hi = np.nanmin(ref_vals), np.nanmax(ref_vals)
-            pad = 0.1 * max(hi - lo, 0.01 if k < 3 else 1.0)
-            ax.set_ylim(lo - pad, hi + pad)
-            ax.set_ylabel(labels[k])
-        for ax in axs[-1]:
-            ax.set_xlabel("time [s]")
-        h, l = axs[0][0].get_legend_handles_labels()
-        fig.legend(h, l, loc="upper center", ncol=3, bbox_to_anchor=(0.5, 0.955), frameon=False)
-        name = label_of(oid)
-        cap = (f"Pose of object {name} relative to the anchor object {label_of(anchor)}, "
-               r"$T_{A O} = T_{A W}\,T_{O W}^{-1}$ (the object-world states of both objects; independent of the "
-               "gauge), from its first sight, with the filter's ±1σ (rotation: σ of the rotation error per axis, "
-               "drawn on the Euler angles)" + (" and the simulated truth." if truth is not None else "."))
-        F.save(fig, f"fig4_obj{oid}", f"Object {name} relative to the anchor {label_of(anchor)} (paper Fig. 4)", cap)
+    if tA is None or oid not in truth_objects:
+        return None
+    (pA, RA), (pO, RO) = tA, truth_objects[oid]
+    R_AO = np.transpose(RA, (0, 2, 1))[0] @ RO[0]
+    p_AO = np.transpose(RA, (0, 2, 1))[0] @ (pO[0] - pA[0])
+    return p_AO, R_AO
 
 
-def extrinsics(F, states, prior, truth, t0):
+def fig4(F, oid, r, anchor, truth_objects, sym, colors, t0, label_of):
+    t = r["t"] - t0
+    truth = relative_truth(truth_objects, anchor, oid)
+    p, R = resolve_symmetry(r["p"], r["R"], sym, truth[1] if truth is not None else None)
+    truth_eul = euler_deg(truth[1][None])[0] if truth is not None else None
+    ang = unwrapped_euler(R, truth_eul)
+    if truth is not None:  # the truth's angles on the estimate's turn
+        truth_eul = truth_eul + 360.0 * np.round((np.median(ang, axis=0) - truth_eul) / 360.0)
+    fig, axs = F.new(3, 2, "double", 6.5, sharex=True)
+    F.adjust(fig, hspace=0.12, wspace=0.2)
+    c = colors.get(oid, C_EST)
+    labels = ["$x$ [m]", "$y$ [m]", "$z$ [m]", r"roll $\phi$ [°]", r"pitch $\theta$ [°]", r"yaw $\psi$ [°]"]
+    for k in range(6):
+        ax = axs[k % 3][k // 3]
+        y, s = (p[:, k], r["sigma"][:, k]) if k < 3 else (ang[:, k - 3], np.degrees(r["sigma"][:, k]))
+        i = decimate(t, [y, y - s, y + s], pixel_columns(ax))
+        ax.fill_between(t[i], (y - s)[i], (y + s)[i], color=c, alpha=0.22, lw=0, label=r"$\pm1\sigma$")
+        ax.plot(t[i], y[i], color=c, lw=1.2, label="estimate")
+        tv = None
+        if truth is not None:
+            tv = truth[0][k] if k < 3 else truth_eul[k - 3]
+            ax.axhline(tv, color=C_GT, ls="--", lw=1.0, label="truth")
+        # The whole estimate and the truth, but the σ band only after the first fifth: the first
+        # (uninformed) σ must not squash the converged part; it runs off the axes instead.
+        tail = slice(len(y) // 5, None)
+        ref_vals = np.concatenate([y, y[tail] - 2 * s[tail], y[tail] + 2 * s[tail]] +
+                                  ([np.array([tv])] if tv is not None else []))
+        lo, hi = np.nanmin(ref_vals), np.nanmax(ref_vals)
+        pad = 0.1 * max(hi - lo, 0.01 if k < 3 else 1.0)
+        ax.set_ylim(lo - pad, hi + pad)
+        ax.set_ylabel(labels[k])
+    for ax in axs[-1]:
+        ax.set_xlabel("time [s]")
+    h, l = axs[0][0].get_legend_handles_labels()
+    F.legend(fig, h, l, ncol=3)
+    name = label_of(oid)
+    symmetric = bool(sym) and bool(sym.get("discrete") or sym.get("continuous"))
+    how = ("" if not symmetric else
+           " The object is symmetric: each estimate is shown as its symmetry-equivalent pose nearest the "
+           + ("truth" if truth is not None else "previous shown estimate") + ", its angles unwrapped in time.")
+    cap = (f"Pose of object {name} relative to the anchor object {label_of(anchor)}, "
+           "T_{AO} = T_{AW} T_{OW}^{−1} (the object-world states of both objects; independent of the "
+           "gauge), from its first sight, with the filter's ±1σ (rotation: σ of the rotation error per axis, "
+           "drawn on the Euler angles)" + (" and the simulated truth." if truth is not None else ".") + how)
+    steps = np.abs(np.diff(ang, axis=0))
+    data = {"symmetry": ("nearest the truth" if truth is not None else "nearest the previous value")
+            if symmetric else "none",
+            "max_angle_step_deg": float(steps.max()) if len(steps) else 0.0, "samples": int(len(t))}
+    if truth is not None and len(ang):  # how far the shown estimate sits from the truth, per angle
+        data["median_truth_offset_deg"] = dict(zip(("roll", "pitch", "yaw"),
+                                                   np.median(ang - truth_eul, axis=0).round(4).tolist()))
+    layers = ["estimate", "±1σ"] + (["truth"] if truth is not None else [])
+    skipped = [] if truth is not None else [("truth", "the dataset has no simulated truth of both objects")]
+    F.save(fig, f"fig4_obj{oid}", f"Object {name} relative to the anchor {label_of(anchor)} (paper Fig. 4)", cap,
+           layers, skipped, data)
+
+
+def extrinsics_series(states, p_prior, R_prior):
+    """(t [s], p_I_C [mm] (N,3), σ_p [mm], δθ = Log(R_priorᵀ R_I_C) [deg] (N,3), σ_θ [deg]) of a states table."""
     p = np.stack(need(states, "p_I_C_x", "p_I_C_y", "p_I_C_z"), axis=1) * 1000.0
     q = np.stack(need(states, "q_I_C_x", "q_I_C_y", "q_I_C_z", "q_I_C_w"), axis=1)
     sp = np.stack(need(states, "sigma_p_I_C_x", "sigma_p_I_C_y", "sigma_p_I_C_z"), axis=1) * 1000.0
     sr = np.degrees(np.stack(need(states, "sigma_theta_I_C_x", "sigma_theta_I_C_y", "sigma_theta_I_C_z"), axis=1))
-    t = states["timestamp_ns"] * 1e-9 - t0
-    R = quat_to_R(q)
+    dth = log_so3_deg(np.transpose(R_prior, (0, 2, 1)) @ quat_to_R(q))
+    return states["timestamp_ns"] * 1e-9, p, sp, dth, sr
+
+
+def extrinsics(F, causal, smoothed, prior, truth, t0):
+    """T_I_C as the causal filter estimated it (`causal`: states_filter.csv when the smoother ran, else
+    states.csv), with the smoother's final value (`smoothed`: states.csv, or None) as a line."""
     if prior is not None:
         p_prior, R_prior = prior
     else:
-        p_prior, R_prior = p[:1] / 1000.0, R[:1]
-    # The rotation as the error state: R_I_C = R_prior Exp(dtheta), dtheta in degrees.
-    dth = log_so3_deg(np.transpose(R_prior, (0, 2, 1)) @ R)
+        q0 = np.stack(need(causal, "q_I_C_x", "q_I_C_y", "q_I_C_z", "q_I_C_w"), axis=1)[:1]
+        p_prior = np.stack(need(causal, "p_I_C_x", "p_I_C_y", "p_I_C_z"), axis=1)[:1]
+        R_prior = quat_to_R(q0)
+    t, p, sp, dth, sr = extrinsics_series(causal, p_prior, R_prior)
+    t = t - t0
+    final = None
+    if smoothed is not None and smoothed["_n"] > 0:
+        _, ps, _, ds, _ = extrinsics_series(smoothed, p_prior, R_prior)
+        final = np.r_[ps[-1], ds[-1]]
     same_prior = truth is not None and np.allclose(truth[0], p_prior, atol=1e-6) and \
         np.abs(log_so3_deg(np.transpose(R_prior, (0, 2, 1)) @ truth[1])).max() < 1e-4
-    fig, axs = plt.subplots(3, 2, figsize=(10, 6.5), sharex=True)
-    fig.subplots_adjust(left=0.08, right=0.99, top=0.9, bottom=0.1, hspace=0.12, wspace=0.2)
+    fig, axs = F.new(3, 2, "double", 6.5, sharex=True)
+    F.adjust(fig, hspace=0.12, wspace=0.2)
     ax_names = "xyz"
+    span = []
     for k in range(6):
         ax = axs[k % 3][k // 3]
         if k < 3:
@@ -488,9 +780,12 @@ def extrinsics(F, states, prior, truth, t0):
             pv = 0.0
             tv = log_so3_deg(np.transpose(R_prior, (0, 2, 1)) @ truth[1])[0, k - 3] if truth is not None else None
             ax.set_ylabel(f"$\\delta\\theta_{{IC,{ax_names[k - 3]}}}$ [°]")
-        i = decimate(t, [y, s])
+        span.append(float(np.nanmax(y) - np.nanmin(y)) if len(y) else 0.0)
+        i = decimate(t, [y, y - s, y + s], pixel_columns(ax))
         ax.fill_between(t[i], (y - s)[i], (y + s)[i], color=C_EST, alpha=0.2, lw=0, label=r"$\pm1\sigma$")
-        ax.plot(t[i], y[i], color=C_EST, lw=1.1, label="estimate")
+        ax.plot(t[i], y[i], color=C_EST, lw=1.1, label="filter (causal)")
+        if final is not None:
+            ax.axhline(final[k], color=C_SMOOTH, ls="-.", lw=1.0, label="smoothed (final)")
         if tv is not None and same_prior:
             ax.axhline(tv, color=C_GT, ls="--", lw=1.0, label="prior = truth")
         else:
@@ -500,12 +795,53 @@ def extrinsics(F, states, prior, truth, t0):
     for ax in axs[-1]:
         ax.set_xlabel("time [s]")
     h, l = axs[0][0].get_legend_handles_labels()
-    fig.legend(h, l, loc="upper center", ncol=4, bbox_to_anchor=(0.5, 0.955), frameon=False)
-    cap = (r"Camera–IMU extrinsics $T_{IC}$ over time: the lever arm $p_{IC}$ (mm) and the rotation away from "
-           r"the prior, $\delta\theta = \mathrm{Log}(R_{IC,\mathrm{prior}}^\top R_{IC})$ (deg, the filter's error "
-           "state), with ±1σ, the prior" + (" (here equal to the truth)." if same_prior else
-                                            " and the truth." if truth is not None else "."))
-    F.save(fig, "extrinsics", r"Extrinsics $T_{IC}$ (self-calibration)", cap)
+    F.legend(fig, h, l, ncol=5)
+    source = causal["_path"]
+    cap = ("Camera–IMU extrinsics T_{IC} as the causal filter estimated them over time ("
+           f"{os.path.basename(source)}): the lever arm p_{{IC}} (mm) and the rotation away from the prior, "
+           "δθ = Log(R_{IC,prior}^{⊤} R_{IC}) (deg, the filter's error state), with ±1σ"
+           + (", the smoother's final value (states.csv: the smoothed calibration is one constant)" if final is not None
+              else "") + ", the prior" + (" (here equal to the truth)." if same_prior else
+                                          " and the truth." if truth is not None else "."))
+    layers = ["filter (causal)", "±1σ"] + (["smoothed (final)"] if final is not None else []) + ["prior"] + \
+        (["truth"] if truth is not None else [])
+    skipped = [] if final is not None else [("smoothed (final)", "the run has no smoother (states.csv is the filter's)")]
+    F.save(fig, "extrinsics", "Extrinsics T_{IC} (self-calibration)", cap, layers, skipped,
+           {"source": os.path.basename(source), "span": dict(zip(["p_x_mm", "p_y_mm", "p_z_mm", "dtheta_x_deg",
+                                                                  "dtheta_y_deg", "dtheta_z_deg"], span))})
+
+
+def nis_panel(ax, reps, colors, gate, t0):
+    """NIS per detection: the NIS of the residual the filter used (reprojection.csv `nis`) for detections
+    used whole; a detection of which only the position or the rotation part was used (split gate,
+    symmetric flips) has no NIS of that part in the file, so it is drawn apart (open marker, at its
+    6-dof NIS) and counted; rejected ones as crosses."""
+    lo6, hi6 = chi2_ppf(0.025, 6), chi2_ppf(0.975, 6)
+    ax.set_yscale("log")
+    vals = [r["nis"][np.isfinite(r["nis"]) & (r["nis"] > 0)] for r in reps.values()]
+    nis_all = np.concatenate(vals) if vals else np.zeros(0)
+    if len(nis_all):
+        ax.set_ylim(max(nis_all.min(), 1e-3) / 2, max(nis_all.max(), gate or hi6) * 40)
+    ax.axhspan(lo6, hi6, color="#2ca02c", alpha=0.12, label=r"95% $\chi^2_6$ bounds")
+    if gate:
+        ax.axhline(gate, color="#d62728", lw=1.0, ls="--", label=f"gate {gate:.1f}")
+    n_part = 0
+    for oid, r in sorted(reps.items()):
+        m = np.isfinite(r["nis"]) & (r["nis"] > 0)
+        whole = r["used"] & (r["part"] == "both")
+        part = r["used"] & ~whole
+        n_part += int((m & part).sum())
+        if (m & whole).any():
+            scatter(ax, r["t"][m & whole] - t0, r["nis"][m & whole], s=3, color=colors[oid], alpha=0.5,
+                    label=f"obj {oid}")
+        if (m & part).any():
+            scatter(ax, r["t"][m & part] - t0, r["nis"][m & part], s=10, marker="o", facecolors="none",
+                    edgecolors=colors[oid], linewidths=0.6, alpha=0.6, label=f"obj {oid} part used")
+        x = m & ~r["used"]
+        if x.any():
+            scatter(ax, r["t"][x] - t0, r["nis"][x], s=8, marker="x", color=colors[oid], alpha=0.5, linewidths=0.6)
+    ax.set_ylabel("NIS per detection")
+    return n_part
 
 
 def consistency(F, err, reps, colors, gate, t0):
@@ -515,16 +851,17 @@ def consistency(F, err, reps, colors, gate, t0):
         F.skip("consistency", "no covariance (states.csv) and no NIS in reprojection.csv")
         return
     n = int(have_nees) * 2 + int(have_nis)
-    fig, axs = plt.subplots(n, 1, figsize=(10, 2.3 * n + 0.8), sharex=True, squeeze=False)
+    fig, axs = F.new(n, 1, "double", 2.3 * n + 0.8, sharex=True, squeeze=False)
     axs = axs[:, 0]
-    height = 2.3 * n + 0.8
-    fig.subplots_adjust(left=0.08, right=0.99, top=1 - 0.62 / height, bottom=0.62 / height, hspace=0.16)
+    F.adjust(fig, legend_rows=0, hspace=0.16)
+    t = err["t_gt"] - t0
+    xlim = time_limits(t, *[r["t"] - t0 for r in reps.values()])
     k = 0
     lo3, hi3 = chi2_ppf(0.025, 3), chi2_ppf(0.975, 3)
     if have_nees:
-        t = err["t_gt"] - t0
         for key, lab in (("nees_p", r"NEES $\epsilon_p$ (position)"), ("nees_r", r"NEES $\epsilon_\theta$ (orientation)")):
             ax = axs[k]
+            ax.set_xlim(*xlim)
             y = err[key]
             line(ax, t, y, color=C_EST, lw=0.8, label="NEES")
             ax.axhline(3.0, color="k", lw=0.8, ls="-", alpha=0.6, label="expected (3)")
@@ -534,101 +871,153 @@ def consistency(F, err, reps, colors, gate, t0):
             finite = y[np.isfinite(y) & (y > 0)]
             if len(finite):
                 ax.set_title(f"mean {np.mean(finite):.2f}, {100 * np.mean((finite < lo3) | (finite > hi3)):.1f} % "
-                             "outside the bounds", loc="right", fontsize=8)
-            if len(finite):  # headroom on the log axis: the legend must not cover the curve
-                ax.set_ylim(max(finite.min(), 1e-3) / 2, max(finite.max(), hi3) * 40)
+                             "outside the bounds", loc="right", fontsize=plt.rcParams["font.size"] - 1)
+                ax.set_ylim(max(finite.min(), 1e-3) / 2, max(finite.max(), hi3) * 40)  # headroom for the legend
             ax.legend(loc="upper left", ncol=3)
             k += 1
+    n_part = 0
     if have_nis:
-        ax = axs[k]
-        lo6, hi6 = chi2_ppf(0.025, 6), chi2_ppf(0.975, 6)
-        ax.axhspan(lo6, hi6, color="#2ca02c", alpha=0.12, label=r"95% $\chi^2_6$ bounds")
-        if gate:
-            ax.axhline(gate, color="#d62728", lw=1.0, ls="--", label=f"gate {gate:.1f}")
-        for oid, r in sorted(reps.items()):
-            m = np.isfinite(r["nis"]) & (r["nis"] > 0)
-            u = m & r["used"]
-            x = m & ~r["used"]
-            ax.scatter(r["t"][u] - t0, r["nis"][u], s=3, color=colors[oid], alpha=0.5, label=f"obj {oid}",
-                       rasterized=True)
-            ax.scatter(r["t"][x] - t0, r["nis"][x], s=8, marker="x", color=colors[oid], alpha=0.5, linewidths=0.6,
-                       rasterized=True)
-        ax.set_yscale("log")
-        nis_all = np.concatenate([r["nis"][np.isfinite(r["nis"]) & (r["nis"] > 0)] for r in reps.values()])
-        if len(nis_all):
-            ax.set_ylim(max(nis_all.min(), 1e-3) / 2, max(nis_all.max(), gate or hi6) * 40)
-        ax.set_ylabel("NIS per detection")
-        ax.legend(loc="upper left", ncol=8, markerscale=2)
+        axs[k].set_xlim(*xlim)
+        n_part = nis_panel(axs[k], reps, colors, gate, t0)
+        axs[k].legend(loc="upper left", ncol=8, markerscale=2)
     axs[-1].set_xlabel("time [s]")
     cap = ("Filter consistency over time. NEES of the IMU position and orientation after the alignment "
            "(states.csv σ, 3 dof each; the alignment's own error is not in the covariance, so the orientation "
            "NEES is inflated when its σ is small) and the NIS of each detection's 6-dof innovation "
-           "(dots used, crosses rejected), with two-sided 95 % χ² bounds for one run.")
-    F.save(fig, "consistency", "Consistency: NEES and NIS", cap)
+           "(dots: used whole; crosses: rejected), with two-sided 95 % χ² bounds for one run.")
+    if n_part:
+        cap += (f" {n_part} detections were used in part only (position or rotation: split gate or a symmetric "
+                "object's flip); their 6-dof NIS, drawn as open circles, is not the NIS of the part the filter used.")
+    layers = (["NEES position", "NEES orientation"] if have_nees else []) + (["NIS"] if have_nis else [])
+    skipped = ([] if have_nees else [("NEES", "no covariance in states.csv")]) + \
+        ([] if have_nis else [("NIS", "no NIS in reprojection.csv")])
+    F.save(fig, "consistency", "Consistency: NEES and NIS", cap, layers, skipped, {"nis_part_used": n_part})
+
+
+def trajectory_3d(F, fig, est, gt, reps, chosen, colors, err, by_error):
+    """The 3-D trajectory: truth, estimate (coloured by the error when asked), used reprojections of the
+    chosen objects (at most 4000 per object, evenly over time), the start. Returns (layers, skipped)."""
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection
+    ax = fig.add_subplot(111, projection="3d")
+    bins = pixel_columns(ax)
+    layers, skipped = [], []
+    lims = [robust_limits([gt[a], est[a]], 0.1) for a in "xyz"]
+    for oid in chosen:
+        r = reps.get(oid)
+        if r is None:
+            skipped.append((f"reprojected detections of object {oid}", "no reprojected detection"))
+            continue
+        m = r["used"] & np.all([(r[a] >= lo) & (r[a] <= hi) for a, (lo, hi) in zip("xyz", lims)], axis=0)
+        idx = np.flatnonzero(m)[:: max(1, int(m.sum()) // 4000 + 1)]
+        ax.scatter(r["x"][idx], r["y"][idx], r["z"][idx], s=2, color=colors[oid], alpha=0.3, depthshade=False,
+                   label=f"obj {oid} (used)", rasterized=True)
+        layers.append(f"reprojected detections of object {oid}")
+    ig = decimate(gt["t"], [gt["x"], gt["y"], gt["z"]], bins)
+    colored = by_error and "e_norm_m" in err and len(err["e_norm_m"]) == len(est["t"])
+    ax.plot(gt["x"][ig], gt["y"][ig], gt["z"][ig], color="#9a9a9a" if colored else C_GT, lw=1.1, label="ground truth")
+    layers.append("ground truth")
+    if colored:
+        ie = decimate(est["t"], [est["x"], est["y"], est["z"], err["e_norm_m"]], bins)
+        pts = np.stack([est["x"][ie], est["y"][ie], est["z"][ie]], axis=1)
+        e = err["e_norm_m"][ie]
+        vmax = float(np.nanpercentile(err["e_norm_m"], 98))
+        lc = Line3DCollection(np.stack([pts[:-1], pts[1:]], axis=1), cmap="viridis", lw=1.4)
+        lc.set_array(e[:-1])
+        lc.set_clim(0.0, vmax)
+        ax.add_collection(lc)
+        cb = fig.colorbar(lc, ax=ax, fraction=0.03, pad=0.08, shrink=0.7,
+                          extend="max" if np.nanmax(e) > vmax else "neither")
+        cb.set_label(r"position error $\|p_{est}-p_{gt}\|$ [m]")
+        ax.plot([], [], color=plt.get_cmap("viridis")(0.6), lw=1.4, label="estimate (colour: error)")
+        layers.append("estimate coloured by the position error")
+    else:
+        if by_error:
+            skipped.append(("colour by error", "errors.csv has no e_norm_m row per estimate pose"))
+        ie = decimate(est["t"], [est["x"], est["y"], est["z"]], bins)
+        ax.plot(est["x"][ie], est["y"][ie], est["z"][ie], color=C_EST, lw=1.0, label="estimate")
+        layers.append("estimate")
+    ax.plot(gt["x"][:1], gt["y"][:1], gt["z"][:1], "o", color=C_GT, ms=5, label="start")
+    layers.append("start")
+    for (lo, hi), setter in zip(lims, (ax.set_xlim, ax.set_ylim, ax.set_zlim)):
+        setter(lo, hi)
+    ax.set_xlabel("$x$ [m]"); ax.set_ylabel("$y$ [m]"); ax.set_zlabel("$z$ [m]")
+    ax.set_box_aspect([hi - lo for lo, hi in lims])
+    ax.legend(loc="upper left", markerscale=2)
+    return layers, skipped
+
+
+def trajectory_2d(F, fig, est, gt, reps, chosen, colors, err, mode, by_error):
+    """The trajectory in the plane `mode`: as trajectory_3d. Returns (layers, skipped)."""
+    ka, kb = mode[0], mode[1]
+    ax = fig.add_subplot(111)
+    layers, skipped = [], []
+    lim_a = robust_limits([gt[ka], est[ka]], 0.1)
+    lim_b = robust_limits([gt[kb], est[kb]], 0.1)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlim(*lim_a); ax.set_ylim(*lim_b)
+    ax.apply_aspect()  # the final limits before the scatter is thinned to pixels
+    for oid in chosen:
+        r = reps.get(oid)
+        if r is None:
+            skipped.append((f"reprojected detections of object {oid}", "no reprojected detection"))
+            continue
+        m = r["used"] & (r[ka] >= lim_a[0]) & (r[ka] <= lim_a[1]) & (r[kb] >= lim_b[0]) & (r[kb] <= lim_b[1])
+        scatter(ax, r[ka][m], r[kb][m], s=3, color=colors[oid], alpha=0.3, label=f"obj {oid} (used)")
+        layers.append(f"reprojected detections of object {oid}")
+    colored = by_error and "e_norm_m" in err and len(err["e_norm_m"]) == len(est["t"])
+    bins = pixel_columns(ax)
+    ig = decimate(gt["t"], [gt[ka], gt[kb]], bins)
+    ax.plot(gt[ka][ig], gt[kb][ig], color="#9a9a9a" if colored else C_GT, lw=2.2 if colored else 1.2,
+            label="ground truth", zorder=1)
+    layers.append("ground truth")
+    if colored:
+        ie = decimate(est["t"], [est[ka], est[kb], err["e_norm_m"]], bins)
+        xa, xb, e = est[ka][ie], est[kb][ie], err["e_norm_m"][ie]
+        seg = np.stack([np.stack([xa[:-1], xb[:-1]], 1), np.stack([xa[1:], xb[1:]], 1)], 1)
+        # The colour scale stops at the 98th percentile: an initial transient must not darken the rest.
+        vmax = float(np.nanpercentile(err["e_norm_m"], 98)) if len(e) else 1.0
+        lc = LineCollection(seg, cmap="viridis", lw=1.6, zorder=3)
+        lc.set_array(e[:-1])
+        lc.set_clim(0.0, vmax)
+        ax.add_collection(lc)
+        cb = fig.colorbar(lc, ax=ax, fraction=0.04, pad=0.02, extend="max" if np.nanmax(e) > vmax else "neither")
+        cb.set_label(r"position error $\|p_{est}-p_{gt}\|$ [m]")
+        ax.plot([], [], color=plt.get_cmap("viridis")(0.6), lw=1.6, label="estimate (colour: error)")
+        layers.append("estimate coloured by the position error")
+    else:
+        if by_error:
+            skipped.append(("colour by error", "errors.csv has no e_norm_m row per estimate pose"))
+        ie = decimate(est["t"], [est[ka], est[kb]], bins)
+        ax.plot(est[ka][ie], est[kb][ie], color=C_EST, lw=1.0, label="estimate")
+        layers.append("estimate")
+    ax.plot(gt[ka][:1], gt[kb][:1], "o", color=C_GT, ms=5, label="start")
+    layers.append("start")
+    ax.set_xlabel(f"${ka}$ [m]"); ax.set_ylabel(f"${kb}$ [m]")
+    ax.legend(loc="best", markerscale=2)
+    return layers, skipped
 
 
 def trajectory(F, est, gt, reps, chosen, colors, err, mode, by_error):
-    axes = {"x": 0, "y": 1, "z": 2}
+    fig = plt.figure(figsize=F.new_size("single", 6.5))
     if mode == "xyz":
-        fig = plt.figure(figsize=(7.5, 6.5))
-        ax = fig.add_subplot(111, projection="3d")
-        fig.subplots_adjust(left=0.0, right=0.95, top=0.93, bottom=0.06)
-        ig = decimate(gt["t"], [gt["x"], gt["y"], gt["z"]])
-        ax.plot(gt["x"][ig], gt["y"][ig], gt["z"][ig], color=C_GT, lw=1.1, label="ground truth")
-        ie = decimate(est["t"], [est["x"], est["y"], est["z"]])
-        ax.plot(est["x"][ie], est["y"][ie], est["z"][ie], color=C_EST, lw=1.0, label="estimate")
-        ax.set_xlabel("$x$ [m]"); ax.set_ylabel("$y$ [m]"); ax.set_zlabel("$z$ [m]")
-        span = [np.ptp(gt[a]) or 1.0 for a in "xyz"]
-        ax.set_box_aspect(span)
-        ax.legend(loc="upper left")
+        F.adjust(fig, legend_rows=0, left=0.0, right=0.92 if by_error else 0.97)
+        layers, skipped = trajectory_3d(F, fig, est, gt, reps, chosen, colors, err, by_error)
     else:
-        a, b = axes[mode[0]], axes[mode[1]]
-        ka, kb = "xyz"[a], "xyz"[b]
-        fig, ax = plt.subplots(figsize=(7.5, 6.5))
-        fig.subplots_adjust(left=0.11, right=0.97 if not by_error else 0.92, top=0.93, bottom=0.1)
-        lim_a = robust_limits([gt[ka], est[ka]], 0.1)
-        lim_b = robust_limits([gt[kb], est[kb]], 0.1)
-        for oid in chosen:
-            r = reps.get(oid)
-            if r is None:
-                continue
-            m = r["used"] & (r[ka] >= lim_a[0]) & (r[ka] <= lim_a[1]) & (r[kb] >= lim_b[0]) & (r[kb] <= lim_b[1])
-            ax.scatter(r[ka][m], r[kb][m], s=3, color=colors[oid], alpha=0.3, label=f"obj {oid} (used)", rasterized=True)
-        colored = by_error and "e_norm_m" in err and len(err["e_norm_m"]) == len(est["t"])
-        ig = decimate(gt["t"], [gt[ka], gt[kb]])
-        ax.plot(gt[ka][ig], gt[kb][ig], color="#9a9a9a" if colored else C_GT, lw=2.2 if colored else 1.2,
-                label="ground truth", zorder=1)
-        if colored:
-            step = max(1, len(est["t"]) // (4 * SCREEN_BINS))
-            xa, xb, e = est[ka][::step], est[kb][::step], err["e_norm_m"][::step]
-            seg = np.stack([np.stack([xa[:-1], xb[:-1]], 1), np.stack([xa[1:], xb[1:]], 1)], 1)
-            # The colour scale stops at the 98th percentile: an initial transient must not darken the rest.
-            vmax = float(np.nanpercentile(e, 98)) if len(e) else 1.0
-            lc = LineCollection(seg, cmap="viridis", lw=1.6, zorder=3)
-            lc.set_array(e[:-1])
-            lc.set_clim(0.0, vmax)
-            ax.add_collection(lc)
-            cb = fig.colorbar(lc, ax=ax, fraction=0.04, pad=0.02, extend="max" if np.nanmax(e) > vmax else "neither")
-            cb.set_label(r"position error $\|p_{est}-p_{gt}\|$ [m]")
-            ax.plot([], [], color=plt.get_cmap("viridis")(0.6), lw=1.6, label="estimate (colour: error)")
-        else:
-            ie = decimate(est["t"], [est[ka], est[kb]])
-            ax.plot(est[ka][ie], est[kb][ie], color=C_EST, lw=1.0, label="estimate")
-        ax.plot(gt[ka][:1], gt[kb][:1], "o", color=C_GT, ms=5, label="start")
-        ax.set_xlim(*lim_a); ax.set_ylim(*lim_b)
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.set_xlabel(f"${ka}$ [m]"); ax.set_ylabel(f"${kb}$ [m]")
-        ax.legend(loc="best", markerscale=2)
+        F.adjust(fig, legend_rows=0, left=0.13, right=0.97 if not by_error else 0.9)
+        layers, skipped = trajectory_2d(F, fig, est, gt, reps, chosen, colors, err, mode, by_error)
+    drawn = [o for o in chosen if o in reps]
     cap = (f"Trajectory ({'3-D' if mode == 'xyz' else 'plane ' + mode}) of the aligned estimate and the ground "
-           "truth" + (", coloured by the position error" if by_error and mode != "xyz" else "") +
-           (f", with the used reprojected detections of object(s) {', '.join(map(str, chosen))}" if chosen and mode != "xyz" else "") + ".")
-    F.save(fig, "trajectory", f"Trajectory ({mode})", cap)
+           "truth, the start marked (dot)" + (", coloured by the position error" if "estimate coloured by the position "
+                                             "error" in layers else "") +
+           (f", with the used reprojected detections of object(s) {', '.join(map(str, drawn))}" if drawn else "") +
+           (" (3-D: at most 4000 per object, evenly over time)" if drawn and mode == "xyz" else "") + ".")
+    F.save(fig, "trajectory", f"Trajectory ({mode})", cap, layers, skipped)
 
 
 def errors(F, err, t0):
     t = err["t_gt"] - t0
-    fig, axs = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True)
-    fig.subplots_adjust(left=0.08, right=0.99, top=0.91, bottom=0.12, hspace=0.1)
+    fig, axs = F.new(2, 1, "double", 5.5, sharex=True)
+    F.adjust(fig, legend_rows=0, hspace=0.1)
     for key, lab, c in (("ex_m", "$e_x$", None), ("ey_m", "$e_y$", None), ("ez_m", "$e_z$", None),
                         ("e_norm_m", r"$\|e\|$", "k")):
         line(axs[0], t, err[key], color=c, lw=1.4 if c else 0.9, label=lab)
@@ -641,7 +1030,7 @@ def errors(F, err, t0):
     for ax in axs:
         ax.legend(loc="upper right", ncol=4)
     F.save(fig, "errors", "Errors over time", "Position error per axis and its norm; rotation error "
-           r"$R_{est}^\top R_{gt}$ as ZYX Euler angles and its angle.")
+           "R_{est}^{⊤} R_{gt} as ZYX Euler angles and its angle.", ["position error", "rotation error"])
 
 
 def rpe_fig(F, rpe, t0):
@@ -655,18 +1044,20 @@ def rpe_fig(F, rpe, t0):
         return
     keys = sorted(blocks)
     labels = [f"{d:g} {u}" for d, u in keys]
-    fig, axs = plt.subplots(2, 2, figsize=(10, 6.5))
-    fig.subplots_adjust(left=0.08, right=0.99, top=0.91, bottom=0.1, hspace=0.3, wspace=0.2)
+    fig, axs = F.new(2, 2, "double", 6.5)
+    F.adjust(fig, legend_rows=0, hspace=0.35, wspace=0.2)
     for col, (k, unit) in enumerate((("trans", "m"), ("rot", "°"))):
-        axs[0][col].boxplot([blocks[key][k] for key in keys], labels=labels, flierprops={"markersize": 3})
+        axs[0][col].boxplot([blocks[key][k] for key in keys], labels=[f"{lab}\nn = {len(blocks[key][k])}"
+                                                                      for key, lab in zip(keys, labels)],
+                            flierprops={"markersize": 3})
         axs[0][col].set_ylabel(f"RPE {'translation' if k == 'trans' else 'rotation'} [{unit}]")
         axs[0][col].set_xlabel(r"$\Delta$")
         for key, lab in zip(keys, labels):
             axs[1][col].plot(np.array(blocks[key]["t"]) - t0, blocks[key][k], lw=0.9, marker=".", ms=2, label=lab)
         axs[1][col].set_xlabel("time of the pair's first pose [s]")
         axs[1][col].legend(loc="upper right")
-    F.save(fig, "rpe", "Relative pose error", r"RPE per $\Delta$ (evo): $E=(Q_i^{-1}Q_j)^{-1}(P_i^{-1}P_j)$, "
-           "translation norm and rotation angle.")
+    F.save(fig, "rpe", "Relative pose error", "RPE per Δ (evo): E = (Q_{i}^{−1} Q_{j})^{−1} (P_{i}^{−1} P_{j}), "
+           "translation norm and rotation angle.", ["box plots per Δ", "RPE over time"])
 
 
 # ----------------------------------------------------------------------------------------------- main
@@ -677,25 +1068,129 @@ def as_traj(tab):
     return {"t": t, "x": x, "y": y, "z": z, "roll": e[:, 0], "pitch": e[:, 1], "yaw": e[:, 2]}
 
 
-def read_reprojections(tab):
+def used_parts(run_dir, tab):
+    """The `used` column of the run's reprojection.csv (which part of each detection updated the filter)
+    for the rows of eval's reprojection_aligned.csv, matched by (timestamp, object); None when absent."""
+    path = os.path.join(run_dir, "reprojection.csv") if run_dir else None
+    if tab is None or not path or not os.path.exists(path):
+        return None
+    with open(path) as f:
+        head = f.readline().strip().split(",")
+        if "used" not in head:
+            return None
+        k = head.index("used")
+        rows = [ln.rstrip("\n").split(",") for ln in f if ln.strip()]
+    part = {(int(r[0]), int(r[1])): r[k] for r in rows}
+    return [part.get((int(t), int(o)), "") for t, o in zip(tab["timestamp_ns"], tab["object_id"])]
+
+
+def read_reprojections(tab, parts=None):
     out = {}
     if tab is None or tab["_n"] == 0:
         return out
+    if parts is not None and "used" not in tab:
+        tab["used"] = parts
     ids = np.asarray(tab["object_id"], dtype=int)
     t = tab["timestamp_ns"] * 1e-9
     p = np.stack(need(tab, "tx", "ty", "tz"), axis=1)
     q = np.stack(need(tab, "qx", "qy", "qz", "qw"), axis=1)
     ok = np.isfinite(p).all(axis=1) & np.isfinite(q).all(axis=1)
-    status = np.asarray(tab["status"]) if isinstance(tab["status"], list) else np.full(tab["_n"], "")
+    status = np.asarray(tab["status"]) if isinstance(tab.get("status"), list) else np.full(tab["_n"], "")
     nis = tab["nis"] if "nis" in tab and not isinstance(tab["nis"], list) else np.full(tab["_n"], np.nan)
+    # Which part updated the filter (optional column): both, position, rotation or none.
+    part = np.asarray(tab["used"]) if isinstance(tab.get("used"), list) else np.full(tab["_n"], "both")
+    part = np.where(part == "", "both", part)
     for oid in sorted(set(ids.tolist())):
         m = (ids == oid) & ok
         if not m.any():
             continue
         e = euler_deg(quat_to_R(q[m]))
         out[oid] = {"t": t[m], "x": p[m, 0], "y": p[m, 1], "z": p[m, 2], "roll": e[:, 0], "pitch": e[:, 1],
-                    "yaw": e[:, 2], "used": np.isin(status[m], USED), "nis": nis[m]}
+                    "yaw": e[:, 2], "used": np.isin(status[m], USED), "nis": nis[m], "part": part[m]}
     return out
+
+
+def read_inputs(a):
+    """Everything the figures read: {name: table/json/None}. Raises BadInput/OSError/KeyError."""
+    d = a.eval_dir
+    x = {"report": read_json(os.path.join(d, "report.json")),
+         "est": as_traj(read_table(os.path.join(d, "est_matched_aligned.csv"))),
+         "gt": as_traj(read_table(os.path.join(d, "gt_matched.csv"))),
+         "err": read_table(os.path.join(d, "errors.csv")),
+         "reps": None,
+         "rpe": read_table(os.path.join(d, "rpe.csv"), required=False),
+         "run_json": None, "states": None, "states_filter": None, "objs": None}
+    if a.run:
+        x["run_json"] = read_json(os.path.join(a.run, "run.json"), required=False)
+        x["states_filter"] = read_table(os.path.join(a.run, "states_filter.csv"), required=False)
+        # With the smoother, the smoothed states matter for their final value only.
+        x["states"] = (read_table(os.path.join(a.run, "states.csv"), required=False) if x["states_filter"] is None
+                       else read_last_row(os.path.join(a.run, "states.csv")))
+        x["objs"] = read_table(os.path.join(a.run, "objects.csv"), required=False)
+    rep = read_table(os.path.join(d, "reprojection_aligned.csv"), required=False)
+    x["reps"] = read_reprojections(rep, used_parts(a.run, rep))
+    x["ds"] = read_json(os.path.join(a.dataset, "roe.json"), required=False) if a.dataset else None
+    x["symmetries"] = {int(k): v for k, v in (read_json(a.symmetries) if a.symmetries else {}).items()}
+    return x
+
+
+def choose_objects(spec, reps, anchor):
+    """The objects whose reprojected detections are drawn (--objects); BadInput for unknown ones."""
+    if spec == "all":
+        return sorted(reps)
+    if spec == "anchor":
+        return [anchor] if anchor in reps else sorted(reps)[:1]
+    try:
+        chosen = [int(v) for v in spec.split(",") if v.strip()]
+    except ValueError:
+        raise BadInput(f"--objects: expected anchor, all or a list of ids, got '{spec}'")
+    missing = [o for o in chosen if o not in reps]
+    if missing:
+        raise BadInput(f"--objects: no reprojected detection of object(s) {', '.join(map(str, missing))} "
+                       f"(objects with detections: {', '.join(map(str, sorted(reps))) or 'none'})")
+    return chosen
+
+
+def footer_of(report):
+    info, al, pa = report.get("info", {}), report.get("alignment", {}), report.get("per_axis", {})
+    pr, rr = pa.get("pos_rmse_m", {}), pa.get("rpy_rmse_deg", {})
+    return (f"{info.get('label', '')}  ·  alignment {al.get('type', '?')} on {al.get('n_aligned', '?')} poses"
+            f" (scale {al.get('scale', 1.0):.4f})  ·  RMSE x/y/z {pr.get('x', math.nan):.3f}/{pr.get('y', math.nan):.3f}/"
+            f"{pr.get('z', math.nan):.3f} m, roll/pitch/yaw {rr.get('roll', math.nan):.2f}/{rr.get('pitch', math.nan):.2f}/"
+            f"{rr.get('yaw', math.nan):.2f}°  ·  ATE {report.get('ape_trans_m', {}).get('rmse', math.nan):.3f} m"
+            f"  ·  roe {info.get('roe_version', '')}")
+
+
+def make_tasks(F, a, x, chosen, colors, label_of):
+    """The drawing tasks (cost, fn) of the figure set."""
+    est, gt, err, reps, objs = x["est"], x["gt"], x["err"], x["reps"], x["objs"]
+    run_json, truth = x["run_json"] or {}, (x["ds"] or {}).get("truth") or {}
+    anchor = run_json.get("anchor_id")
+    t0 = float(gt["t"][0]) if len(gt["t"]) else 0.0
+    tasks = [(3.0, lambda: fig3(F, est, gt, reps, chosen, colors, t0))]
+    if objs is not None and anchor is not None:
+        tobj = {o["id"]: pose_q(o["T_W_O"]["p"], o["T_W_O"]["q"]) for o in truth.get("objects", [])}
+        tasks += fig4_tasks(F, objs, anchor, tobj, x["symmetries"], colors, t0, label_of)
+    else:
+        tasks.append((0.1, lambda: F.skip("fig4", "no objects.csv / run.json (not a run folder)")))
+    # The extrinsics as the causal filter had them: states_filter.csv when the smoother rewrote states.csv.
+    causal = x["states_filter"] if x["states_filter"] is not None else x["states"]
+    if causal is not None and "p_I_C_x" in causal:
+        smoothed = x["states"] if x["states_filter"] is not None else None
+        pj = (run_json.get("init") or {}).get("T_I_C")
+        prior = pose_q(pj["p"], pj["q"]) if pj else None
+        tt = truth.get("T_I_C")
+        tasks.append((2.0, lambda: extrinsics(F, causal, smoothed, prior, pose_q(tt["p"], tt["q"]) if tt else None,
+                                              t0)))
+    else:
+        tasks.append((0.1, lambda: F.skip("extrinsics", "no states.csv with the extrinsics (not a run folder)")))
+    gate = (run_json.get("nis") or {}).get("gate")
+    tasks.append((3.0, lambda: consistency(F, err, reps, colors, gate, t0)))
+    tasks.append((1.2, lambda: trajectory(F, est, gt, reps, chosen, colors, err, a.plot_mode, a.color_by_error)))
+    tasks.append((1.5, lambda: errors(F, err, t0)))
+    if x["rpe"] is not None:
+        tasks.append((1.2, lambda: rpe_fig(F, x["rpe"], t0)))
+    return tasks
 
 
 def main():
@@ -703,88 +1198,41 @@ def main():
     ap.add_argument("--eval", required=True, dest="eval_dir")
     ap.add_argument("--run", default=None)
     ap.add_argument("--dataset", default=None)
+    ap.add_argument("--tables", default=None, help="JSON {csv path: {bin, columns, rows}} of tables roe parsed")
+    ap.add_argument("--symmetries", default=None, help="JSON {id: {discrete: [pose...], continuous: {axis, offset}}}")
     ap.add_argument("--out", required=True)
     ap.add_argument("--objects", default="anchor")
     ap.add_argument("--plot-mode", default="xy", choices=["xy", "xz", "yz", "xyz"])
     ap.add_argument("--color-by-error", action="store_true")
     ap.add_argument("--vector", default="pdf", choices=["pdf", "svg", "none"])
-    ap.add_argument("--dpi", type=int, default=130)
+    ap.add_argument("--style", default="default", choices=sorted(STYLES))
+    ap.add_argument("--dpi", type=int, default=0, help="PNG resolution (0: the style's, 130 or 300)")
     ap.add_argument("--jobs", type=int, default=0, help="processes drawing (0: min(2, CPUs))")
     a = ap.parse_args()
-    d = a.eval_dir
+    plt.rcParams.update(BASE_RC)
+    plt.rcParams.update(STYLES[a.style]["rc"])
+    if a.dpi > 0:
+        STYLES[a.style]["dpi"] = a.dpi
+    plt.rcParams["savefig.dpi"] = STYLES[a.style]["dpi"]  # also the resolution of rasterised parts
     try:
-        report = read_json(os.path.join(d, "report.json"))
-        est = as_traj(read_table(os.path.join(d, "est_matched_aligned.csv")))
-        gt = as_traj(read_table(os.path.join(d, "gt_matched.csv")))
-        err = read_table(os.path.join(d, "errors.csv"))
-        reps = read_reprojections(read_table(os.path.join(d, "reprojection_aligned.csv"), required=False))
-        rpe = read_table(os.path.join(d, "rpe.csv"), required=False)
-        run_json = states = objs = None
-        if a.run:
-            run_json = read_json(os.path.join(a.run, "run.json"), required=False)
-            states = read_table(os.path.join(a.run, "states.csv"), required=False)
-            objs = read_table(os.path.join(a.run, "objects.csv"), required=False)
-        ds = read_json(os.path.join(a.dataset, "roe.json"), required=False) if a.dataset else None
+        if a.tables:
+            TABLES.update(read_json(a.tables))
+        x = read_inputs(a)
+        anchor = (x["run_json"] or {}).get("anchor_id")
+        chosen = choose_objects(a.objects, x["reps"], anchor)
     except (OSError, BadInput, KeyError) as e:
         sys.stderr.write(f"plot_run.py: {e}\n")
         return 2
     os.makedirs(a.out, exist_ok=True)
-
-    anchor = run_json.get("anchor_id") if run_json else None
-    names = {o["id"]: o.get("name", "") for o in (ds or {}).get("objects", [])}
-    all_ids = sorted(set(reps) | set(names) | ({anchor} if anchor is not None else set()))
+    names = {o["id"]: o.get("name", "") for o in (x["ds"] or {}).get("objects", [])}
+    all_ids = sorted(set(x["reps"]) | set(names) | ({anchor} if anchor is not None else set()))
     colors = {oid: OBJ_PALETTE[i % len(OBJ_PALETTE)] for i, oid in enumerate(all_ids)}
-    if a.objects == "all":
-        chosen = sorted(reps)
-    elif a.objects == "anchor":
-        chosen = [anchor] if anchor in reps else sorted(reps)[:1]
-    else:
-        try:
-            chosen = [int(v) for v in a.objects.split(",") if v.strip()]
-        except ValueError:
-            sys.stderr.write(f"plot_run.py: --objects: expected anchor, all or a list of ids, got '{a.objects}'\n")
-            return 2
-        missing = [o for o in chosen if o not in reps]
-        if missing:
-            sys.stderr.write(f"plot_run.py: --objects: no reprojected detection of object(s) "
-                             f"{', '.join(map(str, missing))} (objects with detections: "
-                             f"{', '.join(map(str, sorted(reps))) or 'none'})\n")
-            return 2
     label_of = lambda oid: f"{oid} ({names[oid]})" if names.get(oid) else str(oid)  # noqa: E731
-
-    info, al, pa = report.get("info", {}), report.get("alignment", {}), report.get("per_axis", {})
-    pr, rr = pa.get("pos_rmse_m", {}), pa.get("rpy_rmse_deg", {})
-    footer = (f"{info.get('label', '')}  ·  alignment {al.get('type', '?')} on {al.get('n_aligned', '?')} poses"
-              f" (scale {al.get('scale', 1.0):.4f})  ·  RMSE x/y/z {pr.get('x', math.nan):.3f}/{pr.get('y', math.nan):.3f}/"
-              f"{pr.get('z', math.nan):.3f} m, roll/pitch/yaw {rr.get('roll', math.nan):.2f}/{rr.get('pitch', math.nan):.2f}/"
-              f"{rr.get('yaw', math.nan):.2f}°  ·  ATE {report.get('ape_trans_m', {}).get('rmse', math.nan):.3f} m"
-              f"  ·  roe {info.get('roe_version', '')}")
-    F = Figures(a.out, a.vector, a.dpi, footer)
-    t0 = float(gt["t"][0]) if len(gt["t"]) else 0.0
-
-    truth = (ds or {}).get("truth") or {}
-    tasks = [(3.0, lambda: fig3(F, est, gt, reps, chosen, colors, t0))]
-    if objs is not None and anchor is not None:
-        tobj = {o["id"]: pose_q(o["T_W_O"]["p"], o["T_W_O"]["q"]) for o in truth.get("objects", [])}
-        tasks += fig4_tasks(F, objs, anchor, tobj, colors, t0, label_of)
-    else:
-        tasks.append((0.1, lambda: F.skip("fig4", "no objects.csv / run.json (not a run folder)")))
-    if states is not None and "p_I_C_x" in states:
-        pj = ((run_json or {}).get("init") or {}).get("T_I_C")
-        prior = pose_q(pj["p"], pj["q"]) if pj else None
-        tt = truth.get("T_I_C")
-        tasks.append((2.0, lambda: extrinsics(F, states, prior, pose_q(tt["p"], tt["q"]) if tt else None, t0)))
-    else:
-        tasks.append((0.1, lambda: F.skip("extrinsics", "no states.csv with the extrinsics (not a run folder)")))
-    gate = ((run_json or {}).get("nis") or {}).get("gate")
-    tasks.append((3.0, lambda: consistency(F, err, reps, colors, gate, t0)))
-    tasks.append((1.2, lambda: trajectory(F, est, gt, reps, chosen, colors, err, a.plot_mode, a.color_by_error)))
-    tasks.append((1.5, lambda: errors(F, err, t0)))
-    if rpe is not None:
-        tasks.append((1.2, lambda: rpe_fig(F, rpe, t0)))
-    run_tasks(F, tasks, a.jobs if a.jobs > 0 else min(2, os.cpu_count() or 1))
+    F = Figures(a.out, a.vector, a.style, footer_of(x["report"]))
+    run_tasks(F, make_tasks(F, a, x, chosen, colors, label_of), a.jobs if a.jobs > 0 else min(2, os.cpu_count() or 1))
     manifest = {"figures": F.items, "skipped": F.skipped, "objects": {str(k): v for k, v in colors.items()},
-                "chosen_objects": chosen, "anchor_id": anchor, "vector": a.vector}
+                "chosen_objects": chosen, "anchor_id": anchor, "vector": a.vector, "style": a.style,
+                "plot_mode": a.plot_mode, "color_by_error": a.color_by_error}
     with open(os.path.join(a.out, "figures.json"), "w") as f:
         json.dump(manifest, f, indent=1)
     print(f"wrote {a.out}: {', '.join(i['name'] for i in F.items)}")

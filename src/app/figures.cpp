@@ -7,9 +7,13 @@
 #include <string.h>
 
 #include <chrono>
+#include <cmath>
+#include <future>
 #include <cstdlib>
 
 #include "roe/core/error.hpp"
+#include "roe/io/csv.hpp"
+#include "roe/io/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/process.hpp"
@@ -81,6 +85,26 @@ void check_figure_options(const FigureOptions& o) {
                      {"", 0, 0, "plot-mode"});
   if (o.vector != "pdf" && o.vector != "svg" && o.vector != "none")
     throw InputError(fmt::format("--vector: expected pdf, svg or none, got '{}'", o.vector), {"", 0, 0, "vector"});
+  if (o.style != "default" && o.style != "paper")
+    throw InputError(fmt::format("--style: expected default or paper, got '{}'", o.style), {"", 0, 0, "style"});
+}
+
+json symmetries_json(const std::vector<std::pair<int, ObjectSymmetry>>& objects) {
+  json out = json::object();
+  const auto pose = [](const Pose& p) {
+    return json{{"p", {p.p.x(), p.p.y(), p.p.z()}}, {"q", {p.q.x(), p.q.y(), p.q.z(), p.q.w()}}};
+  };
+  for (const auto& [id, s] : objects) {
+    if (s.empty()) continue;
+    json d = json::array();
+    for (const Pose& S : s.discrete) d.push_back(pose(S));
+    json c = nullptr;
+    if (s.continuous)
+      c = {{"axis", {s.continuous->axis.x(), s.continuous->axis.y(), s.continuous->axis.z()}},
+           {"offset", {s.continuous->offset.x(), s.continuous->offset.y(), s.continuous->offset.z()}}};
+    out[std::to_string(id)] = {{"discrete", d}, {"continuous", c}};
+  }
+  return out;
 }
 
 std::string FigureSet::status() const {
@@ -138,15 +162,97 @@ double run_plot_script(const std::string& script_text, const std::string& name, 
   return wall;
 }
 
+namespace {
+
+/// The numeric CSV `csv` as a raw float64 file (row-major, the header's columns) for plot_run.py, which
+/// reads it with np.fromfile instead of parsing the text again (the states of a 300 s run are 56 MB).
+/// Returns its entry of the --tables manifest, or null when the file is absent or has a field that is not
+/// a number (the script then reads the CSV itself, with its own checks and messages).
+json export_table(const fs::path& csv, const fs::path& bin) {
+  std::error_code ec;
+  if (!fs::is_regular_file(csv, ec)) return nullptr;
+  try {
+    io::CsvOptions co;
+    co.quotes = false;
+    io::CsvReader r(csv, co);
+    const std::size_t n = r.header().size();
+    std::vector<double> v;
+    while (r.next())
+      for (std::size_t i = 0; i < n; ++i) v.push_back(r.is_empty(i) ? std::nan("") : r.get_double_nonfinite(i));
+    io::write_file_atomic(bin, std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double)));
+    return {{"bin", bin.string()}, {"columns", r.header()}, {"rows", n ? v.size() / n : 0}};
+  } catch (const InputError&) {
+    return nullptr;
+  }
+}
+
+/// The large numeric tables the figures read, converted on both cores (export_table); the manifest
+/// {csv path: entry} is written to `manifest`. Returns the files written (to remove afterwards).
+std::vector<fs::path> export_tables(const std::vector<fs::path>& tables, const fs::path& dir, const fs::path& manifest) {
+  std::vector<json> entries(tables.size());
+  std::vector<fs::path> written;
+  for (std::size_t i = 0; i < tables.size(); ++i) written.push_back(dir / fmt::format(".table{}.f64", i));
+  {
+    auto half = std::async(std::launch::async, [&] {
+      for (std::size_t i = 1; i < tables.size(); i += 2) entries[i] = export_table(tables[i], written[i]);
+    });
+    for (std::size_t i = 0; i < tables.size(); i += 2) entries[i] = export_table(tables[i], written[i]);
+    half.get();
+  }
+  json m = json::object();
+  for (std::size_t i = 0; i < tables.size(); ++i)
+    if (!entries[i].is_null()) m[tables[i].string()] = entries[i];
+  io::write_file_atomic(manifest, io::dump_json(m));
+  written.push_back(manifest);
+  return written;
+}
+
+}  // namespace
+
 FigureSet render_figures(const fs::path& eval_dir, const fs::path& run_dir, const fs::path& dataset,
                          const fs::path& out_dir, const FigureOptions& o) {
   check_figure_options(o);
   std::vector<std::string> args = {"--eval", eval_dir.string(), "--out", out_dir.string(), "--objects", o.objects,
-                                   "--plot-mode", o.plot_mode, "--vector", o.vector};
+                                   "--plot-mode", o.plot_mode, "--vector", o.vector, "--style", o.style};
   if (!run_dir.empty()) args.insert(args.end(), {"--run", run_dir.string()});
-  if (!dataset.empty()) args.insert(args.end(), {"--dataset", dataset.string()});
+  const fs::path sym_file = out_dir / ".symmetries.json";
+  if (!dataset.empty()) {
+    args.insert(args.end(), {"--dataset", dataset.string()});
+    // The symmetries as the dataset reader resolved them (models_info): Fig. 4 of a symmetric object.
+    std::vector<std::pair<int, ObjectSymmetry>> objects;
+    for (const ObjectInfo& obj : io::read_manifest(dataset).objects) objects.emplace_back(obj.id, obj.symmetry);
+    const json sym = symmetries_json(objects);
+    if (!sym.empty()) {
+      io::write_file_atomic(sym_file, io::dump_json(sym));
+      args.insert(args.end(), {"--symmetries", sym_file.string()});
+    }
+  }
   if (o.color_by_error) args.push_back("--color-by-error");
-  const double wall = run_plot_script(plot_run_script(), "plot_run.py", out_dir, args);
+  // Larger tables first: the two threads share them about evenly.
+  std::vector<fs::path> tables = {eval_dir / "errors.csv", eval_dir / "est_matched_aligned.csv",
+                                  eval_dir / "gt_matched.csv"};
+  if (!run_dir.empty()) {
+    std::error_code ec;
+    const bool smoothed = fs::exists(run_dir / "states_filter.csv", ec);
+    tables.insert(tables.begin(), {run_dir / (smoothed ? "states_filter.csv" : "states.csv"), run_dir / "objects.csv"});
+  }
+  std::vector<fs::path> temporaries = {sym_file};
+  const auto remove_temporaries = [&] {
+    std::error_code ec;
+    for (const fs::path& f : temporaries) fs::remove(f, ec);
+  };
+  double wall = 0.0;
+  try {
+    const fs::path manifest = out_dir / ".tables.json";
+    const auto written = export_tables(tables, out_dir, manifest);
+    temporaries.insert(temporaries.end(), written.begin(), written.end());
+    args.insert(args.end(), {"--tables", manifest.string()});
+    wall = run_plot_script(plot_run_script(), "plot_run.py", out_dir, args);
+  } catch (...) {
+    remove_temporaries();
+    throw;
+  }
+  remove_temporaries();
   FigureSet set = read_manifest(out_dir / "figures.json");
   set.wall_s = wall;
   for (const Figure& f : set.figures)

@@ -54,6 +54,30 @@ std::string base64(const std::string& bytes) {
   return o;
 }
 
+}  // namespace
+
+std::string caption_html(const std::string& text) {
+  std::string o;
+  o.reserve(text.size() + 32);
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if ((c == '_' || c == '^') && i + 1 < text.size() && text[i + 1] == '{') {
+      const std::size_t close = text.find('}', i + 2);
+      const std::size_t open = text.find('{', i + 2);
+      if (close != std::string::npos && (open == std::string::npos || open > close)) {
+        const char* tag = c == '_' ? "sub" : "sup";
+        o += fmt::format("<{}>{}</{}>", tag, esc(text.substr(i + 2, close - i - 2)), tag);
+        i = close;
+        continue;
+      }
+    }
+    o += esc(std::string(1, c));
+  }
+  return o;
+}
+
+namespace {
+
 /// `j` at a dotted path ("per_axis.pos_rmse_m.x"); null when absent.
 const json& at_path(const json& j, const std::string& path) {
   static const json null;
@@ -146,6 +170,23 @@ std::string section_summary(const json& ev) {
   return s + "</section>\n";
 }
 
+/// The RMSE cells of one subset ("all" or "accepted") of an object of report.json's per_object.
+std::string fit_cells(const json& f) {
+  if (!f.is_object() || f.value("n", 0) == 0) {
+    std::string s = "<td>0</td>";
+    for (int k = 0; k < 6; ++k) s += "<td class=\"na\">–</td>";
+    return s;
+  }
+  return fmt::format("<td>{}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.2f}</td><td>{:.2f}</td>"
+                     "<td>{:.2f}</td>",
+                     f["n"].get<int>(), f["pos_rmse_m"]["x"].get<double>(), f["pos_rmse_m"]["y"].get<double>(),
+                     f["pos_rmse_m"]["z"].get<double>(), f["rpy_rmse_deg"]["roll"].get<double>(),
+                     f["rpy_rmse_deg"]["pitch"].get<double>(), f["rpy_rmse_deg"]["yaw"].get<double>());
+}
+
+/// Detections per object by status (run.json) and, as roe eval prints them, the RMSE of the object's
+/// reprojected raw detections on two rows: all of them (the rejected outliers included) and the accepted
+/// ones alone; a last row with the totals run.json counts.
 std::string section_objects(const json& ev, const json& run) {
   std::string s = "<section id=\"objects\"><h2>Objects</h2>\n";
   const json& per = at_path(run, "counts.detections.per_object");
@@ -153,9 +194,11 @@ std::string section_objects(const json& ev, const json& run) {
                             "rejected_score", "rejected_no_imu", "pending_init"};
   s += "<table class=\"num\" id=\"counts\"><caption>Detections per object (run.json";
   s += run.contains("anchor_id") ? fmt::format("; anchor object {}", plain(run["anchor_id"])) : std::string();
-  s += ") and the RMSE of each object's reprojected raw detections against the ground truth (same alignment)"
+  s += ") and the RMSE of each object's reprojected raw detections against the ground truth (same alignment): "
+       "<i>all</i> includes the detections the filter rejected as outliers, <i>accepted</i> only those it used"
        "</caption>\n<tr><th rowspan=\"2\">object</th><th colspan=\"8\">detections by status</th>"
-       "<th colspan=\"3\">RMSE [m]</th><th colspan=\"3\">RMSE [°]</th></tr>\n<tr>";
+       "<th rowspan=\"2\">subset</th><th rowspan=\"2\">n</th><th colspan=\"3\">RMSE [m]</th>"
+       "<th colspan=\"3\">RMSE [°]</th></tr>\n<tr>";
   const char* shown[] = {"all", "accepted", "initialized", "χ² rejected", "no anchor", "score", "no IMU", "pending"};
   for (std::size_t i = 0; i < std::size(statuses); ++i)
     s += fmt::format("<th title=\"{}\">{}</th>", statuses[i], shown[i]);
@@ -167,24 +210,31 @@ std::string section_objects(const json& ev, const json& run) {
   for (const auto& [k, v] : eval_obj) ids.insert(k);
   if (per.is_object())
     for (const auto& [k, v] : per.items()) ids.insert(std::stoi(k));
-  for (int id : ids) {
-    s += fmt::format("<tr><th>{}</th>", id);
-    const std::string key = std::to_string(id);
+  const auto count_cells = [&](const json& c) {
+    std::string t;
     for (const char* k : statuses) {
-      const json& v = per.is_object() && per.contains(key) ? per[key].value(k, json()) : json();
+      const json& v = c.is_object() ? c.value(k, json()) : json();
+      t += v.is_number() ? fmt::format("<td rowspan=\"2\">{}</td>", plain(v)) : "<td rowspan=\"2\" class=\"na\">–</td>";
+    }
+    return t;
+  };
+  for (int id : ids) {
+    const std::string key = std::to_string(id);
+    const json* o = eval_obj.count(id) ? eval_obj[id] : nullptr;
+    s += fmt::format("<tr class=\"subset-all\" data-object=\"{}\"><th rowspan=\"2\">{}</th>", id, id);
+    s += count_cells(per.is_object() && per.contains(key) ? per[key] : json());
+    s += "<th>all</th>" + fit_cells(o ? (*o)["all"] : json()) + "</tr>\n";
+    s += fmt::format("<tr class=\"subset-accepted\" data-object=\"{}\"><th>accepted</th>{}</tr>\n", id,
+                     fit_cells(o ? o->value("accepted", json()) : json()));
+  }
+  const json& total = at_path(run, "counts.detections");
+  if (total.is_object()) {
+    s += "<tr class=\"total\"><th>total</th>";
+    for (const char* k : statuses) {
+      const json& v = total.value(k, json());
       s += v.is_number() ? fmt::format("<td>{}</td>", plain(v)) : "<td class=\"na\">–</td>";
     }
-    const json* o = eval_obj.count(id) ? eval_obj[id] : nullptr;
-    if (o && (*o)["all"]["n"].get<int>() > 0) {
-      const json& a = (*o)["all"];
-      s += fmt::format("<td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.2f}</td>",
-                       a["pos_rmse_m"]["x"].get<double>(), a["pos_rmse_m"]["y"].get<double>(),
-                       a["pos_rmse_m"]["z"].get<double>(), a["rpy_rmse_deg"]["roll"].get<double>(),
-                       a["rpy_rmse_deg"]["pitch"].get<double>(), a["rpy_rmse_deg"]["yaw"].get<double>());
-    } else {
-      for (int k = 0; k < 6; ++k) s += "<td class=\"na\">–</td>";
-    }
-    s += "</tr>\n";
+    s += "<td colspan=\"8\"></td></tr>\n";
   }
   return s + "</table></section>\n";
 }
@@ -207,14 +257,31 @@ std::string section_calib(const json& calib) {
   return s + "</table></section>\n";
 }
 
+/// What the figure was asked to draw and did not (figures.json `skipped_layers`), as a sentence.
+std::string skipped_layers_html(const std::string& name, const json& manifest) {
+  std::string s;
+  for (const json& f : manifest.value("figures", json::array())) {
+    if (f.value("name", "") != name) continue;
+    for (const json& k : f.value("skipped_layers", json::array()))
+      s += fmt::format(" <span class=\"na skipped-layer\">Not drawn: {} ({}).</span>",
+                       esc(k.value("layer", "")), esc(k.value("reason", "")));
+  }
+  return s;
+}
+
 std::string section_figures(const FigureSet& figs, const fs::path& dir) {
   std::string s = "<section id=\"figures\"><h2>Figures</h2>\n";
   for (const Figure& f : figs.figures) {
     const std::string png = io::read_file(dir / f.files.at("png"));
+    // The alt text is plain (marks dropped), the caption HTML (sub- and superscripts).
+    std::string alt = f.title;
+    for (const char* m : {"_{", "^{", "}"})
+      for (std::size_t p; (p = alt.find(m)) != std::string::npos;) alt.erase(p, std::string(m).size());
     s += fmt::format(
         "<figure id=\"fig-{}\"><img alt=\"{}\" src=\"data:image/png;base64,{}\">\n<figcaption><b>{}</b> {}"
-        "</figcaption></figure>\n",
-        esc(f.name), esc(f.title), base64(png), esc(f.title), esc(f.caption));
+        "{}</figcaption></figure>\n",
+        esc(f.name), esc(alt), base64(png), caption_html(f.title), caption_html(f.caption),
+        skipped_layers_html(f.name, figs.manifest));
   }
   for (const auto& [name, why] : figs.skipped) s += fmt::format("<p class=\"na\">{} not drawn: {}</p>\n", esc(name), esc(why));
   return s + "</section>\n";

@@ -6,7 +6,7 @@
 
 namespace roe::cli {
 
-/// Binds --objects, --plot-mode, --color-by-error and --vector to `o`, in the group "Figures"; returns
+/// Binds --objects, --plot-mode, --color-by-error, --vector and --style to `o`, in the group "Figures"; returns
 /// the options (eval marks them as needing --plot).
 inline std::vector<CLI::Option*> add_figure_options(CLI::App& sub, app::FigureOptions& o) {
   return {
@@ -23,6 +23,11 @@ inline std::vector<CLI::Option*> add_figure_options(CLI::App& sub, app::FigureOp
       sub.add_option("--vector", o.vector, "Vector format written beside every PNG: pdf, svg or none")
           ->capture_default_str()
           ->check(CLI::IsMember({"pdf", "svg", "none"}))
+          ->group("Figures"),
+      sub.add_option("--style", o.style,
+                     "default (titles, footer) or paper (no titles or footers, 3.5/7.16 in wide, fonts embedded)")
+          ->capture_default_str()
+          ->check(CLI::IsMember({"default", "paper"}))
           ->group("Figures"),
   };
 }

@@ -73,8 +73,20 @@ window.addEventListener('load', () => {
       ({path: td.dataset.path, value: td.dataset.value, text: td.textContent}));
   const links = [...document.querySelectorAll('[src],[href]')].map(e => e.getAttribute('src') || e.getAttribute('href'))
       .filter(u => /^(https?:)?\/\//.test(u));
+  const caps = [...document.querySelectorAll('figcaption')];
+  const parts = {
+    captions: caps.length,
+    captions_with_tex: caps.filter(c => /[$\\]|_\{|\^\{/.test(c.textContent)).map(c => c.textContent.slice(0, 80)),
+    sub_rendered: [...document.querySelectorAll('figcaption sub')].filter(e => {
+      const r = e.getBoundingClientRect(), p = e.parentElement.getBoundingClientRect();
+      return r.height > 0 && r.bottom > p.top && getComputedStyle(e).verticalAlign === 'sub'; }).length,
+    accepted_rows: [...document.querySelectorAll('#counts tr.subset-accepted')].map(tr => tr.dataset.object),
+    all_rows: [...document.querySelectorAll('#counts tr.subset-all')].map(tr => tr.dataset.object),
+    total_row: document.querySelectorAll('#counts tr.total').length,
+    rpe_rows: document.querySelectorAll('#rpe tr').length,
+  };
   const pre = document.createElement('pre'); pre.id = 'roe-check';
-  pre.textContent = btoa(JSON.stringify({errors: window.__errors, imgs, cells, links}));
+  pre.textContent = btoa(unescape(encodeURIComponent(JSON.stringify({errors: window.__errors, imgs, cells, links, parts}))));
   document.body.appendChild(pre);
 });
 </script>)js";
@@ -91,7 +103,7 @@ TEST_CASE("roe report: the HTML in headless Chromium", "[cli][report][browser]")
   const std::string sample = std::string(ROE_SOURCE_DIR) + "/datasets/sample";
   REQUIRE(run_roe("-q run " + sample + " --out " + (t / "run").string()).code == 0);
   const auto rep = run_roe("--json report " + (t / "run").string() + " --out " + (t / "r.html").string() +
-                               " --objects all --vector none",
+                               " --objects all --vector none --rpe-delta 1,2",
                            false);
   if (rep.code == 2 && !fs::exists(t / "r.html")) {
     const auto again = run_roe("report " + (t / "run").string() + " --out " + (t / "r.html").string());
@@ -164,6 +176,19 @@ TEST_CASE("roe report: the HTML in headless Chromium", "[cli][report][browser]")
                         "ape_trans_m.rmse", "ape_trans_m.max", "ape_rot_deg.rmse", "consistency.anees_p"})
     CHECK(paths.count(p) == 1);
 
+  // The new parts: captions without TeX and with rendered subscripts, the objects table's "accepted" row
+  // under each object's "all" row (as roe eval prints them) and the totals, the RPE table and figure.
+  const json& parts = probe["parts"];
+  INFO(parts.dump());
+  CHECK(parts["captions"].get<int>() == static_cast<int>(figs.size()));
+  CHECK(parts["captions_with_tex"].empty());
+  CHECK(parts["sub_rendered"].get<int>() >= 3);
+  CHECK(parts["accepted_rows"].size() >= 2);
+  CHECK(parts["accepted_rows"] == parts["all_rows"]);
+  CHECK(parts["total_row"] == 1);
+  CHECK(parts["rpe_rows"].get<int>() == 3);  // header + two deltas
+  CHECK(std::find(figs.begin(), figs.end(), "rpe") != figs.end());
+
   // A screenshot of the page renders (a blank page compresses to a few kB).
   auto [src, sout] = sh(browser + flags + "--window-size=1200,2400 --screenshot=" + (t / "shot.png").string() +
                         " file://" + (t / "r.html").string());
@@ -191,6 +216,11 @@ TEST_CASE("roe report: usage and output errors", "[cli][report]") {
     const auto r2 = run_roe("report " + t.path.string() + " --out " + (t / "r.html").string() + " --objects 1,x");
     CHECK(r2.code == 2);
     CHECK(r2.out.find("--objects") != std::string::npos);
+    const auto r3 = run_roe("report " + t.path.string() + " --out " + (t / "r.html").string() + " --style poster");
+    CHECK(r3.code == 2);
+    const auto r4 = run_roe("report " + t.path.string() + " --out " + (t / "r.html").string() + " --rpe-unit s");
+    CHECK(r4.code == 2);
+    CHECK(r4.out.find("--rpe-delta") != std::string::npos);
     CHECK_FALSE(fs::exists(t / "r.html"));
   }
   SECTION("the folder of --out must exist") {

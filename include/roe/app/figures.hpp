@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "roe/core/symmetry.hpp"
+
 namespace roe::app {
 
 struct FigureOptions {
@@ -17,12 +19,17 @@ struct FigureOptions {
   std::string plot_mode = "xy";    ///< --plot-mode: xy | xz | yz | xyz
   bool color_by_error = false;     ///< --color-by-error: the trajectory coloured by the position error
   std::string vector = "pdf";      ///< --vector: pdf | svg | none (beside every PNG)
+  /// --style: default (titles, footer, screen sizes) | paper (no titles or footers, 3.5 in / 7.16 in wide,
+  /// embedded TrueType fonts, dense scatters rasterised inside the vector file).
+  std::string style = "default";
 };
 
 /// InputError naming the option for a value plot_run.py would refuse (checked before any work).
 void check_figure_options(const FigureOptions& options);
 
 struct Figure {
+  /// Title and caption as figures.json has them: plain Unicode, no TeX; X_{sub} and X^{sup} mark
+  /// sub- and superscripts (caption_html turns them into HTML).
   std::string name, title, caption;
   std::map<std::string, std::string> files;  ///< format ("png", "pdf", "svg") -> file name in the folder
 };
@@ -45,6 +52,11 @@ double run_plot_script(const std::string& script_text, const std::string& name, 
 
 /// The plotting script (scripts/plot_run.py).
 const std::string& plot_run_script();
+
+/// The objects' symmetries for the figures (plot_run.py --symmetries): {"<id>": {"discrete": [pose...],
+/// "continuous": {"axis": [..], "offset": [..]} or null}} for each object of `objects` with one; empty
+/// object when none.
+nlohmann::json symmetries_json(const std::vector<std::pair<int, ObjectSymmetry>>& objects);
 
 /// Draws the figures of the `roe eval` output in `eval_dir` (plus, when not empty, the run folder's
 /// states/objects/run.json and the dataset's truth) into the existing folder `out_dir`, with

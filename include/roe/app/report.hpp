@@ -4,6 +4,7 @@
 ///
 ///   roe report RUN_DIR [--gt DATASET|GT_FILE] --out REPORT.html [--figures DIR] [--align ...] [--label L]
 ///              [--objects anchor|all|ID,...] [--plot-mode xy|xz|yz|xyz] [--color-by-error] [--vector pdf|svg|none]
+///              [--style default|paper] [--rpe-delta D[,D...] [--rpe-unit m|s|f|deg|rad]]
 ///
 /// Evaluates the run in-process (app/eval.hpp, into a temporary folder), runs the calibration checks
 /// in-process (app/calib_check.hpp), draws the figure set once (app/figures.hpp) and writes one HTML
@@ -15,6 +16,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "roe/app/figures.hpp"
 
@@ -27,7 +29,9 @@ struct ReportOptions {
   std::string figures_dir;  ///< --figures DIR: also keep the figures (PNG + PDF/SVG) in this new folder
   std::string align = "se3";  ///< --align (as roe eval)
   std::string label;        ///< --label (default: the run folder's name)
-  FigureOptions figures;    ///< --objects, --plot-mode, --color-by-error, --vector
+  std::vector<double> rpe_delta;  ///< --rpe-delta: relative pose error per delta (table and figure), as roe eval
+  std::string rpe_unit = "m";     ///< --rpe-unit, as roe eval
+  FigureOptions figures;    ///< --objects, --plot-mode, --color-by-error, --vector, --style
   bool force = false;       ///< --force: replace an existing REPORT.html / figures folder
 };
 
@@ -39,6 +43,10 @@ struct ReportResult {
 /// InputError for bad options or inputs (exit 2), as roe eval and calib-check report them; a failing
 /// calib check or an unhealthy run is reported in the file, not an error.
 ReportResult write_report(const ReportOptions& options);
+
+/// A title or caption of figures.json as HTML: escaped, X_{sub} → X<sub>sub</sub>, X^{sup} → X<sup>sup</sup>
+/// (nested braces inside a mark are kept as text; an unclosed mark stays as written).
+std::string caption_html(const std::string& text);
 
 /// The HTML document (exposed for tests): `eval` is roe eval's report.json, `run` run.json (may be
 /// null), `calib` calib-check's JSON (or {"error": message}), `figures` the figure set whose files lie
