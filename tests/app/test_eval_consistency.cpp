@@ -10,6 +10,7 @@
 #include "../ekf/filter_support.hpp"
 #include "roe/app/eval.hpp"
 #include "roe/app/run.hpp"
+#include "roe/app/sweep.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/math/distributions.hpp"
@@ -190,4 +191,19 @@ TEST_CASE("roe eval --fit-body-rotation: report.json and text, never applied to 
   o.fit_body_rotation = false;
   CHECK(app::run_eval(o).report["body_rotation"].is_null());
   fs::remove_all(root);
+}
+
+TEST_CASE("roe sweep aggregate names the Euler metric of its columns", "[app][eval][euler][sweep]") {
+  // Sweep jobs evaluate with roe eval's default metric: the tables say which one the roll/pitch/yaw columns hold.
+  std::vector<app::JobResult> jobs;
+  for (int seed = 1; seed <= 2; ++seed) {
+    app::JobResult j{"job" + std::to_string(seed), {{"dataset", "d"}, {"seed", seed}}, {}};
+    for (const auto& m : app::sweep_metric_names()) j.metrics[m] = 0.1 * seed;
+    jobs.push_back(j);
+  }
+  const app::Aggregate ag = app::aggregate_results(jobs, {"dataset", "seed"}, {});
+  CHECK(std::string(app::kDefaultEulerMetric) == "error");
+  CHECK(ag.markdown().find("Euler metric 'error'") != std::string::npos);
+  CHECK(ag.latex().find("Euler metric 'error'") != std::string::npos);
+  CHECK(ag.to_json()["euler_metric"] == "error");
 }
