@@ -163,6 +163,8 @@ eval::EvalParams eval_params(const EvalOptions& o, std::vector<std::string>& war
   p.assoc.max_dt_s = o.max_dt_s;
   p.assoc.offset_s = o.t_offset_s;
   p.assoc.policy = eval::parse_assoc_policy(o.assoc);
+  p.euler = eval::parse_euler_metric(o.euler);
+  p.fit_body_rotation = o.fit_body_rotation;
   (void)eval::check_params(p);  // --max-dt and --n-align before the other options
   if (o.no_out && !o.out.empty())
     throw InputError(fmt::format("--no-out and --out {} contradict each other: pass one of them", o.out),
@@ -200,7 +202,8 @@ nlohmann::json options_json(const EvalOptions& o) {
           {"gt_format", o.gt_format},   {"gt_source", o.gt_source},
           {"rpe_delta", o.rpe_delta},   {"rpe_unit", o.rpe_unit},
           {"rpe_all_pairs", o.rpe_all_pairs}, {"rpe_pairs_from", o.rpe_pairs_from},
-          {"rpe_tol", o.rpe_tol}, {"detections", o.detections}};
+          {"rpe_tol", o.rpe_tol}, {"detections", o.detections},
+          {"euler", o.euler}, {"fit_body_rotation", o.fit_body_rotation}};
   if (!o.est_times.empty()) j["est_times"] = o.est_times;
   if (!o.gt_times.empty()) j["gt_times"] = o.gt_times;
   return j;
@@ -265,6 +268,9 @@ EvalResult run_eval(const EvalOptions& options) {
   eval::EstimateInput ei{est.in.traj.t_ns, est.in.traj.poses, est.cov,
                          est.have_reprojection ? &est.reprojection : nullptr, o.est};
   ei.detection_sigmas = sig_in ? &*sig_in : nullptr;
+  std::string no_gauge = "the estimate is not a run folder (its anchor defines the estimator's gauge)";
+  const std::optional<eval::GaugeTruth> gauge = est.run ? load_gauge_truth(est.in.path, gt, &no_gauge) : std::nullopt;
+  ei.gauge = gauge ? &*gauge : nullptr;
   const eval::Report rep = eval::evaluate(ei, {gt.traj.t_ns, gt.traj.poses}, params);
   warnings.insert(warnings.end(), rep.warnings.begin(), rep.warnings.end());
 
@@ -275,6 +281,7 @@ EvalResult run_eval(const EvalOptions& options) {
   ctx.inputs = {{"est", input_json(est.in)}, {"gt", input_json(gt)}};
   ctx.options = options_json(o);
   ctx.cov_source = est.cov_source;
+  if (!gauge) ctx.no_gauge_reason = no_gauge;
   if (sig) ctx.detections_source = sig->description;
   ctx.warnings = warnings;
   json report = io::eval_report_json(rep, ctx);
@@ -306,9 +313,10 @@ namespace {
 
 /// The per-object table: each object's RMSE over all its matched detections (the outliers the filter
 /// rejected included) and over the accepted ones alone, on two labelled rows.
-std::string per_object_text(const json& objects) {
+std::string per_object_text(const json& objects, const std::string& euler_metric) {
   std::string s = "\n  per object (reprojected IMU pose of each raw detection, same alignment; 'all' includes the\n"
                   "  detections the filter rejected as outliers, 'accepted' only those it used)\n";
+  if (euler_metric != "error") s += "  (roll/pitch/yaw under the Euler metric '" + euler_metric + "', not a rotation error)\n";
   s += "  object  detections  matched  subset        n   rmse x/y/z [m]              rmse roll/pitch/yaw [deg]   "
        "statuses\n";
   for (const auto& o : objects) {
@@ -333,6 +341,71 @@ std::string per_object_text(const json& objects) {
     }
   }
   return s;
+}
+
+double number(const json& v) { return v.is_null() ? NAN : v.get<double>(); }
+
+std::string rpy_row(const char* name, const json& v, const char* unit = "") {
+  return fmt::format("  {:<10} {:8.3f}  {:8.3f}  {:8.3f}{}\n", name, number(v["roll"]), number(v["pitch"]),
+                     number(v["yaw"]), unit);
+}
+
+/// The per-axis table: position RMSE, then the Euler figures (RMSE, mean, std) under their metric's name,
+/// and for a metric other than `error` the rotation error's figures, the 360° jumps and a warning.
+std::string per_axis_text(const json& pa) {
+  std::string s = "\n  RMSE            x         y         z   |     roll     pitch       yaw\n";
+  s += fmt::format("  {:<10} {:9.4f} {:9.4f} {:9.4f}   | {:8.3f}  {:8.3f}  {:8.3f}   (m | deg)\n", "per-axis",
+                   pa["pos_rmse_m"]["x"].get<double>(), pa["pos_rmse_m"]["y"].get<double>(),
+                   pa["pos_rmse_m"]["z"].get<double>(), pa["rpy_rmse_deg"]["roll"].get<double>(),
+                   pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>());
+  const std::string metric = pa["euler_metric"].get<std::string>();
+  s += fmt::format("\n  Euler [deg], metric '{}': {}\n               roll     pitch       yaw\n", metric,
+                   pa["euler_definition"].get<std::string>());
+  s += rpy_row("rmse", pa["rpy_rmse_deg"]) + rpy_row("mean", pa["rpy_mean_deg"]) + rpy_row("std", pa["rpy_std_deg"]);
+  if (pa.contains("rotation_error_euler_deg")) {
+    const json& e = pa["rotation_error_euler_deg"];
+    s += "  rotation error R_est^T*R_gt (metric 'error'):\n";
+    s += rpy_row("rmse", e["rmse"]) + rpy_row("mean", e["mean"]) + rpy_row("std", e["std"]);
+    const json& j = pa["jump_360_share"];
+    s += fmt::format("  360-deg jumps of the absolute-angle difference: roll {:.2f} %, pitch {:.2f} %, yaw {:.2f} %, "
+                     "any axis {:.2f} % of the pairs\n",
+                     100 * number(j["roll"]), 100 * number(j["pitch"]), 100 * number(j["yaw"]), 100 * number(j["any"]));
+    s += "  warning: the '" + metric + "' figures are differences of absolute Euler angles, not a rotation error\n";
+  }
+  return s;
+}
+
+/// --fit-body-rotation: the constant body-frame rotation and the figures with and without it.
+std::string body_rotation_text(const json& b) {
+  std::string s = fmt::format(
+      "\n  body-frame rotation fit (diagnostic, not applied above): R_off = mean of R_est^T*R_gt, angle {:.3f} deg, "
+      "roll/pitch/yaw {:.3f} {:.3f} {:.3f} deg\n",
+      b["angle_deg"].get<double>(), b["rpy_deg"]["roll"].get<double>(), b["rpy_deg"]["pitch"].get<double>(),
+      b["rpy_deg"]["yaw"].get<double>());
+  s += fmt::format("  {:<26} {:>9} | Euler rmse roll/pitch/yaw ('{}')\n", "", "rot rmse", b["with"]["euler_metric"].get<std::string>());
+  for (const char* k : {"without", "with"}) {
+    const json& m = b[k];
+    s += fmt::format("  {:<26} {:9.3f} | {:8.3f}  {:8.3f}  {:8.3f}\n",
+                     std::string(k) == "with" ? "with R_off removed" : "as evaluated (without)",
+                     m["ape_rot_deg"]["rmse"].get<double>(), m["rpy_rmse_deg"]["roll"].get<double>(),
+                     m["rpy_rmse_deg"]["pitch"].get<double>(), m["rpy_rmse_deg"]["yaw"].get<double>());
+  }
+  return s;
+}
+
+/// The NEES: in the estimator's gauge when there is one; else the position's after the alignment, and
+/// no orientation figure (the alignment's rotation error is in no covariance).
+std::string consistency_text(const json& c) {
+  const json& g = c["gauge"];
+  if (g["available"].get<bool>())
+    return fmt::format("\n  ANEES position {:.3f}, orientation {:.3f} in the estimator's gauge (expected 3 for a "
+                       "consistent filter; {} poses; {})\n",
+                       number(g["anees_p"]), number(g["anees_r"]), g["n"].get<std::size_t>(),
+                       g["description"].get<std::string>());
+  return fmt::format("\n  ANEES position {:.3f} after the alignment (expected 3 for a consistent filter); no orientation "
+                     "ANEES: the alignment's rotation error is in no covariance, and no truth in the estimator's gauge "
+                     "({})\n",
+                     number(c["aligned"]["anees_p"]), g.contains("reason") ? g["reason"].get<std::string>() : "");
 }
 
 /// The detection σ calibration: per object and for all, the fractions within 1/2/3σ, the NIS against
@@ -386,12 +459,8 @@ std::string EvalResult::to_text() const {
                    as["policy"].get<std::string>());
   s += fmt::format("  alignment {} on {} pairs, scale {:.6f}\n", al["type"].get<std::string>(),
                    al["n_aligned"].get<int>(), al["scale"].get<double>());
-  const auto& pa = r["per_axis"];
-  s += "\n  RMSE            x         y         z   |     roll     pitch       yaw\n";
-  s += fmt::format("  {:<10} {:9.4f} {:9.4f} {:9.4f}   | {:8.3f}  {:8.3f}  {:8.3f}   (m | deg)\n", "per-axis",
-                   pa["pos_rmse_m"]["x"].get<double>(), pa["pos_rmse_m"]["y"].get<double>(),
-                   pa["pos_rmse_m"]["z"].get<double>(), pa["rpy_rmse_deg"]["roll"].get<double>(),
-                   pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>());
+  s += per_axis_text(r["per_axis"]);
+  if (!r["body_rotation"].is_null()) s += body_rotation_text(r["body_rotation"]);
   s += "\n  APE            rmse      mean    median       std       min       max\n";
   for (const auto& [key, name] :
        {std::pair{"ape_trans_m", "trans [m]"}, std::pair{"ape_rot_deg", "rot [deg]"}}) {
@@ -419,17 +488,8 @@ std::string EvalResult::to_text() const {
                                                 : fmt::format("{:.2f}", e["drift_pct"]["mean"].get<double>()));
     }
   }
-  if (r["consistency"]["available"].get<bool>()) {
-    s += fmt::format("\n  ANEES position {:.3f}, orientation {:.3f} (expected 3 for a consistent filter)\n",
-                     r["consistency"]["anees_p"].is_null() ? NAN : r["consistency"]["anees_p"].get<double>(),
-                     r["consistency"]["anees_r"].is_null() ? NAN : r["consistency"]["anees_r"].get<double>());
-    // The alignment is fitted on positions; its own rotation error (often ~1°) is not in the estimate's
-    // covariance, which is relative to the estimator's gauge, so the orientation NEES after it is
-    // inflated when the estimate's orientation σ is small (docs/eval.md).
-    s += "  (both are relative to this alignment, not to the estimator's own gauge: the alignment's rotation\n"
-         "   error, fitted on positions, is not in the estimate's covariance and inflates the orientation NEES)\n";
-  }
-  if (!r["per_object"].empty()) s += per_object_text(r["per_object"]);
+  if (r["consistency"]["available"].get<bool>()) s += consistency_text(r["consistency"]);
+  if (!r["per_object"].empty()) s += per_object_text(r["per_object"], r["euler_metric"].get<std::string>());
   if (r.contains("detection_calibration") && !r["detection_calibration"].is_null())
     s += detection_calibration_text(r["detection_calibration"]);
   for (const auto& w : r["warnings"]) s += "  warning: " + w.get<std::string>() + "\n";

@@ -9,6 +9,7 @@
 #include "roe/io/dataset.hpp"
 #include "roe/io/input.hpp"
 #include "roe/io/json.hpp"
+#include "roe/io/run_files.hpp"
 
 namespace roe::app {
 namespace fs = std::filesystem;
@@ -80,6 +81,55 @@ std::optional<DetectionSigmaSource> load_detection_sigmas(const EvalOptions& o, 
                               "time offset {} s",
                               csv.string(), mpath, s.T_W_O.size(), s.camera_time_offset_s);
   return s;
+}
+
+std::optional<eval::GaugeTruth> load_gauge_truth(const fs::path& run_dir, const EvalInput& gt, std::string* why) {
+  const auto none = [why](std::string reason) {
+    if (why) *why = std::move(reason);
+    return std::nullopt;
+  };
+  const fs::path rj = run_dir / "run.json", objects = run_dir / "objects.csv";
+  if (!gt.truth_world || !io::path_exists(io::manifest_path(gt.path)))
+    return none("the ground truth is not a dataset's state_groundtruth_estimate0 with a roe.json truth section");
+  if (!io::path_exists(rj) || !io::path_exists(objects)) return none("the run folder has no run.json or objects.csv");
+  const nlohmann::json j = io::parse_json_file(rj);
+  const nlohmann::json* gauge = nullptr;
+  if (j.is_object() && j.contains("config") && j["config"].is_object() && j["config"].contains("filter") &&
+      j["config"]["filter"].is_object() && j["config"]["filter"].contains("anchor_gauge"))
+    gauge = &j["config"]["filter"]["anchor_gauge"];
+  if (!gauge || !gauge->is_string()) return none(rj.string() + " names no config.filter.anchor_gauge");
+  const std::string g = gauge->get<std::string>();
+  if (g != "pose" && g != "position_yaw")
+    return none(fmt::format("anchor_gauge '{}' leaves the yaw of W to the initial prior, not to the anchor: the truth "
+                            "in that gauge is not determined",
+                            g));
+  if (!j.contains("anchor_id") || !j["anchor_id"].is_number_integer()) return none(rj.string() + " names no anchor");
+  if (j.contains("relocks") && j["relocks"].is_array() && !j["relocks"].empty())
+    return none("the anchor was re-locked during the run: W changed");
+  const int anchor = j["anchor_id"].get<int>();
+  const DatasetManifest man = io::read_manifest(gt.path);
+  const TruthObject* truth = nullptr;
+  if (man.truth)
+    for (const auto& ob : man.truth->objects)
+      if (ob.id == anchor) truth = &ob;
+  if (!truth) return none(fmt::format("{} has no truth for the anchor object {}", io::manifest_path(gt.path).string(), anchor));
+  const std::vector<io::ObjectRow> rows = io::read_objects_csv(objects);
+  const io::ObjectRow* first = nullptr;
+  const io::ObjectRow* last = nullptr;
+  for (const auto& r : rows) {
+    if (r.object_id != anchor) continue;
+    if (!first) first = &r;
+    last = &r;
+  }
+  if (!first) return none(fmt::format("{} has no row of the anchor object {}", objects.string(), anchor));
+  const eval::GaugeKind kind = g == "pose" ? eval::GaugeKind::kPose : eval::GaugeKind::kPositionYaw;
+  eval::GaugeTruth t;
+  t.T_Wt_Wg = eval::estimator_gauge(kind, last->T_O_W, truth->T_W_O);
+  t.t_from_ns = first->t_ns;
+  t.description = fmt::format("anchor_gauge {}: anchor object {} (its T_O_W in {}, its true pose in {}), from its first "
+                              "sight at {:.6f} s",
+                              g, anchor, objects.string(), io::manifest_path(gt.path).string(), to_seconds(first->t_ns));
+  return t;
 }
 
 }  // namespace roe::app

@@ -139,6 +139,7 @@ EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warn
   if (want_gt && io::path_exists(gt_csv)) {
     in.traj = io::read_trajectory(gt_csv, io::TrajectoryFormat::kEuroc);
     in.description = fmt::format("{} (true IMU pose T_W_I)", gt_csv.string());
+    in.truth_world = true;
     return in;
   }
   if (want_mocap && io::path_exists(mocap_csv)) {

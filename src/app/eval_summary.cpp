@@ -39,16 +39,20 @@ struct Setting {
   const char* section;
   const char* field;
   const char* name;
+  const char* before = nullptr;  ///< the value reports made before the setting existed had (null: unknown)
 };
 constexpr Setting kSettings[] = {{"alignment", "alignment", "type", "alignment (--align)"},
                                  {"n_align", "alignment", "n_align_requested", "--n-align"},
                                  {"max_dt_s", "association", "max_dt_s", "--max-dt"},
                                  {"t_offset_s", "association", "offset_s", "--t-offset"},
-                                 {"assoc", "association", "policy", "association (--assoc)"}};
+                                 {"assoc", "association", "policy", "association (--assoc)"},
+                                 {"euler_metric", "per_axis", "euler_metric", "Euler metric (--euler)", "error"}};
 
 json setting_value(const json& j, const Setting& s) {
-  if (j.contains(s.section) && j[s.section].is_object() && j[s.section].contains(s.field))
-    return j[s.section][s.field];
+  if (j.contains(s.section) && j[s.section].is_object()) {
+    if (j[s.section].contains(s.field)) return j[s.section][s.field];
+    if (s.before) return s.before;  // the section is there, written before the setting existed
+  }
   return nullptr;  // an older or foreign report: unknown
 }
 
@@ -236,8 +240,11 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
                  {"warnings", warnings}};
 
   // Markdown in the layout of the paper's Table I.
-  std::string md =
-      "| Run | Label | #objects | (x, y, z) [m] | (roll, pitch, yaw) [deg] |\n|---|---|---|---|---|\n";
+  // The Euler columns under their metric's name (roe eval --euler): the same words mean other figures.
+  const std::string euler_name = common.contains("euler_metric") ? setting_text(common["euler_metric"]) : "mixed";
+  std::string md = fmt::format(
+      "| Run | Label | #objects | (x, y, z) [m] | (roll, pitch, yaw) [deg], Euler metric '{}' |\n|---|---|---|---|---|\n",
+      euler_name);
   for (std::size_t i = 0; i < rows.size(); ++i)
     md += fmt::format("| {} | {} | {} | {} | {} |\n", i + 1, rows[i].label, rows[i].n_objects,
                       vec3(rows[i].v, 0, 3), vec3(rows[i].v, 3, 2));
@@ -266,9 +273,9 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
   if (warnings.size() == n_label_warnings) {  // the settings agree (labels alone say nothing of them)
     md += fmt::format(
         "\nSettings of every run: alignment {}, --n-align {}, --max-dt {} s, --t-offset {} s, "
-        "association {}.\n",
+        "association {}, Euler metric {}.\n",
         setting_text(common["alignment"]), setting_text(common["n_align"]), setting_text(common["max_dt_s"]),
-        setting_text(common["t_offset_s"]), setting_text(common["assoc"]));
+        setting_text(common["t_offset_s"]), setting_text(common["assoc"]), setting_text(common["euler_metric"]));
   }
   if (!warnings.empty()) {
     md += "\n";

@@ -70,6 +70,9 @@ std::string key_text(const json& key) {
   return s.empty() ? "all" : s;
 }
 
+/// The Euler metric of the rmse_roll/pitch/yaw_deg columns: sweep jobs evaluate with roe eval's default.
+std::string sweep_euler_metric() { return kDefaultEulerMetric; }
+
 json summary_json(const eval::SampleSummary& s) {
   const auto f = [](double v) { return std::isnan(v) ? json(nullptr) : json(v); };
   return {{"n", s.n},           {"mean", f(s.mean)},       {"std", f(s.std)},         {"std_pop", f(s.std_pop)},
@@ -204,6 +207,7 @@ json Aggregate::to_json() const {
           {"group_by", group_by},
           {"variant_axes", variant_axes},
           {"metrics", sweep_metric_names()},
+          {"euler_metric", sweep_euler_metric()},
           {"confidence", confidence},
           {"std_definition", "sample (ddof 1); std_pop: population (ddof 0)"},
           {"ci_definition", "mean ± t_{(1+confidence)/2, n-1} · std / sqrt(n)"},
@@ -218,7 +222,8 @@ json Aggregate::to_json() const {
 
 std::string Aggregate::markdown() const {
   const auto& metrics = sweep_metric_names();
-  std::string md = fmt::format("## Groups (mean ± std, [{:g} % CI])\n\n|", confidence * 100.0);
+  std::string md = fmt::format("## Groups (mean ± std, [{:g} % CI]; Euler metric '{}')\n\n|", confidence * 100.0,
+                               sweep_euler_metric());
   std::string sep = "|";
   for (const auto& a : group_by) {
     md += " " + a + " |";
@@ -271,8 +276,8 @@ std::string Aggregate::latex() const {
   const auto& metrics = sweep_metric_names();
   std::string cols(group_by.size() + 1, 'l');
   cols += std::string(metrics.size(), 'r');
-  std::string t = "% roe sweep aggregate: mean ± sample std; needs \\usepackage{booktabs}\n\\begin{tabular}{" + cols +
-                  "}\n\\toprule\n";
+  std::string t = "% roe sweep aggregate: mean ± sample std; Euler metric '" + sweep_euler_metric() +
+                  "'; needs \\usepackage{booktabs}\n\\begin{tabular}{" + cols + "}\n\\toprule\n";
   for (const auto& a : group_by) t += latex_escape(a) + " & ";
   t += "$n$";
   for (const auto& m : metrics) t += " & " + latex_escape(m);

@@ -1,4 +1,5 @@
 // roe eval RUN_DIR|EST_FILE|BAG:TOPIC --gt DATASET|GT_FILE|BAG:TOPIC [--align ...] [--max-dt S] [--t-offset S] [--out DIR]
+// [--euler error|absolute|absolute-unwrapped] [--fit-body-rotation]
 // [--plot] [--rpe-delta D[,D...] --rpe-unit m|s|f|deg|rad ...] roe eval --summary REPORT_JSON... [--out FILE]
 #include <filesystem>
 #include <fmt/format.h>
@@ -105,6 +106,16 @@ RunFn setup(CLI::App& sub) {
                                         "Times file of a KITTI estimate (seconds, one per pose; default: "
                                         "associate by index, as evo)"));
   a->eval_only.push_back(sub.add_option("--gt-times", a->opt.gt_times, "Times file of a KITTI ground truth"));
+  a->eval_only.push_back(
+      sub.add_option("--euler", a->opt.euler,
+                     "Per-axis Euler figures: error (ZYX of the rotation error R_est^T*R_gt), absolute (wrapped "
+                     "difference of the absolute ZYX angles, ov_eval) or absolute-unwrapped (the same without "
+                     "the wrap: 360-deg jumps); the last two are not rotation errors")
+          ->capture_default_str());
+  a->eval_only.push_back(sub.add_flag(
+      "--fit-body-rotation", a->opt.fit_body_rotation,
+      "Also fit the constant rotation between the estimated and true body frames after the alignment (mean of "
+      "R_est^T*R_gt on SO(3)) and report the metrics with it removed (a diagnostic, never applied to the headline)"));
   a->eval_only.push_back(sub.add_option(
       "--detections", a->opt.detections,
       "Calibrate the sigmas of this detection set of the --gt dataset (or this detections.csv) against the "

@@ -118,6 +118,9 @@ Association associate(const std::vector<Timestamp>& t_est, const std::vector<Tim
       ie = k;
       ig = nearest(t_gt, 0, t_est[k] + offset, from);
     } else {
+      // A repeated ground-truth stamp: its first pose is the ground truth at that time (the warning
+      // evaluate() gives says so); the later poses of the run are not paired.
+      if (k > 0 && t_gt[k] == t_gt[k - 1]) continue;
       ig = k;
       ie = nearest(t_est, offset, t_gt[k], from);
     }

@@ -8,6 +8,8 @@
 
 #include "roe/core/error.hpp"
 #include "roe/core/parallel.hpp"
+#include "roe/math/euler.hpp"
+#include "roe/math/so3.hpp"
 
 namespace roe::eval {
 
@@ -57,11 +59,11 @@ std::vector<PoseCovariance> aligned_covariances(const EstimateInput& est, const 
   return cov;
 }
 
-ObjectFit fit(const std::vector<Pose>& est, const std::vector<Pose>& gt) {
+ObjectFit fit(const std::vector<Pose>& est, const std::vector<Pose>& gt, EulerMetric euler) {
   ObjectFit f;
   f.n = est.size();
   if (est.empty()) return f;
-  const ApeResult a = compute_ape(est, gt);
+  const ApeResult a = compute_ape(est, gt, {}, 0, euler);
   f.pos_rmse_m = a.pos_rmse_m;
   f.rpy_rmse_deg = a.rpy_rmse_deg;
   f.ape_trans_rmse_m = a.trans_m.rmse;
@@ -71,7 +73,7 @@ ObjectFit fit(const std::vector<Pose>& est, const std::vector<Pose>& gt) {
 
 /// One object's trace: aligns its detections (appended to `aligned`) and fits them to the ground truth.
 ObjectReport object_report(int id, const std::vector<const DetectionPose*>& rows, const Alignment& al,
-                           const GroundTruthInput& gt, const AssociationOptions& ao,
+                           const GroundTruthInput& gt, const AssociationOptions& ao, EulerMetric euler,
                            std::vector<DetectionPose>& aligned) {
   ObjectReport obj;
   obj.object_id = id;
@@ -100,7 +102,7 @@ ObjectReport object_report(int id, const std::vector<const DetectionPose*>& rows
       e2.push_back(ps[ar.est_index[k]]);
       g2.push_back(gt.poses[ar.gt_index[k]]);
     }
-    (only_accepted ? obj.accepted : obj.all) = fit(e2, g2);
+    (only_accepted ? obj.accepted : obj.all) = fit(e2, g2, euler);
   }
   return obj;
 }
@@ -111,7 +113,8 @@ void add_objects(const EstimateInput& est, const GroundTruthInput& gt, Report& r
   std::map<int, std::vector<const DetectionPose*>> by_obj;
   for (const DetectionPose& d : *est.detections) by_obj[d.object_id].push_back(&d);
   for (const auto& [id, rows] : by_obj)
-    r.objects.push_back(object_report(id, rows, r.alignment, gt, r.params.assoc, r.detections_aligned));
+    r.objects.push_back(
+        object_report(id, rows, r.alignment, gt, r.params.assoc, r.params.euler, r.detections_aligned));
 }
 
 /// The σ calibration of the detections, with the ground truth's poses as T_W_I (the first pose of a
@@ -127,6 +130,48 @@ void add_detection_calibration(const EstimateInput& est, const GroundTruthInput&
     if (truth.T_W_I.empty() || gt.t_ns[i] > truth.T_W_I.back().t_ns) truth.T_W_I.push_back({gt.t_ns[i], gt.poses[i]});
   r.detection_calibration = calibrate_detection_sigmas(in.detections, truth);
   for (const std::string& w : r.detection_calibration->warnings) r.warnings.push_back("detection sigmas: " + w);
+}
+
+/// NEES in the estimator's gauge (GaugeConsistency): the raw estimate and its own covariance.
+void add_gauge_consistency(const EstimateInput& est, Report& r) {
+  if (!est.gauge || r.cov.empty()) return;  // r.cov empty: some matched pose has no covariance
+  GaugeConsistency g;
+  g.truth = *est.gauge;
+  const Pose T_Wg_Wt = g.truth.T_Wt_Wg.inverse();
+  double sp = 0.0, sr = 0.0;
+  std::size_t np = 0, nr = 0;
+  for (std::size_t k = 0; k < r.n_pairs(); ++k) {
+    if (r.t_est(k) < g.truth.t_from_ns) continue;
+    ++g.n;
+    const std::size_t ie = r.association.est_index[k];
+    const Nees e = pose_nees((*r.est_poses)[ie], T_Wg_Wt * r.gt(k), *est.cov[ie]);
+    if (std::isfinite(e.pos)) sp += e.pos, ++np;
+    if (std::isfinite(e.rot)) sr += e.rot, ++nr;
+  }
+  if (np > 0) g.anees_p = sp / static_cast<double>(np);
+  if (nr > 0) g.anees_r = sr / static_cast<double>(nr);
+  if (g.n == 0) r.warnings.push_back("NEES in the estimator's gauge not computed: no matched pose after the anchor's "
+                                     "first sight");
+  r.gauge = g;
+}
+
+/// The constant body-frame rotation after the alignment and the APE without it (BodyRotationFit).
+void add_body_rotation(Report& r, unsigned threads) {
+  if (!r.params.fit_body_rotation) return;
+  BodyRotationFit b;
+  b.q_off = mean_rotation(r.n_pairs(), [&r](std::size_t k) { return r.error(k).q_err; });
+  b.angle_deg = math::log_quat(b.q_off).norm() * math::kDegPerRad;
+  b.rpy_deg = math::euler_zyx(b.q_off.toRotationMatrix()) * math::kDegPerRad;
+  const Eigen::Quaterniond q_off = b.q_off;
+  b.ape = compute_ape(
+      r.n_pairs(),
+      [&r, q_off](std::size_t k) {
+        Pose e = r.est_aligned(k);
+        e.q = (e.q * q_off).normalized();
+        return std::pair<Pose, Pose>(e, r.gt(k));
+      },
+      {}, threads, r.params.euler);
+  r.body_rotation = b;
 }
 
 void add_rpe(Report& r) {
@@ -210,7 +255,15 @@ Report evaluate(const EstimateInput& est, const GroundTruthInput& gt, const Eval
   r.gt_poses = &gt.poses;
   r.cov = aligned_covariances(est, r, r.warnings);
   r.ape = compute_ape(
-      r.n_pairs(), [&r](std::size_t k) { return std::pair<Pose, Pose>(r.est_aligned(k), r.gt(k)); }, r.cov, threads);
+      r.n_pairs(), [&r](std::size_t k) { return std::pair<Pose, Pose>(r.est_aligned(k), r.gt(k)); }, r.cov, threads,
+      params.euler);
+  add_gauge_consistency(est, r);
+  add_body_rotation(r, threads);
+  if (params.euler != EulerMetric::kError)
+    r.warnings.push_back(fmt::format(
+        "--euler {}: the per-axis Euler figures are differences of absolute angles, not a rotation error ({:.2f} % "
+        "of the pairs jumped by 360 deg on some axis); the rotation error's figures are given beside them",
+        to_string(params.euler), 100.0 * r.ape.jump_share_any));
   if ((params.align == AlignType::kSe3 || params.align == AlignType::kSim3) && params.n_align < 0 &&
       r.ape.pos_mean_m.cwiseAbs().maxCoeff() > 1e-6)
     r.warnings.push_back("internal check: the mean position error after Umeyama is not ~0");

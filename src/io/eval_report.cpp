@@ -1,6 +1,7 @@
 // roe eval's output files from a typed eval::Report (docs/eval.md "Output").
 #include "roe/io/eval_report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 
@@ -25,6 +26,95 @@ json stats_json(const eval::Stats& s) {
 json xyz_json(const Eigen::Vector3d& v) { return {{"x", v.x()}, {"y", v.y()}, {"z", v.z()}}; }
 json rpy_json(const Eigen::Vector3d& v) { return {{"roll", v.x()}, {"pitch", v.y()}, {"yaw", v.z()}}; }
 json optional_json(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
+
+json euler_stats_json(const eval::EulerStats& e) {
+  return {{"rmse", rpy_json(e.rmse)}, {"mean", rpy_json(e.mean)}, {"std", rpy_json(e.std)}};
+}
+
+/// per_axis: position and Euler figures; with a metric other than `error` also the rotation error's
+/// figures, the share of 360° jumps and a warning.
+json per_axis_json(const eval::ApeResult& ape) {
+  const eval::EulerMetric m = ape.euler_metric;
+  json j = {{"pos_rmse_m", xyz_json(ape.pos_rmse_m)},
+            {"pos_mean_m", xyz_json(ape.pos_mean_m)},
+            {"rpy_rmse_deg", rpy_json(ape.rpy_rmse_deg)},
+            {"rpy_mean_deg", rpy_json(ape.rpy.mean)},
+            {"rpy_std_deg", rpy_json(ape.rpy.std)},
+            {"euler_metric", eval::to_string(m)},
+            {"euler_definition", eval::euler_metric_definition(m)},
+            {"pos_error", "p_est - p_gt"},
+            {"rot_error", "R_est^T*R_gt"},
+            {"euler", "ZYX (R=Rz*Ry*Rx)"},
+            {"wrap", m == eval::EulerMetric::kAbsoluteUnwrapped ? "none: (-360,360)" : "[-180,180)"}};
+  if (m != eval::EulerMetric::kError) {
+    j["rotation_error_euler_deg"] = euler_stats_json(ape.rpy_error);
+    j["rotation_error_euler_deg"]["definition"] = eval::euler_metric_definition(eval::EulerMetric::kError);
+    json jump = rpy_json(ape.jump_share);
+    jump["any"] = ape.jump_share_any;
+    j["jump_360_share"] = jump;
+    j["warning"] = "rpy_* are differences of absolute Euler angles, not a rotation error: "
+                   "rotation_error_euler_deg holds the rotation error's figures";
+  }
+  return j;
+}
+
+/// The NEES: in the estimator's gauge where the run and the truth allow it (the headline), and
+/// relative to the alignment (its rotation error inflates the orientation NEES: not headlined).
+json consistency_json(const eval::Report& r, const EvalReportContext& c) {
+  const eval::ApeResult& ape = r.ape;
+  json gauge = {{"available", r.gauge.has_value()}};
+  if (r.gauge) {
+    const eval::GaugeConsistency& g = *r.gauge;
+    const Pose& T = g.truth.T_Wt_Wg;
+    gauge.update({{"description", g.truth.description},
+                  {"n", g.n},
+                  {"anees_p", optional_json(g.anees_p)},
+                  {"anees_r", optional_json(g.anees_r)},
+                  {"T_Wt_Wg", {{"p", {T.p.x(), T.p.y(), T.p.z()}}, {"q", {T.q.x(), T.q.y(), T.q.z(), T.q.w()}}}}});
+  } else {
+    gauge["reason"] = r.cov.empty() ? std::string("no covariances") : c.no_gauge_reason;
+  }
+  const bool in_gauge = r.gauge.has_value();
+  return {{"available", !r.cov.empty()},
+          {"source", c.cov_source},
+          {"frame", r.cov.empty() ? "none" : in_gauge ? "estimator gauge" : "alignment"},
+          {"anees_p", optional_json(in_gauge ? r.gauge->anees_p : ape.anees_p)},
+          {"anees_r", optional_json(in_gauge ? r.gauge->anees_r : std::nullopt)},
+          {"dof", 3},
+          {"expected", 3.0},
+          {"gauge", gauge},
+          {"aligned",
+           {{"anees_p", optional_json(ape.anees_p)},
+            {"anees_r", optional_json(ape.anees_r)},
+            {"note", "relative to the alignment, which is fitted on positions: its rotation error is in no "
+                     "covariance and inflates anees_r (not a consistency figure)"}}},
+          {"definition",
+           "estimator gauge: NEES of the unaligned estimate against the truth mapped into the estimator's world "
+           "(T_Wg_Wt from the anchor, eval/gauge.hpp) with the estimate's own covariance, from the anchor's first "
+           "sight; alignment: NEES_p = e_p^T P_p^-1 e_p (e_p = p_gt - p_est, P_p rotated by the alignment), "
+           "NEES_R = dtheta^T P_theta^-1 dtheta, dtheta = Log(R_est^T R_gt). anees_r is given only in the "
+           "estimator's gauge"}};
+}
+
+/// The body-frame rotation fit: R_off and the metrics without (the headline) and with it removed.
+json body_rotation_json(const eval::Report& r) {
+  if (!r.body_rotation) return nullptr;
+  const eval::BodyRotationFit& b = *r.body_rotation;
+  const auto metrics = [](const eval::ApeResult& a) {
+    return json{{"ape_rot_deg", stats_json(a.rot_deg)},
+                {"rpy_rmse_deg", rpy_json(a.rpy_rmse_deg)},
+                {"rpy_mean_deg", rpy_json(a.rpy.mean)},
+                {"rpy_std_deg", rpy_json(a.rpy.std)},
+                {"euler_metric", eval::to_string(a.euler_metric)}};
+  };
+  return {{"q_xyzw", {b.q_off.x(), b.q_off.y(), b.q_off.z(), b.q_off.w()}},
+          {"angle_deg", b.angle_deg},
+          {"rpy_deg", rpy_json(b.rpy_deg)},
+          {"definition", "R_off = mean on SO(3) of R_est^T*R_gt after the alignment; 'with' replaces R_est by "
+                         "R_est*R_off (positions unchanged). A diagnostic: the headline figures do not use it"},
+          {"without", metrics(r.ape)},
+          {"with", metrics(b.ape)}};
+}
 
 json rpe_json(const eval::Report& r) {
   json out = json::array();
@@ -111,6 +201,13 @@ std::string errors_csv(const eval::Report& r, const std::vector<eval::PoseError>
     h.push_back("nees_p");
     h.push_back("nees_r");
   }
+  // --euler absolute / absolute-unwrapped: that metric's per-pair figures too, named after it.
+  const eval::EulerMetric m = r.params.euler;
+  if (m != eval::EulerMetric::kError) {
+    std::string name = eval::to_string(m);
+    std::replace(name.begin(), name.end(), '-', '_');
+    for (const char* axis : {"roll", "pitch", "yaw"}) h.push_back(name + "_" + axis + "_deg");
+  }
   w.header(h);
   for (std::size_t k = 0; k < r.association.size(); ++k) {
     const eval::PoseError& e = errors[k];
@@ -118,6 +215,10 @@ std::string errors_csv(const eval::Report& r, const std::vector<eval::PoseError>
     w.add(e.dp.x()).add(e.dp.y()).add(e.dp.z()).add(e.dp.norm());
     w.add(e.rpy_deg.x()).add(e.rpy_deg.y()).add(e.rpy_deg.z()).add(e.angle_deg);
     if (!r.cov.empty()) w.add(r.ape.nees[k].pos).add(r.ape.nees[k].rot);
+    if (m != eval::EulerMetric::kError) {
+      const Eigen::Vector3d f = eval::euler_figure_deg(r.est_aligned(k), r.gt(k), e, m);
+      w.add(f.x()).add(f.y()).add(f.z());
+    }
     w.end_row();
   }
   return w.str();
@@ -142,7 +243,7 @@ std::string summary_csv(const eval::Report& r, const EvalReportContext& c) {
             "n_gt",         "n_est",       "n_matched", "scale",         "ate_rmse_m",     "ate_mean_m",
             "ate_median_m", "ate_std_m",   "ate_min_m", "ate_max_m",     "rot_rmse_deg",   "rot_mean_deg",
             "rmse_x_m",     "rmse_y_m",    "rmse_z_m",  "rmse_roll_deg", "rmse_pitch_deg", "rmse_yaw_deg",
-            "armse_p_m",    "armse_r_deg", "anees_p",   "anees_r"});
+            "armse_p_m",    "armse_r_deg", "anees_p",   "anees_r",       "euler_metric"});
   const eval::ApeResult& ape = r.ape;
   w.add(c.gt_path).add(c.est_path).add(eval::to_string(r.params.align)).add(r.alignment.n_used);
   w.add(r.params.assoc.max_dt_s).add(r.params.assoc.offset_s).add(static_cast<std::int64_t>(r.n_gt));
@@ -153,12 +254,16 @@ std::string summary_csv(const eval::Report& r, const EvalReportContext& c) {
   for (int k = 0; k < 3; ++k) w.add(ape.pos_rmse_m(k));
   for (int k = 0; k < 3; ++k) w.add(ape.rpy_rmse_deg(k));
   w.add(ape.armse_p_m).add(ape.armse_r_deg);
-  for (const auto& v : {ape.anees_p, ape.anees_r}) {
+  // The headline NEES (report.json consistency): in the estimator's gauge, else position after the alignment.
+  const std::optional<double> anees_p = r.gauge ? r.gauge->anees_p : ape.anees_p;
+  const std::optional<double> anees_r = r.gauge ? r.gauge->anees_r : std::nullopt;
+  for (const auto& v : {anees_p, anees_r}) {
     if (v)
       w.add(*v);
     else
       w.add_empty();
   }
+  w.add(eval::to_string(ape.euler_metric));
   w.end_row();
   return w.str();
 }
@@ -324,29 +429,17 @@ json eval_report_json(const eval::Report& r, const EvalReportContext& c) {
       {"alignment", alignment_json(r)},
       {"ape_trans_m", stats_json(ape.trans_m)},
       {"ape_rot_deg", stats_json(ape.rot_deg)},
-      {"per_axis",
-       {{"pos_rmse_m", xyz_json(ape.pos_rmse_m)},
-        {"pos_mean_m", xyz_json(ape.pos_mean_m)},
-        {"rpy_rmse_deg", rpy_json(ape.rpy_rmse_deg)},
-        {"pos_error", "p_est - p_gt"},
-        {"rot_error", "R_est^T*R_gt"},
-        {"euler", "ZYX (R=Rz*Ry*Rx)"},
-        {"wrap", "[-180,180)"}}},
+      {"euler_metric", eval::to_string(ape.euler_metric)},
+      {"per_axis", per_axis_json(ape)},
       {"cnspy",
        {{"ARMSE_p", ape.armse_p_m},
         {"ARMSE_R", ape.armse_r_deg},
         {"ANEES_p", optional_json(ape.anees_p)},
         {"ANEES_R", optional_json(ape.anees_r)},
-        {"note", "ARMSE_* are cnspy's report values: the mean of the per-pose error norms (m, deg)"}}},
-      {"consistency",
-       {{"available", !r.cov.empty()},
-        {"source", c.cov_source},
-        {"anees_p", optional_json(ape.anees_p)},
-        {"anees_r", optional_json(ape.anees_r)},
-        {"dof", 3},
-        {"definition",
-         "NEES_p = e_p^T P_p^-1 e_p (e_p = p_gt - p_est, P_p rotated by the alignment); "
-         "NEES_R = dtheta^T P_theta^-1 dtheta, dtheta = Log(R_est^T R_gt)"}}},
+        {"note", "ARMSE_* are cnspy's report values: the mean of the per-pose error norms (m, deg); ANEES_* are "
+                 "relative to the alignment, as cnspy computes them"}}},
+      {"consistency", consistency_json(r, c)},
+      {"body_rotation", body_rotation_json(r)},
       {"rpe", rpe_json(r)},
       {"rpe_definition",
        "E_ij = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j), Q ground truth, P aligned estimate (evo RPE); trans_m = |trans(E)|, "

@@ -382,3 +382,29 @@ TEST_CASE("roe eval on a ROS bag says it is a bag and how to read it", "[cli][ev
   CHECK_THAT(r.out, Catch::Contains("ROS bag"));
   CHECK_THAT(r.out, Catch::Contains("TOPIC"));
 }
+
+TEST_CASE("roe eval --euler and --fit-body-rotation from the command line, refused with --summary", "[cli][eval][euler]") {
+  const fs::path dir = fs::temp_directory_path() / "roe_cli_eval_euler";
+  fs::remove_all(dir);
+  write_pair(dir);
+  const std::string est = (dir / "est.tum").string(), gt = (dir / "gt.csv").string();
+  const Result e = run("--json eval " + est + " --gt " + gt + " --no-out", false);
+  REQUIRE(e.code == 0);
+  const Result u =
+      run("--json eval " + est + " --gt " + gt + " --no-out --euler absolute-unwrapped --fit-body-rotation", false);
+  REQUIRE(u.code == 0);
+  const auto je = nlohmann::json::parse(e.out), ju = nlohmann::json::parse(u.out);
+  CHECK(je["euler_metric"] == "error");
+  CHECK(je["body_rotation"].is_null());
+  CHECK(ju["euler_metric"] == "absolute-unwrapped");
+  CHECK(ju["per_axis"]["rotation_error_euler_deg"]["rmse"] == je["per_axis"]["rpy_rmse_deg"]);
+  CHECK(ju["body_rotation"]["angle_deg"].get<double>() < 0.5);  // only the alignment's own error: no body offset here
+  const Result bad = run("eval " + est + " --gt " + gt + " --no-out --euler wrapped");
+  CHECK(bad.code == 2);
+  CHECK(bad.out.find("error, absolute or absolute-unwrapped") != std::string::npos);
+  CHECK(run("eval --summary " + est + " --euler absolute").code == 2);
+  const Result h = run("eval --help");
+  CHECK(h.out.find("--euler") != std::string::npos);
+  CHECK(h.out.find("--fit-body-rotation") != std::string::npos);
+  fs::remove_all(dir);
+}

@@ -340,3 +340,15 @@ TEST_CASE("overlap: poses of each trajectory inside the common span", "[eval][as
   CHECK(shifted.n_gt == 100);
   CHECK(shifted.n_est == 496);  // est_e[k] ≤ epoch + 99·25 ms for k ≤ 495
 }
+
+TEST_CASE("associate: a shorter ground truth with duplicated stamps pairs only the first pose of each", "[eval][assoc]") {
+  // The ground truth is the shorter list (it is iterated): its repeated stamp must not give a second pair.
+  const std::vector<Timestamp> est = seq(0, 5 * ms, 100);
+  const std::vector<Timestamp> gt{100 * ms, 200 * ms, 200 * ms, 300 * ms, 300 * ms, 300 * ms, 400 * ms};
+  for (AssocPolicy policy : {AssocPolicy::kNearest, AssocPolicy::kUnique}) {
+    const Association a = associate(est, gt, {0.01, 0.0, policy});
+    CHECK(a.n_duplicate_gt == 3);
+    CHECK(a.gt_index == std::vector<std::size_t>{0, 1, 3, 6});
+    CHECK(a.est_index == std::vector<std::size_t>{20, 40, 60, 80});
+  }
+}

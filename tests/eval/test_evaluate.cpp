@@ -192,3 +192,34 @@ TEST_CASE("evaluate: the report is the same bit for bit on any number of threads
     CHECK(e.dp == pose_error(pe[777], pg[777]).dp);
   }
 }
+
+TEST_CASE("evaluate: a duplicated ground-truth stamp uses its first pose, as the warning says", "[eval][evaluate]") {
+  // A dense estimate and a sparse ground truth (the shorter one) with one duplicated row far off (x = 9 m):
+  // the figures are those without the duplicate, and the warning names it.
+  Pair p = helix(60);
+  std::vector<Timestamp> t_est;
+  std::vector<Pose> est;
+  for (std::size_t i = 0; i + 1 < p.t.size(); ++i)
+    for (int k = 0; k < 4; ++k) {  // 4 estimate poses per ground-truth pose: the ground truth is the shorter
+      t_est.push_back(p.t[i] + 25'000'000LL * k);
+      est.push_back(k == 0 ? p.est[i] : math::interpolate(p.est[i], p.est[i + 1], 0.25 * k));
+    }
+  const std::vector<std::optional<PoseCovariance>> no_cov;
+  EvalParams params;
+  params.threads = 1;
+  const Report clean = evaluate({t_est, est, no_cov, nullptr, "est"}, {p.t, p.gt}, params);
+  std::vector<Timestamp> t_dup = p.t;
+  std::vector<Pose> gt_dup = p.gt;
+  Pose far = p.gt[30];
+  far.p.x() = 9.0;
+  t_dup.insert(t_dup.begin() + 31, p.t[30]);
+  gt_dup.insert(gt_dup.begin() + 31, far);
+  const Report dup = evaluate({t_est, est, no_cov, nullptr, "est"}, {t_dup, gt_dup}, params);
+  CHECK(dup.n_pairs() == clean.n_pairs());
+  CHECK(dup.ape.pos_rmse_m == clean.ape.pos_rmse_m);
+  CHECK(dup.ape.trans_m.rmse == clean.ape.trans_m.rmse);
+  bool warned = false;
+  for (const auto& w : dup.warnings)
+    warned = warned || w.find("1 duplicated time stamp(s); the first pose of each is used") != std::string::npos;
+  CHECK(warned);
+}

@@ -31,6 +31,9 @@
 
 namespace roe::app {
 
+/// roe eval's default --euler (eval::EulerMetric): also the metric of every sweep job's Euler columns.
+inline constexpr const char* kDefaultEulerMetric = "error";
+
 struct EvalOptions {
   std::string est;                  ///< RUN_DIR or EST_FILE
   std::string gt;                   ///< DATASET (or EuRoC mav0 folder) or GT_FILE; empty: run.json's dataset
@@ -59,6 +62,11 @@ struct EvalOptions {
   /// --detections NAME|FILE: calibrate the σ of this detection set of the --gt dataset (or this
   /// detections.csv) against the truth. Empty: the set run.json names, when it has sigmas.
   std::string detections;
+  /// --euler error|absolute|absolute-unwrapped: the per-axis Euler figures (eval::EulerMetric).
+  std::string euler = kDefaultEulerMetric;
+  /// --fit-body-rotation: also report the constant body-frame rotation after the alignment and the
+  /// metrics without it (a diagnostic; the headline figures never include it).
+  bool fit_body_rotation = false;
 };
 
 /// One row of a run folder's reprojection.csv: the IMU pose T_W_I implied by one raw detection.
@@ -83,6 +91,8 @@ struct EvalInput {
   std::string kind;         ///< "run", "file", "dataset"
   std::string description;  ///< e.g. "dataset mav0/mocap0 with T_B_I, offset 0 s"
   std::filesystem::path path;
+  /// The poses are a dataset's state_groundtruth_estimate0: the world W of its roe.json truth section.
+  bool truth_world = false;
 };
 EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warnings);
 /// A trajectory straight from a bag topic, `BAG:TOPIC` (ROS 1 or ROS 2, file or rosbag2 folder; a
@@ -107,6 +117,14 @@ struct DetectionSigmaSource {
 /// not there, without sigmas, or a dataset without truth.objects. `o.gt` is the resolved ground truth.
 std::optional<DetectionSigmaSource> load_detection_sigmas(const EvalOptions& o, bool est_is_run,
                                                           std::vector<std::string>& warnings);
+
+/// The truth in the estimator's own gauge (eval/gauge.hpp) for a run folder evaluated against a
+/// dataset's state_groundtruth_estimate0 with roe.json truth.objects: the anchor and its gauge from
+/// run.json (config.filter.anchor_gauge, anchor_id, relocks), its estimate and first sight from
+/// objects.csv, its true pose from roe.json. nullopt, with the reason in *why, where there is none
+/// (a gauge that does not fix W with the anchor, a re-lock, no object truth, ...).
+std::optional<eval::GaugeTruth> load_gauge_truth(const std::filesystem::path& run_dir, const EvalInput& gt,
+                                                 std::string* why);
 
 struct EvalResult {
   nlohmann::json report;      ///< the report.json content

@@ -7,6 +7,10 @@
 /// the longer one (on equal distance the earlier one) and accept the pair when |dt| ≤ max_dt. Poses
 /// of the longer trajectory may be used more than once. The estimate stamps are shifted by
 /// `offset` first (t_est + offset, evo --t_offset). Pairs come in the order of the shorter one.
+/// Duplicated ground-truth stamps: only the first pose of each run of equal stamps is ever paired,
+/// whichever trajectory is the shorter (evo pairs every pose of a shorter ground truth; a duplicated
+/// mocap row is a recording fault, not a second truth). Duplicated estimate stamps are all kept
+/// under kNearest (evo).
 ///
 /// Policy kUnique is one-to-one: the kNearest pairs, then every pose of either trajectory is used at
 /// most once, and so is every stamp value: among pairs that share a pose or a stamp value, the one

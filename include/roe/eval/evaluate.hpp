@@ -15,6 +15,7 @@
 #include "roe/eval/align.hpp"
 #include "roe/eval/associate.hpp"
 #include "roe/eval/detection_calibration.hpp"
+#include "roe/eval/gauge.hpp"
 #include "roe/eval/metrics.hpp"
 #include "roe/eval/rpe.hpp"
 
@@ -26,6 +27,10 @@ struct EvalParams {
   int n_align = -1;  ///< align on the first N matched pairs (-1 = all)
   AssociationOptions assoc;
   std::vector<RpeOptions> rpe;  ///< one relative-pose-error block per delta (none: no RPE)
+  EulerMetric euler = EulerMetric::kError;  ///< the per-axis Euler figures (metrics.hpp)
+  /// Also fit a constant body-frame rotation after the alignment and report the metrics with it
+  /// (a diagnostic: the headline figures never include it).
+  bool fit_body_rotation = false;
   /// Threads for the per-pair work (0: every CPU the process may use). The report does not depend on it.
   unsigned threads = 0;
 };
@@ -54,6 +59,13 @@ struct DetectionSigmaInput {
   std::map<int, Pose> T_W_O;          ///< in the ground truth's world
 };
 
+/// The truth in the estimator's own gauge (gauge.hpp): the estimator's world in the ground truth's,
+/// valid from t_from_ns (the anchor's first sight: the rows before it are in an earlier world).
+struct GaugeTruth {
+  Pose T_Wt_Wg;
+  Timestamp t_from_ns = 0;
+  std::string description;  ///< how it was found (for the report)
+};
 /// The estimate: stamps and poses (non-decreasing stamps), optionally a covariance per pose and
 /// the run's raw detections. The vectors are referenced, not copied: they must outlive the call, and
 /// the stamps and poses also the Report made from them (it indexes the matched pairs in them).
@@ -65,6 +77,28 @@ struct EstimateInput {
   const std::vector<DetectionPose>* detections = nullptr;  ///< null: no per-object traces
   std::string source;  ///< names the estimate in errors (a path), never opened
   const DetectionSigmaInput* detection_sigmas = nullptr;  ///< null: no σ calibration
+  /// null: no NEES in the estimator's gauge (then only the alignment-relative NEES, which its
+  /// rotation error inflates).
+  const GaugeTruth* gauge = nullptr;
+};
+
+/// NEES of the unaligned estimate against the truth in the estimator's gauge, with the estimate's own
+/// covariance (no alignment in it): pose_nees(est, T_Wg_Wt · gt, cov) over the matched pairs from
+/// t_from_ns on. A consistent filter reads ≈ 3 for each block.
+struct GaugeConsistency {
+  GaugeTruth truth;
+  std::size_t n = 0;  ///< pairs used
+  std::optional<double> anees_p, anees_r;
+};
+
+/// The constant rotation between the estimated and the true body frames after the alignment,
+/// R_off = mean on SO(3) of R_estᵀ R_gt (metrics.hpp mean_rotation), and the APE with the estimate's
+/// orientations replaced by R_est·R_off (positions unchanged).
+struct BodyRotationFit {
+  Eigen::Quaterniond q_off = Eigen::Quaterniond::Identity();
+  double angle_deg = 0.0;                                ///< |Log(R_off)|
+  Eigen::Vector3d rpy_deg = Eigen::Vector3d::Zero();     ///< ZYX Euler of R_off
+  ApeResult ape;                                         ///< with the offset removed
 };
 /// The ground truth (referenced as EstimateInput's vectors are).
 struct GroundTruthInput {
@@ -119,6 +153,8 @@ struct Report {
   /// The detections' σ against the ground truth (EstimateInput::detection_sigmas), independent of the
   /// alignment: T_C_O is relative.
   std::optional<DetectionCalibration> detection_calibration;
+  std::optional<GaugeConsistency> gauge;       ///< EstimateInput::gauge given and covariances present
+  std::optional<BodyRotationFit> body_rotation;  ///< EvalParams::fit_body_rotation
   std::vector<std::string> warnings;  ///< what the data implies (duplicates, few matches, ...)
 
   /// The matched pairs, in association order: pair k is the estimate's pose association.est_index[k]

@@ -19,6 +19,7 @@ struct EvalReportContext {
   nlohmann::json inputs;   ///< {"est": {...}, "gt": {...}}: path, kind, format, description, counts
   nlohmann::json options;  ///< the options as given
   std::string cov_source;  ///< where the covariances came from (empty: none)
+  std::string no_gauge_reason;  ///< why there is no NEES in the estimator's gauge (empty: there is one)
   std::string detections_source;  ///< what the detection σ calibration compared (empty: none)
   std::vector<std::string> warnings;  ///< every warning, in order
 };
