@@ -300,6 +300,9 @@ RefineCommandResult refine_run(const fs::path& run_dir_in, const fs::path& out_d
   report["warnings"] = res.warnings;
   report["timing_s"] = {{"read", read_s},
                         {"solve", r.report.solve_s},
+                        {"solve_residuals", r.report.residual_s},
+                        {"solve_jacobians", r.report.jacobian_s},
+                        {"solve_linear", r.report.linear_solver_s},
                         {"covariance", r.report.covariance_s},
                         {"write", seconds_since(t_write)},
                         {"total", seconds_since(t_start)}};

@@ -49,7 +49,8 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using Block7 = std::array<double, 7>;
-using Block9 = std::array<double, 9>;
+using Block3 = std::array<double, 3>;
+using Block6 = std::array<double, 6>;
 constexpr double kDeg = M_PI / 180.0;
 /// Variance floor of the IMU residuals (a noise-free IMU would make them singular): σ = 1e-7.
 constexpr double kVarFloor = 1e-14;
@@ -78,7 +79,8 @@ ekf::CoreState interpolate_state(const std::vector<StateSample>& s, Timestamp t,
 struct Problem {
   std::vector<Timestamp> t;
   std::vector<Block7> pose;
-  std::vector<Block9> sb;
+  std::vector<Block3> vel;
+  std::vector<Block6> bias;
   Block7 extr{};
   std::map<int, Block7> obj;
   std::unique_ptr<ceres::Manifold> pose_manifold = std::make_unique<ceres::AutoDiffManifold<PosePlus, 7, 6>>();
@@ -113,19 +115,19 @@ void add_imu_factors(const RefineInput& in, Problem& P) {
   std::size_t hint = 0;
   const double rg = in.noise.gyro_random_walk, ra = in.noise.accel_random_walk;
   for (std::size_t i = 0; i + 1 < P.t.size(); ++i) {
-    const Eigen::Map<const Eigen::Vector3d> bg(P.sb[i].data() + 3), ba(P.sb[i].data() + 6);
+    const Eigen::Map<const Eigen::Vector3d> bg(P.bias[i].data()), ba(P.bias[i].data() + 3);
     const Preintegration pre = preintegrate(in.imu, P.t[i], P.t[i + 1], bg, ba, in.noise, hint);
-    Eigen::Matrix<double, 15, 15> cov = Eigen::Matrix<double, 15, 15>::Zero();
-    cov.topLeftCorner<9, 9>() = pre.cov;
-    for (int k = 0; k < 3; ++k) {
-      cov(9 + k, 9 + k) = rg * rg * pre.dt;
-      cov(12 + k, 12 + k) = ra * ra * pre.dt;
-    }
+    Mat9 cov = pre.cov;
     cov.diagonal().array() += kVarFloor;
     auto* f = new ImuResidual{pre.dR, pre.dv, pre.dp, pre.bg_lin, pre.ba_lin, ekf::kGravity_W, pre.dt, pre.J_bias,
                               sqrt_information(cov)};
-    P.cp->AddResidualBlock(new ceres::AutoDiffCostFunction<ImuResidual, 15, 7, 9, 7, 9>(f), nullptr,
-                              P.pose[i].data(), P.sb[i].data(), P.pose[i + 1].data(), P.sb[i + 1].data());
+    P.cp->AddResidualBlock(new ceres::AutoDiffCostFunction<ImuResidual, 9, 7, 3, 6, 7, 3>(f), nullptr, P.pose[i].data(),
+                           P.vel[i].data(), P.bias[i].data(), P.pose[i + 1].data(), P.vel[i + 1].data());
+    Vector6d inv_sigma;
+    inv_sigma << Eigen::Vector3d::Constant(1.0 / std::sqrt(rg * rg * pre.dt + kVarFloor)),
+        Eigen::Vector3d::Constant(1.0 / std::sqrt(ra * ra * pre.dt + kVarFloor));
+    P.cp->AddResidualBlock(new ceres::AutoDiffCostFunction<BiasWalkResidual, 6, 6, 6>(new BiasWalkResidual{inv_sigma}),
+                           nullptr, P.bias[i].data(), P.bias[i + 1].data());
     ++P.imu_factors;
   }
 }
@@ -216,7 +218,7 @@ void add_priors_and_gauge(const RefineInput& in, Problem& P) {
   Vector6d b0;
   b0 << in.prior_b_g, in.prior_b_a;
   auto* f = new BiasPriorResidual{b0, Mat6(s.cwiseInverse().asDiagonal())};
-  P.cp->AddResidualBlock(new ceres::AutoDiffCostFunction<BiasPriorResidual, 6, 9>(f), nullptr, P.sb[0].data());
+  P.cp->AddResidualBlock(new ceres::AutoDiffCostFunction<BiasPriorResidual, 6, 6>(f), nullptr, P.bias[0].data());
 }
 
 void validate(const RefineInput& in) {
@@ -237,8 +239,8 @@ Problem build(const RefineInput& in, const RefineOptions& opt) {
   for (const Timestamp t : P.t) {
     const ekf::CoreState x = interpolate_state(in.initial, t, k);
     P.pose.push_back(to_block(Pose(x.q_W_I, x.p_W_I)));
-    P.sb.push_back({x.v_W_I.x(), x.v_W_I.y(), x.v_W_I.z(), x.b_g.x(), x.b_g.y(), x.b_g.z(), x.b_a.x(), x.b_a.y(),
-                    x.b_a.z()});
+    P.vel.push_back({x.v_W_I.x(), x.v_W_I.y(), x.v_W_I.z()});
+    P.bias.push_back({x.b_g.x(), x.b_g.y(), x.b_g.z(), x.b_a.x(), x.b_a.y(), x.b_a.z()});
   }
   P.extr = to_block(in.initial_T_I_C);
   for (const auto& [id, T] : in.initial_T_O_W) P.obj[id] = to_block(T);
@@ -268,6 +270,9 @@ SolveReport solve(const RefineOptions& opt, Problem& P) {
   SolveReport r;
   r.solve_s = std::chrono::duration<double>(Clock::now() - t0).count();
   r.iterations = static_cast<int>(sum.iterations.size()) - 1;
+  r.residual_s = sum.residual_evaluation_time_in_seconds;
+  r.jacobian_s = sum.jacobian_evaluation_time_in_seconds;
+  r.linear_solver_s = sum.linear_solver_time_in_seconds;
   r.initial_cost = sum.initial_cost;
   r.final_cost = sum.final_cost;
   r.termination = ceres::TerminationTypeToString(sum.termination_type) + std::string(": ") + sum.message;
@@ -355,9 +360,9 @@ void collect(const RefineInput& in, Problem& P, RefineResult& out) {
     const Pose T = to_pose(P.pose[i]);
     s.x.p_W_I = T.p;
     s.x.q_W_I = T.q;
-    s.x.v_W_I = Eigen::Vector3d(P.sb[i][0], P.sb[i][1], P.sb[i][2]);
-    s.x.b_g = Eigen::Vector3d(P.sb[i][3], P.sb[i][4], P.sb[i][5]);
-    s.x.b_a = Eigen::Vector3d(P.sb[i][6], P.sb[i][7], P.sb[i][8]);
+    s.x.v_W_I = Eigen::Vector3d(P.vel[i][0], P.vel[i][1], P.vel[i][2]);
+    s.x.b_g = Eigen::Vector3d(P.bias[i][0], P.bias[i][1], P.bias[i][2]);
+    s.x.b_a = Eigen::Vector3d(P.bias[i][3], P.bias[i][4], P.bias[i][5]);
     out.nodes.push_back(s);
   }
   out.T_I_C = to_pose(P.extr);

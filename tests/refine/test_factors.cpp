@@ -163,6 +163,13 @@ TEST_CASE("refine/factors: priors and the square root information") {
   f(b.data(), r.data());
   CHECK((r.head<3>() - dp).norm() < 1e-12);
   CHECK((r.tail<3>() - dth).norm() < 1e-12);
+  Eigen::Matrix<double, 6, 1> inv_sigma;
+  inv_sigma << 1, 2, 3, 4, 5, 6;
+  const refine::BiasWalkResidual walk{inv_sigma};
+  const double bi[6] = {0.1, 0.2, 0.3, 0.4, 0.5, 0.6}, bj[6] = {0.2, 0.2, 0.1, 0.4, 0.6, 0.0};
+  double rw[6];
+  walk(bi, bj, rw);
+  for (int k = 0; k < 6; ++k) CHECK(rw[k] == Approx((bj[k] - bi[k]) * inv_sigma(k)).margin(1e-15));
   Eigen::MatrixXd A = Eigen::MatrixXd::Random(6, 6);
   const Eigen::MatrixXd cov = A * A.transpose() + Eigen::MatrixXd::Identity(6, 6);
   const Eigen::MatrixXd W = refine::sqrt_information(cov);

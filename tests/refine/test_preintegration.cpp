@@ -57,19 +57,15 @@ ekf::CoreState random_state(std::mt19937& rng) {
   return x;
 }
 
-Eigen::Matrix<double, 15, 1> imu_residual(const refine::Preintegration& pre, const ekf::CoreState& a,
-                                          const ekf::CoreState& b) {
+Eigen::Matrix<double, 9, 1> imu_residual(const refine::Preintegration& pre, const ekf::CoreState& a,
+                                         const ekf::CoreState& b) {
   refine::ImuResidual f{pre.dR, pre.dv, pre.dp, pre.bg_lin, pre.ba_lin, ekf::kGravity_W, pre.dt, pre.J_bias,
-                        Eigen::Matrix<double, 15, 15>::Identity()};
+                        refine::Mat9::Identity()};
   const double pa[7] = {a.p_W_I.x(), a.p_W_I.y(), a.p_W_I.z(), a.q_W_I.x(), a.q_W_I.y(), a.q_W_I.z(), a.q_W_I.w()};
   const double pb[7] = {b.p_W_I.x(), b.p_W_I.y(), b.p_W_I.z(), b.q_W_I.x(), b.q_W_I.y(), b.q_W_I.z(), b.q_W_I.w()};
-  double sa[9], sb[9];
-  for (int i = 0; i < 3; ++i) {
-    sa[i] = a.v_W_I(i), sa[3 + i] = a.b_g(i), sa[6 + i] = a.b_a(i);
-    sb[i] = b.v_W_I(i), sb[3 + i] = b.b_g(i), sb[6 + i] = b.b_a(i);
-  }
-  Eigen::Matrix<double, 15, 1> r;
-  f(pa, sa, pb, sb, r.data());
+  const double ba_[6] = {a.b_g.x(), a.b_g.y(), a.b_g.z(), a.b_a.x(), a.b_a.y(), a.b_a.z()};
+  Eigen::Matrix<double, 9, 1> r;
+  f(pa, a.v_W_I.data(), ba_, pb, b.v_W_I.data(), r.data());
   return r;
 }
 

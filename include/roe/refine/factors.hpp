@@ -9,7 +9,7 @@
 ///   pose        [p (3), q (x y z w)]: T_W_I of a node, T_I_C, T_O_W of an object; tangent [δp; δθ] with
 ///               p = p̂ + δp, R = R̂ Exp(δθ) (the filter's error state, so marginal covariances are in
 ///               the same coordinates as the filter's σ)
-///   speed-bias  [v_W_I, b_g, b_a] of a node (additive)
+///   velocity    v_W_I of a node; bias [b_g, b_a] of a node (additive)
 /// The anchor object's T_O_W keeps only its tilt δθ_x, δθ_y (AnchorTiltPlus; docs/refine.md §3).
 
 #include <Eigen/Core>
@@ -128,41 +128,53 @@ struct DetectionResidual {
   }
 };
 
-/// IMU preintegration between nodes i and j plus the bias random walk (preintegration.hpp). With
-/// δb = b_i − b̄ (the biases it was integrated with) and J = ∂[δp; δv; δθ]/∂[δb_g; δb_a]:
+/// IMU preintegration between nodes i and j (preintegration.hpp). With δb = b_i − b̄ (the biases it was
+/// integrated with) and J = ∂[δp; δv; δθ]/∂[δb_g; δb_a]:
 ///   e_p = R_iᵀ(p_j − p_i − v_i Δt + ½ g Δt²) − (Δp̄ + J_p δb)
 ///   e_v = R_iᵀ(v_j − v_i + g Δt) − (Δv̄ + J_v δb)
 ///   e_θ = Log((ΔR̄ Exp(J_θ δb))ᵀ R_iᵀ R_j)
-///   e_b = [b_g,j − b_g,i ; b_a,j − b_a,i]
-/// r = W e with W the square root information of blockdiag(preintegration covariance, σ_bw² Δt I).
+/// r = W e with W the square root information of the preintegration covariance. Blocks: pose_i, v_i,
+/// b_i = [b_g, b_a], pose_j, v_j.
 struct ImuResidual {
   Eigen::Quaterniond dR;
   Eigen::Vector3d dv, dp, bg_lin, ba_lin, gravity;
   double dt = 0.0;
   Eigen::Matrix<double, 9, 6> J_bias;
-  Eigen::Matrix<double, 15, 15> W;
+  Eigen::Matrix<double, 9, 9> W;
 
   template <typename T>
-  bool operator()(const T* pose_i, const T* sb_i, const T* pose_j, const T* sb_j, T* r) const {
-    const Eigen::Map<const V3<T>> p_i(pose_i), p_j(pose_j), v_i(sb_i), v_j(sb_j);
+  bool operator()(const T* pose_i, const T* v_i_, const T* b_i, const T* pose_j, const T* v_j_, T* r) const {
+    const Eigen::Map<const V3<T>> p_i(pose_i), p_j(pose_j), v_i(v_i_), v_j(v_j_);
     const Eigen::Map<const Q<T>> q_i(pose_i + 3), q_j(pose_j + 3);
-    const Eigen::Map<const V3<T>> bg_i(sb_i + 3), ba_i(sb_i + 6), bg_j(sb_j + 3), ba_j(sb_j + 6);
     Eigen::Matrix<T, 6, 1> db;
-    db << bg_i - bg_lin.cast<T>(), ba_i - ba_lin.cast<T>();
+    for (int k = 0; k < 3; ++k) {
+      db(k) = b_i[k] - T(bg_lin(k));
+      db(3 + k) = b_i[3 + k] - T(ba_lin(k));
+    }
     const Eigen::Matrix<T, 9, 1> corr = J_bias.cast<T>() * db;
     const T Dt(dt);
     const V3<T> g = gravity.cast<T>();
     const Q<T> qi_inv = q_i.conjugate();
-    Eigen::Matrix<T, 15, 1> e;
+    Eigen::Matrix<T, 9, 1> e;
     e.template segment<3>(0) =
         qi_inv * (p_j - p_i - v_i * Dt + T(0.5) * g * Dt * Dt) - (dp.cast<T>() + corr.template segment<3>(0));
     e.template segment<3>(3) = qi_inv * (v_j - v_i + g * Dt) - (dv.cast<T>() + corr.template segment<3>(3));
     const Q<T> dR_corr = dR.cast<T>() * exp_q<T>(V3<T>(corr.template segment<3>(6)));
     e.template segment<3>(6) = log_q<T>(dR_corr.conjugate() * qi_inv * q_j);
-    e.template segment<3>(9) = bg_j - bg_i;
-    e.template segment<3>(12) = ba_j - ba_i;
-    Eigen::Map<Eigen::Matrix<T, 15, 1>> out(r);
-    out = W.cast<T>() * e;
+    Eigen::Map<Eigen::Matrix<T, 9, 1>> out(r);
+    out = W.cast<T>().template triangularView<Eigen::Lower>() * e;
+    return true;
+  }
+};
+
+/// The bias random walk between nodes i and j: r = [(b_g,j − b_g,i)/σ_g ; (b_a,j − b_a,i)/σ_a] with
+/// σ² = σ_bw² Δt per axis (inv_sigma holds the six 1/σ).
+struct BiasWalkResidual {
+  Eigen::Matrix<double, 6, 1> inv_sigma;
+
+  template <typename T>
+  bool operator()(const T* b_i, const T* b_j, T* r) const {
+    for (int k = 0; k < 6; ++k) r[k] = (b_j[k] - b_i[k]) * T(inv_sigma(k));
     return true;
   }
 };
@@ -184,15 +196,15 @@ struct PosePriorResidual {
   }
 };
 
-/// A Gaussian prior on the biases of a speed-bias block: r = W [b_g − b̄_g ; b_a − b̄_a].
+/// A Gaussian prior on a bias block: r = W [b_g − b̄_g ; b_a − b̄_a].
 struct BiasPriorResidual {
   Eigen::Matrix<double, 6, 1> b_prior;
   Eigen::Matrix<double, 6, 6> W = Eigen::Matrix<double, 6, 6>::Identity();
 
   template <typename T>
-  bool operator()(const T* sb, T* r) const {
+  bool operator()(const T* b, T* r) const {
     Eigen::Matrix<T, 6, 1> e;
-    for (int i = 0; i < 6; ++i) e(i) = sb[3 + i] - T(b_prior(i));
+    for (int i = 0; i < 6; ++i) e(i) = b[i] - T(b_prior(i));
     Eigen::Map<Eigen::Matrix<T, 6, 1>> out(r);
     out = W.cast<T>() * e;
     return true;

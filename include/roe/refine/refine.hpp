@@ -90,6 +90,8 @@ struct SolveReport {
   std::string termination;  ///< Ceres' termination type and message
   bool usable = false;      ///< Ceres' IsSolutionUsable()
   double solve_s = 0.0, covariance_s = 0.0;
+  /// Ceres' own split of solve_s: residual and Jacobian evaluation, linear solves.
+  double residual_s = 0.0, jacobian_s = 0.0, linear_solver_s = 0.0;
   bool covariance_ok = false;
   std::size_t nodes = 0, imu_factors = 0, detection_factors = 0, parameters = 0, residuals = 0;
 };
