@@ -60,8 +60,8 @@ TEST_CASE("refine/app: a noise-free simulation refines to the truth") {
   const auto states = io::read_states_csv(tmp / "ref" / "states.csv");
   const Vector6d e_extr = math::pose_difference(man.truth->T_I_C, states.back().T_I_C);
   INFO("extrinsics error " << e_extr.head<3>().norm() * 1e3 << " mm, " << e_extr.tail<3>().norm() * kDeg << " deg");
-  CHECK(e_extr.head<3>().norm() < 2e-3);
-  CHECK(e_extr.tail<3>().norm() * kDeg < 0.05);
+  CHECK(e_extr.head<3>().norm() < 1e-4);
+  CHECK(e_extr.tail<3>().norm() * kDeg < 0.005);
 
   const auto objs = last_objects(tmp / "ref");
   const int a = anchor_of(objs);
@@ -74,8 +74,8 @@ TEST_CASE("refine/app: a noise-free simulation refines to the truth") {
     const Pose tru = truth.at(a).inverse() * truth.at(id);
     const Vector6d e = math::pose_difference(tru, est);
     INFO("object " << id << ": " << e.head<3>().norm() * 1e3 << " mm, " << e.tail<3>().norm() * kDeg << " deg");
-    CHECK(e.head<3>().norm() < 2e-3);
-    CHECK(e.tail<3>().norm() * kDeg < 0.1);
+    CHECK(e.head<3>().norm() < 1e-4);
+    CHECK(e.tail<3>().norm() * kDeg < 0.005);
     CHECK((row.sigma_A_O.array() > 0).all());
     ++checked;
   }
