@@ -11,6 +11,7 @@ packages=(
   liblz4-dev libbz2-dev libyaml-cpp-dev libssl-dev                  # ROS bags, Kalibr YAML, sha256
   libzstd-dev libsqlite3-dev                                        # ROS 2 bags: MCAP zstd chunks, rosbag2 .db3
   zlib1g-dev                                                        # evo result zips
+  libceres-dev                                                      # roe refine: the batch MAP (Ceres Solver 2.1)
   libopencv-dev libtorch-dev                                        # images, detector, PoET head
   libopenblas0-pthread                                              # LibTorch's BLAS: without it the reference BLAS (13x slower GEMMs)
   python3 python3-numpy python3-matplotlib                          # plots (roe eval --plot)

@@ -1,0 +1,43 @@
+#pragma once
+/// @file
+/// `roe refine RUN_DIR --out RUN_DIR2 [--dataset DATASET] [--loss huber|cauchy|none] [--loss-scale K]`:
+/// the offline batch MAP of a run (refine/refine.hpp, docs/refine.md). Reads RUN_DIR (run.json, states.csv,
+/// objects.csv, reprojection.csv) and the dataset the run read (its IMU and detection files are compared
+/// with the run's hashes first), refines, and writes RUN_DIR2 with the files of `roe run` (DESIGN §4) so
+/// that eval, calib-check and report read it unchanged:
+///   states.csv       the refined IMU states at the run's state times (each propagated from the last node
+///                    with the IMU), the refined T_I_C; σ of the extrinsics = their marginal (Ceres); σ of
+///                    the IMU states = the run's (refine computes the marginals of the calibration only)
+///   objects.csv      one row per object at the last node: T_O_W with its marginal σ (and of T_W_O, T_A_O)
+///   reprojection.csv the run's rows, T_W_I implied by each raw detection with the refined calibration,
+///                    the run's status, `nis` = the refined whitened squared residual of the detections used
+///   trajectory.csv / .tum, run.json (the run's, with "command": "refine", the refined "final" and a
+///                    "refine" section: inputs, options, solver report, timings)
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "roe/refine/refine.hpp"
+
+namespace roe::app {
+
+struct RefineCommandOptions {
+  std::string dataset;  ///< empty: run.json's inputs.dataset_abs
+  refine::RefineOptions refine;
+  bool force = false;
+};
+
+struct RefineCommandResult {
+  std::filesystem::path out;
+  refine::RefineResult result;
+  nlohmann::json report;  ///< run.json
+  std::vector<std::string> warnings;
+  nlohmann::json to_json() const;
+  std::string to_text() const;
+};
+
+RefineCommandResult refine_run(const std::filesystem::path& run_dir, const std::filesystem::path& out,
+                               const RefineCommandOptions& options);
+
+}  // namespace roe::app

@@ -1,0 +1,118 @@
+#pragma once
+/// @file
+/// The offline batch refinement of a run (docs/refine.md): a robust MAP over the whole recording with
+/// Ceres Solver, initialised from the run's (smoothed) estimate. I/O-free: typed data in, typed data out.
+///
+/// Unknowns: per node (every image with a used detection, plus the first and last time of the run's
+/// trajectory) T_W_I, v_W_I, b_g, b_a; the extrinsics T_I_C (held at their prior when the run did not
+/// estimate them); one T_O_W per object, the anchor's position and yaw held as the filter holds them.
+/// Residuals (factors.hpp): IMU preintegration + bias random walk between consecutive nodes; one per
+/// detection with a robust loss on its whitened residual; the extrinsics prior; the first node's bias
+/// prior (the filter's initial bias and σ).
+
+#include <Eigen/Core>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "roe/core/symmetry.hpp"
+#include "roe/core/types.hpp"
+#include "roe/ekf/images.hpp"
+#include "roe/ekf/imu.hpp"
+#include "roe/ekf/options.hpp"
+
+namespace roe::refine {
+
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+
+enum class Loss { kNone, kHuber, kCauchy };
+/// "none", "huber", "cauchy".
+std::string to_string(Loss l);
+/// roe::ConfigError for another name.
+Loss parse_loss(const std::string& name);
+
+struct RefineOptions {
+  Loss loss = Loss::kCauchy;
+  /// Scale of the loss in units of the detection's σ (the whitened 6-dof residual's norm): quadratic up to
+  /// about there. Default √χ²₆(0.95) = 3.55, the filter's gate.
+  double loss_scale = 3.5485;
+  int max_iterations = 50;
+  /// "sparse_normal_cholesky" or "sparse_schur" (Ceres' linear solvers).
+  std::string linear_solver = "sparse_normal_cholesky";
+  /// Marginal covariances of the extrinsics and the object-worlds (ceres::Covariance).
+  bool covariance = true;
+  int threads = 1;
+};
+
+/// An IMU state with its time (a node, or the run's estimate that initialises one).
+struct StateSample {
+  Timestamp t_ns = 0;
+  ekf::CoreState x;
+};
+
+struct RefineInput {
+  std::vector<ImuSample> imu;
+  ekf::ImuNoiseParams noise;      ///< what the run's filter used (after imu_noise_scale)
+  ekf::FilterOptions filter;      ///< the run's: detection σ model, extrinsics prior σ, gauge, bias σ
+  double detection_sigma_scale = 1.0;  ///< the run's final learned scale of per-detection σ
+  std::map<int, ObjectSymmetry> symmetries;
+  /// The detections to use, grouped per image in the IMU clock (the run's accepted and gated ones).
+  std::vector<ekf::ImageDetections> images;
+  /// The run's estimate (time-sorted, e.g. states.csv), interpolated to initialise the nodes; its first
+  /// and last times are the first and last node.
+  std::vector<StateSample> initial;
+  Pose prior_T_I_C;               ///< the extrinsics prior (the run's init.T_I_C)
+  Pose initial_T_I_C;             ///< where the solve starts
+  std::map<int, Pose> initial_T_O_W;  ///< objects without an entry are left out with their detections
+  int anchor_id = -1;
+  Eigen::Vector3d prior_b_g = Eigen::Vector3d::Zero();  ///< the filter's initial biases (the first node's prior)
+  Eigen::Vector3d prior_b_a = Eigen::Vector3d::Zero();
+};
+
+struct RefinedObject {
+  Pose T_O_W;
+  bool anchor = false;
+  Mat6 cov = Mat6::Zero();            ///< [δp_O_W; δθ_O_W] (rows/columns of held components 0)
+  Mat6 cov_relative = Mat6::Zero();   ///< T_A_O relative to the anchor (0 for the anchor)
+};
+
+/// One detection after the solve.
+struct DetectionFit {
+  Timestamp t_ns = 0;
+  int object_id = 0;
+  double chi2 = 0.0;    ///< whitened squared residual (6 dof; 5 for a continuous symmetry)
+  double weight = 1.0;  ///< the robust loss's weight ρ'(s) at the solution
+};
+
+struct SolveReport {
+  int iterations = 0;
+  double initial_cost = 0.0, final_cost = 0.0;
+  std::string termination;  ///< Ceres' termination type and message
+  bool usable = false;      ///< Ceres' IsSolutionUsable()
+  double solve_s = 0.0, covariance_s = 0.0;
+  /// Ceres' own split of solve_s: residual and Jacobian evaluation, linear solves.
+  double residual_s = 0.0, jacobian_s = 0.0, linear_solver_s = 0.0;
+  bool covariance_ok = false;
+  std::size_t nodes = 0, imu_factors = 0, detection_factors = 0, parameters = 0, residuals = 0;
+};
+
+struct RefineResult {
+  std::vector<StateSample> nodes;
+  Pose T_I_C;
+  Mat6 cov_T_I_C = Mat6::Zero();  ///< [δp_I_C; δθ_I_C] (0 when held fixed)
+  bool extrinsics_estimated = true;
+  std::map<int, RefinedObject> objects;
+  std::vector<DetectionFit> detections;  ///< in the order of RefineInput::images
+  SolveReport report;
+};
+
+/// Builds and solves the problem. InputError for an empty IMU stream, fewer than two state samples,
+/// images outside their span, or no object-world to start from; NumericError when Ceres fails.
+RefineResult refine(const RefineInput& in, const RefineOptions& options);
+
+/// The refined IMU states at the given times (sorted, within the nodes' span): each propagated with the
+/// IMU from the last node at or before it (ekf::integrate, preintegration.hpp).
+std::vector<StateSample> states_at(const RefineResult& r, const std::vector<ImuSample>& imu,
+                                   const std::vector<Timestamp>& times);
+
+}  // namespace roe::refine

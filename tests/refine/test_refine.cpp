@@ -1,0 +1,124 @@
+// roe refine end to end: simulate → run → refine, against the truth and the filter (docs/refine.md §5).
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "roe/app/refine.hpp"
+#include "roe/app/run.hpp"
+#include "roe/app/simulate.hpp"
+#include "roe/io/dataset.hpp"
+#include "roe/io/run_files.hpp"
+#include "roe/math/se3.hpp"
+#include "support/test_util.hpp"
+
+namespace {
+
+using namespace roe;
+namespace fs = std::filesystem;
+constexpr double kDeg = 180.0 / M_PI;
+
+fs::path simulate(const test::TempDir& tmp, const std::string& preset, double duration_s) {
+  app::SimulateOptions so;
+  so.preset = preset;
+  so.seed = 1;
+  so.duration_s = duration_s;
+  const fs::path ds = tmp / "ds";
+  app::simulate(so, ds);
+  return ds;
+}
+
+/// Each object's last row of objects.csv.
+std::map<int, io::ObjectRow> last_objects(const fs::path& run) {
+  std::map<int, io::ObjectRow> m;
+  for (const auto& r : io::read_objects_csv(run / "objects.csv")) m[r.object_id] = r;
+  return m;
+}
+
+int anchor_of(const std::map<int, io::ObjectRow>& m) {
+  for (const auto& [id, r] : m)
+    if (r.anchor) return id;
+  FAIL("no anchor row");
+  return -1;
+}
+
+}  // namespace
+
+TEST_CASE("refine/app: a noise-free simulation refines to the truth") {
+  test::TempDir tmp("roe_refine_nf");
+  const fs::path ds = simulate(tmp, "noise-free", 20.0);
+  // A noise-free IMU (density 0) would make the IMU residuals singular: give the run a small noise.
+  const fs::path cfg = tmp.write("cfg.json", R"({"filter": {"gyro_noise_density": 1e-4, "accel_noise_density": 1e-3,
+      "gyro_random_walk": 1e-6, "accel_random_walk": 1e-5}})");
+  app::RunOptions ro;
+  ro.config_file = cfg.string();
+  app::run(ds, tmp / "run", ro);
+  app::RefineCommandOptions opt;
+  const auto res = app::refine_run(tmp / "run", tmp / "ref", opt);
+  CHECK(res.result.report.usable);
+
+  const DatasetManifest man = io::read_manifest(ds);
+  REQUIRE(man.truth);
+  const auto states = io::read_states_csv(tmp / "ref" / "states.csv");
+  const Vector6d e_extr = math::pose_difference(man.truth->T_I_C, states.back().T_I_C);
+  INFO("extrinsics error " << e_extr.head<3>().norm() * 1e3 << " mm, " << e_extr.tail<3>().norm() * kDeg << " deg");
+  CHECK(e_extr.head<3>().norm() < 1e-4);
+  CHECK(e_extr.tail<3>().norm() * kDeg < 0.005);
+
+  const auto objs = last_objects(tmp / "ref");
+  const int a = anchor_of(objs);
+  std::map<int, Pose> truth;
+  for (const auto& o : man.truth->objects) truth[o.id] = o.T_W_O;
+  int checked = 0;
+  for (const auto& [id, row] : objs) {
+    if (id == a || !truth.count(id)) continue;
+    const Pose est = objs.at(a).T_O_W * row.T_O_W.inverse();  // T_A_O
+    const Pose tru = truth.at(a).inverse() * truth.at(id);
+    const Vector6d e = math::pose_difference(tru, est);
+    INFO("object " << id << ": " << e.head<3>().norm() * 1e3 << " mm, " << e.tail<3>().norm() * kDeg << " deg");
+    CHECK(e.head<3>().norm() < 1e-4);
+    CHECK(e.tail<3>().norm() * kDeg < 0.005);
+    CHECK((row.sigma_A_O.array() > 0).all());
+    ++checked;
+  }
+  CHECK(checked >= 1);
+}
+
+TEST_CASE("refine/app: on matched-calib the refinement agrees with the filter within the filter's sigma") {
+  test::TempDir tmp("roe_refine_mc");
+  const fs::path ds = simulate(tmp, "matched-calib", 60.0);
+  app::run(ds, tmp / "run", {});
+  const auto res = app::refine_run(tmp / "run", tmp / "ref", {});
+  REQUIRE(res.result.report.usable);
+  REQUIRE(res.result.report.covariance_ok);
+
+  // The filter's own final extrinsics and σ (states_filter.csv: the causal filter beside the smoother).
+  const auto filt = io::read_states_csv(tmp / "run" / "states_filter.csv").back();
+  const auto ref = io::read_states_csv(tmp / "ref" / "states.csv").back();
+  const Vector6d d = math::pose_difference(filt.T_I_C, ref.T_I_C);
+  for (int i = 0; i < 6; ++i) {
+    INFO("extrinsics component " << i << ": refined − filter " << d(i) << ", filter σ " << filt.sigma(15 + i)
+                                 << ", refined σ " << ref.sigma(15 + i));
+    CHECK(std::abs(d(i)) <= 3.0 * filt.sigma(15 + i));
+    CHECK(ref.sigma(15 + i) > 0.0);
+  }
+  const auto fo = last_objects(tmp / "run"), ro = last_objects(tmp / "ref");
+  const int a = anchor_of(fo);
+  REQUIRE(anchor_of(ro) == a);
+  int checked = 0;
+  for (const auto& [id, row] : fo) {
+    if (id == a || !ro.count(id)) continue;
+    const Pose f_AO = fo.at(a).T_O_W * row.T_O_W.inverse();
+    const Pose r_AO = ro.at(a).T_O_W * ro.at(id).T_O_W.inverse();
+    const Vector6d e = math::pose_difference(f_AO, r_AO);
+    for (int i = 0; i < 6; ++i) {
+      INFO("object " << id << " component " << i << ": " << e(i) << " vs filter σ " << row.sigma_A_O(i));
+      CHECK(std::abs(e(i)) <= 3.0 * row.sigma_A_O(i));
+    }
+    ++checked;
+  }
+  CHECK(checked >= 1);
+}
+
+TEST_CASE("refine/app: a folder without run.json is an input error") {
+  test::TempDir tmp("roe_refine_bad");
+  CHECK_THROWS_AS(app::refine_run(tmp.path, tmp / "out", {}), InputError);
+}
