@@ -11,6 +11,7 @@
 #include "roe/core/error.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/eval_report.hpp"
+#include "roe/io/evo_result.hpp"
 #include "roe/io/input.hpp"
 #include "roe/io/output.hpp"
 
@@ -287,6 +288,15 @@ EvalResult run_eval(const EvalOptions& options) {
   json report = io::eval_report_json(rep, ctx);
 
   EvalResult res;
+  // evo's result file: checked before anything is written, written after the folder (nothing half-written).
+  std::optional<io::EvoResult> evo;
+  if (!o.save_results.empty()) {
+    io::refuse_overwriting_inputs(o.save_results, {o.est, o.gt}, "--save_results file");
+    if (!o.force && io::path_exists(o.save_results))
+      throw InputError("the results file exists; pass --force to replace it", {o.save_results});
+    evo = io::evo_ape_result(rep, ctx.gt_path, ctx.est_path);
+    report["evo_results"] = o.save_results;
+  }
   const fs::path out = output_folder(o, est);
   if (o.plot && out.empty()) {
     throw InputError(
@@ -305,6 +315,7 @@ EvalResult run_eval(const EvalOptions& options) {
     dir.commit();
     res.out = out;
   }
+  if (evo) io::write_evo_result(o.save_results, *evo);
   res.report = std::move(report);
   return res;
 }

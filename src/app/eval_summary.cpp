@@ -11,6 +11,7 @@
 #include "roe/core/error.hpp"
 #include "roe/eval/metrics.hpp"
 #include "roe/io/csv.hpp"
+#include "roe/io/evo_result.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 
@@ -79,9 +80,21 @@ std::vector<std::pair<std::string, std::pair<double, double>>> rpe_blocks(const 
   return out;
 }
 
+/// A number of the table, "–" where a run does not have it (an evo result holds one metric).
+std::string cell(double v, int decimals) { return std::isnan(v) ? "–" : fmt::format("{:.{}f}", v, decimals); }
+
 std::string vec3(const std::vector<double>& v, int first, int decimals) {
-  return fmt::format("[{:.{}f}, {:.{}f}, {:.{}f}]", v[first], decimals, v[first + 1], decimals, v[first + 2],
-                     decimals);
+  return "[" + cell(v[first], decimals) + ", " + cell(v[first + 1], decimals) + ", " + cell(v[first + 2], decimals) + "]";
+}
+
+/// The part of an evo result's title that names the alignment (evo/main_ape.py), as roe's --align value;
+/// null when the title names none roe knows.
+json evo_alignment(const std::string& title) {
+  if (title.find("(with SE(3) Umeyama alignment)") != std::string::npos) return "se3";
+  if (title.find("(with Sim(3) Umeyama alignment)") != std::string::npos) return "sim3";
+  if (title.find("(with origin alignment)") != std::string::npos) return "origin";
+  if (title.find("(not aligned)") != std::string::npos) return "none";
+  return nullptr;
 }
 
 /// Rows that share a label cannot be told apart in the table: one warning per repeated label.
@@ -122,27 +135,88 @@ std::vector<std::pair<std::string, double>> eval_report_metrics(const json& j, c
   }
 }
 
+namespace {
+
+struct Row {
+  std::string label, file;
+  std::optional<std::size_t> n_objects;  ///< none: not a roe run (no objects to count)
+  std::size_t n_matched = 0;
+  std::vector<double> v;  ///< kCols (NaN where the report has no such figure), then RPE columns
+  json settings = json::object();
+  std::vector<std::pair<std::string, std::pair<double, double>>> rpe;
+};
+
+/// A row from an evo result zip (evo_ape --save_results): its one APE figure in its column, the others NaN;
+/// the alignment from its title, the other settings unknown.
+Row evo_row(const fs::path& f) {
+  const io::EvoResult r = io::read_evo_result(f);
+  Row row;
+  row.file = f.string();
+  const std::string title = r.info.value("title", std::string());
+  const std::string first_line = title.substr(0, title.find('\n'));
+  int col = -1;
+  if (first_line == "APE w.r.t. translation part (m)" || first_line == "APE w.r.t. point distance (m)") col = 6;
+  if (first_line == "APE w.r.t. rotation angle in degrees (deg)") col = 7;
+  if (col < 0 || !r.stats.contains("rmse"))
+    throw InputError(fmt::format("evo result '{}': roe --summary reads evo's APE of the translation part, point "
+                                 "distance or rotation angle in degrees (the columns ate_rmse_m, rot_rmse_deg)",
+                                 first_line),
+                     {row.file, 0, 0, "info.json:title"});
+  row.v.assign(kNumCols, std::numeric_limits<double>::quiet_NaN());
+  row.v[static_cast<std::size_t>(col)] = r.stats["rmse"].get<double>();
+  const std::string est = r.info.value("est_name", std::string());
+  row.label = est.empty() ? f.stem().string() : label_from_path(est, false);
+  if (const io::NpyArray* e = r.array("error_array")) row.n_matched = e->numel();
+  for (const Setting& st : kSettings) row.settings[st.key] = nullptr;
+  row.settings["alignment"] = evo_alignment(title);
+  return row;
+}
+
+/// Mean and population std of each column over the runs that have it; a warning for a column that some
+/// runs lack (evo result files hold one metric each).
+void column_stats(const std::vector<Row>& rows, const std::vector<std::string>& cols, std::vector<double>& mean,
+                  std::vector<double>& sd, std::vector<std::string>& warnings) {
+  const std::size_t n_cols = cols.size();
+  mean.assign(n_cols, std::numeric_limits<double>::quiet_NaN());
+  sd = mean;
+  for (std::size_t k = 0; k < n_cols; ++k) {
+    std::vector<double> column;
+    for (const auto& r : rows)
+      if (!std::isnan(r.v[k])) column.push_back(r.v[k]);
+    if (column.size() < rows.size() && !column.empty())
+      warnings.push_back(fmt::format("{}: {} of the {} runs have it (the others are evo results of another metric); "
+                                     "its mean and std are over those",
+                                     cols[k], column.size(), rows.size()));
+    if (column.empty()) continue;
+    const eval::Stats st = eval::compute_stats(column);  // mean and population std (ddof 0)
+    mean[k] = st.mean;
+    sd[k] = st.std;
+  }
+}
+
+}  // namespace
+
 EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
   if (o.reports.empty()) throw InputError("--summary needs at least one report.json", {"roe eval"});
-  struct Row {
-    std::string label, file;
-    std::size_t n_objects = 0, n_matched = 0;
-    std::vector<double> v;
-    json settings = json::object();
-    std::vector<std::pair<std::string, std::pair<double, double>>> rpe;
-  };
   std::vector<Row> rows;
   for (const auto& r : o.reports) {
     fs::path f = r;
     if (io::is_folder(f))
       f = io::path_exists(f / "report.json") ? f / "report.json" : f / "eval" / "report.json";
+    if (io::path_exists(f) && !io::is_folder(f) && io::looks_like_zip(f)) {
+      rows.push_back(evo_row(f));
+      continue;
+    }
     const json j = io::parse_json_file(f);
     Row row;
     try {
       row.file = f.string();
       row.label = j.contains("info") && j["info"].contains("label") ? j["info"]["label"].get<std::string>()
                                                                     : f.parent_path().filename().string();
-      row.n_objects = j.contains("per_object") ? j["per_object"].size() : 0;
+      const bool run = j.contains("inputs") && j["inputs"].contains("est") &&
+                       j["inputs"]["est"].value("kind", std::string()) == "run";
+      if (run || (j.contains("per_object") && !j["per_object"].empty()))
+        row.n_objects = j.contains("per_object") ? j["per_object"].size() : 0;
       row.n_matched = j.contains("association") ? j["association"].value("n_matched", std::size_t{0}) : 0;
       for (const auto& [name, value] : eval_report_metrics(j, row.file)) row.v.push_back(value);
       for (const Setting& st : kSettings) row.settings[st.key] = setting_value(j, st);
@@ -205,14 +279,8 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     }
   }
   const int n_cols = static_cast<int>(cols.size());
-  std::vector<double> mean(n_cols, 0.0), sd(n_cols, 0.0);
-  for (int k = 0; k < n_cols; ++k) {
-    std::vector<double> column;
-    for (const auto& r : rows) column.push_back(r.v[k]);
-    const eval::Stats st = eval::compute_stats(column);  // mean and population std (ddof 0)
-    mean[k] = st.mean;
-    sd[k] = st.std;
-  }
+  std::vector<double> mean, sd;
+  column_stats(rows, cols, mean, sd, warnings);
 
   EvalSummaryResult res;
   json runs = json::array();
@@ -220,16 +288,16 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     json jr = {{"run", i + 1},
                {"label", rows[i].label},
                {"report", rows[i].file},
-               {"n_objects", rows[i].n_objects},
+               {"n_objects", rows[i].n_objects ? json(*rows[i].n_objects) : json(nullptr)},
                {"n_matched", rows[i].n_matched}};
-    for (int k = 0; k < n_cols; ++k) jr[cols[k]] = rows[i].v[k];
+    for (int k = 0; k < n_cols; ++k) jr[cols[k]] = std::isnan(rows[i].v[k]) ? json(nullptr) : json(rows[i].v[k]);
     for (const Setting& st : kSettings) jr[st.key] = rows[i].settings[st.key];
     runs.push_back(jr);
   }
   json jm, js;
   for (int k = 0; k < n_cols; ++k) {
-    jm[cols[k]] = mean[k];
-    js[cols[k]] = sd[k];
+    jm[cols[k]] = std::isnan(mean[k]) ? json(nullptr) : json(mean[k]);
+    js[cols[k]] = std::isnan(sd[k]) ? json(nullptr) : json(sd[k]);
   }
   res.summary = {{"runs", runs},
                  {"mean", jm},
@@ -243,13 +311,17 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
   // The Euler columns under their metric's name (roe eval --euler): the same words mean other figures.
   const std::string euler_name = common.contains("euler_metric") ? setting_text(common["euler_metric"]) : "mixed";
   std::string md = fmt::format(
-      "| Run | Label | #objects | (x, y, z) [m] | (roll, pitch, yaw) [deg], Euler metric '{}' |\n|---|---|---|---|---|\n",
+      "| Run | Label | #objects | (x, y, z) [m] | (roll, pitch, yaw) [deg], Euler metric '{}' | APE RMSE [m], [deg] "
+      "|\n|---|---|---|---|---|---|\n",
       euler_name);
   for (std::size_t i = 0; i < rows.size(); ++i)
-    md += fmt::format("| {} | {} | {} | {} | {} |\n", i + 1, rows[i].label, rows[i].n_objects,
-                      vec3(rows[i].v, 0, 3), vec3(rows[i].v, 3, 2));
-  md += fmt::format("| mean | | - | {} | {} |\n", vec3(mean, 0, 3), vec3(mean, 3, 2));
-  md += fmt::format("| ± std | | | ± {} | ± {} |\n", vec3(sd, 0, 3), vec3(sd, 3, 2));
+    md += fmt::format("| {} | {} | {} | {} | {} | {}, {} |\n", i + 1, rows[i].label,
+                      rows[i].n_objects ? std::to_string(*rows[i].n_objects) : "–", vec3(rows[i].v, 0, 3),
+                      vec3(rows[i].v, 3, 2), cell(rows[i].v[6], 3), cell(rows[i].v[7], 2));
+  md += fmt::format("| mean | | - | {} | {} | {}, {} |\n", vec3(mean, 0, 3), vec3(mean, 3, 2), cell(mean[6], 3),
+                    cell(mean[7], 2));
+  md += fmt::format("| ± std | | | ± {} | ± {} | ± {}, {} |\n", vec3(sd, 0, 3), vec3(sd, 3, 2), cell(sd[6], 3),
+                    cell(sd[7], 2));
   if (n_cols > kNumCols) {
     md += "\n| Run | Label |";
     std::string sep = "|---|---|";
@@ -304,8 +376,12 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     w.header(h);
     for (std::size_t i = 0; i < rows.size(); ++i) {
       w.add(std::to_string(i + 1)).add(rows[i].label).add(rows[i].file);
-      w.add(static_cast<std::int64_t>(rows[i].n_objects)).add(static_cast<std::int64_t>(rows[i].n_matched));
-      for (double v : rows[i].v) w.add(v);
+      if (rows[i].n_objects)
+        w.add(static_cast<std::int64_t>(*rows[i].n_objects));
+      else
+        w.add_empty();
+      w.add(static_cast<std::int64_t>(rows[i].n_matched));
+      for (double v : rows[i].v) std::isnan(v) ? w.add_empty() : w.add(v);
       for (const Setting& st : kSettings) {
         const json& v = rows[i].settings[st.key];
         if (v.is_null())
@@ -321,7 +397,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
     }
     for (const auto& [name, vals] : {std::pair{"mean", &mean}, std::pair{"std", &sd}}) {
       w.add(name).add_empty().add_empty().add_empty().add_empty();
-      for (double v : *vals) w.add(v);
+      for (double v : *vals) std::isnan(v) ? w.add_empty() : w.add(v);
       for (std::size_t k = 0; k < std::size(kSettings); ++k) w.add_empty();
       w.end_row();
     }

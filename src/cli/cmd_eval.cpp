@@ -19,7 +19,6 @@ namespace {
 struct Args {
   app::EvalOptions opt;
   bool evo_align = false, evo_scale = false, evo_origin = false;  // evo's -a, -s (-as), --align_origin
-  std::string evo_save_results;
   std::vector<std::string> words;   // positional: EST, or evo's FORMAT REF EST / bag BAG REF EST
   std::string evo_ref;              // evo_traj's --ref
   std::string evo_pose_relation;    // evo's -r/--pose_relation
@@ -178,8 +177,9 @@ RunFn setup(CLI::App& sub) {
                          ->group("evo spellings"));
   a->eval_only.push_back(rpe_only.back());
   const auto evo_refusals = add_evo_refusals(sub);
-  a->eval_only.push_back(sub.add_option("--save_results", a->evo_save_results,
-                                        "evo's results zip: roe writes its results to --out DIR instead")
+  a->eval_only.push_back(sub.add_option("--save_results", a->opt.save_results,
+                                        "Also write evo's result file (FILE.zip) of the APE, for evo_res / evo_fig "
+                                        "and roe eval --summary")
                              ->group("evo spellings"));
   sub.add_option("--summary", a->summary,
                  "Summarise report.json files: mean and std over runs (paper table layout)")
@@ -188,11 +188,6 @@ RunFn setup(CLI::App& sub) {
     evo_refusals();
     check_pose_relation(a->evo_pose_relation);
     apply_eval_words(*a);
-    if (!a->evo_save_results.empty())
-      throw InputError(fmt::format("--save_results is evo's results zip: roe writes report.json and the CSV "
-                                   "files into a folder: --out {} (read them with `roe eval --summary`)",
-                                   fs::path(a->evo_save_results).replace_extension().string()),
-                       {"", 0, 0, "save_results"});
     apply_evo_alignment(*a, align->count() > 0);
     if (rpe_delta->count() == 0) {
       // The RPE settings do nothing without a delta: say so instead of ignoring them.

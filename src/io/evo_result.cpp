@@ -1,9 +1,11 @@
 #include "roe/io/evo_result.hpp"
 
 #include "roe/core/error.hpp"
+#include "roe/eval/align.hpp"
 #include "roe/io/input.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
+#include "roe/io/trajectory_io.hpp"
 #include "roe/io/zip.hpp"
 
 namespace roe::io {
@@ -55,6 +57,71 @@ EvoResult read_evo_result(const fs::path& zip) {
     throw InputError(std::string("not an evo result file: it has no ") + (info ? "stats.json" : "info.json") +
                          " (evo_ape/evo_rpe --save_results write both)",
                      {source});
+  return r;
+}
+
+namespace {
+
+/// evo's title for the alignment of the report (main_ape.py).
+std::string evo_title(const eval::Report& rep) {
+  std::string t = "APE w.r.t. translation part (m)";
+  const std::string a = eval::to_string(rep.align_type());
+  if (a == "se3") t += "\n(with SE(3) Umeyama alignment)";
+  else if (a == "sim3") t += "\n(with Sim(3) Umeyama alignment)";
+  else if (a == "origin") t += "\n(with origin alignment)";
+  else if (a == "none") t += "\n(not aligned)";
+  else t += "\n(with " + a + " alignment)";
+  if (rep.params.n_align > 0 && (a == "se3" || a == "sim3"))
+    t += " (aligned poses: " + std::to_string(rep.params.n_align) + ")";
+  return t;
+}
+
+/// Cumulative path length along the poses, from 0.
+std::vector<double> distances(std::size_t n, const std::function<Eigen::Vector3d(std::size_t)>& p) {
+  std::vector<double> d(n, 0.0);
+  for (std::size_t k = 1; k < n; ++k) d[k] = d[k - 1] + (p(k) - p(k - 1)).norm();
+  return d;
+}
+
+}  // namespace
+
+EvoResult evo_ape_result(const eval::Report& rep, const std::string& ref_name, const std::string& est_name) {
+  const std::size_t n = rep.n_pairs();
+  const auto N = static_cast<std::int64_t>(n);
+  EvoResult r;
+  r.info = {{"title", evo_title(rep)}, {"ref_name", ref_name}, {"est_name", est_name}, {"label", "APE (m)"}};
+  const eval::Stats& s = rep.ape.trans_m;
+  r.stats = {{"rmse", s.rmse}, {"mean", s.mean}, {"median", s.median}, {"std", s.std},
+             {"min", s.min}, {"max", s.max}, {"sse", s.sse}};
+  std::vector<double> err(n), t(n), t0(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    err[k] = rep.error(k).dp.norm();
+    t[k] = to_seconds(rep.t_est(k));
+    t0[k] = t[k] - t[0];
+  }
+  r.arrays.emplace_back("error_array", NpyArray::float64({N}, err));
+  r.arrays.emplace_back("seconds_from_start", NpyArray::float64({N}, t0));
+  r.arrays.emplace_back("timestamps", NpyArray::float64({N}, t));
+  r.arrays.emplace_back("distances_from_start",
+                        NpyArray::float64({N}, distances(n, [&](std::size_t k) { return rep.gt(k).p; })));
+  r.arrays.emplace_back("distances",
+                        NpyArray::float64({N}, distances(n, [&](std::size_t k) { return rep.est_aligned(k).p; })));
+  if (rep.alignment.type != eval::AlignType::kNone) {
+    Eigen::Matrix4d T = Eigen::Matrix4d::Identity();  // evo's Sim(3) matrix [sR t; 0 1]
+    T.topLeftCorner<3, 3>() = rep.alignment.s * rep.alignment.R;
+    T.topRightCorner<3, 1>() = rep.alignment.t;
+    std::vector<double> m(16);
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) m[static_cast<std::size_t>(4 * i + j)] = T(i, j);
+    r.arrays.emplace_back("alignment_transformation_sim3", NpyArray::float64({4, 4}, m));
+  }
+  const auto tum = [&](bool est) {
+    return format_trajectory(n, [&](std::size_t k) {
+      return StampedPose{est ? rep.t_est(k) : rep.t_gt(k), est ? rep.est_aligned(k) : rep.gt(k)};
+    }, TrajectoryFormat::kTum);
+  };
+  r.trajectories.emplace_back(ref_name + ".tum", tum(false));
+  r.trajectories.emplace_back(est_name + ".tum", tum(true));
   return r;
 }
 

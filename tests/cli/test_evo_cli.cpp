@@ -4,9 +4,14 @@
 #include "support/test_util.hpp"
 
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+
+#include "roe/io/input.hpp"
+#include "roe/io/output.hpp"
+#include "roe/io/zip.hpp"
 
 namespace fs = std::filesystem;
 
@@ -104,4 +109,68 @@ TEST_CASE("evo's forms that roe cannot take are answered with roe's spelling", "
 TEST_CASE("arguments roe did not expect are listed in the order they were typed", "[cli][eval][evo]") {
   const auto r = fails("est.txt --first 1 --second 2 --third");
   CHECK_THAT(r.out, Catch::Contains("not expected: --first --second --third"));
+}
+
+TEST_CASE("--save_results writes evo's result file, --summary reads it beside roe's reports", "[cli][eval][evo]") {
+  const fs::path gt = kData / "eval/freiburg1_xyz-groundtruth.txt", est = kData / "eval/freiburg1_xyz-rgbdslam.txt";
+  if (!fs::exists(gt) || roe::test::run_shell("/usr/bin/python3 -c 'import numpy'").code != 0) {
+    WARN("skipped: ../shared/data or /usr/bin/python3 with numpy absent");
+    return;
+  }
+  roe::test::TempDir tmp("roe_test_evo_save");
+  const fs::path zip = tmp.path / "ape.zip";
+  const auto rep = report("tum " + gt.string() + " " + est.string() + " -a --save_results " + zip.string());
+  REQUIRE(fs::exists(zip));
+  CHECK(rep["evo_results"] == zip.string());
+  // Read as evo's load_res_file reads it: Python's zipfile and NumPy.
+  const std::string fixture = std::string(ROE_SOURCE_DIR) + "/tests/fixtures/evo/evo_result_fixture.py";
+  const auto py = roe::test::run_shell("/usr/bin/python3 " + fixture + " read " + zip.string() + " 2>/dev/null");
+  REQUIRE(py.code == 0);
+  const auto j = nlohmann::json::parse(py.out);
+  const std::vector<std::string> arrays = {"error_array", "seconds_from_start", "timestamps", "distances_from_start",
+                                           "distances", "alignment_transformation_sim3"};
+  for (std::size_t k = 0; k < arrays.size(); ++k) CHECK(j["names"][2 + k] == arrays[k] + ".npy");
+  CHECK(j["names"][8] == gt.string() + ".tum");
+  CHECK(j["names"][9] == est.string() + ".tum");
+  CHECK(j["info"]["title"] == "APE w.r.t. translation part (m)\n(with SE(3) Umeyama alignment)");
+  CHECK(j["info"]["label"] == "APE (m)");
+  CHECK(j["stats"]["rmse"].get<double>() == rep["ape_trans_m"]["rmse"].get<double>());
+  CHECK(j["stats"]["max"].get<double>() == rep["ape_trans_m"]["max"].get<double>());
+  const std::size_t n = rep["association"]["n_matched"].get<std::size_t>();
+  CHECK(j["arrays"]["error_array"].size() == n);
+  CHECK(j["shapes"]["alignment_transformation_sim3"] == nlohmann::json({4, 4}));
+  double rms = 0.0;
+  for (const auto& e : j["arrays"]["error_array"]) rms += e.get<double>() * e.get<double>() / static_cast<double>(n);
+  CHECK(std::sqrt(rms) == Approx(rep["ape_trans_m"]["rmse"].get<double>()).epsilon(1e-12));
+  // Not replaced without --force; --force replaces it.
+  CHECK(fails("tum " + gt.string() + " " + est.string() + " --no-out --save_results " + zip.string()).code == 2);
+  CHECK(roe::test::run_roe("eval tum " + gt.string() + " " + est.string() + " --no-out --force --save_results " +
+                           zip.string()).code == 0);
+
+  // --summary: evo's zip (written by Python as evo writes it) and roe's zip beside a roe report.
+  const auto fx = roe::test::run_shell("/usr/bin/python3 " + fixture + " write " + (tmp.path / "fx").string());
+  REQUIRE(fx.code == 0);
+  const auto expected = nlohmann::json::parse(roe::io::read_file(tmp.path / "fx/expected.json"));
+  const fs::path report_dir = tmp.path / "roe_eval";
+  REQUIRE(roe::test::run_roe("eval tum " + gt.string() + " " + est.string() + " -a --out " + report_dir.string()).code == 0);
+  const auto s = roe::test::run_roe("--json eval --summary " + (tmp.path / "fx/stored.zip").string() + " " +
+                                        zip.string() + " " + (report_dir / "report.json").string(),
+                                    false);
+  INFO(s.out);
+  REQUIRE(s.code == 0);
+  const auto sum = nlohmann::json::parse(s.out);
+  CHECK(sum["runs"][0]["ate_rmse_m"].get<double>() == expected["stats"]["rmse"].get<double>());  // unchanged
+  CHECK(sum["runs"][0]["rmse_x_m"].is_null());
+  CHECK(sum["runs"][0]["n_objects"].is_null());
+  CHECK(sum["runs"][0]["alignment"] == "se3");
+  CHECK(sum["runs"][1]["ate_rmse_m"].get<double>() == rep["ape_trans_m"]["rmse"].get<double>());
+  CHECK(sum["runs"][1]["label"] == "freiburg1_xyz-rgbdslam");
+  CHECK(sum["runs"][2]["ate_rmse_m"].get<double>() == rep["ape_trans_m"]["rmse"].get<double>());
+  CHECK_THAT(sum["warnings"].dump(), Catch::Contains("rmse_x_m: 1 of the 3 runs"));
+  // An evo result of another metric is refused naming what --summary reads.
+  const fs::path rpe_zip = tmp.path / "rpe.zip";
+  roe::io::write_file_atomic(
+      rpe_zip, roe::io::write_zip({{"info.json", R"J({"title": "RPE w.r.t. translation part (m)\nfor delta = 1 (m)"})J"},
+                                   {"stats.json", R"({"rmse": 0.5})"}}));
+  CHECK_THAT(fails("--summary " + rpe_zip.string()).out, Catch::Contains("ate_rmse_m"));
 }

@@ -67,6 +67,9 @@ struct EvalOptions {
   /// --fit-body-rotation: also report the constant body-frame rotation after the alignment and the
   /// metrics without it (a diagnostic; the headline figures never include it).
   bool fit_body_rotation = false;
+  /// --save_results FILE.zip: also write evo's result file of the APE (translation part), which evo_res and
+  /// evo_fig read (io/evo_result.hpp); works with --no-out too.
+  std::string save_results;
 };
 
 /// One row of a run folder's reprojection.csv: the IMU pose T_W_I implied by one raw detection.

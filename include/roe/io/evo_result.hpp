@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "roe/eval/evaluate.hpp"
 #include "roe/io/npy.hpp"
 
 namespace roe::io {
@@ -30,6 +31,13 @@ struct EvoResult {
 EvoResult read_evo_result(const std::filesystem::path& zip);
 /// Writes it (members stored, in evo's order: info, stats, arrays, trajectories), atomically.
 void write_evo_result(const std::filesystem::path& zip, const EvoResult& r);
+
+/// What evo_ape --pose_relation trans_part --save_results writes for the same evaluation: the title with the
+/// alignment, stats of the translation errors |p_est − p_gt| (evo's APE trans_part; equal to
+/// report.json's ape_trans_m), error_array, timestamps, seconds_from_start, distances_from_start (along the
+/// matched ground truth), distances (along the aligned matched estimate), alignment_transformation_sim3
+/// (when aligned) and both matched trajectories as TUM text named after `ref_name` / `est_name`.
+EvoResult evo_ape_result(const eval::Report& rep, const std::string& ref_name, const std::string& est_name);
 
 /// True when the file starts like a ZIP archive (a local file header).
 bool looks_like_zip(const std::filesystem::path& file);
