@@ -103,12 +103,25 @@ SqliteReader::SqliteReader(const fs::path& file) : db_(std::make_unique<Db>()), 
           topics_.push_back(std::move(t));
         },
         "topics");
+  std::uint64_t orphans = 0;
+  std::set<std::int64_t> orphan_ids;
   query("SELECT topic_id, COUNT(*) FROM messages GROUP BY topic_id",
         [&](sqlite3_stmt* s) {
           const auto it = index.find(sqlite3_column_int64(s, 0));
-          if (it != index.end()) topics_[it->second].count = static_cast<std::uint64_t>(sqlite3_column_int64(s, 1));
+          const auto n = static_cast<std::uint64_t>(sqlite3_column_int64(s, 1));
+          if (it != index.end()) {
+            topics_[it->second].count = n;
+          } else {
+            orphans += n;
+            orphan_ids.insert(sqlite3_column_int64(s, 0));
+          }
         },
         "messages");
+  // Rows no topic claims cannot be decoded (no type): said, not dropped in silence.
+  if (orphans > 0)
+    warnings_.push_back({0, fmt::format("{} message(s) have a topic_id that no row of table topics has ({}{}): they "
+                                        "are skipped",
+                                        orphans, *orphan_ids.begin(), orphan_ids.size() > 1 ? ", ..." : "")});
 }
 
 SqliteReader::~SqliteReader() = default;
