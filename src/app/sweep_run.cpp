@@ -198,7 +198,7 @@ JobOutcome run_job(const SweepFolder& s, std::size_t index, bool retry_failed) {
     fs::remove_all(old);
     if (fs::exists(final_dir)) fs::rename(final_dir, old);
     fs::rename(work, final_dir);
-    fs::remove_all(old);
+    fs::remove_all(old);  // path-checked: as above
   }
   o.action = o.exit_code == 0 ? "done" : "failed";
   return o;

@@ -152,6 +152,10 @@ void SqliteReader::for_each(const std::set<std::int64_t>& topic_ids,
                                    "; the rest of the table is skipped"});
 }
 
+namespace {
+Metadata parse_metadata(const YAML::Node& root, const std::string& name);
+}  // namespace
+
 Metadata read_metadata(const fs::path& file) {
   const std::string name = file.string();
   YAML::Node root;
@@ -162,6 +166,17 @@ Metadata read_metadata(const fs::path& file) {
   } catch (const YAML::Exception& e) {
     throw InputError(std::string("cannot read: ") + e.what(), {name});
   }
+  if (!root.IsMap()) throw InputError("not a rosbag2 metadata.yaml (not a map with rosbag2_bagfile_information)", {name});
+  try {
+    return parse_metadata(root, name);
+  } catch (const YAML::Exception& e) {  // a shape the checks did not foresee (a list where a map belongs)
+    throw InputError(std::string("not a rosbag2 metadata.yaml: ") + e.msg, {name, e.mark.line + 1, e.mark.column + 1});
+  }
+}
+
+namespace {
+
+Metadata parse_metadata(const YAML::Node& root, const std::string& name) {
   const YAML::Node info = root["rosbag2_bagfile_information"];
   if (!info || !info.IsMap())
     throw InputError("not a rosbag2 metadata.yaml (no rosbag2_bagfile_information map)", {name});
@@ -224,5 +239,7 @@ Metadata read_metadata(const fs::path& file) {
                      {name, 0, 0, base + "compression_mode"});
   return m;
 }
+
+}  // namespace
 
 }  // namespace roe::io::rosbag2

@@ -315,7 +315,7 @@ TEST_CASE("roe sweep aggregate: --out inside the sweep's own folders is refused,
   const std::string id = json::parse(slurp(sw / "jobs.jsonl").substr(0, slurp(sw / "jobs.jsonl").find('\n')))["id"];
   fs::create_directories(sw / "jobs" / id);
   std::ofstream(sw / "jobs" / id / "result.json") << "{}";
-  for (const fs::path out : {sw / "jobs", sw / "jobs" / id, sw / "work", sw / "locks" / "x", sw, tmp})
+  for (const fs::path out : {sw / "jobs", sw / "jobs" / id, sw / "work", sw / "locks" / "x", sw, tmp.path})
     CHECK(roe::test::run_roe("sweep aggregate " + q(sw) + " --out " + q(out) + " --force").code == 2);
   CHECK(fs::exists(sw / "jobs" / id / "result.json"));
   CHECK(fs::exists(sw / "jobs.jsonl"));
@@ -375,7 +375,9 @@ TEST_CASE("roe sweep emit: GNU parallel runs the script on a folder named with s
   CHECK(WEXITSTATUS(rc) == 0);
   CHECK(!fs::exists(tmp / "INJECTED"));
   CHECK(!fs::exists(tmp / "INJECTED2"));
-  CHECK(status_of(s)["done"] == 2);
+  const auto st = roe::test::run_roe("sweep status " + sh(s.string()) + " --json", false);
+  REQUIRE(st.code == 0);
+  CHECK(json::parse(st.out)["done"] == 2);
   // A newline in a #SBATCH value would add a directive: refused. The comment shows no raw newline either.
   auto r = roe::test::run_roe("sweep emit slurm " + sh(s.string()) + " --job-name " + sh("x\n#SBATCH --mem=999G"));
   CHECK(r.code == 2);
