@@ -16,7 +16,9 @@
 #include "roe/io/mcap.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/poet_results.hpp"
+#include "roe/io/rosbag.hpp"
 #include "roe/io/rosbag2.hpp"
+#include "fixtures/bag_writer.hpp"
 #include "support/test_util.hpp"
 
 namespace fs = std::filesystem;
@@ -87,6 +89,38 @@ TEST_CASE("mcap: a chunk claiming more than the file's limit is skipped, overlap
   for (const auto& w : r.warnings())
     said = said || (!w.damage && w.message.find("chunks overlapping in time hold more than") != std::string::npos);
   CHECK(said);
+}
+
+TEST_CASE("ros1 bag: overlapping LZ4 chunks are not all held, a chunk beyond the limit is skipped",
+          "[io][rosbag][hostile][limits]") {
+  // 8 chunks of two 1 MiB messages each, at times k and 1000 - k: every chunk spans the others.
+  roe::testing::BagWriter w("lz4", 2u << 20);
+  const std::string mib(1u << 20, '\0');
+  for (int k = 0; k < 8; ++k) {
+    w.write("/big", "std_msgs/String", k + 1, mib);
+    w.write("/big", "std_msgs/String", 1000 - k, mib);
+  }
+  const std::string bytes = w.finish();
+  io::bag::ReaderOptions o;
+  o.max_chunk_bytes = 4u << 20;
+  io::bag::Reader r(bytes, "overlap.bag", o);
+  std::size_t n = 0;
+  r.for_each_topic({"/big"}, [&](const io::bag::MessageView& v) { return n += v.data.size() == mib.size(), true; });
+  CHECK(n == 16);
+  bool said = false;
+  for (const auto& w2 : r.warnings())
+    said = said || (!w2.damage && w2.message.find("chunks overlapping in time hold more than") != std::string::npos);
+  CHECK(said);
+  // A limit below one chunk: each chunk is skipped with the limit named, nothing is allocated for it.
+  o.max_chunk_bytes = 1u << 20;
+  io::bag::Reader small(bytes, "small.bag", o);
+  n = 0;
+  small.for_each_topic({"/big"}, [&](const io::bag::MessageView&) { return ++n, true; });
+  CHECK(n == 0);
+  bool limit = false;
+  for (const auto& w2 : small.warnings())
+    limit = limit || w2.message.find("more than the 1048576-byte limit") != std::string::npos;
+  CHECK(limit);
 }
 
 TEST_CASE("zstd file decompression stops at its limit with the compressed offset", "[io][hostile][limits]") {
