@@ -52,6 +52,8 @@ seeds() {
     fuzz_rosbag) pats='*.bag' ;;
     fuzz_mcap) pats='*.mcap' ;;
     fuzz_cdr) pats='*.mcap *.db3' ;;
+    fuzz_rosbag2_metadata) pats='metadata.yaml' ;;
+    fuzz_sweep) pats='*.sweep-seed' ;;
     *) pats='*' ;;
   esac
   local dirs=(tests/data tests/fuzz/seeds datasets configs)

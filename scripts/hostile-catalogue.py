@@ -210,8 +210,20 @@ def lying_bag_length(b, offset_field):
 
 
 class Case:
-    def __init__(self, name, setup, argv, allowed):
+    """`check(d)`, when given, is a post-condition on the case folder after the run (None when it holds, else
+    what is wrong); `max_rss_mb` bounds the peak resident memory (measured with /usr/bin/time)."""
+
+    def __init__(self, name, setup, argv, allowed, check=None, max_rss_mb=None, time_limit_s=TIME_LIMIT_S):
         self.name, self.setup, self.argv, self.allowed = name, setup, argv, allowed
+        self.check, self.max_rss_mb, self.time_limit_s = check, max_rss_mb, time_limit_s
+
+
+ROE = None  # the binary under test, for setups that need roe itself (a planned sweep, a run folder)
+
+
+def roe_setup(d, *args):
+    subprocess.run([ROE] + list(args) + ["-q"], cwd=d, check=True, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL, env=dict(os.environ, TMPDIR=os.path.join(d, "tmp")))
 
 
 def dataset_copy(dst):
@@ -339,6 +351,200 @@ def cases():
                    ["truncate-50%", "truncate-in-last-line", "bit-flips", "nan", "huge-int", "unsorted-stamps",
                     "zero-quaternion", "utf8-bom"],
                    run, ds_needed=True, rel="ds/detections/sim/detections.csv")
+    out += third_round_cases()
+    return out
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Third round (issue 40): nothing outside the output, bounded disk and memory, safe generated scripts.
+# Each case has a post-condition beyond its exit code.
+# ----------------------------------------------------------------------------------------------------------
+
+SWEEP_SPEC = json.dumps({"format": "roe-sweep-spec/1",
+                         "axes": {"datasets": [{"preset": "paper-seq1", "duration_s": 2}], "seeds": [1, 2]}})
+
+
+def plan_sweep(d):
+    put(os.path.join(d, "spec.json"), SWEEP_SPEC.encode())
+    roe_setup(d, "sweep", "plan", "spec.json", "--out", "sw")
+
+
+def edit_first_job(d, key, value):
+    p = os.path.join(d, "sw", "jobs.jsonl")
+    lines = read(p).decode().splitlines()
+    j = json.loads(lines[0])
+    if key == "id":
+        j["id"] = value
+    else:
+        j["job"][key] = value
+    lines[0] = json.dumps(j)
+    put(p, ("\n".join(lines) + "\n").encode())
+
+
+def exists_check(*paths, absent=()):
+    def check(d):
+        for p in paths:
+            if not os.path.exists(os.path.join(d, p)):
+                return p + " was deleted"
+        for p in absent:
+            if os.path.lexists(os.path.join(d, p)):
+                return p + " was created"
+        return None
+    return check
+
+
+def tmp_empty(d):
+    left = os.listdir(os.path.join(d, "tmp"))
+    return None if not left else "left in TMPDIR: " + ", ".join(left)
+
+
+def zstd_bytes(raw_size, pattern=b"\0"):
+    """`raw_size` bytes of `pattern`, zstd-compressed (the zstd command line tool)."""
+    block = pattern * (1 << 20 // len(pattern))
+    p = subprocess.Popen(["zstd", "-q", "-1", "-c"], stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+    out = []
+
+    def feed():
+        left = raw_size
+        while left > 0:
+            p.stdin.write(block[: min(left, len(block))])
+            left -= len(block)
+        p.stdin.close()
+    import threading
+    t = threading.Thread(target=feed)
+    t.start()
+    out.append(p.stdout.read())
+    t.join()
+    p.wait()
+    return out[0]
+
+
+def rosbag2_file_bomb(d, raw_size):
+    folder = os.path.join(d, "bag")
+    put(os.path.join(folder, "metadata.yaml"), (
+        "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: sqlite3\n"
+        "  relative_file_paths: [bomb_0.db3.zstd]\n  compression_format: zstd\n  compression_mode: FILE\n"
+        "  message_count: 1\n").encode())
+    # zstd decodes concatenated frames: one frame of 256 MiB repeated is a bomb of any size in a few KB.
+    frame = zstd_bytes(256 << 20)
+    put(os.path.join(folder, "bomb_0.db3.zstd"), frame * max(1, raw_size // (256 << 20)))
+
+
+def mcap_chunk_bomb(n_chunks, claimed, raw):
+    """An MCAP file of `n_chunks` zstd chunks, all at time 0..1 (overlapping), each `raw` bytes of zeros
+    padded as one long message record, claiming `claimed` uncompressed bytes."""
+    def rec(op, body):
+        return bytes([op]) + struct.pack("<Q", len(body)) + body
+
+    def s(t):
+        return struct.pack("<I", len(t)) + t
+
+    header = rec(0x01, s(b"ros2") + s(b"roe-hostile"))
+    schema = rec(0x03, struct.pack("<H", 1) + s(b"geometry_msgs/msg/PoseStamped") + s(b"ros2msg") + struct.pack("<I", 0))
+    channel = rec(0x04, struct.pack("<HH", 1, 1) + s(b"/bomb") + s(b"cdr") + struct.pack("<I", 0))
+    body_len = raw - 9 - 22
+    msg = bytes([0x05]) + struct.pack("<QHIQQ", 22 + body_len, 1, 0, 1, 1)
+    comp = zstd_bytes(body_len)
+    # The records of a chunk: one message record whose data is `body_len` zero bytes; zstd of
+    # (header + zeros) is built as two frames (zstd decodes concatenated frames).
+    p = subprocess.run(["zstd", "-q", "-c"], input=msg, stdout=subprocess.PIPE, check=True)
+    records = p.stdout + comp
+    chunk = rec(0x06, struct.pack("<QQQI", 0, 1, claimed, 0) + s(b"zstd") + struct.pack("<Q", len(records)) + records)
+    body = b"\x89MCAP0\r\n" + header + schema + channel + chunk * n_chunks
+    return body + rec(0x02, struct.pack("<QQI", 0, 0, 0)) + b"\x89MCAP0\r\n"
+
+
+def poet_many(n_images, per_image):
+    """A results.json of n_images × per_image detections for the sample's frames (ids = stamps)."""
+    stamps = [l.split(b",")[0].decode() for l in read(os.path.join(SAMPLE, "mav0/cam0/data.csv")).splitlines()[1:]]
+    det = '{"t": [0.1, 0.2, 0.8], "rot": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "box": [0.5, 0.5, 0.1, 0.1], "class": 1}'
+    img = "{" + ", ".join(f'"{k}": {det}' for k in range(per_image)) + "}"
+    return ("{" + ",\n".join(f'"{stamps[i]}": {img}' for i in range(min(n_images, len(stamps)))) + "}").encode()
+
+
+def third_round_cases():
+    out = []
+    sweep_victim = exists_check("victim", "sw/jobs.jsonl", absent=("victim.old", "victim.lock"))
+    for name, value in [("dotdot", "../../victim"), ("absolute", None), ("empty", ""), ("slash", "a/b"),
+                        ("upper-hex", "ABCDEF0123456789")]:
+        def setup(d, value=value):
+            os.makedirs(os.path.join(d, "victim"))
+            put(os.path.join(d, "victim", "keep"), b"x")
+            plan_sweep(d)
+            edit_first_job(d, "id", os.path.join(d, "victim") if value is None else value)
+        for cmd in (["sweep", "run", "sw", "--index", "0"], ["sweep", "status", "sw"]):
+            out.append(Case(f"sweep-jobs.jsonl/id-{name}/{cmd[1]}", setup, cmd, {2}, sweep_victim))
+
+    def dup_ids(d):
+        plan_sweep(d)
+        p = os.path.join(d, "sw", "jobs.jsonl")
+        lines = read(p).decode().splitlines()
+        j0, j1 = json.loads(lines[0]), json.loads(lines[1])
+        j1["id"] = j0["id"]
+        put(p, (lines[0] + "\n" + json.dumps(j1) + "\n").encode())
+    out.append(Case("sweep-jobs.jsonl/duplicate-id", dup_ids, ["sweep", "run", "sw"], {2}))
+    for name, value in [("dotdot", "../../victim"), ("slash", "a/b")]:
+        out.append(Case(f"sweep-jobs.jsonl/detections-{name}",
+                        lambda d, value=value: (plan_sweep(d), edit_first_job(d, "detections", value)),
+                        ["sweep", "run", "sw", "--index", "0"], {2}))
+    out.append(Case("sweep-folder/work-symlink",
+                    lambda d: (os.makedirs(os.path.join(d, "victim")), plan_sweep(d),
+                               os.symlink(os.path.join(d, "victim"), os.path.join(d, "sw", "work"))),
+                    ["sweep", "run", "sw", "--index", "0"], {2}, exists_check("victim")))
+    # The aggregate's --out inside the sweep's own folders (a finished job's marker must survive).
+    def finished_marker(d):
+        plan_sweep(d)
+        os.makedirs(os.path.join(d, "sw", "jobs", "0123456789abcdef"))
+        put(os.path.join(d, "sw", "jobs", "0123456789abcdef", "result.json"), b"{}")
+    for out_dir in ["sw/jobs", "sw/jobs/0123456789abcdef", "sw/work", "sw/locks/x", "sw", "."]:
+        out.append(Case(f"sweep-aggregate/out-{out_dir.replace('/', '-')}", finished_marker,
+                        ["sweep", "aggregate", "sw", "--out", out_dir, "--force"], {2},
+                        exists_check("sw/jobs/0123456789abcdef/result.json", "sw/jobs.jsonl")))
+    # roe report's --out naming one of its inputs' files.
+    def run_folder(d):
+        dataset_copy(os.path.join(d, "ds"))
+        roe_setup(d, "run", "ds", "--out", "run")
+    for target, extra in [("run/run.json", []), ("run/trajectory.csv", []), ("ds/roe.json", ["--gt", "ds"])]:
+        def keep(d, target=target):
+            return None if not read(os.path.join(d, target)).startswith(b"<!DOCTYPE") else target + " was replaced"
+        out.append(Case(f"report/out-is-input-{target.replace('/', '-')}", run_folder,
+                        ["report", "run", "--out", target, "--force"] + extra, {2}, keep))
+    # Sweep plan: 10^9 jobs refused at once in bounded memory; detection names and durations checked at plan time.
+    big = {"format": "roe-sweep-spec/1", "axes": {"datasets": ["paper-seq1"], "overrides": {
+        "filter.chi2_confidence": [0.9 + i * 1e-5 for i in range(1000)],
+        "filter.meas_sigma_p_m": [0.05 + i * 1e-4 for i in range(1000)],
+        "filter.meas_sigma_rot_deg": [10 + i * 1e-2 for i in range(1000)]}}}
+    for name, spec in [
+        ("billion-jobs", big),
+        ("detections-dotdot", {"format": "roe-sweep-spec/1", "axes": {"datasets": ["paper-seq1"], "detections": ["../x"]}}),
+        ("detections-slash", {"format": "roe-sweep-spec/1", "axes": {"datasets": ["paper-seq1"], "detections": ["a/b"]}}),
+        ("duration-1e9", {"format": "roe-sweep-spec/1", "axes": {"datasets": [{"preset": "paper-seq1", "duration_s": 1e9}]}}),
+    ]:
+        out.append(Case(f"sweep-plan/{name}", lambda d, spec=spec: put(os.path.join(d, "spec.json"), json.dumps(spec).encode()),
+                        ["sweep", "plan", "spec.json", "--out", "sw"], {2}, exists_check(absent=("sw",)), max_rss_mb=200))
+    # Emitted scripts: a newline in a directive's value.
+    out.append(Case("sweep-emit/job-name-newline", plan_sweep,
+                    ["sweep", "emit", "slurm", "sw", "--job-name", "x\n#SBATCH --mem=999G", "--out", "job.sbatch"], {2},
+                    exists_check(absent=("job.sbatch",))))
+    # Decompression: a rosbag2 FILE-compressed bomb (6 GiB of zeros in ~200 KB), MCAP chunk bombs.
+    if shutil.which("zstd"):
+        out.append(Case("rosbag2-file-compression/bomb-6GiB", lambda d: rosbag2_file_bomb(d, 6 << 30),
+                        ["import", "mocap", "bag", "--into", "newds", "--topic", "/tf"], {2}, tmp_empty, max_rss_mb=300))
+        for name, n, claimed, raw in [("claims-1e9", 1, 10**9, 8 << 20), ("lies-small", 1, 1 << 20, 64 << 20),
+                                      ("overlapping-40x60MiB", 40, 60 << 20, 60 << 20)]:
+            out.append(Case(f"mcap-chunk/{name}",
+                            lambda d, n=n, claimed=claimed, raw=raw: put(os.path.join(d, "b.mcap"), mcap_chunk_bomb(n, claimed, raw)),
+                            ["import", "mocap", "b.mcap", "--into", "newds", "--topic", "/bomb"], ANY,
+                            max_rss_mb=400))
+    # PoET results: 400 k detections in ~40 MB stay within 1 KB each (+ the file's text).
+    out.append(Case("import-poet/400k-detections",
+                    lambda d: (dataset_copy(os.path.join(d, "ds")), put(os.path.join(d, "r.json"), poet_many(800, 500))),
+                    ["import", "poet", "r.json", "--into", "ds", "--name", "many"], {0, 2}, max_rss_mb=500,
+                    time_limit_s=120))  # 45 MB of JSON: 31 s on the loaded 2-core VM
+    out.append(Case("import-poet/translation-1e308",
+                    lambda d: (dataset_copy(os.path.join(d, "ds")),
+                               put(os.path.join(d, "r.json"), poet_results().replace(b"0.8", b"1e308", 1))),
+                    ["import", "poet", "r.json", "--into", "ds", "--name", "p"], {2}))
     return out
 
 
@@ -355,15 +561,19 @@ def limit_child():
 
 def run_case(roe, case, workdir):
     d = os.path.join(workdir, case.name.replace("/", "__"))
-    os.makedirs(d)
+    os.makedirs(os.path.join(d, "tmp"))  # the case's TMPDIR: what roe leaves there is seen
     for name, data in (("imu.yaml", IMU_YAML),):
         put(os.path.join(d, name), data)
-    case.setup(d)
-    t0 = time.monotonic()
-    p = subprocess.Popen([roe] + case.argv, cwd=d, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                         preexec_fn=limit_child)
     try:
-        _, err = p.communicate(timeout=TIME_LIMIT_S)
+        case.setup(d)
+    except Exception as e:  # noqa: BLE001 - a setup that cannot be made is reported, not raised in a worker
+        return case.name, "setup", 0.0, f"setup failed: {e}", False
+    t0 = time.monotonic()
+    timed = ["/usr/bin/time", "-f", "ROE_MAXRSS_KB=%M"] if case.max_rss_mb and os.path.exists("/usr/bin/time") else []
+    p = subprocess.Popen(timed + [roe] + case.argv, cwd=d, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                         preexec_fn=limit_child, env=dict(os.environ, TMPDIR=os.path.join(d, "tmp")))
+    try:
+        _, err = p.communicate(timeout=case.time_limit_s)
         code = p.returncode
     except subprocess.TimeoutExpired:
         os.killpg(p.pid, signal.SIGKILL)
@@ -371,8 +581,18 @@ def run_case(roe, case, workdir):
         code = "timeout"
     dt = time.monotonic() - t0
     err = err.decode("utf-8", "replace").strip().splitlines()
+    rss = [int(l.split("=")[1]) for l in err if l.startswith("ROE_MAXRSS_KB=")]
+    err = [l for l in err if not l.startswith("ROE_MAXRSS_KB=") and not l.startswith("Command ")]
     message = err[-1] if err else ""
     ok = code in case.allowed
+    if ok and case.check:
+        why = case.check(d)
+        if why:
+            ok, message = False, f"post-condition: {why} ({message})"
+    if ok and rss and rss[0] > case.max_rss_mb * 1024:
+        ok, message = False, f"peak RSS {rss[0] // 1024} MB > {case.max_rss_mb} MB ({message})"
+    elif rss:
+        message = f"[{rss[0] // 1024} MB] " + message
     return case.name, code, dt, message, ok
 
 
@@ -392,6 +612,8 @@ def main():
         print(len(all_cases), "cases")
         return 0
     roe = os.path.abspath(a.roe)
+    global ROE
+    ROE = roe
     workdir = a.keep or tempfile.mkdtemp(prefix="roe-hostile-")
     os.makedirs(workdir, exist_ok=True)
     t0 = time.monotonic()

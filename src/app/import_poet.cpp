@@ -122,7 +122,7 @@ nlohmann::json ImportPoetSummary::to_json() const {
 }
 
 ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& dataset, const ImportPoetOptions& opt) {
-  if (opt.name.empty() || opt.name.find('/') != std::string::npos || opt.name == "." || opt.name == "..")
+  if (!io::is_plain_name(opt.name))
     throw InputError("--name must be a plain folder name, got \"" + opt.name + "\"");
   const auto rot_format = io::parse_poet_rotation_format(opt.rotation, "--rotation");
   DatasetManifest manifest = io::read_manifest(dataset);  // checks that the dataset is there

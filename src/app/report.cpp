@@ -39,6 +39,13 @@ void check_outputs(const ReportOptions& o) {
   if (fs::exists(out, ec) && !o.force)
     throw InputError("the report already exists (pass --force to replace it)", {o.out});
   io::refuse_overwriting_inputs(out, {o.run_dir, o.gt}, "report");
+  // An existing file inside an input may be one the report reads (run.json, trajectory.csv, roe.json): only an
+  // earlier HTML report is replaced there.
+  for (const std::string& in : {o.run_dir, o.gt})
+    if (!in.empty() && fs::exists(out, ec) && io::is_within(out, in) &&
+        io::read_file_head(out, 15).rfind("<!DOCTYPE html>", 0) != 0)
+      throw InputError("--out is a file inside the input " + in + " and not an earlier report: writing the report "
+                       "there would replace an input (even --force would)", {o.out});
   if (!o.figures_dir.empty()) io::OutputDir::check(o.figures_dir, o.force, {o.run_dir, o.gt});
 }
 

@@ -346,10 +346,28 @@ std::string Aggregate::comparisons_csv() const {
   return w.str();
 }
 
+namespace {
+/// What the aggregate's output folder must neither be, contain, nor lie inside: the sweep's manifest, job list
+/// and its own folders (replacing sw/jobs or a folder inside it would delete finished jobs, even with --force).
+std::vector<fs::path> sweep_inputs(const fs::path& out, const SweepFolder& s) {
+  std::vector<fs::path> inputs = {s.dir, s.dir / "sweep.json", s.dir / "jobs.jsonl"};
+  for (const char* sub : {"jobs", "work", "locks", "logs"}) {
+    inputs.push_back(s.dir / sub);
+    if (io::is_within(out, s.dir / sub))
+      throw InputError(fmt::format("--out is inside the sweep's {}/ folder, which roe sweep run owns: write the "
+                                   "tables elsewhere (e.g. beside the sweep folder)",
+                                   sub),
+                       {out.string()});
+  }
+  return inputs;
+}
+}  // namespace
+
 SweepAggregateResult sweep_aggregate(const SweepAggregateOptions& o) {
   if (o.out.empty()) throw InputError("--out DIR is required", {"roe sweep aggregate"});
   const SweepFolder s = read_sweep(o.dir);
-  io::OutputDir::check(o.out, o.force, {s.dir});
+  const std::vector<fs::path> inputs = sweep_inputs(o.out, s);
+  io::OutputDir::check(o.out, o.force, inputs);
   std::vector<JobResult> results;
   std::size_t failed = 0, missing = 0;
   io::CsvWriter jobs_csv;
@@ -402,7 +420,7 @@ SweepAggregateResult sweep_aggregate(const SweepAggregateOptions& o) {
   res.aggregate.n_jobs = results.size();
   res.aggregate.n_failed = failed;
   res.aggregate.n_missing = missing;
-  io::OutputDir out(o.out, o.force, {s.dir});
+  io::OutputDir out(o.out, o.force, inputs);
   const Aggregate& ag = res.aggregate;
   io::write_file_atomic(out.file("summary.md"), ag.markdown());
   io::write_file_atomic(out.file("summary.tex"), ag.latex());

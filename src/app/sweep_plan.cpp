@@ -2,15 +2,18 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <limits>
 #include <set>
 
 #include "roe/app/run.hpp"
 #include "roe/app/simulate.hpp"
 #include "roe/app/sweep.hpp"
 #include "roe/core/error.hpp"
+#include "roe/core/log.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
+#include "roe/sim/simulator.hpp"
 
 namespace roe::app {
 namespace detail {
@@ -115,6 +118,13 @@ DatasetEntry read_dataset(const Where& w, const json& j, const std::string& path
     if (const json* s = r.raw("duration_s")) {
       if (!s->is_number() || !(s->get<double>() > 0.0)) w.fail(path + ".duration_s", "must be a number > 0");
       duration = s->get<double>();
+      sim::SimConfig bounds;  // the simulator's own limits, checked now rather than when the job runs
+      bounds.duration_s = *duration;
+      try {
+        sim::validate(bounds);
+      } catch (const InputError& e) {
+        w.fail(path + ".duration_s", e.bare_message());
+      }
     }
     r.finish();
     if (preset.empty() == dir.empty()) w.fail(path, "a dataset is {\"preset\": NAME} or {\"path\": DATASET_DIR}");
@@ -267,8 +277,9 @@ void read_block(const Where& w, const json& block, const std::string& bpath, con
     const json& d = nonempty_array(w, block["detections"], bpath + ".detections");
     detections.clear();
     for (std::size_t i = 0; i < d.size(); ++i) {
-      if (!d[i].is_string() || d[i].get<std::string>().empty())
-        w.fail(fmt::format("{}.detections[{}]", bpath, i), "a detection set name (detections/NAME)");
+      if (!d[i].is_string() || !io::is_plain_name(d[i].get<std::string>()))
+        w.fail(fmt::format("{}.detections[{}]", bpath, i),
+               "a detection set name (detections/NAME: one folder name, no '/' or '..')");
       detections.push_back(d[i].get<std::string>());
     }
   }
@@ -300,6 +311,49 @@ void read_block(const Where& w, const json& block, const std::string& bpath, con
   }
 }
 
+/// a × b, saturating at the largest value (a spec's counts multiply quickly).
+std::uint64_t mul_sat(std::uint64_t a, std::uint64_t b) {
+  return b != 0 && a > std::numeric_limits<std::uint64_t>::max() / b ? std::numeric_limits<std::uint64_t>::max()
+                                                                      : a * b;
+}
+std::uint64_t array_size(const json& block, const char* key) {
+  return block.is_object() && block.contains(key) && block[key].is_array() ? block[key].size() : 1;
+}
+
+/// The number of jobs a block expands to, from the sizes of its axes alone (nothing is expanded), so that a
+/// spec of 10⁹ jobs is refused in a few bytes of memory. Malformed axes count 1: read_block refuses them.
+std::uint64_t block_job_count(const json& block) {
+  if (!block.is_object()) return 1;
+  const std::uint64_t seeds = array_size(block, "seeds");
+  std::uint64_t datasets = 0;
+  if (block.contains("datasets") && block["datasets"].is_array()) {
+    for (const json& d : block["datasets"]) {
+      if (d.is_object() && d.contains("path")) datasets += 1;
+      else if (d.is_object() && d.contains("seeds") && d["seeds"].is_array()) datasets += d["seeds"].size();
+      else datasets += seeds;
+    }
+  }
+  std::uint64_t n = mul_sat(std::max<std::uint64_t>(datasets, 1), array_size(block, "configs"));
+  if (block.contains("overrides") && block["overrides"].is_object())
+    for (const auto& [key, values] : block["overrides"].items())
+      n = mul_sat(n, values.is_array() ? values.size() : 1);
+  return mul_sat(n, array_size(block, "detections"));
+}
+
+void check_job_count(const Where& w, const json& axes, std::size_t max_jobs) {
+  std::uint64_t n = 0;
+  if (axes.is_array())
+    for (const json& b : axes) n = std::min(n + block_job_count(b), std::numeric_limits<std::uint64_t>::max() / 2);
+  else
+    n = block_job_count(axes);
+  if (n > max_jobs)
+    w.fail("axes", fmt::format("the spec expands to {} jobs, more than the limit of {} (a sweep that large is "
+                               "usually a typo; if it is meant, raise the limit with --max-jobs N)",
+                               n >= std::numeric_limits<std::uint64_t>::max() / 2 ? std::string("more than 10^18")
+                                                                                   : std::to_string(n),
+                               max_jobs));
+}
+
 }  // namespace
 
 std::vector<std::string> shipped_config_names() {
@@ -315,7 +369,7 @@ const std::string& shipped_config_text(const std::string& name) {
                                fmt::join(shipped_config_names(), ", ")));
 }
 
-SweepPlan plan_sweep(const json& spec, const fs::path& spec_dir, const std::string& source) {
+SweepPlan plan_sweep(const json& spec, const fs::path& spec_dir, const std::string& source, std::size_t max_jobs) {
   const Where w{source};
   if (!spec.is_object()) w.fail("", "a sweep spec is a JSON object");
   static const std::set<std::string> known = {"format", "description", "axes", "eval"};
@@ -324,8 +378,12 @@ SweepPlan plan_sweep(const json& spec, const fs::path& spec_dir, const std::stri
   if (spec.contains("format") && spec["format"] != kSweepSpecFormat)
     w.fail("format", fmt::format("unsupported spec format {} (this roe reads \"{}\")", io::dump_json(spec["format"]),
                                  kSweepSpecFormat));
+  if (!spec.contains("format"))
+    log::warn("{}: no \"format\" key: read as \"{}\" (write it, so a later roe can tell the version)", source,
+              kSweepSpecFormat);
   if (spec.contains("description") && !spec["description"].is_string()) w.fail("description", "expected a string");
   if (!spec.contains("axes")) w.fail("axes", "missing required key");
+  check_job_count(w, spec["axes"], max_jobs);
   const json eval = read_eval(w, spec.contains("eval") ? &spec["eval"] : nullptr);
   SweepPlan plan;
   plan.spec = spec;

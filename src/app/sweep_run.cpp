@@ -2,6 +2,7 @@
 // simulate + run + eval, each job built in work/ID and renamed to jobs/ID when it ends).
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <set>
 
@@ -33,6 +34,10 @@ fs::path lock_file(const fs::path& d, const std::string& id) { return d / "locks
 
 void make_dirs(const fs::path& p) {
   std::error_code ec;
+  if (fs::is_symlink(p, ec))
+    throw InputError("is a symbolic link: a sweep's own folders (jobs, work, locks) must be real folders, so that "
+                     "replacing a job's files never reaches outside the sweep",
+                     {p.string()});
   fs::create_directories(p, ec);
   if (ec) throw InputError("cannot create folder: " + ec.message(), {p.string()});
 }
@@ -64,7 +69,7 @@ void prune(const fs::path& work) {
       remove.push_back(it->path());
     }
   }
-  for (const auto& p : remove) fs::remove_all(p);
+  for (const auto& p : remove) fs::remove_all(p);  // path-checked: entries found inside work/ID (no symlink followed)
 }
 
 /// Simulate (a preset) + run + eval of one job in `work`; returns the metrics and fills `out`.
@@ -145,7 +150,9 @@ JobOutcome run_job(const SweepFolder& s, std::size_t index, bool retry_failed) {
     return o;
   }
   const fs::path work = work_dir(s.dir, job.id);
-  fs::remove_all(work);  // what a killed attempt left: redone from scratch
+  make_dirs(s.dir / "work");
+  make_dirs(s.dir / "jobs");
+  fs::remove_all(work);  // path-checked: read_sweep accepts only hex ids. What a killed attempt left: redone
   make_dirs(work);
   const auto t0 = Clock::now();
   // A job's warnings (the run's, the eval's) go to its result.json; on stderr they would repeat for every
@@ -187,14 +194,34 @@ JobOutcome run_job(const SweepFolder& s, std::size_t index, bool retry_failed) {
   {
     io::DeferSignals defer;  // the old result out and the new one in, not cut in half
     const fs::path final_dir = job_dir(s.dir, job.id), old = work.string() + ".old";
-    make_dirs(final_dir.parent_path());
+    // path-checked: final_dir, old and work are jobs/ID and work/ID[.old] of an id read_sweep checked.
     fs::remove_all(old);
     if (fs::exists(final_dir)) fs::rename(final_dir, old);
     fs::rename(work, final_dir);
-    fs::remove_all(old);
+    fs::remove_all(old);  // path-checked: as above
   }
   o.action = o.exit_code == 0 ? "done" : "failed";
   return o;
+}
+
+/// What a job's content steers on the file system, checked when the folder is read: a detection set is one
+/// folder name under detections/, a simulated dataset a shipped preset, a dataset path a folder (read only).
+void check_job_content(const json& c, const ErrorContext& at) {
+  const auto bad = [&](const std::string& key, const std::string& what) {
+    throw InputError(what + " (plan the sweep again instead of editing jobs.jsonl)", {at.file, at.line, 0, key});
+  };
+  if (!c.is_object() || !c.contains("dataset") || !c["dataset"].is_object()) bad("job.dataset", "missing or not an object");
+  if (!c.contains("detections") || !c["detections"].is_string()) bad("job.detections", "missing or not a string");
+  const std::string det = c["detections"].get<std::string>();
+  if (!det.empty() && !io::is_plain_name(det))
+    bad("job.detections", "not a detection set name (one folder name under detections/, no '/' or '..')");
+  for (const char* k : {"run_config", "eval"})
+    if (!c.contains(k) || !c[k].is_object()) bad(std::string("job.") + k, "missing or not an object");
+  const json& d = c["dataset"];
+  if (d.contains("path") == d.contains("preset")) bad("job.dataset", "needs exactly one of path and preset");
+  if (d.contains("path") && (!d["path"].is_string() || d["path"].get<std::string>().empty()))
+    bad("job.dataset.path", "not a path");
+  if (d.contains("preset") && !d["preset"].is_string()) bad("job.dataset.preset", "not a preset name");
 }
 
 json job_line(const SweepJob& j, std::size_t index) {
@@ -207,8 +234,11 @@ SweepPlanResult sweep_plan(const SweepPlanOptions& o) {
   if (o.spec.empty()) throw InputError("a spec file is required: roe sweep plan SPEC --out SWEEP_DIR");
   if (o.out.empty()) throw InputError("--out SWEEP_DIR is required", {"roe sweep plan"});
   const fs::path spec_path = o.spec;
-  const json spec = io::parse_json_file(spec_path);
-  SweepPlan plan = plan_sweep(spec, spec_path.parent_path(), spec_path.string());
+  const std::string text = io::read_file(spec_path);
+  const json spec = io::parse_json_text(text, spec_path.string());
+  SweepPlan plan = io::with_json_locations(text, spec_path.string(), [&] {
+    return plan_sweep(spec, spec_path.parent_path(), spec_path.string(), o.max_jobs);
+  });
   const fs::path out = io::without_trailing_separator(o.out);
   SweepPlanResult res;
   res.out = out;
@@ -250,6 +280,12 @@ SweepPlanResult sweep_plan(const SweepPlanOptions& o) {
   return res;
 }
 
+bool is_job_id(const std::string& id) {
+  return id.size() == 16 && std::all_of(id.begin(), id.end(), [](char c) {
+           return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f');
+         });
+}
+
 json SweepPlanResult::to_json() const {
   return {{"command", "sweep plan"}, {"out", out.string()}, {"n_jobs", n_jobs},
           {"n_new", n_new},         {"n_dropped", n_dropped}, {"axes", axis_names}};
@@ -278,14 +314,26 @@ SweepFolder read_sweep(const fs::path& dir_in) {
     s.axis_names = s.manifest.at("axes").get<std::vector<std::string>>();
     const std::string text = io::read_file(jobs_file(s.dir));
     std::size_t line_no = 0, start = 0;
+    std::set<std::string> ids;
     while (start < text.size()) {
       std::size_t end = text.find('\n', start);
       if (end == std::string::npos) end = text.size();
       ++line_no;
       const json j = io::parse_json_text(text.substr(start, end - start), jobs_file(s.dir).string());
-      if (j.at("index").get<std::size_t>() != s.jobs.size())
-        throw InputError("job index out of order", {jobs_file(s.dir).string(), static_cast<std::int64_t>(line_no)});
-      s.jobs.push_back({j.at("id").get<std::string>(), j.at("axes"), j.at("job")});
+      const ErrorContext at{jobs_file(s.dir).string(), static_cast<std::int64_t>(line_no)};
+      if (j.at("index").get<std::size_t>() != s.jobs.size()) throw InputError("job index out of order", at);
+      // The id names the job's folders (work/ID, jobs/ID, locks/ID.lock), which a run replaces: a hand-edited
+      // id must never steer that outside the sweep ("../../x", "/abs").
+      const std::string id = j.at("id").get<std::string>();
+      if (!is_job_id(id))
+        throw InputError(fmt::format("job id {} is not 16 lower-case hex digits (ids are made by roe sweep plan; "
+                                     "plan again instead of editing jobs.jsonl)",
+                                     io::dump_json(j.at("id"))),
+                         {at.file, at.line, 0, "id"});
+      if (!ids.insert(id).second)
+        throw InputError("job id " + id + " appears twice (two jobs would share one folder)", {at.file, at.line, 0, "id"});
+      check_job_content(j.at("job"), at);
+      s.jobs.push_back({id, j.at("axes"), j.at("job")});
       start = end + 1;
     }
     if (s.jobs.size() != s.manifest.at("n_jobs").get<std::size_t>())

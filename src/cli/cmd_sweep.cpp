@@ -14,6 +14,9 @@ RunFn setup_plan(CLI::App& sub) {
   auto o = std::make_shared<app::SweepPlanOptions>();
   sub.add_option("SPEC", o->spec, "Sweep spec (JSON; docs/sweep.md, configs/sweeps/)")->required();
   sub.add_option("--out", o->out, "Sweep folder (new, or an existing sweep: its jobs keep their indices)");
+  sub.add_option("--max-jobs", o->max_jobs, "Refuse a spec that expands to more jobs than this")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   return [o]() {
     o->force = globals().force;
     const auto r = app::sweep_plan(*o);
@@ -58,7 +61,7 @@ RunFn setup_emit(CLI::App& sub) {
       ->check(CLI::IsMember({"slurm", "parallel"}));
   sub.add_option("SWEEP_DIR", o->dir, "Sweep folder")->required();
   sub.add_option("--out", *out, "Write the script to FILE (executable) instead of stdout");
-  sub.add_option("--roe", o->roe, "The roe command the script runs (default: this roe's absolute path)");
+  sub.add_option("--roe", o->roe, "The roe executable the script runs, one path (default: this roe's absolute path)");
   sub.add_option("--max-parallel,-j", o->max_parallel, "Slurm array %K / parallel --jobs (0: no limit / one per core)");
   sub.add_option("--partition", o->partition, "Slurm partition")->group("Slurm");
   sub.add_option("--time", o->time, "Slurm time limit per job")->capture_default_str()->group("Slurm");

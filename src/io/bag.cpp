@@ -6,6 +6,7 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <random>
 
 #include <fmt/format.h>
@@ -216,6 +217,7 @@ class TempDir {
       std::error_code ec;
       if (fs::create_directory(p, ec)) {
         path_ = p;
+        cleanup_.emplace(p);  // INT, TERM, HUP: removed before the process dies
         return;
       }
     }
@@ -223,7 +225,7 @@ class TempDir {
   }
   ~TempDir() {
     std::error_code ec;
-    fs::remove_all(path_, ec);
+    fs::remove_all(path_, ec);  // path-checked: the folder the constructor created
   }
   TempDir(const TempDir&) = delete;
   TempDir& operator=(const TempDir&) = delete;
@@ -231,6 +233,7 @@ class TempDir {
 
  private:
   fs::path path_;
+  std::optional<SignalCleanup> cleanup_;
 };
 
 std::unique_ptr<MessageBag> open_file(const fs::path& file, const BagOpenOptions& o, const std::string& kind);
@@ -257,7 +260,8 @@ class FolderBag final : public MessageBag {
       if (compression_mode == "FILE") {
         if (!tmp_) tmp_ = std::make_unique<TempDir>();
         readable = tmp_->path() / f.filename().replace_extension("");
-        zstd_decompress_file(f, readable);
+        const std::uintmax_t compressed = fs::file_size(f, ec);
+        zstd_decompress_file(f, readable, file_decompression_limit(ec ? 0 : compressed));
       }
       const std::string kind = detect_bag_kind(readable);
       if (kind != "mcap" && kind != "sqlite3")
@@ -266,6 +270,8 @@ class FolderBag final : public MessageBag {
                          {f.string()});
       parts_.push_back(open_file(readable, o, kind));
       part_names_.push_back(f.string());
+      const std::uintmax_t size = fs::file_size(readable, ec);
+      message_limits_.push_back(chunk_decompression_limit(ec ? 0 : size));
     }
     if (parts_.empty()) throw InputError("no bag file of this rosbag2 folder could be opened", {name_});
     for (const auto& p : parts_)
@@ -299,9 +305,11 @@ class FolderBag final : public MessageBag {
         m.topic = &topics_[index_.at(pm.topic->topic)];
         m.file = part_names_[k];
         if (message_zstd_) {
-          if (!zstd_decompress_any(pm.data, 1u << 30, buf)) {
-            own_.push_back({m.file, m.location, "message of " + pm.topic->topic +
-                                                    " fails to decompress (zstd message compression); skipped"});
+          if (!zstd_decompress_any(pm.data, static_cast<std::size_t>(message_limits_[k]), buf)) {
+            own_.push_back({m.file, m.location,
+                            fmt::format("message of {} fails to decompress (zstd message compression) within the "
+                                        "{}-byte limit; skipped",
+                                        pm.topic->topic, message_limits_[k])});
             return true;
           }
           m.data = buf;
@@ -327,6 +335,7 @@ class FolderBag final : public MessageBag {
   std::unique_ptr<TempDir> tmp_;  // declared before parts_: the files are closed before it is removed
   std::vector<std::unique_ptr<MessageBag>> parts_;
   std::vector<std::string> part_names_;
+  std::vector<std::uint64_t> message_limits_;  ///< chunk_decompression_limit of each part
   std::map<std::string, std::size_t> index_;
   std::vector<BagWarning> own_;
 };
@@ -354,7 +363,9 @@ std::vector<fs::path> bag_files_in(const fs::path& dir) {
 
 std::string detect_bag_kind(const fs::path& path) {
   std::error_code ec;
-  if (fs::is_directory(path, ec)) return fs::exists(path / "metadata.yaml", ec) ? "rosbag2-folder" : "";
+  // A rosbag2 folder: metadata.yaml, or (as open_bag reads it) MCAP or SQLite bag files without one.
+  if (fs::is_directory(path, ec))
+    return fs::exists(path / "metadata.yaml", ec) || !bag_files_in(path).empty() ? "rosbag2-folder" : "";
   std::ifstream f(path, std::ios::binary);
   char b[16] = {};
   f.read(b, sizeof b);

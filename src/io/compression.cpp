@@ -1,6 +1,7 @@
 // zstd helpers (include/roe/io/compression.hpp).
 #include "roe/io/compression.hpp"
 
+#include <fmt/format.h>
 #include <zstd.h>
 
 #include <algorithm>
@@ -72,14 +73,22 @@ std::string zstd_compress(std::string_view in, int level) {
   return out;
 }
 
-void zstd_decompress_file(const std::filesystem::path& in, const std::filesystem::path& out) {
+std::uint64_t chunk_decompression_limit(std::uint64_t file_size) {
+  return std::min(kMaxChunkLimit, std::max(kMinChunkLimit, file_size > kMaxChunkLimit ? kMaxChunkLimit : 4 * file_size));
+}
+
+std::uint64_t file_decompression_limit(std::uint64_t compressed_size) {
+  return std::max<std::uint64_t>(kMinFileDecompressionLimit, kFileDecompressionRatio * compressed_size);
+}
+
+void zstd_decompress_file(const std::filesystem::path& in, const std::filesystem::path& out, std::uint64_t max_bytes) {
   std::ifstream f(in, std::ios::binary);
   if (!f) throw InputError("cannot open file", {in.string()});
   std::ofstream o(out, std::ios::binary | std::ios::trunc);
   if (!o) throw InputError("cannot write the decompressed copy", {out.string()});
   Dctx ctx(ZSTD_createDCtx());
   std::vector<char> ibuf(ZSTD_DStreamInSize()), obuf(ZSTD_DStreamOutSize());
-  std::uint64_t offset = 0;
+  std::uint64_t offset = 0, written = 0;
   std::size_t last = 0;
   bool any = false;
   while (f) {
@@ -94,6 +103,12 @@ void zstd_decompress_file(const std::filesystem::path& in, const std::filesystem
       if (ZSTD_isError(last))
         throw InputError("zstd data is corrupt near compressed byte " + std::to_string(offset + ib.pos) + " (" +
                              ZSTD_getErrorName(last) + ")",
+                         {in.string()});
+      written += ob.pos;
+      if (written > max_bytes)
+        throw InputError(fmt::format("decompresses to more than {} bytes (the limit for a zstd-compressed bag file: "
+                                     "max(256 MiB, {}× its size); stopped near compressed byte {})",
+                                     max_bytes, kFileDecompressionRatio, offset + ib.pos),
                          {in.string()});
       o.write(obuf.data(), static_cast<std::streamsize>(ob.pos));
     }

@@ -115,6 +115,13 @@ bool is_folder(const fs::path& path) {
   return p.kind == PathKind::kDirectory;
 }
 
+bool is_plain_name(std::string_view name) {
+  if (name.empty() || name == "." || name == "..") return false;
+  for (const char c : name)
+    if (c == '/' || static_cast<unsigned char>(c) < 0x20 || c == 0x7f) return false;
+  return true;
+}
+
 bool path_exists(const fs::path& path) {
   const PathProbe p = probe_path(path);
   if (p.kind == PathKind::kBroken) throw InputError("cannot use this path: " + p.what, {path.string()});

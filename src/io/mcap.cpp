@@ -200,6 +200,7 @@ std::uint64_t Reader::message_count(std::uint16_t channel_id) const {
 }
 
 void Reader::open() {
+  if (options_.max_chunk_bytes == 0) options_.max_chunk_bytes = chunk_decompression_limit(src_->size());
   char magic[8];
   if (src_->read_at(0, magic, 8) != 8 || std::string_view(magic, 8) != kMagic)
     throw InputError("not an MCAP file (wrong magic at byte 0; expected \\x89MCAP0\\r\\n)", {name_});
@@ -529,9 +530,10 @@ bool Reader::load_chunk(const ChunkInfo& c, std::string& out, std::size_t& begin
     return false;
   }
   const std::string_view records = r.rest();
-  const std::uint64_t ratio_cap = std::max<std::uint64_t>(64ull << 20, 4096ull * records.size());
-  if (usize > options_.max_chunk_bytes || usize > ratio_cap) {
-    warn(c.offset, fmt::format("chunk claims an uncompressed size of {} bytes; chunk skipped", usize));
+  if (usize > options_.max_chunk_bytes) {
+    warn(c.offset, fmt::format("chunk claims an uncompressed size of {} bytes, more than the {}-byte limit for this "
+                               "file (docs/import.md, \"Limits\"); chunk skipped",
+                               usize, options_.max_chunk_bytes));
     return false;
   }
   if (compression.empty()) {
@@ -609,21 +611,27 @@ void Reader::for_each(const std::function<bool(const Channel&)>& select,
     MessageView v{&it->second, m.sequence, ns(m.log_time), ns(m.publish_time), m.data, where};
     heap.push({v.log_time_ns, seq++, buf, v});
   };
+  HeldChunks held;
+  bool over_budget = false;
   for (std::size_t k = 0; k < order.size() && !stop; ++k) {
     const ChunkInfo& c = *order[k];
-    auto buf = std::make_shared<std::string>();
+    std::string bytes;
+    std::size_t begin = 0;
     if (c.loose_message) {
       char pre[kRecordPrefix];
       std::uint64_t len = 0;
       src_->read_at(c.offset, pre, kRecordPrefix);
       std::memcpy(&len, pre + 1, 8);
-      buf->resize(static_cast<std::size_t>(len));  // bounded by the file size (checked by the scan)
+      bytes.resize(static_cast<std::size_t>(len));  // bounded by the file size (checked by the scan)
+      const bool read = src_->read_at(c.offset + kRecordPrefix, bytes.data(), bytes.size()) == bytes.size();
+      const auto buf = held.hold(std::move(bytes));
       MessageHead m;
-      if (src_->read_at(c.offset + kRecordPrefix, buf->data(), buf->size()) == buf->size() && parse_message(*buf, m))
+      if (read && parse_message(*buf, m))
         push(m, buf, c.offset);
       else
         warn(c.offset, "message record unreadable; skipped");
-    } else if (std::size_t begin = 0; load_chunk(c, *buf, begin)) {
+    } else if (load_chunk(c, bytes, begin)) {
+      const auto buf = held.hold(std::move(bytes));
       const std::string_view records = std::string_view(*buf).substr(begin);
       std::uint64_t p = 0;
       while (p < records.size()) {
@@ -653,6 +661,15 @@ void Reader::for_each(const std::function<bool(const Channel&)>& select,
     const Timestamp next_start =
         k + 1 < order.size() ? order[k + 1]->start_ns : std::numeric_limits<Timestamp>::max();
     emit_until(next_start, k + 1 == order.size());
+    // Chunks overlapping in time wait together; beyond one chunk's limit of them, what waits goes out now.
+    if (held.bytes() + heap.size() * sizeof(Pending) > options_.max_chunk_bytes) {
+      if (!over_budget)
+        warn(c.offset, fmt::format("chunks overlapping in time hold more than {} decompressed bytes: messages "
+                                   "from here on may be out of time order", options_.max_chunk_bytes),
+             false);
+      over_budget = true;
+      emit_until(0, true);
+    }
   }
   emit_until(0, true);
 }

@@ -157,6 +157,9 @@ class Sha256 {
 
 }  // namespace
 
+SignalCleanup::SignalCleanup(const fs::path& path) : slot_(register_temporary(path)) {}
+SignalCleanup::~SignalCleanup() { unregister_temporary(slot_); }
+
 fs::path without_trailing_separator(const fs::path& path) {
   std::string s = path.string();
   while (s.size() > 1 && s.back() == '/') s.pop_back();
@@ -182,6 +185,8 @@ fs::path resolved(const fs::path& p) {
 }  // namespace
 
 std::string provenance_path(const fs::path& path) { return resolved(path).string(); }
+
+bool is_within(const fs::path& path, const fs::path& dir) { return is_same_or_ancestor(resolved(dir), resolved(path)); }
 
 void refuse_overwriting_inputs(const fs::path& out, const std::vector<fs::path>& inputs, const std::string& what) {
   const fs::path o = resolved(out);

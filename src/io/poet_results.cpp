@@ -1,6 +1,7 @@
 #include "roe/io/poet_results.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <fmt/format.h>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cctype>
@@ -8,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <map>
 #include <set>
 
@@ -44,6 +46,24 @@ class LenientParser {
   Node parse_document() {
     skip_ws();
     Node n = value(0);
+    skip_ws();
+    if (pos_ != s_.size()) fail("unexpected text after the JSON document");
+    return n;
+  }
+
+  /// A member of the top-level object: its key, where the key starts, and its value.
+  using MemberSink = std::function<void(std::string&&, std::int64_t, std::int64_t, Node&&)>;
+
+  /// The document when it is an object, member by member: each value goes to `sink` as soon as it is parsed
+  /// and is dropped after, so memory is one member's tree (an image's detections), not the file's. Returns
+  /// the document itself when it is not an object (no member was passed then), else an empty object node.
+  Node stream_document(const MemberSink& sink) {
+    skip_ws();
+    if (peek() != '{') return parse_document();
+    Node n;
+    n.line = line_;
+    n.col = col_;
+    object(n, 0, &sink);
     skip_ws();
     if (pos_ != s_.size()) fail("unexpected text after the JSON document");
     return n;
@@ -118,7 +138,7 @@ class LenientParser {
     return n;
   }
 
-  void object(Node& n, int depth) {
+  void object(Node& n, int depth, const MemberSink* sink = nullptr) {
     n.kind = Node::kObject;
     advance();  // {
     skip_ws();
@@ -147,9 +167,13 @@ class LenientParser {
       if (peek() != ':') fail("expected ':' after a key");
       advance();
       skip_ws();
-      n.members.emplace_back(std::move(key), value(depth + 1));
-      n.member_lines.push_back(kl);
-      n.member_cols.push_back(kc);
+      if (sink) {
+        (*sink)(std::move(key), kl, kc, value(depth + 1));
+      } else {
+        n.members.emplace_back(std::move(key), value(depth + 1));
+        n.member_lines.push_back(kl);
+        n.member_cols.push_back(kc);
+      }
       skip_ws();
       if (peek() == ',') {
         advance();
@@ -331,6 +355,9 @@ bool parse_index(const std::string& s, int& out) {
   return true;
 }
 
+/// The largest |t| component accepted: a kilometre, far beyond what a 6-DoF pose network sees.
+constexpr double kMaxTranslationM = 1000.0;
+
 class ResultsBuilder {
  public:
   ResultsBuilder(std::string source, PoetRotationFormat fmt) : source_(std::move(source)), fmt_(fmt) {}
@@ -344,35 +371,30 @@ class ResultsBuilder {
     return n.number;
   }
 
-  PoetResults build(const Node& root) {
-    if (root.kind != Node::kObject)
-      fail(root, std::string("a PoET results.json must be an object of image ids, found ") + kind_name(root.kind), "");
-    PoetResults out;
-    for (std::size_t i = 0; i < root.members.size(); ++i) {
-      const auto& [id, img] = root.members[i];
-      PoetImageResult r;
-      r.id = id;
-      r.line = root.member_lines[i];
-      r.column = root.member_cols[i];
-      if (img.kind != Node::kObject)
-        fail(img, std::string("expected an object of detections, found ") + kind_name(img.kind), id);
-      for (std::size_t k = 0; k < img.members.size(); ++k) {
-        const auto& [idx_key, det] = img.members[k];
-        const std::string key = id + "." + idx_key;
-        PoetRawDetection d;
-        if (!parse_index(idx_key, d.index))
-          throw InputError("detection keys must be \"0\", \"1\", ... (PoET's score order), found \"" + idx_key + "\"",
-                           {source_, img.member_lines[k], img.member_cols[k], key});
-        d.line = img.member_lines[k];
-        d.column = img.member_cols[k];
-        detection(det, key, d);
-        r.detections.push_back(std::move(d));
-      }
-      std::sort(r.detections.begin(), r.detections.end(),
-                [](const PoetRawDetection& a, const PoetRawDetection& b) { return a.index < b.index; });
-      out.images.push_back(std::move(r));
+  /// One top-level member "<img_id>": {detections}.
+  PoetImageResult image(const std::string& id, std::int64_t line, std::int64_t column, const Node& img) const {
+    PoetImageResult r;
+    r.id = id;
+    r.line = line;
+    r.column = column;
+    if (img.kind != Node::kObject)
+      fail(img, std::string("expected an object of detections, found ") + kind_name(img.kind), id);
+    r.detections.reserve(img.members.size());
+    for (std::size_t k = 0; k < img.members.size(); ++k) {
+      const auto& [idx_key, det] = img.members[k];
+      const std::string key = id + "." + idx_key;
+      PoetRawDetection d;
+      if (!parse_index(idx_key, d.index))
+        throw InputError("detection keys must be \"0\", \"1\", ... (PoET's score order), found \"" + idx_key + "\"",
+                         {source_, img.member_lines[k], img.member_cols[k], key});
+      d.line = img.member_lines[k];
+      d.column = img.member_cols[k];
+      detection(det, key, d);
+      r.detections.push_back(std::move(d));
     }
-    return out;
+    std::sort(r.detections.begin(), r.detections.end(),
+              [](const PoetRawDetection& a, const PoetRawDetection& b) { return a.index < b.index; });
+    return r;
   }
 
  private:
@@ -391,7 +413,13 @@ class ResultsBuilder {
       } else if (k == "t") {
         has_t = true;
         if (v.kind != Node::kArray || v.items.size() != 3) fail(v, "\"t\" must be [x, y, z] (metres)", kk);
-        for (int i = 0; i < 3; ++i) d.t[i] = num(v.items[i], kk);
+        for (int i = 0; i < 3; ++i) {
+          d.t[i] = num(v.items[i], kk);
+          // A finite value beyond any camera's range is a broken output, not a pose (NaN/Inf are dropped).
+          if (std::isfinite(d.t[i]) && std::abs(d.t[i]) > kMaxTranslationM)
+            fail(v.items[i], fmt::format("translation {:g} m is not an object pose in a camera's view (|t| must be "
+                                         "at most {:g} m)", d.t[i], kMaxTranslationM), kk);
+        }
       } else if (k == "rot") {
         has_rot = true;
         rotation(v, kk, d);
@@ -588,8 +616,14 @@ PoetResults parse_poet_results(const std::string& text, const std::string& sourc
                          "DATASET/detections/NAME/detections.csv",
                      {source, 1, 1});
   LenientParser p(text, source);
-  const Node root = p.parse_document();
-  return ResultsBuilder(source, format).build(root);
+  const ResultsBuilder b(source, format);
+  PoetResults out;
+  const Node root = p.stream_document([&](std::string&& id, std::int64_t line, std::int64_t col, Node&& img) {
+    out.images.push_back(b.image(id, line, col, img));
+  });
+  if (root.kind != Node::kObject)
+    b.fail(root, std::string("a PoET results.json must be an object of image ids, found ") + kind_name(root.kind), "");
+  return out;
 }
 
 PoetResults read_poet_results(const std::filesystem::path& file, PoetRotationFormat format) {

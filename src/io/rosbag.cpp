@@ -2,6 +2,7 @@
 #include "roe/io/rosbag.hpp"
 
 #include <bzlib.h>
+#include <fmt/format.h>
 #include <lz4frame.h>
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
+#include "roe/io/compression.hpp"
 #include "roe/io/input.hpp"
 
 namespace roe::io::bag {
@@ -321,6 +323,7 @@ std::string read_file_record_header(const ByteSource& src, std::uint64_t pos, st
 }  // namespace
 
 void Reader::open() {
+  if (options_.max_chunk_bytes == 0) options_.max_chunk_bytes = chunk_decompression_limit(src_->size());
   char magic[kMagicLen];
   if (src_->read_at(0, magic, kMagicLen) != kMagicLen || std::memcmp(magic, kMagic, kMagicLen) != 0) {
     if (src_->size() >= 9 && std::memcmp(magic, "#ROSBAG V", 9) == 0)
@@ -550,10 +553,10 @@ bool Reader::load_chunk(const ChunkInfo& c, std::string& out) {
     return true;
   }
   // Guard against absurd sizes from corrupt headers before allocating.
-  const std::uint64_t ratio_cap = std::max<std::uint64_t>(64ull << 20, 4096ull * c.data_size);
-  if (c.uncompressed_size > options_.max_chunk_bytes || c.uncompressed_size > ratio_cap) {
+  if (c.uncompressed_size > options_.max_chunk_bytes) {
     warn(c.offset, "chunk claims an uncompressed size of " + std::to_string(c.uncompressed_size) +
-                       " bytes; chunk skipped");
+                       " bytes, more than the " + std::to_string(options_.max_chunk_bytes) +
+                       "-byte limit for this file (docs/import.md, \"Limits\"); chunk skipped");
     return false;
   }
   if (c.compression == "lz4") {
@@ -656,10 +659,14 @@ void Reader::for_each(const std::function<bool(const Connection&)>& select,
       if (progress) progress(std::min(done, total), total);
     }
   };
+  HeldChunks held;
+  bool over_budget = false;
   for (std::size_t k = 0; k < order.size() && !stop; ++k) {
     const ChunkInfo& c = *order[k];
-    auto buf = std::make_shared<std::string>();
-    if (load_chunk(c, *buf)) {
+    std::string bytes;
+    const bool loaded = load_chunk(c, bytes);
+    const auto buf = held.hold(std::move(bytes));
+    if (loaded) {
       std::size_t p = 0;
       BufRecord r;
       std::string why;
@@ -688,6 +695,15 @@ void Reader::for_each(const std::function<bool(const Connection&)>& select,
     const Timestamp next_start =
         k + 1 < order.size() ? order[k + 1]->start_ns : std::numeric_limits<Timestamp>::max();
     emit_until(next_start, k + 1 == order.size());
+    // Chunks overlapping in time wait together; beyond one chunk's limit of them, what waits goes out now.
+    if (held.bytes() + heap.size() * sizeof(Pending) > options_.max_chunk_bytes) {
+      if (!over_budget)
+        warn(c.offset, fmt::format("chunks overlapping in time hold more than {} decompressed bytes: messages "
+                                   "from here on may be out of time order", options_.max_chunk_bytes),
+             false);
+      over_budget = true;
+      emit_until(0, true);
+    }
   }
   emit_until(0, true);
 }

@@ -103,12 +103,25 @@ SqliteReader::SqliteReader(const fs::path& file) : db_(std::make_unique<Db>()), 
           topics_.push_back(std::move(t));
         },
         "topics");
+  std::uint64_t orphans = 0;
+  std::set<std::int64_t> orphan_ids;
   query("SELECT topic_id, COUNT(*) FROM messages GROUP BY topic_id",
         [&](sqlite3_stmt* s) {
           const auto it = index.find(sqlite3_column_int64(s, 0));
-          if (it != index.end()) topics_[it->second].count = static_cast<std::uint64_t>(sqlite3_column_int64(s, 1));
+          const auto n = static_cast<std::uint64_t>(sqlite3_column_int64(s, 1));
+          if (it != index.end()) {
+            topics_[it->second].count = n;
+          } else {
+            orphans += n;
+            orphan_ids.insert(sqlite3_column_int64(s, 0));
+          }
         },
         "messages");
+  // Rows no topic claims cannot be decoded (no type): said, not dropped in silence.
+  if (orphans > 0)
+    warnings_.push_back({0, fmt::format("{} message(s) have a topic_id that no row of table topics has ({}{}): they "
+                                        "are skipped",
+                                        orphans, *orphan_ids.begin(), orphan_ids.size() > 1 ? ", ..." : "")});
 }
 
 SqliteReader::~SqliteReader() = default;
@@ -139,6 +152,10 @@ void SqliteReader::for_each(const std::set<std::int64_t>& topic_ids,
                                    "; the rest of the table is skipped"});
 }
 
+namespace {
+Metadata parse_metadata(const YAML::Node& root, const std::string& name);
+}  // namespace
+
 Metadata read_metadata(const fs::path& file) {
   const std::string name = file.string();
   YAML::Node root;
@@ -149,6 +166,17 @@ Metadata read_metadata(const fs::path& file) {
   } catch (const YAML::Exception& e) {
     throw InputError(std::string("cannot read: ") + e.what(), {name});
   }
+  if (!root.IsMap()) throw InputError("not a rosbag2 metadata.yaml (not a map with rosbag2_bagfile_information)", {name});
+  try {
+    return parse_metadata(root, name);
+  } catch (const YAML::Exception& e) {  // a shape the checks did not foresee (a list where a map belongs)
+    throw InputError(std::string("not a rosbag2 metadata.yaml: ") + e.msg, {name, e.mark.line + 1, e.mark.column + 1});
+  }
+}
+
+namespace {
+
+Metadata parse_metadata(const YAML::Node& root, const std::string& name) {
   const YAML::Node info = root["rosbag2_bagfile_information"];
   if (!info || !info.IsMap())
     throw InputError("not a rosbag2 metadata.yaml (no rosbag2_bagfile_information map)", {name});
@@ -211,5 +239,7 @@ Metadata read_metadata(const fs::path& file) {
                      {name, 0, 0, base + "compression_mode"});
   return m;
 }
+
+}  // namespace
 
 }  // namespace roe::io::rosbag2

@@ -184,3 +184,33 @@ TEST_CASE("sweep aggregate: groups, CIs and paired Wilcoxon against scipy", "[ap
   bad.group_by = {"sequence"};
   CHECK_THROWS_AS(aggregate_results(results, {"dataset", "seed", "config"}, bad), InputError);
 }
+
+TEST_CASE("sweep spec: the job count is checked from the axes' sizes before anything is expanded",
+          "[app][sweep][hostile]") {
+  json values = json::array();
+  for (int i = 0; i < 1000; ++i) values.push_back(0.9 + i * 1e-5);
+  // 10^9 jobs (three overrides of 1000 values): refused at `axes` with the count, without expanding.
+  const json big = {{"datasets", {"paper-seq1"}},
+                    {"overrides", {{"filter.chi2_confidence", values}, {"filter.meas_sigma_p_m", values},
+                                   {"filter.meas_sigma_ray_m", values}}}};
+  CHECK_THAT(config_error(spec_with(big)), Catch::Contains("'axes'") && Catch::Contains("1000000000 jobs"));
+  // Blocks add up; per-dataset seeds count for their dataset; the limit is a parameter.
+  const json blocks = json::array({{{"datasets", {{{"preset", "paper-seq1"}, {"seeds", {1, 2, 3}}}, "paper-seq4"}},
+                                    {"seeds", {1, 2}}, {"configs", {"default", "paper"}}},
+                                   {{"datasets", {"paper-seq1"}}, {"detections", {"a", "b"}}}});
+  CHECK(plan_sweep(spec_with(blocks), ".", "spec.json", 12).jobs.size() == 12);  // (3 + 2) × 2 + 2
+  CHECK_THROWS_AS(plan_sweep(spec_with(blocks), ".", "spec.json", 11), ConfigError);
+  // Detection set names are one folder name; a duration the simulator refuses fails at plan time.
+  CHECK_THAT(config_error(spec_with({{"datasets", {"paper-seq1"}}, {"detections", {"../x"}}})),
+             Catch::Contains("axes.detections[0]"));
+  CHECK_THAT(config_error(spec_with({{"datasets", {{{"preset", "paper-seq1"}, {"duration_s", 1e9}}}}})),
+             Catch::Contains("axes.datasets[0].duration_s") && Catch::Contains("one day"));
+}
+
+TEST_CASE("sweep ids: only what plan_sweep makes is a job id", "[app][sweep][hostile]") {
+  for (const auto& j : plan_sweep(spec_with({{"datasets", {"paper-seq1"}}, {"seeds", {1, 2}}}), ".", "s").jobs)
+    CHECK(is_job_id(j.id));
+  for (const char* bad : {"", "../../victim", "/tmp/x", "0123456789ABCDEF", "0123456789abcde", "0123456789abcdef0",
+                          "0123456789abcdeg"})
+    CHECK_FALSE(is_job_id(bad));
+}

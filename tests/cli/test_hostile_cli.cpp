@@ -1,15 +1,21 @@
 // Hostile inputs through the executable (issue 28): special files, symlink loops and out-of-range
 // integers end in exit 2 with a located message, within 10 s and 1 GB of address space.
+#include <signal.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <catch2/catch.hpp>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <string>
+#include <thread>
+#include <vector>
 
+#include "roe/io/compression.hpp"
 #include "roe/io/output.hpp"
 #include "support/test_util.hpp"
 
@@ -151,4 +157,112 @@ TEST_CASE("roe calib-check: a NaN anywhere in states.csv is an input error at it
   r = run_limited(d.path, "calib-check run");
   CHECK(r.code == 2);
   CHECK_THAT(r.out, Contains("states_filter.csv:4:5") && Contains("v_W_I_x"));
+}
+
+// ---- Third round (issue 40) -------------------------------------------------------------------------
+
+namespace {
+
+fs::path shared_data(const char* rel) { return fs::path(ROE_SHARED_DATA_DIR) / rel; }
+
+/// A rosbag2 folder whose one file is zstd-compressed as a whole (compression_mode FILE).
+void file_compressed_bag(const fs::path& dir, const std::string& file) {
+  fs::create_directories(dir);
+  std::ofstream(dir / "metadata.yaml") << "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: sqlite3\n"
+                                          "  relative_file_paths: [" << file << "]\n  compression_format: zstd\n"
+                                          "  compression_mode: FILE\n  message_count: 1\n";
+}
+
+std::vector<std::string> entries(const fs::path& dir) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::directory_iterator(dir)) out.push_back(e.path().filename().string());
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("roe report: --out naming a file inside its run folder or dataset is refused, even with --force",
+          "[cli][hostile][report]") {
+  roe::test::TempDir d("roe_cli_report_out");
+  fs::copy(fs::path(ROE_SOURCE_DIR) / "datasets" / "sample", d / "ds", fs::copy_options::recursive);
+  REQUIRE(roe::test::run_roe("run " + (d / "ds").string() + " --out " + (d / "run").string() + " -q").code == 0);
+  const std::string run_json = roe::test::run_shell("cat " + (d / "run" / "run.json").string()).out;
+  for (const std::string& args : {std::string("--out run/run.json"), std::string("--out run/trajectory.csv"),
+                                  std::string("--gt ds --out ds/roe.json")}) {
+    const auto r = run_limited(d.path, "report run " + args + " --force");
+    CHECK(r.code == 2);
+    CHECK_THAT(r.out, Contains("inside the input"));
+  }
+  CHECK(roe::test::run_shell("cat " + (d / "run" / "run.json").string()).out == run_json);
+  CHECK(roe::test::run_shell("head -c 1 " + (d / "ds" / "roe.json").string()).out == "{");
+}
+
+TEST_CASE("roe import mocap: a FILE-compressed rosbag2 bomb stops at its limit and leaves nothing in TMPDIR",
+          "[cli][hostile][ros2]") {
+  roe::test::TempDir d("roe_cli_zstd_bomb");
+  fs::create_directories(d / "tmp");
+  file_compressed_bag(d / "bag", "bomb_0.db3.zstd");
+  {  // 300 MiB of zeros in about 10 KB of zstd (the catalogue's case has 1 GiB)
+    const std::string z = roe::io::zstd_compress(std::string(300u << 20, '\0'), 1);
+    std::ofstream(d / "bag" / "bomb_0.db3.zstd", std::ios::binary) << z;
+  }
+  const auto r = run_limited(d.path, "import mocap bag --into newds --topic /tf");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Contains("bomb_0.db3.zstd") && Contains("decompresses to more than 268435456 bytes"));
+  CHECK(r.seconds < 10);
+}
+
+TEST_CASE("roe import mocap: TERM, INT or HUP while a rosbag2 file decompresses remove the copy in TMPDIR",
+          "[cli][hostile][ros2][signals]") {
+  for (const int sig : {SIGTERM, SIGINT, SIGHUP}) {
+    CAPTURE(sig);
+    roe::test::TempDir d("roe_cli_zstd_signal");
+    fs::create_directories(d / "tmp");
+    file_compressed_bag(d / "bag", "slow_0.db3.zstd");
+    REQUIRE(::mkfifo((d / "bag" / "slow_0.db3.zstd").c_str(), 0600) == 0);
+    const pid_t pid = fork();
+    if (pid == 0) {
+      setpgid(0, 0);
+      ::setenv("TMPDIR", (d / "tmp").c_str(), 1);
+      if (::chdir(d.path.c_str()) != 0) _exit(127);
+      execl(ROE_BINARY, ROE_BINARY, "import", "mocap", "bag", "--into", "newds", "--topic", "/tf", "-q",
+            static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    // The writer side: 4 MB of a 64 MB stream, then the signal while roe waits for the rest.
+    const std::string z = roe::io::zstd_compress(std::string(64u << 20, 'x'), 1);
+    std::FILE* w = std::fopen((d / "bag" / "slow_0.db3.zstd").c_str(), "wb");
+    REQUIRE(w != nullptr);
+    std::fwrite(z.data(), 1, z.size() / 2, w);
+    std::fflush(w);
+    bool copy_seen = false;
+    for (int i = 0; i < 200 && !copy_seen; ++i) {
+      for (const auto& e : entries(d / "tmp")) copy_seen = copy_seen || e.rfind("roe-bag-", 0) == 0;
+      if (!copy_seen) std::this_thread::sleep_for(std::chrono::milliseconds(25));
+    }
+    CHECK(copy_seen);
+    ::kill(pid, sig);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    std::fclose(w);
+    CHECK(WIFSIGNALED(status));
+    CHECK(entries(d / "tmp").empty());
+  }
+}
+
+TEST_CASE("roe import mocap and roe eval BAG:TOPIC read a rosbag2 folder without metadata.yaml",
+          "[cli][hostile][ros2][real]") {
+  const fs::path folder = shared_data("rosbag2/tf_example");
+  if (!fs::exists(folder)) {
+    WARN("skipped: " << folder << " absent");
+    return;
+  }
+  roe::test::TempDir d("roe_cli_no_metadata");
+  fs::create_directories(d / "bag");
+  fs::copy_file(folder / "tf_example.db3", d / "bag" / "tf_example.db3");
+  auto r = run_limited(d.path, "import mocap bag --into ds --topic /tf --parent odom --child base_footprint -q");
+  CHECK(r.code == 0);
+  CHECK(fs::exists(d / "ds" / "mav0" / "mocap0" / "data.csv"));
+  r = run_limited(d.path, "eval bag:/tf:odom.base_footprint --gt bag:/tf:odom.base_footprint --no-out -q");
+  CHECK(r.code == 0);
 }

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -181,7 +182,7 @@ TEST_CASE("roe sweep: 4 shards killed at random and resumed == one uninterrupted
                         Catch::Contains("--index \"$SLURM_ARRAY_TASK_ID\""));
   r = roe::test::run_roe("sweep emit parallel " + q(a) + " -j 2 --sshloginfile hosts.txt", false);
   REQUIRE(r.code == 0);
-  CHECK_THAT(r.out, Catch::Contains("seq 0 8 | parallel --jobs 2 --sshloginfile 'hosts.txt'"));
+  CHECK_THAT(r.out, Catch::Contains("seq 0 8 | parallel -q --jobs 2 --sshloginfile 'hosts.txt'"));
 }
 
 TEST_CASE("roe sweep: a held job lock, another format version, bad usage", "[cli][sweep]") {
@@ -242,4 +243,146 @@ TEST_CASE("roe sweep: GNU parallel runs the emitted script", "[cli][sweep][paral
   CHECK(st["done"] == 4);
   const std::string joblog = slurp(s / "logs" / "parallel.joblog");
   CHECK(std::count(joblog.begin(), joblog.end(), '\n') == 5);  // header + 4 jobs
+}
+
+// ---- Hostile sweep folders (issue 40) ---------------------------------------------------------------
+
+namespace {
+
+/// `s` as one word for sh, whatever it holds.
+std::string sh(const std::string& s) {
+  std::string r = "'";
+  for (char c : s) r += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return r + "'";
+}
+
+/// Rewrites jobs.jsonl's first line through `edit`.
+void edit_first_job(const fs::path& sweep, const std::function<void(json&)>& edit) {
+  std::string text = slurp(sweep / "jobs.jsonl");
+  const std::size_t nl = text.find('\n');
+  json j = json::parse(text.substr(0, nl));
+  edit(j);
+  std::ofstream(sweep / "jobs.jsonl", std::ios::trunc) << j.dump() << text.substr(nl);
+}
+
+const char* kTwoJobSpec =
+    R"({"format": "roe-sweep-spec/1", "axes": {"datasets": [{"preset": "paper-seq1", "duration_s": 2}], "seeds": [1, 2]}})";
+
+}  // namespace
+
+TEST_CASE("roe sweep run: a job id from jobs.jsonl never names a folder outside the sweep", "[cli][sweep][hostile]") {
+  roe::test::TempDir tmp("roe_sweep_escape");
+  const fs::path spec = tmp.write("spec.json", kTwoJobSpec);
+  for (const std::string bad : {std::string("../../victim"), (tmp / "victim").string(), std::string("a/b"),
+                                std::string(""), std::string("0123456789ABCDEF"), std::string("..")}) {
+    CAPTURE(bad);
+    fs::remove_all(tmp / "sw");
+    fs::create_directories(tmp / "victim");
+    std::ofstream(tmp / "victim" / "keep") << "x";
+    REQUIRE(roe::test::run_roe("sweep plan " + q(spec) + " --out " + q(tmp / "sw") + " -q").code == 0);
+    edit_first_job(tmp / "sw", [&](json& j) { j["id"] = bad; });
+    for (const std::string cmd : {"run", "status"}) {
+      const auto r = roe::test::run_roe("sweep " + cmd + " " + q(tmp / "sw") + (cmd == "run" ? " --index 0" : ""));
+      CHECK(r.code == 2);
+      CHECK_THAT(r.out, Catch::Contains("jobs.jsonl:1") && Catch::Contains("16 lower-case hex digits"));
+    }
+    CHECK(fs::exists(tmp / "victim" / "keep"));
+    CHECK(!fs::exists(tmp / "victim.old"));
+    CHECK(!fs::exists(tmp / "victim.lock"));
+  }
+  // A detection set name that leaves detections/, and a work/ that is a symlink, are refused too.
+  fs::remove_all(tmp / "sw");
+  REQUIRE(roe::test::run_roe("sweep plan " + q(spec) + " --out " + q(tmp / "sw") + " -q").code == 0);
+  edit_first_job(tmp / "sw", [](json& j) { j["job"]["detections"] = "../../x"; });
+  auto r = roe::test::run_roe("sweep run " + q(tmp / "sw") + " --index 1");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains("job.detections"));
+  fs::remove_all(tmp / "sw");
+  REQUIRE(roe::test::run_roe("sweep plan " + q(spec) + " --out " + q(tmp / "sw") + " -q").code == 0);
+  fs::create_directory_symlink(tmp / "victim", tmp / "sw" / "work");
+  r = roe::test::run_roe("sweep run " + q(tmp / "sw") + " --index 0");
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains("symbolic link"));
+  CHECK(fs::exists(tmp / "victim" / "keep"));
+}
+
+TEST_CASE("roe sweep aggregate: --out inside the sweep's own folders is refused, even with --force",
+          "[cli][sweep][hostile]") {
+  roe::test::TempDir tmp("roe_sweep_aggout");
+  const fs::path spec = tmp.write("spec.json", kTwoJobSpec);
+  const fs::path sw = tmp / "sw";
+  REQUIRE(roe::test::run_roe("sweep plan " + q(spec) + " --out " + q(sw) + " -q").code == 0);
+  const std::string id = json::parse(slurp(sw / "jobs.jsonl").substr(0, slurp(sw / "jobs.jsonl").find('\n')))["id"];
+  fs::create_directories(sw / "jobs" / id);
+  std::ofstream(sw / "jobs" / id / "result.json") << "{}";
+  for (const fs::path out : {sw / "jobs", sw / "jobs" / id, sw / "work", sw / "locks" / "x", sw, tmp.path})
+    CHECK(roe::test::run_roe("sweep aggregate " + q(sw) + " --out " + q(out) + " --force").code == 2);
+  CHECK(fs::exists(sw / "jobs" / id / "result.json"));
+  CHECK(fs::exists(sw / "jobs.jsonl"));
+}
+
+TEST_CASE("roe sweep plan: a spec of 10^9 jobs is refused at once, --max-jobs raises the limit",
+          "[cli][sweep][hostile]") {
+  roe::test::TempDir tmp("roe_sweep_limit");
+  json values = json::array();
+  for (int i = 0; i < 1000; ++i) values.push_back(0.9 + i * 1e-5);
+  json big = {{"format", "roe-sweep-spec/1"},
+              {"axes",
+               {{"datasets", {"paper-seq1"}},
+                {"overrides",
+                 {{"filter.chi2_confidence", values}, {"filter.meas_sigma_p_m", values}, {"filter.meas_sigma_ray_m", values}}}}}};
+  const fs::path spec = tmp.write("big.json", big.dump());
+  const auto t0 = std::chrono::steady_clock::now();
+  auto r = roe::test::run_roe("sweep plan " + q(spec) + " --out " + q(tmp / "sw"));
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains("1000000000 jobs") && Catch::Contains("--max-jobs") &&
+                        Catch::Contains("big.json:1:"));
+  CHECK(std::chrono::steady_clock::now() - t0 < std::chrono::seconds(5));
+  CHECK(!fs::exists(tmp / "sw"));
+  // 4 jobs against a limit of 3, then 4.
+  const fs::path small = tmp.write("small.json", R"({"format": "roe-sweep-spec/1", "axes": {"datasets": ["paper-seq1"],
+      "seeds": [1, 2], "configs": ["default", "paper"]}})");
+  CHECK(roe::test::run_roe("sweep plan " + q(small) + " --out " + q(tmp / "s4") + " --max-jobs 3").code == 2);
+  CHECK(roe::test::run_roe("sweep plan " + q(small) + " --out " + q(tmp / "s4") + " --max-jobs 4 -q").code == 0);
+  // Detection names that leave detections/ and a duration the simulator refuses fail at plan time.
+  for (const std::string axes : {R"({"datasets": ["paper-seq1"], "detections": ["../x"]})",
+                                 R"({"datasets": ["paper-seq1"], "detections": ["a/b"]})",
+                                 R"({"datasets": [{"preset": "paper-seq1", "duration_s": 1e9}]})"}) {
+    const fs::path bad = tmp.write("bad.json", R"({"format": "roe-sweep-spec/1", "axes": )" + axes + "}");
+    r = roe::test::run_roe("sweep plan " + q(bad) + " --out " + q(tmp / "bad"));
+    CHECK(r.code == 2);
+    CHECK_THAT(r.out, Catch::Contains("bad.json:1:"));
+    CHECK(!fs::exists(tmp / "bad"));
+  }
+}
+
+TEST_CASE("roe sweep emit: GNU parallel runs the script on a folder named with spaces, quotes and $( )",
+          "[cli][sweep][parallel][hostile]") {
+  if (!have("parallel")) {
+    WARN("skipped: GNU parallel is not installed (Debian: apt-get install parallel; scripts/install-deps.sh)");
+    return;
+  }
+  roe::test::TempDir tmp("roe_sweep_quoted");
+  const fs::path spec = tmp.write("spec.json", kTwoJobSpec);
+  const fs::path s = tmp / "sw 'single' \"double\" $(touch INJECTED) `touch INJECTED2` ;x";
+  REQUIRE(roe::test::run_roe("sweep plan " + sh(spec.string()) + " --out " + sh(s.string()) + " -q").code == 0);
+  REQUIRE(roe::test::run_roe("sweep emit parallel " + sh(s.string()) + " -j 2 --out " + sh((tmp / "run.sh").string()) +
+                             " -q")
+              .code == 0);
+  const int rc = std::system(("cd " + sh(tmp.path.string()) + " && HOME=" + sh(tmp.path.string()) + " bash run.sh" +
+                              " >/dev/null 2>&1")
+                                 .c_str());
+  CHECK(WEXITSTATUS(rc) == 0);
+  CHECK(!fs::exists(tmp / "INJECTED"));
+  CHECK(!fs::exists(tmp / "INJECTED2"));
+  const auto st = roe::test::run_roe("sweep status " + sh(s.string()) + " --json", false);
+  REQUIRE(st.code == 0);
+  CHECK(json::parse(st.out)["done"] == 2);
+  // A newline in a #SBATCH value would add a directive: refused. The comment shows no raw newline either.
+  auto r = roe::test::run_roe("sweep emit slurm " + sh(s.string()) + " --job-name " + sh("x\n#SBATCH --mem=999G"));
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains("--job-name"));
+  r = roe::test::run_roe("sweep emit slurm " + sh(s.string()), false);
+  REQUIRE(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("exec '"));
 }

@@ -254,6 +254,12 @@ TEST_CASE("rosbag2 bad input: not a rosbag2 database, not a bag, missing split f
   CHECK_THROWS_WITH(io::open_bag(d.path / "m1"), Catch::Contains("not a file inside the bag folder"));
   d.write("m1/metadata.yaml", "rosbag2_bagfile_information: [1, 2\n");
   CHECK_THROWS_WITH(io::open_bag(d.path / "m1"), Catch::Contains("metadata.yaml:"));
+  // Shapes yaml-cpp refuses to subscript (fuzz_rosbag2_metadata findings, issue 40): input errors, not exit 3.
+  for (const char* text : {"just a scalar\n", "- a\n- b\n",
+                           "rosbag2_bagfile_information:\n  relative_file_paths: [x.db3]\n  topics_with_message_count: [1, 2]\n"}) {
+    d.write("m1/metadata.yaml", text);
+    CHECK_THROWS_AS(io::open_bag(d.path / "m1"), InputError);
+  }
 }
 
 TEST_CASE("rosbag2: file- and message-level zstd compression of a folder read like the plain one",

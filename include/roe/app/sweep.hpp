@@ -26,6 +26,9 @@ inline constexpr const char* kSweepFormat = "roe-sweep/1";
 /// Version of a spec file ("format" key, optional).
 inline constexpr const char* kSweepSpecFormat = "roe-sweep-spec/1";
 
+/// The most jobs `roe sweep plan` expands a spec to unless --max-jobs raises it (docs/sweep.md).
+inline constexpr std::size_t kDefaultMaxSweepJobs = 100000;
+
 /// One job: everything needed to run it, independent of the machine that planned it.
 struct SweepJob {
   std::string id;       ///< first 16 hex digits of SHA-256 of `content` (canonical JSON)
@@ -34,6 +37,10 @@ struct SweepJob {
   ///  "run_config": effective RunConfig JSON, "detections": name ("" = the only set), "eval": {...}}
   nlohmann::json content;
 };
+
+/// True for an id as plan_sweep makes them (16 lower-case hex digits): read_sweep refuses any other, so a
+/// hand-edited jobs.jsonl can never make a job folder path leave the sweep.
+bool is_job_id(const std::string& id);
 
 struct SweepPlan {
   nlohmann::json spec;                 ///< the spec as read
@@ -45,7 +52,10 @@ struct SweepPlan {
 /// `source` names the spec in errors. ConfigError (exit 2) naming the spec path (`axes.configs[2]`)
 /// for unknown keys, empty axes, unknown presets or shipped configs, missing dataset or config paths,
 /// and config overrides of keys a run config does not have or with values it refuses.
-SweepPlan plan_sweep(const nlohmann::json& spec, const std::filesystem::path& spec_dir, const std::string& source);
+/// A spec that expands to more than `max_jobs` jobs is refused (ConfigError at `axes`) from the sizes of its
+/// axes, before anything is expanded: bounded memory whatever the spec claims.
+SweepPlan plan_sweep(const nlohmann::json& spec, const std::filesystem::path& spec_dir, const std::string& source,
+                     std::size_t max_jobs = kDefaultMaxSweepJobs);
 
 /// Names of the run configs shipped with roe (configs/*.json, embedded at build time) and their JSON text.
 std::vector<std::string> shipped_config_names();
@@ -67,6 +77,7 @@ struct SweepPlanOptions {
   std::string spec;  ///< SPEC file
   std::string out;   ///< SWEEP_DIR
   bool force = false;  ///< re-plan dropping jobs the spec no longer has
+  std::size_t max_jobs = kDefaultMaxSweepJobs;  ///< --max-jobs
 };
 struct SweepPlanResult {
   std::filesystem::path out;
@@ -196,7 +207,7 @@ SweepAggregateResult sweep_aggregate(const SweepAggregateOptions& o);
 struct SweepEmitOptions {
   std::string engine;  ///< "slurm" or "parallel"
   std::string dir;
-  std::string roe;                ///< the roe command the script calls; empty: this executable's path
+  std::string roe;                ///< the roe executable the script calls (one word, quoted); empty: this one
   std::size_t max_parallel = 0;   ///< slurm %K / parallel -j (0: slurm unlimited, parallel one per core)
   std::string partition, time = "01:00:00", mem = "2G", account, job_name = "roe-sweep";
   int cpus_per_task = 1;

@@ -95,7 +95,8 @@ class MessageBag {
 };
 
 /// "ros1", "mcap", "sqlite3", "rosbag2-folder", "zstd" (a zstd-compressed file) or "" (unknown), from
-/// the content: the first bytes of a file, or metadata.yaml in a folder.
+/// the content: the first bytes of a file; for a folder, metadata.yaml or (without one) the MCAP or SQLite
+/// bag files in it, as open_bag reads them.
 std::string detect_bag_kind(const fs::path& path);
 /// Opens any bag roe reads. InputError naming the path when it is not a bag roe knows.
 std::unique_ptr<MessageBag> open_bag(const fs::path& path, const BagOpenOptions& options = {});

@@ -60,6 +60,11 @@ bool is_folder(const fs::path& path);
 /// Whether anything is at `path` (following symlinks); InputError when it cannot be resolved.
 bool path_exists(const fs::path& path);
 
+/// A name that is one folder or file name and nothing more: not empty, not "." or "..", no '/' and no control
+/// character. Names read from options or user-editable files (a detection set, a sweep's job id) are checked
+/// with it before they become a path, so they can never point outside the folder they are joined to.
+bool is_plain_name(std::string_view name);
+
 /// An open regular file: the descriptor and its size at open time. Opened with O_NONBLOCK and checked
 /// with fstat, so a path swapped for a FIFO between the check and the open cannot block either.
 class InputFile {

@@ -78,9 +78,11 @@ struct MessageView {
 struct ReaderOptions {
   /// Ignore the summary even when intact and scan the data section.
   bool force_scan = false;
-  /// Largest uncompressed chunk accepted (a corrupt size field must not trigger a huge allocation).
-  /// A compressed chunk may also claim at most max(64 MiB, 4096 x its compressed size).
-  std::uint64_t max_chunk_bytes = 1ull << 30;
+  /// Largest uncompressed chunk accepted (a corrupt size field or a decompression bomb must not cost more
+  /// memory): 0 is io::chunk_decompression_limit(file size) (compression.hpp: 4× the file, within
+  /// [64 MiB, 256 MiB]). The k-way merge of chunks that overlap in time holds at most this many bytes of
+  /// decompressed chunks waiting for their turn (beyond, it emits what waits, with a warning).
+  std::uint64_t max_chunk_bytes = 0;
 };
 
 class Reader {

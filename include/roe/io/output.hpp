@@ -71,6 +71,20 @@ std::vector<fs::path> remove_stale_temporaries(const fs::path& final_path);
 /// by the executable's main.
 void remove_temporaries_on_signals();
 
+/// A temporary file or folder this process made outside an output (e.g. the decompressed copy of a bag file
+/// in $TMPDIR): while the object lives, the handler of remove_temporaries_on_signals() removes it on SIGINT,
+/// SIGTERM and SIGHUP. The object's end only unregisters it; its owner removes it.
+class SignalCleanup {
+ public:
+  explicit SignalCleanup(const fs::path& path);
+  ~SignalCleanup();
+  SignalCleanup(const SignalCleanup&) = delete;
+  SignalCleanup& operator=(const SignalCleanup&) = delete;
+
+ private:
+  int slot_ = -1;
+};
+
 /// Registers a child process roe waits for (e.g. the plotting script; io/process.hpp) with the handler of
 /// remove_temporaries_on_signals(): on SIGINT/SIGTERM/SIGHUP it kills the child and its process group
 /// (SIGKILL) and reaps it before removing the temporaries. Returns a slot for unregister_child_process
@@ -163,6 +177,10 @@ fs::path without_trailing_separator(const fs::path& path);
 /// that do not exist are ignored. `what` names the output in the message ("output folder").
 void refuse_overwriting_inputs(const fs::path& out, const std::vector<fs::path>& inputs,
                                const std::string& what = "output folder");
+
+/// True when `path` is `dir` or lies inside it, compared after resolving symlinks and `..` (neither needs
+/// to exist).
+bool is_within(const fs::path& path, const fs::path& dir);
 
 /// The absolute, normalised form of an input's path (symlinks resolved where they exist), as recorded
 /// in roe.json's sources[]: valid whatever folder the command ran from.
