@@ -4,10 +4,11 @@
 # executable is not built (a `cmake --install` of a folder that was only configured), naming the command
 # that builds it.
 function(roe_install_check main)
+  string(JOIN " " _helpers ${ARGN})
   install(CODE "
     if(NOT EXISTS \"$<TARGET_FILE:${main}>\")
       message(FATAL_ERROR \"roe install: $<TARGET_FILE:${main}> is not built; nothing was installed. \"
-                          \"Build it first: cmake --build ${CMAKE_BINARY_DIR} --target ${main} ${ARGN} \"
+                          \"Build it first: cmake --build ${CMAKE_BINARY_DIR} --target ${main} ${_helpers} \"
                           \"(or run make install PREFIX=...)\")
     endif()")
 endfunction()

@@ -416,6 +416,31 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
 // ROS bag topics
 // ---------------------------------------------------------------------------------------------
 namespace {
+/// A pose topic that is not given or not in the bag: the bag's pose topics, every topic, and both spellings.
+[[noreturn]] void refuse_topic(const MessageBag& reader, const std::string& topic) {
+  const std::string bag_word = reader.ros2() ? "the ROS 2 bag" : "the bag";
+  std::string list;
+  for (const auto& t : reader.topics())
+    if (is_pose_type(t.type)) list += "\n  " + t.topic + " [" + t.type + "]";
+  const std::string where = reader.damaged() ? "the intact part of " + bag_word : bag_word;
+  std::string msg = (topic.empty() ? std::string("no topic given: name a pose topic (roe eval BAG:TOPIC, e.g. "
+                                                 "BAG:/odom or BAG:/tf:PARENT.CHILD; roe import mocap --topic T)")
+                                   : "topic \"" + topic + "\" is not in " + where) +
+                    "; pose topics in " + where + ":" + (list.empty() ? std::string(" none") : list) +
+                    "\nall topics:" + reader.topic_listing();
+  if (reader.damaged())
+    msg += "\nthe bag is damaged (" + reader.first_damage() + "); --salvage cannot recover what is lost";
+  throw InputError(msg, {reader.name()});
+}
+
+/// After reading: a damaged bag is an error unless `salvage`.
+void refuse_damage(const MessageBag& reader, bool salvage) {
+  if (reader.damaged() && !salvage)
+    throw InputError("the bag is damaged (" + reader.first_damage() +
+                         "); use --salvage to import the poses that are intact",
+                     {reader.name()});
+}
+
 /// PARENT -> CHILD through the tf tree of `topic` and, implicitly, /tf_static (as evo and tf2 read a
 /// bag): TfBuffer::trajectory, stamped with header.stamp (the record time when it is zero).
 void read_tf_chain(MessageBag& reader, const std::string& topic, const std::string& parent,
@@ -454,21 +479,7 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
   const auto reader = open_bag(bag_file, bo);
   out.format = reader->ros2() ? "rosbag2" : "rosbag";
   const std::string type = reader->topic_type(topic);
-  const std::string bag_word = reader->ros2() ? "the ROS 2 bag" : "the bag";
-  if (topic.empty() || type.empty()) {
-    std::string list;
-    for (const auto& t : reader->topics())
-      if (is_pose_type(t.type)) list += "\n  " + t.topic + " [" + t.type + "]";
-    const std::string where = reader->damaged() ? "the intact part of " + bag_word : bag_word;
-    std::string msg = (topic.empty() ? std::string("no topic given: name a pose topic (roe eval BAG:TOPIC, e.g. "
-                                                   "BAG:/odom or BAG:/tf:PARENT.CHILD; roe import mocap --topic T)")
-                                     : "topic \"" + topic + "\" is not in " + where) +
-                      "; pose topics in " + where + ":" + (list.empty() ? std::string(" none") : list) +
-                      "\nall topics:" + reader->topic_listing();
-    if (reader->damaged())
-      msg += "\nthe bag is damaged (" + reader->first_damage() + "); --salvage cannot recover what is lost";
-    throw InputError(msg, {reader->name()});
-  }
+  if (topic.empty() || type.empty()) refuse_topic(*reader, topic);
   if (!is_pose_type(type))
     throw InputError("topic " + topic + " has type " + type +
                          " (supported: PoseStamped, TransformStamped, PoseWithCovarianceStamped, Odometry, TFMessage)",
@@ -480,10 +491,7 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
   out.body = topic;
   if (tf && !parent_frame.empty() && !child_frame.empty()) {
     read_tf_chain(*reader, topic, parent_frame, child_frame, out);
-    if (reader->damaged() && !salvage)
-      throw InputError("the bag is damaged (" + reader->first_damage() +
-                           "); use --salvage to import the poses that are intact",
-                       {reader->name()});
+    refuse_damage(*reader, salvage);
     for (const auto& w : reader->warnings()) out.warnings.push_back(fmt::format("{}: {}", w.file, w.text()));
     return out;
   }
@@ -503,10 +511,7 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
     msgs.emplace_back(m.log_time_ns, decode_stamped_pose(m));
     return true;
   });
-  if (reader->damaged() && !salvage)
-    throw InputError("the bag is damaged (" + reader->first_damage() +
-                         "); use --salvage to import the poses that are intact",
-                     {reader->name()});
+  refuse_damage(*reader, salvage);
   if (tf) {
     std::set<std::pair<std::string, std::string>> chosen;
     for (const auto& pc : pairs)
