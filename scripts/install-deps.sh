@@ -20,6 +20,7 @@ demo=(
   libeigen3-dev libfmt-dev nlohmann-json3-dev libcli11-dev catch2   # core, CLI (Catch2: configure only)
   liblz4-dev libbz2-dev libyaml-cpp-dev libssl-dev                  # ROS bags, Kalibr YAML, sha256
   libzstd-dev libsqlite3-dev                                        # ROS 2 bags: MCAP zstd chunks, rosbag2 .db3
+  zlib1g-dev                                                        # evo result zips (main, issue 38)
   libopencv-dev                                                     # found at configure time (roe-image, roe-infer)
   python3 python3-numpy python3-matplotlib                          # plots (roe eval --plot)
 )
