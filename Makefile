@@ -9,8 +9,10 @@ ROE := $(BUILD)/roe
 
 all: build
 
+# The Debian packages of one use (scripts/install-deps.sh: demo, test, infer, all); `make deps` = test.
+DEPS ?= test
 deps:
-	scripts/install-deps.sh
+	scripts/install-deps.sh $(DEPS)
 
 $(BUILD)/CMakeCache.txt:
 	cmake -S . -B $(BUILD) $(CMAKE_FLAGS)
@@ -20,12 +22,14 @@ configure: $(BUILD)/CMakeCache.txt
 build: configure
 	cmake --build $(BUILD) -j $(JOBS)
 
-test: deps
+test:
+	scripts/install-deps.sh test
 	$(MAKE) build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 # The demo needs the roe executable only: no tests, benchmarks or image helpers (issue 24: make demo <= 8 min).
-demo: deps
+demo:
+	scripts/install-deps.sh demo
 	$(MAKE) configure
 	cmake --build $(BUILD) -j $(JOBS) --target roe
 	scripts/demo.sh $(ROE)
@@ -35,8 +39,10 @@ sample: build
 	scripts/make-sample.sh $(ROE)
 
 # Installs roe into PREFIX (bin/roe, libexec/roe/, share/roe/); PREFIX=$$HOME/.local needs no root.
+# The helpers are built here, so after `make demo` (roe alone) this installs a complete roe.
 PREFIX ?= /usr/local
-install: deps
+install:
+	scripts/install-deps.sh infer
 	$(MAKE) configure
 	cmake --build $(BUILD) -j $(JOBS) --target roe roe-image roe-infer
 	cmake --install $(BUILD) --prefix $(PREFIX)

@@ -1,27 +1,74 @@
 #!/usr/bin/env bash
-# Installs exactly the Debian (bookworm) packages roe's build and tests need. Idempotent: a no-op
-# when everything is present; runs `apt-get update` only when something is missing.
-#   scripts/install-deps.sh          build + test dependencies (what CI needs)
-#   scripts/install-deps.sh --dev    also the developer tools (formatter, fuzzer, fixture generators)
+# Installs the Debian (bookworm) packages one use of roe needs, and no more. Idempotent: a no-op when
+# everything is present; runs `apt-get update` only when something is missing.
+#   scripts/install-deps.sh [PROFILE...] [--dev] [--list]
+# Profiles (several may be given; the default is `test`, what CI needs):
+#   demo    build `roe` alone and run scripts/demo.sh (make demo): compilers, the libraries roe links,
+#           OpenCV's headers (CMake configures the image helpers too), Catch2 (configured, not built),
+#           matplotlib for the demo's plots
+#   test    build everything and run the whole test suite (make test): demo + LibTorch, GNU parallel,
+#           Slurm, chromium (roe report's browser test), clang + libFuzzer (the fuzz smoke test)
+#   infer   build and install the helpers for `roe infer` with LibTorch (make install): demo + LibTorch
+#   all     every profile
+#   --dev   also the developer tools (formatter, fixture and reference generators)
+#   --list  print the packages of the chosen profiles, one per line, and install nothing
+# docs/install.md lists what each profile pulls onto a fresh bookworm machine.
 set -euo pipefail
 
-packages=(
+demo=(
   build-essential cmake pkg-config
-  libeigen3-dev libfmt-dev nlohmann-json3-dev libcli11-dev catch2   # core, CLI, tests
+  libeigen3-dev libfmt-dev nlohmann-json3-dev libcli11-dev catch2   # core, CLI (Catch2: configure only)
   liblz4-dev libbz2-dev libyaml-cpp-dev libssl-dev                  # ROS bags, Kalibr YAML, sha256
   libzstd-dev libsqlite3-dev                                        # ROS 2 bags: MCAP zstd chunks, rosbag2 .db3
   zlib1g-dev                                                        # evo result zips
   libceres-dev                                                      # roe refine: the batch MAP (Ceres Solver 2.1)
-  libopencv-dev libtorch-dev                                        # images, detector, PoET head
-  libopenblas0-pthread                                              # LibTorch's BLAS: without it the reference BLAS (13x slower GEMMs)
+  libopencv-dev                                                     # found at configure time (roe-image, roe-infer)
   python3 python3-numpy python3-matplotlib                          # plots (roe eval --plot)
+)
+infer=(
+  libtorch-dev                                                      # the PoET pose head (roe-infer)
+  libopenblas0-pthread                                              # LibTorch's BLAS: without it the reference BLAS (13x slower GEMMs)
+)
+test_only=(
   parallel slurm-wlm munge                                          # roe sweep: the real-engine tests (GNU parallel, single-node Slurm)
   chromium                                                          # roe report's browser test (tests/cli/test_report_cli.cpp)
   clang libclang-rt-14-dev                                          # fuzz/smoke test: libFuzzer, ASan, UBSan
 )
-if [[ "${1:-}" == "--dev" ]]; then
-  packages+=(clang-format python3-torch)
-  packages+=(python3-scipy)  # regenerates tests/eval/data/stats_reference.json (tests do not need it)
+dev=(
+  clang-format python3-torch
+  python3-scipy  # regenerates tests/eval/data/stats_reference.json (tests do not need it)
+)
+
+profiles=()
+with_dev=0
+list=0
+for arg in "$@"; do
+  case "$arg" in
+    demo | test | infer | all) profiles+=("$arg") ;;
+    --dev) with_dev=1 ;;
+    --list) list=1 ;;
+    -h | --help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "install-deps: unknown profile or option '$arg' (profiles: demo, test, infer, all; options: --dev, --list)" >&2
+       exit 2 ;;
+  esac
+done
+[[ ${#profiles[@]} -eq 0 ]] && profiles=(test)
+
+packages=("${demo[@]}")
+for p in "${profiles[@]}"; do
+  case "$p" in
+    test) packages+=("${infer[@]}" "${test_only[@]}") ;;
+    infer) packages+=("${infer[@]}") ;;
+    all) packages+=("${infer[@]}" "${test_only[@]}" "${dev[@]}") ;;
+  esac
+done
+[[ $with_dev -eq 1 ]] && packages+=("${dev[@]}")
+# Each package once, in the order first named.
+mapfile -t packages < <(printf '%s\n' "${packages[@]}" | awk '!seen[$0]++')
+
+if [[ $list -eq 1 ]]; then
+  printf '%s\n' "${packages[@]}"
+  exit 0
 fi
 
 missing=()
@@ -41,6 +88,6 @@ if [[ $(id -u) -ne 0 ]]; then
     exit 1
   fi
 fi
-echo "install-deps: installing ${missing[*]}" >&2
+echo "install-deps (${profiles[*]}): installing ${missing[*]}" >&2
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

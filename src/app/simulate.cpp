@@ -9,11 +9,14 @@
 
 #include "roe/core/error.hpp"
 #include "roe/io/dataset.hpp"
+#include "roe/io/input.hpp"
 #include "roe/io/json.hpp"
+#include "roe/io/kalibr.hpp"
 #include "roe/io/models_info.hpp"
 #include "roe/core/log.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
+#include "roe/sim/pose_groundtruth.hpp"
 #include "roe/version.hpp"
 
 namespace roe::app {
@@ -348,6 +351,45 @@ sim::SimConfig sim_config_from_file(const std::filesystem::path& file) {
   return io::read_json_file(file, sim_config_from_json);
 }
 
+namespace {
+/// The real streams `--from-groundtruth` reads from a EuRoC/TUM-VI folder (DIR/mav0 or the mav0 folder).
+struct GroundTruthInput {
+  std::filesystem::path mav0, imu_file, gt_file;
+  std::vector<ImuSample> imu;
+  std::vector<ImuState> states;  ///< the full state, or the poses with their velocity (pose_only)
+  std::string layout;
+  bool pose_only = false;
+  std::optional<ImuNoise> imu_noise;  ///< from imu0/sensor.yaml (EuRoC's keys = Kalibr's imu.yaml keys)
+};
+
+GroundTruthInput read_groundtruth_input(const std::filesystem::path& dir) {
+  GroundTruthInput in;
+  in.mav0 = io::is_folder(dir / "mav0") ? dir / "mav0" : dir;
+  if (!io::is_folder(in.mav0)) throw InputError("not a directory (expected a EuRoC mav0 folder)", {dir.string()});
+  in.imu_file = in.mav0 / "imu0" / "data.csv";
+  if (!io::path_exists(in.imu_file)) throw InputError("missing EuRoC stream", {in.imu_file.string()});
+  // The IMU's ground truth: EuRoC's state (17 columns) or a pose-only file in its place; else TUM-VI's
+  // mocap0, which is the IMU pose there. (EuRoC's vicon0 is the marker body, not the IMU: not taken.)
+  const std::filesystem::path candidates[] = {in.mav0 / "state_groundtruth_estimate0" / "data.csv",
+                                              in.mav0 / "mocap0" / "data.csv"};
+  for (const auto& f : candidates)
+    if (in.gt_file.empty() && io::path_exists(f)) in.gt_file = f;
+  if (in.gt_file.empty())
+    throw InputError(fmt::format("missing ground truth: expected {} (EuRoC: 17 columns, or 8: time, position, "
+                                 "quaternion) or {} (TUM-VI)",
+                                 candidates[0].string(), candidates[1].string()),
+                     {in.mav0.string()});
+  in.imu = io::read_imu_csv(in.imu_file);
+  if (const auto yaml = in.mav0 / "imu0" / "sensor.yaml"; io::path_exists(yaml))
+    in.imu_noise = io::read_kalibr_imu(yaml).noise;
+  io::GroundTruthFile gt = io::read_groundtruth_file(in.gt_file);
+  in.layout = gt.layout;
+  in.pose_only = gt.pose_only();
+  in.states = in.pose_only ? sim::states_from_poses(gt.poses) : std::move(gt.states);
+  return in;
+}
+}  // namespace
+
 sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
   const bool gt_mode = !opt.from_groundtruth.empty();
   if (gt_mode && (!opt.preset.empty() || !opt.config_file.empty()))
@@ -366,17 +408,12 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
   src.options["seed"] = std::to_string(opt.seed);
   sim::SimRun run;
   if (gt_mode) {
-    const std::filesystem::path mav0 = opt.from_groundtruth;
-    if (!std::filesystem::is_directory(mav0))
-      throw InputError("not a directory (expected a EuRoC mav0 folder)", {mav0.string()});
-    const auto imu_file = mav0 / "imu0" / "data.csv";
-    const auto gt_file = mav0 / "state_groundtruth_estimate0" / "data.csv";
-    for (const auto& f : {imu_file, gt_file})
-      if (!std::filesystem::exists(f)) throw InputError("missing EuRoC stream", {f.string()});
-    const auto imu = io::read_imu_csv(imu_file);
-    const auto gt = io::read_groundtruth_csv(gt_file);
+    const GroundTruthInput in = read_groundtruth_input(opt.from_groundtruth);
+    const auto& imu = in.imu;
+    const auto& gt = in.states;
     sim::FromGroundtruthConfig cfg;
     if (opt.objects) cfg.num_objects = *opt.objects;
+    if (in.imu_noise) cfg.imu_noise = *in.imu_noise;
     if (opt.duration_s) throw InputError("--duration does not apply to --from-groundtruth", {"--duration"});
     try {
       run = sim::simulate_from_groundtruth(imu, gt, cfg, opt.seed);
@@ -391,13 +428,23 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
       throw InputError(e.bare_message(), ctx);
     }
     src.kind = "simulate-from-groundtruth";
-    src.path = io::provenance_path(mav0);
+    src.path = io::provenance_path(in.mav0);
     src.options["objects"] = std::to_string(cfg.num_objects);
-    src.options["imu_sha256"] = io::sha256_file(imu_file);
-    src.options["groundtruth_sha256"] = io::sha256_file(gt_file);
+    src.options["imu_sha256"] = io::sha256_file(in.imu_file);
+    src.options["groundtruth"] = io::provenance_path(in.gt_file);
+    src.options["groundtruth_sha256"] = io::sha256_file(in.gt_file);
+    src.options["groundtruth_layout"] = in.layout;
+    src.options["imu_noise"] = in.imu_noise ? io::provenance_path(in.mav0 / "imu0" / "sensor.yaml")
+                                            : std::string("EuRoC ADIS16448 sensor.yaml values (no imu0/sensor.yaml)");
+    if (in.pose_only) {
+      src.options["groundtruth_velocity"] = fmt::format(
+          "from the poses: slope of a least-squares quadratic over +-{} s (docs/simulator.md section 9)",
+          sim::VelocityFromPosesConfig{}.half_window_s);
+      src.options["groundtruth_biases"] = "unknown (written as 0 in state_groundtruth_estimate0)";
+    }
     src.options["T_I_C"] = "EuRoC cam0 T_BS";
     if (effective)
-      *effective = {{"from_groundtruth", mav0.string()}, {"objects", cfg.num_objects}, {"seed", opt.seed}};
+      *effective = {{"from_groundtruth", in.mav0.string()}, {"objects", cfg.num_objects}, {"seed", opt.seed}};
   } else {
     std::string source;
     sim::SimConfig cfg;

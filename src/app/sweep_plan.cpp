@@ -16,10 +16,6 @@
 #include "roe/sim/simulator.hpp"
 
 namespace roe::app {
-namespace detail {
-const std::vector<std::pair<std::string, std::string>>& embedded_run_configs();
-}  // namespace detail
-
 namespace fs = std::filesystem;
 using nlohmann::json;
 
@@ -355,19 +351,6 @@ void check_job_count(const Where& w, const json& axes, std::size_t max_jobs) {
 }
 
 }  // namespace
-
-std::vector<std::string> shipped_config_names() {
-  std::vector<std::string> names;
-  for (const auto& c : detail::embedded_run_configs()) names.push_back(c.first);
-  return names;
-}
-
-const std::string& shipped_config_text(const std::string& name) {
-  for (const auto& c : detail::embedded_run_configs())
-    if (c.first == name) return c.second;
-  throw InputError(fmt::format("unknown shipped config '{}' (shipped: {}; or give a path to a JSON file)", name,
-                               fmt::join(shipped_config_names(), ", ")));
-}
 
 SweepPlan plan_sweep(const json& spec, const fs::path& spec_dir, const std::string& source, std::size_t max_jobs) {
   const Where w{source};

@@ -53,7 +53,8 @@ inline constexpr ForwardedCommand kForwardedCommands[] = {kImportRealsenseComman
 
 /// In `roe`: when argv names a forwarded command, execs its helper with the same arguments and does not
 /// return. Returns nullptr when argv names no forwarded command; else the command it could not hand over,
-/// with `error` saying why (an internal error: a broken installation). Global flags take no values, so the
+/// with `error` saying why (the helper is not installed: exit 3), or with `error` empty when argv asks
+/// for the command's --help, which roe then answered itself on stdout (exit 0). Global flags take no values, so the
 /// command is the first word not starting with '-'.
 const ForwardedCommand* forward_to_helper(int argc, char** argv, std::string& error);
 

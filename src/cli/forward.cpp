@@ -7,6 +7,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <iostream>
 #include <string>
 #include <system_error>
 
@@ -44,6 +45,27 @@ const ForwardedCommand* forwarded_command(int argc, char** argv) {
   return nullptr;
 }
 
+bool asks_for_help(int argc, char** argv) {
+  for (int i = 1; i < argc && std::string(argv[i]) != "--"; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") return true;
+  return false;
+}
+
+/// The command's synopsis as DESIGN §1 gives it (its full option list is the helper's own --help).
+const char* synopsis(const ForwardedCommand& c) {
+  if (std::string(c.helper) == "roe-image") return "roe import realsense BAG --out DATASET [OPTIONS]";
+  return "roe infer DATASET --model BUNDLE_DIR [--name NAME] [OPTIONS]";
+}
+
+std::string command_path(const ForwardedCommand& c) {
+  return (c.parent[0] ? std::string(c.parent) + " " : "") + c.name;
+}
+
+std::string how_to_add(const ForwardedCommand& c) {
+  return std::string("add it from the build folder: cmake --build BUILD --target ") + c.helper +
+         " && cmake --install BUILD --prefix PREFIX (or make install PREFIX=...), docs/install.md";
+}
+
 }  // namespace
 
 const ForwardedCommand* forward_to_helper(int argc, char** argv, std::string& error) {
@@ -61,9 +83,16 @@ const ForwardedCommand* forward_to_helper(int argc, char** argv, std::string& er
     error = "cannot start " + candidate + ": " + std::strerror(errno);
     return c;
   }
-  error = std::string("the command '") + (c->parent[0] ? std::string(c->parent) + " " : "") + c->name +
-          "' runs in the helper " + c->helper + ", which is not installed (looked for " + tried +
-          "); reinstall roe";
+  if (asks_for_help(argc, argv)) {  // answered here: the helper is not needed to say what it would do
+    std::cout << c->description << "\nUsage: " << synopsis(*c) << "\n\n"
+              << "This command runs in the helper " << c->helper << ", which is not installed with this roe\n"
+              << "(looked for " << tried << "). Its options are listed here once it is;\n"
+              << how_to_add(*c) << ".\n";
+    error.clear();
+    return c;
+  }
+  error = "the command '" + command_path(*c) + "' runs in the helper " + c->helper +
+          ", which is not installed with this roe (looked for " + tried + "); " + how_to_add(*c);
   return c;
 }
 

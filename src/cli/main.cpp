@@ -92,9 +92,11 @@ int main(int argc, char** argv) {
 #ifdef ROE_CLI_FORWARDS
   // Before anything else (signal handlers included: exec keeps only ignored signals ignored).
   std::string forward_error;
-  if (const ForwardedCommand* c = forward_to_helper(argc, argv, forward_error))
-    return fail(3, std::string(c->parent[0] ? std::string(c->parent) + " " : "") + c->name, "internal error: ",
+  if (const ForwardedCommand* c = forward_to_helper(argc, argv, forward_error)) {
+    if (forward_error.empty()) return 0;  // its --help, answered by roe itself (the helper is not installed)
+    return fail(3, std::string(c->parent[0] ? std::string(c->parent) + " " : "") + c->name, "error: ",
                 forward_error);
+  }
 #endif
   roe::io::remove_temporaries_on_signals();
   CLI::App app{"roe: AI-based, object-relative visual-inertial state estimation (offline toolkit)",

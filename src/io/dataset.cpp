@@ -12,6 +12,7 @@
 #include "roe/io/input.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
+#include "roe/io/trajectory_io.hpp"
 
 namespace roe::io {
 namespace {
@@ -596,6 +597,31 @@ std::vector<ImuState> read_groundtruth_csv(const fs::path& file) {
     s.b_a = read_vec3(r, 14);
     out.push_back(s);
   }
+  return out;
+}
+
+GroundTruthFile read_groundtruth_file(const fs::path& file) {
+  // The first line that is not blank decides: 17 comma-separated cells are EuRoC's state.
+  const std::string head = read_file_head(file, 1 << 16);
+  std::size_t pos = head.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
+  while (pos < head.size() && (head[pos] == '\n' || head[pos] == '\r' || head[pos] == ' ')) ++pos;
+  const std::string first = head.substr(pos, head.find('\n', pos) - pos);
+  GroundTruthFile out;
+  if (std::count(first.begin(), first.end(), ',') + 1 == static_cast<std::ptrdiff_t>(groundtruth_header().size())) {
+    out.states = read_groundtruth_csv(file);
+    out.layout = "euroc-state";
+    return out;
+  }
+  const Trajectory tr = read_trajectory(file, TrajectoryFormat::kAuto);
+  for (std::size_t i = 0; i < tr.size(); ++i) out.poses.push_back({tr.t_ns[i], tr.poses[i]});
+  // Sorted; a repeated stamp keeps its first pose (as every roe reader of pose files).
+  std::stable_sort(out.poses.begin(), out.poses.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
+  const std::size_t n = out.poses.size();
+  out.poses.erase(std::unique(out.poses.begin(), out.poses.end(),
+                              [](const auto& a, const auto& b) { return a.t_ns == b.t_ns; }),
+                  out.poses.end());
+  out.duplicate_stamps = n - out.poses.size();
+  out.layout = to_string(tr.format);
   return out;
 }
 

@@ -39,21 +39,4 @@ fs::path find_shipped_run_config(const std::string& name) {
   return {};
 }
 
-std::vector<std::string> shipped_run_config_names() {
-  std::error_code ec;
-  for (const fs::path& root : shipped_data_roots()) {
-    std::vector<std::string> names;
-    for (fs::directory_iterator it(root / "configs", ec), end; !ec && it != end; it.increment(ec)) {
-      const fs::path& p = it->path();
-      if (p.extension() == ".json" && it->is_regular_file(ec) && is_config_name(p.stem().string()))
-        names.push_back(p.stem().string());
-    }
-    if (!names.empty()) {
-      std::sort(names.begin(), names.end());
-      return names;
-    }
-  }
-  return {};
-}
-
 }  // namespace roe::io

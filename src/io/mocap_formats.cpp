@@ -14,6 +14,7 @@
 #include "roe/io/ros_msgs.hpp"
 #include "roe/io/bag.hpp"
 #include "roe/io/rosbag.hpp"
+#include "roe/io/tf_buffer.hpp"
 #include "roe/math/so3.hpp"
 
 namespace roe::io {
@@ -414,6 +415,60 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
 // ---------------------------------------------------------------------------------------------
 // ROS bag topics
 // ---------------------------------------------------------------------------------------------
+namespace {
+/// A pose topic that is not given or not in the bag: the bag's pose topics, every topic, and both spellings.
+[[noreturn]] void refuse_topic(const MessageBag& reader, const std::string& topic) {
+  const std::string bag_word = reader.ros2() ? "the ROS 2 bag" : "the bag";
+  std::string list;
+  for (const auto& t : reader.topics())
+    if (is_pose_type(t.type)) list += "\n  " + t.topic + " [" + t.type + "]";
+  const std::string where = reader.damaged() ? "the intact part of " + bag_word : bag_word;
+  std::string msg = (topic.empty() ? std::string("no topic given: name a pose topic (roe eval BAG:TOPIC, e.g. "
+                                                 "BAG:/odom or BAG:/tf:PARENT.CHILD; roe import mocap --topic T)")
+                                   : "topic \"" + topic + "\" is not in " + where) +
+                    "; pose topics in " + where + ":" + (list.empty() ? std::string(" none") : list) +
+                    "\nall topics:" + reader.topic_listing();
+  if (reader.damaged())
+    msg += "\nthe bag is damaged (" + reader.first_damage() + "); --salvage cannot recover what is lost";
+  throw InputError(msg, {reader.name()});
+}
+
+/// After reading: a damaged bag is an error unless `salvage`.
+void refuse_damage(const MessageBag& reader, bool salvage) {
+  if (reader.damaged() && !salvage)
+    throw InputError("the bag is damaged (" + reader.first_damage() +
+                         "); use --salvage to import the poses that are intact",
+                     {reader.name()});
+}
+
+/// PARENT -> CHILD through the tf tree of `topic` and, implicitly, /tf_static (as evo and tf2 read a
+/// bag): TfBuffer::trajectory, stamped with header.stamp (the record time when it is zero).
+void read_tf_chain(MessageBag& reader, const std::string& topic, const std::string& parent,
+                   const std::string& child, MocapData& out) {
+  TfBuffer buffer(reader.name());
+  std::set<std::string> topics{topic};
+  const std::string kStatic = "/tf_static";
+  if (topic != kStatic && reader.topic_type(kStatic) == "tf2_msgs/TFMessage") topics.insert(kStatic);
+  bool zero_stamps = false;
+  reader.for_each(topics, [&](const BagMessage& m) {
+    const bool is_static = m.topic->topic == kStatic;
+    if (!is_static) ++out.rows;
+    for (auto& tr : decode_tf_message(m)) {
+      if (tr.header.stamp_ns == 0 && !is_static) {
+        tr.header.stamp_ns = m.log_time_ns;
+        zero_stamps = true;
+      }
+      buffer.add(tr, is_static, m.topic->topic + " " + m.where());
+    }
+    return true;
+  });
+  out.poses = buffer.trajectory(parent, child);
+  out.body = child;
+  out.parent_frame = parent;
+  if (zero_stamps) out.warnings.push_back("transforms with header.stamp = 0 use the bag record time");
+}
+}  // namespace
+
 MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, const std::string& child_frame,
                          bool salvage, const std::string& parent_frame) {
   MocapData out;
@@ -424,20 +479,7 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
   const auto reader = open_bag(bag_file, bo);
   out.format = reader->ros2() ? "rosbag2" : "rosbag";
   const std::string type = reader->topic_type(topic);
-  const std::string bag_word = reader->ros2() ? "the ROS 2 bag" : "the bag";
-  if (topic.empty() || type.empty()) {
-    std::string list;
-    for (const auto& t : reader->topics())
-      if (is_pose_type(t.type)) list += "\n  " + t.topic + " [" + t.type + "]";
-    const std::string where = reader->damaged() ? "the intact part of " + bag_word : bag_word;
-    std::string msg = (topic.empty() ? std::string("choose a pose topic with --topic")
-                                     : "topic \"" + topic + "\" is not in " + where) +
-                      "; pose topics in " + where + ":" + (list.empty() ? std::string(" none") : list) +
-                      "\nall topics:" + reader->topic_listing();
-    if (reader->damaged())
-      msg += "\nthe bag is damaged (" + reader->first_damage() + "); --salvage cannot recover what is lost";
-    throw InputError(msg, {reader->name()});
-  }
+  if (topic.empty() || type.empty()) refuse_topic(*reader, topic);
   if (!is_pose_type(type))
     throw InputError("topic " + topic + " has type " + type +
                          " (supported: PoseStamped, TransformStamped, PoseWithCovarianceStamped, Odometry, TFMessage)",
@@ -447,6 +489,12 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
     throw InputError("--parent selects a transform of a tf2_msgs/TFMessage topic; " + topic + " has type " + type,
                      {reader->name()});
   out.body = topic;
+  if (tf && !parent_frame.empty() && !child_frame.empty()) {
+    read_tf_chain(*reader, topic, parent_frame, child_frame, out);
+    refuse_damage(*reader, salvage);
+    for (const auto& w : reader->warnings()) out.warnings.push_back(fmt::format("{}: {}", w.file, w.text()));
+    return out;
+  }
   std::set<std::pair<std::string, std::string>> pairs;  // (parent, child) seen on a tf topic
   std::vector<std::pair<Timestamp, ros::StampedTransform>> msgs;
   reader->for_each({topic}, [&](const BagMessage& m) {
@@ -463,10 +511,7 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
     msgs.emplace_back(m.log_time_ns, decode_stamped_pose(m));
     return true;
   });
-  if (reader->damaged() && !salvage)
-    throw InputError("the bag is damaged (" + reader->first_damage() +
-                         "); use --salvage to import the poses that are intact",
-                     {reader->name()});
+  refuse_damage(*reader, salvage);
   if (tf) {
     std::set<std::pair<std::string, std::string>> chosen;
     for (const auto& pc : pairs)
@@ -483,7 +528,8 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
       std::set<std::string> children;
       for (const auto& pc : chosen) children.insert(pc.second);
       throw InputError("topic " + topic + (children.size() > 1 ? " carries several child frames" : " carries several parent frames") +
-                           "; choose one with --child (or --body) and --parent:" + list,
+                           "; choose one: BAG:" + topic + ":PARENT.CHILD (roe eval; any chain through " + topic +
+                           " and /tf_static) or --parent PARENT --child CHILD (roe import mocap):" + list,
                        {reader->name()});
     }
     out.body = chosen.begin()->second;

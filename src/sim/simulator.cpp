@@ -402,6 +402,14 @@ Pose gt_pose_at(const std::vector<ImuState>& gt, Timestamp t) {
   return math::interpolate(a.T_W_I, b.T_W_I, dt_seconds(a.t_ns, t) / dt_seconds(a.t_ns, b.t_ns));
 }
 
+// The time between the two ground-truth poses around t (0 at a pose's own stamp).
+Timestamp groundtruth_gap_at(const std::vector<ImuState>& gt, Timestamp t) {
+  auto it =
+      std::lower_bound(gt.begin(), gt.end(), t, [](const ImuState& s, Timestamp x) { return s.t_ns < x; });
+  if (it == gt.end() || it->t_ns == t || it == gt.begin()) return 0;
+  return it->t_ns - (it - 1)->t_ns;
+}
+
 // |ω| of the IMU sample nearest to t.
 double rate_at(const std::vector<ImuSample>& imu, Timestamp t) {
   auto it =
@@ -572,7 +580,11 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
   st.imu_samples = imu.size();
 
   // Camera poses at the frame stamps inside the overlap.
-  const std::vector<Timestamp> ts = stamps(t_begin, t_end, config.camera_rate_hz);
+  std::vector<Timestamp> ts = stamps(t_begin, t_end, config.camera_rate_hz);
+  require_positive(config.max_groundtruth_gap_s, cfg + ".max_groundtruth_gap_s");
+  ts.erase(std::remove_if(ts.begin(), ts.end(),
+                          [&](Timestamp t) { return groundtruth_gap_at(gt, t) > from_seconds(config.max_groundtruth_gap_s); }),
+           ts.end());
   std::vector<Pose> T_W_C, T_C_W;
   for (Timestamp t : ts) {
     ds.frames.push_back({t, std::to_string(t) + ".png"});

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "roe/app/shipped_configs.hpp"
 #include "roe/eval/stats.hpp"
 
 namespace roe::app {
@@ -57,9 +58,7 @@ struct SweepPlan {
 SweepPlan plan_sweep(const nlohmann::json& spec, const std::filesystem::path& spec_dir, const std::string& source,
                      std::size_t max_jobs = kDefaultMaxSweepJobs);
 
-/// Names of the run configs shipped with roe (configs/*.json, embedded at build time) and their JSON text.
-std::vector<std::string> shipped_config_names();
-const std::string& shipped_config_text(const std::string& name);
+// The shipped run configs a spec names ("configs": ["paper"]): app/shipped_configs.hpp, the one source.
 
 /// Orders `plan`'s jobs for a folder that already holds `existing_ids` (index order): the jobs already
 /// there keep their index, new ones are appended. Returns the ids of the folder that the plan no longer

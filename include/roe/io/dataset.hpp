@@ -59,6 +59,18 @@ std::vector<StampedPose> read_mocap_csv(const fs::path& file);
 void write_mocap_csv(const fs::path& file, const std::vector<StampedPose>& poses);
 /// state_groundtruth_estimate0: 17 EuRoC columns.
 std::vector<ImuState> read_groundtruth_csv(const fs::path& file);
+/// Ground truth as `roe simulate --from-groundtruth` reads it, decided by the content: EuRoC's
+/// 17-column state_groundtruth_estimate0 (the IMU state), or a pose-only file (io::read_trajectory):
+/// the EuRoC vicon0 / TUM-VI mocap0 layout (`#timestamp [ns],p_RS_R_x [m],...,q_RS_w [],...`, 8
+/// columns, q w first) or a TUM trajectory (seconds, q x first).
+struct GroundTruthFile {
+  std::vector<ImuState> states;    ///< the 17-column file's rows; empty for a pose-only file
+  std::vector<StampedPose> poses;  ///< a pose-only file's poses (sorted; repeated stamps dropped)
+  std::string layout;              ///< "euroc-state", or the trajectory format ("euroc", "tum", ...)
+  std::size_t duplicate_stamps = 0;
+  bool pose_only() const { return states.empty(); }
+};
+GroundTruthFile read_groundtruth_file(const fs::path& file);
 void write_groundtruth_csv(const fs::path& file, const std::vector<ImuState>& states);
 /// detections/<name>/detections.csv (with or without the six sigma columns). Rows are sorted by
 /// time; several rows may share a stamp (one per object); a duplicate (stamp, object) is an error.

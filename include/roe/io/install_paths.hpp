@@ -19,10 +19,9 @@ std::filesystem::path executable_dir();
 /// EXE_DIR/../share/roe (installed), EXE_DIR/.. (a build folder inside the source tree).
 std::vector<std::filesystem::path> shipped_data_roots();
 
-/// A shipped run config by name (`paper` -> .../configs/paper.json), or empty when there is none.
+/// The installed copy of a shipped run config (`paper` -> .../configs/paper.json), or empty when there is
+/// none. The configs themselves are compiled into roe (app/shipped_configs.hpp); this copy is what a
+/// user reads and what run.json names.
 std::filesystem::path find_shipped_run_config(const std::string& name);
-
-/// The names of the shipped run configs (configs/*.json of the first root that has any), sorted.
-std::vector<std::string> shipped_run_config_names();
 
 }  // namespace roe::io

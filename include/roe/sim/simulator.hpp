@@ -167,6 +167,10 @@ struct FromGroundtruthConfig {
   std::vector<int> object_ids{1, 5, 13, 2, 4, 8, 14, 19, 10, 12, 15, 21};  ///< the first N are used
   std::vector<int> symmetric_ids{13, 16, 19, 20, 21};
   double camera_rate_hz = 30.0;
+  /// No camera frame where the ground truth has a gap longer than this (its two poses around the frame's
+  /// stamp further apart): the camera pose, and so what it would see, is not known there. TUM-VI's
+  /// mocap has gaps of up to 1.06 s (room1); EuRoC's state estimate has none.
+  double max_groundtruth_gap_s = 0.1;
   /// The recording's own camera: EuRoC MAV cam0 (mav0/cam0/sensor.yaml: 752x480, fu 458.654,
   /// fv 457.296, cu 367.215, cv 248.375), taken as undistorted pinhole. Its ~79°x55° field of view
   /// (not the 38°x29° of the processed D435i image of the presets) decides which frames see an object.
