@@ -57,7 +57,7 @@ NeesTally monte_carlo(int N, double tau_s) {
     t.ext_err_p_max_m = std::max(t.ext_err_p_max_m, test::check_value(e, "error_p_m"));
     const auto& o = test::check_named(rep, "truth.objects");
     for (const auto& [k, v] : o.values)
-      if (k.size() > 5 && k.compare(k.size() - 5, 5, "_nees") == 0) t.objects.push_back(v);
+      if (k.rfind("object_", 0) == 0 && k.compare(k.size() - 5, 5, "_nees") == 0) t.objects.push_back(v);
   }
   return t;
 }
