@@ -69,7 +69,7 @@ double share_within(const std::vector<double>& v, double limit) {
 
 }  // namespace
 
-TEST_CASE("calib/paper-real-seq1 Monte-Carlo: object-world and extrinsics NEES with correlated detection errors",
+TEST_CASE("paper-real-seq1 Monte-Carlo: object-world and extrinsics NEES with correlated detection errors",
           "[calib][ekf][nees]") {
   const double limit = math::chi2_quantile(0.99, 6.0);  // 16.8
   // detection_error_correlation_s = the simulated 3 s: the constant states weight the detections by their
