@@ -27,7 +27,7 @@ std::vector<std::string> run_warnings(const FilterRunSummary& s, const FilterOpt
 ///   kRotationResidualWindow gated detections: its object-world disagrees with most of what is detected
 ///   now (e.g. initialised as a flipped pose of a symmetric object that has no models_info).
 std::vector<std::string> calibration_warnings(const FilterRunSummary& s);
-inline constexpr double kCalibrationMoveSigmas = 2.0;
+inline constexpr double kCalibrationMoveSigmas = 1.0;
 inline constexpr double kRotationResidualWarnDeg = 45.0;
 inline constexpr std::size_t kRotationResidualWindow = 100;
 
