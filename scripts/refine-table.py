@@ -42,13 +42,13 @@ def truth_figures(roe, run_dir, symmetric):
     out = {"extr_mm": 1e3 * e["error_p_m"], "extr_deg": e["error_rot_deg"], "extr_nees": e.get("nees_diag")}
     objs = []
     for k, v in checks["truth.objects"]["values"].items():
-        if k.startswith("object.") and k.endswith(".error_p_m"):
-            oid = int(k.split(".")[1])
+        if k.startswith("object_") and k.endswith("_error_p_m"):  # calib-check's per-object keys
+            oid = int(k.split("_")[1])
             if oid in symmetric:
                 continue
             vals = checks["truth.objects"]["values"]
-            objs.append({"id": oid, "mm": 1e3 * v, "deg": vals["object.%d.error_rot_deg" % oid],
-                         "nees": vals.get("object.%d.nees_diag" % oid)})
+            objs.append({"id": oid, "mm": 1e3 * v, "deg": vals["object_%d_error_rot_deg" % oid],
+                         "nees": vals.get("object_%d_nees" % oid)})
     out["objects"] = objs
     return out
 

@@ -140,14 +140,14 @@ calib::CheckResult dataset_identity(const RunJson& run, const fs::path& dataset,
 
 int CalibCheckResult::exit_code() const {
   if (report.failed()) return 1;
-  if (strict && (report.undecided() || report.within_sigma())) return 1;
+  if (strict && (report.undecided() || report.within_sigma() || report.unobservable())) return 1;
   return 0;
 }
 
 json CalibCheckResult::to_json() const {
   json checks = json::array();
   std::map<std::string, int> counts = {{"pass", 0}, {"fail", 0}, {"inconclusive", 0}, {"skipped", 0},
-                                       {"within-sigma", 0}};
+                                       {"within-sigma", 0}, {"unobservable", 0}};
   for (const auto& c : report.checks) {
     json values = json::object();
     for (const auto& [k, v] : c.values) values[k] = v;
@@ -181,11 +181,11 @@ std::string CalibCheckResult::to_text() const {
     ++counts[st];
     s += fmt::format("  {:<13} {:<{}}  {}\n", st, c.name, width, c.message);
   }
-  s += fmt::format("{}: {} passed, {} within σ (beyond the limit, explained by the filter's σ), {} failed, {} "
-                   "inconclusive, {} skipped{}\n",
-                   exit_code() == 0 ? "PASS" : "FAIL", counts["pass"], counts["within-sigma"], counts["fail"],
-                   counts["inconclusive"], counts["skipped"],
-                   strict ? " (--strict: within-sigma and inconclusive checks count as failures)" : "");
+  s += fmt::format("{}: {} passed, {} within σ (beyond the limit, explained by the filter's σ), {} unobservable "
+                   "(not calibrated by these data, not contradicted), {} failed, {} inconclusive, {} skipped{}\n",
+                   exit_code() == 0 ? "PASS" : "FAIL", counts["pass"], counts["within-sigma"], counts["unobservable"],
+                   counts["fail"], counts["inconclusive"], counts["skipped"],
+                   strict ? " (--strict: within-sigma, unobservable and inconclusive checks count as failures)" : "");
   return s;
 }
 
@@ -297,7 +297,7 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
       to.centre_s = in.declared_time_offset_s;  // search around what the dataset declares
       to.symmetric_ids.clear();  // left out unless described by a models_info (docs/calib-check.md §3)
       for (const auto& o : man.objects) {
-        if (o.symmetric) to.symmetric_ids.push_back(o.id);
+        if (o.symmetric) to.symmetric_ids.push_back(o.id), in.symmetric_ids.push_back(o.id);
         if (!o.symmetry.empty()) to.symmetries[o.id] = in.symmetries[o.id] = o.symmetry;
       }
       in.time_offset = calib::estimate_camera_time_offset(imu, states.final_gyro_bias, in.extrinsics.back().T_I_C.q,

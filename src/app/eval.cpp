@@ -10,6 +10,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/io/json.hpp"
+#include "roe/io/bag.hpp"
 #include "roe/io/eval_report.hpp"
 #include "roe/io/evo_result.hpp"
 #include "roe/io/input.hpp"
@@ -43,6 +44,11 @@ Estimate load_estimate(const EvalOptions& o, std::vector<std::string>& warnings)
   if (io::is_folder(e.in.path)) {
     const fs::path traj = e.in.path / "trajectory.csv";
     if (!io::path_exists(traj)) {
+      if (!io::detect_bag_kind(e.in.path).empty())
+        throw InputError("this is a ROS bag (a rosbag2 folder), not a run folder: name the pose topic, "
+                         "BAG:TOPIC (BAG:/tf:PARENT.CHILD for tf), or use evo's form "
+                         "`roe eval bag2 BAG REF_TOPIC EST_TOPIC`",
+                         {o.est});
       throw InputError(
           "not a run folder: it has no trajectory.csv (pass a trajectory file or a `roe run` output)",
           {o.est});
@@ -219,6 +225,12 @@ fs::path output_folder(const EvalOptions& o, const Estimate& est) {
 
 }  // namespace
 
+std::string label_of(const EvalInput& in, bool is_dir) {
+  if (in.kind != "bag" || in.topic.empty()) return label_from_path(in.path, is_dir);
+  const std::string topic = in.topic[0] == '/' ? in.topic.substr(1) : in.topic;
+  return label_from_path(in.path, false) + ":" + topic;
+}
+
 std::string label_from_path(const fs::path& path, bool is_dir) {
   fs::path p = io::without_trailing_separator(path);
   std::string name = is_dir ? p.filename().string() : p.stem().string();
@@ -276,7 +288,7 @@ EvalResult run_eval(const EvalOptions& options) {
   warnings.insert(warnings.end(), rep.warnings.begin(), rep.warnings.end());
 
   io::EvalReportContext ctx;
-  ctx.label = o.label.empty() ? label_from_path(est.in.path, est.run) : o.label;
+  ctx.label = o.label.empty() ? label_of(est.in, est.run) : o.label;
   ctx.est_path = est.in.path.string();
   ctx.gt_path = gt.path.string();
   ctx.inputs = {{"est", input_json(est.in)}, {"gt", input_json(gt)}};

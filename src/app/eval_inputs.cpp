@@ -93,6 +93,7 @@ std::optional<EvalInput> load_bag_trajectory(const std::string& spec, std::vecto
       in.traj.lines.push_back(0);
     }
     in.traj.source = spec;
+    in.topic = spec.substr(colon + 1);
     in.description = fmt::format("{} topic {} ({} poses{}{})", bag.string(), topic, d.poses.size(),
                                  d.parent_frame.empty() ? "" : ", frame " + d.parent_frame,
                                  child.empty() ? "" : " -> " + child);

@@ -94,6 +94,7 @@ const std::vector<Field<ekf::FilterOptions>>& filter_fields() {
       field("meas_sigma_ray_per_depth", &O::meas_sigma_ray_per_depth, &non_negative),
       field<O, bool>("use_detection_sigmas", &O::use_detection_sigmas),
       field<O, bool>("adapt_detection_sigma_scale", &O::adapt_detection_sigma_scale),
+      field("detection_error_correlation_s", &O::detection_error_correlation_s, &non_negative),
       field("min_score", &O::min_score, &non_negative),
       field<O, bool>("chi2_gate", &O::chi2_gate),
       field<O, double>("chi2_confidence", &O::chi2_confidence,

@@ -34,14 +34,16 @@ CheckResult extrinsics_sigma(const CalibInput& in, const CalibThresholds& th) {
   const Vector6d& s = in.extrinsics.back().sigma;
   CheckResult r{name, CheckStatus::kPass, "", {}};
   const double sp = max_p(s), sr = max_rot_deg(s);
-  r.status = sp <= th.max_sigma_p_m && sr <= th.max_sigma_rot_deg ? CheckStatus::kPass : CheckStatus::kFail;
+  r.status = sp <= th.max_sigma_p_m && sr <= th.max_sigma_rot_deg ? CheckStatus::kPass : CheckStatus::kUnobservable;
   r.message = fmt::format("final σ {:.1f} mm / {:.2f}° (largest axis; prior {:.1f} mm / {:.2f}°), limits {:.1f} mm / {:.2f}°",
                           sp * 1e3, sr, max_p(in.prior_sigma) * 1e3, max_rot_deg(in.prior_sigma),
                           th.max_sigma_p_m * 1e3, th.max_sigma_rot_deg);
-  if (r.status == CheckStatus::kFail)
+  // Beyond the limit is "not calibrated", never "wrong": a σ cannot contradict the data (the error checks
+  // and extrinsics.prior say when the data disagree with the estimate).
+  if (r.status == CheckStatus::kUnobservable)
     r.message += sp > th.max_sigma_p_m && sp > 0.5 * max_p(in.prior_sigma)
-                     ? ": the translation was hardly observed (more rotation about several axes helps)"
-                     : ": not observed well enough";
+                     ? ": unobservable, the translation was hardly observed (more rotation about several axes helps)"
+                     : ": unobservable, not observed well enough by this motion";
   r.values = {{"sigma_p_x_m", s(0)},       {"sigma_p_y_m", s(1)},         {"sigma_p_z_m", s(2)},
               {"sigma_rot_x_deg", s(3) * kDeg}, {"sigma_rot_y_deg", s(4) * kDeg}, {"sigma_rot_z_deg", s(5) * kDeg},
               {"limit_p_m", th.max_sigma_p_m}, {"limit_rot_deg", th.max_sigma_rot_deg}};
@@ -197,12 +199,12 @@ CheckResult objects_sigma(const CalibInput& in, const CalibThresholds& th) {
     return inconclusive(name, (in.anchor_id ? fmt::format("the anchor (object {}) never entered the state", *in.anchor_id)
                                             : std::string("the run has no anchor")) +
                                   ", so there is no σ relative to it" + not_in);
-  CheckResult r{name, over.empty() ? CheckStatus::kPass : CheckStatus::kFail, "", {}};
+  CheckResult r{name, over.empty() ? CheckStatus::kPass : CheckStatus::kUnobservable, "", {}};
   r.message = over.empty() ? fmt::format("{} object(s) relative to the anchor: largest σ {:.1f} mm / {:.2f}°, limits "
                                          "{:.1f} mm / {:.2f}°",
                                          checked, wp * 1e3, wr, th.max_object_sigma_p_m * 1e3,
                                          th.max_object_sigma_rot_deg)
-                           : fmt::format("σ relative to the anchor beyond {:.1f} mm / {:.2f}°: {}",
+                           : fmt::format("unobservable: σ relative to the anchor beyond {:.1f} mm / {:.2f}°: {}",
                                          th.max_object_sigma_p_m * 1e3, th.max_object_sigma_rot_deg, id_list(over));
   r.message += not_in;
   r.values = {{"objects", static_cast<double>(checked)},
@@ -254,7 +256,9 @@ CheckResult truth_objects(const CalibInput& in, const CalibThresholds& th) {
   if (ta == in.true_T_W_O.end())
     return skipped(name, fmt::format("the truth has no pose for the anchor (object {})", anchor->id));
   const auto anchor_sym = in.symmetries.find(anchor->id);
-  if (anchor_sym != in.symmetries.end() && !anchor_sym->second.empty())
+  const bool anchor_marked =
+      std::find(in.symmetric_ids.begin(), in.symmetric_ids.end(), anchor->id) != in.symmetric_ids.end();
+  if ((anchor_sym != in.symmetries.end() && !anchor_sym->second.empty()) || anchor_marked)
     return inconclusive(name, fmt::format("the anchor (object {}) is symmetric: poses relative to it are defined "
                                           "only up to its symmetry",
                                           anchor->id));
@@ -275,17 +279,20 @@ CheckResult truth_objects(const CalibInput& in, const CalibThresholds& th) {
     const Pose est = relative_to_anchor(T_A_W, *o.T_O_W);
     Pose tru = ta->second.inverse() * t->second;
     // A symmetric object: the equivalent true pose T_A_O · S nearest the estimate (z = T_O_A).
-    if (const auto s = in.symmetries.find(o.id); s != in.symmetries.end() && !s->second.empty())
-      tru = ekf::nearest_equivalent(est.inverse(), tru.inverse(), s->second).inverse();
+    const auto sym = in.symmetries.find(o.id);
+    const bool symmetric = sym != in.symmetries.end() && !sym->second.empty();
+    if (symmetric) tru = ekf::nearest_equivalent(est.inverse(), tru.inverse(), sym->second).inverse();
     const Vector6d e = math::pose_difference(tru, est);
     const double ep = e.head<3>().norm(), er = e.tail<3>().norm() * kDeg;
     wp = std::max(wp, ep);
     wr = std::max(wr, er);
     const bool have_sigma = (o.sigma_A_O.array() > 0).all();
     const double nees = have_sigma ? e.cwiseQuotient(o.sigma_A_O).squaredNorm() : 0.0;
-    per_object.emplace_back(fmt::format("object.{}.error_p_m", o.id), ep);  // each object's figures (scripts)
-    per_object.emplace_back(fmt::format("object.{}.error_rot_deg", o.id), er);
-    if (have_sigma) per_object.emplace_back(fmt::format("object.{}.nees_diag", o.id), nees);
+    // Per object, for scripts (scripts/calib-truth-table.py): the error, its NEES over the per-axis σ
+    // (0 without σ) and whether it was compared through a symmetry.
+    const std::string key = fmt::format("object_{}_", o.id);
+    per_object.insert(per_object.end(), {{key + "error_p_m", ep}, {key + "error_rot_deg", er}, {key + "nees", nees},
+                                         {key + "symmetric", symmetric ? 1.0 : 0.0}});
     if (ep <= th.max_object_err_p_m && er <= th.max_object_err_rot_deg) continue;
     if (have_sigma && nees <= limit_nees) {
       ++explained;
@@ -386,6 +393,7 @@ const char* to_string(CheckStatus s) {
     case CheckStatus::kInconclusive: return "inconclusive";
     case CheckStatus::kSkipped: return "skipped";
     case CheckStatus::kWithinSigma: return "within-sigma";
+    case CheckStatus::kUnobservable: return "unobservable";
   }
   return "?";
 }
@@ -397,6 +405,11 @@ bool CalibReport::failed() const {
 bool CalibReport::within_sigma() const {
   return std::any_of(checks.begin(), checks.end(),
                      [](const CheckResult& c) { return c.status == CheckStatus::kWithinSigma; });
+}
+
+bool CalibReport::unobservable() const {
+  return std::any_of(checks.begin(), checks.end(),
+                     [](const CheckResult& c) { return c.status == CheckStatus::kUnobservable; });
 }
 
 bool CalibReport::undecided() const {

@@ -97,12 +97,21 @@ DetectionCounts& DetectionCounts::operator+=(const DetectionCounts& o) {
 namespace {
 
 // Tallies one image's outcomes into the summary.
+// σ of the extrinsics [p; θ] (0 when they are held fixed).
+Vector6d extrinsics_sigma(const Filter& f) {
+  Vector6d s = Vector6d::Zero();
+  if (f.extrinsics_offset() >= 0)
+    for (int k = 0; k < 6; ++k) s(k) = std::sqrt(f.variance(f.extrinsics_offset() + k));
+  return s;
+}
+
 void tally(const FrameResult& r, int anchor_id, FilterRunSummary& s) {
   bool anchor_pending = false;
   std::size_t no_main = 0;
   for (const auto& d : r.detections) {
     s.counts[d.object_id].add(d.status);
     if (std::isfinite(d.nis)) s.nis.push_back(d.nis);
+    if (!std::isnan(d.rot_residual_deg)) s.rot_residual_deg[d.object_id].push_back(d.rot_residual_deg);
     // The anchor is in the image but not usable yet (awaiting or just getting its initialisation); an
     // anchor detection below min_score or rejected does not count: that image lacks a usable anchor.
     anchor_pending |= d.object_id == anchor_id &&
@@ -155,6 +164,8 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
     recording->nodes.reserve(2 * images.size() + 16);
   }
   filter.initialize(t0, imu.front().gyro, imu.front().accel, summary.init.mean_accel, &summary.init_gyro_bias);
+  summary.prior_T_I_C = filter.T_I_C();
+  summary.prior_sigma_I_C = extrinsics_sigma(filter);
   observer.on_imu(filter);
   std::size_t j = 0;
   const auto reject_no_imu = [&](const ImageDetections& im) {
@@ -199,6 +210,7 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
   filter.finish_recording();
   summary.updates = filter.n_updates();
   summary.final_T_I_C = filter.T_I_C();
+  summary.final_sigma_I_C = extrinsics_sigma(filter);
   summary.detection_sigma_scale = filter.detection_sigma_scale();
   for (const auto& im : images)
     for (const auto& d : im.detections) summary.detection_sigmas_present |= d.sigma.has_value();

@@ -879,6 +879,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     b.obj = static_cast<int>(o - objects_.data());
     build_block(*o, z[i], b);
     b.R = measurement_covariance(dets[i], opt_.residual_frame == ResidualFrame::kObject);
+    b.k = error_inflation(dets[i].object_id);
     reduce_covariance(b);
     blocks_.push_back(b);
   }
@@ -911,6 +912,10 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
             fmt::format("filter failed at {}: non-finite NIS for object {}", when(), dets[b.det].object_id));
       res.detections[b.det].nis = nis;
       res.detections[b.det].used = used;
+      if (b.m == 6) {  // |2 q_v / q_w| = 2 tan(θ/2)
+        const double t = b.r.tail<3>().norm();
+        res.detections[b.det].rot_residual_deg = std::isfinite(t) ? 2.0 * std::atan(0.5 * t) / math::kRadPerDeg : 180.0;
+      }
       if (used == ResidualPart::kNone) {
         res.detections[b.det].status = DetectionStatus::kRejectedChi2;
         continue;
@@ -959,7 +964,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
       }
       // K, δx and the posterior P − W Wᵀ (stacked_update.hpp).
       Eigen::VectorXd& dx = ws_dx_;
-      if (!stacked_update(P_, Y, S, r, dx, {ws_L_, ws_W_, ws_u_}))
+      if (!apply_stacked_update(Y, S, inliers, row0, dx))
         throw NumericError(
             fmt::format("filter failed at {}: stacked innovation covariance is not positive definite", when()));
       boxplus(dx);
@@ -986,6 +991,42 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
   observe_lockout(dets, res);
   learn_sigma_scale(ws_scale_);
   return res;
+}
+
+double Filter::error_inflation(int object_id) {
+  const double tau = opt_.detection_error_correlation_s;
+  if (!(tau > 0.0)) return 1.0;
+  auto it = last_detection_ns_.find(object_id);
+  if (it == last_detection_ns_.end()) {
+    last_detection_ns_[object_id] = t_ns_;
+    return 1.0;
+  }
+  const double dt = to_seconds(t_ns_ - it->second);
+  it->second = t_ns_;
+  // AR(1) errors with lag correlation ρ: a mean of N of them has the variance of N (1−ρ)/(1+ρ) white ones.
+  const double rho = std::exp(-std::max(dt, 0.0) / tau);
+  return (1.0 + rho) / std::max(1.0 - rho, 1e-6);
+}
+
+bool Filter::apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, const Eigen::Ref<const Eigen::MatrixXd>& S,
+                                  const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx) {
+  const int ni = static_cast<int>(inliers.size()), m = row0[ni];
+  bool inflated = false;
+  for (int a = 0; a < ni; ++a) inflated |= blocks_[inliers[a]].k > 1.0;
+  if (!inflated || n_ == kCore) return stacked_update(P_, Y, S, ws_r_.head(m), dx, {ws_L_, ws_W_, ws_u_});
+  // The stacked R is block-diagonal (detections independent of each other); √k per row of each block.
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(m, m);
+  Eigen::VectorXd d(m);
+  for (int a = 0; a < ni; ++a) {
+    const MeasBlock& b = blocks_[inliers[a]];
+    R.block(row0[a], row0[a], b.m, b.m) = b.R.topLeftCorner(b.m, b.m);
+    d.segment(row0[a], b.m).setConstant(std::sqrt(b.k));
+  }
+  // The constant states: the extrinsics and the object-worlds (the anchor's kept components included).
+  std::vector<Eigen::Index>& rows = ws_const_rows_;
+  rows.clear();
+  for (int i = kCore; i < n_; ++i) rows.push_back(i);
+  return stacked_update_constant_gain(P_, Y, S, R, d, ws_r_.head(m), rows, dx);
 }
 
 void Filter::learn_sigma_scale(const std::vector<double>& frame_samples) {

@@ -6,6 +6,8 @@
 #include <cmath>
 
 #include "roe/math/distributions.hpp"
+#include "roe/math/euler.hpp"
+#include "roe/math/se3.hpp"
 
 namespace roe::ekf {
 namespace {
@@ -72,6 +74,42 @@ std::vector<std::string> run_warnings(const FilterRunSummary& s, const FilterOpt
                               e.what.offset.norm(), seconds_at(e.t_ns, s.t_first_ns)));
   // A refused init_gyro_bias_from_rest is not a warning: the default asks for it and a handheld recording
   // starts moving; run.json's init.gyro_bias_from / gyro_bias_rest_refused say what happened and why.
+  const auto calib = calibration_warnings(s);
+  out.insert(out.end(), calib.begin(), calib.end());
+  return out;
+}
+
+std::vector<std::string> calibration_warnings(const FilterRunSummary& s) {
+  std::vector<std::string> out;
+  // The extrinsics: the shift from the prior per axis, in prior σ (axes held fixed have σ 0: none).
+  const Vector6d d = math::pose_difference(s.prior_T_I_C, s.final_T_I_C);
+  static const char* axes[6] = {"p_x", "p_y", "p_z", "θ_x", "θ_y", "θ_z"};
+  std::vector<std::string> beyond;
+  for (int k = 0; k < 6; ++k)
+    if (s.prior_sigma_I_C(k) > 0.0 && std::abs(d(k)) > kCalibrationMoveSigmas * s.prior_sigma_I_C(k))
+      beyond.push_back(fmt::format("{} {:.1f} σ", axes[k], std::abs(d(k)) / s.prior_sigma_I_C(k)));
+  if (!beyond.empty())
+    out.push_back(fmt::format(
+        "the extrinsics moved {:.1f} mm / {:.2f}° from their prior, beyond {} prior σ on {} (final σ {:.1f} mm / "
+        "{:.2f}°): a wrong prior, or detection errors absorbed by the calibration (docs/filter.md §15); roe "
+        "calib-check tells which",
+        d.head<3>().norm() * 1e3, d.tail<3>().norm() / math::kRadPerDeg, kCalibrationMoveSigmas,
+        fmt::join(beyond, ", "), s.final_sigma_I_C.head<3>().maxCoeff() * 1e3,
+        s.final_sigma_I_C.tail<3>().maxCoeff() / math::kRadPerDeg));
+  // Object-worlds: the median rotation residual of each object's last gated detections.
+  for (const auto& [id, res] : s.rot_residual_deg) {
+    if (res.size() < kRotationResidualWindow / 2) continue;
+    std::vector<double> last(res.end() - static_cast<std::ptrdiff_t>(std::min(res.size(), kRotationResidualWindow)),
+                             res.end());
+    std::nth_element(last.begin(), last.begin() + last.size() / 2, last.end());
+    const double med = last[last.size() / 2];
+    if (med > kRotationResidualWarnDeg)
+      out.push_back(fmt::format(
+          "object {} keeps a rotation residual of {:.0f}° (median of its last {} gated detections): its "
+          "object-world disagrees with what is detected; a flipped pose of a symmetric object (give its "
+          "models_info) or a wrong initialisation",
+          id, med, last.size()));
+  }
   return out;
 }
 

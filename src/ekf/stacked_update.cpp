@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <vector>
 
 namespace roe::ekf {
 
@@ -44,6 +45,31 @@ bool stacked_update(Eigen::MatrixXd& P, const Eigen::Ref<const Eigen::MatrixXd>&
   add_abt(P.data(), P.outerStride(), W.data(), buf.W.outerStride(), W.data(), buf.W.outerStride(), n, n, m, -1.0,
           /*lower=*/true);
   P.triangularView<Eigen::StrictlyUpper>() = P.transpose();
+  return true;
+}
+
+bool stacked_update_constant_gain(Eigen::MatrixXd& P, const Eigen::Ref<const Eigen::MatrixXd>& Y,
+                                  const Eigen::Ref<const Eigen::MatrixXd>& S,
+                                  const Eigen::Ref<const Eigen::MatrixXd>& R,
+                                  const Eigen::Ref<const Eigen::VectorXd>& d,
+                                  const Eigen::Ref<const Eigen::VectorXd>& r, const std::vector<Eigen::Index>& rows,
+                                  Eigen::VectorXd& dx) {
+  const Eigen::MatrixXd DRD = d.asDiagonal() * R * d.asDiagonal();
+  const Eigen::MatrixXd Sk = S - R + DRD;
+  Eigen::LLT<Eigen::MatrixXd> llt(S), llt_k(Sk);
+  if (llt.info() != Eigen::Success || llt_k.info() != Eigen::Success) return false;
+  // K = Y S⁻¹ (by the transposed solve, S symmetric), its constant rows Y_s S_k⁻¹.
+  Eigen::MatrixXd K = llt.solve(Y.transpose()).transpose();
+  K(rows, Eigen::all) = llt_k.solve(Y(rows, Eigen::all).transpose()).transpose();
+  dx.noalias() = K * r;
+  // (I − K H) P (I − K H)ᵀ + K R Kᵀ = P − K Yᵀ − Y Kᵀ + K S Kᵀ (H P Hᵀ = S − R), then the constant block's
+  // K_s (D R D − R) K_sᵀ.
+  const Eigen::MatrixXd KY = K * Y.transpose();
+  Eigen::MatrixXd Pn = P - KY - KY.transpose();
+  Pn.noalias() += K * S * K.transpose();
+  const Eigen::MatrixXd Ks = K(rows, Eigen::all);
+  Pn(rows, rows) += Ks * (DRD - R) * Ks.transpose();
+  P = 0.5 * (Pn + Pn.transpose());
   return true;
 }
 

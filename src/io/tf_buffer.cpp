@@ -9,7 +9,7 @@
 #include <tuple>
 
 #include "roe/core/error.hpp"
-#include "roe/math/interpolate.hpp"
+#include "roe/eval/interpolate.hpp"
 
 namespace roe::io {
 
@@ -152,7 +152,7 @@ std::optional<Pose> TfBuffer::compose(const std::vector<std::pair<const Edge*, b
   Pose T;  // T_parent_frame, walking the chain
   for (const auto& [edge, forward] : steps) {
     const auto T_e = edge->is_static ? std::optional<Pose>(edge->samples.front().T)
-                                     : math::interpolate_pose_at(edge->samples, t_ns);
+                                     : eval::interpolate_pose_at(edge->samples, t_ns);
     if (!T_e) return std::nullopt;
     T = T * (forward ? *T_e : T_e->inverse());
   }

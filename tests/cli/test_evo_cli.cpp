@@ -174,3 +174,19 @@ TEST_CASE("--save_results writes evo's result file, --summary reads it beside ro
                                    {"stats.json", R"({"rmse": 0.5})"}}));
   CHECK_THAT(fails("--summary " + rpe_zip.string()).out, Catch::Contains("ate_rmse_m"));
 }
+
+TEST_CASE("bag topics are labelled BAGSTEM:TOPIC, a bag folder without a topic says it is a bag", "[cli][eval][evo]") {
+  const fs::path mcap = kData / "rosbag2/nav2_turtlebot.mcap", bag = kData / "rosbag/evo_ROS_example.bag";
+  if (!fs::exists(mcap)) {
+    WARN("skipped: " << mcap << " absent");
+    return;
+  }
+  CHECK(report("bag " + bag.string() + " groundtruth ORB-SLAM -a")["info"]["label"] == "evo_ROS_example:ORB-SLAM");
+  CHECK(report("bag " + bag.string() + " groundtruth S-PTAM -a")["info"]["label"] == "evo_ROS_example:S-PTAM");
+  CHECK(report("bag2 " + mcap.string() + " /amcl_pose /odom -a")["info"]["label"] == "nav2_turtlebot:odom");
+  CHECK(report(bag.string() + ":ORB-SLAM --gt " + bag.string() + ":groundtruth --label mine")["info"]["label"] ==
+        "mine");
+  const auto r = fails((kData / "rosbag2/tf_example").string() + " --gt " + mcap.string() + ":/amcl_pose");
+  CHECK_THAT(r.out, Catch::Contains("this is a ROS bag"));
+  CHECK_THAT(r.out, Catch::Contains("BAG:/tf:PARENT.CHILD"));
+}

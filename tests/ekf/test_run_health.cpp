@@ -238,3 +238,36 @@ TEST_CASE("run_warnings: what the counts call for", "[ekf][run]") {
   CHECK_FALSE(contains(w, "lacks the anchor"));
   CHECK_FALSE(contains(w, "no update was made"));
 }
+
+TEST_CASE("calibration_warnings: extrinsics beyond their prior σ, an object that keeps a large rotation residual",
+          "[ekf][run]") {
+  FilterRunSummary s;
+  s.prior_sigma_I_C << 0.02, 0.02, 0.02, 0.035, 0.035, 0.035;
+  s.final_sigma_I_C << 0.01, 0.01, 0.01, 0.005, 0.005, 0.005;
+  s.final_T_I_C = Pose(Eigen::Quaterniond::Identity(), Vec3(0.019, 0.0, 0.0));  // 0.95 prior σ: quiet
+  CHECK(calibration_warnings(s).empty());
+  s.final_T_I_C = Pose(Eigen::Quaterniond::Identity(), Vec3(0.021, 0.0, 0.0));  // 1.05 prior σ
+  auto w = calibration_warnings(s);
+  REQUIRE(w.size() == 1);
+  CHECK_THAT(w[0], Catch::Contains("the extrinsics moved 21.0 mm"));
+  CHECK_THAT(w[0], Catch::Contains("p_x 1.1 σ"));
+  // Held fixed (σ 0): never a warning, whatever the shift.
+  FilterRunSummary fixed = s;
+  fixed.prior_sigma_I_C.setZero();
+  CHECK(calibration_warnings(fixed).empty());
+  s.final_T_I_C = s.prior_T_I_C;
+  // Object 7: its last 100 residuals are mostly a flip (180°); object 8 is fine; object 9 flipped long ago.
+  std::vector<double> flipped(60, 4.0), fine(300, 8.0), early(300, 6.0);
+  flipped.insert(flipped.end(), 70, 179.0);
+  for (int i = 0; i < 100; ++i) early[i] = 180.0;
+  s.rot_residual_deg = {{7, flipped}, {8, fine}, {9, early}};
+  w = calibration_warnings(s);
+  REQUIRE(w.size() == 1);
+  CHECK_THAT(w[0], Catch::Contains("object 7 keeps a rotation residual of 179°"));
+  // Too few detections to judge: quiet.
+  s.rot_residual_deg = {{7, std::vector<double>(40, 179.0)}};
+  CHECK(calibration_warnings(s).empty());
+  // run_warnings carries them.
+  s.rot_residual_deg = {{7, flipped}};
+  CHECK(contains(run_warnings(s, FilterOptions{}), "object 7 keeps a rotation residual"));
+}

@@ -96,6 +96,7 @@ struct EvalInput {
   std::filesystem::path path;
   /// The poses are a dataset's state_groundtruth_estimate0: the world W of its roe.json truth section.
   bool truth_world = false;
+  std::string topic;  ///< for a bag: what followed BAG: (TOPIC, or /tf:PARENT.CHILD)
 };
 EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warnings);
 /// A trajectory straight from a bag topic, `BAG:TOPIC` (ROS 1 or ROS 2, file or rosbag2 folder; a
@@ -141,6 +142,9 @@ struct EvalResult {
 /// (mav0, state_groundtruth_estimate0, ...): `V1_01_easy/mav0/state_groundtruth_estimate0/data.csv`
 /// is `V1_01_easy`. Path arithmetic only.
 std::string label_from_path(const std::filesystem::path& path, bool is_dir);
+/// The label of an input: label_from_path, and for a bag topic BAGSTEM:TOPIC without the topic's leading
+/// '/' (evo_ROS_example:ORB-SLAM, nav2_turtlebot:amcl_pose), so topics of one bag are told apart.
+std::string label_of(const EvalInput& in, bool is_dir);
 
 /// Runs the evaluation and writes the output folder (atomically). InputError for bad options/files
 /// (every option value is checked, even one that does not apply; --no-out with --out is refused),

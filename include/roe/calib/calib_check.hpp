@@ -10,6 +10,9 @@
 ///   inconclusive  the data cannot decide (e.g. a time offset estimated less precisely than its limit,
 ///                 a run too short, a dataset that is not there); `--strict` fails on it,
 ///   skipped       not applicable (extrinsics held fixed, no truth, --no-dataset); never a failure,
+///   unobservable  a σ check (extrinsics.sigma, objects.sigma) beyond its limit: the data did not determine the
+///                 quantity that well (a slow orbit's lever arm, an object seen briefly). Not calibrated, not
+///                 wrong: nothing in the data contradicts the estimate (exit 0; `--strict` fails on it);
 ///   within-sigma  an error check (extrinsics.settled, truth.*) measured beyond its limit but within what
 ///                 the filter's own σ explains: not a failure (exit 0), but not a pass either: the
 ///                 estimate is too uncertain to tell (the σ checks say how uncertain); `--strict` fails
@@ -30,8 +33,8 @@
 
 namespace roe::calib {
 
-enum class CheckStatus { kPass, kFail, kInconclusive, kSkipped, kWithinSigma };
-/// "pass", "fail", "inconclusive", "skipped", "within-sigma".
+enum class CheckStatus { kPass, kFail, kInconclusive, kSkipped, kWithinSigma, kUnobservable };
+/// "pass", "fail", "inconclusive", "skipped", "within-sigma", "unobservable".
 const char* to_string(CheckStatus s);
 
 struct CheckResult {
@@ -47,6 +50,7 @@ struct CalibReport {
   bool failed() const;         ///< any check failed
   bool undecided() const;      ///< any check inconclusive
   bool within_sigma() const;   ///< any check beyond its limit but within its σ
+  bool unobservable() const;   ///< any σ check beyond its limit (not calibrated, not contradicted)
 };
 
 /// The extrinsics at one time with their standard deviations [p x y z (m), θ x y z (rad)].
@@ -78,6 +82,9 @@ struct CalibInput {
   /// Object id → its symmetry (roe.json `models_info`): truth.objects compares such an object with the
   /// equivalent of its true pose nearest the estimate (ekf::nearest_equivalent).
   std::map<int, ObjectSymmetry> symmetries;
+  /// Objects the dataset marks symmetric (roe.json `symmetric`), described by a models_info or not: a
+  /// symmetric anchor makes every pose relative to it defined only up to its symmetry (truth.objects).
+  std::vector<int> symmetric_ids;
   /// The offset estimated from the raw camera stamps (estimate_camera_time_offset); absent = not run.
   std::optional<TimeOffsetEstimate> time_offset;
   std::string time_offset_absent_reason;     ///< why it was not run (shown when absent)

@@ -79,6 +79,12 @@ struct FilterRunSummary {
   };
   std::vector<RelockEvent> relocks;
   Pose final_T_I_C;                       ///< the filter's extrinsics at the end
+  Pose prior_T_I_C;                       ///< the extrinsics it started from
+  /// σ of the extrinsics at the start and at the end [p (m), θ (rad)] (0 when held fixed).
+  Vector6d prior_sigma_I_C = Vector6d::Zero(), final_sigma_I_C = Vector6d::Zero();
+  /// Per object, the rotation residual angle (deg) of its gated 6-row detections in time order
+  /// (DetectionOutcome::rot_residual_deg): an object-world that keeps a large one is suspect (health.hpp).
+  std::map<int, std::vector<double>> rot_residual_deg;
   bool detection_sigmas_present = false;  ///< some detection carries its own σ
   /// The factor on the per-detection σ at the end (adapt_detection_sigma_scale; 1 otherwise).
   double detection_sigma_scale = 1.0;

@@ -77,6 +77,9 @@ struct DetectionOutcome {
   /// and for a first sight (initialised from the whole detection); with the split gate the part(s) that
   /// passed; kNone for every other status.
   ResidualPart used = ResidualPart::kNone;
+  /// Angle of the detection's rotation residual before the update (deg; 180 for a flip whose 2 q_v/q_w is
+  /// infinite), for every gated detection with a 6-row residual; NaN otherwise (run health, health.hpp).
+  double rot_residual_deg = std::numeric_limits<double>::quiet_NaN();
   bool has_T_W_I = false;                                 ///< false while the object has no object-world yet
   /// IMU pose implied by the raw detection and the current object-world estimate:
   /// T_W_I = T_O_W⁻¹ · T_O_C · T_I_C⁻¹ (paper Fig. 3, "obj").
@@ -191,6 +194,7 @@ class Filter {
     Vec6 r;
     Mat6 R;
     Mat6 S;                          // H P Hᵀ + R of this block (the χ² gate; the stacked S's diagonal)
+    double k = 1.0;                  // variance inflation of R for the constant states (correlated errors)
     Eigen::Matrix<double, 6, 18> H;  // compact columns
     int idx[18];
     int nc = 0;
@@ -286,6 +290,14 @@ class Filter {
   double chi2_median6_ = 0.0, chi2_median5_ = 0.0;  // χ² medians (the σ scale's reference)
   std::vector<double> ws_scale_, ws_scale_sorted_;  // this image's σ-scale samples; a sorting copy
   std::map<int, ObjectSymmetry> symmetries_;
+  // detection_error_correlation_s: each object's previous detection time, and the variance inflation k of
+  // its detection now (1 for a first detection or white errors).
+  std::map<int, Timestamp> last_detection_ns_;
+  double error_inflation(int object_id);
+  std::vector<Eigen::Index> ws_const_rows_;
+  // The stacked update: stacked_update, or stacked_update_constant_gain when a block's k > 1.
+  bool apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, const Eigen::Ref<const Eigen::MatrixXd>& S,
+                            const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx);
   std::size_t n_updates_ = 0;
   FilterRecording* rec_ = nullptr;
   Mat15 rec_PhiT_ = Mat15::Identity();  // Φᵀ of the recording's open propagation segment

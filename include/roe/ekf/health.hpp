@@ -20,6 +20,17 @@ namespace roe::ekf {
 /// anchor, no update at all, the gyro bias at rest refused.
 std::vector<std::string> run_warnings(const FilterRunSummary& s, const FilterOptions& options);
 
+/// Warnings about the self-calibration states at the end of a run (part of run_warnings; docs/filter.md §11):
+/// - the extrinsics moved from their prior by more than kCalibrationMoveSigmas prior σ on some axis: the
+///   prior is wrong, or the extrinsics absorbed detection errors (correlated in time, docs/filter.md §15);
+/// - an object keeps a median rotation residual above kRotationResidualWarnDeg over its last
+///   kRotationResidualWindow gated detections: its object-world disagrees with most of what is detected
+///   now (e.g. initialised as a flipped pose of a symmetric object that has no models_info).
+std::vector<std::string> calibration_warnings(const FilterRunSummary& s);
+inline constexpr double kCalibrationMoveSigmas = 1.0;
+inline constexpr double kRotationResidualWarnDeg = 45.0;
+inline constexpr std::size_t kRotationResidualWindow = 100;
+
 /// Order statistics of the NIS of the gated detections (6 dof): the median and quantiles, which one
 /// outlier cannot move, and the mean, which it can (a 180° symmetric flip gives NIS ~1e6).
 struct NisStats {

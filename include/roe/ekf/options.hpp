@@ -88,6 +88,13 @@ struct FilterOptions {
   /// off in scale; an overconfident σ makes the filter overconfident, and its gate then refuses the
   /// correct detections. The median ignores the gross failures (up to half of them).
   bool adapt_detection_sigma_scale = false;
+  /// Correlation time τ (s) of the detection errors, modelled per object as first-order Gauss-Markov
+  /// (docs/filter.md §15). 0 (the paper): white errors. Otherwise the constant states (extrinsics,
+  /// object-worlds) are updated as if each detection's noise were k R, k = (1+ρ)/(1−ρ), ρ = exp(−Δt/τ) with
+  /// Δt the time since the object's previous detection: the variance inflation of a mean of such errors, so
+  /// that what a constant state learns from a run is the number of independent detections in it, not the
+  /// number of images. The core (pose, velocity, biases) keeps the gain of R (stacked_update_constant_gain).
+  double detection_error_correlation_s = 0.0;
   /// Detections with a finite score below this are ignored (status rejected_score). 0 keeps all.
   double min_score = 0.0;
 

@@ -13,6 +13,7 @@
 /// I/O-free; tested against the textbook formulas on random problems (tests/ekf/test_stacked_update.cpp).
 
 #include <Eigen/Core>
+#include <vector>
 
 namespace roe::ekf {
 
@@ -37,5 +38,26 @@ struct StackedUpdateBuffers {
 bool stacked_update(Eigen::MatrixXd& P, const Eigen::Ref<const Eigen::MatrixXd>& Y,
                     const Eigen::Ref<const Eigen::MatrixXd>& S, const Eigen::Ref<const Eigen::VectorXd>& r,
                     Eigen::VectorXd& dx, const StackedUpdateBuffers& buf);
+
+/// The stacked update with a separate gain for the constant states (extrinsics, object-worlds: the error-state
+/// rows listed in `rows`) under detection errors correlated in time (docs/filter.md §15). Detection errors that
+/// persist over many images carry fewer independent samples than images; a constant state, which averages
+/// every detection it ever sees, must weight them as if their noise were k R (k the variance inflation of a
+/// mean of such errors), whereas the core (pose, velocity, biases), which forgets through its process noise,
+/// keeps the gain of R. With D = diag(d), d = √k per residual row (R the stacked block-diagonal R):
+///   K_c = Y_c S⁻¹ (the other rows),  K_s = Y_s S_k⁻¹, S_k = S − R + D R D (`rows`),  δx = [K_c; K_s] r,
+///   P ← (I − K H) P (I − K H)ᵀ + K R Kᵀ + [0 0; 0 K_s (D R D − R) K_sᵀ], K = [K_c; K_s]:
+/// the Joseph form of that gain, in which both parts see the same noise of this image (cross block
+/// P_cs − K_c H P_·s) and the constant block also carries the part D R D − R (≥ 0) that the errors' persistence
+/// adds to what it accumulates, so that its posterior is exactly the optimal one for noise k R
+/// (P_ss − K_s S_k K_sᵀ), the core block's the optimal one for R (P_cc − K_c S K_cᵀ), and P stays positive
+/// semi-definite. With every d = 1 this is stacked_update
+/// (to round-off). Returns false, with P and dx untouched, when S or S_k is not positive definite.
+bool stacked_update_constant_gain(Eigen::MatrixXd& P, const Eigen::Ref<const Eigen::MatrixXd>& Y,
+                                  const Eigen::Ref<const Eigen::MatrixXd>& S,
+                                  const Eigen::Ref<const Eigen::MatrixXd>& R,
+                                  const Eigen::Ref<const Eigen::VectorXd>& d,
+                                  const Eigen::Ref<const Eigen::VectorXd>& r, const std::vector<Eigen::Index>& rows,
+                                  Eigen::VectorXd& dx);
 
 }  // namespace roe::ekf

@@ -6,7 +6,7 @@
 ///
 /// Each edge is parent → child with `T_parent_child` (tf2_msgs: header.frame_id = parent,
 /// child_frame_id = child). A dynamic edge (from `/tf`) is known at its header stamps and between them:
-/// rotation slerped, translation linear, between the two nearest stamps (math::interpolate_pose_at),
+/// rotation slerped, translation linear, between the two nearest stamps (eval::interpolate_pose_at),
 /// never extrapolated. A static edge (from `/tf_static`) holds at any time. A lookup of PARENT → CHILD
 /// walks both frames up to their common ancestor A and returns T_A_PARENT⁻¹ · T_A_CHILD.
 ///
