@@ -55,8 +55,9 @@ def main():
             full = f"{area}/{name}"
             expected.add(full)
             # ';' splits the CMake list; a backslash is an escape in Catch2's filter, so the entry's
-            # filter would not match the name it carries.
-            if ";" in name or "\\" in name or name != name.strip():
+            # filter would not match the name it carries; a leading '-' makes the filter an option, a
+            # leading '~' or '#' an exclusion or a file-name filter.
+            if ";" in name or "\\" in name or name != name.strip() or name[:1] in ("-", "~", "#"):
                 problems.append(f"{b.name}: test case name cannot be registered as written: {name!r}")
             if full not in registered:
                 problems.append(f"{b.name}: test case not registered with ctest: {name!r}")

@@ -198,7 +198,7 @@ TEST_CASE("roe: a number option out of range says what it must be, briefly", "[c
 TEST_CASE("roe: an unknown command is named, with the commands there are", "[cli]") {
   auto r = run_roe("bogus");
   CHECK(r.code == 2);
-  CHECK(r.out.find("unknown command 'bogus' (commands: import, simulate, run, infer, eval, calib-check, report, sweep)") !=
+  CHECK(r.out.find("unknown command 'bogus' (commands: import, simulate, run, refine, infer, eval, calib-check, report, sweep)") !=
         std::string::npos);
   r = run_roe("sweep bogus");
   CHECK(r.code == 2);

@@ -111,7 +111,7 @@ TEST_CASE("arguments roe did not expect are listed in the order they were typed"
   CHECK_THAT(r.out, Catch::Contains("not expected: --first --second --third"));
 }
 
-TEST_CASE("--save_results writes evo's result file, --summary reads it beside roe's reports", "[cli][eval][evo]") {
+TEST_CASE("evo result files: --save_results writes one, --summary reads it beside roe's reports", "[cli][eval][evo]") {
   const fs::path gt = kData / "eval/freiburg1_xyz-groundtruth.txt", est = kData / "eval/freiburg1_xyz-rgbdslam.txt";
   if (!fs::exists(gt) || roe::test::run_shell("/usr/bin/python3 -c 'import numpy'").code != 0) {
     WARN("skipped: ../shared/data or /usr/bin/python3 with numpy absent");

@@ -181,9 +181,18 @@ TEST_CASE("cmake --install of a build without the helpers installs the rest and 
   // Nothing built: refused before copying anything.
   r = sh("cmake --install " + b + " --prefix " + quoted(d / "p0"));
   CHECK(r.code != 0);
-  CHECK(r.out.find("is not built;") != std::string::npos);  // CMake wraps its messages: words checked apart
-  CHECK(r.out.find("nothing was installed") != std::string::npos);
-  CHECK(r.out.find("--target main") != std::string::npos);
+  {
+    // CMake wraps its messages at any width (a long temp path moves the breaks): compare with the line
+    // breaks and their indentation folded into single spaces.
+    std::string flat;
+    for (char c : r.out) {
+      const bool space = c == '\n' || c == ' ';
+      if (!(space && !flat.empty() && flat.back() == ' ')) flat += space ? ' ' : c;
+    }
+    INFO(flat);
+    CHECK(flat.find("is not built; nothing was installed") != std::string::npos);
+    CHECK(flat.find("--target main") != std::string::npos);
+  }
   CHECK_FALSE(fs::exists(d / "p0"));
   // main alone: installed with the configs; the missing helpers named with their commands; exit 0.
   REQUIRE(sh("cmake --build " + b + " --target main >/dev/null").code == 0);
