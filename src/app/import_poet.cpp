@@ -72,6 +72,20 @@ ClassMapper::ClassMapper(const DatasetManifest& manifest, std::vector<std::strin
   }
 }
 
+std::optional<int> ClassMapper::frame_object(int poet_class, std::set<int>& frame_objects, Dropped& dropped) {
+  const auto obj = object_of(poet_class);
+  if (!obj) {
+    ++dropped.unmapped;
+    ++dropped.unmapped_by_class[poet_class];
+    return std::nullopt;
+  }
+  if (!frame_objects.insert(*obj).second) {
+    ++dropped.duplicate;
+    return std::nullopt;
+  }
+  return obj;
+}
+
 std::optional<int> ClassMapper::object_of(int cls) {
   auto it = resolved_.find(cls);
   if (it != resolved_.end()) return it->second;
@@ -211,12 +225,11 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
   ClassMapper mapper(manifest, opt.classes_file.empty() ? io::ycbv_class_names() : io::read_poet_class_names(opt.classes_file),
                      opt.class_map_file, io::manifest_path(dataset).string());
   if (mapper.identity()) warn("roe.json lists no objects: object ids are PoET's class ids");
-  auto object_of = [&](int cls) { return mapper.object_of(cls); };
 
   // ---- detections ----------------------------------------------------------------------------
   std::sort(matched.begin(), matched.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<Detection> out;
-  std::map<int, std::size_t> unmapped_count;
+  ClassMapper::Dropped dropped;
   for (const auto& [t_ns, img] : matched) {
     if (img->detections.empty()) ++s.empty_images;
     std::set<int> seen;
@@ -227,16 +240,8 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
         ++s.dropped_non_finite;
         continue;
       }
-      const auto obj = object_of(d.class_id);
-      if (!obj) {
-        ++s.dropped_unmapped_class;
-        ++unmapped_count[d.class_id];
-        continue;
-      }
-      if (!seen.insert(*obj).second) {
-        ++s.dropped_duplicate;
-        continue;
-      }
+      const auto obj = mapper.frame_object(d.class_id, seen, dropped);
+      if (!obj) continue;
       Detection det;
       det.t_ns = t_ns;
       det.object_id = *obj;
@@ -251,13 +256,15 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
       out.push_back(det);
     }
   }
+  s.dropped_unmapped_class = dropped.unmapped;
+  s.dropped_duplicate = dropped.duplicate;
   s.class_map = mapper.used();
   if (mapper.by_name() && s.class_map.empty() && s.dropped_unmapped_class > 0)
     throw InputError("no PoET class matches an object of roe.json by name (objects: " +
                          std::to_string(manifest.objects.size()) + "); pass --class-map FILE or --classes FILE",
                      {io::manifest_path(dataset).string()});
   if (s.dropped_non_finite) warn(std::to_string(s.dropped_non_finite) + " detection(s) with non-finite t or rot (NaN/Infinity) dropped");
-  for (const auto& [c, n] : unmapped_count)
+  for (const auto& [c, n] : dropped.unmapped_by_class)
     warn(std::to_string(n) + " detection(s) of PoET class " + std::to_string(c) + " map to no object and were dropped");
   if (s.dropped_duplicate)
     warn(std::to_string(s.dropped_duplicate) + " repeated detection(s) of an object in one frame dropped (the first, highest detector score, is kept)");

@@ -224,7 +224,7 @@ struct FrameResults {
   std::vector<Detection> detections;
   nlohmann::json per_frame = nlohmann::json::array();
   std::vector<double> computed_ms;
-  std::map<int, std::size_t> unmapped;  ///< class id -> detections without an object
+  ClassMapper::Dropped dropped;  ///< detections without an object, second detections of one
 };
 
 /// One frame's cache entry: reused when the cache has its key, computed (and appended) otherwise.
@@ -254,20 +254,11 @@ infer::CachedFrame frame_entry(infer::PoetModel& model, infer::DetectionCache& c
 }
 
 /// The frame's detections mapped to dataset objects (one per object, the first, i.e. highest-scoring).
-void map_frame_detections(const infer::CachedFrame& cf, Timestamp t_ns, ClassMapper& mapper, InferSummary& s,
-                          FrameResults& r) {
+void map_frame_detections(const infer::CachedFrame& cf, Timestamp t_ns, ClassMapper& mapper, FrameResults& r) {
   std::set<int> seen;
   for (const auto& d : cf.detections) {
-    const auto obj = mapper.object_of(d.class_id);
-    if (!obj) {
-      ++s.dropped_unmapped_class;
-      ++r.unmapped[d.class_id];
-      continue;
-    }
-    if (!seen.insert(*obj).second) {
-      ++s.dropped_duplicate;
-      continue;
-    }
+    const auto obj = mapper.frame_object(d.class_id, seen, r.dropped);
+    if (!obj) continue;
     Detection det;
     det.t_ns = t_ns;
     det.object_id = *obj;
@@ -303,7 +294,7 @@ FrameResults infer_frames(const FrameLoop& loop, const std::vector<CameraFrame>&
       ++s.frames_computed;
     }
     s.dropped_invalid += cf.dropped_invalid;
-    map_frame_detections(cf, f.t_ns, loop.mapper, s, r);
+    map_frame_detections(cf, f.t_ns, loop.mapper, r);
     r.per_frame.push_back({{"t_ns", f.t_ns}, {"ms", cf.ms}, {"cached", reused}, {"detections", cf.detections.size()}});
     if (progress) progress(k + 1, sel.size());
   }
@@ -312,7 +303,7 @@ FrameResults infer_frames(const FrameLoop& loop, const std::vector<CameraFrame>&
 
 /// The warnings about what the loop dropped.
 void warn_dropped(const FrameResults& r, const InferSummary& s, const infer::PoetBundle& bundle, const Warn& warn) {
-  for (const auto& [c, n] : r.unmapped)
+  for (const auto& [c, n] : r.dropped.unmapped_by_class)
     warn(std::to_string(n) + " detection(s) of class " + std::to_string(c) + " (" + bundle.class_name(c) +
          ") map to no object of roe.json and were dropped");
   if (s.dropped_invalid)
@@ -434,6 +425,8 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
 
   const FrameLoop loop{model, cache, mapper, opt.boxes_file.empty() ? nullptr : &ext, opt.use_cache};
   const FrameResults r = infer_frames(loop, frames, sel, img_dir, s, progress);
+  s.dropped_unmapped_class = r.dropped.unmapped;
+  s.dropped_duplicate = r.dropped.duplicate;
   cache.compact();  // one line per frame: entries recomputed by this run (--no-cache) replace the old ones
   warn_dropped(r, s, bundle, warn);
   s.detections_written = r.detections.size();

@@ -23,6 +23,7 @@
 
 #include <filesystem>
 #include <map>
+#include <set>
 #include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -45,6 +46,17 @@ class ClassMapper {
   std::optional<int> object_of(int poet_class);
   /// The mapping actually used so far.
   const std::map<int, int>& used() const { return used_; }
+
+  /// What the per-frame mapping dropped, over all frames.
+  struct Dropped {
+    std::size_t unmapped = 0;                  ///< detections whose class maps to no object
+    std::size_t duplicate = 0;                 ///< a second detection of an object in one frame
+    std::map<int, std::size_t> unmapped_by_class;
+  };
+  /// The one rule of roe import poet and roe infer for a frame's detections, in the network's order (best
+  /// first): the object of class `poet_class`, or nullopt (counted in `dropped`) when the class maps to no
+  /// object or `frame_objects` (the objects this frame already has) holds it.
+  std::optional<int> frame_object(int poet_class, std::set<int>& frame_objects, Dropped& dropped);
   bool by_name() const { return by_name_; }
   bool identity() const { return identity_; }
 
