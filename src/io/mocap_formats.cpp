@@ -541,6 +541,11 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
     ++index;
     const Timestamp t = st.header.stamp_ns != 0 ? st.header.stamp_ns : rec;
     zero_stamps = zero_stamps || st.header.stamp_ns == 0;
+    // ROS time counts from the epoch (as the CSV importers refuse negative times, so does a bag).
+    if (t < 0)
+      throw InputError(fmt::format("{}: message {}: negative header stamp ({} ns); ROS stamps count from 1970",
+                                   topic, index, t),
+                       {reader->name()});
     const auto& q = st.transform.q;
     const double n = q.norm();
     if (!(std::abs(n - 1.0) <= kMocapUnitQuatTolerance) || !st.transform.t.allFinite())

@@ -31,6 +31,10 @@ void TfBuffer::add(const ros::StampedTransform& tf, bool is_static, const std::s
   if (parent == child)
     throw InputError(fmt::format("{}: the transform {} -> {} makes a frame its own parent", where, parent, child),
                      {source_});
+  if (tf.header.stamp_ns < 0)  // ROS time counts from the epoch, as the CSV importers require too
+    throw InputError(fmt::format("{}: transform {} -> {}: negative header stamp ({} ns); ROS stamps count from 1970",
+                                 where, parent, child, tf.header.stamp_ns),
+                     {source_});
   const double n = tf.transform.q.norm();
   if (!(std::abs(n - 1.0) <= kUnitQuatTolerance) || !tf.transform.t.allFinite())
     throw InputError(fmt::format("{}: transform {} -> {} (stamp {} ns): {}", where, parent, child,

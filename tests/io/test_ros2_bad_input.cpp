@@ -14,6 +14,7 @@
 #include "roe/io/cdr.hpp"
 #include "roe/io/compression.hpp"
 #include "roe/io/mcap.hpp"
+#include "roe/io/mocap_formats.hpp"
 #include "support/test_util.hpp"
 
 namespace fs = std::filesystem;
@@ -371,4 +372,46 @@ TEST_CASE("rosbag2: a folder without metadata.yaml and a lone zstd-compressed MC
     return true;
   });
   CHECK(n == 120);
+}
+
+TEST_CASE("a negative ROS 2 header stamp is an input error naming the topic and message", "[io][ros2][hostile]") {
+  // The real rosbag2 SQLite /tf bag with its first /tf message's stamp.sec set to -5 (CDR: 4 bytes of
+  // encapsulation, the transforms' count, then header.stamp.sec as int32), patched with SQLite itself.
+  const fs::path real = fs::path(ROE_SHARED_DATA_DIR) / "rosbag2/tf_example";
+  if (!fs::exists(real)) {
+    WARN("skipped: " << real << " absent");
+    return;
+  }
+  roe::test::TempDir d("roe_test_ros2_negative_stamp");
+  const fs::path bag = d.path / "tf_example";
+  fs::copy(real, bag);
+  const io::MocapData intact = io::read_bag_poses(bag, "/tf");
+  CHECK(intact.poses.size() == 517);  // intact: read
+  INFO("frames " << intact.parent_frame << " -> " << intact.body);
+  sqlite3* db = nullptr;
+  REQUIRE(sqlite3_open((bag / "tf_example.db3").string().c_str(), &db) == SQLITE_OK);
+  sqlite3_stmt* q = nullptr;
+  REQUIRE(sqlite3_prepare_v2(db, "SELECT id, data FROM messages WHERE topic_id = (SELECT id FROM topics WHERE name = '/tf') "
+                                   "ORDER BY timestamp LIMIT 1", -1, &q, nullptr) == SQLITE_OK);
+  REQUIRE(sqlite3_step(q) == SQLITE_ROW);
+  const sqlite3_int64 id = sqlite3_column_int64(q, 0);
+  std::string blob(static_cast<const char*>(sqlite3_column_blob(q, 1)), static_cast<std::size_t>(sqlite3_column_bytes(q, 1)));
+  sqlite3_finalize(q);
+  REQUIRE(blob.size() > 12);
+  const std::int32_t sec = -5;
+  std::memcpy(blob.data() + 8, &sec, 4);
+  sqlite3_stmt* u = nullptr;
+  REQUIRE(sqlite3_prepare_v2(db, "UPDATE messages SET data = ? WHERE id = ?", -1, &u, nullptr) == SQLITE_OK);
+  sqlite3_bind_blob(u, 1, blob.data(), static_cast<int>(blob.size()), SQLITE_TRANSIENT);
+  sqlite3_bind_int64(u, 2, id);
+  REQUIRE(sqlite3_step(u) == SQLITE_DONE);
+  sqlite3_finalize(u);
+  sqlite3_close(db);
+  CHECK_THROWS_WITH(io::read_bag_poses(bag, "/tf"),
+                    Catch::Contains("negative header stamp") && Catch::Contains("/tf") &&
+                        Catch::Contains("tf_example"));
+  // The same through the tf buffer (BAG:/tf:PARENT.CHILD).
+  CHECK_THROWS_WITH(io::read_bag_poses(bag, "/tf", intact.body, false, intact.parent_frame),
+                    Catch::Contains("negative header stamp") && Catch::Contains("transform ") &&
+                        Catch::Contains("tf_example"));
 }
