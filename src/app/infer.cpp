@@ -348,8 +348,7 @@ nlohmann::json detection_set_meta(const InferSummary& s, const InferOptions& opt
 /// The output set's name, checked: a plain folder name.
 std::string detection_set_name(const InferOptions& opt, const infer::PoetBundle& bundle) {
   const std::string name = opt.name.empty() ? bundle.model_id : opt.name;
-  if (name.find('/') != std::string::npos || name == "." || name == "..")
-    throw InputError("--name must be a plain folder name, got \"" + name + "\"");
+  if (!io::is_plain_name(name)) throw InputError("--name must be a plain folder name, got \"" + name + "\"");
   return name;
 }
 
