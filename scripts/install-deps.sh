@@ -33,10 +33,11 @@ test_only=(
   parallel slurm-wlm munge                                          # roe sweep: the real-engine tests (GNU parallel, single-node Slurm)
   chromium                                                          # roe report's browser test (tests/cli/test_report_cli.cpp)
   clang libclang-rt-14-dev                                          # fuzz/smoke test: libFuzzer, ASan, UBSan
+  python3-scipy                                                     # eval tests: Euler angles against scipy's Rotation
 )
 dev=(
   clang-format python3-torch
-  python3-scipy  # regenerates tests/eval/data/stats_reference.json (tests do not need it)
+  # python3-scipy (in test) also regenerates tests/eval/data/stats_reference.json
 )
 
 profiles=()
