@@ -1,4 +1,5 @@
 // roe refine: a run folder + its dataset → batch MAP (refine/) → a run folder (DESIGN §4).
+#include "roe/core/clock.hpp"
 #include "roe/app/refine.hpp"
 
 #include <fmt/format.h>
@@ -28,8 +29,7 @@ using nlohmann::json;
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using Clock = SteadyClock;
 
 /// What refine reads of run.json, typed.
 struct RunInfo {

@@ -1,4 +1,5 @@
 // roe report: eval + calib-check in-process, the figure set once, one self-contained HTML file.
+#include "roe/core/clock.hpp"
 #include "roe/app/report.hpp"
 
 #include <fmt/format.h>
@@ -19,10 +20,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
 
 /// Usage and output checks before any work: REPORT.html's folder exists, it is not a folder, not
 /// replaced without --force, and neither it nor --figures is an input.

@@ -1,4 +1,5 @@
 // roe run: dataset → measurement stream → multi-object EKF → RUN_DIR (DESIGN §4).
+#include "roe/core/clock.hpp"
 #include "roe/app/run.hpp"
 
 #include <fmt/format.h>
@@ -23,10 +24,7 @@ namespace roe::app {
 namespace {
 
 using io::json;
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
+using Clock = SteadyClock;
 
 // Collects the filter's output rows in memory (the counts and the final state are run_filter's summary).
 class Recorder : public ekf::FilterObserver {

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <set>
 
+#include "roe/core/clock.hpp"
 #include "roe/app/eval.hpp"
 #include "roe/app/run.hpp"
 #include "roe/app/simulate.hpp"
@@ -23,8 +24,7 @@ using nlohmann::json;
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using Clock = SteadyClock;
 
 fs::path manifest_file(const fs::path& d) { return d / "sweep.json"; }
 fs::path jobs_file(const fs::path& d) { return d / "jobs.jsonl"; }
@@ -91,7 +91,7 @@ void execute(const SweepJob& job, const fs::path& work, json& out) {
     if (!d["duration_s"].is_null()) so.duration_s = d["duration_s"].get<double>();
     dataset = work / "dataset";
     (void)simulate(so, dataset);
-    timing["simulate"] = since(t0);
+    timing["simulate"] = seconds_since(t0);
   } else {
     dataset = d["path"].get<std::string>();
   }
@@ -101,7 +101,7 @@ void execute(const SweepJob& job, const fs::path& work, json& out) {
   ro.detections = c["detections"];
   t0 = Clock::now();
   const RunResult rr = run(dataset, work / "run", ro);
-  timing["run"] = since(t0);
+  timing["run"] = seconds_since(t0);
   EvalOptions eo;
   const json& e = c["eval"];
   eo.est = (work / "run").string();
@@ -118,7 +118,7 @@ void execute(const SweepJob& job, const fs::path& work, json& out) {
   eo.rpe_unit = e["rpe_unit"];
   t0 = Clock::now();
   const EvalResult er = run_eval(eo);
-  timing["eval"] = since(t0);
+  timing["eval"] = seconds_since(t0);
   json metrics = json::object();
   for (const auto& [name, value] : eval_report_metrics(er.report, eo.out + "/report.json")) metrics[name] = value;
   out["metrics"] = metrics;
@@ -186,7 +186,7 @@ JobOutcome run_job(const SweepFolder& s, std::size_t index, bool retry_failed) {
     result["exit_code"] = o.exit_code;
     result["message"] = o.message;
   }
-  o.wall_s = since(t0);
+  o.wall_s = seconds_since(t0);
   if (!result.contains("timing_s")) result["timing_s"] = json::object();
   result["timing_s"]["total"] = o.wall_s;
   prune(work);
