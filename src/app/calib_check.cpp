@@ -10,6 +10,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
+#include "roe/ekf/images.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
@@ -289,10 +290,11 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
       log::info("estimating the camera-IMU time offset from {} and the gyro", res.detections);
       const auto imu = io::read_imu_csv(io::imu_csv_path(dataset));
       auto dets = io::read_detections_csv(io::detections_dir(dataset, res.detections) / "detections.csv");
-      if (min_score > 0)  // as the filter does: detections without a score are kept
-        dets.erase(std::remove_if(dets.begin(), dets.end(),
-                                  [&](const Detection& d) { return std::isfinite(d.score) && d.score < min_score; }),
-                   dets.end());
+      ekf::FilterOptions score_rule;  // the filter's own rule for which detections count (min_score)
+      score_rule.min_score = min_score;
+      dets.erase(std::remove_if(dets.begin(), dets.end(),
+                                [&](const Detection& d) { return !ekf::usable_detection(d, score_rule); }),
+                 dets.end());
       calib::TimeOffsetOptions to = opt.time_offset;
       to.centre_s = in.declared_time_offset_s;  // search around what the dataset declares
       to.symmetric_ids.clear();  // left out unless described by a models_info (docs/calib-check.md §3)

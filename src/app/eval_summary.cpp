@@ -196,40 +196,37 @@ void column_stats(const std::vector<Row>& rows, const std::vector<std::string>& 
 
 }  // namespace
 
-EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
-  if (o.reports.empty()) throw InputError("--summary needs at least one report.json", {"roe eval"});
-  std::vector<Row> rows;
-  for (const auto& r : o.reports) {
-    fs::path f = r;
-    if (io::is_folder(f))
-      f = io::path_exists(f / "report.json") ? f / "report.json" : f / "eval" / "report.json";
-    if (io::path_exists(f) && !io::is_folder(f) && io::looks_like_zip(f)) {
-      rows.push_back(evo_row(f));
-      continue;
-    }
-    const json j = io::parse_json_file(f);
-    Row row;
-    try {
-      row.file = f.string();
-      row.label = j.contains("info") && j["info"].contains("label") ? j["info"]["label"].get<std::string>()
-                                                                    : f.parent_path().filename().string();
-      const bool run = j.contains("inputs") && j["inputs"].contains("est") &&
-                       j["inputs"]["est"].value("kind", std::string()) == "run";
-      if (run || (j.contains("per_object") && !j["per_object"].empty()))
-        row.n_objects = j.contains("per_object") ? j["per_object"].size() : 0;
-      row.n_matched = j.contains("association") ? j["association"].value("n_matched", std::size_t{0}) : 0;
-      for (const auto& [name, value] : eval_report_metrics(j, row.file)) row.v.push_back(value);
-      for (const Setting& st : kSettings) row.settings[st.key] = setting_value(j, st);
-      row.rpe = rpe_blocks(j);
-    } catch (const json::exception& e) {
-      throw InputError(std::string("not a roe eval report: ") + e.what(), {f.string()});
-    }
-    rows.push_back(std::move(row));
-  }
+namespace {
 
-  // Mixed settings: a warning (the table is still written; comparing settings can be the point).
-  std::vector<std::string> warnings = duplicate_label_warnings(rows);
-  const std::size_t n_label_warnings = warnings.size();
+/// One row of the table from a report.json (or the folder holding it, or its eval/ subfolder) or an evo
+/// result zip.
+Row report_row(const fs::path& given) {
+  fs::path f = given;
+  if (io::is_folder(f)) f = io::path_exists(f / "report.json") ? f / "report.json" : f / "eval" / "report.json";
+  if (io::path_exists(f) && !io::is_folder(f) && io::looks_like_zip(f)) return evo_row(f);
+  const json j = io::parse_json_file(f);
+  Row row;
+  try {
+    row.file = f.string();
+    row.label = j.contains("info") && j["info"].contains("label") ? j["info"]["label"].get<std::string>()
+                                                                  : f.parent_path().filename().string();
+    const bool run = j.contains("inputs") && j["inputs"].contains("est") &&
+                     j["inputs"]["est"].value("kind", std::string()) == "run";
+    if (run || (j.contains("per_object") && !j["per_object"].empty()))
+      row.n_objects = j.contains("per_object") ? j["per_object"].size() : 0;
+    row.n_matched = j.contains("association") ? j["association"].value("n_matched", std::size_t{0}) : 0;
+    for (const auto& [name, value] : eval_report_metrics(j, row.file)) row.v.push_back(value);
+    for (const Setting& st : kSettings) row.settings[st.key] = setting_value(j, st);
+    row.rpe = rpe_blocks(j);
+  } catch (const json::exception& e) {
+    throw InputError(std::string("not a roe eval report: ") + e.what(), {f.string()});
+  }
+  return row;
+}
+
+/// The settings every row shares (the others get a warning each: the table is still written, comparing
+/// settings can be the point).
+json common_settings(const std::vector<Row>& rows, std::vector<std::string>& warnings) {
   json common = json::object();
   for (const Setting& st : kSettings) {
     bool same = true;
@@ -245,181 +242,226 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
         "the reports were made with different {} ({}): the mean and std mix results that are not comparable",
         st.name, list));
   }
+  return common;
+}
 
-  // RPE: the blocks every report has (same delta, unit and mode), as two more columns each.
-  std::vector<std::string> cols(std::begin(kCols), std::end(kCols));
-  {
-    std::vector<std::string> common_keys, partial;
-    for (const auto& [key, val] : rows.front().rpe) {
-      bool everywhere = true;
-      for (const auto& r : rows) {
-        bool found = false;
-        for (const auto& b : r.rpe) found = found || b.first == key;
-        everywhere = everywhere && found;
-      }
-      (everywhere ? common_keys : partial).push_back(key);
+/// RPE: the blocks every report has (same delta, unit and mode), as two more columns each; a warning for
+/// each block some reports lack.
+void add_rpe_columns(std::vector<Row>& rows, std::vector<std::string>& cols, std::vector<std::string>& warnings) {
+  std::vector<std::string> common_keys, partial;
+  for (const auto& [key, val] : rows.front().rpe) {
+    bool everywhere = true;
+    for (const auto& r : rows) {
+      bool found = false;
+      for (const auto& b : r.rpe) found = found || b.first == key;
+      everywhere = everywhere && found;
     }
-    for (const auto& r : rows)
-      for (const auto& b : r.rpe)
-        if (std::find(common_keys.begin(), common_keys.end(), b.first) == common_keys.end() &&
-            std::find(partial.begin(), partial.end(), b.first) == partial.end())
-          partial.push_back(b.first);
-    for (const auto& key : partial)
-      warnings.push_back(fmt::format("RPE {} is not in every report (or has no pairs in some): not summarised", key));
-    for (const auto& key : common_keys) {
-      cols.push_back("rpe_" + key + "_trans_rmse_m");
-      cols.push_back("rpe_" + key + "_rot_rmse_deg");
-      for (auto& r : rows)
-        for (const auto& b : r.rpe)
-          if (b.first == key) {
-            r.v.push_back(b.second.first);
-            r.v.push_back(b.second.second);
-            break;
-          }
-    }
+    (everywhere ? common_keys : partial).push_back(key);
   }
-  const int n_cols = static_cast<int>(cols.size());
-  std::vector<double> mean, sd;
-  column_stats(rows, cols, mean, sd, warnings);
+  for (const auto& r : rows)
+    for (const auto& b : r.rpe)
+      if (std::find(common_keys.begin(), common_keys.end(), b.first) == common_keys.end() &&
+          std::find(partial.begin(), partial.end(), b.first) == partial.end())
+        partial.push_back(b.first);
+  for (const auto& key : partial)
+    warnings.push_back(fmt::format("RPE {} is not in every report (or has no pairs in some): not summarised", key));
+  for (const auto& key : common_keys) {
+    cols.push_back("rpe_" + key + "_trans_rmse_m");
+    cols.push_back("rpe_" + key + "_rot_rmse_deg");
+    for (auto& r : rows)
+      for (const auto& b : r.rpe)
+        if (b.first == key) {
+          r.v.push_back(b.second.first);
+          r.v.push_back(b.second.second);
+          break;
+        }
+  }
+}
 
-  EvalSummaryResult res;
+/// The table in memory: rows, the column names, their mean and population std, the shared settings and
+/// every warning (label warnings first: `n_label_warnings` of them).
+struct Table {
+  std::vector<Row> rows;
+  std::vector<std::string> cols;
+  std::vector<double> mean, sd;
+  json common;
+  std::vector<std::string> warnings;
+  std::size_t n_label_warnings = 0;
+};
+
+json summary_json(const Table& t) {
+  const std::size_t n_cols = t.cols.size();
+  const auto number = [](double v) { return std::isnan(v) ? json(nullptr) : json(v); };
   json runs = json::array();
-  for (std::size_t i = 0; i < rows.size(); ++i) {
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const Row& r = t.rows[i];
     json jr = {{"run", i + 1},
-               {"label", rows[i].label},
-               {"report", rows[i].file},
-               {"n_objects", rows[i].n_objects ? json(*rows[i].n_objects) : json(nullptr)},
-               {"n_matched", rows[i].n_matched}};
-    for (int k = 0; k < n_cols; ++k) jr[cols[k]] = std::isnan(rows[i].v[k]) ? json(nullptr) : json(rows[i].v[k]);
-    for (const Setting& st : kSettings) jr[st.key] = rows[i].settings[st.key];
+               {"label", r.label},
+               {"report", r.file},
+               {"n_objects", r.n_objects ? json(*r.n_objects) : json(nullptr)},
+               {"n_matched", r.n_matched}};
+    for (std::size_t k = 0; k < n_cols; ++k) jr[t.cols[k]] = number(r.v[k]);
+    for (const Setting& st : kSettings) jr[st.key] = r.settings[st.key];
     runs.push_back(jr);
   }
   json jm, js;
-  for (int k = 0; k < n_cols; ++k) {
-    jm[cols[k]] = std::isnan(mean[k]) ? json(nullptr) : json(mean[k]);
-    js[cols[k]] = std::isnan(sd[k]) ? json(nullptr) : json(sd[k]);
+  for (std::size_t k = 0; k < n_cols; ++k) {
+    jm[t.cols[k]] = number(t.mean[k]);
+    js[t.cols[k]] = number(t.sd[k]);
   }
-  res.summary = {{"runs", runs},
-                 {"mean", jm},
-                 {"std", js},
-                 {"n_runs", rows.size()},
-                 {"std_definition", "population (ddof 0)"},
-                 {"settings", common},
-                 {"warnings", warnings}};
+  return {{"runs", runs},
+          {"mean", jm},
+          {"std", js},
+          {"n_runs", t.rows.size()},
+          {"std_definition", "population (ddof 0)"},
+          {"settings", t.common},
+          {"warnings", t.warnings}};
+}
 
-  // Markdown in the layout of the paper's Table I.
-  // The Euler columns under their metric's name (roe eval --euler): the same words mean other figures.
+/// The RPE columns' Markdown table (none when no RPE block is in every report).
+std::string rpe_markdown(const Table& t) {
+  const int n_cols = static_cast<int>(t.cols.size());
+  if (n_cols <= kNumCols) return "";
+  std::string md = "\n| Run | Label |";
+  std::string sep = "|---|---|";
+  for (int k = kNumCols; k < n_cols; k += 2) {
+    const std::string key = t.cols[k].substr(4, t.cols[k].size() - 4 - std::string("_trans_rmse_m").size());
+    md += fmt::format(" RPE {} trans RMSE [m] | RPE {} rot RMSE [deg] |", key, key);
+    sep += "---|---|";
+  }
+  md += "\n" + sep + "\n";
+  const auto rpe_row = [&](const std::string& a, const std::string& b, const std::vector<double>& v,
+                           const char* prefix) {
+    std::string line = fmt::format("| {} | {} |", a, b);
+    for (int k = kNumCols; k < n_cols; k += 2)
+      line += fmt::format(" {}{:.4f} | {}{:.3f} |", prefix, v[k], prefix, v[k + 1]);
+    return line + "\n";
+  };
+  for (std::size_t i = 0; i < t.rows.size(); ++i) md += rpe_row(std::to_string(i + 1), t.rows[i].label, t.rows[i].v, "");
+  md += rpe_row("mean", "", t.mean, "");
+  md += rpe_row("± std", "", t.sd, "± ");
+  return md;
+}
+
+/// Markdown in the layout of the paper's Table I; the Euler columns under their metric's name (roe eval
+/// --euler): the same words mean other figures.
+std::string summary_markdown(const Table& t) {
+  const json& common = t.common;
   const std::string euler_name = common.contains("euler_metric") ? setting_text(common["euler_metric"]) : "mixed";
   std::string md = fmt::format(
       "| Run | Label | #objects | (x, y, z) [m] | (roll, pitch, yaw) [deg], Euler metric '{}' | APE RMSE [m], [deg] "
       "|\n|---|---|---|---|---|---|\n",
       euler_name);
-  for (std::size_t i = 0; i < rows.size(); ++i)
-    md += fmt::format("| {} | {} | {} | {} | {} | {}, {} |\n", i + 1, rows[i].label,
-                      rows[i].n_objects ? std::to_string(*rows[i].n_objects) : "–", vec3(rows[i].v, 0, 3),
-                      vec3(rows[i].v, 3, 2), cell(rows[i].v[6], 3), cell(rows[i].v[7], 2));
-  md += fmt::format("| mean | | - | {} | {} | {}, {} |\n", vec3(mean, 0, 3), vec3(mean, 3, 2), cell(mean[6], 3),
-                    cell(mean[7], 2));
-  md += fmt::format("| ± std | | | ± {} | ± {} | ± {}, {} |\n", vec3(sd, 0, 3), vec3(sd, 3, 2), cell(sd[6], 3),
-                    cell(sd[7], 2));
-  if (n_cols > kNumCols) {
-    md += "\n| Run | Label |";
-    std::string sep = "|---|---|";
-    for (int k = kNumCols; k < n_cols; k += 2) {
-      const std::string key = cols[k].substr(4, cols[k].size() - 4 - std::string("_trans_rmse_m").size());
-      md += fmt::format(" RPE {} trans RMSE [m] | RPE {} rot RMSE [deg] |", key, key);
-      sep += "---|---|";
-    }
-    md += "\n" + sep + "\n";
-    const auto rpe_row = [&](const std::string& a, const std::string& b, const std::vector<double>& v,
-                             const char* prefix) {
-      std::string line = fmt::format("| {} | {} |", a, b);
-      for (int k = kNumCols; k < n_cols; k += 2)
-        line += fmt::format(" {}{:.4f} | {}{:.3f} |", prefix, v[k], prefix, v[k + 1]);
-      return line + "\n";
-    };
-    for (std::size_t i = 0; i < rows.size(); ++i) md += rpe_row(std::to_string(i + 1), rows[i].label, rows[i].v, "");
-    md += rpe_row("mean", "", mean, "");
-    md += rpe_row("± std", "", sd, "± ");
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const Row& r = t.rows[i];
+    md += fmt::format("| {} | {} | {} | {} | {} | {}, {} |\n", i + 1, r.label,
+                      r.n_objects ? std::to_string(*r.n_objects) : "–", vec3(r.v, 0, 3), vec3(r.v, 3, 2),
+                      cell(r.v[6], 3), cell(r.v[7], 2));
   }
-  if (warnings.size() == n_label_warnings) {  // the settings agree (labels alone say nothing of them)
+  md += fmt::format("| mean | | - | {} | {} | {}, {} |\n", vec3(t.mean, 0, 3), vec3(t.mean, 3, 2), cell(t.mean[6], 3),
+                    cell(t.mean[7], 2));
+  md += fmt::format("| ± std | | | ± {} | ± {} | ± {}, {} |\n", vec3(t.sd, 0, 3), vec3(t.sd, 3, 2), cell(t.sd[6], 3),
+                    cell(t.sd[7], 2));
+  md += rpe_markdown(t);
+  if (t.warnings.size() == t.n_label_warnings) {  // the settings agree (labels alone say nothing of them)
     md += fmt::format(
         "\nSettings of every run: alignment {}, --n-align {}, --max-dt {} s, --t-offset {} s, "
         "association {}, Euler metric {}.\n",
         setting_text(common["alignment"]), setting_text(common["n_align"]), setting_text(common["max_dt_s"]),
         setting_text(common["t_offset_s"]), setting_text(common["assoc"]), setting_text(common["euler_metric"]));
   }
-  if (!warnings.empty()) {
+  if (!t.warnings.empty()) {
     md += "\n";
-    for (const auto& w : warnings) md += "warning: " + w + "\n";
+    for (const auto& w : t.warnings) md += "warning: " + w + "\n";
   }
-  res.markdown = md;
+  return md;
+}
 
-  if (!o.out.empty()) {
-    // --out FOLDER/ (a trailing separator) or an existing folder: FOLDER/summary.{csv,json,md};
-    // otherwise FILE with its .csv/.json/.md extension, if any, replaced.
-    const std::string out_str = o.out;
-    const bool trailing = out_str.back() == '/';
-    const fs::path out = io::without_trailing_separator(o.out);
-    const bool into_folder = trailing || io::is_folder(out);
-    fs::path base = out;
-    if (into_folder) {
-      base = out / "summary";
-    } else {
-      const std::string ext = base.extension().string();
-      if (ext == ".csv" || ext == ".json" || ext == ".md") base.replace_extension();
-    }
-    io::CsvWriter w;
-    std::vector<std::string> h = {"run", "label", "report", "n_objects", "n_matched"};
-    for (const auto& c : cols) h.push_back(c);
-    for (const Setting& st : kSettings) h.push_back(st.key);
-    w.header(h);
-    for (std::size_t i = 0; i < rows.size(); ++i) {
-      w.add(std::to_string(i + 1)).add(rows[i].label).add(rows[i].file);
-      if (rows[i].n_objects)
-        w.add(static_cast<std::int64_t>(*rows[i].n_objects));
-      else
+std::string summary_csv(const Table& t) {
+  io::CsvWriter w;
+  std::vector<std::string> h = {"run", "label", "report", "n_objects", "n_matched"};
+  for (const auto& c : t.cols) h.push_back(c);
+  for (const Setting& st : kSettings) h.push_back(st.key);
+  w.header(h);
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const Row& r = t.rows[i];
+    w.add(std::to_string(i + 1)).add(r.label).add(r.file);
+    if (r.n_objects)
+      w.add(static_cast<std::int64_t>(*r.n_objects));
+    else
+      w.add_empty();
+    w.add(static_cast<std::int64_t>(r.n_matched));
+    for (double v : r.v) std::isnan(v) ? w.add_empty() : w.add(v);
+    for (const Setting& st : kSettings) {
+      const json& v = r.settings[st.key];
+      if (v.is_null())
         w.add_empty();
-      w.add(static_cast<std::int64_t>(rows[i].n_matched));
-      for (double v : rows[i].v) std::isnan(v) ? w.add_empty() : w.add(v);
-      for (const Setting& st : kSettings) {
-        const json& v = rows[i].settings[st.key];
-        if (v.is_null())
-          w.add_empty();
-        else if (v.is_string())
-          w.add(v.get<std::string>());
-        else if (v.is_number_integer())
-          w.add(v.get<std::int64_t>());
-        else
-          w.add(v.get<double>());
-      }
-      w.end_row();
+      else if (v.is_string())
+        w.add(v.get<std::string>());
+      else if (v.is_number_integer())
+        w.add(v.get<std::int64_t>());
+      else
+        w.add(v.get<double>());
     }
-    for (const auto& [name, vals] : {std::pair{"mean", &mean}, std::pair{"std", &sd}}) {
-      w.add(name).add_empty().add_empty().add_empty().add_empty();
-      for (double v : *vals) std::isnan(v) ? w.add_empty() : w.add(v);
-      for (std::size_t k = 0; k < std::size(kSettings); ++k) w.add_empty();
-      w.end_row();
-    }
-    const fs::path csv = base.string() + ".csv", js_path = base.string() + ".json",
-                   md_path = base.string() + ".md";
-    std::vector<fs::path> inputs;
-    for (const auto& r : rows) inputs.push_back(r.file);
-    for (const auto& p : {csv, js_path, md_path}) {
-      io::refuse_overwriting_inputs(p, inputs, "summary output " + p.string());
-      if (io::path_exists(p) && !o.force)
-        throw InputError("output file exists (use --force to replace it)", {p.string()});
-    }
-    if (base.has_parent_path()) {
-      std::error_code ec;
-      fs::create_directories(base.parent_path(), ec);
-      if (ec) throw InputError("cannot create folder: " + ec.message(), {base.parent_path().string()});
-    }
-    io::write_file_atomic(csv, w.str());
-    io::write_file_atomic(js_path, io::dump_json(res.summary, 2) + "\n");
-    io::write_file_atomic(md_path, md);
-    res.written = {csv, js_path, md_path};
+    w.end_row();
   }
+  for (const auto& [name, vals] : {std::pair{"mean", &t.mean}, std::pair{"std", &t.sd}}) {
+    w.add(name).add_empty().add_empty().add_empty().add_empty();
+    for (double v : *vals) std::isnan(v) ? w.add_empty() : w.add(v);
+    for (std::size_t k = 0; k < std::size(kSettings); ++k) w.add_empty();
+    w.end_row();
+  }
+  return w.str();
+}
+
+/// --out FOLDER/ (a trailing separator) or an existing folder: FOLDER/summary.{csv,json,md}; otherwise
+/// FILE with its .csv/.json/.md extension, if any, replaced. Checked before anything is written.
+std::vector<fs::path> write_summary(const std::string& out_str, bool force, const Table& t, const json& summary,
+                                    const std::string& md) {
+  const bool trailing = out_str.back() == '/';
+  const fs::path out = io::without_trailing_separator(out_str);
+  fs::path base = out;
+  if (trailing || io::is_folder(out)) {
+    base = out / "summary";
+  } else {
+    const std::string ext = base.extension().string();
+    if (ext == ".csv" || ext == ".json" || ext == ".md") base.replace_extension();
+  }
+  const fs::path csv = base.string() + ".csv", js_path = base.string() + ".json", md_path = base.string() + ".md";
+  std::vector<fs::path> inputs;
+  for (const auto& r : t.rows) inputs.push_back(r.file);
+  for (const auto& p : {csv, js_path, md_path}) {
+    io::refuse_overwriting_inputs(p, inputs, "summary output " + p.string());
+    if (io::path_exists(p) && !force) throw InputError("output file exists (use --force to replace it)", {p.string()});
+  }
+  if (base.has_parent_path()) {
+    std::error_code ec;
+    fs::create_directories(base.parent_path(), ec);
+    if (ec) throw InputError("cannot create folder: " + ec.message(), {base.parent_path().string()});
+  }
+  io::write_file_atomic(csv, summary_csv(t));
+  io::write_file_atomic(js_path, io::dump_json(summary, 2) + "\n");
+  io::write_file_atomic(md_path, md);
+  return {csv, js_path, md_path};
+}
+
+}  // namespace
+
+EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
+  if (o.reports.empty()) throw InputError("--summary needs at least one report.json", {"roe eval"});
+  Table t;
+  for (const auto& r : o.reports) t.rows.push_back(report_row(r));
+  t.warnings = duplicate_label_warnings(t.rows);
+  t.n_label_warnings = t.warnings.size();
+  t.common = common_settings(t.rows, t.warnings);
+  t.cols.assign(std::begin(kCols), std::end(kCols));
+  add_rpe_columns(t.rows, t.cols, t.warnings);
+  column_stats(t.rows, t.cols, t.mean, t.sd, t.warnings);
+
+  EvalSummaryResult res;
+  res.summary = summary_json(t);
+  res.markdown = summary_markdown(t);
+  if (!o.out.empty()) res.written = write_summary(o.out, o.force, t, res.summary, res.markdown);
   return res;
 }
 
