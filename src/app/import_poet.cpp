@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <functional>
 #include <set>
 
 #include "roe/core/error.hpp"
@@ -135,23 +136,16 @@ nlohmann::json ImportPoetSummary::to_json() const {
           {"warnings", warnings}};
 }
 
-ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& dataset, const ImportPoetOptions& opt) {
-  if (!io::is_plain_name(opt.name))
-    throw InputError("--name must be a plain folder name, got \"" + opt.name + "\"");
-  const auto rot_format = io::parse_poet_rotation_format(opt.rotation, "--rotation");
-  DatasetManifest manifest = io::read_manifest(dataset);  // checks that the dataset is there
-  // roe.json is read again under the dataset's lock before it is changed (a concurrent import).
-  const io::FolderLock lock(dataset);
-  manifest = io::read_manifest(dataset);
-  const io::PoetResults results = io::read_poet_results(results_json, rot_format);
+namespace {
 
-  ImportPoetSummary s;
-  auto warn = [&s](const std::string& w) {
-    log::warn("{}", w);
-    s.warnings.push_back(w);
-  };
+using Warn = std::function<void(const std::string&)>;
+/// The results' images that denote a frame of the dataset, with the frame's stamp, sorted by time.
+using MatchedImages = std::vector<std::pair<Timestamp, const io::PoetImageResult*>>;
 
-  // ---- image ids → frames -----------------------------------------------------------------
+/// Image ids → frames: by cam.csv's stamp, file name or PoET's image id; without cam.csv ids are ns
+/// stamps. Two ids for one frame, or one id for two frames, are input errors; unknown ids are skipped.
+MatchedImages match_images(const io::PoetResults& results, const fs::path& results_json, const fs::path& dataset,
+                           ImportPoetSummary& s, const Warn& warn) {
   const fs::path cam_csv = io::cam_csv_path(dataset);
   const bool have_frames = io::path_exists(cam_csv);
   std::vector<CameraFrame> frames;
@@ -168,7 +162,7 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
   if (!have_frames) warn(cam_csv.string() + " does not exist: image ids are taken as ns timestamps");
 
   std::map<Timestamp, std::pair<std::string, std::int64_t>> used;  // frame stamp → (id, line)
-  std::vector<std::pair<Timestamp, const io::PoetImageResult*>> matched;
+  MatchedImages matched;
   s.images_in_file = results.images.size();
   for (const auto& img : results.images) {
     Timestamp t_ns = 0;
@@ -220,16 +214,15 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
                          (have_frames ? cam_csv.string() : std::string("the dataset (ids must be ns timestamps)")) +
                          " (first: \"" + results.images.front().id + "\")",
                      {results_json.string()});
-
-  // ---- classes → object ids ---------------------------------------------------------------
-  ClassMapper mapper(manifest, opt.classes_file.empty() ? io::ycbv_class_names() : io::read_poet_class_names(opt.classes_file),
-                     opt.class_map_file, io::manifest_path(dataset).string());
-  if (mapper.identity()) warn("roe.json lists no objects: object ids are PoET's class ids");
-
-  // ---- detections ----------------------------------------------------------------------------
   std::sort(matched.begin(), matched.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  return matched;
+}
+
+/// The matched images' detections as roe detections: classes mapped to objects (one per object and
+/// frame), non-finite entries dropped, σ from PoET's uncertainty; counts in `s`.
+std::vector<Detection> convert_detections(const MatchedImages& matched, ClassMapper& mapper, ImportPoetSummary& s,
+                                          ClassMapper::Dropped& dropped) {
   std::vector<Detection> out;
-  ClassMapper::Dropped dropped;
   for (const auto& [t_ns, img] : matched) {
     if (img->detections.empty()) ++s.empty_images;
     std::set<int> seen;
@@ -259,6 +252,14 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
   s.dropped_unmapped_class = dropped.unmapped;
   s.dropped_duplicate = dropped.duplicate;
   s.class_map = mapper.used();
+  s.detections_written = out.size();
+  return out;
+}
+
+/// What the conversion dropped or could not carry, said once each (and no class matching by name at all
+/// is an error: nothing would be imported).
+void conversion_warnings(const ImportPoetSummary& s, const ClassMapper& mapper, const ClassMapper::Dropped& dropped,
+                         const DatasetManifest& manifest, const fs::path& dataset, const Warn& warn) {
   if (mapper.by_name() && s.class_map.empty() && s.dropped_unmapped_class > 0)
     throw InputError("no PoET class matches an object of roe.json by name (objects: " +
                          std::to_string(manifest.objects.size()) + "); pass --class-map FILE or --classes FILE",
@@ -268,17 +269,21 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
     warn(std::to_string(n) + " detection(s) of PoET class " + std::to_string(c) + " map to no object and were dropped");
   if (s.dropped_duplicate)
     warn(std::to_string(s.dropped_duplicate) + " repeated detection(s) of an object in one frame dropped (the first, highest detector score, is kept)");
-  s.detections_written = out.size();
   const std::size_t with_sigma = s.sigma_from_log_variances + s.sigma_from_covariance;
-  if (with_sigma > 0 && with_sigma < out.size())
-    warn(std::to_string(out.size() - with_sigma) + " of " + std::to_string(out.size()) +
+  const std::size_t n = s.detections_written;
+  if (with_sigma > 0 && with_sigma < n)
+    warn(std::to_string(n - with_sigma) + " of " + std::to_string(n) +
          " written detection(s) carry no uncertainty (empty sigma columns): the filter uses its fixed σ for them");
   if (s.sigma_from_covariance > 0 && s.max_abs_correlation_dropped > 0.1)
     warn(fmt::format("the covariances have correlations up to |ρ| = {:.3f} between axes; the sigma columns keep "
                      "each axis's marginal σ and drop them (docs/import.md, \"PoET uncertainty\")",
                      s.max_abs_correlation_dropped));
+}
 
-  // ---- write --------------------------------------------------------------------------------
+/// Writes the detection set (detections.csv, meta.json) and records the import in roe.json, replacing
+/// an earlier import under the same name; both change together or neither does.
+void write_import(const fs::path& results_json, const fs::path& dataset, const ImportPoetOptions& opt,
+                  DatasetManifest& manifest, const std::vector<Detection>& out, ImportPoetSummary& s) {
   const std::string sha = io::sha256_file(results_json);
   io::OutputDir dir(io::detections_dir(dataset, opt.name), opt.force, {results_json});
   io::write_detections_csv(dir.file("detections.csv"), out);
@@ -325,6 +330,33 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
     staged.commit();
   }
   s.output_dir = dir.final_dir();
+}
+
+}  // namespace
+
+ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& dataset, const ImportPoetOptions& opt) {
+  if (!io::is_plain_name(opt.name))
+    throw InputError("--name must be a plain folder name, got \"" + opt.name + "\"");
+  const auto rot_format = io::parse_poet_rotation_format(opt.rotation, "--rotation");
+  DatasetManifest manifest = io::read_manifest(dataset);  // checks that the dataset is there
+  // roe.json is read again under the dataset's lock before it is changed (a concurrent import).
+  const io::FolderLock lock(dataset);
+  manifest = io::read_manifest(dataset);
+  const io::PoetResults results = io::read_poet_results(results_json, rot_format);
+
+  ImportPoetSummary s;
+  const Warn warn = [&s](const std::string& w) {
+    log::warn("{}", w);
+    s.warnings.push_back(w);
+  };
+  const MatchedImages matched = match_images(results, results_json, dataset, s, warn);
+  ClassMapper mapper(manifest, opt.classes_file.empty() ? io::ycbv_class_names() : io::read_poet_class_names(opt.classes_file),
+                     opt.class_map_file, io::manifest_path(dataset).string());
+  if (mapper.identity()) warn("roe.json lists no objects: object ids are PoET's class ids");
+  ClassMapper::Dropped dropped;
+  const std::vector<Detection> out = convert_detections(matched, mapper, s, dropped);
+  conversion_warnings(s, mapper, dropped, manifest, dataset, warn);
+  write_import(results_json, dataset, opt, manifest, out, s);
   return s;
 }
 
