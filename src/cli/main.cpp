@@ -86,29 +86,12 @@ static std::string extras_in_order(const std::string& what, int argc, char** arg
   return out;
 }
 
-int main(int argc, char** argv) {
-  using namespace roe::cli;
-  for (int i = 1; i < argc && std::string(argv[i]) != "--"; ++i) g_json_errors |= std::string(argv[i]) == "--json";
-#ifdef ROE_CLI_FORWARDS
-  // Before anything else (signal handlers included: exec keeps only ignored signals ignored).
-  std::string forward_error;
-  if (const ForwardedCommand* c = forward_to_helper(argc, argv, forward_error)) {
-    if (forward_error.empty()) return 0;  // its --help, answered by roe itself (the helper is not installed)
-    return fail(3, std::string(c->parent[0] ? std::string(c->parent) + " " : "") + c->name, "error: ",
-                forward_error);
-  }
-#endif
-  roe::io::remove_temporaries_on_signals();
-  CLI::App app{"roe: AI-based, object-relative visual-inertial state estimation (offline toolkit)",
-               "roe"};
-  app.require_subcommand(1);
-  app.fallthrough();  // global flags may follow the subcommand
-  app.set_version_flag("--version", std::string("roe ") + roe::kVersion);
-  app.add_flag("-q,--quiet", g_globals.quiet, "No progress bars and no human summary on stdout");
-  app.add_flag("-v,--verbose", g_globals.verbose, "More logging on stderr (repeat for debug)");
-  app.add_flag("--json", g_globals.json, "Print one JSON document with the command's summary on stdout");
-  app.add_flag("--force", g_globals.force, "Allow replacing an existing, non-empty output");
+namespace {
+using namespace roe::cli;
 
+/// The command tree from the self-registered commands (sorted by their order, then name), with each
+/// leaf's run function.
+std::map<CLI::App*, RunFn> register_commands(CLI::App& app) {
   auto& entries = registry();
   std::stable_sort(entries.begin(), entries.end(),
                    [](const Entry& a, const Entry& b) {  // ties by name: independent of the link order
@@ -132,9 +115,13 @@ int main(int argc, char** argv) {
     sub->fallthrough();
     runs[sub] = e.setup(*sub);
   }
+  return runs;
+}
 
-  // The first word is the command: one that is none is named as such, before any option of a later
-  // command is read (`roe seq4 run` is an unknown command, not `roe run` without a dataset).
+/// The first word is the command: one that is none is named as such, before any option of a later
+/// command is read (`roe seq4 run` is an unknown command, not `roe run` without a dataset). Returns the
+/// exit code of that error, or −1 when the first word is a command.
+int refuse_unknown_first_word(CLI::App& app, int argc, char** argv) {
   std::string names;
   for (const CLI::App* c : app.get_subcommands({})) names += (names.empty() ? "" : ", ") + c->get_name();
   const auto is_command = [&](const std::string& w) {
@@ -151,76 +138,76 @@ int main(int argc, char** argv) {
       swap = fmt::format(" (did you mean `roe {} {}`?)", argv[i + 1], w);
     return fail(2, "", "error: ", fmt::format("unknown command '{}'{} (commands: {})\n(see roe --help)", w, swap, names));
   }
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (g_json_errors && dynamic_cast<const CLI::CallForVersion*>(&e)) {
-      std::cout << roe::io::dump_json({{"command", "version"}, {"version", roe::kVersion}, {"exit_code", 0}}, 2)
-                << std::endl;
-      return 0;
-    }
-    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
-    // Bad usage: the same "roe: error:" prefix as every other error, and where to read about the command.
-    std::string path = "roe";
-    CLI::App* level = &app;
-    while (!level->get_subcommands().empty()) {
-      level = level->get_subcommands().front();
-      path += " " + level->get_name();
-    }
-    // "A subcommand is required" after a word that is none: name the word and the commands.
-    if (dynamic_cast<const CLI::RequiredError*>(&e) && !level->get_subcommands({}).empty()) {
-      std::string names;
-      for (const CLI::App* c : level->get_subcommands({})) names += (names.empty() ? "" : ", ") + c->get_name();
-      std::string word;
-      bool after = level == &app;
-      for (int i = 1; i < argc; ++i) {
-        const std::string t = argv[i];
-        if (!after) {
-          after = t == level->get_name();
-          continue;
-        }
-        if (!t.empty() && t[0] != '-') {
-          word = t;
-          break;
-        }
-      }
-      return fail(2, path.substr(std::min<std::size_t>(path.size(), 4)), "error: ",
-                  (word.empty() ? "a command is required" : "unknown command '" + word + "'") + " (" +
-                      (level == &app ? "commands" : "subcommands of " + path.substr(4)) + ": " + names +
-                      ")\n(see " + path + " --help)");
-    }
-    // An unknown option before the command's name is a global one: point to `roe --help`, not to the
-    // command's help (`roe --bogus run ...`).
-    if (dynamic_cast<const CLI::ExtrasError*>(&e) && level != &app) {
-      const std::string first = app.get_subcommands().front()->get_name();
-      const auto known = [&](const std::string& name) { return app.get_option_no_throw(name) != nullptr; };
-      for (int i = 1; i < argc && argv[i] != first; ++i) {
-        const std::string t = argv[i];
-        if (t.size() < 2 || t[0] != '-' || t == "--") continue;
-        bool ok = true;
-        if (t[1] == '-') {
-          ok = known(t.substr(0, t.find('=')));
-        } else {
-          for (std::size_t k = 1; k < t.size() && ok; ++k) ok = known(std::string("-") + t[k]);
-        }
-        if (!ok) {
-          path = "roe";
-          break;
-        }
-      }
-    }
-    // DESIGN §1: bad usage is exit code 2
-    const std::string what = dynamic_cast<const CLI::ExtrasError*>(&e) ? extras_in_order(e.what(), argc, argv)
-                                                                         : std::string(e.what());
-    return fail(2, path.substr(std::min<std::size_t>(path.size(), 4)), "error: ",
-                what + "\n(see " + path + " --help)", nullptr, what.c_str());
+  return -1;
+}
+
+/// Bad usage (CLI11's parse errors): the same "roe: error:" prefix as every other error, where to read
+/// about the command, exit code 2 (DESIGN §1); --help and --version exit 0.
+int usage_error(CLI::App& app, const CLI::ParseError& e, int argc, char** argv) {
+  if (g_json_errors && dynamic_cast<const CLI::CallForVersion*>(&e)) {
+    std::cout << roe::io::dump_json({{"command", "version"}, {"version", roe::kVersion}, {"exit_code", 0}}, 2)
+              << std::endl;
+    return 0;
   }
+  if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+  // Bad usage: the same "roe: error:" prefix as every other error, and where to read about the command.
+  std::string path = "roe";
+  CLI::App* level = &app;
+  while (!level->get_subcommands().empty()) {
+    level = level->get_subcommands().front();
+    path += " " + level->get_name();
+  }
+  // "A subcommand is required" after a word that is none: name the word and the commands.
+  if (dynamic_cast<const CLI::RequiredError*>(&e) && !level->get_subcommands({}).empty()) {
+    std::string names;
+    for (const CLI::App* c : level->get_subcommands({})) names += (names.empty() ? "" : ", ") + c->get_name();
+    std::string word;
+    bool after = level == &app;
+    for (int i = 1; i < argc; ++i) {
+      const std::string t = argv[i];
+      if (!after) {
+        after = t == level->get_name();
+        continue;
+      }
+      if (!t.empty() && t[0] != '-') {
+        word = t;
+        break;
+      }
+    }
+    return fail(2, path.substr(std::min<std::size_t>(path.size(), 4)), "error: ",
+                (word.empty() ? "a command is required" : "unknown command '" + word + "'") + " (" +
+                    (level == &app ? "commands" : "subcommands of " + path.substr(4)) + ": " + names +
+                    ")\n(see " + path + " --help)");
+  }
+  // An unknown option before the command's name is a global one: point to `roe --help`, not to the
+  // command's help (`roe --bogus run ...`).
+  if (dynamic_cast<const CLI::ExtrasError*>(&e) && level != &app) {
+    const std::string first = app.get_subcommands().front()->get_name();
+    const auto known = [&](const std::string& name) { return app.get_option_no_throw(name) != nullptr; };
+    for (int i = 1; i < argc && argv[i] != first; ++i) {
+      const std::string t = argv[i];
+      if (t.size() < 2 || t[0] != '-' || t == "--") continue;
+      bool ok = true;
+      if (t[1] == '-') {
+        ok = known(t.substr(0, t.find('=')));
+      } else {
+        for (std::size_t k = 1; k < t.size() && ok; ++k) ok = known(std::string("-") + t[k]);
+      }
+      if (!ok) {
+        path = "roe";
+        break;
+      }
+    }
+  }
+  // DESIGN §1: bad usage is exit code 2
+  const std::string what = dynamic_cast<const CLI::ExtrasError*>(&e) ? extras_in_order(e.what(), argc, argv)
+                                                                       : std::string(e.what());
+  return fail(2, path.substr(std::min<std::size_t>(path.size(), 4)), "error: ",
+              what + "\n(see " + path + " --help)", nullptr, what.c_str());
+}
 
-  roe::log::set_level(g_globals.quiet          ? roe::log::Level::kWarn
-                      : g_globals.verbose >= 2 ? roe::log::Level::kDebug
-                      : g_globals.verbose == 1 ? roe::log::Level::kInfo
-                                               : roe::log::Level::kWarn);
-
+/// Runs the selected leaf command and maps its errors to the exit codes of DESIGN §1.
+int run_command(CLI::App& app, const std::map<CLI::App*, RunFn>& runs) {
   // Find the selected leaf command.
   CLI::App* leaf = &app;
   while (!leaf->get_subcommands().empty()) {
@@ -242,4 +229,42 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     return fail(3, g_globals.command, "internal error: ", e.what());
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace roe::cli;
+  for (int i = 1; i < argc && std::string(argv[i]) != "--"; ++i) g_json_errors |= std::string(argv[i]) == "--json";
+#ifdef ROE_CLI_FORWARDS
+  // Before anything else (signal handlers included: exec keeps only ignored signals ignored).
+  std::string forward_error;
+  if (const ForwardedCommand* c = forward_to_helper(argc, argv, forward_error)) {
+    if (forward_error.empty()) return 0;  // its --help, answered by roe itself (the helper is not installed)
+    return fail(3, std::string(c->parent[0] ? std::string(c->parent) + " " : "") + c->name, "error: ",
+                forward_error);
+  }
+#endif
+  roe::io::remove_temporaries_on_signals();
+  CLI::App app{"roe: AI-based, object-relative visual-inertial state estimation (offline toolkit)",
+               "roe"};
+  app.require_subcommand(1);
+  app.fallthrough();  // global flags may follow the subcommand
+  app.set_version_flag("--version", std::string("roe ") + roe::kVersion);
+  app.add_flag("-q,--quiet", g_globals.quiet, "No progress bars and no human summary on stdout");
+  app.add_flag("-v,--verbose", g_globals.verbose, "More logging on stderr (repeat for debug)");
+  app.add_flag("--json", g_globals.json, "Print one JSON document with the command's summary on stdout");
+  app.add_flag("--force", g_globals.force, "Allow replacing an existing, non-empty output");
+  const std::map<CLI::App*, RunFn> runs = register_commands(app);
+  if (const int code = refuse_unknown_first_word(app, argc, argv); code >= 0) return code;
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return usage_error(app, e, argc, argv);
+  }
+  roe::log::set_level(g_globals.quiet          ? roe::log::Level::kWarn
+                      : g_globals.verbose >= 2 ? roe::log::Level::kDebug
+                      : g_globals.verbose == 1 ? roe::log::Level::kInfo
+                                               : roe::log::Level::kWarn);
+  return run_command(app, runs);
 }
