@@ -105,127 +105,168 @@ void check_time(const CsvReader& r, std::size_t col, Timestamp t, bool have_prev
 
 }  // namespace
 
-// ---------------------------------------------------------------------------------------------
-// Motive
-// ---------------------------------------------------------------------------------------------
-MocapData read_motive_csv(const fs::path& file, const std::string& body) {
-  MocapData out;
-  out.format = "motive";
-  out.y_up = true;
-  CsvOptions o;
-  o.header = CsvHeader::kNone;
-  o.ragged = true;
-  o.comment_prefix = "";
-  CsvReader r(file, o);
-  const std::string src = file.string();
-  if (!r.next()) throw InputError("empty file", {src});
-  // Line 1: key,value pairs.
+namespace {
+
+/// " \"a\" \"b\"": the bodies an error offers.
+std::string quoted_list(const std::vector<std::string>& names) {
+  std::string list;
+  for (const auto& b : names) list += " \"" + b + "\"";
+  return list;
+}
+
+/// Several bodies and no --body, or a --body the file lacks: the error names the file's bodies.
+/// (`noun`/`nouns`: "rigid body"/"rigid bodies" in Motive, "object"/"objects" in Vicon.)
+[[noreturn]] void refuse_body(const std::string& requested, const std::vector<std::string>& bodies, const char* noun,
+                              const char* nouns, const std::string& src) {
+  if (requested.empty())
+    throw InputError(fmt::format("several {} in the file; choose one with --body:{}", nouns, quoted_list(bodies)),
+                     {src});
+  throw InputError(fmt::format("{} \"{}\" is not in the file; it has:{}", noun, requested, quoted_list(bodies)), {src});
+}
+
+/// A Motive export's header: line 1's key/value pairs and the Type/Name/ID/property/axis rows.
+struct MotiveHeader {
   std::map<std::string, std::string> info;
-  for (std::size_t i = 0; i + 1 < r.size(); i += 2) info[std::string(r.field(i))] = std::string(r.field(i + 1));
-  if (!info.count("Format Version"))
-    throw InputError("not a Motive CSV export: line 1 has no \"Format Version\"", {src, r.line()});
-  {
-    // Exports of Motive 2.x and 3.x write 1.2x (1.21, 1.22, 1.23, 1.24); an older or newer layout may
-    // differ, so say so (the columns are still found by their header rows).
-    const std::string& v = info["Format Version"];
-    if (v.rfind("1.2", 0) != 0)
-      out.warnings.push_back("Motive CSV Format Version " + v +
-                             " has not been checked (roe knows 1.2x, the exports of Motive 2.x and 3.x)");
-  }
-  // Header rows up to the axis row ("Frame", ...).
-  std::vector<std::vector<std::string>> hdr;
+  std::vector<std::vector<std::string>> rows;  ///< up to and including the axis row ("Frame", ...)
   std::int64_t axis_line = 0;
+  std::size_t time_col = 1;
+  const std::vector<std::string>& axis() const { return rows[rows.size() - 1]; }
+  const std::vector<std::string>& prop() const { return rows[rows.size() - 2]; }
+  const std::vector<std::string>& name() const { return rows[rows.size() - 4]; }
+  const std::vector<std::string>& type() const { return rows[rows.size() - 5]; }
+  std::string info_or(const std::string& key, const std::string& fallback) const {
+    const auto it = info.find(key);
+    return it == info.end() ? fallback : it->second;
+  }
+};
+
+std::string cell_of(const std::vector<std::string>& row, std::size_t i) { return i < row.size() ? row[i] : std::string(); }
+
+MotiveHeader read_motive_header(CsvReader& r, const std::string& src, std::vector<std::string>& warnings) {
+  MotiveHeader h;
+  if (!r.next()) throw InputError("empty file", {src});
+  for (std::size_t i = 0; i + 1 < r.size(); i += 2) h.info[std::string(r.field(i))] = std::string(r.field(i + 1));
+  if (!h.info.count("Format Version"))
+    throw InputError("not a Motive CSV export: line 1 has no \"Format Version\"", {src, r.line()});
+  // Exports of Motive 2.x and 3.x write 1.2x (1.21, 1.22, 1.23, 1.24); an older or newer layout may
+  // differ, so say so (the columns are still found by their header rows).
+  const std::string& v = h.info["Format Version"];
+  if (v.rfind("1.2", 0) != 0)
+    warnings.push_back("Motive CSV Format Version " + v +
+                       " has not been checked (roe knows 1.2x, the exports of Motive 2.x and 3.x)");
   std::size_t transcoded = 0;
-  while (r.next()) {
-    hdr.push_back(row_strings(r, &transcoded));
-    if (!hdr.back().empty() && hdr.back()[0] == "Frame") {
-      axis_line = r.line();
+  while (r.next()) {  // header rows up to the axis row ("Frame", ...)
+    h.rows.push_back(row_strings(r, &transcoded));
+    if (!h.rows.back().empty() && h.rows.back()[0] == "Frame") {
+      h.axis_line = r.line();
       break;
     }
-    if (hdr.size() > 12) break;
+    if (h.rows.size() > 12) break;
   }
-  if (!axis_line || hdr.size() < 5)
+  if (!h.axis_line || h.rows.size() < 5)
     throw InputError("Motive header rows not found (expected Type/Name/ID/property rows and a row starting "
                      "with \"Frame\")",
                      {src, r.line()});
-  const auto& axis = hdr[hdr.size() - 1];
-  const auto& prop = hdr[hdr.size() - 2];
-  const auto& name = hdr[hdr.size() - 4];
-  const auto& type = hdr[hdr.size() - 5];
-  auto cell = [](const std::vector<std::string>& row, std::size_t i) { return i < row.size() ? row[i] : std::string(); };
-  std::size_t time_col = 1;
+  const auto& axis = h.axis();
   for (std::size_t i = 1; i < axis.size(); ++i)
     if (axis[i].rfind("Time", 0) == 0 && axis[i] != "TimeCode") {
-      time_col = i;
+      h.time_col = i;
       break;
     }
   if (transcoded)
-    out.warnings.push_back(fmt::format("{} header cell(s) are not UTF-8: read as Latin-1 (the Windows code page)",
-                                       transcoded));
-  // Rigid bodies.
+    warnings.push_back(fmt::format("{} header cell(s) are not UTF-8: read as Latin-1 (the Windows code page)",
+                                   transcoded));
+  return h;
+}
+
+/// Where the chosen body's rotation and position are, and how to read them.
+struct MotiveColumns {
+  std::map<std::string, std::size_t> rot, pos;  ///< axis letter → column
+  bool quat = true;
+  std::string euler_order;  ///< for Euler angles: the order of the rotations (e.g. "XYZ")
+  double scale = 1.0;       ///< length unit → metres
+};
+
+/// The file's rigid bodies into `out.bodies`, the chosen one into `out.body`.
+void choose_motive_body(const MotiveHeader& h, const std::string& body, const std::string& src, MocapData& out) {
   std::set<std::string> seen;
+  const auto &type = h.type(), &name = h.name();
   for (std::size_t i = 0; i < type.size(); ++i)
-    if (type[i] == "Rigid Body" && !cell(name, i).empty() && seen.insert(name[i]).second) out.bodies.push_back(name[i]);
-  if (out.bodies.empty()) throw InputError("the Motive file has no rigid body (only markers?)", {src, axis_line - 4});
-  std::string chosen = body;
-  if (chosen.empty()) {
-    if (out.bodies.size() > 1) {
-      std::string list;
-      for (const auto& b : out.bodies) list += " \"" + b + "\"";
-      throw InputError("several rigid bodies in the file; choose one with --body:" + list, {src});
-    }
-    chosen = out.bodies.front();
-  } else if (!seen.count(chosen)) {
-    std::string list;
-    for (const auto& b : out.bodies) list += " \"" + b + "\"";
-    throw InputError("rigid body \"" + chosen + "\" is not in the file; it has:" + list, {src});
-  }
-  out.body = chosen;
-  // Rotation and position columns of the body.
-  out.rotation_type = info.count("Rotation Type") ? info["Rotation Type"] : "Quaternion";
-  const bool quat = lower(out.rotation_type) == "quaternion";
-  std::string euler_order;
-  if (!quat) {
-    euler_order = out.rotation_type;
-    for (auto& c : euler_order) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    std::string sorted = euler_order;
+    if (type[i] == "Rigid Body" && !cell_of(name, i).empty() && seen.insert(name[i]).second) out.bodies.push_back(name[i]);
+  if (out.bodies.empty()) throw InputError("the Motive file has no rigid body (only markers?)", {src, h.axis_line - 4});
+  if (body.empty() && out.bodies.size() > 1) refuse_body(body, out.bodies, "rigid body", "rigid bodies", src);
+  if (!body.empty() && !seen.count(body)) refuse_body(body, out.bodies, "rigid body", "rigid bodies", src);
+  out.body = body.empty() ? out.bodies.front() : body;
+}
+
+MotiveColumns motive_columns(const MotiveHeader& h, const std::string& src, MocapData& out) {
+  MotiveColumns c;
+  out.rotation_type = h.info_or("Rotation Type", "Quaternion");
+  c.quat = lower(out.rotation_type) == "quaternion";
+  if (!c.quat) {
+    c.euler_order = out.rotation_type;
+    for (auto& ch : c.euler_order) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+    std::string sorted = c.euler_order;
     std::sort(sorted.begin(), sorted.end());
     if (sorted != "XYZ")
       throw InputError("unknown Rotation Type \"" + out.rotation_type + "\" (Quaternion or an Euler order such as XYZ)",
                        {src, 1});
   }
-  std::map<std::string, std::size_t> rot_cols, pos_cols;
+  const auto &type = h.type(), &name = h.name(), &prop = h.prop(), &axis = h.axis();
   for (std::size_t i = 0; i < type.size(); ++i) {
-    if (type[i] != "Rigid Body" || cell(name, i) != chosen) continue;
-    if (cell(prop, i) == "Rotation") rot_cols[cell(axis, i)] = i;
-    if (cell(prop, i) == "Position") pos_cols[cell(axis, i)] = i;
+    if (type[i] != "Rigid Body" || cell_of(name, i) != out.body) continue;
+    if (cell_of(prop, i) == "Rotation") c.rot[cell_of(axis, i)] = i;
+    if (cell_of(prop, i) == "Position") c.pos[cell_of(axis, i)] = i;
   }
-  const std::vector<std::string> rot_axes = quat ? std::vector<std::string>{"X", "Y", "Z", "W"}
-                                                 : std::vector<std::string>{"X", "Y", "Z"};
+  const std::vector<std::string> rot_axes = c.quat ? std::vector<std::string>{"X", "Y", "Z", "W"}
+                                                   : std::vector<std::string>{"X", "Y", "Z"};
   for (const auto& a : rot_axes)
-    if (!rot_cols.count(a))
-      throw InputError("rigid body \"" + chosen + "\" has no Rotation " + a + " column", {src, axis_line});
+    if (!c.rot.count(a))
+      throw InputError("rigid body \"" + out.body + "\" has no Rotation " + a + " column", {src, h.axis_line});
   for (const auto& a : {"X", "Y", "Z"})
-    if (!pos_cols.count(a))
-      throw InputError("rigid body \"" + chosen + "\" has no Position " + std::string(a) + " column", {src, axis_line});
-  out.length_unit = info.count("Length Units") ? info["Length Units"] : "";
-  const double scale = length_scale(out.length_unit, src, 1, out.warnings);  // "Length Units" is on line 1
-  const std::string rate_key = info.count("Export Frame Rate") ? "Export Frame Rate" : "Capture Frame Rate";
-  if (info.count("Capture Start Time")) out.capture_start_time = info["Capture Start Time"];
-  if (info.count(rate_key)) {
-    const auto v = parse_seconds_ns(info[rate_key]);  // a decimal number; reuse the exact parser
+    if (!c.pos.count(a))
+      throw InputError("rigid body \"" + out.body + "\" has no Position " + std::string(a) + " column", {src, h.axis_line});
+  out.length_unit = h.info_or("Length Units", "");
+  c.scale = length_scale(out.length_unit, src, 1, out.warnings);  // "Length Units" is on line 1
+  const std::string rate_key = h.info.count("Export Frame Rate") ? "Export Frame Rate" : "Capture Frame Rate";
+  if (h.info.count("Capture Start Time")) out.capture_start_time = h.info.at("Capture Start Time");
+  if (h.info.count(rate_key)) {
+    const auto v = parse_seconds_ns(h.info.at(rate_key));  // a decimal number; reuse the exact parser
     if (v) out.rate_hz = static_cast<double>(*v) * 1e-9;
   }
-  // Data rows. Motive may end a row early when its last cells are empty (occluded markers), so a
-  // short row is read as occlusion; only a short last line without its line end says that the file
-  // itself was cut (an export or copy interrupted): that row is dropped, since its last cell may be a
-  // number cut short ("0.0764" → "0.").
+  return c;
+}
+
+/// The body's pose in one data row.
+Pose motive_pose(const CsvReader& r, const MotiveColumns& c) {
+  Eigen::Quaterniond q;
+  if (c.quat) {
+    q = checked_unit(r,
+                     Eigen::Quaterniond(r.get_double(c.rot.at("W")), r.get_double(c.rot.at("X")),
+                                        r.get_double(c.rot.at("Y")), r.get_double(c.rot.at("Z"))),
+                     c.rot.at("X"));
+  } else {
+    Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+    for (char a : c.euler_order) R = R * axis_rotation(a, r.get_double(c.rot.at(std::string(1, a))) * kDeg);
+    q = Eigen::Quaterniond(R);
+  }
+  const Eigen::Vector3d p(r.get_double(c.pos.at("X")), r.get_double(c.pos.at("Y")), r.get_double(c.pos.at("Z")));
+  return Pose(q, p * c.scale);
+}
+
+/// The data rows. Motive may end a row early when its last cells are empty (occluded markers), so a
+/// short row is read as occlusion; only a short last line without its line end says that the file
+/// itself was cut (an export or copy interrupted): that row is dropped, since its last cell may be a
+/// number cut short ("0.0764" → "0.").
+void read_motive_rows(CsvReader& r, const MotiveHeader& h, const MotiveColumns& c, const std::string& src,
+                      MocapData& out) {
   bool have_prev = false;
   Timestamp prev = 0;
   std::size_t last_cells = 0;
   std::int64_t last_line = 0;
   bool last_occluded = false;
   bool last_unterminated = false;
+  const std::size_t time_col = h.time_col;
   while (r.next()) {
     if (r.size() == 0) continue;
     last_cells = r.size();
@@ -241,28 +282,16 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
     have_prev = true;
     prev = *t;
     bool missing = false;
-    for (const auto& [a, c] : rot_cols) missing = missing || cell_empty(r, c);
-    for (const auto& [a, c] : pos_cols) missing = missing || cell_empty(r, c);
+    for (const auto& [a, col] : c.rot) missing = missing || cell_empty(r, col);
+    for (const auto& [a, col] : c.pos) missing = missing || cell_empty(r, col);
     if (missing) {
       ++out.occluded;
       last_occluded = true;
       continue;
     }
-    Eigen::Quaterniond q;
-    if (quat) {
-      q = checked_unit(r,
-                       Eigen::Quaterniond(r.get_double(rot_cols["W"]), r.get_double(rot_cols["X"]),
-                                          r.get_double(rot_cols["Y"]), r.get_double(rot_cols["Z"])),
-                       rot_cols["X"]);
-    } else {
-      Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
-      for (char a : euler_order) R = R * axis_rotation(a, r.get_double(rot_cols[std::string(1, a)]) * kDeg);
-      q = Eigen::Quaterniond(R);
-    }
-    const Eigen::Vector3d p(r.get_double(pos_cols["X"]), r.get_double(pos_cols["Y"]), r.get_double(pos_cols["Z"]));
-    out.poses.push_back({*t, Pose(q, p * scale)});
+    out.poses.push_back({*t, motive_pose(r, c)});
   }
-  if (out.rows > 0 && last_cells < axis.size() && last_unterminated) {
+  if (out.rows > 0 && last_cells < h.axis().size() && last_unterminated) {
     if (last_occluded)
       --out.occluded;
     else
@@ -270,8 +299,29 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
     --out.rows;
     out.warnings.push_back(fmt::format("{}:{}: the last row has {} of {} cells and no line end: the file looks "
                                        "truncated; that row was dropped",
-                                       src, last_line, last_cells, axis.size()));
+                                       src, last_line, last_cells, h.axis().size()));
   }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Motive
+// ---------------------------------------------------------------------------------------------
+MocapData read_motive_csv(const fs::path& file, const std::string& body) {
+  MocapData out;
+  out.format = "motive";
+  out.y_up = true;
+  CsvOptions o;
+  o.header = CsvHeader::kNone;
+  o.ragged = true;
+  o.comment_prefix = "";
+  CsvReader r(file, o);
+  const std::string src = file.string();
+  const MotiveHeader h = read_motive_header(r, src, out.warnings);
+  choose_motive_body(h, body, src, out);
+  const MotiveColumns c = motive_columns(h, src, out);
+  read_motive_rows(r, h, c, src, out);
   if (out.rows == 0) throw InputError("the Motive file has no data rows", {src});
   return out;
 }
@@ -279,20 +329,18 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
 // ---------------------------------------------------------------------------------------------
 // Vicon
 // ---------------------------------------------------------------------------------------------
-MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
-  MocapData out;
-  out.format = "vicon";
-  out.rotation_type = "helical";
-  CsvOptions o;
-  o.header = CsvHeader::kNone;
-  o.ragged = true;
-  o.comment_prefix = "";
-  CsvReader r(file, o);
-  const std::string src = file.string();
-  static const std::set<std::string> kSections = {"Objects", "Segments", "Trajectories", "Devices", "Joints",
-                                                  "Model Outputs"};
-  // Find the first Objects/Segments section.
-  bool found = false;
+namespace {
+
+constexpr const char* kViconSections[] = {"Objects", "Segments", "Trajectories", "Devices", "Joints", "Model Outputs"};
+
+/// The head of a Vicon export's Objects (Tracker) or Segments (Nexus) section: rate, names, columns, units.
+struct ViconSection {
+  std::vector<std::string> names, cols, units;
+  std::int64_t cols_line = 0, units_line = 0;
+};
+
+ViconSection read_vicon_section(CsvReader& r, const std::string& src, MocapData& out) {
+  bool found = false;  // the first Objects/Segments section
   while (r.next()) {
     if (r.size() >= 1 && (r.field(0) == "Objects" || r.field(0) == "Segments")) {
       found = true;
@@ -305,27 +353,38 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
   out.rate_hz = r.get_double(0);
   if (!(out.rate_hz > 0)) throw r.error(0, "frame rate must be > 0");
   if (!r.next()) throw InputError("truncated Vicon section (no names row)", {src, r.line()});
+  ViconSection v;
   std::size_t transcoded = 0;
-  const auto names = row_strings(r, &transcoded);
+  v.names = row_strings(r, &transcoded);
   if (transcoded)
     out.warnings.push_back(fmt::format("{} name cell(s) are not UTF-8: read as Latin-1 (the Windows code page)",
                                        transcoded));
   if (!r.next()) throw InputError("truncated Vicon section (no column row)", {src, r.line()});
-  const auto cols = row_strings(r);
-  const std::int64_t cols_line = r.line();
-  if (cols.empty() || cols[0] != "Frame") throw r.error(0, "expected the column row \"Frame,Sub Frame,RX,...\"");
+  v.cols = row_strings(r);
+  v.cols_line = r.line();
+  if (v.cols.empty() || v.cols[0] != "Frame") throw r.error(0, "expected the column row \"Frame,Sub Frame,RX,...\"");
   if (!r.next()) throw InputError("truncated Vicon section (no units row)", {src, r.line()});
-  const auto units = row_strings(r);
-  // Groups of RX RY RZ TX TY TZ.
-  struct Group {
-    std::string name;
-    std::size_t c0;
-  };
-  std::vector<Group> groups;
+  v.units = row_strings(r);
+  v.units_line = r.line();
+  return v;
+}
+
+/// One body's RX RY RZ TX TY TZ columns, from `c0`.
+struct ViconGroup {
+  std::string name;
+  std::size_t c0;
+};
+
+/// The section's bodies into `out.bodies`; the chosen one (--body by its exact name, else a
+/// "Subject:Segment" by its segment, which must then be unique: Nexus subjects built on one model share
+/// segment names) into `out.body`.
+ViconGroup choose_vicon_group(const ViconSection& v, const std::string& body, const std::string& src, MocapData& out) {
+  std::vector<ViconGroup> groups;
+  const auto& cols = v.cols;
   for (std::size_t i = 0; i + 5 < cols.size(); ++i)
     if (cols[i] == "RX" && cols[i + 1] == "RY" && cols[i + 2] == "RZ" && cols[i + 3] == "TX" && cols[i + 4] == "TY" &&
         cols[i + 5] == "TZ") {
-      std::string n = i < names.size() ? names[i] : "";
+      std::string n = i < v.names.size() ? v.names[i] : "";
       // "Global Angle obj:obj" (Tracker) or "Subject:Segment" (Nexus): keep the part after ':' when
       // both halves are equal, else the whole label without the "Global Angle " prefix.
       if (n.rfind("Global Angle ", 0) == 0) n = n.substr(13);
@@ -334,19 +393,13 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
       groups.push_back({n, i});
       out.bodies.push_back(n);
     }
-  if (groups.empty()) throw InputError("no RX,RY,RZ,TX,TY,TZ column group in the Vicon section", {src, cols_line});
-  const Group* g = nullptr;
+  if (groups.empty()) throw InputError("no RX,RY,RZ,TX,TY,TZ column group in the Vicon section", {src, v.cols_line});
+  const ViconGroup* g = nullptr;
   if (body.empty()) {
-    if (groups.size() > 1) {
-      std::string list;
-      for (const auto& b : out.bodies) list += " \"" + b + "\"";
-      throw InputError("several objects in the file; choose one with --body:" + list, {src});
-    }
+    if (groups.size() > 1) refuse_body(body, out.bodies, "object", "objects", src);
     g = &groups.front();
   } else {
-    // An exact name first; else "Subject:Segment" by its segment, which must then be unique (Nexus
-    // subjects built on one model share segment names).
-    std::vector<const Group*> by_segment;
+    std::vector<const ViconGroup*> by_segment;
     for (const auto& gr : groups) {
       if (gr.name == body) g = &gr;
       if (gr.name.size() > body.size() &&
@@ -354,35 +407,35 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
         by_segment.push_back(&gr);
     }
     if (!g && by_segment.size() > 1) {
-      std::string list;
-      for (const Group* gr : by_segment) list += " \"" + gr->name + "\"";
-      throw InputError("object \"" + body + "\" matches several objects; choose one with --body:" + list, {src});
+      std::vector<std::string> names;
+      for (const ViconGroup* gr : by_segment) names.push_back(gr->name);
+      throw InputError("object \"" + body + "\" matches several objects; choose one with --body:" + quoted_list(names),
+                       {src});
     }
     if (!g && !by_segment.empty()) g = by_segment.front();
-    if (!g) {
-      std::string list;
-      for (const auto& b : out.bodies) list += " \"" + b + "\"";
-      throw InputError("object \"" + body + "\" is not in the file; it has:" + list, {src});
-    }
+    if (!g) refuse_body(body, out.bodies, "object", "objects", src);
   }
   out.body = g->name;
-  auto unit_at = [&](std::size_t i) { return i < units.size() ? lower(units[i]) : std::string(); };
-  const std::string ru = unit_at(g->c0);
-  const double rot_scale = ru == "rad" ? 1.0 : ru == "deg" || ru.empty() ? kDeg : -1.0;
-  if (rot_scale < 0) throw InputError("unknown rotation unit \"" + ru + "\" (deg or rad)", {src, r.line()});
-  if (ru.empty()) out.warnings.push_back("no rotation unit: assuming degrees");
-  out.length_unit = unit_at(g->c0 + 3).empty() ? "mm" : unit_at(g->c0 + 3);
-  const double len_scale = length_scale(out.length_unit, src, r.line(), out.warnings);
+  return *g;
+}
+
+/// The data rows up to the next section; frame numbers become time from the first frame at the
+/// section's rate.
+void read_vicon_rows(CsvReader& r, const ViconSection& v, const ViconGroup& g, double rot_scale, double len_scale,
+                     const std::string& src, MocapData& out) {
   bool have_first = false, have_prev = false;
   std::int64_t first_frame = 0;
   Timestamp prev = 0;
   while (r.next()) {
     if (r.size() == 0) continue;
-    if (kSections.count(std::string(r.field(0)))) break;  // next section
-    if (r.row_unterminated() && r.size() < cols.size()) {  // as Motive's: the file was cut in this row
+    const std::string first(r.field(0));
+    if (std::any_of(std::begin(kViconSections), std::end(kViconSections),
+                    [&](const char* k) { return first == k; }))
+      break;  // next section
+    if (r.row_unterminated() && r.size() < v.cols.size()) {  // as Motive's: the file was cut in this row
       out.warnings.push_back(fmt::format("{}:{}: the last row has {} of {} cells and no line end: the file looks "
                                          "truncated; that row was dropped",
-                                         src, r.line(), r.size(), cols.size()));
+                                         src, r.line(), r.size(), v.cols.size()));
       break;
     }
     ++out.rows;
@@ -399,15 +452,39 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
     have_prev = true;
     prev = t;
     bool missing = false;
-    for (std::size_t k = 0; k < 6; ++k) missing = missing || cell_empty(r, g->c0 + k);
+    for (std::size_t k = 0; k < 6; ++k) missing = missing || cell_empty(r, g.c0 + k);
     if (missing) {
       ++out.occluded;
       continue;
     }
-    const Eigen::Vector3d rv(r.get_double(g->c0), r.get_double(g->c0 + 1), r.get_double(g->c0 + 2));
-    const Eigen::Vector3d p(r.get_double(g->c0 + 3), r.get_double(g->c0 + 4), r.get_double(g->c0 + 5));
+    const Eigen::Vector3d rv(r.get_double(g.c0), r.get_double(g.c0 + 1), r.get_double(g.c0 + 2));
+    const Eigen::Vector3d p(r.get_double(g.c0 + 3), r.get_double(g.c0 + 4), r.get_double(g.c0 + 5));
     out.poses.push_back({t, Pose(math::exp_quat(rv * rot_scale), p * len_scale)});
   }
+}
+
+}  // namespace
+
+MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
+  MocapData out;
+  out.format = "vicon";
+  out.rotation_type = "helical";
+  CsvOptions o;
+  o.header = CsvHeader::kNone;
+  o.ragged = true;
+  o.comment_prefix = "";
+  CsvReader r(file, o);
+  const std::string src = file.string();
+  const ViconSection v = read_vicon_section(r, src, out);
+  const ViconGroup g = choose_vicon_group(v, body, src, out);
+  auto unit_at = [&](std::size_t i) { return i < v.units.size() ? lower(v.units[i]) : std::string(); };
+  const std::string ru = unit_at(g.c0);
+  const double rot_scale = ru == "rad" ? 1.0 : ru == "deg" || ru.empty() ? kDeg : -1.0;
+  if (rot_scale < 0) throw InputError("unknown rotation unit \"" + ru + "\" (deg or rad)", {src, v.units_line});
+  if (ru.empty()) out.warnings.push_back("no rotation unit: assuming degrees");
+  out.length_unit = unit_at(g.c0 + 3).empty() ? "mm" : unit_at(g.c0 + 3);
+  const double len_scale = length_scale(out.length_unit, src, v.units_line, out.warnings);
+  read_vicon_rows(r, v, g, rot_scale, len_scale, src, out);
   if (out.rows == 0) throw InputError("the Vicon section has no data rows", {src});
   return out;
 }
