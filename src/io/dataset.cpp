@@ -322,6 +322,140 @@ json manifest_to_json(const DatasetManifest& m) {
   return j;
 }
 
+namespace {
+
+/// The optional section `key` read by `read` (which gets the section's JsonObject); an explicit null
+/// counts as absent, not as an unknown key.
+template <class T, class Read>
+std::optional<T> optional_section(JsonObject& r, const char* key, Read read) {
+  if (!r.has(key)) {
+    (void)r.raw(key);
+    return std::nullopt;
+  }
+  JsonObject o = r.child(key);
+  T v = read(o);
+  o.finish();
+  return v;
+}
+
+/// The string values of the object `key` (absent: none), each checked as a string.
+template <class Map, class Value>
+void read_flat_object(JsonObject& r, const char* key, Map& out, Value) {
+  JsonObject o = r.child(key);
+  if (const json* ov = r.raw(key); ov && ov->is_object()) {
+    for (auto it = ov->begin(); it != ov->end(); ++it) {
+      Value v{};
+      o.get(it.key().c_str(), v);
+      out[it.key()] = v;
+    }
+  }
+  o.finish();
+}
+
+SourceRecord read_source(const json& e, const std::string& source, const std::string& path) {
+  JsonObject s(e, source, path);
+  SourceRecord rec;
+  s.require("kind", rec.kind);
+  s.get("path", rec.path);
+  s.get("sha256", rec.sha256);
+  read_flat_object(s, "options", rec.options, std::string());
+  s.finish();
+  return rec;
+}
+
+ImuInfo read_imu_info(JsonObject& o) {
+  ImuInfo imu;
+  o.require("rate_hz", imu.rate_hz);
+  if (!(std::isfinite(imu.rate_hz) && imu.rate_hz > 0.0))
+    throw ConfigError("must be > 0", {o.source(), 0, 0, o.key_path("rate_hz")});
+  read_imu_noise(o, imu.noise);
+  return imu;
+}
+
+CameraInfo read_camera_info(JsonObject& o) {
+  CameraInfo c;
+  o.require("width", c.width);
+  o.require("height", c.height);
+  o.require("fx", c.fx);
+  o.require("fy", c.fy);
+  o.require("cx", c.cx);
+  o.require("cy", c.cy);
+  const auto positive = [&](bool ok, const char* key) {
+    if (!ok) throw ConfigError("must be > 0", {o.source(), 0, 0, o.key_path(key)});
+  };
+  positive(c.width > 0, "width");
+  positive(c.height > 0, "height");
+  positive(c.fx > 0.0, "fx");
+  positive(c.fy > 0.0, "fy");
+  o.get("distortion_model", c.distortion_model);
+  o.get("distortion", c.distortion);
+  if (c.distortion_model == "none" && !c.distortion.empty())
+    throw ConfigError("distortion coefficients given for distortion_model 'none'",
+                      {o.source(), 0, 0, o.key_path("distortion")});
+  c.T_I_C = optional_pose(o, "T_I_C");
+  o.get("time_offset_s", c.time_offset_s);
+  return c;
+}
+
+MocapInfo read_mocap_info(JsonObject& o) {
+  MocapInfo mc;
+  o.get("body", mc.body);
+  mc.T_B_I = optional_pose(o, "T_B_I");
+  o.get("time_offset_s", mc.time_offset_s);
+  return mc;
+}
+
+/// One entry of `objects`, with the symmetries of its models_info (relative to the folder of roe.json).
+ObjectInfo read_object(const json& e, const std::string& source, const std::string& path) {
+  JsonObject o(e, source, path);
+  ObjectInfo obj;
+  o.require("id", obj.id);
+  o.get("name", obj.name);
+  o.get("symmetric", obj.symmetric);
+  o.get("models_info", obj.models_info);
+  o.get("models_info_id", obj.models_info_id);
+  o.finish();
+  if (!obj.models_info.empty()) {
+    // The symmetries of the object's id (or models_info_id) there.
+    const fs::path file = fs::path(source).parent_path() / obj.models_info;
+    const auto info = read_models_info(file);
+    const int key = obj.models_info_id >= 0 ? obj.models_info_id : obj.id;
+    const auto it = info.find(key);
+    if (it == info.end())
+      throw ConfigError(fmt::format("object {} is not in {}", key, file.string()),
+                        {source, 0, 0, o.key_path(obj.models_info_id >= 0 ? "models_info_id" : "models_info")});
+    obj.symmetry = it->second;
+  } else if (obj.models_info_id >= 0) {
+    throw ConfigError("models_info_id without models_info", {source, 0, 0, o.key_path("models_info_id")});
+  }
+  return obj;
+}
+
+Truth read_truth(JsonObject& o) {
+  Truth t;
+  t.T_I_C = required_pose(o, "T_I_C");
+  std::set<int> tids;
+  for_each_element(o, "objects", [&](const json& e, const std::string& path) {
+    JsonObject to(e, o.source(), path);
+    TruthObject obj;
+    to.require("id", obj.id);
+    obj.T_W_O = required_pose(to, "T_W_O");
+    to.finish();
+    if (!tids.insert(obj.id).second)
+      throw ConfigError(fmt::format("duplicate object id {}", obj.id), {o.source(), 0, 0, to.key_path("id")});
+    t.objects.push_back(obj);
+  });
+  t.imu_noise = optional_section<ImuNoise>(o, "imu_noise", [](JsonObject& n) {
+    ImuNoise noise;
+    read_imu_noise(n, noise);
+    return noise;
+  });
+  read_flat_object(o, "detection_noise", t.detection_noise, 0.0);
+  return t;
+}
+
+}  // namespace
+
 DatasetManifest manifest_from_json(const json& j, const std::string& source) {
   DatasetManifest m;
   JsonObject r(j, source);
@@ -332,143 +466,20 @@ DatasetManifest manifest_from_json(const json& j, const std::string& source) {
                       {source, 0, 0, "schema"});
   m.schema = schema;
   r.get("name", m.name);
-
   for_each_element(r, "sources", [&](const json& e, const std::string& path) {
-    JsonObject s(e, source, path);
-    SourceRecord rec;
-    s.require("kind", rec.kind);
-    s.get("path", rec.path);
-    s.get("sha256", rec.sha256);
-    JsonObject opts = s.child("options");
-    if (const json* ov = s.raw("options"); ov && ov->is_object()) {
-      for (auto it = ov->begin(); it != ov->end(); ++it) {
-        std::string v;
-        opts.get(it.key().c_str(), v);
-        rec.options[it.key()] = v;
-      }
-    }
-    opts.finish();
-    s.finish();
-    m.sources.push_back(std::move(rec));
+    m.sources.push_back(read_source(e, source, path));
   });
-
-  if (r.has("imu")) {
-    JsonObject o = r.child("imu");
-    ImuInfo imu;
-    o.require("rate_hz", imu.rate_hz);
-    if (!(std::isfinite(imu.rate_hz) && imu.rate_hz > 0.0))
-      throw ConfigError("must be > 0", {source, 0, 0, o.key_path("rate_hz")});
-    read_imu_noise(o, imu.noise);
-    o.finish();
-    m.imu = imu;
-  } else {
-    (void)r.raw("imu");  // an explicit null counts as absent (not as an unknown key)
-  }
-
-  if (r.has("camera")) {
-    JsonObject o = r.child("camera");
-    CameraInfo c;
-    o.require("width", c.width);
-    o.require("height", c.height);
-    o.require("fx", c.fx);
-    o.require("fy", c.fy);
-    o.require("cx", c.cx);
-    o.require("cy", c.cy);
-    if (c.width <= 0) throw ConfigError("must be > 0", {source, 0, 0, o.key_path("width")});
-    if (c.height <= 0) throw ConfigError("must be > 0", {source, 0, 0, o.key_path("height")});
-    if (!(c.fx > 0.0)) throw ConfigError("must be > 0", {source, 0, 0, o.key_path("fx")});
-    if (!(c.fy > 0.0)) throw ConfigError("must be > 0", {source, 0, 0, o.key_path("fy")});
-    o.get("distortion_model", c.distortion_model);
-    o.get("distortion", c.distortion);
-    if (c.distortion_model == "none" && !c.distortion.empty())
-      throw ConfigError("distortion coefficients given for distortion_model 'none'",
-                        {source, 0, 0, o.key_path("distortion")});
-    c.T_I_C = optional_pose(o, "T_I_C");
-    o.get("time_offset_s", c.time_offset_s);
-    o.finish();
-    m.camera = c;
-  } else {
-    (void)r.raw("camera");
-  }
-
-  if (r.has("mocap")) {
-    JsonObject o = r.child("mocap");
-    MocapInfo mc;
-    o.get("body", mc.body);
-    mc.T_B_I = optional_pose(o, "T_B_I");
-    o.get("time_offset_s", mc.time_offset_s);
-    o.finish();
-    m.mocap = mc;
-  } else {
-    (void)r.raw("mocap");
-  }
-
+  m.imu = optional_section<ImuInfo>(r, "imu", read_imu_info);
+  m.camera = optional_section<CameraInfo>(r, "camera", read_camera_info);
+  m.mocap = optional_section<MocapInfo>(r, "mocap", read_mocap_info);
   std::set<int> ids;
   for_each_element(r, "objects", [&](const json& e, const std::string& path) {
-    JsonObject o(e, source, path);
-    ObjectInfo obj;
-    o.require("id", obj.id);
-    o.get("name", obj.name);
-    o.get("symmetric", obj.symmetric);
-    o.get("models_info", obj.models_info);
-    o.get("models_info_id", obj.models_info_id);
-    o.finish();
-    if (!obj.models_info.empty()) {
-      // Relative to the folder of roe.json; the symmetries of the object's id (or models_info_id) there.
-      const fs::path file = fs::path(source).parent_path() / obj.models_info;
-      const auto info = read_models_info(file);
-      const int key = obj.models_info_id >= 0 ? obj.models_info_id : obj.id;
-      const auto it = info.find(key);
-      if (it == info.end())
-        throw ConfigError(fmt::format("object {} is not in {}", key, file.string()),
-                          {source, 0, 0, o.key_path(obj.models_info_id >= 0 ? "models_info_id" : "models_info")});
-      obj.symmetry = it->second;
-    } else if (obj.models_info_id >= 0) {
-      throw ConfigError("models_info_id without models_info", {source, 0, 0, o.key_path("models_info_id")});
-    }
+    ObjectInfo obj = read_object(e, source, path);
     if (!ids.insert(obj.id).second)
-      throw ConfigError(fmt::format("duplicate object id {}", obj.id), {source, 0, 0, o.key_path("id")});
+      throw ConfigError(fmt::format("duplicate object id {}", obj.id), {source, 0, 0, path + ".id"});
     m.objects.push_back(std::move(obj));
   });
-
-  if (r.has("truth")) {
-    JsonObject o = r.child("truth");
-    Truth t;
-    t.T_I_C = required_pose(o, "T_I_C");
-    std::set<int> tids;
-    for_each_element(o, "objects", [&](const json& e, const std::string& path) {
-      JsonObject to(e, source, path);
-      TruthObject obj;
-      to.require("id", obj.id);
-      obj.T_W_O = required_pose(to, "T_W_O");
-      to.finish();
-      if (!tids.insert(obj.id).second)
-        throw ConfigError(fmt::format("duplicate object id {}", obj.id), {source, 0, 0, to.key_path("id")});
-      t.objects.push_back(obj);
-    });
-    if (o.has("imu_noise")) {
-      JsonObject n = o.child("imu_noise");
-      ImuNoise noise;
-      read_imu_noise(n, noise);
-      n.finish();
-      t.imu_noise = noise;
-    } else {
-      (void)o.raw("imu_noise");
-    }
-    JsonObject dn = o.child("detection_noise");
-    if (const json* dv = o.raw("detection_noise"); dv && dv->is_object()) {
-      for (auto it = dv->begin(); it != dv->end(); ++it) {
-        double v = 0.0;
-        dn.get(it.key().c_str(), v);
-        t.detection_noise[it.key()] = v;
-      }
-    }
-    dn.finish();
-    o.finish();
-    m.truth = std::move(t);
-  } else {
-    (void)r.raw("truth");
-  }
+  m.truth = optional_section<Truth>(r, "truth", read_truth);
   r.finish();
   return m;
 }
