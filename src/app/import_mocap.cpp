@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "roe/app/import.hpp"
+#include "roe/calib/mocap_time_offset.hpp"
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
 #include "roe/io/bag.hpp"
@@ -123,103 +124,6 @@ io::MocapData read_mocap(const fs::path& file, const ImportMocapOptions& opt) {
   return d;
 }
 
-OffsetEstimate estimate_time_offset(const std::vector<ImuSample>& imu, const std::vector<StampedPose>& mocap,
-                                    double max_offset_s, double grid_dt_s) {
-  if (imu.size() < 10 || mocap.size() < 10)
-    throw DataError("time-offset estimate needs at least 10 IMU samples and 10 mocap poses");
-  // Mocap angular-rate magnitude at mid-points of consecutive poses (gaps over 3 periods skipped).
-  const double mocap_rate = median_rate(mocap);
-  const double period = mocap_rate > 0 ? 1.0 / mocap_rate : 0.01;
-  if (grid_dt_s <= 0) grid_dt_s = std::min(period, 0.005);
-  std::vector<std::pair<double, double>> mrate;  // (t_mocap s relative, |w|)
-  const Timestamp m0 = mocap.front().t_ns;
-  for (std::size_t k = 0; k + 1 < mocap.size(); ++k) {
-    const double dt = dt_seconds(mocap[k].t_ns, mocap[k + 1].t_ns);
-    if (!(dt > 0) || dt > 3.0 * period) continue;
-    const double w = math::log_quat(mocap[k].T.q.conjugate() * mocap[k + 1].T.q).norm() / dt;
-    mrate.emplace_back(dt_seconds(m0, mocap[k].t_ns) + 0.5 * dt, w);
-  }
-  // Gyro magnitude binned on the grid (IMU clock, relative to the first IMU sample).
-  const Timestamp g0 = imu.front().t_ns;
-  const double g_len = dt_seconds(g0, imu.back().t_ns);
-  const auto ng = static_cast<std::size_t>(g_len / grid_dt_s) + 1;
-  std::vector<double> G(ng, 0.0), Gn(ng, 0.0);
-  for (const auto& s : imu) {
-    const auto i = static_cast<std::size_t>(std::floor(dt_seconds(g0, s.t_ns) / grid_dt_s + 0.5));
-    if (i < ng) {
-      G[i] += s.gyro.norm();
-      Gn[i] += 1.0;
-    }
-  }
-  for (std::size_t i = 0; i < ng; ++i) G[i] = Gn[i] > 0 ? G[i] / Gn[i] : std::numeric_limits<double>::quiet_NaN();
-  // Mocap rate linearly interpolated at mocap-clock time tm (relative to m0); NaN outside/gaps.
-  auto m_at = [&](double tm) {
-    auto it = std::lower_bound(mrate.begin(), mrate.end(), tm,
-                               [](const std::pair<double, double>& a, double t) { return a.first < t; });
-    if (it == mrate.begin() || it == mrate.end()) return std::numeric_limits<double>::quiet_NaN();
-    const auto& b = *it;
-    const auto& a = *(it - 1);
-    if (b.first - a.first > 3.0 * period) return std::numeric_limits<double>::quiet_NaN();
-    const double u = (tm - a.first) / (b.first - a.first);
-    return (1.0 - u) * a.second + u * b.second;
-  };
-  // Search centre: 0 when the clocks overlap, otherwise align the starts.
-  const double clock_gap = dt_seconds(m0, g0);  // t_imu_start − t_mocap_start (s)
-  const double m_len = dt_seconds(m0, mocap.back().t_ns);
-  const bool overlap = clock_gap < m_len && -clock_gap < g_len;
-  const double centre = overlap ? 0.0 : clock_gap;
-  const auto nlag = static_cast<int>(std::ceil(max_offset_s / grid_dt_s));
-  std::vector<double> corr(2 * nlag + 1, std::numeric_limits<double>::quiet_NaN());
-  std::vector<std::size_t> used(2 * nlag + 1, 0);
-  // Mocap samples on the grid for offset o: M_o[i] = m(t_imu_i − o) with t_imu_i = g0 + i·dt.
-  for (int L = -nlag; L <= nlag; ++L) {
-    const double o = centre + L * grid_dt_s;
-    double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < ng; ++i) {
-      if (std::isnan(G[i])) continue;
-      const double tm = clock_gap + static_cast<double>(i) * grid_dt_s - o;  // mocap time rel. m0
-      const double m = m_at(tm);
-      if (std::isnan(m)) continue;
-      sx += G[i];
-      sy += m;
-      sxx += G[i] * G[i];
-      syy += m * m;
-      sxy += G[i] * m;
-      ++n;
-    }
-    if (n < 20) continue;
-    const double cov = sxy - sx * sy / n, vx = sxx - sx * sx / n, vy = syy - sy * sy / n;
-    if (vx <= 1e-12 || vy <= 1e-12) continue;
-    corr[L + nlag] = cov / std::sqrt(vx * vy);
-    used[L + nlag] = n;
-  }
-  int best = -1;
-  for (int k = 0; k < static_cast<int>(corr.size()); ++k)
-    if (!std::isnan(corr[k]) && (best < 0 || corr[k] > corr[best])) best = k;
-  if (best < 0)
-    throw DataError("time-offset estimate failed: the IMU and mocap signals never overlap with rotation within ±" +
-                    fmt::format("{}", max_offset_s) + " s of the search centre");
-  double delta = 0.0;
-  if (best > 0 && best + 1 < static_cast<int>(corr.size()) && !std::isnan(corr[best - 1]) && !std::isnan(corr[best + 1])) {
-    const double a = corr[best - 1], b = corr[best], c = corr[best + 1];
-    const double den = a - 2 * b + c;
-    if (den < 0) delta = std::clamp(0.5 * (a - c) / den, -0.5, 0.5);
-  }
-  OffsetEstimate e;
-  e.offset_s = centre + (best - nlag + delta) * grid_dt_s;
-  e.correlation = corr[best];
-  e.samples = used[best];
-  e.grid_dt_s = grid_dt_s;
-  double second = -1.0;
-  const int excl = static_cast<int>(std::ceil(0.25 / grid_dt_s));
-  for (int k = 0; k < static_cast<int>(corr.size()); ++k)
-    if (std::abs(k - best) > excl && !std::isnan(corr[k])) second = std::max(second, corr[k]);
-  e.peak_ratio = second > 0 ? corr[best] / second : std::numeric_limits<double>::infinity();
-  e.peak_at_edge = best == 0 || best + 1 == static_cast<int>(corr.size());
-  return e;
-}
-
 nlohmann::json ImportMocapSummary::to_json() const {
   nlohmann::json j = {{"command", "import mocap"},
                       {"dataset", dataset.string()},
@@ -263,9 +167,11 @@ InputError no_imu_for_offset(const fs::path& dataset, const fs::path& imu_csv) {
 }
 }  // namespace
 
-ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, const ImportMocapOptions& opt) {
-  ImportMocapSummary S;
-  S.dataset = dataset;
+namespace {
+
+/// The options and paths, checked before the take is read: a bad folder name, --up, offsets out of
+/// range, a missing file, an existing mocap folder without --force, an offset estimate without an IMU.
+void check_import(const fs::path& file, const fs::path& dataset, const ImportMocapOptions& opt, const fs::path& csv) {
   // "mocap" + letters, digits, '_' or '-': never one of the dataset's other streams (imu0, cam0,
   // state_groundtruth_estimate0), which a forced import would otherwise overwrite.
   const bool name_ok =
@@ -289,67 +195,44 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   // A regular file, or a rosbag2 folder (metadata.yaml + its storage files).
   if (!io::is_folder(file) || io::detect_bag_kind(file) != "rosbag2-folder")
     (void)io::require_regular_file(file, "mocap file");
-  S.csv = dataset / "mav0" / opt.mocap_name / "data.csv";
-  if (io::path_exists(S.csv) && !opt.force)
-    throw InputError("the dataset already has mocap data (use --force to replace it)", {S.csv.string()});
+  if (io::path_exists(csv) && !opt.force)
+    throw InputError("the dataset already has mocap data (use --force to replace it)", {csv.string()});
   if (opt.estimate_offset && !io::path_exists(io::imu_csv_path(dataset)))  // before reading the take
     throw no_imu_for_offset(dataset, io::imu_csv_path(dataset));
-  io::MocapData d = read_mocap(file, opt);
-  S.format = d.format;
-  S.body = d.body;
-  S.topic = opt.topic;
-  S.rows = d.rows;
-  S.occluded = d.occluded;
-  S.duplicates = d.duplicates;
-  S.rate_hz = d.rate_hz;
-  S.length_unit = d.length_unit;
-  S.rotation_type = d.rotation_type;
-  S.warnings = d.warnings;
-  if (d.poses.empty())
-    throw InputError(fmt::format("no pose to import: all {} frame(s) occluded or empty", d.rows), {file.string()});
-  const bool y_up = opt.up == "y" || (opt.up == "auto" && d.y_up);
-  S.up = y_up ? "y" : "z";
-  if (y_up) {
-    // Y-up world (Motive) → Z-up: x stays, y_Z = −z_Y, z_Z = y_Y (a +90° rotation about x).
-    Eigen::Matrix3d R_Z_Y;
-    R_Z_Y << 1, 0, 0, 0, 0, -1, 0, 1, 0;
-    const Pose T_Z_Y(R_Z_Y, Eigen::Vector3d::Zero());
-    for (auto& p : d.poses) p.T = T_Z_Y * p.T;
-  }
-  // From here on the dataset is changed as one, under its lock.
-  io::StagedFiles staged;
-  begin_dataset_change(staged, dataset);
-  std::error_code ec;
-  if (fs::exists(S.csv, ec) && !opt.force)
-    throw InputError("the dataset already has mocap data (use --force to replace it)", {S.csv.string()});
-  bool created = false;
-  DatasetManifest m = open_or_create_manifest(dataset, created);
-  S.created_manifest = created;
-  double offset = opt.time_offset_s.value_or(0.0);
-  if (opt.estimate_offset) {
-    const fs::path imu_csv = io::imu_csv_path(dataset);
-    if (!io::path_exists(imu_csv)) throw no_imu_for_offset(dataset, imu_csv);
-    const auto imu = io::read_imu_csv(imu_csv);
-    std::vector<StampedPose> shifted = d.poses;
-    // With --time-offset given too, it is the centre of the search.
-    if (opt.time_offset_s)
-      for (auto& p : shifted) p.t_ns += from_seconds(*opt.time_offset_s);
-    OffsetEstimate e = estimate_time_offset(imu, shifted, opt.max_offset_s);
-    e.offset_s += opt.time_offset_s.value_or(0.0);
-    S.estimate = e;
-    offset = e.offset_s;
-    if (e.correlation < 0.5)
-      S.warnings.push_back(fmt::format("time-offset estimate is weak (correlation {:.3f}): check it", e.correlation));
-    if (e.peak_at_edge)
-      S.warnings.push_back(fmt::format(
-          "time-offset estimate: the peak is at the edge of the ±{} s search range; widen --max-offset",
-          opt.max_offset_s));
-  }
-  S.time_offset_s = offset;
-  S.poses = d.poses.size();
+}
 
-  // Write the poses (file clock; the offset goes into roe.json) and the manifest.
-  io::write_mocap_csv(staged.stage(S.csv), d.poses);
+/// Y-up world (Motive) → Z-up: x stays, y_Z = −z_Y, z_Z = y_Y (a +90° rotation about x).
+void to_z_up(std::vector<StampedPose>& poses) {
+  Eigen::Matrix3d R_Z_Y;
+  R_Z_Y << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+  const Pose T_Z_Y(R_Z_Y, Eigen::Vector3d::Zero());
+  for (auto& p : poses) p.T = T_Z_Y * p.T;
+}
+
+/// --estimate-offset: the mocap clock against the dataset's IMU (around --time-offset when given too),
+/// with warnings when the estimate is weak or at the edge of the search.
+calib::MocapOffsetEstimate estimate_offset(const fs::path& dataset, const std::vector<StampedPose>& poses,
+                                           const ImportMocapOptions& opt, std::vector<std::string>& warnings) {
+  const fs::path imu_csv = io::imu_csv_path(dataset);
+  if (!io::path_exists(imu_csv)) throw no_imu_for_offset(dataset, imu_csv);
+  const auto imu = io::read_imu_csv(imu_csv);
+  std::vector<StampedPose> shifted = poses;
+  if (opt.time_offset_s)
+    for (auto& p : shifted) p.t_ns += from_seconds(*opt.time_offset_s);
+  calib::MocapOffsetEstimate e = calib::estimate_mocap_time_offset(imu, shifted, opt.max_offset_s);
+  e.offset_s += opt.time_offset_s.value_or(0.0);
+  if (e.correlation < 0.5)
+    warnings.push_back(fmt::format("time-offset estimate is weak (correlation {:.3f}): check it", e.correlation));
+  if (e.peak_at_edge)
+    warnings.push_back(fmt::format(
+        "time-offset estimate: the peak is at the edge of the ±{} s search range; widen --max-offset",
+        opt.max_offset_s));
+  return e;
+}
+
+/// The import's record in roe.json's sources.
+SourceRecord source_record(const fs::path& file, const io::MocapData& d, const ImportMocapOptions& opt,
+                           const ImportMocapSummary& S, bool y_up, double offset) {
   SourceRecord src;
   src.kind = source_kind(d.format);
   src.path = io::provenance_path(file);
@@ -371,6 +254,67 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   if (!d.rotation_type.empty()) src.options["rotation_type"] = d.rotation_type;
   if (!d.capture_start_time.empty())  // Motive: the take's wall-clock start, local time without a zone
     src.options["capture_start_time"] = d.capture_start_time;
+  return src;
+}
+
+/// roe.json's mocap section after importing into mav0/mocap0 (other folders leave it alone).
+void update_mocap_info(DatasetManifest& m, const io::MocapData& d, double offset, std::vector<std::string>& warnings) {
+  MocapInfo mi = m.mocap.value_or(MocapInfo{});
+  // T_B_I belongs to one body: a re-import of another body starts again from identity.
+  if (m.mocap && mi.body != d.body && (mi.T_B_I.p != Eigen::Vector3d::Zero() || math::angle_between(mi.T_B_I.q, Eigen::Quaterniond::Identity()) > 0.0)) {
+    warnings.push_back(fmt::format("mocap.T_B_I was set for body \"{}\"; the body is now \"{}\", so T_B_I is reset "
+                                   "to identity (set it again for the new body)",
+                                   mi.body, d.body));
+    mi.T_B_I = Pose();
+  }
+  mi.body = d.body;
+  mi.time_offset_s = offset;
+  m.mocap = mi;
+}
+
+}  // namespace
+
+ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, const ImportMocapOptions& opt) {
+  ImportMocapSummary S;
+  S.dataset = dataset;
+  S.csv = dataset / "mav0" / opt.mocap_name / "data.csv";
+  check_import(file, dataset, opt, S.csv);
+  io::MocapData d = read_mocap(file, opt);
+  S.format = d.format;
+  S.body = d.body;
+  S.topic = opt.topic;
+  S.rows = d.rows;
+  S.occluded = d.occluded;
+  S.duplicates = d.duplicates;
+  S.rate_hz = d.rate_hz;
+  S.length_unit = d.length_unit;
+  S.rotation_type = d.rotation_type;
+  S.warnings = d.warnings;
+  if (d.poses.empty())
+    throw InputError(fmt::format("no pose to import: all {} frame(s) occluded or empty", d.rows), {file.string()});
+  const bool y_up = opt.up == "y" || (opt.up == "auto" && d.y_up);
+  S.up = y_up ? "y" : "z";
+  if (y_up) to_z_up(d.poses);
+  // From here on the dataset is changed as one, under its lock.
+  io::StagedFiles staged;
+  begin_dataset_change(staged, dataset);
+  std::error_code ec;
+  if (fs::exists(S.csv, ec) && !opt.force)
+    throw InputError("the dataset already has mocap data (use --force to replace it)", {S.csv.string()});
+  bool created = false;
+  DatasetManifest m = open_or_create_manifest(dataset, created);
+  S.created_manifest = created;
+  double offset = opt.time_offset_s.value_or(0.0);
+  if (opt.estimate_offset) {
+    S.estimate = estimate_offset(dataset, d.poses, opt, S.warnings);
+    offset = S.estimate->offset_s;
+  }
+  S.time_offset_s = offset;
+  S.poses = d.poses.size();
+
+  // Write the poses (file clock; the offset goes into roe.json) and the manifest.
+  io::write_mocap_csv(staged.stage(S.csv), d.poses);
+  const SourceRecord src = source_record(file, d, opt, S, y_up, offset);
   // A forced re-import replaces the record of the same folder.
   m.sources.erase(std::remove_if(m.sources.begin(), m.sources.end(),
                                  [&](const SourceRecord& r) {
@@ -379,19 +323,7 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
                                  }),
                   m.sources.end());
   m.sources.push_back(src);
-  if (opt.mocap_name == "mocap0") {
-    MocapInfo mi = m.mocap.value_or(MocapInfo{});
-    // T_B_I belongs to one body: a re-import of another body starts again from identity.
-    if (m.mocap && mi.body != d.body && (mi.T_B_I.p != Eigen::Vector3d::Zero() || math::angle_between(mi.T_B_I.q, Eigen::Quaterniond::Identity()) > 0.0)) {
-      S.warnings.push_back(fmt::format("mocap.T_B_I was set for body \"{}\"; the body is now \"{}\", so T_B_I is reset "
-                                       "to identity (set it again for the new body)",
-                                       mi.body, d.body));
-      mi.T_B_I = Pose();
-    }
-    mi.body = d.body;
-    mi.time_offset_s = offset;
-    m.mocap = mi;
-  }
+  if (opt.mocap_name == "mocap0") update_mocap_info(m, d, offset, S.warnings);
   io::write_manifest(m, staged.stage(io::manifest_path(dataset)));
   staged.commit();
   for (const auto& w : S.warnings) log::warn("{}", w);

@@ -10,6 +10,7 @@
 
 #include "support/test_util.hpp"
 #include "roe/app/import.hpp"
+#include "roe/calib/mocap_time_offset.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "roe/math/so3.hpp"
@@ -59,14 +60,14 @@ void simulate(double offset_s, std::vector<ImuSample>& imu, std::vector<StampedP
 
 }  // namespace
 
-TEST_CASE("estimate_time_offset recovers a known offset within one mocap frame", "[app][import][offset]") {
+TEST_CASE("estimate_mocap_time_offset recovers a known offset within one mocap frame", "[app][import][offset]") {
   for (double rel : {1.0, 1.4567, 0.6123}) {
     // Offset so that mocap time 1 s = IMU relative time `rel`.
     const double offset = 1'700'000'000.0 + rel - 1.0;
     std::vector<ImuSample> imu;
     std::vector<StampedPose> mocap;
     simulate(offset, imu, mocap, 7);
-    const auto e = app::estimate_time_offset(imu, mocap, 2.0);
+    const auto e = calib::estimate_mocap_time_offset(imu, mocap, 2.0);
     INFO("true " << rel - 1.0 << " estimated " << e.offset_s - 1'700'000'000.0);
     CHECK(std::abs(e.offset_s - offset) < 1.0 / 120.0);
     CHECK(std::abs(e.offset_s - offset) < 2e-3);  // in practice much better than a frame
@@ -82,7 +83,7 @@ TEST_CASE("estimate_time_offset recovers a known offset within one mocap frame",
     std::vector<ImuSample> imu;
     std::vector<StampedPose> mocap;
     simulate(offset, imu, mocap, 7);
-    const auto e = app::estimate_time_offset(imu, mocap, 0.5);
+    const auto e = calib::estimate_mocap_time_offset(imu, mocap, 0.5);
     CHECK(e.peak_at_edge);
     CHECK(std::abs(e.offset_s - (1'699'999'999.0 + (rel > 0.0 ? 0.5 : -0.5))) < 1e-6);
   }
@@ -95,7 +96,7 @@ TEST_CASE("estimate_time_offset recovers a known offset within one mocap frame",
     std::vector<StampedPose> mocap;
     simulate(offset, imu, mocap, 7, 0.0);
     mocap.erase(mocap.begin(), mocap.begin() + drop);
-    const auto e = app::estimate_time_offset(imu, mocap, 2.0);
+    const auto e = calib::estimate_mocap_time_offset(imu, mocap, 2.0);
     REQUIRE(e.grid_dt_s == 0.005);
     CHECK(std::abs(e.offset_s - offset) < 0.3e-3);
   }
@@ -106,7 +107,7 @@ TEST_CASE("estimate_time_offset recovers a known offset within one mocap frame",
     imu[k].t_ns = k * 5'000'000LL;
     mocap[k].t_ns = k * 8'000'000LL;
   }
-  CHECK_THROWS_AS(app::estimate_time_offset(imu, mocap, 0.5), DataError);
+  CHECK_THROWS_AS(calib::estimate_mocap_time_offset(imu, mocap, 0.5), DataError);
 }
 
 TEST_CASE("import mocap --estimate-offset writes the offset into roe.json", "[app][import][offset]") {

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "roe/calib/mocap_time_offset.hpp"
 #include "roe/core/dataset.hpp"
 #include "roe/core/types.hpp"
 #include "roe/io/kalibr.hpp"
@@ -104,15 +105,6 @@ struct ImportMocapOptions {
   bool force = false;
 };
 
-struct OffsetEstimate {
-  double offset_s = 0.0;      ///< t_imu = t_mocap + offset_s
-  double correlation = 0.0;   ///< normalised cross-correlation at the peak (quality, 1 = perfect)
-  double peak_ratio = 0.0;    ///< peak / best value outside ±0.25 s of the peak (>1: distinct)
-  std::size_t samples = 0;    ///< overlapping grid samples used at the peak
-  double grid_dt_s = 0.0;
-  /// The peak is the first or last lag searched: the true offset may lie beyond ±max_offset_s.
-  bool peak_at_edge = false;
-};
 
 struct ImportMocapSummary {
   fs::path dataset;
@@ -124,7 +116,7 @@ struct ImportMocapSummary {
   std::size_t duplicates = 0;     ///< poses dropped for a repeated stamp (the first is kept)
   double rate_hz = 0.0;           ///< from the file header when it has one, else median
   double time_offset_s = 0.0;     ///< applied
-  std::optional<OffsetEstimate> estimate;
+  std::optional<calib::MocapOffsetEstimate> estimate;
   std::string length_unit, rotation_type;
   bool created_manifest = false;
   std::vector<std::string> warnings;
@@ -137,14 +129,6 @@ io::MocapData read_mocap(const fs::path& file, const ImportMocapOptions& options
 
 ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, const ImportMocapOptions& options);
 
-/// Estimates the clock offset between an IMU and a mocap track by correlating the gyro's
-/// angular-rate magnitude with the magnitude of the mocap's body angular rate
-/// (|Log(R_k^T R_{k+1})| / dt), both resampled on a common grid of `grid_dt_s` (0 = the mocap's
-/// median period, at most 1/200 s). The coarse peak over [-max, max] is refined by a parabola
-/// through the three best lags. Result: t_imu = t_mocap + offset. DataError when the overlap is too
-/// short or the motion has no rotation.
-OffsetEstimate estimate_time_offset(const std::vector<ImuSample>& imu, const std::vector<StampedPose>& mocap,
-                                    double max_offset_s, double grid_dt_s = 0.0);
 
 // ---------------------------------------------------------------------------------------------
 // kalibr
