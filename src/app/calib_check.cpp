@@ -190,6 +190,104 @@ std::string CalibCheckResult::to_text() const {
   return s;
 }
 
+namespace {
+
+/// The detections per object as run.json counts them (counts.detections.per_object), into `objects`;
+/// an object that never entered the state gets an entry of its own.
+void add_detection_counts(const RunJson& run, const calib::CalibInput& in,
+                          std::map<int, calib::ObjectEstimate>& objects) {
+  const json& per_object = run.at("counts.detections.per_object");
+  if (!per_object.is_object())
+    throw InputError("expected an object", {run.file(), 0, 0, "counts.detections.per_object"});
+  for (const auto& [key, v] : per_object.items()) {
+    int id = 0;
+    try {
+      std::size_t used = 0;
+      id = std::stoi(key, &used);
+      if (used != key.size()) throw std::invalid_argument(key);
+    } catch (const std::exception&) {
+      throw InputError("expected an object id", {run.file(), 0, 0, "counts.detections.per_object." + key});
+    }
+    if (!v.is_object() || !v.contains("detections") || !v["detections"].is_number_unsigned())
+      throw InputError("missing key", {run.file(), 0, 0, "counts.detections.per_object." + key + ".detections"});
+    const auto n = v["detections"].get<std::size_t>();
+    auto it = objects.find(id);
+    if (it == objects.end()) {
+      calib::ObjectEstimate o;
+      o.id = id;
+      o.anchor = in.anchor_id && id == *in.anchor_id;
+      o.detections = n;
+      objects[id] = o;  // never entered the state
+    } else {
+      it->second.detections = n;
+    }
+  }
+}
+
+/// The dataset to check against: --dataset, else the one the run read when it is still there (empty:
+/// none). dataset.identity is skipped with --no-dataset and inconclusive when the run's dataset is gone
+/// (--strict fails then).
+fs::path choose_dataset(const RunJson& run, const CalibCheckOptions& opt, CalibCheckResult& res,
+                        calib::CheckResult& identity, calib::CalibInput& in) {
+  std::error_code ec;
+  fs::path dataset;
+  if (!opt.no_dataset) {
+    if (!opt.dataset.empty()) {
+      dataset = io::without_trailing_separator(opt.dataset);
+      res.dataset_from = "option";
+      if (!fs::is_regular_file(io::manifest_path(dataset), ec))
+        throw InputError("not a dataset folder: roe.json is missing", {dataset.string()});
+    } else {
+      const fs::path named = run.string("inputs.dataset_abs");
+      if (fs::is_regular_file(io::manifest_path(named), ec)) {
+        dataset = named;
+        res.dataset_from = "run.json";
+      } else {
+        identity.status = calib::CheckStatus::kInconclusive;
+        identity.message = fmt::format("the run's dataset {} is not there (give --dataset, or --no-dataset)",
+                                       named.string());
+        in.dataset_absent_reason = in.time_offset_absent_reason = "no dataset (dataset.identity)";
+        res.warnings.push_back(identity.message + ": the truth and time-offset checks are skipped");
+      }
+    }
+  } else {
+    in.dataset_absent_reason = in.time_offset_absent_reason = "--no-dataset";
+  }
+
+  return dataset;
+}
+
+/// What the dataset knows: the truth (when simulated), the declared camera time offset and the offset
+/// estimated from the run's detections and the gyro.
+void read_dataset_checks(const fs::path& dataset, const CalibCheckOptions& opt, double min_score,
+                         const StatesTrace& states, CalibCheckResult& res, calib::CalibInput& in) {
+  const DatasetManifest man = io::read_manifest(dataset);
+  if (man.truth) {
+    in.true_T_I_C = man.truth->T_I_C;
+    for (const auto& o : man.truth->objects) in.true_T_W_O[o.id] = o.T_W_O;
+  }
+  in.declared_time_offset_s = man.camera ? man.camera->time_offset_s : 0.0;
+  log::info("estimating the camera-IMU time offset from {} and the gyro", res.detections);
+  const auto imu = io::read_imu_csv(io::imu_csv_path(dataset));
+  auto dets = io::read_detections_csv(io::detections_dir(dataset, res.detections) / "detections.csv");
+  ekf::FilterOptions score_rule;  // the filter's own rule for which detections count (min_score)
+  score_rule.min_score = min_score;
+  dets.erase(std::remove_if(dets.begin(), dets.end(),
+                            [&](const Detection& d) { return !ekf::usable_detection(d, score_rule); }),
+             dets.end());
+  calib::TimeOffsetOptions to = opt.time_offset;
+  to.centre_s = in.declared_time_offset_s;  // search around what the dataset declares
+  to.symmetric_ids.clear();  // left out unless described by a models_info (docs/calib-check.md §3)
+  for (const auto& o : man.objects) {
+    if (o.symmetric) to.symmetric_ids.push_back(o.id), in.symmetric_ids.push_back(o.id);
+    if (!o.symmetry.empty()) to.symmetries[o.id] = in.symmetries[o.id] = o.symmetry;
+  }
+  in.time_offset = calib::estimate_camera_time_offset(imu, states.final_gyro_bias, in.extrinsics.back().T_I_C.q,
+                                                      dets, to);
+}
+
+}  // namespace
+
 CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions& opt) {
   const fs::path run_dir = io::without_trailing_separator(run_dir_in);
   std::error_code ec;
@@ -222,88 +320,16 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
   StatesTrace states = read_states(fs::is_regular_file(filter_states, ec) ? filter_states : run_dir / "states.csv");
   in.extrinsics = std::move(states.extrinsics);
   auto objects = read_objects(run_dir / "objects.csv");
-  const json& per_object = run.at("counts.detections.per_object");
-  if (!per_object.is_object())
-    throw InputError("expected an object", {run.file(), 0, 0, "counts.detections.per_object"});
-  for (const auto& [key, v] : per_object.items()) {
-    int id = 0;
-    try {
-      std::size_t used = 0;
-      id = std::stoi(key, &used);
-      if (used != key.size()) throw std::invalid_argument(key);
-    } catch (const std::exception&) {
-      throw InputError("expected an object id", {run.file(), 0, 0, "counts.detections.per_object." + key});
-    }
-    if (!v.is_object() || !v.contains("detections") || !v["detections"].is_number_unsigned())
-      throw InputError("missing key", {run.file(), 0, 0, "counts.detections.per_object." + key + ".detections"});
-    const auto n = v["detections"].get<std::size_t>();
-    auto it = objects.find(id);
-    if (it == objects.end()) {
-      calib::ObjectEstimate o;
-      o.id = id;
-      o.anchor = in.anchor_id && id == *in.anchor_id;
-      o.detections = n;
-      objects[id] = o;  // never entered the state
-    } else {
-      it->second.detections = n;
-    }
-  }
+  add_detection_counts(run, in, objects);
   for (const auto& [id, o] : objects) in.objects.push_back(o);
 
-  // The dataset: --dataset, else the one the run read when it is still there. dataset.identity is
-  // skipped with --no-dataset and inconclusive when the run's dataset is gone (--strict fails then).
-  fs::path dataset;
   calib::CheckResult identity{"dataset.identity", calib::CheckStatus::kSkipped, "--no-dataset", {}};
-  if (!opt.no_dataset) {
-    if (!opt.dataset.empty()) {
-      dataset = io::without_trailing_separator(opt.dataset);
-      res.dataset_from = "option";
-      if (!fs::is_regular_file(io::manifest_path(dataset), ec))
-        throw InputError("not a dataset folder: roe.json is missing", {dataset.string()});
-    } else {
-      const fs::path named = run.string("inputs.dataset_abs");
-      if (fs::is_regular_file(io::manifest_path(named), ec)) {
-        dataset = named;
-        res.dataset_from = "run.json";
-      } else {
-        identity.status = calib::CheckStatus::kInconclusive;
-        identity.message = fmt::format("the run's dataset {} is not there (give --dataset, or --no-dataset)",
-                                       named.string());
-        in.dataset_absent_reason = in.time_offset_absent_reason = "no dataset (dataset.identity)";
-        res.warnings.push_back(identity.message + ": the truth and time-offset checks are skipped");
-      }
-    }
-  } else {
-    in.dataset_absent_reason = in.time_offset_absent_reason = "--no-dataset";
-  }
-
+  const fs::path dataset = choose_dataset(run, opt, res, identity, in);
   if (!dataset.empty()) {
     res.dataset = dataset.string();
     identity = dataset_identity(run, dataset, res.detections);
     if (identity.status == calib::CheckStatus::kPass) {
-      const DatasetManifest man = io::read_manifest(dataset);
-      if (man.truth) {
-        in.true_T_I_C = man.truth->T_I_C;
-        for (const auto& o : man.truth->objects) in.true_T_W_O[o.id] = o.T_W_O;
-      }
-      in.declared_time_offset_s = man.camera ? man.camera->time_offset_s : 0.0;
-      log::info("estimating the camera-IMU time offset from {} and the gyro", res.detections);
-      const auto imu = io::read_imu_csv(io::imu_csv_path(dataset));
-      auto dets = io::read_detections_csv(io::detections_dir(dataset, res.detections) / "detections.csv");
-      ekf::FilterOptions score_rule;  // the filter's own rule for which detections count (min_score)
-      score_rule.min_score = min_score;
-      dets.erase(std::remove_if(dets.begin(), dets.end(),
-                                [&](const Detection& d) { return !ekf::usable_detection(d, score_rule); }),
-                 dets.end());
-      calib::TimeOffsetOptions to = opt.time_offset;
-      to.centre_s = in.declared_time_offset_s;  // search around what the dataset declares
-      to.symmetric_ids.clear();  // left out unless described by a models_info (docs/calib-check.md §3)
-      for (const auto& o : man.objects) {
-        if (o.symmetric) to.symmetric_ids.push_back(o.id), in.symmetric_ids.push_back(o.id);
-        if (!o.symmetry.empty()) to.symmetries[o.id] = in.symmetries[o.id] = o.symmetry;
-      }
-      in.time_offset = calib::estimate_camera_time_offset(imu, states.final_gyro_bias, in.extrinsics.back().T_I_C.q,
-                                                          dets, to);
+      read_dataset_checks(dataset, opt, min_score, states, res, in);
     } else {
       in.dataset_absent_reason = in.time_offset_absent_reason =
           "the dataset is not the one the run read (dataset.identity)";
