@@ -203,14 +203,11 @@ nlohmann::json input_json(const EvalInput& in) {
 }
 
 nlohmann::json options_json(const EvalOptions& o) {
-  json j = {{"align", o.align},           {"n_align", o.n_align},
-          {"max_dt_s", o.max_dt_s},     {"t_offset_s", o.t_offset_s},
-          {"assoc", o.assoc},           {"est_format", o.est_format},
-          {"gt_format", o.gt_format},   {"gt_source", o.gt_source},
-          {"rpe_delta", o.rpe_delta},   {"rpe_unit", o.rpe_unit},
-          {"rpe_all_pairs", o.rpe_all_pairs}, {"rpe_pairs_from", o.rpe_pairs_from},
-          {"rpe_tol", o.rpe_tol}, {"detections", o.detections},
-          {"euler", o.euler}, {"fit_body_rotation", o.fit_body_rotation}};
+  json j = {{"est_format", o.est_format},         {"gt_format", o.gt_format},
+            {"rpe_all_pairs", o.rpe_all_pairs}, {"rpe_pairs_from", o.rpe_pairs_from},
+            {"rpe_tol", o.rpe_tol},             {"detections", o.detections},
+            {"euler", o.euler},                 {"fit_body_rotation", o.fit_body_rotation}};
+  for_each_sweep_eval_setting(o, [&j](const char* key, const auto& value) { j[key] = value; });
   if (!o.est_times.empty()) j["est_times"] = o.est_times;
   if (!o.gt_times.empty()) j["gt_times"] = o.gt_times;
   return j;
@@ -224,6 +221,23 @@ fs::path output_folder(const EvalOptions& o, const Estimate& est) {
 }
 
 }  // namespace
+
+void check_sweep_eval_setting(const EvalOptions& o, const std::string& key) {
+  eval::EvalParams p;  // the defaults, with the one setting `key` from `o`
+  if (key == "align") (void)eval::parse_align_type(o.align);
+  if (key == "assoc") (void)eval::parse_assoc_policy(o.assoc);
+  if (key == "gt_source") check_gt_source(o.gt_source);
+  if (key == "rpe_unit") (void)eval::parse_delta_unit(o.rpe_unit);
+  if (key == "n_align") p.n_align = o.n_align;
+  if (key == "max_dt_s") p.assoc.max_dt_s = o.max_dt_s;
+  if (key == "rpe_delta")
+    for (double d : o.rpe_delta) {
+      eval::RpeOptions r;
+      r.delta = d;
+      p.rpe.push_back(r);
+    }
+  (void)eval::check_params(p);
+}
 
 std::string label_of(const EvalInput& in, bool is_dir) {
   if (in.kind != "bag" || in.topic.empty()) return label_from_path(in.path, is_dir);

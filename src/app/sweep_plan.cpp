@@ -5,6 +5,7 @@
 #include <limits>
 #include <set>
 
+#include "roe/app/eval.hpp"
 #include "roe/app/run.hpp"
 #include "roe/app/simulate.hpp"
 #include "roe/app/sweep.hpp"
@@ -21,10 +22,6 @@ using nlohmann::json;
 
 namespace {
 
-constexpr const char* kAlign[] = {"se3", "sim3", "posyaw", "origin", "none"};
-constexpr const char* kAssoc[] = {"nearest", "unique"};
-constexpr const char* kGtSource[] = {"auto", "groundtruth", "mocap"};
-constexpr const char* kRpeUnit[] = {"m", "s", "f", "deg", "rad"};
 
 /// Where in the spec: errors name the key path (`axes.configs[2]`).
 struct Where {
@@ -34,52 +31,31 @@ struct Where {
   }
 };
 
-template <std::size_t N>
-void one_of(const Where& w, const std::string& path, const std::string& v, const char* const (&set)[N]) {
-  std::string list;
-  for (const char* s : set) {
-    if (v == s) return;
-    list += (list.empty() ? "" : ", ") + std::string(s);
-  }
-  w.fail(path, fmt::format("'{}' is not one of {}", v, list));
-}
-
 const json& nonempty_array(const Where& w, const json& j, const std::string& path) {
   if (!j.is_array()) w.fail(path, "expected an array");
   if (j.empty()) w.fail(path, "an axis needs at least one value");
   return j;
 }
 
-/// The eval options of every job, with every default filled in (so writing a default changes no id).
+/// The eval options of every job, with every default filled in (so writing a default changes no id): the
+/// settings of for_each_sweep_eval_setting, each checked by run_eval's own rule.
 json read_eval(const Where& w, const json* j) {
-  json e = {{"align", "se3"},        {"n_align", -1},          {"max_dt_s", 0.01}, {"t_offset_s", 0.0},
-            {"assoc", "nearest"},    {"gt_source", "auto"},    {"rpe_delta", json::array()},
-            {"rpe_unit", "m"}};
-  if (!j) return e;
-  io::JsonObject r(*j, w.source, "eval");
-  std::string align = e["align"], assoc = e["assoc"], gt_source = e["gt_source"], rpe_unit = e["rpe_unit"];
-  int n_align = -1;
-  double max_dt = 0.01, t_offset = 0.0;
-  std::vector<double> rpe;
-  r.get("align", align);
-  r.get("n_align", n_align);
-  r.get("max_dt_s", max_dt);
-  r.get("t_offset_s", t_offset);
-  r.get("assoc", assoc);
-  r.get("gt_source", gt_source);
-  r.get("rpe_delta", rpe);
-  r.get("rpe_unit", rpe_unit);
-  r.finish();
-  one_of(w, "eval.align", align, kAlign);
-  one_of(w, "eval.assoc", assoc, kAssoc);
-  one_of(w, "eval.gt_source", gt_source, kGtSource);
-  one_of(w, "eval.rpe_unit", rpe_unit, kRpeUnit);
-  if (n_align == 0 || n_align < -1) w.fail("eval.n_align", "must be -1 (all pairs) or >= 1");
-  if (!(max_dt > 0.0)) w.fail("eval.max_dt_s", "must be > 0");
-  for (std::size_t i = 0; i < rpe.size(); ++i)
-    if (!(rpe[i] > 0.0)) w.fail(fmt::format("eval.rpe_delta[{}]", i), "must be > 0");
-  return {{"align", align},   {"n_align", n_align},     {"max_dt_s", max_dt}, {"t_offset_s", t_offset},
-          {"assoc", assoc},   {"gt_source", gt_source}, {"rpe_delta", rpe},   {"rpe_unit", rpe_unit}};
+  EvalOptions o;
+  if (j) {
+    io::JsonObject r(*j, w.source, "eval");
+    for_each_sweep_eval_setting(o, [&r](const char* key, auto& value) { r.get(key, value); });
+    r.finish();
+  }
+  json e = json::object();
+  for_each_sweep_eval_setting(o, [&](const char* key, const auto& value) {
+    try {
+      check_sweep_eval_setting(o, key);
+    } catch (const InputError& err) {
+      w.fail(std::string("eval.") + key, err.bare_message());
+    }
+    e[key] = value;
+  });
+  return e;
 }
 
 struct DatasetEntry {

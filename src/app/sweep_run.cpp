@@ -1,5 +1,6 @@
 // roe sweep plan | run | status: the sweep folder, its per-job locks and the job runner (in-process
 // simulate + run + eval, each job built in work/ID and renamed to jobs/ID when it ends).
+#include <type_traits>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -108,14 +109,9 @@ void execute(const SweepJob& job, const fs::path& work, json& out) {
   eo.gt = dataset.string();
   eo.out = (work / "run" / "eval").string();
   eo.label = job.id;
-  eo.align = e["align"];
-  eo.n_align = e["n_align"];
-  eo.max_dt_s = e["max_dt_s"];
-  eo.t_offset_s = e["t_offset_s"];
-  eo.assoc = e["assoc"];
-  eo.gt_source = e["gt_source"];
-  eo.rpe_delta = e["rpe_delta"].get<std::vector<double>>();
-  eo.rpe_unit = e["rpe_unit"];
+  for_each_sweep_eval_setting(eo, [&e](const char* key, auto& value) {
+    value = e.at(key).get<std::decay_t<decltype(value)>>();
+  });
   t0 = Clock::now();
   const EvalResult er = run_eval(eo);
   timing["eval"] = seconds_since(t0);

@@ -72,6 +72,26 @@ struct EvalOptions {
   std::string save_results;
 };
 
+/// The settings of an evaluation that a sweep spec's "eval" block carries, in one table: `visit(key,
+/// member)` for each, the key as report.json's "options" and sweep specs spell it. Sweep plans fill every
+/// default from EvalOptions (so writing a default changes no job id), sweep jobs apply them, and
+/// report.json's options echo them. Their values are checked by the parsers run_eval uses
+/// (check_sweep_eval_setting).
+template <class Options, class Visit>
+void for_each_sweep_eval_setting(Options& o, Visit&& visit) {
+  visit("align", o.align);
+  visit("n_align", o.n_align);
+  visit("max_dt_s", o.max_dt_s);
+  visit("t_offset_s", o.t_offset_s);
+  visit("assoc", o.assoc);
+  visit("gt_source", o.gt_source);
+  visit("rpe_delta", o.rpe_delta);
+  visit("rpe_unit", o.rpe_unit);
+}
+
+/// Checks the setting `key` of for_each_sweep_eval_setting with run_eval's own rule; throws InputError.
+void check_sweep_eval_setting(const EvalOptions& o, const std::string& key);
+
 /// One row of a run folder's reprojection.csv: the IMU pose T_W_I implied by one raw detection.
 using ReprojectionCsvRow = eval::DetectionPose;
 
