@@ -14,13 +14,13 @@
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
 #include "roe/image/frame_processor.hpp"
-#include "roe/io/bag.hpp"
+#include "roe/io/ros/message_bag.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
-#include "roe/io/realsense_streams.hpp"
-#include "roe/io/ros_msgs.hpp"
+#include "roe/io/ros/realsense_streams.hpp"
+#include "roe/io/ros/msgs.hpp"
 
 namespace roe::app {
 namespace {

@@ -17,7 +17,7 @@
 #include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/json.hpp"
-#include "roe/io/rosbag.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
 
 namespace fs = std::filesystem;
 namespace bag = roe::io::bag;

@@ -11,8 +11,8 @@
 #include <string>
 
 #include "../fixtures/gen_d435i_bag.hpp"
-#include "roe/io/ros_msgs.hpp"
-#include "roe/io/rosbag.hpp"
+#include "roe/io/ros/msgs.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
 
 namespace fs = std::filesystem;
 using namespace roe;

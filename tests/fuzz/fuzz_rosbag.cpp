@@ -6,8 +6,8 @@
 #include <string>
 
 #include "roe/core/error.hpp"
-#include "roe/io/ros_msgs.hpp"
-#include "roe/io/rosbag.hpp"
+#include "roe/io/ros/msgs.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
 
 namespace {
 void decode(const roe::io::bag::MessageView& m) {

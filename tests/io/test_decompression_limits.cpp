@@ -10,14 +10,14 @@
 #include <fstream>
 
 #include "roe/core/error.hpp"
-#include "roe/io/bag.hpp"
-#include "roe/io/compression.hpp"
+#include "roe/io/ros/message_bag.hpp"
+#include "roe/io/ros/compression.hpp"
 #include "roe/io/input.hpp"
-#include "roe/io/mcap.hpp"
+#include "roe/io/ros/mcap.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/poet_results.hpp"
-#include "roe/io/rosbag.hpp"
-#include "roe/io/rosbag2.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
+#include "roe/io/ros/rosbag2.hpp"
 #include "fixtures/bag_writer.hpp"
 #include "support/test_util.hpp"
 

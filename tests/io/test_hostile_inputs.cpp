@@ -17,7 +17,7 @@
 #include "roe/io/kalibr.hpp"
 #include "roe/io/mocap_formats.hpp"
 #include "roe/io/poet_results.hpp"
-#include "roe/io/rosbag.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "support/test_util.hpp"
 

@@ -1,5 +1,5 @@
-// MCAP reader (see include/roe/io/mcap.hpp for the format summary).
-#include "roe/io/mcap.hpp"
+// MCAP reader (see include/roe/io/ros/mcap.hpp for the format summary).
+#include "roe/io/ros/mcap.hpp"
 
 #include <algorithm>
 #include <array>
@@ -12,8 +12,8 @@
 
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
-#include "roe/io/compression.hpp"
-#include "roe/io/rosbag.hpp"
+#include "roe/io/ros/compression.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
 
 namespace roe::io::mcap {
 namespace {

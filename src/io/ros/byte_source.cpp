@@ -1,5 +1,5 @@
-// File and memory byte sources (include/roe/io/byte_source.hpp).
-#include "roe/io/byte_source.hpp"
+// File and memory byte sources (include/roe/io/ros/byte_source.hpp).
+#include "roe/io/ros/byte_source.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>

@@ -31,7 +31,7 @@
 #include <vector>
 
 #include "roe/core/types.hpp"
-#include "roe/io/byte_source.hpp"
+#include "roe/io/ros/byte_source.hpp"
 
 namespace roe::io::bag {
 

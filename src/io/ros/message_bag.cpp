@@ -1,6 +1,6 @@
 // One message-level interface over ROS 1 bags, MCAP, rosbag2 SQLite and rosbag2 folders
-// (include/roe/io/bag.hpp).
-#include "roe/io/bag.hpp"
+// (include/roe/io/ros/message_bag.hpp).
+#include "roe/io/ros/message_bag.hpp"
 
 #include <algorithm>
 #include <cstring>
@@ -12,12 +12,12 @@
 #include <fmt/format.h>
 
 #include "roe/core/error.hpp"
-#include "roe/io/cdr.hpp"
-#include "roe/io/compression.hpp"
-#include "roe/io/mcap.hpp"
+#include "roe/io/ros/cdr.hpp"
+#include "roe/io/ros/compression.hpp"
+#include "roe/io/ros/mcap.hpp"
 #include "roe/io/output.hpp"
-#include "roe/io/rosbag.hpp"
-#include "roe/io/rosbag2.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
+#include "roe/io/ros/rosbag2.hpp"
 
 namespace roe::io {
 

@@ -1,5 +1,5 @@
-// ROS bag v2.0 reader (see include/roe/io/rosbag.hpp for the format summary).
-#include "roe/io/rosbag.hpp"
+// ROS bag v2.0 reader (see include/roe/io/ros/ros1_bag.hpp for the format summary).
+#include "roe/io/ros/ros1_bag.hpp"
 
 #include <bzlib.h>
 #include <fmt/format.h>
@@ -13,7 +13,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
-#include "roe/io/compression.hpp"
+#include "roe/io/ros/compression.hpp"
 #include "roe/io/input.hpp"
 
 namespace roe::io::bag {

@@ -1,5 +1,5 @@
-// zstd helpers (include/roe/io/compression.hpp).
-#include "roe/io/compression.hpp"
+// zstd helpers (include/roe/io/ros/compression.hpp).
+#include "roe/io/ros/compression.hpp"
 
 #include <fmt/format.h>
 #include <zstd.h>

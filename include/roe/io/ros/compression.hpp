@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// zstd (libzstd) for the ROS 2 readers: MCAP chunks, rosbag2 message- and file-level compression.
-/// LZ4 frames are in rosbag.hpp (bag::lz4_decompress), shared by ROS 1 bags and MCAP chunks.
+/// LZ4 frames are in ros1_bag.hpp (bag::lz4_decompress), shared by ROS 1 bags and MCAP chunks.
 
 #include <cstdint>
 #include <filesystem>

@@ -21,7 +21,7 @@
 /// Memory: one chunk at a time (plus the chunks whose time ranges overlap it during the time-ordered
 /// merge), never the file. A chunk's uncompressed CRC is checked when set.
 ///
-/// Robustness as for ROS 1 bags (rosbag.hpp): only a file that is not MCAP at all (wrong magic,
+/// Robustness as for ROS 1 bags (ros1_bag.hpp): only a file that is not MCAP at all (wrong magic,
 /// unreadable) is an InputError; truncated records, chunks that fail to decompress or whose CRC or
 /// length lies are skipped with a warning giving the byte offset (warnings(), damaged()).
 
@@ -35,7 +35,7 @@
 #include <vector>
 
 #include "roe/core/types.hpp"
-#include "roe/io/byte_source.hpp"
+#include "roe/io/ros/byte_source.hpp"
 
 namespace roe::io::mcap {
 
