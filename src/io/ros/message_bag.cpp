@@ -93,7 +93,7 @@ std::map<std::string, std::size_t> topic_index(const std::vector<BagTopic>& topi
 
 class Ros1Bag final : public MessageBag {
  public:
-  Ros1Bag(const fs::path& file, const BagOpenOptions& o) : r_(file, bag::ReaderOptions{o.force_scan}) {
+  Ros1Bag(const fs::path& file, const BagOpenOptions& o) : r_(file, ros1::ReaderOptions{o.force_scan}) {
     name_ = file.string();
     format_ = "ros1";
     for (const auto& t : r_.topics()) {
@@ -108,7 +108,7 @@ class Ros1Bag final : public MessageBag {
     BagMessage m;
     m.file = name_;
     r_.for_each_topic({topics.begin(), topics.end()},
-                      [&](const bag::MessageView& v) {
+                      [&](const ros1::MessageView& v) {
                         m.topic = &topics_[index_.at(v.connection->topic)];
                         m.log_time_ns = v.record_time_ns;
                         m.data = v.data;
@@ -120,7 +120,7 @@ class Ros1Bag final : public MessageBag {
   std::vector<BagWarning> warnings() const override { return offset_warnings(name_, r_.warnings()); }
 
  private:
-  bag::Reader r_;
+  ros1::Reader r_;
   std::map<std::string, std::size_t> index_;
 };
 
