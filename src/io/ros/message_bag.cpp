@@ -62,6 +62,20 @@ std::string MessageBag::first_damage() const {
   return d.empty() ? std::string() : (d.front().file != name_ ? d.front().file + ": " : "") + d.front().text();
 }
 
+std::string MessageBag::damage_summary() const {
+  const auto d = damage();
+  if (d.empty()) return {};
+  return first_damage() + "; " + std::to_string(d.size()) + " problem(s)";
+}
+
+std::string MessageBag::damage_listing() const {
+  if (damage().size() < 2) return {};
+  std::string s = "\nproblems found:";
+  for (const auto& w : warnings())
+    if (w.damage) s += "\n  " + (w.file != name_ ? w.file + ": " : std::string()) + w.text();
+  return s;
+}
+
 std::string MessageBag::topic_listing() const {
   std::string s;
   for (const auto& t : topics_) s += "\n  " + t.topic + " (" + t.type + ")";

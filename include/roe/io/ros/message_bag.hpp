@@ -86,6 +86,11 @@ class MessageBag {
   std::vector<BagWarning> damage() const;
   /// "LOCATION: MESSAGE" of the most specific damage ("" when none).
   std::string first_damage() const;
+  /// "LOCATION: MESSAGE; K problem(s)": the most specific damage and how many there are ("" when none).
+  std::string damage_summary() const;
+  /// "\nproblems found:" and every damage on a line of its own, in file order, when there are several
+  /// ("" otherwise).
+  std::string damage_listing() const;
   /// "\n  /topic (type)" for each topic, for error messages listing what the bag holds.
   std::string topic_listing() const;
 
