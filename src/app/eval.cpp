@@ -10,7 +10,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/io/json.hpp"
-#include "roe/io/bag.hpp"
+#include "roe/io/ros/message_bag.hpp"
 #include "roe/io/eval_report.hpp"
 #include "roe/io/evo_result.hpp"
 #include "roe/io/input.hpp"

@@ -8,9 +8,10 @@
 #include "roe/core/error.hpp"
 #include "roe/io/input.hpp"
 #include "roe/io/csv.hpp"
-#include "roe/io/bag.hpp"
+#include "roe/io/ros/message_bag.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/mocap_formats.hpp"
+#include "roe/io/ros/bag_poses.hpp"
 #include "roe/io/run_files.hpp"
 
 namespace roe::app {

@@ -1,6 +1,6 @@
 // roe import realsense: RealSense recorder bags and realsense-ros ROS 1 / ROS 2 bags → dataset folder.
-// Stream discovery is io::discover_realsense_streams (pure, shared by every bag generation); this file
-// reads the chosen streams (read_streams), merges the IMU (merge_imu), builds the camera model
+// The bag is read by io/ros/realsense_recording.hpp (discover_realsense_bag, read_realsense_recording);
+// this file merges the IMU (merge_imu), builds the camera model
 // (make_frame_processor), writes the images (write_images), finds T_I_C (camera_imu_extrinsics) and
 // writes the manifest (build_manifest).
 #include <algorithm>
@@ -14,13 +14,13 @@
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
 #include "roe/image/frame_processor.hpp"
-#include "roe/io/bag.hpp"
+#include "roe/io/ros/message_bag.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
-#include "roe/io/realsense_streams.hpp"
-#include "roe/io/ros_msgs.hpp"
+#include "roe/io/ros/realsense_recording.hpp"
+#include "roe/io/ros/msgs.hpp"
 
 namespace roe::app {
 namespace {
@@ -60,23 +60,6 @@ std::string join_or_none(const std::vector<std::string>& v) {
   return s.empty() ? "none" : s;
 }
 
-/// "LOCATION: what; K problem(s)", naming the most specific damage (MessageBag::damage).
-std::string damage_text(const io::MessageBag& b) {
-  const auto d = b.damage();
-  if (d.empty()) return {};
-  return fmt::format("{}; {} problem(s)", b.first_damage(), d.size());
-}
-
-/// Every damage on its own line, in file order, when there are several (else "").
-std::string damage_list(const io::MessageBag& b) {
-  const auto ws = b.warnings();
-  if (b.damage().size() < 2) return {};
-  std::string s = "\nproblems found:";
-  for (const auto& w : ws)
-    if (w.damage) s += "\n  " + (w.file != b.name() ? w.file + ": " : std::string()) + w.text();
-  return s;
-}
-
 void write_xyz_csv(const fs::path& file, const std::vector<Vec3Stamped>& v, const char* unit) {
   io::CsvWriter w;
   w.header({"timestamp [ns]", std::string("x [") + unit + "]", std::string("y [") + unit + "]",
@@ -90,109 +73,13 @@ void write_xyz_csv(const fs::path& file, const std::vector<Vec3Stamped>& v, cons
 /// (a truncated bag), after the stream pass, and after the images, never after writing everything.
 void fail_if_damaged(const io::MessageBag& bag, bool salvage) {
   if (bag.damaged() && !salvage)
-    throw InputError("the bag is damaged (" + damage_text(bag) + "); use --salvage to import the part that is intact" +
-                         damage_list(bag),
+    throw InputError("the bag is damaged (" + bag.damage_summary() + "); use --salvage to import the part that is intact" +
+                         bag.damage_listing(),
                      {bag.name()});
 }
 
-/// Recorder layout: sensor prefix → its "Name" (diagnostic_msgs/KeyValue on /device_D/sensor_S/info).
-std::map<std::string, std::string> read_sensor_names(io::MessageBag& bag) {
-  std::set<std::string> info;
-  for (const auto& t : bag.topics())
-    if (io::recorder_sensor_info(t.topic) && t.type == "diagnostic_msgs/KeyValue" && t.encoding == "ros1")
-      info.insert(t.topic);
-  std::map<std::string, std::string> names;
-  bag.for_each(info, [&](const io::BagMessage& m) {
-    const auto kv = ros::decode_key_value(m.data, m.where());
-    if (kv.key == "Name") names[*io::recorder_sensor_info(m.topic->topic)] = kv.value;
-    return true;
-  });
-  return names;
-}
-
-io::RealsenseStreams discover(io::MessageBag& bag, const ImportRealsenseOptions& opt) {
-  std::vector<io::TopicType> tt;
-  bool recorder = false;
-  for (const auto& t : bag.topics()) {
-    tt.push_back({t.topic, t.type});
-    recorder = recorder || io::recorder_stream(t.topic).has_value();
-  }
-  try {
-    return io::discover_realsense_streams(tt, {opt.color_topic, opt.accel_topic, opt.gyro_topic, opt.imu_topic},
-                                          recorder ? read_sensor_names(bag) : std::map<std::string, std::string>{});
-  } catch (const InputError& e) {
-    if (bag.damaged() && e.bare_message().rfind("no colour image and no IMU stream", 0) == 0)
-      // e.g. cut inside its first chunk: the topics are in the part that is lost
-      throw InputError("the bag is damaged (" + damage_text(bag) +
-                           ") and its intact part has no colour image and no IMU stream: nothing to import, "
-                           "even with --salvage" + damage_list(bag),
-                       {bag.name()});
-    throw InputError(e.bare_message(), {bag.name()});
-  }
-}
-
-/// Everything but the images, read in one pass over the bag.
-struct StreamData {
-  std::optional<ros::CameraInfo> cam_info;
-  std::vector<Vec3Stamped> accel, gyro;
-  std::vector<ImuSample> united;
-  std::map<std::string, std::string> domain_of;  // metadata topic → its first timestamp_domain
-  std::optional<ros::ImuIntrinsic> accel_intr, gyro_intr;
-  std::uint32_t color_fps = 0, accel_fps = 0, gyro_fps = 0;
-  std::map<std::string, ros::Transform> recorder_tf;  // recorder: stream label → tf/0
-  std::vector<ros::StampedTransform> tf_static;       // realsense-ros: /tf_static
-  std::string imu_frame;                              // header.frame_id of the united (else gyro) samples
-};
-
-StreamData read_streams(io::MessageBag& bag, const io::RealsenseStreams& st) {
-  StreamData d;
-  std::set<std::string> topics = {st.camera_info_topic, st.color_info_topic, st.metadata_topic,  st.accel_topic,
-                                  st.gyro_topic,        st.imu_topic,        st.accel_info_topic, st.gyro_info_topic,
-                                  st.accel_intr_topic,  st.gyro_intr_topic,  st.accel_meta_topic, st.gyro_meta_topic,
-                                  st.tf_static_topic};
-  // Every recorder stream's tf/0 for the extrinsics record.
-  for (const auto& t : bag.topics()) {
-    const auto s = io::recorder_stream(t.topic);
-    if (s && t.topic == s->prefix + "/tf/0" && t.type == "geometry_msgs/Transform") topics.insert(t.topic);
-  }
-  topics.erase("");
-  bag.for_each(topics, [&](const io::BagMessage& m) {
-    const std::string& t = m.topic->topic;
-    if (t == st.camera_info_topic) {
-      if (!d.cam_info) d.cam_info = io::decode_camera_info(m);
-    } else if (t == st.imu_topic) {  // before accel/gyro: a united topic given as one of them too
-      const auto imu = io::decode_imu(m);
-      d.united.push_back({imu.header.stamp_ns, imu.angular_velocity, imu.linear_acceleration});
-      if (d.imu_frame.empty()) d.imu_frame = imu.header.frame_id;
-    } else if (t == st.accel_topic || t == st.gyro_topic) {
-      const auto imu = io::decode_imu(m);
-      if (t == st.accel_topic) d.accel.emplace_back(imu.header.stamp_ns, imu.linear_acceleration);
-      if (t == st.gyro_topic) d.gyro.emplace_back(imu.header.stamp_ns, imu.angular_velocity);
-      if (t == st.gyro_topic && st.imu_topic.empty() && d.imu_frame.empty()) d.imu_frame = imu.header.frame_id;
-    } else if (t == st.tf_static_topic) {
-      for (auto& tr : io::decode_tf_message(m)) d.tf_static.push_back(std::move(tr));
-    } else if (t == st.metadata_topic || t == st.accel_meta_topic || t == st.gyro_meta_topic) {
-      const auto kv = ros::decode_key_value(m.data, m.where());
-      if (kv.key == "timestamp_domain" && !d.domain_of.count(t)) d.domain_of[t] = kv.value;
-    } else if (t == st.color_info_topic) {
-      d.color_fps = ros::decode_stream_info(m.data, m.where()).fps;
-    } else if (t == st.accel_info_topic || t == st.gyro_info_topic) {
-      (t == st.accel_info_topic ? d.accel_fps : d.gyro_fps) = ros::decode_stream_info(m.data, m.where()).fps;
-    } else if (t == st.accel_intr_topic || t == st.gyro_intr_topic) {
-      const auto ii = m.topic->type == "realsense_msgs/ImuIntrinsic" ? ros::decode_rs_imu_intrinsic(m.data, m.where())
-                                                                      : ros::decode_rs2_imu_info(m.data, m.where());
-      (t == st.accel_intr_topic ? d.accel_intr : d.gyro_intr) = ii;
-    } else {
-      const auto s = io::recorder_stream(t);
-      if (s && !d.recorder_tf.count(s->label)) d.recorder_tf[s->label] = ros::decode_transform(m.data, m.where());
-    }
-    return true;
-  });
-  return d;
-}
-
 /// The IMU samples of imu0: the united topic, or accel interpolated at the gyro stamps.
-std::vector<ImuSample> merge_imu(StreamData& d, const io::RealsenseStreams& st, const std::string& bag_name,
+std::vector<ImuSample> merge_imu(io::RealsenseRecording& d, const io::RealsenseStreams& st, const std::string& bag_name,
                                  ImportRealsenseSummary& S) {
   std::vector<ImuSample> imu;
   std::size_t dup = 0;
@@ -240,7 +127,7 @@ std::vector<ImuSample> merge_imu(StreamData& d, const io::RealsenseStreams& st, 
 }
 
 /// Each stream's timestamp_domain (recorder metadata) and the warnings when the clocks differ.
-void check_clocks(const StreamData& d, const io::RealsenseStreams& st, bool have_imu_stream, ImportRealsenseSummary& S) {
+void check_clocks(const io::RealsenseRecording& d, const io::RealsenseStreams& st, bool have_imu_stream, ImportRealsenseSummary& S) {
   const auto domain = [&](const std::string& t) { return d.domain_of.count(t) ? d.domain_of.at(t) : std::string(); };
   const std::string color_domain = domain(st.metadata_topic);
   const std::string accel_domain = domain(st.accel_meta_topic), gyro_domain = domain(st.gyro_meta_topic);
@@ -260,13 +147,13 @@ void check_clocks(const StreamData& d, const io::RealsenseStreams& st, bool have
 }
 
 /// The camera model from the CameraInfo and the processing options (nullopt: no camera section).
-std::optional<image::FrameProcessor> make_frame_processor(const StreamData& d, const io::RealsenseStreams& st,
+std::optional<image::FrameProcessor> make_frame_processor(const io::RealsenseRecording& d, const io::RealsenseStreams& st,
                                                           const ImportRealsenseOptions& opt,
                                                           const io::MessageBag& bag, ImportRealsenseSummary& S) {
   if (st.color_topic.empty() && (st.camera_info_topic.empty() || !d.cam_info)) return std::nullopt;
   // Only reached with --salvage when the bag is damaged: the CameraInfo may be in the part that is lost.
   const std::string lost =
-      bag.damaged() ? " in the intact part of the bag: the bag is damaged (" + damage_text(bag) + ")" : std::string();
+      bag.damaged() ? " in the intact part of the bag: the bag is damaged (" + bag.damage_summary() + ")" : std::string();
   if (!d.cam_info && !opt.images) {
     S.warnings.push_back("no CameraInfo for the colour stream" + lost + ": no camera section written");
     return std::nullopt;
@@ -274,7 +161,7 @@ std::optional<image::FrameProcessor> make_frame_processor(const StreamData& d, c
   if (!d.cam_info)
     throw InputError("no CameraInfo for the colour stream (expected on " +
                          (st.camera_info_topic.empty() ? std::string("<color>/camera_info") : st.camera_info_topic) +
-                         ")" + lost + (lost.empty() ? "" : "; --no-images imports the IMU without it") + damage_list(bag),
+                         ")" + lost + (lost.empty() ? "" : "; --no-images imports the IMU without it") + bag.damage_listing(),
                      {bag.name()});
   const ros::CameraInfo& ci = *d.cam_info;
   image::CameraModel cm;
@@ -353,7 +240,7 @@ std::vector<CameraFrame> write_images(io::MessageBag& bag, const std::string& to
 
 /// The prior T_I_C: recorder tf/0 of the colour and accel streams, or realsense-ros /tf_static from
 /// the IMU messages' frame to the CameraInfo's frame; identity (with a warning) when neither is there.
-Pose camera_imu_extrinsics(const StreamData& d, const io::RealsenseStreams& st, bool have_imu,
+Pose camera_imu_extrinsics(const io::RealsenseRecording& d, const io::RealsenseStreams& st, bool have_imu,
                            ImportRealsenseSummary& S, std::string& source) {
   for (const auto& [label, tf] : d.recorder_tf) S.extrinsics[label] = Pose(tf.q.normalized(), tf.t);
   const auto color_label = io::recorder_stream(st.color_topic);
@@ -456,7 +343,7 @@ namespace {
 
 /// roe.json: provenance of the bag and the effective import options, IMU and camera sections.
 DatasetManifest build_manifest(const fs::path& bag_path, const io::MessageBag& bag, const io::RealsenseStreams& st,
-                               const StreamData& d, const std::vector<ImuSample>& imu,
+                               const io::RealsenseRecording& d, const std::vector<ImuSample>& imu,
                                const std::optional<image::FrameProcessor>& proc, const Pose& T_I_C,
                                const std::string& T_I_C_source, bool united, const ImportRealsenseOptions& opt,
                                ImportRealsenseSummary& S) {
@@ -552,7 +439,8 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
   io::BagOpenOptions bo;
   bo.allow_missing_files = opt.salvage;
   const auto bag = io::open_bag(bag_path, bo);
-  const io::RealsenseStreams st = discover(*bag, opt);
+  const io::RealsenseStreams st =
+      io::discover_realsense_bag(*bag, {opt.color_topic, opt.accel_topic, opt.gyro_topic, opt.imu_topic});
   S.layout = st.layout;
   S.color_topic = st.color_topic;
   S.accel_topic = st.accel_topic;
@@ -561,7 +449,7 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
   S.warnings = st.warnings;
   fail_if_damaged(*bag, opt.salvage);
 
-  StreamData d = read_streams(*bag, st);
+  io::RealsenseRecording d = io::read_realsense_recording(*bag, st);
   fail_if_damaged(*bag, opt.salvage);
   const bool united = !d.united.empty();
   const std::vector<ImuSample> imu = merge_imu(d, st, bag->name(), S);

@@ -17,10 +17,10 @@
 #include "roe/io/csv.hpp"
 #include "roe/io/dataset.hpp"
 #include "roe/io/json.hpp"
-#include "roe/io/rosbag.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
 
 namespace fs = std::filesystem;
-namespace bag = roe::io::bag;
+namespace ros1 = roe::io::ros1;
 using namespace roe;
 
 namespace {
@@ -606,8 +606,8 @@ TEST_CASE("import realsense: a corrupt first chunk (CameraInfo) is reported as d
     spec.compression = "lz4";
     spec.n_frames = 3;
     std::string bytes = testing::generate_d435i_bag(spec);
-    const bag::ChunkInfo first = [&] {
-      bag::Reader r(bytes, "x");
+    const ros1::ChunkInfo first = [&] {
+      ros1::Reader r(bytes, "x");
       REQUIRE(r.chunks().size() > 2);
       return r.chunks()[0];
     }();

@@ -16,7 +16,7 @@
 #include "roe/math/so3.hpp"
 #include "fixtures/mcap_writer.hpp"
 #include "roe/app/run.hpp"
-#include "roe/io/cdr.hpp"
+#include "roe/io/ros/cdr.hpp"
 #include "support/test_util.hpp"
 
 namespace fs = std::filesystem;

@@ -11,8 +11,8 @@
 #include <string>
 
 #include "../fixtures/gen_d435i_bag.hpp"
-#include "roe/io/ros_msgs.hpp"
-#include "roe/io/rosbag.hpp"
+#include "roe/io/ros/msgs.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
 
 namespace fs = std::filesystem;
 using namespace roe;
@@ -31,10 +31,10 @@ struct Stat {
 
 Stat read_all(const fs::path& file) {
   const double t0 = now();
-  io::bag::Reader r(file);
+  io::ros1::Reader r(file);
   std::size_t n = 0, bytes = 0;
-  r.for_each([](const io::bag::Connection&) { return true; },
-             [&](const io::bag::MessageView& m) {
+  r.for_each([](const io::ros1::Connection&) { return true; },
+             [&](const io::ros1::MessageView& m) {
                ++n;
                bytes += m.data.size();
                if (m.connection->type == "sensor_msgs/Image") {

@@ -20,9 +20,9 @@
 #include <random>
 #include <string>
 
-#include "roe/io/cdr.hpp"
-#include "roe/io/compression.hpp"
-#include "roe/io/mcap.hpp"
+#include "roe/io/ros/cdr.hpp"
+#include "roe/io/ros/compression.hpp"
+#include "roe/io/ros/mcap.hpp"
 #include "../fixtures/mcap_writer.hpp"
 
 namespace fs = std::filesystem;

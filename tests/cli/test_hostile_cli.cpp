@@ -15,7 +15,7 @@
 #include <thread>
 #include <vector>
 
-#include "roe/io/compression.hpp"
+#include "roe/io/ros/compression.hpp"
 #include "roe/io/output.hpp"
 #include "support/test_util.hpp"
 

@@ -1,5 +1,6 @@
-// Architecture rules of DESIGN §5, checked on the sources: the estimator, math and the other
-// I/O-free areas include no I/O, JSON, OpenCV or CLI headers; eval does not depend on ekf.
+// Architecture rules of DESIGN §5 and docs/architecture.md, checked on the sources: the estimator, math and
+// the other I/O-free areas include no I/O, JSON, OpenCV or CLI headers; eval does not depend on ekf; the ROS
+// wing (io/ros) stands on core, math and io's file primitives, and only app reaches it.
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
@@ -86,6 +87,59 @@ TEST_CASE("math is the ground floor: it includes only math and the error types, 
     INFO("include/roe/core/error.hpp:" << n << ": " << line);
     CHECK_FALSE(std::regex_search(line, roe_inc));
   }
+}
+
+namespace {
+/// Every roe header included by a file of src/ or include/roe/, with the file's path relative to the
+/// source root ("src/io/ros/mcap.cpp") and the line.
+struct Include {
+  std::string file, header;
+  int line = 0;
+};
+std::vector<Include> roe_includes() {
+  std::vector<Include> out;
+  const std::regex inc(R"(^\s*#\s*include\s*[<"](roe/[^>"]+)[>"])");
+  const fs::path root(ROE_SOURCE_DIR);
+  for (const char* top : {"src", "include/roe"}) {
+    for (const auto& e : fs::recursive_directory_iterator(root / top)) {
+      if (!e.is_regular_file()) continue;
+      std::ifstream in(e.path());
+      std::string line;
+      for (int n = 1; std::getline(in, line); ++n) {
+        std::smatch m;
+        if (std::regex_search(line, m, inc))
+          out.push_back({fs::relative(e.path(), root).generic_string(), m[1].str(), n});
+      }
+    }
+  }
+  return out;
+}
+bool starts_with(const std::string& s, const std::string& prefix) { return s.rfind(prefix, 0) == 0; }
+bool in_ros_wing(const std::string& file) {
+  return starts_with(file, "src/io/ros/") || starts_with(file, "include/roe/io/ros/");
+}
+}  // namespace
+
+TEST_CASE("the ROS wing (io/ros) stands on core, math and io's file primitives, and only app includes it",
+          "[layering]") {
+  std::vector<std::string> bad;
+  for (const auto& i : roe_includes()) {
+    const std::string at = i.file + ":" + std::to_string(i.line) + ": " + i.header;
+    const bool ros_header = starts_with(i.header, "roe/io/ros/");
+    if (in_ros_wing(i.file)) {
+      // Below: core, math, eval's interpolation (tf chains), and of io only what reads and writes files and
+      // the motion-capture type the bag poses are returned in. Never the estimator, roe's own files or OpenCV.
+      const bool ok = ros_header || starts_with(i.header, "roe/core/") || starts_with(i.header, "roe/math/") ||
+                      i.header == "roe/eval/interpolate.hpp" || i.header == "roe/io/input.hpp" ||
+                      i.header == "roe/io/output.hpp" || i.header == "roe/io/mocap_formats.hpp";
+      if (!ok) bad.push_back(at);
+    } else if (ros_header && !starts_with(i.file, "src/app/")) {
+      bad.push_back(at);  // the rest of io, the algorithms, image, infer and cli reach bags through app
+    }
+  }
+  for (const auto& s : bad) UNSCOPED_INFO(s);
+  CHECK(bad.empty());
+  CHECK(violations({"io/ros"}, {"opencv", "torch", "CLI/"}).empty());
 }
 
 TEST_CASE("JSON is serialised only through io::dump_json (invalid UTF-8 must not throw)", "[layering]") {

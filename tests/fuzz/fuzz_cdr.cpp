@@ -7,7 +7,7 @@
 #include <string_view>
 
 #include "roe/core/error.hpp"
-#include "roe/io/cdr.hpp"
+#include "roe/io/ros/cdr.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;

@@ -7,8 +7,8 @@
 #include <string>
 
 #include "roe/core/error.hpp"
-#include "roe/io/cdr.hpp"
-#include "roe/io/mcap.hpp"
+#include "roe/io/ros/cdr.hpp"
+#include "roe/io/ros/mcap.hpp"
 
 namespace {
 void decode(const std::string& schema, std::string_view data) {

@@ -6,11 +6,11 @@
 #include <string>
 
 #include "roe/core/error.hpp"
-#include "roe/io/ros_msgs.hpp"
-#include "roe/io/rosbag.hpp"
+#include "roe/io/ros/msgs.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
 
 namespace {
-void decode(const roe::io::bag::MessageView& m) {
+void decode(const roe::io::ros1::MessageView& m) {
   namespace ros = roe::io::ros;
   const std::string& t = m.connection->type;
   const std::string w = "fuzz";
@@ -43,14 +43,14 @@ void decode(const roe::io::bag::MessageView& m) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   for (bool scan : {false, true}) {
     try {
-      roe::io::bag::ReaderOptions o;
+      roe::io::ros1::ReaderOptions o;
       o.force_scan = scan;
       o.max_chunk_bytes = 8u << 20;
-      roe::io::bag::Reader r(std::string(reinterpret_cast<const char*>(data), size), "fuzz", o);
+      roe::io::ros1::Reader r(std::string(reinterpret_cast<const char*>(data), size), "fuzz", o);
       (void)r.topics();
       (void)r.message_count();
-      r.for_each([](const roe::io::bag::Connection&) { return true; },
-                 [](const roe::io::bag::MessageView& m) {
+      r.for_each([](const roe::io::ros1::Connection&) { return true; },
+                 [](const roe::io::ros1::MessageView& m) {
                    decode(m);
                    return true;
                  });

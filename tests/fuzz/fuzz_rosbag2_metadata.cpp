@@ -4,8 +4,8 @@
 #include <fstream>
 
 #include "fuzz_support.hpp"
-#include "roe/io/bag.hpp"
-#include "roe/io/rosbag2.hpp"
+#include "roe/io/ros/message_bag.hpp"
+#include "roe/io/ros/rosbag2.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::filesystem::path& file = roe::fuzz::input_file(data, size, "metadata.yaml");

@@ -10,14 +10,14 @@
 #include <fstream>
 
 #include "roe/core/error.hpp"
-#include "roe/io/bag.hpp"
-#include "roe/io/compression.hpp"
+#include "roe/io/ros/message_bag.hpp"
+#include "roe/io/ros/compression.hpp"
 #include "roe/io/input.hpp"
-#include "roe/io/mcap.hpp"
+#include "roe/io/ros/mcap.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/poet_results.hpp"
-#include "roe/io/rosbag.hpp"
-#include "roe/io/rosbag2.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
+#include "roe/io/ros/rosbag2.hpp"
 #include "fixtures/bag_writer.hpp"
 #include "support/test_util.hpp"
 
@@ -101,11 +101,11 @@ TEST_CASE("ros1 bag: overlapping LZ4 chunks are not all held, a chunk beyond the
     w.write("/big", "std_msgs/String", 1000 - k, mib);
   }
   const std::string bytes = w.finish();
-  io::bag::ReaderOptions o;
+  io::ros1::ReaderOptions o;
   o.max_chunk_bytes = 4u << 20;
-  io::bag::Reader r(bytes, "overlap.bag", o);
+  io::ros1::Reader r(bytes, "overlap.bag", o);
   std::size_t n = 0;
-  r.for_each_topic({"/big"}, [&](const io::bag::MessageView& v) { return n += v.data.size() == mib.size(), true; });
+  r.for_each_topic({"/big"}, [&](const io::ros1::MessageView& v) { return n += v.data.size() == mib.size(), true; });
   CHECK(n == 16);
   bool said = false;
   for (const auto& w2 : r.warnings())
@@ -113,9 +113,9 @@ TEST_CASE("ros1 bag: overlapping LZ4 chunks are not all held, a chunk beyond the
   CHECK(said);
   // A limit below one chunk: each chunk is skipped with the limit named, nothing is allocated for it.
   o.max_chunk_bytes = 1u << 20;
-  io::bag::Reader small(bytes, "small.bag", o);
+  io::ros1::Reader small(bytes, "small.bag", o);
   n = 0;
-  small.for_each_topic({"/big"}, [&](const io::bag::MessageView&) { return ++n, true; });
+  small.for_each_topic({"/big"}, [&](const io::ros1::MessageView&) { return ++n, true; });
   CHECK(n == 0);
   bool limit = false;
   for (const auto& w2 : small.warnings())

@@ -17,7 +17,7 @@
 #include "roe/io/kalibr.hpp"
 #include "roe/io/mocap_formats.hpp"
 #include "roe/io/poet_results.hpp"
-#include "roe/io/rosbag.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "support/test_util.hpp"
 
@@ -66,7 +66,7 @@ void read_with_every_reader(const fs::path& p) {
   CHECK_THROWS_AS(read_motive_csv(p, ""), roe::InputError);
   CHECK_THROWS_AS(read_kalibr_camchain(p), roe::InputError);
   CHECK_THROWS_AS(read_poet_results(p), roe::InputError);
-  CHECK_THROWS_AS(bag::Reader(p), roe::InputError);
+  CHECK_THROWS_AS(ros1::Reader(p), roe::InputError);
 }
 
 }  // namespace

@@ -9,8 +9,9 @@
 #include "support/test_util.hpp"
 #include "fixtures/bag_writer.hpp"
 #include "roe/io/mocap_formats.hpp"
+#include "roe/io/ros/bag_poses.hpp"
 #include "roe/io/output.hpp"
-#include "roe/io/ros_msgs.hpp"
+#include "roe/io/ros/msgs.hpp"
 #include "roe/math/so3.hpp"
 
 namespace fs = std::filesystem;

@@ -3,7 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include "roe/core/error.hpp"
-#include "roe/io/realsense_streams.hpp"
+#include "roe/io/ros/realsense_streams.hpp"
 #include "roe/math/so3.hpp"
 
 using namespace roe;

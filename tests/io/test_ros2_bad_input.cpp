@@ -10,11 +10,12 @@
 #include <fstream>
 
 #include "roe/core/error.hpp"
-#include "roe/io/bag.hpp"
-#include "roe/io/cdr.hpp"
-#include "roe/io/compression.hpp"
-#include "roe/io/mcap.hpp"
+#include "roe/io/ros/message_bag.hpp"
+#include "roe/io/ros/cdr.hpp"
+#include "roe/io/ros/compression.hpp"
+#include "roe/io/ros/mcap.hpp"
 #include "roe/io/mocap_formats.hpp"
+#include "roe/io/ros/bag_poses.hpp"
 #include "support/test_util.hpp"
 
 namespace fs = std::filesystem;

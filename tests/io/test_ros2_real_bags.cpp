@@ -7,9 +7,9 @@
 #include <filesystem>
 #include <map>
 
-#include "roe/io/bag.hpp"
-#include "roe/io/mcap.hpp"
-#include "roe/io/rosbag2.hpp"
+#include "roe/io/ros/message_bag.hpp"
+#include "roe/io/ros/mcap.hpp"
+#include "roe/io/ros/rosbag2.hpp"
 #include "support/test_util.hpp"
 
 namespace fs = std::filesystem;

@@ -7,12 +7,12 @@
 #include <fstream>
 
 #include "fixtures/gen_d435i_bag.hpp"
-#include "roe/io/ros_msgs.hpp"
-#include "roe/io/rosbag.hpp"
+#include "roe/io/ros/msgs.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
 
 namespace fs = std::filesystem;
 using namespace roe;
-namespace bag = roe::io::bag;
+namespace ros1 = roe::io::ros1;
 namespace ros = roe::io::ros;
 
 namespace {
@@ -35,9 +35,9 @@ std::string small_bag(const std::string& compression, bool indexed = true, std::
   return w.finish();
 }
 
-std::vector<Timestamp> imu_stamps(bag::Reader& r) {
+std::vector<Timestamp> imu_stamps(ros1::Reader& r) {
   std::vector<Timestamp> t;
-  r.for_each_topic({"/imu"}, [&](const bag::MessageView& m) {
+  r.for_each_topic({"/imu"}, [&](const ros1::MessageView& m) {
     const auto imu = ros::decode_imu(m.data, "test");
     CHECK(imu.angular_velocity.x() == static_cast<double>(imu.header.seq));
     t.push_back(imu.header.stamp_ns);
@@ -52,9 +52,9 @@ std::string shared(const char* rel) { return std::string(ROE_SHARED_DATA_DIR) + 
 std::uint32_t get_le32(const std::string& b, std::size_t at) { return ros::decode_uint32(b.substr(at, 4), "test"); }
 void put_le32(std::string& b, std::size_t at, std::uint32_t v) { b.replace(at, 4, ros::encode_uint32(v)); }
 
-std::size_t count_messages(bag::Reader& r) {
+std::size_t count_messages(ros1::Reader& r) {
   std::size_t n = 0;
-  r.for_each_topic({"/imu", "/pose"}, [&](const bag::MessageView&) {
+  r.for_each_topic({"/imu", "/pose"}, [&](const ros1::MessageView&) {
     ++n;
     return true;
   });
@@ -67,7 +67,7 @@ TEST_CASE("rosbag: round trip for every compression, indexed and unindexed", "[i
   for (const char* comp : {"none", "lz4", "bz2"}) {
     for (bool indexed : {true, false}) {
       INFO(comp << (indexed ? " indexed" : " unindexed"));
-      bag::Reader r(small_bag(comp, indexed), "mem.bag");
+      ros1::Reader r(small_bag(comp, indexed), "mem.bag");
       CHECK(r.indexed() == indexed);
       CHECK_FALSE(r.damaged());
       CHECK(r.chunks().size() > 5);
@@ -81,7 +81,7 @@ TEST_CASE("rosbag: round trip for every compression, indexed and unindexed", "[i
       CHECK(std::is_sorted(t.begin(), t.end()));
       CHECK(t.front() == 1'000'000'000LL);
       std::size_t poses = 0;
-      r.for_each_topic({"/pose"}, [&](const bag::MessageView& m) {
+      r.for_each_topic({"/pose"}, [&](const ros1::MessageView& m) {
         const auto p = ros::decode_pose_stamped(m.data, "t");
         CHECK(p.transform.t.x() == Approx(poses * 0.1));
         ++poses;
@@ -94,9 +94,9 @@ TEST_CASE("rosbag: round trip for every compression, indexed and unindexed", "[i
 
 TEST_CASE("rosbag: force_scan gives the same content as the index", "[io][rosbag]") {
   const std::string b = small_bag("lz4");
-  bag::ReaderOptions o;
+  ros1::ReaderOptions o;
   o.force_scan = true;
-  bag::Reader a(b, "a"), s(b, "s", o);
+  ros1::Reader a(b, "a"), s(b, "s", o);
   CHECK_FALSE(s.indexed());
   CHECK(a.message_count() == 330);
   CHECK(s.message_count() == 330);
@@ -115,14 +115,14 @@ TEST_CASE("rosbag: force_scan gives the same content as the index", "[io][rosbag
 TEST_CASE("rosbag: chunks beyond 64 KiB (growing decompression buffers) and progress totals", "[io][rosbag]") {
   for (const char* comp : {"none", "lz4", "bz2"}) {
     INFO(comp);
-    bag::Reader r(small_bag(comp, true, 1u << 20), "big.bag");
+    ros1::Reader r(small_bag(comp, true, 1u << 20), "big.bag");
     REQUIRE(r.chunks().size() == 1);
     REQUIRE(r.chunks()[0].uncompressed_size > (1u << 16));  // the decompressors start at 64 KiB
     CHECK(r.message_count() == 330);
     std::size_t seen = 0, last_done = 0, last_total = 0, calls = 0;
     r.for_each_topic(
         {"/imu"},
-        [&](const bag::MessageView& m) {
+        [&](const ros1::MessageView& m) {
           const auto imu = ros::decode_imu(m.data, "test");
           CHECK(imu.header.seq == seen);
           CHECK(imu.angular_velocity.z() == 0.5 * seen);
@@ -150,9 +150,9 @@ TEST_CASE("rosbag: iteration is in record-time order across chunks that overlap"
     m.header.seq = static_cast<std::uint32_t>(i);
     w.write("/a", "sensor_msgs/Imu", ts[i] * 1'000'000, ros::encode_imu(m));
   }
-  bag::Reader r(w.finish(), "mem");
+  ros1::Reader r(w.finish(), "mem");
   std::vector<Timestamp> got;
-  r.for_each_topic({"/a"}, [&](const bag::MessageView& m) {
+  r.for_each_topic({"/a"}, [&](const ros1::MessageView& m) {
     got.push_back(m.record_time_ns / 1'000'000);
     return true;
   });
@@ -162,16 +162,16 @@ TEST_CASE("rosbag: iteration is in record-time order across chunks that overlap"
 }
 
 TEST_CASE("rosbag: early stop", "[io][rosbag]") {
-  bag::Reader r(small_bag("none"), "mem");
+  ros1::Reader r(small_bag("none"), "mem");
   std::size_t n = 0;
-  r.for_each_topic({"/imu"}, [&](const bag::MessageView&) { return ++n < 7; });
+  r.for_each_topic({"/imu"}, [&](const ros1::MessageView&) { return ++n < 7; });
   CHECK(n == 7);
 }
 
 TEST_CASE("rosbag: wrong magic and other versions are InputErrors", "[io][rosbag]") {
-  CHECK_THROWS_AS(bag::Reader(std::string("hello world, not a bag at all"), "x"), InputError);
-  CHECK_THROWS_WITH(bag::Reader(std::string("#ROSBAG V1.2\nxxxxxxxxxxxxxxx"), "x"), Catch::Contains("version"));
-  CHECK_THROWS_WITH(bag::Reader(std::string(""), "x"), Catch::Contains("wrong magic"));
+  CHECK_THROWS_AS(ros1::Reader(std::string("hello world, not a bag at all"), "x"), InputError);
+  CHECK_THROWS_WITH(ros1::Reader(std::string("#ROSBAG V1.2\nxxxxxxxxxxxxxxx"), "x"), Catch::Contains("version"));
+  CHECK_THROWS_WITH(ros1::Reader(std::string(""), "x"), Catch::Contains("wrong magic"));
 }
 
 TEST_CASE("rosbag: a truncated bag yields its intact prefix and warns with the byte offset", "[io][rosbag]") {
@@ -180,7 +180,7 @@ TEST_CASE("rosbag: a truncated bag yields its intact prefix and warns with the b
     for (double frac : {0.9, 0.5, 0.2, 0.01}) {
       INFO(comp << " cut at " << frac);
       const std::size_t cut = static_cast<std::size_t>(full.size() * frac);
-      bag::Reader r(full.substr(0, cut), "cut.bag");
+      ros1::Reader r(full.substr(0, cut), "cut.bag");
       CHECK_FALSE(r.indexed());
       CHECK(r.damaged());
       bool offset_ok = false;
@@ -201,11 +201,11 @@ TEST_CASE("rosbag: a corrupt chunk is skipped with a warning, the others are rea
   for (const char* comp : {"lz4", "bz2"}) {
     INFO(comp);
     std::string b = small_bag(comp);
-    bag::Reader clean(b, "clean");
+    ros1::Reader clean(b, "clean");
     REQUIRE(clean.chunks().size() > 3);
     const auto& c = clean.chunks()[1];
     for (std::size_t i = 8; i < std::min<std::size_t>(c.data_size, 200); ++i) b[c.data_offset + i] ^= 0x5A;
-    bag::Reader r(b, "bad");
+    ros1::Reader r(b, "bad");
     const auto t = imu_stamps(r);
     CHECK(t.size() < 300);
     CHECK(t.size() > 200);
@@ -219,9 +219,9 @@ TEST_CASE("rosbag: a corrupt chunk is skipped with a warning, the others are rea
 
 TEST_CASE("rosbag: a record whose lengths overrun its chunk ends the chunk there, with the reason", "[io][rosbag]") {
   const std::string clean_bytes = small_bag("none");
-  bag::Reader clean(clean_bytes, "clean");
+  ros1::Reader clean(clean_bytes, "clean");
   REQUIRE(clean.chunks().size() > 3);
-  const bag::ChunkInfo c = clean.chunks()[1];
+  const ros1::ChunkInfo c = clean.chunks()[1];
   REQUIRE(c.compression == "none");
   // The chunk's records: [u32 header length][header][u32 data length][data] ... up to data_size.
   std::vector<std::size_t> records;
@@ -241,7 +241,7 @@ TEST_CASE("rosbag: a record whose lengths overrun its chunk ends the chunk there
     INFO(why);
     std::string b = clean_bytes;
     put_le32(b, c.data_offset + field, value);
-    bag::Reader r(b, "bad.bag");
+    ros1::Reader r(b, "bad.bag");
     CHECK(count_messages(r) == all - 1);  // only the damaged record is lost
     bool found = false;
     for (const auto& w : r.warnings())
@@ -259,13 +259,13 @@ TEST_CASE("rosbag: a record whose lengths overrun its chunk ends the chunk there
 
 TEST_CASE("rosbag: unknown compression and absurd sizes are skipped, not trusted", "[io][rosbag]") {
   std::string b = small_bag("none");
-  bag::Reader clean(b, "clean");
+  ros1::Reader clean(b, "clean");
   const auto& c = clean.chunks()[0];
   // Rewrite the compression field value "none" → "zstd" in the chunk header.
   const std::size_t p = b.find("compression=none", c.offset);
   REQUIRE(p != std::string::npos);
   b.replace(p + 12, 4, "zstd");
-  bag::Reader r(b, "zstd");
+  ros1::Reader r(b, "zstd");
   CHECK(imu_stamps(r).size() < 300);
   CHECK(r.first_damage().find("zstd") != std::string::npos);
 }
@@ -324,7 +324,7 @@ TEST_CASE("rosbag: the real RealSense recorder bag", "[io][rosbag][shared]") {
     WARN("skipped: " << f << " absent");
     return;
   }
-  bag::Reader r(f);
+  ros1::Reader r(f);
   CHECK(r.indexed());
   CHECK_FALSE(r.damaged());
   CHECK(r.connections().size() == 70);
@@ -334,7 +334,7 @@ TEST_CASE("rosbag: the real RealSense recorder bag", "[io][rosbag][shared]") {
   CHECK(r.message_count("/device_0/sensor_1/Color_0/image/data") == 1);
   int seen = 0;
   r.for_each_topic({"/device_0/sensor_1/Color_0/info/camera_info", "/device_0/sensor_1/Color_0/image/data", "/file_version"},
-                   [&](const bag::MessageView& m) {
+                   [&](const ros1::MessageView& m) {
                      if (m.connection->topic == "/file_version") {
                        CHECK(ros::decode_uint32(m.data, "v") == 3);  // file_version 3 (SDK of 2018)
                      } else if (m.connection->type == "sensor_msgs/CameraInfo") {
@@ -363,7 +363,7 @@ TEST_CASE("rosbag: the evo example bag (uncompressed, PoseStamped)", "[io][rosba
     WARN("skipped: " << f << " absent");
     return;
   }
-  bag::Reader r(f);
+  ros1::Reader r(f);
   CHECK(r.indexed());
   CHECK(r.message_count("groundtruth") == 12765);
   CHECK(r.message_count("ORB-SLAM") == 8362);
@@ -405,7 +405,7 @@ TEST_CASE("ros_msgs: librealsense >= 2.49 images (header.version \"1\") end with
 TEST_CASE("rosbag: damage() names the most specific problem first, the index fallback after it", "[io][rosbag]") {
   const std::string full = small_bag("none");
   const std::size_t cut = full.size() / 2;
-  bag::Reader r(full.substr(0, cut), "cut.bag");
+  ros1::Reader r(full.substr(0, cut), "cut.bag");
   const auto d = r.damage();
   REQUIRE(d.size() == 2);
   // The scan's truncated record (where the data ends) before "index position past the end of the file".
@@ -418,6 +418,6 @@ TEST_CASE("rosbag: damage() names the most specific problem first, the index fal
   CHECK(d[1].offset == 13);
   CHECK(r.first_damage().find("byte 13: index position") == 0);  // file order is kept there
   // An intact bag has none; an unindexed one only a note, not damage.
-  CHECK(bag::Reader(full, "ok.bag").damage().empty());
-  CHECK(bag::Reader(small_bag("none", false), "unindexed.bag").damage().empty());
+  CHECK(ros1::Reader(full, "ok.bag").damage().empty());
+  CHECK(ros1::Reader(small_bag("none", false), "unindexed.bag").damage().empty());
 }

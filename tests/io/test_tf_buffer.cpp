@@ -10,7 +10,8 @@
 
 #include "roe/core/error.hpp"
 #include "roe/io/mocap_formats.hpp"
-#include "roe/io/tf_buffer.hpp"
+#include "roe/io/ros/bag_poses.hpp"
+#include "roe/io/ros/tf_buffer.hpp"
 #include "roe/math/so3.hpp"
 
 namespace fs = std::filesystem;

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// Motion-capture exports (notes/formats.md §3): OptiTrack Motive CSV (format 1.2x–3.x), Vicon
-/// Nexus/Tracker CSV, and pose topics of ROS bags (geometry_msgs/PoseStamped, TransformStamped,
+/// Nexus/Tracker CSV, and pose topics of ROS bags (io/ros/bag_poses.hpp: geometry_msgs/PoseStamped, TransformStamped,
 /// PoseWithCovarianceStamped, nav_msgs/Odometry, tf2_msgs/TFMessage). TUM, EuRoC and cnspy files
 /// are read with io/trajectory_io.hpp.
 ///
@@ -56,13 +56,5 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body = "");
 /// section. The rotation (RX, RY, RZ) is a helical (axis-angle) vector in the unit of the units row;
 /// time = (Frame − first Frame) / rate. The Vicon world is Z up.
 MocapData read_vicon_csv(const fs::path& file, const std::string& body = "");
-
-/// Pose messages of one topic in a ROS 1 or ROS 2 bag (any kind io::open_bag reads), stamped with
-/// header.stamp (record time when the stamp is zero). For tf2_msgs/TFMessage topics (/tf),
-/// `child_frame` and `parent_frame` select the transform (required when the topic carries several).
-/// A damaged bag (truncated, corrupt chunk, missing split file) is an InputError naming the byte
-/// offset (or table row) unless `salvage`, which keeps what is intact (with warnings).
-MocapData read_bag_poses(const fs::path& bag, const std::string& topic, const std::string& child_frame = "",
-                         bool salvage = false, const std::string& parent_frame = "");
 
 }  // namespace roe::io

@@ -37,7 +37,9 @@ namespace roe::io {
 
 namespace fs = std::filesystem;
 
-/// One row of states.csv (and of trajectory.csv: t, p_W_I, q_W_I).
+/// The filter's state at one time as a run records it: a row of states.csv (t, x, T_I_C, sigma; trajectory.csv
+/// holds t, p_W_I, q_W_I of it) plus pose_cov, which the run keeps in memory for the consistency tests and
+/// no file carries (read_states_csv leaves it zero).
 struct StateRow {
   Timestamp t_ns = 0;
   ekf::CoreState x;

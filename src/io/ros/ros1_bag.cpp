@@ -1,22 +1,19 @@
-// ROS bag v2.0 reader (see include/roe/io/rosbag.hpp for the format summary).
-#include "roe/io/rosbag.hpp"
+// ROS bag v2.0 reader (see include/roe/io/ros/ros1_bag.hpp for the format summary).
+#include "roe/io/ros/ros1_bag.hpp"
 
-#include <bzlib.h>
 #include <fmt/format.h>
-#include <lz4frame.h>
 
 #include <algorithm>
 #include <cstring>
 #include <limits>
-#include <queue>
 #include <set>
 
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
-#include "roe/io/compression.hpp"
+#include "roe/io/ros/compression.hpp"
 #include "roe/io/input.hpp"
 
-namespace roe::io::bag {
+namespace roe::io::ros1 {
 namespace {
 
 constexpr char kMagic[] = "#ROSBAG V2.0\n";
@@ -154,143 +151,13 @@ bool parse_connection(const Header& h, std::string_view data, Connection& c) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-// Compression
-// ---------------------------------------------------------------------------------------------
-bool lz4_decompress(std::string_view in, std::size_t expected_size, std::string& out) {
-  // The output grows with what the decoder actually produces (doubling up to expected_size), so a
-  // corrupt size field on a tiny chunk costs nothing: no up-front zero-filled allocation.
-  out.clear();
-  out.resize(std::min<std::size_t>(expected_size, 1u << 16));
-  LZ4F_dctx* ctx = nullptr;
-  if (LZ4F_isError(LZ4F_createDecompressionContext(&ctx, LZ4F_VERSION))) return false;
-  std::size_t in_pos = 0, out_pos = 0;
-  bool ok = true;
-  while (true) {
-    if (out_pos == out.size() && out.size() < expected_size)
-      out.resize(std::min<std::size_t>(expected_size, 2 * out.size()));
-    std::size_t src_size = in.size() - in_pos;
-    std::size_t dst_size = out.size() - out_pos;
-    const std::size_t r = LZ4F_decompress(ctx, out.data() + out_pos, &dst_size, in.data() + in_pos,
-                                          &src_size, nullptr);
-    if (LZ4F_isError(r)) {
-      ok = false;
-      break;
-    }
-    in_pos += src_size;
-    out_pos += dst_size;
-    if (r == 0) break;  // frame complete
-    if (src_size == 0 && dst_size == 0 && (in_pos == in.size() || out_pos == expected_size)) {
-      ok = false;  // input exhausted before the end of the frame, or more output than announced
-      break;
-    }
-  }
-  LZ4F_freeDecompressionContext(ctx);
-  return ok && out_pos == expected_size;
-}
-
-std::string lz4_compress(std::string_view in) {
-  LZ4F_preferences_t prefs;
-  std::memset(&prefs, 0, sizeof prefs);
-  prefs.frameInfo.contentChecksumFlag = LZ4F_contentChecksumEnabled;
-  std::string out(LZ4F_compressFrameBound(in.size(), &prefs), '\0');
-  const std::size_t n = LZ4F_compressFrame(out.data(), out.size(), in.data(), in.size(), &prefs);
-  if (LZ4F_isError(n)) throw InternalError(std::string("LZ4 compression failed: ") + LZ4F_getErrorName(n));
-  out.resize(n);
-  return out;
-}
-
-bool bz2_decompress(std::string_view in, std::size_t expected_size, std::string& out) {
-  // Streaming, with the output grown as it is produced (see lz4_decompress).
-  if (in.size() > std::numeric_limits<unsigned>::max()) return false;
-  out.clear();
-  out.resize(std::min<std::size_t>(expected_size, 1u << 16));
-  bz_stream s;
-  std::memset(&s, 0, sizeof s);
-  if (BZ2_bzDecompressInit(&s, 0, 0) != BZ_OK) return false;
-  s.next_in = const_cast<char*>(in.data());  // libbz2 takes non-const pointers but does not write
-  s.avail_in = static_cast<unsigned>(in.size());
-  std::size_t out_pos = 0;
-  bool ok = false;
-  while (true) {
-    if (out_pos == out.size() && out.size() < expected_size)
-      out.resize(std::min<std::size_t>(expected_size, 2 * out.size()));
-    const std::size_t room = std::min<std::size_t>(out.size() - out_pos, std::numeric_limits<unsigned>::max());
-    s.next_out = out.data() + out_pos;
-    s.avail_out = static_cast<unsigned>(room);
-    const int r = BZ2_bzDecompress(&s);
-    out_pos += room - s.avail_out;
-    if (r == BZ_STREAM_END) {
-      ok = out_pos == expected_size;
-      break;
-    }
-    if (r != BZ_OK) break;
-    if (room - s.avail_out == 0 && (s.avail_in == 0 || out_pos == expected_size)) break;  // stuck
-  }
-  BZ2_bzDecompressEnd(&s);
-  return ok;
-}
-
-std::string bz2_compress(std::string_view in) {
-  unsigned len = static_cast<unsigned>(in.size() + in.size() / 100 + 600);
-  std::string out(len, '\0');
-  const int r = BZ2_bzBuffToBuffCompress(out.data(), &len, const_cast<char*>(in.data()),
-                                         static_cast<unsigned>(in.size()), 9, 0, 30);
-  if (r != BZ_OK) throw InternalError("bz2 compression failed");
-  out.resize(len);
-  return out;
-}
-
-// ---------------------------------------------------------------------------------------------
 // Reader
 // ---------------------------------------------------------------------------------------------
-Reader::Reader(const fs::path& file, ReaderOptions options)
-    : name_(file.string()), src_(open_file_source(file)), options_(options) {
-  open();
-}
+Reader::Reader(const fs::path& file, ReaderOptions options) : ChunkedReader(file, options) { open(); }
 
 Reader::Reader(std::string bytes, std::string name, ReaderOptions options)
-    : name_(std::move(name)), src_(memory_source(std::move(bytes))), options_(options) {
+    : ChunkedReader(std::move(bytes), std::move(name), options) {
   open();
-}
-
-Reader::~Reader() = default;
-Reader::Reader(Reader&&) noexcept = default;
-Reader& Reader::operator=(Reader&&) noexcept = default;
-
-std::uint64_t Reader::file_size() const { return src_->size(); }
-
-void Reader::warn(std::uint64_t offset, std::string message, bool damage) {
-  // A damaged chunk is met again by every iteration that reads it: one problem, one warning.
-  for (const auto& w : warnings_)
-    if (w.offset == offset && w.message == message) return;
-  log::debug("{}: byte {}: {}", name_, offset, message);
-  warnings_.push_back({offset, std::move(message), damage});
-}
-
-void Reader::warn_fallback(std::uint64_t offset, std::string message) {
-  warn(offset, message);
-  for (auto& w : warnings_)
-    if (w.offset == offset && w.message == message) w.index_fallback = true;
-}
-
-std::vector<Warning> Reader::damage() const {
-  std::vector<Warning> d;
-  for (const auto& w : warnings_)
-    if (w.damage) d.push_back(w);
-  std::stable_partition(d.begin(), d.end(), [](const Warning& w) { return !w.index_fallback; });
-  return d;
-}
-
-bool Reader::damaged() const {
-  for (const auto& w : warnings_)
-    if (w.damage) return true;
-  return false;
-}
-
-std::string Reader::first_damage() const {
-  for (const auto& w : warnings_)
-    if (w.damage) return "byte " + std::to_string(w.offset) + ": " + w.message;
-  return {};
 }
 
 void Reader::add_connection(Connection c) {
@@ -323,7 +190,6 @@ std::string read_file_record_header(const ByteSource& src, std::uint64_t pos, st
 }  // namespace
 
 void Reader::open() {
-  if (options_.max_chunk_bytes == 0) options_.max_chunk_bytes = chunk_decompression_limit(src_->size());
   char magic[kMagicLen];
   if (src_->read_at(0, magic, kMagicLen) != kMagicLen || std::memcmp(magic, kMagic, kMagicLen) != 0) {
     if (src_->size() >= 9 && std::memcmp(magic, "#ROSBAG V", 9) == 0)
@@ -619,7 +485,7 @@ void Reader::for_each(const std::function<bool(const Connection&)>& select,
   std::set<std::uint32_t> ids;
   for (const auto& c : connections_)
     if (select(c)) ids.insert(c.id);
-  // Chunks that hold any selected message, ordered by start time.
+  // Chunks that hold any selected message.
   std::vector<const ChunkInfo*> order;
   std::size_t total = 0;
   for (const auto& ch : chunks_) {
@@ -631,81 +497,34 @@ void Reader::for_each(const std::function<bool(const Connection&)>& select,
       total += n;
     }
   }
-  std::stable_sort(order.begin(), order.end(),
-                   [](const ChunkInfo* a, const ChunkInfo* b) { return a->start_ns < b->start_ns; });
-
-  // k-way merge: messages of a chunk are buffered (sharing the chunk's buffer) until no later
-  // chunk can hold an earlier message, i.e. up to the next chunk's start time.
-  struct Pending {
-    Timestamp t;
-    std::uint64_t seq;
-    std::shared_ptr<const std::string> buf;
-    std::string_view data;
-    const Connection* conn;
-    std::uint64_t chunk_offset;
-  };
-  auto later = [](const Pending& a, const Pending& b) { return a.t != b.t ? a.t > b.t : a.seq > b.seq; };
-  std::priority_queue<Pending, std::vector<Pending>, decltype(later)> heap(later);
-  std::uint64_t seq = 0;
-  std::size_t done = 0;
-  bool stop = false;
-  auto emit_until = [&](Timestamp limit, bool all) {
-    while (!stop && !heap.empty() && (all || heap.top().t < limit)) {
-      const Pending& p = heap.top();
-      MessageView v{p.conn, p.t, p.data, p.chunk_offset};
-      if (!fn(v)) stop = true;
-      heap.pop();
-      ++done;
-      if (progress) progress(std::min(done, total), total);
-    }
-  };
-  HeldChunks held;
-  bool over_budget = false;
-  for (std::size_t k = 0; k < order.size() && !stop; ++k) {
-    const ChunkInfo& c = *order[k];
+  TimeOrderedMerge<MessageView> merge(fn, progress, total);
+  merge_chunks<ChunkInfo>(order, merge, [&](const ChunkInfo& c) {
     std::string bytes;
     const bool loaded = load_chunk(c, bytes);
-    const auto buf = held.hold(std::move(bytes));
-    if (loaded) {
-      std::size_t p = 0;
-      BufRecord r;
-      std::string why;
-      while (p < buf->size()) {
-        if (!parse_buf_record(*buf, p, r, why)) {
-          warn(c.offset, "inside chunk at uncompressed offset " + std::to_string(p) + ": " + why +
-                             "; rest of the chunk skipped");
-          break;
-        }
-        if (r.header.op() == kOpMessage) {
-          std::uint32_t id = 0;
-          Timestamp t = 0;
-          if (r.header.u32("conn", id) && r.header.time("time", t)) {
-            if (ids.count(id)) {
-              auto it = conn_index_.find(id);
-              heap.push({t, seq++, buf, r.data, &connections_[it->second], c.offset});
-            }
-          } else {
-            warn(c.offset, "message record without conn/time fields at uncompressed offset " +
-                               std::to_string(p) + " skipped");
-          }
-        }
-        p = r.next;
+    const auto buf = merge.hold(std::move(bytes));
+    if (!loaded) return;
+    std::size_t p = 0;
+    BufRecord r;
+    std::string why;
+    while (p < buf->size()) {
+      if (!parse_buf_record(*buf, p, r, why)) {
+        warn(c.offset, "inside chunk at uncompressed offset " + std::to_string(p) + ": " + why +
+                           "; rest of the chunk skipped");
+        break;
       }
+      if (r.header.op() == kOpMessage) {
+        std::uint32_t id = 0;
+        Timestamp t = 0;
+        if (r.header.u32("conn", id) && r.header.time("time", t)) {
+          if (ids.count(id)) merge.push(t, buf, {&connections_[conn_index_.at(id)], t, r.data, c.offset});
+        } else {
+          warn(c.offset, "message record without conn/time fields at uncompressed offset " + std::to_string(p) +
+                             " skipped");
+        }
+      }
+      p = r.next;
     }
-    const Timestamp next_start =
-        k + 1 < order.size() ? order[k + 1]->start_ns : std::numeric_limits<Timestamp>::max();
-    emit_until(next_start, k + 1 == order.size());
-    // Chunks overlapping in time wait together; beyond one chunk's limit of them, what waits goes out now.
-    if (held.bytes() + heap.size() * sizeof(Pending) > options_.max_chunk_bytes) {
-      if (!over_budget)
-        warn(c.offset, fmt::format("chunks overlapping in time hold more than {} decompressed bytes: messages "
-                                   "from here on may be out of time order", options_.max_chunk_bytes),
-             false);
-      over_budget = true;
-      emit_until(0, true);
-    }
-  }
-  emit_until(0, true);
+  });
 }
 
-}  // namespace roe::io::bag
+}  // namespace roe::io::ros1

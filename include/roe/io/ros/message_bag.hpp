@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// One message-level interface over every bag roe reads, so importers do not care which generation a
-/// bag is: ROS 1 bags (rosbag.hpp), MCAP files (mcap.hpp; rosbag2's default storage, CDR or ROS 1
+/// bag is: ROS 1 bags (ros1_bag.hpp), MCAP files (mcap.hpp; rosbag2's default storage, CDR or ROS 1
 /// messages), rosbag2 SQLite databases (.db3) and rosbag2 folders (metadata.yaml with split files and
 /// file- or message-level zstd compression). The kind is decided by the content (magic bytes, or a
 /// folder holding metadata.yaml), never by the file name.
@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "roe/core/types.hpp"
-#include "roe/io/ros_msgs.hpp"
+#include "roe/io/ros/msgs.hpp"
 
 namespace roe::io {
 
@@ -86,6 +86,11 @@ class MessageBag {
   std::vector<BagWarning> damage() const;
   /// "LOCATION: MESSAGE" of the most specific damage ("" when none).
   std::string first_damage() const;
+  /// "LOCATION: MESSAGE; K problem(s)": the most specific damage and how many there are ("" when none).
+  std::string damage_summary() const;
+  /// "\nproblems found:" and every damage on a line of its own, in file order, when there are several
+  /// ("" otherwise).
+  std::string damage_listing() const;
   /// "\n  /topic (type)" for each topic, for error messages listing what the bag holds.
   std::string topic_listing() const;
 

@@ -35,16 +35,4 @@ struct OffsetWarning {
   bool index_fallback = false;
 };
 
-/// The decompressed chunks a reader's k-way merge holds while their messages wait for their turn (MCAP,
-/// ROS 1): hold() takes a chunk's bytes and counts them until the last message view of it is dropped, so the
-/// merge can bound what it keeps (ReaderOptions::max_chunk_bytes) even when a file's chunks all overlap.
-class HeldChunks {
- public:
-  std::shared_ptr<const std::string> hold(std::string bytes);
-  std::uint64_t bytes() const { return *total_; }
-
- private:
-  std::shared_ptr<std::uint64_t> total_ = std::make_shared<std::uint64_t>(0);
-};
-
 }  // namespace roe::io

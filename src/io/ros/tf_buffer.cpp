@@ -1,4 +1,4 @@
-#include "roe/io/tf_buffer.hpp"
+#include "roe/io/ros/tf_buffer.hpp"
 
 #include <fmt/format.h>
 

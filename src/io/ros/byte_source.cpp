@@ -1,5 +1,5 @@
-// File and memory byte sources (include/roe/io/byte_source.hpp).
-#include "roe/io/byte_source.hpp"
+// File and memory byte sources (include/roe/io/ros/byte_source.hpp).
+#include "roe/io/ros/byte_source.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -47,20 +47,5 @@ class MemorySource final : public ByteSource {
 
 std::unique_ptr<ByteSource> open_file_source(const fs::path& file) { return std::make_unique<FileSource>(file); }
 std::unique_ptr<ByteSource> memory_source(std::string bytes) { return std::make_unique<MemorySource>(std::move(bytes)); }
-
-std::shared_ptr<const std::string> HeldChunks::hold(std::string bytes) {
-  struct Node {
-    std::string bytes;
-    std::shared_ptr<std::uint64_t> total;
-    Node(std::string b, std::shared_ptr<std::uint64_t> t) : bytes(std::move(b)), total(std::move(t)) {
-      *total += bytes.size();
-    }
-    ~Node() { *total -= bytes.size(); }
-    Node(const Node&) = delete;
-    Node& operator=(const Node&) = delete;
-  };
-  auto node = std::make_shared<Node>(std::move(bytes), total_);
-  return std::shared_ptr<const std::string>(node, &node->bytes);
-}
 
 }  // namespace roe::io

@@ -1,9 +1,9 @@
-// CDR (XCDR1) decoders of the ROS 2 messages roe imports (include/roe/io/cdr.hpp).
-#include "roe/io/cdr.hpp"
+// CDR (XCDR1) decoders of the ROS 2 messages roe imports (include/roe/io/ros/cdr.hpp).
+#include "roe/io/ros/cdr.hpp"
 
 #include <cstring>
 
-#include "ros_layouts.hpp"
+#include "layouts.hpp"
 
 namespace roe::io::cdr {
 

@@ -1,10 +1,14 @@
-// zstd helpers (include/roe/io/compression.hpp).
-#include "roe/io/compression.hpp"
+// The decompressors of the bag readers: zstd, LZ4 frames, bzip2 (include/roe/io/ros/compression.hpp).
+#include "roe/io/ros/compression.hpp"
 
+#include <bzlib.h>
 #include <fmt/format.h>
+#include <lz4frame.h>
 #include <zstd.h>
 
 #include <algorithm>
+#include <cstring>
+#include <limits>
 #include <fstream>
 #include <memory>
 #include <vector>
@@ -120,6 +124,93 @@ void zstd_decompress_file(const std::filesystem::path& in, const std::filesystem
                      {in.string()});
   o.flush();
   if (!o) throw InputError("cannot write the decompressed copy", {out.string()});
+}
+
+// ---------------------------------------------------------------------------------------------
+// LZ4 frames and bzip2 (ROS 1 chunks; LZ4 also MCAP chunks)
+// ---------------------------------------------------------------------------------------------
+bool lz4_decompress(std::string_view in, std::size_t expected_size, std::string& out) {
+  // The output grows with what the decoder actually produces (doubling up to expected_size), so a
+  // corrupt size field on a tiny chunk costs nothing: no up-front zero-filled allocation.
+  out.clear();
+  out.resize(std::min<std::size_t>(expected_size, 1u << 16));
+  LZ4F_dctx* ctx = nullptr;
+  if (LZ4F_isError(LZ4F_createDecompressionContext(&ctx, LZ4F_VERSION))) return false;
+  std::size_t in_pos = 0, out_pos = 0;
+  bool ok = true;
+  while (true) {
+    if (out_pos == out.size() && out.size() < expected_size)
+      out.resize(std::min<std::size_t>(expected_size, 2 * out.size()));
+    std::size_t src_size = in.size() - in_pos;
+    std::size_t dst_size = out.size() - out_pos;
+    const std::size_t r = LZ4F_decompress(ctx, out.data() + out_pos, &dst_size, in.data() + in_pos,
+                                          &src_size, nullptr);
+    if (LZ4F_isError(r)) {
+      ok = false;
+      break;
+    }
+    in_pos += src_size;
+    out_pos += dst_size;
+    if (r == 0) break;  // frame complete
+    if (src_size == 0 && dst_size == 0 && (in_pos == in.size() || out_pos == expected_size)) {
+      ok = false;  // input exhausted before the end of the frame, or more output than announced
+      break;
+    }
+  }
+  LZ4F_freeDecompressionContext(ctx);
+  return ok && out_pos == expected_size;
+}
+
+std::string lz4_compress(std::string_view in) {
+  LZ4F_preferences_t prefs;
+  std::memset(&prefs, 0, sizeof prefs);
+  prefs.frameInfo.contentChecksumFlag = LZ4F_contentChecksumEnabled;
+  std::string out(LZ4F_compressFrameBound(in.size(), &prefs), '\0');
+  const std::size_t n = LZ4F_compressFrame(out.data(), out.size(), in.data(), in.size(), &prefs);
+  if (LZ4F_isError(n)) throw InternalError(std::string("LZ4 compression failed: ") + LZ4F_getErrorName(n));
+  out.resize(n);
+  return out;
+}
+
+bool bz2_decompress(std::string_view in, std::size_t expected_size, std::string& out) {
+  // Streaming, with the output grown as it is produced (see lz4_decompress).
+  if (in.size() > std::numeric_limits<unsigned>::max()) return false;
+  out.clear();
+  out.resize(std::min<std::size_t>(expected_size, 1u << 16));
+  bz_stream s;
+  std::memset(&s, 0, sizeof s);
+  if (BZ2_bzDecompressInit(&s, 0, 0) != BZ_OK) return false;
+  s.next_in = const_cast<char*>(in.data());  // libbz2 takes non-const pointers but does not write
+  s.avail_in = static_cast<unsigned>(in.size());
+  std::size_t out_pos = 0;
+  bool ok = false;
+  while (true) {
+    if (out_pos == out.size() && out.size() < expected_size)
+      out.resize(std::min<std::size_t>(expected_size, 2 * out.size()));
+    const std::size_t room = std::min<std::size_t>(out.size() - out_pos, std::numeric_limits<unsigned>::max());
+    s.next_out = out.data() + out_pos;
+    s.avail_out = static_cast<unsigned>(room);
+    const int r = BZ2_bzDecompress(&s);
+    out_pos += room - s.avail_out;
+    if (r == BZ_STREAM_END) {
+      ok = out_pos == expected_size;
+      break;
+    }
+    if (r != BZ_OK) break;
+    if (room - s.avail_out == 0 && (s.avail_in == 0 || out_pos == expected_size)) break;  // stuck
+  }
+  BZ2_bzDecompressEnd(&s);
+  return ok;
+}
+
+std::string bz2_compress(std::string_view in) {
+  unsigned len = static_cast<unsigned>(in.size() + in.size() / 100 + 600);
+  std::string out(len, '\0');
+  const int r = BZ2_bzBuffToBuffCompress(out.data(), &len, const_cast<char*>(in.data()),
+                                         static_cast<unsigned>(in.size()), 9, 0, 30);
+  if (r != BZ_OK) throw InternalError("bz2 compression failed");
+  out.resize(len);
+  return out;
 }
 
 }  // namespace roe::io

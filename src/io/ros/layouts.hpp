@@ -1,6 +1,6 @@
 #pragma once
 // The field layouts of the ROS messages roe imports, written once for both wire formats: the ROS 1
-// serialization (ros::Cursor, ros_msgs.cpp) and CDR for ROS 2 (cdr::Cursor, cdr.cpp). A cursor reads the
+// serialization (ros::Cursor, msgs.cpp) and CDR for ROS 2 (cdr::Cursor, cdr.cpp). A cursor reads the
 // primitives in its format (alignment, byte order, string and header encodings are its business):
 // u8, u32, f64, str, header, byte_sequence (uint8[] with its length), remaining() and fail(what).
 // Private to src/io.
@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <string>
 
-#include "roe/io/ros_msgs.hpp"
+#include "roe/io/ros/msgs.hpp"
 
 namespace roe::io::layout {
 
@@ -57,7 +57,7 @@ ros::Transform pose(C& c) {  // geometry_msgs/Pose or Transform: a vector and a 
   return t;
 }
 
-/// sensor_msgs/Image up to its data (the ROS 1 RealSense extension that may follow is ros_msgs.cpp's).
+/// sensor_msgs/Image up to its data (the ROS 1 RealSense extension that may follow is msgs.cpp's).
 template <class C>
 ros::Image image(C& c) {
   ros::Image m;

@@ -121,7 +121,7 @@ struct KeyValue {
 };
 
 /// Bounds-checked reader over one serialized message: the primitives; the messages' field layouts are
-/// shared with the ROS 2 decoders (src/io/ros_layouts.hpp).
+/// shared with the ROS 2 decoders (src/io/ros/layouts.hpp).
 class Cursor {
  public:
   Cursor(std::string_view data, std::string where) : d_(data), where_(std::move(where)) {}

@@ -1,6 +1,6 @@
 // One message-level interface over ROS 1 bags, MCAP, rosbag2 SQLite and rosbag2 folders
-// (include/roe/io/bag.hpp).
-#include "roe/io/bag.hpp"
+// (include/roe/io/ros/message_bag.hpp).
+#include "roe/io/ros/message_bag.hpp"
 
 #include <algorithm>
 #include <cstring>
@@ -12,12 +12,12 @@
 #include <fmt/format.h>
 
 #include "roe/core/error.hpp"
-#include "roe/io/cdr.hpp"
-#include "roe/io/compression.hpp"
-#include "roe/io/mcap.hpp"
+#include "roe/io/ros/cdr.hpp"
+#include "roe/io/ros/compression.hpp"
+#include "roe/io/ros/mcap.hpp"
 #include "roe/io/output.hpp"
-#include "roe/io/rosbag.hpp"
-#include "roe/io/rosbag2.hpp"
+#include "roe/io/ros/ros1_bag.hpp"
+#include "roe/io/ros/rosbag2.hpp"
 
 namespace roe::io {
 
@@ -62,6 +62,20 @@ std::string MessageBag::first_damage() const {
   return d.empty() ? std::string() : (d.front().file != name_ ? d.front().file + ": " : "") + d.front().text();
 }
 
+std::string MessageBag::damage_summary() const {
+  const auto d = damage();
+  if (d.empty()) return {};
+  return first_damage() + "; " + std::to_string(d.size()) + " problem(s)";
+}
+
+std::string MessageBag::damage_listing() const {
+  if (damage().size() < 2) return {};
+  std::string s = "\nproblems found:";
+  for (const auto& w : warnings())
+    if (w.damage) s += "\n  " + (w.file != name_ ? w.file + ": " : std::string()) + w.text();
+  return s;
+}
+
 std::string MessageBag::topic_listing() const {
   std::string s;
   for (const auto& t : topics_) s += "\n  " + t.topic + " (" + t.type + ")";
@@ -91,11 +105,38 @@ std::map<std::string, std::size_t> topic_index(const std::vector<BagTopic>& topi
   return m;
 }
 
-class Ros1Bag final : public MessageBag {
+/// What the ROS 1 and MCAP bags share over their chunked readers: the reader, the topic index, the warnings
+/// and the step from a reader's message to a BagMessage.
+template <class Reader>
+class ChunkedBag : public MessageBag {
  public:
-  Ros1Bag(const fs::path& file, const BagOpenOptions& o) : r_(file, bag::ReaderOptions{o.force_scan}) {
+  std::vector<BagWarning> warnings() const override { return offset_warnings(name_, r_.warnings()); }
+
+ protected:
+  ChunkedBag(const fs::path& file, const BagOpenOptions& o, const char* format) : r_(file, {o.force_scan}) {
     name_ = file.string();
-    format_ = "ros1";
+    format_ = format;
+  }
+  /// `m` (its file set) filled in for a message of `topic` and handed to `fn`; a topic not listed (an MCAP
+  /// channel met only inside a chunk) is passed over.
+  bool deliver(BagMessage& m, const std::string& topic, Timestamp t, std::string_view data, std::uint64_t chunk,
+               const std::function<bool(const BagMessage&)>& fn) const {
+    const auto it = index_.find(topic);
+    if (it == index_.end()) return true;
+    m.topic = &topics_[it->second];
+    m.log_time_ns = t;
+    m.data = data;
+    m.location = "chunk at byte " + std::to_string(chunk);
+    return fn(m);
+  }
+
+  Reader r_;
+  std::map<std::string, std::size_t> index_;  // topics_ by name
+};
+
+class Ros1Bag final : public ChunkedBag<ros1::Reader> {
+ public:
+  Ros1Bag(const fs::path& file, const BagOpenOptions& o) : ChunkedBag(file, o, "ros1") {
     for (const auto& t : r_.topics()) {
       const std::string type = r_.topic_type(t);
       topics_.push_back({t, normalize_ros_type(type), type, "ros1", r_.message_count(t)});
@@ -107,28 +148,18 @@ class Ros1Bag final : public MessageBag {
                 const ProgressCallback& progress) override {
     BagMessage m;
     m.file = name_;
-    r_.for_each_topic({topics.begin(), topics.end()},
-                      [&](const bag::MessageView& v) {
-                        m.topic = &topics_[index_.at(v.connection->topic)];
-                        m.log_time_ns = v.record_time_ns;
-                        m.data = v.data;
-                        m.location = "chunk at byte " + std::to_string(v.chunk_offset);
-                        return fn(m);
-                      },
-                      progress);
+    r_.for_each_topic(
+        {topics.begin(), topics.end()},
+        [&](const ros1::MessageView& v) {
+          return deliver(m, v.connection->topic, v.record_time_ns, v.data, v.chunk_offset, fn);
+        },
+        progress);
   }
-  std::vector<BagWarning> warnings() const override { return offset_warnings(name_, r_.warnings()); }
-
- private:
-  bag::Reader r_;
-  std::map<std::string, std::size_t> index_;
 };
 
-class McapBag final : public MessageBag {
+class McapBag final : public ChunkedBag<mcap::Reader> {
  public:
-  McapBag(const fs::path& file, const BagOpenOptions& o) : r_(file, mcap::ReaderOptions{o.force_scan}) {
-    name_ = file.string();
-    format_ = "mcap";
+  McapBag(const fs::path& file, const BagOpenOptions& o) : ChunkedBag(file, o, "mcap") {
     for (const auto& [id, c] : r_.channels()) {
       auto it = index_.find(c.topic);
       if (it == index_.end()) {
@@ -146,21 +177,10 @@ class McapBag final : public MessageBag {
     m.file = name_;
     r_.for_each([&](const mcap::Channel& c) { return topics.count(c.topic) != 0; },
                 [&](const mcap::MessageView& v) {
-                  const auto it = index_.find(v.channel->topic);
-                  if (it == index_.end()) return true;  // a channel met only inside a chunk
-                  m.topic = &topics_[it->second];
-                  m.log_time_ns = v.log_time_ns;
-                  m.data = v.data;
-                  m.location = "chunk at byte " + std::to_string(v.chunk_offset);
-                  return fn(m);
+                  return deliver(m, v.channel->topic, v.log_time_ns, v.data, v.chunk_offset, fn);
                 },
                 progress);
   }
-  std::vector<BagWarning> warnings() const override { return offset_warnings(name_, r_.warnings()); }
-
- private:
-  mcap::Reader r_;
-  std::map<std::string, std::size_t> index_;
 };
 
 class SqliteBag final : public MessageBag {

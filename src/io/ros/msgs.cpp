@@ -1,9 +1,9 @@
 // ROS1 message (de)serialization for the types roe imports.
-#include "roe/io/ros_msgs.hpp"
+#include "roe/io/ros/msgs.hpp"
 
 #include <cstring>
 
-#include "ros_layouts.hpp"
+#include "layouts.hpp"
 
 namespace roe::io::ros {
 

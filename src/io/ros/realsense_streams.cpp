@@ -1,5 +1,5 @@
-// Stream discovery for RealSense bags of every generation (include/roe/io/realsense_streams.hpp).
-#include "roe/io/realsense_streams.hpp"
+// Stream discovery for RealSense bags of every generation (include/roe/io/ros/realsense_streams.hpp).
+#include "roe/io/ros/realsense_streams.hpp"
 
 #include <algorithm>
 #include <set>

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
-/// zstd (libzstd) for the ROS 2 readers: MCAP chunks, rosbag2 message- and file-level compression.
-/// LZ4 frames are in rosbag.hpp (bag::lz4_decompress), shared by ROS 1 bags and MCAP chunks.
+/// The decompressors of the bag readers: zstd (libzstd) for MCAP chunks and rosbag2 message- and
+/// file-level compression, LZ4 frames (liblz4) for ROS 1 and MCAP chunks, bzip2 (libbz2) for ROS 1 chunks.
 
 #include <cstdint>
 #include <filesystem>
@@ -23,6 +23,15 @@ std::string zstd_compress(std::string_view in, int level = 1);
 /// at most `max_bytes` (InputError beyond, so a 200 KB zstd bomb cannot fill the disk). InputError naming `in`
 /// and the compressed byte offset on corrupt or truncated data.
 void zstd_decompress_file(const std::filesystem::path& in, const std::filesystem::path& out, std::uint64_t max_bytes);
+
+/// Decompresses an LZ4 frame (rosbag's roslz4 and MCAP write the standard LZ4 frame format) into exactly
+/// `expected_size` bytes; false on any error. The output grows with what is produced, as for zstd.
+bool lz4_decompress(std::string_view in, std::size_t expected_size, std::string& out);
+/// Decompresses a bzip2 stream (ROS 1 chunks) into exactly `expected_size` bytes; false on any error.
+bool bz2_decompress(std::string_view in, std::size_t expected_size, std::string& out);
+/// Compresses (tests, benchmarks, fixtures).
+std::string lz4_compress(std::string_view in);
+std::string bz2_compress(std::string_view in);
 
 /// The most a zstd-compressed rosbag2 file may decompress to (docs/import.md, "Limits"):
 /// max(kMinFileDecompressionLimit, kFileDecompressionRatio × its compressed size). A bag file must be

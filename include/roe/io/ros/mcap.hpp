@@ -21,7 +21,7 @@
 /// Memory: one chunk at a time (plus the chunks whose time ranges overlap it during the time-ordered
 /// merge), never the file. A chunk's uncompressed CRC is checked when set.
 ///
-/// Robustness as for ROS 1 bags (rosbag.hpp): only a file that is not MCAP at all (wrong magic,
+/// Robustness as for ROS 1 bags (ros1_bag.hpp): only a file that is not MCAP at all (wrong magic,
 /// unreadable) is an InputError; truncated records, chunks that fail to decompress or whose CRC or
 /// length lies are skipped with a warning giving the byte offset (warnings(), damaged()).
 
@@ -35,7 +35,7 @@
 #include <vector>
 
 #include "roe/core/types.hpp"
-#include "roe/io/byte_source.hpp"
+#include "roe/io/ros/chunked_reader.hpp"
 
 namespace roe::io::mcap {
 
@@ -75,28 +75,16 @@ struct MessageView {
   std::uint64_t chunk_offset = 0; ///< file offset of the chunk (or of the message record)
 };
 
-struct ReaderOptions {
-  /// Ignore the summary even when intact and scan the data section.
-  bool force_scan = false;
-  /// Largest uncompressed chunk accepted (a corrupt size field or a decompression bomb must not cost more
-  /// memory): 0 is io::chunk_decompression_limit(file size) (compression.hpp: 4× the file, within
-  /// [64 MiB, 256 MiB]). The k-way merge of chunks that overlap in time holds at most this many bytes of
-  /// decompressed chunks waiting for their turn (beyond, it emits what waits, with a warning).
-  std::uint64_t max_chunk_bytes = 0;
-};
+/// force_scan ignores the summary even when intact and scans the data section.
+using ReaderOptions = ChunkedReaderOptions;
 
-class Reader {
+class Reader : public ChunkedReader {
  public:
   /// Opens an MCAP file. InputError if it cannot be read or does not start with the MCAP magic.
   explicit Reader(const fs::path& file, ReaderOptions options = {});
   /// A file held in memory; `name` is used in messages.
   Reader(std::string bytes, std::string name, ReaderOptions options = {});
-  ~Reader();
-  Reader(Reader&&) noexcept;
-  Reader& operator=(Reader&&) noexcept;
 
-  const std::string& name() const { return name_; }
-  std::uint64_t file_size() const;
   const std::string& profile() const { return profile_; }
   const std::string& library() const { return library_; }
   /// Whether the summary section was used (false: linear scan).
@@ -108,8 +96,6 @@ class Reader {
   std::string schema_name(const Channel& c) const;
   /// Messages on a channel (statistics, message indexes or the scan's count).
   std::uint64_t message_count(std::uint16_t channel_id) const;
-  const std::vector<OffsetWarning>& warnings() const { return warnings_; }
-  bool damaged() const;
 
   /// Calls `fn` for every message of the channels `select` accepts, in log-time order (ties keep file
   /// order). `fn` returns false to stop. Damaged chunks are skipped with a warning.
@@ -121,16 +107,12 @@ class Reader {
   void open();
   bool read_summary();
   void scan();
-  void warn(std::uint64_t offset, std::string message, bool damage = true, bool index_fallback = false);
   /// The chunk's uncompressed records, from out[begin] on (uncompressed chunks stay in their record
   /// buffer: no copy); false + warning when unreadable.
   bool load_chunk(const ChunkInfo& c, std::string& out, std::size_t& begin);
   /// Adds the schema/channel records found in a record block (a chunk's records).
   void learn_records(std::string_view records, std::uint64_t where, ChunkInfo* count_into);
 
-  std::string name_;
-  std::unique_ptr<ByteSource> src_;
-  ReaderOptions options_;
   std::string profile_, library_;
   bool summary_used_ = false;
   std::map<std::uint16_t, Channel> channels_;
@@ -138,7 +120,6 @@ class Reader {
   std::vector<ChunkInfo> chunks_;
   std::map<std::uint16_t, std::uint64_t> stat_counts_;
   bool have_stat_counts_ = false;
-  std::vector<OffsetWarning> warnings_;
 };
 
 /// The 8 magic bytes that start and end every MCAP file.

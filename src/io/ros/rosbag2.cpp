@@ -1,5 +1,5 @@
-// rosbag2 SQLite storage and metadata.yaml (include/roe/io/rosbag2.hpp).
-#include "roe/io/rosbag2.hpp"
+// rosbag2 SQLite storage and metadata.yaml (include/roe/io/ros/rosbag2.hpp).
+#include "roe/io/ros/rosbag2.hpp"
 
 #include <sqlite3.h>
 #include <yaml-cpp/yaml.h>

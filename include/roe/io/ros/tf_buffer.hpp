@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "roe/core/types.hpp"
-#include "roe/io/ros_msgs.hpp"
+#include "roe/io/ros/msgs.hpp"
 
 namespace roe::io {
 

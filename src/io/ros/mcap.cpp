@@ -1,19 +1,17 @@
-// MCAP reader (see include/roe/io/mcap.hpp for the format summary).
-#include "roe/io/mcap.hpp"
+// MCAP reader (see include/roe/io/ros/mcap.hpp for the format summary).
+#include "roe/io/ros/mcap.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cstring>
 #include <limits>
-#include <queue>
 #include <set>
 
 #include <fmt/format.h>
 
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
-#include "roe/io/compression.hpp"
-#include "roe/io/rosbag.hpp"
+#include "roe/io/ros/compression.hpp"
 
 namespace roe::io::mcap {
 namespace {
@@ -154,31 +152,11 @@ std::uint32_t crc32(std::string_view data, std::uint32_t crc) {
   return ~crc;
 }
 
-Reader::Reader(const fs::path& file, ReaderOptions options)
-    : name_(file.string()), src_(open_file_source(file)), options_(options) {
-  open();
-}
+Reader::Reader(const fs::path& file, ReaderOptions options) : ChunkedReader(file, options) { open(); }
 
 Reader::Reader(std::string bytes, std::string name, ReaderOptions options)
-    : name_(std::move(name)), src_(memory_source(std::move(bytes))), options_(options) {
+    : ChunkedReader(std::move(bytes), std::move(name), options) {
   open();
-}
-
-Reader::~Reader() = default;
-Reader::Reader(Reader&&) noexcept = default;
-Reader& Reader::operator=(Reader&&) noexcept = default;
-
-std::uint64_t Reader::file_size() const { return src_->size(); }
-
-void Reader::warn(std::uint64_t offset, std::string message, bool damage, bool index_fallback) {
-  for (const auto& w : warnings_)
-    if (w.offset == offset && w.message == message) return;  // a damaged chunk read twice: one warning
-  log::debug("{}: byte {}: {}", name_, offset, message);
-  warnings_.push_back({offset, std::move(message), damage, index_fallback});
-}
-
-bool Reader::damaged() const {
-  return std::any_of(warnings_.begin(), warnings_.end(), [](const OffsetWarning& w) { return w.damage; });
 }
 
 std::string Reader::schema_name(const Channel& c) const {
@@ -200,7 +178,6 @@ std::uint64_t Reader::message_count(std::uint16_t channel_id) const {
 }
 
 void Reader::open() {
-  if (options_.max_chunk_bytes == 0) options_.max_chunk_bytes = chunk_decompression_limit(src_->size());
   char magic[8];
   if (src_->read_at(0, magic, 8) != 8 || std::string_view(magic, 8) != kMagic)
     throw InputError("not an MCAP file (wrong magic at byte 0; expected \\x89MCAP0\\r\\n)", {name_});
@@ -233,7 +210,7 @@ void Reader::open() {
 bool Reader::read_summary() {
   const std::uint64_t size = src_->size();
   const auto fallback = [&](std::uint64_t at, const std::string& why) {
-    warn(at, why + "; scanning the data section", true, true);
+    warn_fallback(at, why + "; scanning the data section");
     return false;
   };
   if (size < 8 + kFooterRecord + 8) return fallback(size, "file too short for a footer (truncated?)");
@@ -551,7 +528,7 @@ bool Reader::load_chunk(const ChunkInfo& c, std::string& out, std::size_t& begin
       return false;
     }
   } else if (compression == "lz4") {
-    if (!bag::lz4_decompress(records, static_cast<std::size_t>(usize), out)) {
+    if (!lz4_decompress(records, static_cast<std::size_t>(usize), out)) {
       warn(c.offset, "lz4 chunk fails to decompress to its announced size; chunk skipped");
       return false;
     }
@@ -582,96 +559,60 @@ void Reader::for_each(const std::function<bool(const Channel&)>& select,
     for (const auto& kv : ch.counts) wanted = wanted || ids.count(kv.first);
     if (wanted) order.push_back(&ch);
   }
-  std::stable_sort(order.begin(), order.end(),
-                   [](const ChunkInfo* a, const ChunkInfo* b) { return a->start_ns < b->start_ns; });
-  // k-way merge, as in the ROS 1 reader: a chunk's messages wait (sharing its buffer) until no later
-  // chunk can hold an earlier message, i.e. up to the next chunk's start time.
-  struct Pending {
-    Timestamp t;
-    std::uint64_t seq;
-    std::shared_ptr<const std::string> buf;
-    MessageView view;
-  };
-  auto later = [](const Pending& a, const Pending& b) { return a.t != b.t ? a.t > b.t : a.seq > b.seq; };
-  std::priority_queue<Pending, std::vector<Pending>, decltype(later)> heap(later);
-  std::uint64_t seq = 0;
-  std::size_t done = 0;
-  bool stop = false;
-  auto emit_until = [&](Timestamp limit, bool all) {
-    while (!stop && !heap.empty() && (all || heap.top().t < limit)) {
-      if (!fn(heap.top().view)) stop = true;
-      heap.pop();
-      ++done;
-      if (progress) progress(std::min(done, total), total);
-    }
-  };
+  TimeOrderedMerge<MessageView> merge(fn, progress, total);
   auto push = [&](const MessageHead& m, const std::shared_ptr<const std::string>& buf, std::uint64_t where) {
     const auto it = channels_.find(m.channel);
     if (it == channels_.end() || !ids.count(m.channel)) return;
-    MessageView v{&it->second, m.sequence, ns(m.log_time), ns(m.publish_time), m.data, where};
-    heap.push({v.log_time_ns, seq++, buf, v});
+    const MessageView v{&it->second, m.sequence, ns(m.log_time), ns(m.publish_time), m.data, where};
+    merge.push(v.log_time_ns, buf, v);
   };
-  HeldChunks held;
-  bool over_budget = false;
-  for (std::size_t k = 0; k < order.size() && !stop; ++k) {
-    const ChunkInfo& c = *order[k];
-    std::string bytes;
-    std::size_t begin = 0;
+  merge_chunks<ChunkInfo>(order, merge, [&](const ChunkInfo& c) {
     if (c.loose_message) {
+      std::string bytes;
       char pre[kRecordPrefix];
       std::uint64_t len = 0;
       src_->read_at(c.offset, pre, kRecordPrefix);
       std::memcpy(&len, pre + 1, 8);
       bytes.resize(static_cast<std::size_t>(len));  // bounded by the file size (checked by the scan)
       const bool read = src_->read_at(c.offset + kRecordPrefix, bytes.data(), bytes.size()) == bytes.size();
-      const auto buf = held.hold(std::move(bytes));
+      const auto buf = merge.hold(std::move(bytes));
       MessageHead m;
       if (read && parse_message(*buf, m))
         push(m, buf, c.offset);
       else
         warn(c.offset, "message record unreadable; skipped");
-    } else if (load_chunk(c, bytes, begin)) {
-      const auto buf = held.hold(std::move(bytes));
-      const std::string_view records = std::string_view(*buf).substr(begin);
-      std::uint64_t p = 0;
-      while (p < records.size()) {
-        Rd r(records.substr(static_cast<std::size_t>(p)));
-        const auto op = r.num<std::uint8_t>();
-        const auto len = r.num<std::uint64_t>();
-        const std::string_view content = r.bytes(len);
-        if (!r.ok()) {
-          warn(c.offset, fmt::format("inside chunk at uncompressed offset {}: record runs past the end of the chunk; "
-                                     "rest of the chunk skipped",
-                                     p));
-          break;
-        }
-        if (op == kMessage) {
-          MessageHead m;
-          if (parse_message(content, m)) push(m, buf, c.offset);
-          else warn(c.offset, fmt::format("inside chunk at uncompressed offset {}: malformed message record", p));
-        } else if (op == kChannel && !channels_.count(Rd(content).num<std::uint16_t>())) {
-          // A channel first defined inside this chunk (a file read through a partial summary).
-          Channel ch;
-          if (parse_channel(content, ch) && select(ch)) ids.insert(ch.id);
-          if (!ch.topic.empty()) channels_.emplace(ch.id, std::move(ch));
-        }
-        p += kRecordPrefix + len;
+      return;
+    }
+    std::string bytes;
+    std::size_t begin = 0;
+    if (!load_chunk(c, bytes, begin)) return;
+    const auto buf = merge.hold(std::move(bytes));
+    const std::string_view records = std::string_view(*buf).substr(begin);
+    std::uint64_t p = 0;
+    while (p < records.size()) {
+      Rd r(records.substr(static_cast<std::size_t>(p)));
+      const auto op = r.num<std::uint8_t>();
+      const auto len = r.num<std::uint64_t>();
+      const std::string_view content = r.bytes(len);
+      if (!r.ok()) {
+        warn(c.offset, fmt::format("inside chunk at uncompressed offset {}: record runs past the end of the chunk; "
+                                   "rest of the chunk skipped",
+                                   p));
+        break;
       }
+      if (op == kMessage) {
+        MessageHead m;
+        if (parse_message(content, m)) push(m, buf, c.offset);
+        else warn(c.offset, fmt::format("inside chunk at uncompressed offset {}: malformed message record", p));
+      } else if (op == kChannel && !channels_.count(Rd(content).num<std::uint16_t>())) {
+        // A channel first defined inside this chunk (a file read through a partial summary).
+        Channel ch;
+        if (parse_channel(content, ch) && select(ch)) ids.insert(ch.id);
+        if (!ch.topic.empty()) channels_.emplace(ch.id, std::move(ch));
+      }
+      p += kRecordPrefix + len;
     }
-    const Timestamp next_start =
-        k + 1 < order.size() ? order[k + 1]->start_ns : std::numeric_limits<Timestamp>::max();
-    emit_until(next_start, k + 1 == order.size());
-    // Chunks overlapping in time wait together; beyond one chunk's limit of them, what waits goes out now.
-    if (held.bytes() + heap.size() * sizeof(Pending) > options_.max_chunk_bytes) {
-      if (!over_budget)
-        warn(c.offset, fmt::format("chunks overlapping in time hold more than {} decompressed bytes: messages "
-                                   "from here on may be out of time order", options_.max_chunk_bytes),
-             false);
-      over_budget = true;
-      emit_until(0, true);
-    }
-  }
-  emit_until(0, true);
+  });
 }
 
 }  // namespace roe::io::mcap

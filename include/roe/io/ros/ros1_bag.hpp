@@ -31,9 +31,9 @@
 #include <vector>
 
 #include "roe/core/types.hpp"
-#include "roe/io/byte_source.hpp"
+#include "roe/io/ros/chunked_reader.hpp"
 
-namespace roe::io::bag {
+namespace roe::io::ros1 {
 
 namespace fs = std::filesystem;
 
@@ -71,31 +71,16 @@ struct ChunkInfo {
   bool times_known = false;
 };
 
-using io::ByteSource;
+/// force_scan ignores the index section even when present and scans every record.
+using ReaderOptions = ChunkedReaderOptions;
 
-struct ReaderOptions {
-  /// Ignore the index section even when present and scan every record (for tests and for bags whose
-  /// index is suspected to be wrong).
-  bool force_scan = false;
-  /// Largest uncompressed chunk accepted (a corrupt size field or a decompression bomb must not cost more
-  /// memory): 0 is io::chunk_decompression_limit(file size) (compression.hpp: 4× the file, within
-  /// [64 MiB, 256 MiB]). The k-way merge of chunks that overlap in time holds at most this many bytes of
-  /// decompressed chunks waiting for their turn (beyond, it emits what waits, with a warning).
-  std::uint64_t max_chunk_bytes = 0;
-};
-
-class Reader {
+class Reader : public ChunkedReader {
  public:
   /// Opens a bag file. InputError if the file cannot be read or is not a ROS bag v2.0.
   explicit Reader(const fs::path& file, ReaderOptions options = {});
   /// A bag held in memory; `name` is used in messages.
   Reader(std::string bytes, std::string name, ReaderOptions options = {});
-  ~Reader();
-  Reader(Reader&&) noexcept;
-  Reader& operator=(Reader&&) noexcept;
 
-  const std::string& name() const { return name_; }
-  std::uint64_t file_size() const;
   /// Whether the index section was used (false: sequential scan).
   bool indexed() const { return indexed_; }
   const std::vector<Connection>& connections() const { return connections_; }
@@ -108,18 +93,6 @@ class Reader {
   std::size_t message_count(const std::string& topic) const;
   /// Total number of messages.
   std::size_t message_count() const;
-  /// Problems skipped while opening and reading (grows while iterating; a damaged chunk read by
-  /// several iterations is listed once).
-  const std::vector<Warning>& warnings() const { return warnings_; }
-  /// Whether any warning reports damage (data that could not be read).
-  bool damaged() const;
-  /// "byte N: message" of the first damage warning (empty when none).
-  std::string first_damage() const;
-  /// The damage warnings, the most specific first: problems found in the records themselves (a
-  /// truncated record, a chunk that fails to decompress) before the index-level ones that only made
-  /// the reader fall back to a sequential scan (Warning::index_fallback); otherwise in the order found.
-  std::vector<Warning> damage() const;
-
   /// Calls `fn` for every message whose topic passes `select`, in record-time order (ties keep
   /// file order). `fn` may return false to stop early. Damaged chunks are skipped with a warning.
   void for_each(const std::function<bool(const Connection&)>& select,
@@ -133,29 +106,14 @@ class Reader {
   void open();
   bool read_index(std::uint64_t index_pos, std::int32_t chunk_count);
   void scan();
-  void warn(std::uint64_t offset, std::string message, bool damage = true);
-  /// A damage warning that makes the reader fall back to the sequential scan (Warning::index_fallback).
-  void warn_fallback(std::uint64_t offset, std::string message);
   /// Decompressed chunk bytes; empty + warning on failure.
   bool load_chunk(const ChunkInfo& c, std::string& out);
   void add_connection(Connection c);
 
-  std::string name_;
-  std::unique_ptr<ByteSource> src_;
-  ReaderOptions options_;
   bool indexed_ = false;
   std::vector<Connection> connections_;
   std::map<std::uint32_t, std::size_t> conn_index_;  // id → position in connections_
   std::vector<ChunkInfo> chunks_;
-  std::vector<Warning> warnings_;
 };
 
-/// Compression helpers shared by the reader and the test-only writer.
-/// Decompresses an LZ4 frame (rosbag's roslz4 writes the standard LZ4 frame format) into exactly
-/// `expected_size` bytes; false on any error.
-bool lz4_decompress(std::string_view in, std::size_t expected_size, std::string& out);
-bool bz2_decompress(std::string_view in, std::size_t expected_size, std::string& out);
-std::string lz4_compress(std::string_view in);
-std::string bz2_compress(std::string_view in);
-
-}  // namespace roe::io::bag
+}  // namespace roe::io::ros1

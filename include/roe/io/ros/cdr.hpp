@@ -17,12 +17,12 @@
 #include <string_view>
 #include <vector>
 
-#include "roe/io/ros_msgs.hpp"
+#include "roe/io/ros/msgs.hpp"
 
 namespace roe::io::cdr {
 
 /// Bounds-checked CDR reader over one serialized message (encapsulation header included): the
-/// primitives; the messages' field layouts are shared with the ROS 1 decoders (src/io/ros_layouts.hpp).
+/// primitives; the messages' field layouts are shared with the ROS 1 decoders (src/io/ros/layouts.hpp).
 class Cursor {
  public:
   Cursor(std::string_view msg, std::string where);
