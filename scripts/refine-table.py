@@ -7,7 +7,12 @@ figures — the extrinsics' error and per-axis NEES, and each object's error rel
 per-axis NEES — so this script computes no error of its own. Symmetric objects (roe.json) are left out of
 the object columns, as in issue 35's table. Also records refine's CPU time (user + sys of the process).
 
+With --summary ROWS.json (a --json output of an earlier call) it prints only the summary of those rows.
+The summary: objects' median position / rotation error, the worst, how many have NEES <= chi2_6(0.99),
+the median NEES; the extrinsics' median error, how many runs within 15 mm / 1 deg and NEES <= chi2_6(0.99).
+
 usage: scripts/refine-table.py [--roe BUILD/roe] [--work DIR] [--seeds 1 2] [--presets P ...] [--json OUT]
+       scripts/refine-table.py --summary ROWS.json
 """
 import argparse
 import json
@@ -74,6 +79,44 @@ def fmt_extr(f):
     return "%.0f mm %.2f° / %.0f" % (f["extr_mm"], f["extr_deg"], f["extr_nees"] or float("nan"))
 
 
+CHI2_6_99 = 16.812
+
+
+def median(v):
+    v = sorted(v)
+    n = len(v)
+    return float("nan") if n == 0 else (v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2]))
+
+
+def summary_row(rows, which):
+    objs = [o for r in rows for o in r[which]["objects"]]
+    ok = [o for o in objs if o["nees"] is not None and o["nees"] <= CHI2_6_99]
+    worst = max(objs, key=lambda o: o["mm"]) if objs else None
+    ext = [r[which] for r in rows]
+    within = [e for e in ext if e["extr_mm"] <= 15.0 and e["extr_deg"] <= 1.0]
+    e_ok = [e for e in ext if e["extr_nees"] is not None and e["extr_nees"] <= CHI2_6_99]
+    return ("| %s | %.0f mm / %.1f° | %s | %d / %d | %.0f | %.0f mm / %.2f° | %d / %d | %d / %d |" % (
+        which, median([o["mm"] for o in objs]), median([o["deg"] for o in objs]),
+        "%.0f mm / %.1f°" % (worst["mm"], worst["deg"]) if worst else "–", len(ok), len(objs),
+        median([o["nees"] for o in objs if o["nees"] is not None]), median([e["extr_mm"] for e in ext]),
+        median([e["extr_deg"] for e in ext]), len(within), len(ext), len(e_ok), len(ext)))
+
+
+def print_summary(rows):
+    print("| | objects: median error | worst (position) | NEES <= 16.8 | median NEES | extrinsics: median error | "
+          "within 15 mm / 1° | NEES <= 16.8 |")
+    print("|---|---|---|---|---|---|---|---|")
+    for which in ("filter", "refined"):
+        print(summary_row(rows, which))
+    taus = [r["refine"]["detection_error_model"]["tau_s"] for r in rows
+            if r["refine"].get("detection_error_model", {}).get("correlated")]
+    if taus:
+        print("\nfitted tau: %d of %d runs correlated, median %.2f s (min %.2f, max %.2f)" % (
+            len(taus), len(rows), median(taus), min(taus), max(taus)))
+    cpu = [r["refine_cpu_s"] for r in rows]
+    print("refine CPU: median %.2f s (min %.2f, max %.2f)" % (median(cpu), min(cpu), max(cpu)))
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--roe", default=os.path.join(HERE, "build", "roe"))
@@ -81,7 +124,11 @@ def main():
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--presets", nargs="+", default=["paper-real-seq%d" % i for i in range(1, 9)])
     ap.add_argument("--json", default=None)
+    ap.add_argument("--summary", default=None, help="print the summary of the rows of an earlier --json")
     a = ap.parse_args()
+    if a.summary:
+        print_summary(json.load(open(a.summary)))
+        return
     work = a.work or tempfile.mkdtemp(prefix="roe-refine-table-")
     os.makedirs(work, exist_ok=True)
     rows = []
@@ -100,6 +147,8 @@ def main():
             sys.stdout.flush()
     if a.json:
         json.dump(rows, open(a.json, "w"), indent=1)
+    print()
+    print_summary(rows)
 
 
 if __name__ == "__main__":

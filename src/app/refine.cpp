@@ -221,6 +221,16 @@ std::vector<io::ReprojectionRow> refined_reprojection(const refine::RefineResult
   return rows;
 }
 
+/// The correlated-error model the solve used (docs/refine.md §2b), with the autocovariance it was fitted to.
+json error_model_json(const refine::SolveReport& s) {
+  const refine::DetectionErrorModel& m = s.error_model;
+  json ac = json::array();
+  for (const auto& b : m.autocovariance) ac.push_back({{"lag_s", b.lag_s}, {"cov", b.cov}, {"pairs", b.pairs}});
+  return {{"correlated", m.correlated},   {"tau_s", m.tau_s},
+          {"sigma_bias", m.sigma_bias}, {"sigma_white", m.sigma_white},
+          {"autocovariance", ac}};
+}
+
 json solve_json(const refine::RefineResult& r, const refine::RefineOptions& o) {
   const refine::SolveReport& s = r.report;
   std::size_t down = 0;
@@ -230,7 +240,9 @@ json solve_json(const refine::RefineResult& r, const refine::RefineOptions& o) {
             {"loss_scale", o.loss_scale},
             {"max_iterations", o.max_iterations},
             {"linear_solver", o.linear_solver},
-            {"covariance", o.covariance}}},
+            {"covariance", o.covariance},
+            {"correlated_errors", o.correlated_errors}}},
+          {"detection_error_model", error_model_json(s)},
           {"nodes", s.nodes},
           {"imu_factors", s.imu_factors},
           {"detection_factors", s.detection_factors},

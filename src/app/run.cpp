@@ -199,7 +199,7 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   ekf::FilterRecording recording;
   std::map<int, ObjectSymmetry> symmetries;
   for (const auto& o : dataset.manifest.objects)
-    if (!o.symmetry.empty()) symmetries[o.id] = o.symmetry;
+    if (!o.symmetry.empty() || o.symmetric) symmetries[o.id] = o.symmetry;  // empty: symmetric, group unknown
   out.summary =
       ekf::run_filter(dataset.imu, images, opt, noise, T_I_C, rec, smooth ? &recording : nullptr, symmetries);
   out.filter_wall_s = seconds_since(t0);

@@ -14,6 +14,7 @@ struct Args {
   std::string loss = "cauchy";
   app::RefineCommandOptions opt;
   bool no_covariance = false;
+  bool white_errors = false;
 };
 
 RunFn setup(CLI::App& sub) {
@@ -29,12 +30,16 @@ RunFn setup(CLI::App& sub) {
       ->check(number_in("integer>=1"));
   sub.add_option("--linear-solver", a->opt.refine.linear_solver,
                  "sparse_normal_cholesky (default) or sparse_schur");
+  sub.add_flag("--white-errors", a->white_errors,
+               "Marginals for white detection errors (default: inflated by the correlation fitted to the residuals, "
+               "docs/refine.md §2b)");
   sub.add_flag("--no-covariance", a->no_covariance, "Skip the marginal covariances (σ columns written as 0)");
   return [a]() {
     if (a->run.empty()) throw InputError("RUN_DIR is required", {"roe refine"});
     if (a->out.empty()) throw InputError("--out RUN_DIR2 is required", {"roe refine"});
     a->opt.refine.loss = refine::parse_loss(a->loss);
     a->opt.refine.covariance = !a->no_covariance;
+    a->opt.refine.correlated_errors = !a->white_errors;
     a->opt.force = globals().force;
     const auto r = app::refine_run(a->run, a->out, a->opt);
     emit(r.to_json(), r.to_text());

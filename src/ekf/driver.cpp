@@ -150,7 +150,7 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
 
   summary.t_first_ns = t0;
   summary.t_last_ns = imu.back().t_ns;
-  summary.anchor = choose_anchor(images, t0, summary.t_last_ns, options);
+  summary.anchor = choose_anchor(images, t0, summary.t_last_ns, options, symmetries);
   FilterOptions opt = options;
   opt.anchor_id = summary.anchor.id;  // −1 only when no image has a usable detection
 

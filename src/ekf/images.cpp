@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <tuple>
 
 #include "roe/core/error.hpp"
 
@@ -28,7 +29,7 @@ bool usable_detection(const Detection& d, const FilterOptions& options) {
 }
 
 AnchorChoice choose_anchor(const std::vector<ImageDetections>& images, Timestamp t_first_ns, Timestamp t_last_ns,
-                           const FilterOptions& options) {
+                           const FilterOptions& options, const std::map<int, ObjectSymmetry>& symmetries) {
   AnchorChoice c;
   std::map<int, std::size_t> seen;
   for (const auto& im : images)
@@ -44,8 +45,9 @@ AnchorChoice choose_anchor(const std::vector<ImageDetections>& images, Timestamp
     if (im.t_ns < t_first_ns || im.t_ns > t_last_ns) continue;
     for (const auto& d : im.detections) {
       if (!usable_detection(d, options)) continue;
-      const std::size_t n = seen[d.object_id];
-      if (c.id < 0 || n > seen[c.id] || (n == seen[c.id] && d.object_id < c.id)) c.id = d.object_id;
+      // Ranked by (non-symmetric, images, −id).
+      const auto rank = [&](int id) { return std::make_tuple(symmetries.count(id) == 0, seen[id], -id); };
+      if (c.id < 0 || rank(d.object_id) > rank(c.id)) c.id = d.object_id;
     }
     if (c.id >= 0) {
       c.t_ns = im.t_ns;

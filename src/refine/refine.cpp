@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <memory>
 
 #include "roe/core/error.hpp"
@@ -91,8 +92,11 @@ struct Problem {
     ceres::ResidualBlockId id = nullptr;
     Timestamp t_ns = 0;
     int object_id = 0;
+    std::size_t node = 0;
+    DetectionResidual f;
   };
   std::vector<Det> dets;
+  std::vector<std::unique_ptr<ceres::LossFunction>> scaled_losses;  ///< scale_detection_information
   std::size_t imu_factors = 0;
 };
 
@@ -180,7 +184,7 @@ void add_detection_factors(const RefineInput& in, const RefineOptions& opt, Prob
       auto* f = new DetectionResidual(detection_residual(in, sigma_model, d, x, to_pose(P.extr), to_pose(o->second)));
       const auto id = P.cp->AddResidualBlock(new ceres::AutoDiffCostFunction<DetectionResidual, 6, 7, 7, 7>(f),
                                                 P.loss.get(), P.pose[k].data(), P.extr.data(), o->second.data());
-      P.dets.push_back({id, im.t_ns, d.object_id});
+      P.dets.push_back({id, im.t_ns, d.object_id, k, *f});
       ++n;
     }
   }
@@ -247,6 +251,7 @@ Problem build(const RefineInput& in, const RefineOptions& opt) {
   ceres::Problem::Options po;
   po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.enable_fast_removal = true;  // scale_detection_information replaces the detection factors
   P.cp = std::make_unique<ceres::Problem>(po);
   add_imu_factors(in, P);
   add_detection_factors(in, opt, P);
@@ -286,7 +291,99 @@ SolveReport solve(const RefineOptions& opt, Problem& P) {
   return r;
 }
 
+/// The inliers' whitened residuals u = W e per object at the current estimate (the white factors): the
+/// data of fit_error_model. A detection whose ‖u‖² exceeds the loss scale² (weight below ½ under Cauchy)
+/// is left out: outliers and flips are not the slowly varying error.
+std::vector<ResidualSeries> residual_series(const RefineOptions& opt, Problem& P) {
+  std::map<int, ResidualSeries> by_object;
+  for (const auto& d : P.dets) {
+    Vector6d u;
+    P.cp->EvaluateResidualBlock(d.id, false, nullptr, u.data(), nullptr);
+    if (u.squaredNorm() > opt.loss_scale * opt.loss_scale) continue;
+    ResidualSeries& s = by_object[d.object_id];
+    s.t_s.push_back(to_seconds(d.t_ns));
+    s.u.push_back(u);
+  }
+  std::vector<ResidualSeries> out;
+  for (auto& [id, s] : by_object) out.push_back(std::move(s));
+  return out;
+}
+
+/// Divides each detection's information by the error model's variance factor for the marginals: the
+/// factor is re-added with its loss scaled by 1/k (ceres::ScaledLoss), k = variance_factor(Δt since the
+/// object's previous detection). The solution is not changed (called after collect()).
+void scale_detection_information(const DetectionErrorModel& m, Problem& P) {
+  std::map<int, Timestamp> previous;
+  for (auto& d : P.dets) {
+    const auto prev = previous.find(d.object_id);
+    const double k = m.variance_factor(prev == previous.end() ? -1.0 : to_seconds(d.t_ns - prev->second));
+    previous[d.object_id] = d.t_ns;
+    P.cp->RemoveResidualBlock(d.id);
+    P.scaled_losses.push_back(std::make_unique<ceres::ScaledLoss>(P.loss.get(), 1.0 / k, ceres::DO_NOT_TAKE_OWNERSHIP));
+    d.id = P.cp->AddResidualBlock(new ceres::AutoDiffCostFunction<DetectionResidual, 6, 7, 7, 7>(new DetectionResidual(d.f)),
+                                  P.scaled_losses.back().get(), P.pose[d.node].data(), P.extr.data(),
+                                  P.obj.at(d.object_id).data());
+  }
+}
+
 }  // namespace
+
+DetectionErrorModel fit_error_model(const std::vector<ResidualSeries>& series) {
+  // Lag bins (s): [0, 0.1) holds the neighbouring images; C(0) separately.
+  static constexpr std::array<double, 7> kEdges = {0.0, 0.1, 0.3, 0.6, 1.2, 2.4, 4.8};
+  constexpr std::size_t kBins = kEdges.size() - 1;
+  std::array<double, kBins> sum{}, lag{};
+  std::array<std::size_t, kBins> pairs{};
+  double sum0 = 0.0;
+  std::size_t n0 = 0;
+  for (const auto& s : series) {
+    for (std::size_t i = 0; i < s.u.size(); ++i) {
+      sum0 += s.u[i].squaredNorm();
+      ++n0;
+      for (std::size_t j = i + 1; j < s.u.size(); ++j) {
+        const double l = s.t_s[j] - s.t_s[i];
+        if (l >= kEdges.back()) break;
+        const auto b = static_cast<std::size_t>(std::upper_bound(kEdges.begin(), kEdges.end(), l) - kEdges.begin()) - 1;
+        sum[b] += s.u[i].dot(s.u[j]);
+        lag[b] += l;
+        ++pairs[b];
+      }
+    }
+  }
+  DetectionErrorModel m;
+  if (n0 == 0) return m;
+  const double c0 = sum0 / (6.0 * static_cast<double>(n0));
+  m.autocovariance.push_back({0.0, c0, n0});
+  for (std::size_t b = 0; b < kBins; ++b)
+    if (pairs[b] > 0)
+      m.autocovariance.push_back({lag[b] / static_cast<double>(pairs[b]), sum[b] / (6.0 * static_cast<double>(pairs[b])), pairs[b]});
+  m.sigma_white = std::sqrt(c0);
+  const double c_mid = pairs[2] > 0 ? sum[2] / (6.0 * static_cast<double>(pairs[2])) : 0.0;  // C(0.3–0.6 s)
+  if (!(c0 > 0.0) || c_mid <= 0.1 * c0) return m;  // white
+  // Weighted least squares of ln C = a − lag/τ over the bins from 0.1 s with C > 0.02 C(0).
+  double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (const auto& b : m.autocovariance) {
+    if (b.lag_s < kEdges[1] || b.cov <= 0.02 * c0) continue;
+    const double w = static_cast<double>(b.pairs), y = std::log(b.cov);
+    sw += w, sx += w * b.lag_s, sy += w * y, sxx += w * b.lag_s * b.lag_s, sxy += w * b.lag_s * y;
+  }
+  const double det = sw * sxx - sx * sx;
+  const double slope = det > 0.0 ? (sw * sxy - sx * sy) / det : 0.0;
+  m.tau_s = slope < 0.0 ? std::clamp(-1.0 / slope, 0.1, 60.0) : 60.0;
+  const double a = det > 0.0 ? (sy - slope * sx) / sw : std::log(c_mid);
+  const double sb2 = std::min(std::exp(a), 0.98 * c0);
+  m.correlated = true;
+  m.sigma_bias = std::sqrt(sb2);
+  m.sigma_white = std::sqrt(std::max(c0 - sb2, 0.02 * c0));
+  return m;
+}
+
+double DetectionErrorModel::variance_factor(double dt_s) const {
+  const double w = sigma_white * sigma_white, b = sigma_bias * sigma_bias;
+  if (!correlated || dt_s < 0.0) return w + b;
+  const double phi = std::exp(-dt_s / tau_s);
+  return w + b * (1.0 + phi) / std::max(1.0 - phi, 1e-9);
+}
 
 namespace {
 
@@ -397,8 +494,10 @@ RefineResult refine(const RefineInput& in, const RefineOptions& opt) {
   RefineResult out;
   out.report = solve(opt, P);
   collect(in, P, out);
+  if (opt.correlated_errors) out.report.error_model = fit_error_model(residual_series(opt, P));
   if (opt.covariance) {
     const auto t0 = Clock::now();
+    if (out.report.error_model.correlated) scale_detection_information(out.report.error_model, P);
     out.report.covariance_ok = marginals(in, opt, P, out);
     out.report.covariance_s = std::chrono::duration<double>(Clock::now() - t0).count();
   }

@@ -87,6 +87,28 @@ TEST_CASE("choose_anchor: the first usable image's most-seen object, then the lo
   CHECK(c.id == 2);
 }
 
+TEST_CASE("choose_anchor prefers a non-symmetric object of the first image, then the rule", "[ekf][run][anchor]") {
+  FilterOptions o;
+  const Timestamp t0 = from_seconds(0.5), t1 = from_seconds(10.0);
+  // Object 3 is seen most and has the lowest id, but it is symmetric (a group, or only the flag).
+  const auto images = group_images({det(1.0, 3), det(1.0, 8), det(1.0, 9), det(1.1, 3), det(1.1, 9), det(1.2, 3)});
+  ObjectSymmetry group;
+  group.discrete.push_back(Pose(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ())), Eigen::Vector3d::Zero()));
+  CHECK(choose_anchor(images, t0, t1, o).id == 3);
+  for (const ObjectSymmetry& s : {group, ObjectSymmetry{}}) {
+    const AnchorChoice c = choose_anchor(images, t0, t1, o, {{3, s}});
+    CHECK(c.automatic);
+    CHECK(c.id == 9);  // among the non-symmetric 8 and 9: the most images
+    CHECK(c.images == 2);
+  }
+  // Every object of the first image symmetric: the rule as without symmetries.
+  CHECK(choose_anchor(images, t0, t1, o, {{3, group}, {8, group}, {9, group}}).id == 3);
+  // A symmetric object not in the first image changes nothing; a configured anchor is kept.
+  CHECK(choose_anchor(images, t0, t1, o, {{5, group}}).id == 3);
+  o.anchor_id = 3;
+  CHECK(choose_anchor(images, t0, t1, o, {{3, group}}).id == 3);
+}
+
 TEST_CASE("run_filter and Filter::update follow the same anchor rule, the summary's counts are the outcomes",
           "[ekf][run][anchor]") {
   // paper-seq1 (3 objects in view from the start). The lowest id is dropped from all but the first 10

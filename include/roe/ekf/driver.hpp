@@ -95,7 +95,8 @@ struct FilterRunSummary {
 /// all `images` (images.hpp) before the filter starts. Throws roe::DataError when the IMU stream is too short or not strictly
 /// increasing, or the images are not sorted; roe::NumericError when the filter diverges. With
 /// `recording`, the filter records what smooth() (smoother.hpp) needs. `symmetries`: the objects'
-/// symmetries (Filter::set_symmetries), e.g. from the dataset's models_info files.
+/// symmetries (Filter::set_symmetries), e.g. from the dataset's models_info files; an empty entry marks an
+/// object symmetric with its group unknown (the anchor rule avoids it; the filter ignores it).
 FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,
                             const FilterOptions& options, const ImuNoiseParams& noise,
                             const Pose& T_I_C_prior, FilterObserver& observer,

@@ -7,6 +7,7 @@
 #include <map>
 #include <vector>
 
+#include "roe/core/symmetry.hpp"
 #include "roe/core/types.hpp"
 #include "roe/ekf/options.hpp"
 
@@ -35,12 +36,15 @@ struct AnchorChoice {
 
 /// The anchor rule of `anchor_id = −1`, the only one (Filter::update and run_filter both use it):
 /// among the objects of the first image in [t_first_ns, t_last_ns] (the IMU span) with a usable detection,
-/// the object detected in the most images of `images` (usable detections), then the lowest id. With
+/// a non-symmetric one when there is one (an object with an entry in `symmetries`, even an empty one =
+/// symmetric with its group unknown, is symmetric: relative to a symmetric anchor the other objects' poses
+/// are known only up to its symmetry), then the object detected in the most images of `images` (usable
+/// detections), then the lowest id. With
 /// require_anchor an image without the anchor is not used, so the object seen most often wastes the
 /// fewest images (docs/filter.md §4). Given a single image (what Filter::update knows when called
 /// without run_filter) every count is 1 and the rule is the lowest id. A configured anchor_id ≥ 0 is
 /// returned as it is (automatic false).
 AnchorChoice choose_anchor(const std::vector<ImageDetections>& images, Timestamp t_first_ns, Timestamp t_last_ns,
-                           const FilterOptions& options);
+                           const FilterOptions& options, const std::map<int, ObjectSymmetry>& symmetries = {});
 
 }  // namespace roe::ekf

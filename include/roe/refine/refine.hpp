@@ -39,10 +39,48 @@ struct RefineOptions {
   int max_iterations = 50;
   /// "sparse_normal_cholesky" or "sparse_schur" (Ceres' linear solvers).
   std::string linear_solver = "sparse_normal_cholesky";
+  /// The marginals account for the objects' correlated detection errors (docs/refine.md §2b): the error
+  /// model is fitted to the solution's residuals (fit_error_model) and each detection's information is
+  /// divided by DetectionErrorModel::variance_factor when the covariance is computed. False: the
+  /// marginals of white errors with the filter's σ (the solve itself is the same either way).
+  bool correlated_errors = true;
   /// Marginal covariances of the extrinsics and the object-worlds (ceres::Covariance).
   bool covariance = true;
   int threads = 1;
 };
+
+/// The model of an object's correlated detection error in the whitened residual u = W e of its detections
+/// (docs/refine.md §2b): u(t) = β(t) + w, β a first-order Gauss-Markov process per object (stationary σ
+/// s_b per component, time constant τ), w white with σ s_w. All σ in units of the detection's σ (the
+/// filter's model times its learned scale), so s_b² + s_w² = 1 when that σ is right.
+struct DetectionErrorModel {
+  bool correlated = false;   ///< false: white errors (s_b = 0)
+  double tau_s = 0.0;
+  double sigma_bias = 0.0;   ///< s_b
+  double sigma_white = 1.0;  ///< s_w
+  /// The variance of a long mean of detections dt_s apart relative to as many independent detections of
+  /// unit variance: s_w² + s_b² (1 + φ)/(1 − φ), φ = exp(−dt/τ) (s_w² for a first detection, dt < 0).
+  double variance_factor(double dt_s) const;
+  /// The fit's data: per lag bin, the mean lag (s), the autocovariance C(lag) and the number of pairs;
+  /// lag 0 first (C(0), the variance).
+  struct Bin {
+    double lag_s = 0.0, cov = 0.0;
+    std::size_t pairs = 0;
+  };
+  std::vector<Bin> autocovariance;
+};
+
+/// One object's whitened residuals u_k (6 components) at times t_k (s, increasing): fit_error_model's input.
+struct ResidualSeries {
+  std::vector<double> t_s;
+  std::vector<Vector6d> u;
+};
+
+/// Fits DetectionErrorModel to residual series: the autocovariance per component, pooled over objects, in
+/// lag bins up to 4.8 s; correlated when C(0.3–0.6 s) exceeds 0.1 C(0); then ln C(lag) = ln s_b² − lag/τ
+/// by least squares (weighted by pairs) over the bins from 0.1 s on with C > 0.02 C(0), τ clamped to
+/// [0.1, 60] s, s_b² ≤ 0.98 C(0), s_w² = C(0) − s_b² (at least 0.02 C(0)). White: s_w² = C(0).
+DetectionErrorModel fit_error_model(const std::vector<ResidualSeries>& series);
 
 /// An IMU state with its time (a node, or the run's estimate that initialises one).
 struct StateSample {
@@ -94,6 +132,7 @@ struct SolveReport {
   double residual_s = 0.0, jacobian_s = 0.0, linear_solver_s = 0.0;
   bool covariance_ok = false;
   std::size_t nodes = 0, imu_factors = 0, detection_factors = 0, parameters = 0, residuals = 0;
+  DetectionErrorModel error_model;  ///< fitted to the solution (RefineOptions::correlated_errors)
 };
 
 struct RefineResult {
