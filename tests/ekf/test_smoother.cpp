@@ -405,7 +405,7 @@ void check_means_and_sparse_covariance(const Recorded& r) {
 
 }  // namespace
 
-TEST_CASE("smoother: IMU-rate means from the segment ends equal the textbook RTS on paper-seq4; covariance where asked",
+TEST_CASE("smoother: IMU-rate means from the segment ends equal the textbook RTS on paper-seq4, covariance only where asked",
           "[ekf][smoother]") {
   const Dataset d = test::simulate_preset("paper-seq4", 1, 8.0);
   const Recorded r = record(d, matched_config("rts").filter);
