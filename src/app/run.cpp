@@ -206,7 +206,16 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   if (smooth) {
     // Every state row is at the filter's initial time or at the end of a propagation step.
     const auto t1 = Clock::now();
-    const ekf::SmootherResult sm = ekf::smooth(recording, noise);
+    // At the IMU rate every step is a row; at the image rate the smoother forms the covariance only at the
+    // rows (the mean at the other steps costs O(15²) each, ekf/smoother.hpp).
+    std::vector<Timestamp> row_times;
+    ekf::SmootherOptions sopt;
+    if (config.output_rate != "imu") {
+      row_times.reserve(out.states.size());
+      for (const StateRow& row : out.states) row_times.push_back(row.t_ns);
+      sopt.covariance_at = &row_times;
+    }
+    const ekf::SmootherResult sm = ekf::smooth(recording, noise, sopt);
     out.filter_states = out.states;
     for (StateRow& row : out.states) {
       const auto it = std::lower_bound(sm.states.begin(), sm.states.end(), row.t_ns,

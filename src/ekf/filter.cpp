@@ -659,6 +659,29 @@ Eigen::MatrixXd Filter::gauge_generator() const {
   return G;
 }
 
+namespace {
+
+/// The anchor's gauge fix (docs/filter.md §4): Γ with γ = Γ δa for the anchor's error δa = [δp_a; δθ_a]
+/// (t = −R_O_Wᵀ δp_a; φ = −δθ_a for kPose, (0, 0, −δθ_a,z) for kPositionYaw, 0 for kPosition); returns how
+/// many of the anchor's leading rotation components stay in the state.
+int anchor_gauge_map(AnchorGauge gauge, const Mat3& R_O_W, Mat6& Gamma) {
+  Gamma.setZero();
+  Gamma.block<3, 3>(0, 0) = -R_O_W.transpose();
+  switch (gauge) {
+    case AnchorGauge::kPose:
+      Gamma.block<3, 3>(3, 3) = -Mat3::Identity();
+      return 0;
+    case AnchorGauge::kPosition:
+      return 3;
+    case AnchorGauge::kPositionYaw:
+      Gamma(5, 5) = -1.0;
+      return 2;
+  }
+  return 0;
+}
+
+}  // namespace
+
 void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor) {
   sync_cross_covariance();
   close_segment();
@@ -715,22 +738,8 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   //   t = −R_O_Wᵀ δp_a,  φ = −δθ_a (kPose)  or  φ = (0, 0, −δθ_a,z) (kPositionYaw),
   // φ = 0 (kPosition), then δx' = δx + G Γ δa; the anchor keeps δθ_a (kPosition), δθ_a,xy
   // (kPositionYaw) or nothing (kPose).
-  Eigen::Matrix<double, 6, 6> Gamma = Eigen::Matrix<double, 6, 6>::Zero();
-  Gamma.block<3, 3>(0, 0) = -in.T_O_W.R().transpose();
-  int keep = 0;
-  switch (opt_.anchor_gauge) {
-    case AnchorGauge::kPose:
-      Gamma.block<3, 3>(3, 3) = -Mat3::Identity();
-      keep = 0;
-      break;
-    case AnchorGauge::kPosition:
-      keep = 3;
-      break;
-    case AnchorGauge::kPositionYaw:
-      Gamma(5, 5) = -1.0;
-      keep = 2;
-      break;
-  }
+  Mat6 Gamma;
+  const int keep = anchor_gauge_map(opt_.anchor_gauge, in.T_O_W.R(), Gamma);
   const Eigen::MatrixXd G = gauge_generator();  // objects_ does not contain the anchor yet
   const int n_aug = n_ + 6;
   Eigen::MatrixXd P_aug(n_aug, n_aug);
@@ -798,6 +807,56 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
   FrameResult res;
   res.t_ns = t_ns_;
   res.detections.resize(dets.size());
+  const int anchor_det = screen_detections(dets, res);
+  std::vector<char>& usable = ws_usable_;
+  const auto reject_no_anchor = [&]() {
+    for (std::size_t i = 0; i < dets.size(); ++i)
+      if (usable[i]) res.detections[i].status = DetectionStatus::kRejectedNoMain;
+    set_implied_poses(dets, res);
+    return res;
+  };
+  if (anchor_det < 0 && opt_.require_anchor) return reject_no_anchor();
+
+  // The anchor's first sight fixes the gauge before anything else uses this frame.
+  if (anchor_det >= 0 && object(anchor_id_) == nullptr) {
+    const Detection& d = dets[anchor_det];
+    if (confirm_first_sight(d.object_id, ws_z_[anchor_det])) {
+      initialize_object(d.object_id, ws_z_[anchor_det], measurement_covariance(d, true), true);
+      res.detections[anchor_det].status = DetectionStatus::kInitialized;
+      res.detections[anchor_det].used = ResidualPart::kBoth;
+    } else {
+      res.detections[anchor_det].status = DetectionStatus::kPendingInit;
+    }
+    usable[anchor_det] = 0;
+  }
+  if (opt_.require_anchor && object(anchor_id_) == nullptr) return reject_no_anchor();
+
+  relock_lost_position(res);
+  ws_scale_.clear();
+  sync_cross_covariance();
+  build_blocks(dets);
+  if (!blocks_.empty()) {
+    gate_blocks(dets, res);
+    if (!ws_inliers_.empty()) update_with_inliers(res);
+  }
+  // First sight of the other objects, from the posterior.
+  for (int i : ws_new_objects_) {
+    const Detection& d = dets[i];
+    if (!confirm_first_sight(d.object_id, ws_z_[i])) {
+      res.detections[i].status = DetectionStatus::kPendingInit;
+      continue;
+    }
+    initialize_object(d.object_id, ws_z_[i], measurement_covariance(d, true), false);
+    res.detections[i].status = DetectionStatus::kInitialized;
+    res.detections[i].used = ResidualPart::kBoth;
+  }
+  set_implied_poses(dets, res);
+  observe_lockout(dets, res);
+  learn_sigma_scale(ws_scale_);
+  return res;
+}
+
+int Filter::screen_detections(const std::vector<Detection>& dets, FrameResult& res) {
   std::vector<char>& usable = ws_usable_;
   usable.assign(dets.size(), 1);
   for (std::size_t i = 0; i < dets.size(); ++i) {
@@ -819,56 +878,26 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
   int anchor_det = -1;
   for (std::size_t i = 0; i < dets.size(); ++i)
     if (usable[i] && dets[i].object_id == anchor_id_) anchor_det = static_cast<int>(i);
+  ws_z_.resize(dets.size());
+  for (std::size_t i = 0; i < dets.size(); ++i) ws_z_[i] = dets[i].T_C_O.inverse();
+  return anchor_det;
+}
 
-  std::vector<Pose>& z = ws_z_;
-  z.resize(dets.size());
-  for (std::size_t i = 0; i < dets.size(); ++i) z[i] = dets[i].T_C_O.inverse();
-
-  const auto implied = [&]() {
-    for (std::size_t i = 0; i < dets.size(); ++i) {
-      const ObjectEntry* o = object(dets[i].object_id);
-      if (o == nullptr) continue;
-      res.detections[i].has_T_W_I = true;
-      res.detections[i].T_W_I = o->T_O_W.inverse() * z[i] * T_I_C_.inverse();
-    }
-  };
-
-  if (anchor_det < 0 && opt_.require_anchor) {
-    for (std::size_t i = 0; i < dets.size(); ++i)
-      if (usable[i]) res.detections[i].status = DetectionStatus::kRejectedNoMain;
-    implied();
-    return res;
+void Filter::set_implied_poses(const std::vector<Detection>& dets, FrameResult& res) const {
+  for (std::size_t i = 0; i < dets.size(); ++i) {
+    const ObjectEntry* o = object(dets[i].object_id);
+    if (o == nullptr) continue;
+    res.detections[i].has_T_W_I = true;
+    res.detections[i].T_W_I = o->T_O_W.inverse() * ws_z_[i] * T_I_C_.inverse();
   }
+}
 
-  // The anchor's first sight fixes the gauge before anything else uses this frame.
-  if (anchor_det >= 0 && object(anchor_id_) == nullptr) {
-    const Detection& d = dets[anchor_det];
-    if (confirm_first_sight(d.object_id, z[anchor_det])) {
-      initialize_object(d.object_id, z[anchor_det], measurement_covariance(d, true), true);
-      res.detections[anchor_det].status = DetectionStatus::kInitialized;
-      res.detections[anchor_det].used = ResidualPart::kBoth;
-    } else {
-      res.detections[anchor_det].status = DetectionStatus::kPendingInit;
-    }
-    usable[anchor_det] = 0;
-  }
-  if (opt_.require_anchor && object(anchor_id_) == nullptr) {
-    for (std::size_t i = 0; i < dets.size(); ++i)
-      if (usable[i]) res.detections[i].status = DetectionStatus::kRejectedNoMain;
-    implied();
-    return res;
-  }
-
-  relock_lost_position(res);
-  ws_scale_.clear();
-
-  // Residuals, H and the per-object gate.
-  sync_cross_covariance();
+void Filter::build_blocks(const std::vector<Detection>& dets) {
   blocks_.clear();
   std::vector<int>& new_objects = ws_new_objects_;
   new_objects.clear();
   for (std::size_t i = 0; i < dets.size(); ++i) {
-    if (!usable[i]) continue;
+    if (!ws_usable_[i]) continue;
     const ObjectEntry* o = object(dets[i].object_id);
     if (o == nullptr) {
       new_objects.push_back(static_cast<int>(i));
@@ -877,120 +906,107 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
     MeasBlock b;
     b.det = static_cast<int>(i);
     b.obj = static_cast<int>(o - objects_.data());
-    build_block(*o, z[i], b);
+    build_block(*o, ws_z_[i], b);
     b.R = measurement_covariance(dets[i], opt_.residual_frame == ResidualFrame::kObject);
     b.k = error_inflation(dets[i].object_id);
     reduce_covariance(b);
     blocks_.push_back(b);
   }
+}
 
+void Filter::gate_blocks(const std::vector<Detection>& dets, FrameResult& res) {
   const int nb = static_cast<int>(blocks_.size());
-  if (nb > 0) {
-    // P H_kᵀ per block (n x 6, from H_k's ≤ 18 non-zero columns) and the block S_k for the gate.
-    Eigen::MatrixXd& PHt = ws_PHt_;
-    if (PHt.rows() != n_ || PHt.cols() < 6 * nb) PHt.resize(n_, std::max<Eigen::Index>(6 * nb, PHt.cols()));
-    std::vector<int>& inliers = ws_inliers_;
-    inliers.clear();
-    stacked_pht(nb);
-    for (int k = 0; k < nb; ++k) {
-      MeasBlock& b = blocks_[k];
-      auto PHt_k = PHt.middleCols<6>(6 * k);
-      const Mat6 S = h_pht(b, PHt_k) + b.R;
-      b.S = 0.5 * (S + S.transpose());
-      Eigen::LDLT<Mat6> ldlt(b.S);
-      if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all())
-        throw NumericError(
-            fmt::format("filter failed at {}: innovation covariance of object {} is not "
-                        "positive definite",
-                        when(), dets[b.det].object_id));
-      double nis = 0.0;
-      const ResidualPart used = gate(b, ldlt, nis);
-      if (opt_.adapt_detection_sigma_scale && opt_.use_detection_sigmas && dets[b.det].sigma && std::isfinite(nis))
-        ws_scale_.push_back(nis * sigma_var_scale_ / (b.m == 6 ? chi2_median6_ : chi2_median5_));
-      if (b.r.allFinite() && !std::isfinite(nis))
-        throw NumericError(
-            fmt::format("filter failed at {}: non-finite NIS for object {}", when(), dets[b.det].object_id));
-      res.detections[b.det].nis = nis;
-      res.detections[b.det].used = used;
-      if (b.m == 6) {  // |2 q_v / q_w| = 2 tan(θ/2)
-        const double t = b.r.tail<3>().norm();
-        res.detections[b.det].rot_residual_deg = std::isfinite(t) ? 2.0 * std::atan(0.5 * t) / math::kRadPerDeg : 180.0;
-      }
-      if (used == ResidualPart::kNone) {
-        res.detections[b.det].status = DetectionStatus::kRejectedChi2;
-        continue;
-      }
-      res.detections[b.det].status = DetectionStatus::kAccepted;
-      if (used != ResidualPart::kBoth) select_rows(used, b, PHt, 6 * k);
-      inliers.push_back(k);
+  // P H_kᵀ per block (n x 6, from H_k's ≤ 18 non-zero columns) and the block S_k for the gate.
+  Eigen::MatrixXd& PHt = ws_PHt_;
+  if (PHt.rows() != n_ || PHt.cols() < 6 * nb) PHt.resize(n_, std::max<Eigen::Index>(6 * nb, PHt.cols()));
+  std::vector<int>& inliers = ws_inliers_;
+  inliers.clear();
+  stacked_pht(nb);
+  for (int k = 0; k < nb; ++k) {
+    MeasBlock& b = blocks_[k];
+    auto PHt_k = PHt.middleCols<6>(6 * k);
+    const Mat6 S = h_pht(b, PHt_k) + b.R;
+    b.S = 0.5 * (S + S.transpose());
+    Eigen::LDLT<Mat6> ldlt(b.S);
+    if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all())
+      throw NumericError(
+          fmt::format("filter failed at {}: innovation covariance of object {} is not "
+                      "positive definite",
+                      when(), dets[b.det].object_id));
+    double nis = 0.0;
+    const ResidualPart used = gate(b, ldlt, nis);
+    if (opt_.adapt_detection_sigma_scale && opt_.use_detection_sigmas && dets[b.det].sigma && std::isfinite(nis))
+      ws_scale_.push_back(nis * sigma_var_scale_ / (b.m == 6 ? chi2_median6_ : chi2_median5_));
+    if (b.r.allFinite() && !std::isfinite(nis))
+      throw NumericError(
+          fmt::format("filter failed at {}: non-finite NIS for object {}", when(), dets[b.det].object_id));
+    DetectionOutcome& out = res.detections[b.det];
+    out.nis = nis;
+    out.used = used;
+    if (b.m == 6) {  // |2 q_v / q_w| = 2 tan(θ/2)
+      const double t = b.r.tail<3>().norm();
+      out.rot_residual_deg = std::isfinite(t) ? 2.0 * std::atan(0.5 * t) / math::kRadPerDeg : 180.0;
     }
-
-    const int ni = static_cast<int>(inliers.size());
-    if (ni > 0) {
-      close_segment();
-      // Row offsets of the inliers' blocks in the stack (6 rows each, fewer for a split block).
-      std::vector<int>& row0 = ws_row0_;
-      row0.resize(ni + 1);
-      row0[0] = 0;
-      for (int a = 0; a < ni; ++a) row0[a + 1] = row0[a] + blocks_[inliers[a]].m;
-      const int m = row0[ni];
-      // Inliers' P Hᵀ compacted to the left column by column (in place: row0[a] ≤ 6 inliers[a]), residuals
-      // stacked.
-      Eigen::VectorXd& r = ws_r_;
-      r.resize(m);
-      for (int a = 0; a < ni; ++a) {
-        const int ma = blocks_[inliers[a]].m;
-        if (row0[a] != 6 * inliers[a])
-          for (int j = 0; j < ma; ++j) PHt.col(row0[a] + j) = PHt.col(6 * inliers[a] + j);
-        r.segment(row0[a], ma) = blocks_[inliers[a]].r.head(ma);
-      }
-      const auto Y = PHt.leftCols(m);  // P Hᵀ (n x m)
-      // S = H P Hᵀ + R: the diagonal blocks are the gate's S_k; block (a, c), a > c, is H_a (P H_cᵀ),
-      // evaluated once and mirrored (S exactly symmetric).
-      if (ws_S_.rows() < m) {
-        ws_S_.resize(m, m);
-        ws_L_.resize(m, m);
-      }
-      auto S = ws_S_.topLeftCorner(m, m);
-      for (int a = 0; a < ni; ++a) {
-        const MeasBlock& ba = blocks_[inliers[a]];
-        S.block(row0[a], row0[a], ba.m, ba.m) = ba.S.topLeftCorner(ba.m, ba.m);
-        for (int c = 0; c < a; ++c) {
-          const int mc = blocks_[inliers[c]].m;
-          const auto Sac = h_pht(ba, Y.middleCols(row0[c], mc)).topRows(ba.m);
-          S.block(row0[a], row0[c], ba.m, mc) = Sac;
-          S.block(row0[c], row0[a], mc, ba.m) = Sac.transpose();
-        }
-      }
-      // K, δx and the posterior P − W Wᵀ (stacked_update.hpp).
-      Eigen::VectorXd& dx = ws_dx_;
-      if (!apply_stacked_update(Y, S, inliers, row0, dx))
-        throw NumericError(
-            fmt::format("filter failed at {}: stacked innovation covariance is not positive definite", when()));
-      boxplus(dx);
-      res.n_inliers = ni;
-      ++n_updates_;
-      check_state("update");
-      check_covariance(opt_.pd_check_every > 0 && n_updates_ % opt_.pd_check_every == 0, "update");
-      if (rec_) push_node(RecordedNode::Kind::kUpdate);
-    }
-  }
-
-  // First sight of the other objects, from the posterior.
-  for (int i : new_objects) {
-    const Detection& d = dets[i];
-    if (!confirm_first_sight(d.object_id, z[i])) {
-      res.detections[i].status = DetectionStatus::kPendingInit;
+    if (used == ResidualPart::kNone) {
+      out.status = DetectionStatus::kRejectedChi2;
       continue;
     }
-    initialize_object(d.object_id, z[i], measurement_covariance(d, true), false);
-    res.detections[i].status = DetectionStatus::kInitialized;
-    res.detections[i].used = ResidualPart::kBoth;
+    out.status = DetectionStatus::kAccepted;
+    if (used != ResidualPart::kBoth) select_rows(used, b, PHt, 6 * k);
+    inliers.push_back(k);
   }
-  implied();
-  observe_lockout(dets, res);
-  learn_sigma_scale(ws_scale_);
-  return res;
+}
+
+void Filter::update_with_inliers(FrameResult& res) {
+  const std::vector<int>& inliers = ws_inliers_;
+  Eigen::MatrixXd& PHt = ws_PHt_;
+  const int ni = static_cast<int>(inliers.size());
+  close_segment();
+  // Row offsets of the inliers' blocks in the stack (6 rows each, fewer for a split block).
+  std::vector<int>& row0 = ws_row0_;
+  row0.resize(ni + 1);
+  row0[0] = 0;
+  for (int a = 0; a < ni; ++a) row0[a + 1] = row0[a] + blocks_[inliers[a]].m;
+  const int m = row0[ni];
+  // Inliers' P Hᵀ compacted to the left column by column (in place: row0[a] ≤ 6 inliers[a]), residuals
+  // stacked.
+  Eigen::VectorXd& r = ws_r_;
+  r.resize(m);
+  for (int a = 0; a < ni; ++a) {
+    const int ma = blocks_[inliers[a]].m;
+    if (row0[a] != 6 * inliers[a])
+      for (int j = 0; j < ma; ++j) PHt.col(row0[a] + j) = PHt.col(6 * inliers[a] + j);
+    r.segment(row0[a], ma) = blocks_[inliers[a]].r.head(ma);
+  }
+  const auto Y = PHt.leftCols(m);  // P Hᵀ (n x m)
+  // S = H P Hᵀ + R: the diagonal blocks are the gate's S_k; block (a, c), a > c, is H_a (P H_cᵀ),
+  // evaluated once and mirrored (S exactly symmetric).
+  if (ws_S_.rows() < m) {
+    ws_S_.resize(m, m);
+    ws_L_.resize(m, m);
+  }
+  auto S = ws_S_.topLeftCorner(m, m);
+  for (int a = 0; a < ni; ++a) {
+    const MeasBlock& ba = blocks_[inliers[a]];
+    S.block(row0[a], row0[a], ba.m, ba.m) = ba.S.topLeftCorner(ba.m, ba.m);
+    for (int c = 0; c < a; ++c) {
+      const int mc = blocks_[inliers[c]].m;
+      const auto Sac = h_pht(ba, Y.middleCols(row0[c], mc)).topRows(ba.m);
+      S.block(row0[a], row0[c], ba.m, mc) = Sac;
+      S.block(row0[c], row0[a], mc, ba.m) = Sac.transpose();
+    }
+  }
+  // K, δx and the posterior P − W Wᵀ (stacked_update.hpp).
+  Eigen::VectorXd& dx = ws_dx_;
+  if (!apply_stacked_update(Y, S, inliers, row0, dx))
+    throw NumericError(
+        fmt::format("filter failed at {}: stacked innovation covariance is not positive definite", when()));
+  boxplus(dx);
+  res.n_inliers = ni;
+  ++n_updates_;
+  check_state("update");
+  check_covariance(opt_.pd_check_every > 0 && n_updates_ % opt_.pd_check_every == 0, "update");
+  if (rec_) push_node(RecordedNode::Kind::kUpdate);
 }
 
 double Filter::error_inflation(int object_id) {

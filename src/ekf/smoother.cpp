@@ -6,7 +6,9 @@
 #include <Eigen/LU>
 #include <condition_variable>
 #include <deque>
+#include <algorithm>
 #include <exception>
+#include <limits>
 #include <mutex>
 #include <thread>
 
@@ -54,18 +56,24 @@ Vec6 extrinsics_variance(const MatX& P, int extr) {
   return extr >= 0 ? Vec6(P.diagonal().segment<6>(extr)) : Vec6::Zero();
 }
 
-/// One output row from a core state, the entries of its core covariance that the output holds (the
-/// variances and the [δp; δθ] block) and the extrinsics' variances.
-SmoothedState make_state(Timestamp t, const CoreState& x, const Pose& T_I_C, const Vec15& core_var,
-                         const Eigen::Matrix<double, 6, 6>& pose_cov, const Vec6& extr_var) {
+/// One output row with its mean; σ and the pose covariance nan until set_covariance.
+SmoothedState mean_state(Timestamp t, const CoreState& x, const Pose& T_I_C) {
   SmoothedState s;
   s.t_ns = t;
   s.x = x;
   s.T_I_C = T_I_C;
+  s.sigma.setConstant(std::numeric_limits<double>::quiet_NaN());
+  s.pose_cov.setConstant(std::numeric_limits<double>::quiet_NaN());
+  return s;
+}
+
+/// An output row's covariance: the entries of its core covariance that the output holds (the variances and
+/// the [δp; δθ] block) and the extrinsics' variances.
+void set_covariance(SmoothedState& s, const Vec15& core_var, const Eigen::Matrix<double, 6, 6>& pose_cov,
+                    const Vec6& extr_var) {
   for (int i = 0; i < kCore; ++i) s.sigma(i) = std::sqrt(std::max(0.0, core_var(i)));
   for (int i = 0; i < 6; ++i) s.sigma(kCore + i) = std::sqrt(std::max(0.0, extr_var(i)));
   s.pose_cov = pose_cov;
-  return s;
 }
 
 /// The [δp; δθ] block of a core covariance.
@@ -78,11 +86,12 @@ Eigen::Matrix<double, 6, 6> pose_block(const Mat15& P) {
 
 /// What the backward pass needs from one propagation segment a → b (docs in smoother.hpp): with
 /// Pp = P_b⁻ and D = P_s,b − P_b⁻, the smoothed δ_a and P_s,a, and, for the IMU steps inside the segment,
-/// λ and W = P_b⁻⁻¹ D P_b⁻⁻¹ reduced to the 30 directions the steps see (M = Tᵀ W T, T = diag(I₁₅, P_a,rc)).
+/// the core part of λ = P_b⁻⁻¹ δ_b (the mean) and W = P_b⁻⁻¹ D P_b⁻⁻¹ reduced to the 30 directions the
+/// steps' covariance sees (M = Tᵀ W T, T = diag(I₁₅, P_a,rc)).
 struct SegmentGain {
   VecX delta_a;
   MatX Ps_a;
-  Eigen::Matrix<double, 30, 1> lambda_T = Eigen::Matrix<double, 30, 1>::Zero();  ///< Tᵀ λ
+  Vec15 lambda_c = Vec15::Zero();
   Eigen::Matrix<double, 30, 30> M = Eigen::Matrix<double, 30, 30>::Zero();
 };
 
@@ -102,7 +111,7 @@ SegmentGain segment_gain(const RecordedNode& nd, const MatX& Pa, const MatX& Ps,
   MatX D = Ps - Pp;
 
   SegmentGain g;
-  g.lambda_T = T.transpose() * lambda;
+  g.lambda_c = lambda.head<kCore>();
   const MatX DZ = D * Z;
   g.M.triangularView<Eigen::Lower>() = Z.transpose() * DZ;
   g.M.triangularView<Eigen::StrictlyUpper>() = g.M.transpose();
@@ -126,25 +135,59 @@ SegmentGain segment_gain(const RecordedNode& nd, const MatX& Pa, const MatX& Ps,
 }
 
 /// What the IMU steps inside one propagation segment a → b need from the backward pass: the segment
-/// (its kPropagate node b; a is the node before it), Tᵀλ and M of its SegmentGain, and the smoothed state
-/// at a's extrinsics (constant inside the segment).
+/// (its kPropagate node b; a is the node before it), the smoothed δ_a's core part, λ's core part and M of
+/// its SegmentGain, and the smoothed state at a's extrinsics (constant inside the segment).
 struct StepsTask {
   std::size_t node = 0;
-  Eigen::Matrix<double, 30, 1> lambda_T;
+  Vec15 delta_a;
+  Vec15 lambda_c;
   Eigen::Matrix<double, 30, 30> M;
   Pose T_I_C;
   Vec6 extr_var = Vec6::Zero();
 };
 
-/// The smoothed core state and covariance at every IMU step inside a segment, written to res.states:
-/// P(t) and Φ(t, a) re-propagated from P_a with the recorded F and the same process noise, then backwards
-/// Ψ = Φ(b, t), A_t = [P_cc(t) Ψᵀ, Φ(t, a) P_a,cr] = G_t Tᵀ with G_t = [P_cc(t) Ψᵀ, Φ(t, a)] (15 x 30):
-/// δ_s(t) = G_t Tᵀλ, P_s(t) = P_cc(t) + G_t M G_tᵀ (fixed-size products only; of P_s(t) only the entries
-/// the output holds: the variances and the [δp; δθ] block).
-void smooth_segment_steps(const FilterRecording& rec, const StepsTask& task, const ImuNoiseParams& noise,
+/// The smoothed mean at every IMU step inside a segment, written to res.states (σ nan): λ carried
+/// backwards from b with the recorded F, then δ forwards from δ_a with the smoothed process noise
+/// (smoother.hpp). The process noise Q_i is formed once per distinct dt (add_process_noise, the one
+/// definition the filter uses).
+void smooth_segment_means(const FilterRecording& rec, const StepsTask& task, const ImuNoiseParams& noise,
                           SmootherResult& res) {
   const RecordedNode& nd = rec.nodes[task.node];
+  const std::size_t first = nd.first_step, m = nd.steps - first;
+  std::vector<Vec15> lambda(m);
+  Eigen::Matrix<double, 1, kCore> l = task.lambda_c.transpose();
+  for (std::size_t i = m; i-- > 0;) {
+    lambda[i] = l.transpose();
+    rec.steps[first + i].F.apply_right(l);  // λ(t_{i−1})ᵀ = λ(t_i)ᵀ F_i
+  }
+  Vec15 delta = task.delta_a;
+  Mat15 Q = Mat15::Zero();
+  double q_dt = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t i = 0; i < m; ++i) {
+    const RecordedStep& st = rec.steps[first + i];
+    if (!(st.F.dt == q_dt)) {
+      Q.setZero();
+      add_process_noise(noise, st.F.dt, Q);
+      q_dt = st.F.dt;
+    }
+    st.F.apply_left(delta);
+    delta.noalias() += Q * lambda[i];
+    CoreState x = st.x;
+    boxplus_core(x, delta);
+    res.states[first + i + 1] = mean_state(st.t_ns, x, task.T_I_C);
+  }
+}
+
+/// The smoothed covariance at the IMU steps of a segment that `want` marks (by step index), after
+/// smooth_segment_means: P(t) and Φ(t, a) re-propagated from P_a with the recorded F and the same process
+/// noise, then backwards Ψ = Φ(b, t), A_t = [P_cc(t) Ψᵀ, Φ(t, a) P_a,cr] = G_t Tᵀ with G_t = [P_cc(t) Ψᵀ,
+/// Φ(t, a)] (15 x 30): P_s(t) = P_cc(t) + G_t M G_tᵀ (fixed-size products only; of P_s(t) only the entries
+/// the output holds: the variances and the [δp; δθ] block). Nothing when no step of the segment is marked.
+void smooth_segment_covariances(const FilterRecording& rec, const StepsTask& task, const ImuNoiseParams& noise,
+                                const std::vector<char>& want, SmootherResult& res) {
+  const RecordedNode& nd = rec.nodes[task.node];
   const std::size_t m = nd.steps - nd.first_step;
+  if (std::find(want.begin() + nd.first_step, want.begin() + nd.steps, 1) == want.begin() + nd.steps) return;
   std::vector<Mat15> Pcc(m), Phi(m);
   Mat15 Pc = rec.nodes[task.node - 1].P.topLeftCorner<kCore, kCore>();
   Mat15 Ph = Mat15::Identity();
@@ -163,18 +206,25 @@ void smooth_segment_steps(const FilterRecording& rec, const StepsTask& task, con
   constexpr int kPose[6] = {kP, kP + 1, kP + 2, kTheta, kTheta + 1, kTheta + 2};
   for (std::size_t i = m; i-- > 0;) {
     const RecordedStep& st = rec.steps[nd.first_step + i];
-    G.leftCols<kCore>().noalias() = Pcc[i] * Psi.transpose();
-    G.rightCols<kCore>() = Phi[i];
-    CoreState x = st.x;
-    boxplus_core(x, G * task.lambda_T);
-    GM.noalias() = G * task.M;
-    const Vec15 var = Pcc[i].diagonal() + GM.cwiseProduct(G).rowwise().sum();
-    Eigen::Matrix<double, 6, 6> pose_cov;
-    for (int c = 0; c < 6; ++c)
-      for (int r = 0; r < 6; ++r) pose_cov(r, c) = Pcc[i](kPose[r], kPose[c]) + GM.row(kPose[r]).dot(G.row(kPose[c]));
-    res.states[nd.first_step + i + 1] = make_state(st.t_ns, x, task.T_I_C, var, pose_cov, task.extr_var);
+    if (want[nd.first_step + i]) {
+      G.leftCols<kCore>().noalias() = Pcc[i] * Psi.transpose();
+      G.rightCols<kCore>() = Phi[i];
+      GM.noalias() = G * task.M;
+      const Vec15 var = Pcc[i].diagonal() + GM.cwiseProduct(G).rowwise().sum();
+      Eigen::Matrix<double, 6, 6> pose_cov;
+      for (int c = 0; c < 6; ++c)
+        for (int r = 0; r < 6; ++r) pose_cov(r, c) = Pcc[i](kPose[r], kPose[c]) + GM.row(kPose[r]).dot(G.row(kPose[c]));
+      set_covariance(res.states[nd.first_step + i + 1], var, pose_cov, task.extr_var);
+    }
     st.F.apply_right(Psi);
   }
+}
+
+/// The IMU steps of one segment: their means, then the covariances `want` asks for.
+void smooth_segment_steps(const FilterRecording& rec, const StepsTask& task, const ImuNoiseParams& noise,
+                          const std::vector<char>& want, SmootherResult& res) {
+  smooth_segment_means(rec, task, noise, res);
+  smooth_segment_covariances(rec, task, noise, want, res);
 }
 
 /// Runs the segments' IMU steps (StepsTask) while the backward pass goes on: on a second thread when
@@ -184,8 +234,9 @@ void smooth_segment_steps(const FilterRecording& rec, const StepsTask& task, con
 /// (an exception in the backward pass).
 class StepsWorker {
  public:
-  StepsWorker(const FilterRecording& rec, const ImuNoiseParams& noise, SmootherResult& res, bool threaded)
-      : rec_(rec), noise_(noise), res_(res) {
+  StepsWorker(const FilterRecording& rec, const ImuNoiseParams& noise, const std::vector<char>& want,
+              SmootherResult& res, bool threaded)
+      : rec_(rec), noise_(noise), want_(want), res_(res) {
     if (threaded) thread_ = std::thread([this] { work(true); });
   }
   StepsWorker(const StepsWorker&) = delete;
@@ -194,7 +245,7 @@ class StepsWorker {
 
   void push(StepsTask task) {
     if (!thread_.joinable()) {
-      smooth_segment_steps(rec_, task, noise_, res_);
+      smooth_segment_steps(rec_, task, noise_, want_, res_);
       return;
     }
     {
@@ -231,7 +282,7 @@ class StepsWorker {
         queue_.pop_front();
       }
       try {
-        smooth_segment_steps(rec_, task, noise_, res_);
+        smooth_segment_steps(rec_, task, noise_, want_, res_);
       } catch (...) {
         std::lock_guard<std::mutex> lock(mu_);
         if (!error_) error_ = std::current_exception();
@@ -254,6 +305,7 @@ class StepsWorker {
 
   const FilterRecording& rec_;
   const ImuNoiseParams& noise_;
+  const std::vector<char>& want_;
   SmootherResult& res_;
   std::thread thread_;
   std::mutex mu_;
@@ -263,9 +315,22 @@ class StepsWorker {
   std::exception_ptr error_;
 };
 
+/// want[i]: the covariance after step i is asked for (SmootherOptions::covariance_at; all when nullptr).
+std::vector<char> wanted_steps(const FilterRecording& rec, const std::vector<Timestamp>* times) {
+  std::vector<char> want(rec.steps.size(), times == nullptr ? 1 : 0);
+  if (times == nullptr) return want;
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < rec.steps.size(); ++i) {
+    while (k < times->size() && (*times)[k] < rec.steps[i].t_ns) ++k;
+    if (k < times->size() && (*times)[k] == rec.steps[i].t_ns) want[i] = 1;
+  }
+  return want;
+}
+
 }  // namespace
 
-SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, unsigned threads) {
+SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, const SmootherOptions& options) {
+  const unsigned threads = options.threads;
   const auto& nodes = rec.nodes;
   ROE_CHECK(!nodes.empty() && nodes.front().kind == RecordedNode::Kind::kInit,
             "smooth: the recording does not start with the filter's initialisation");
@@ -283,7 +348,8 @@ SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, u
   MatX Ps = full_P(nodes.size() - 1);
   bool anchor_seen = false;
   std::size_t anchor_steps = 0;
-  StepsWorker steps(rec, noise, res, (threads ? threads : available_cpus()) > 1);
+  const std::vector<char> want = wanted_steps(rec, options.covariance_at);
+  StepsWorker steps(rec, noise, want, res, (threads ? threads : available_cpus()) > 1);
 
   for (std::size_t j = nodes.size() - 1; j >= 1; --j) {
     const RecordedNode& nd = nodes[j];
@@ -328,7 +394,7 @@ SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, u
         SegmentGain g = segment_gain(nd, a.P, Ps, boxminus(xs, nd.x));
         StateEstimate xa = a.x;
         boxplus(xa, g.delta_a);
-        steps.push({j, g.lambda_T, g.M, xa.T_I_C, extrinsics_variance(g.Ps_a, xa.extr_offset)});
+        steps.push({j, g.delta_a.head<kCore>(), g.lambda_c, g.M, xa.T_I_C, extrinsics_variance(g.Ps_a, xa.extr_offset)});
         xs = std::move(xa);
         Ps = std::move(g.Ps_a);
         break;
@@ -337,8 +403,8 @@ SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, u
   }
   steps.finish();
   const Mat15 Pcc = Ps.topLeftCorner<kCore, kCore>();
-  res.states[0] = make_state(xs.t_ns, xs.x, xs.T_I_C, Pcc.diagonal(), pose_block(Pcc),
-                             extrinsics_variance(Ps, xs.extr_offset));
+  res.states[0] = mean_state(xs.t_ns, xs.x, xs.T_I_C);
+  set_covariance(res.states[0], Pcc.diagonal(), pose_block(Pcc), extrinsics_variance(Ps, xs.extr_offset));
 
   // The states before the anchor's first sight into the new W (a rigid change of frame).
   if (anchor_seen) {

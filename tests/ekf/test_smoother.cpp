@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <filesystem>
 
 #include "filter_support.hpp"
 #include "roe/ekf/smoother.hpp"
@@ -11,6 +12,7 @@
 using namespace roe;
 using ekf::Vec3;
 using ekf::Vec6;
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -302,8 +304,8 @@ TEST_CASE("smoother: equals the textbook RTS with full matrices at every IMU ste
   ekf::run_filter(d.imu, images, opt, noise, d.manifest.camera->T_I_C, obs, &rec);
   REQUIRE(rec.steps.size() > 700);
 
-  const ekf::SmootherResult one = ekf::smooth(rec, noise, 1);
-  const ekf::SmootherResult two = ekf::smooth(rec, noise, 2);
+  const ekf::SmootherResult one = ekf::smooth(rec, noise, {1});
+  const ekf::SmootherResult two = ekf::smooth(rec, noise, {2});
   const std::vector<ekf::SmoothedState> ref = dense_rts(rec, noise);
   REQUIRE(one.states.size() == ref.size());
   REQUIRE(two.states.size() == ref.size());
@@ -329,4 +331,106 @@ TEST_CASE("smoother: equals the textbook RTS with full matrices at every IMU ste
   CHECK(max_dth < 1e-9);
   CHECK(max_dsig < 1e-6);
   CHECK(max_dcov < 1e-6);
+}
+
+namespace {
+
+/// A filter run with its recording, the IMU noise it used and its image times.
+struct Recorded {
+  ekf::FilterRecording rec;
+  ekf::ImuNoiseParams noise;
+  std::vector<Timestamp> image_times;
+};
+
+Recorded record(const Dataset& d, const ekf::FilterOptions& opt) {
+  Recorded r;
+  const auto images = ekf::group_images(d.detections.at("sim"));
+  const auto& n = d.manifest.imu->noise;
+  r.noise = {n.gyro_noise_density, n.gyro_random_walk, n.accel_noise_density, n.accel_random_walk};
+  NullObserver obs;
+  ekf::run_filter(d.imu, images, opt, r.noise, d.manifest.camera->T_I_C, obs, &r.rec);
+  for (const auto& im : images) r.image_times.push_back(im.t_ns);
+  return r;
+}
+
+/// ekf::smooth's IMU-rate means (from the segment's two ends, issue 41) against the textbook RTS, and the
+/// covariance asked for only at the image times against the covariance at every step.
+void check_means_and_sparse_covariance(const Recorded& r) {
+  const ekf::SmootherResult full = ekf::smooth(r.rec, r.noise, {1});
+  const ekf::SmootherResult sparse = ekf::smooth(r.rec, r.noise, {2, &r.image_times});
+  const std::vector<ekf::SmoothedState> ref = dense_rts(r.rec, r.noise);
+  REQUIRE(full.states.size() == ref.size());
+  REQUIRE(sparse.states.size() == ref.size());
+  double max_dp = 0, max_dv = 0, max_dth = 0, max_dsig = 0;
+  std::size_t with_cov = 0;
+  for (std::size_t k = 0; k < ref.size(); ++k) {
+    const auto &a = full.states[k], &s = sparse.states[k], &e = ref[k];
+    REQUIRE(a.t_ns == e.t_ns);
+    // Relative to the size of the quantity (at least 1 m, 1 m/s).
+    max_dp = std::max(max_dp, (a.x.p_W_I - e.x.p_W_I).norm() / std::max(1.0, e.x.p_W_I.norm()));
+    max_dv = std::max(max_dv, (a.x.v_W_I - e.x.v_W_I).norm() / std::max(1.0, e.x.v_W_I.norm()));
+    max_dth = std::max(max_dth, rot_diff(a.x.q_W_I, e.x.q_W_I));
+    max_dsig = std::max(max_dsig, ((a.sigma - e.sigma).array().abs() / (e.sigma.array() + 1e-12)).maxCoeff());
+    // The mean does not depend on where the covariance is asked for, bit for bit.
+    REQUIRE(s.t_ns == a.t_ns);
+    REQUIRE(s.x.p_W_I == a.x.p_W_I);
+    REQUIRE(s.x.v_W_I == a.x.v_W_I);
+    REQUIRE(s.x.q_W_I.coeffs() == a.x.q_W_I.coeffs());
+    REQUIRE(s.x.b_g == a.x.b_g);
+    REQUIRE(s.x.b_a == a.x.b_a);
+    const bool asked =
+        k == 0 || std::binary_search(r.image_times.begin(), r.image_times.end(), a.t_ns);
+    if (asked) {
+      ++with_cov;
+      REQUIRE(s.sigma == a.sigma);
+      REQUIRE(s.pose_cov == a.pose_cov);
+    } else {
+      REQUIRE(s.sigma.array().isNaN().all());
+      REQUIRE(s.pose_cov.array().isNaN().all());
+    }
+  }
+  INFO("position " << max_dp << " rel, velocity " << max_dv << " rel, rotation " << max_dth << " rad, sigma "
+                   << max_dsig << " rel; " << with_cov << " of " << ref.size() << " rows with a covariance");
+  CHECK(with_cov > r.image_times.size() / 2);
+  CHECK(with_cov < ref.size() / 4);
+  CHECK(max_dp < 1e-9);
+  CHECK(max_dv < 1e-9);
+  CHECK(max_dth < 1e-9);
+  // σ: the textbook pass's own inversions of n x n covariances at every step (2e-9 relative measured on
+  // "matched" 4 s, 2.3e-6 on the EuRoC snippet's 40 s); the σ path itself is the one of issue 24, and the
+  // covariance at an asked time is compared bit for bit with the all-steps pass above. Measured on the EuRoC
+  // snippet (2026-12-03): position 7.0e-13, velocity 4.4e-13 relative, rotation 3.1e-14 rad.
+  CHECK(max_dsig < 1e-5);
+}
+
+}  // namespace
+
+TEST_CASE("smoother: IMU-rate means from the segment ends equal the textbook RTS on paper-seq4, covariance only where asked",
+          "[ekf][smoother]") {
+  const Dataset d = test::simulate_preset("paper-seq4", 1, 8.0);
+  const Recorded r = record(d, matched_config("rts").filter);
+  REQUIRE(r.rec.steps.size() > 1500);
+  check_means_and_sparse_covariance(r);
+}
+
+TEST_CASE("smoother: IMU-rate means from the segment ends equal the textbook RTS on the EuRoC snippet",
+          "[ekf][smoother][euroc]") {
+  const fs::path mav0 = fs::path(ROE_SHARED_DATA_DIR) / "euroc_v102_snippet" / "mav0";
+  if (!fs::exists(mav0)) {
+    WARN("skipped: " << mav0 << " absent");
+    return;
+  }
+  app::SimulateOptions so;
+  so.from_groundtruth = mav0.string();
+  so.objects = 4;
+  so.seed = 1;
+  const Dataset d = app::simulate_dataset(so).dataset;
+  // roe run's built-in filter (camera-frame residual, split gate, learned σ scale) without the re-lock: its
+  // covariance inflation enters the segment's Q in ekf::smooth (filter.cpp, relock_lost_position), which the
+  // textbook pass above does not model.
+  ekf::FilterOptions opt = app::RunConfig{}.filter;
+  opt.relock_after_s = 0.0;
+  const Recorded r = record(d, opt);
+  REQUIRE(r.rec.steps.size() > 5000);
+  check_means_and_sparse_covariance(r);
 }

@@ -226,6 +226,18 @@ class Filter {
   static void select_rows(ResidualPart part, MeasBlock& b, Eigen::MatrixXd& PHt, Eigen::Index col0);
   /// The χ² test of one block (options: chi2_gate, gate_mode): the part(s) to use; the joint NIS to `nis`.
   ResidualPart gate(const MeasBlock& b, const Eigen::LDLT<Mat6>& ldlt, double& nis) const;
+  // The steps of update(), in order (ws_z_, ws_usable_, blocks_, ws_new_objects_, ws_inliers_ carry the image):
+  /// Marks duplicates (an error) and unusable detections, chooses the anchor if not yet chosen, inverts
+  /// every detection to T_O_C (ws_z_); returns the usable anchor detection's index or −1.
+  int screen_detections(const std::vector<Detection>& dets, FrameResult& res);
+  /// r, H, R of every usable detection of an initialised object (blocks_); the others to ws_new_objects_.
+  void build_blocks(const std::vector<Detection>& dets);
+  /// P H_kᵀ, S_k and the χ² gate of every block; outcomes to res, the inliers to ws_inliers_.
+  void gate_blocks(const std::vector<Detection>& dets, FrameResult& res);
+  /// The stacked update with the inliers (stacked S, apply_stacked_update, ⊞, guard rails, recording).
+  void update_with_inliers(FrameResult& res);
+  /// Each detection's implied T_W_I (DetectionOutcome::T_W_I) for the objects with an object-world.
+  void set_implied_poses(const std::vector<Detection>& dets, FrameResult& res) const;
   void initialize_object(int id, const Pose& z, const Mat6& R, bool anchor);
   /// Records a first-sight candidate; true when init_min_detections consecutive candidates agree.
   bool confirm_first_sight(int id, const Pose& z);

@@ -14,11 +14,17 @@
 /// The backward pass is the RTS recursion on the filter's own error state and linearisation (no
 /// relinearisation), link by link, with δ = x_s ⊟ x̂ (the inverse of Filter::boxplus):
 /// - update: the same variables before and after; the smoothed estimate passes unchanged.
-/// - propagation a → b: C = P_a Φᵀ P_b⁻ ⁻¹, δ_a = C δ_b, P_s,a = P_a + C (P_s,b − P_b⁻) Cᵀ; at every IMU step
-///   t inside the segment δ_s(t) = A_t λ, P_s(t) = P(t) + A_t P_b⁻⁻¹ (P_s,b − P_b⁻) P_b⁻⁻¹ A_tᵀ on the core
-///   rows, with λ = P_b⁻⁻¹ δ_b and A_t = P(t) Φ(b, t)ᵀ (P(t), Φ re-propagated from P_a with the recorded F
-///   and the same process noise), so the IMU-rate trajectory is the exact RTS estimate, not an
-///   interpolation.
+/// - propagation a → b: C = P_a Φᵀ P_b⁻ ⁻¹, δ_a = C δ_b, P_s,a = P_a + C (P_s,b − P_b⁻) Cᵀ (one Cholesky
+///   factor of P_b⁻ per segment, not per IMU step). At the IMU steps t_1 … t_m = b inside the segment the
+///   smoothed mean follows from the segment's two ends and the recorded transitions alone (O(15²) per step,
+///   no covariance): with λ = P_b⁻⁻¹ δ_b and its core part carried backwards, λ(t_m) = λ_c, λ(t_{i−1}) =
+///   F_iᵀ λ(t_i), the mean runs forwards from δ_a as the dynamics with the smoothed process noise:
+///   δ_s(t_i) = F_i δ_s(t_{i−1}) + Q_i λ(t_i) (equal to A_t λ with A_t = P(t) Φ(b, t)ᵀ, the form used
+///   before issue 41, in exact arithmetic; tests/ekf/test_smoother.cpp bounds the round-off). The
+///   covariance at a step, P_s(t) = P(t) + A_t P_b⁻⁻¹ (P_s,b − P_b⁻) P_b⁻⁻¹ A_tᵀ on the core rows (P(t), Φ
+///   re-propagated from P_a with the recorded F and the same process noise), is the costly part: it is
+///   computed only at the steps SmootherOptions::covariance_at asks for. So the IMU-rate trajectory is the
+///   exact RTS estimate, not an interpolation.
 /// - augmentation y = B u + w (a new object's error is J_x u + J_z n): C = P_u Bᵀ P_y⁻¹. A plain
 ///   augmentation appends the object, C = [I 0]: the old variables' smoothed estimate is the leading block.
 /// - the anchor's first sight also re-defines W (the gauge, docs/filter.md §4): y holds the old
@@ -77,9 +83,22 @@ struct SmoothedState {
   Timestamp t_ns = 0;
   CoreState x;
   Pose T_I_C;
-  /// σ of [δp, δv, δθ, δb_g, δb_a, δp_I_C, δθ_I_C] (0 for extrinsics held fixed).
+  /// σ of [δp, δv, δθ, δb_g, δb_a, δp_I_C, δθ_I_C] (0 for extrinsics held fixed); nan at a step whose
+  /// covariance was not asked for (SmootherOptions::covariance_at).
   Eigen::Matrix<double, 21, 1> sigma = Eigen::Matrix<double, 21, 1>::Zero();
-  Eigen::Matrix<double, 6, 6> pose_cov = Eigen::Matrix<double, 6, 6>::Zero();  ///< [δp_W_I; δθ_W_I]
+  Eigen::Matrix<double, 6, 6> pose_cov = Eigen::Matrix<double, 6, 6>::Zero();  ///< [δp_W_I; δθ_W_I]; nan likewise
+};
+
+struct SmootherOptions {
+  /// 0 = as many as the process may use (its affinity mask), 1 = the caller's thread only; with more than
+  /// one, the IMU steps inside each segment are smoothed on a second thread while the backward pass goes
+  /// on (the result is bit-identical for every thread count).
+  unsigned threads = 0;
+  /// The times (increasing) at which the smoothed covariance (sigma, pose_cov) is wanted; nullptr = at
+  /// every IMU step. The mean is smoothed at every step either way; the initial state always has its
+  /// covariance. A segment none of whose steps is listed costs O(15²) per step instead of O(15²·30)
+  /// (roe run with `"output": {"rate": "images"}` lists its rows' times).
+  const std::vector<Timestamp>* covariance_at = nullptr;
 };
 
 struct SmootherResult {
@@ -92,9 +111,7 @@ struct SmootherResult {
 
 /// Runs the backward pass. `noise` must be the filter's IMU noise (the process noise is re-derived from
 /// the recorded steps). Throws roe::NumericError when a covariance it must invert is not positive
-/// definite. `threads`: 0 = as many as the process may use (its affinity mask), 1 = the caller's thread
-/// only; with more than one, the IMU steps inside each segment are smoothed on a second thread while the
-/// backward pass goes on (the result is bit-identical for every thread count).
-SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, unsigned threads = 0);
+/// definite.
+SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, const SmootherOptions& options = {});
 
 }  // namespace roe::ekf
