@@ -103,6 +103,8 @@ def read_table(path, required=True):
         cols = entry["columns"]
         data = np.fromfile(entry["bin"], dtype=np.float64).reshape(int(entry["rows"]), len(cols))
         out = {c: data[:, k] for k, c in enumerate(cols)}
+        for c, values in entry.get("text", {}).items():  # text columns: indices into their values
+            out[c] = np.asarray(values, dtype=str)[out[c].astype(np.int64)].tolist()
         out["_n"], out["_path"] = int(entry["rows"]), path
         return out
     with open(path, newline="") as f:
@@ -1126,18 +1128,28 @@ def as_traj(tab):
 
 def used_parts(run_dir, tab):
     """The `used` column of the run's reprojection.csv (which part of each detection updated the filter)
-    for the rows of eval's reprojection_aligned.csv, matched by (timestamp, object); None when absent."""
+    for the rows of eval's reprojection_aligned.csv, matched by (timestamp, object); "" where the run's
+    file has no such row; None when the file or the column is absent."""
     path = os.path.join(run_dir, "reprojection.csv") if run_dir else None
     if tab is None or not path or not os.path.exists(path):
         return None
-    with open(path) as f:
-        head = f.readline().strip().split(",")
-        if "used" not in head:
-            return None
-        k = head.index("used")
-        rows = [ln.rstrip("\n").split(",") for ln in f if ln.strip()]
-    part = {(int(r[0]), int(r[1])): r[k] for r in rows}
-    return [part.get((int(t), int(o)), "") for t, o in zip(tab["timestamp_ns"], tab["object_id"])]
+    run = read_table(path)
+    if "used" not in run:
+        return None
+    ts_run, obj_run = need(run, "timestamp_ns", "object_id")
+    # (timestamp, object) as one integer: the timestamp's rank among both files' stamps, then the object.
+    stamps, rank = np.unique(np.r_[ts_run, tab["timestamp_ns"]], return_inverse=True)
+    objs = np.r_[obj_run, tab["object_id"]].astype(np.int64)
+    objs -= objs.min(initial=0)
+    key = rank.astype(np.int64) * (int(objs.max(initial=0)) + 1) + objs
+    k_run, k_tab = key[:len(ts_run)], key[len(ts_run):]
+    if not len(k_run):
+        return [""] * len(k_tab)
+    order = np.argsort(k_run, kind="stable")
+    j = np.maximum(np.searchsorted(k_run[order], k_tab, side="right") - 1, 0)  # a repeated row: the last
+    found = k_run[order][j] == k_tab
+    used = np.asarray(run["used"], dtype=str)
+    return np.where(found, used[order][j], "").tolist()
 
 
 def read_reprojections(tab, parts=None):
@@ -1249,7 +1261,24 @@ def make_tasks(F, a, x, chosen, colors, label_of):
     return tasks
 
 
+def wait_for_args(argv):
+    """`--args-from FILE` (roe starts the script before its input exists, so that the imports above run
+    while roe computes): the arguments, once roe has written FILE as {"args": [...]}; None on
+    {"abort": true} (roe stopped before the figures). Otherwise `argv` itself."""
+    if len(argv) != 2 or argv[0] != "--args-from":
+        return argv
+    import time
+    while not os.path.exists(argv[1]):  # written whole (renamed into place); roe's death ends this process
+        time.sleep(0.004)
+    with open(argv[1]) as f:
+        d = json.load(f)
+    return None if d.get("abort") else [str(v) for v in d["args"]]
+
+
 def main():
+    argv = wait_for_args(sys.argv[1:])
+    if argv is None:
+        return 0
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--eval", required=True, dest="eval_dir")
     ap.add_argument("--run", default=None)
@@ -1264,7 +1293,7 @@ def main():
     ap.add_argument("--style", default="default", choices=sorted(STYLES))
     ap.add_argument("--dpi", type=int, default=0, help="PNG resolution (0: the style's, 130 or 300)")
     ap.add_argument("--jobs", type=int, default=0, help="processes drawing (0: min(2, CPUs))")
-    a = ap.parse_args()
+    a = ap.parse_args(argv)
     plt.rcParams.update(BASE_RC)
     plt.rcParams.update(STYLES[a.style]["rc"])
     if a.dpi > 0:
