@@ -56,6 +56,9 @@ except ImportError as e:  # pragma: no cover
 BASE_RC = {
     "axes.grid": True, "grid.alpha": 0.3, "figure.dpi": 100,
     "svg.fonttype": "none", "path.simplify": True, "agg.path.chunksize": 20000,
+    # A fixed title height: matplotlib otherwise measures every axis' tick labels at each draw to place
+    # the (empty) axes titles, a fifth of the drawing time.
+    "axes.titley": 1.0,
 }
 # default: today's informative screen figures; paper: column widths, small type, no titles or footers.
 STYLES = {
@@ -100,6 +103,8 @@ def read_table(path, required=True):
         cols = entry["columns"]
         data = np.fromfile(entry["bin"], dtype=np.float64).reshape(int(entry["rows"]), len(cols))
         out = {c: data[:, k] for k, c in enumerate(cols)}
+        for c, values in entry.get("text", {}).items():  # text columns: indices into their values
+            out[c] = np.asarray(values, dtype=str)[out[c].astype(np.int64)].tolist()
         out["_n"], out["_path"] = int(entry["rows"]), path
         return out
     with open(path, newline="") as f:
@@ -271,7 +276,8 @@ def pixel_columns(ax):
 def decimate(t, ys, bins):
     """Indices keeping, for each of `bins` equal time bins (at least one per pixel column), the first and
     last sample and each series' minimum and maximum, in time order: a line drawn through them covers
-    the same pixels in every column as the full line (every extremum kept), within one pixel."""
+    the same pixels in every column as the full line (every extremum kept), within one pixel. Linear in
+    the samples (t is sorted, so a bin's rows are one run: minima and maxima by np.*.reduceat)."""
     n = len(t)
     if n <= 4 * bins:
         return np.arange(n)
@@ -280,13 +286,18 @@ def decimate(t, ys, bins):
     starts = np.flatnonzero(np.r_[True, b[1:] != b[:-1]])
     ends = np.r_[starts[1:], n] - 1
     keep = [starts, ends]
+    counts = ends - starts + 1
     for y in ys:
-        lo = np.where(np.isnan(y), np.inf, y)
-        hi = np.where(np.isnan(y), -np.inf, y)
-        keep.append(np.lexsort((lo, b))[starts])  # t is sorted: a bin's rows stay together, minimum first
-        keep.append(np.lexsort((hi, b))[ends])    # ... and the maximum last
-        if np.isnan(y).any():  # the gaps stay gaps
-            keep.append(np.flatnonzero(np.isnan(y)))
+        gaps = np.isnan(y)
+        lo = np.where(gaps, np.inf, y)
+        hi = np.where(gaps, -np.inf, y)
+        # The first row of each bin at its bin's minimum, the last at its maximum.
+        at_lo = np.flatnonzero(lo == np.repeat(np.minimum.reduceat(lo, starts), counts))
+        at_hi = np.flatnonzero(hi == np.repeat(np.maximum.reduceat(hi, starts), counts))
+        keep.append(at_lo[np.unique(b[at_lo], return_index=True)[1]])
+        keep.append(at_hi[::-1][np.unique(b[at_hi][::-1], return_index=True)[1]])
+        if gaps.any():  # the gaps stay gaps
+            keep.append(np.flatnonzero(gaps))
     return np.unique(np.concatenate(keep))
 
 
@@ -388,6 +399,42 @@ def mathtext(s):
                   .replace("θ", r"\theta ").replace("σ", r"\sigma ") + m.group(2) + "$", s)
 
 
+def empty(fig):
+    """Removes what was drawn into `fig` (artists, legends, texts, labels, limits): its axes, their ticks
+    and the layout stay, to be drawn into again."""
+    for ax in fig.axes:
+        for a in [*ax.lines, *ax.collections, *ax.patches, *ax.texts, *ax.images]:
+            a.remove()
+        if ax.legend_ is not None:
+            ax.legend_.remove()
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+        ax.set_prop_cycle(None)
+        ax.relim()
+        ax.set_autoscale_on(True)
+    for leg in list(fig.legends):
+        leg.remove()
+    for txt in list(fig.texts):  # the footer and the title (suptitle() makes a new one)
+        txt.remove()
+    fig._suptitle = None
+
+
+def save_png(fig, path, dpi, compression):
+    """The figure as an RGB PNG at `dpi` (drawn at the figure's own dpi when they agree: no re-layout).
+    RGB, not matplotlib's RGBA: the background is opaque, and the file a sixth smaller and faster to
+    compress (zlib level 3 for the screen style: faster than 6 and hardly larger on flat plot colours)."""
+    if abs(fig.dpi - dpi) > 1e-9:
+        fig.savefig(path, dpi=dpi, pil_kwargs={"compress_level": compression})
+        return
+    from PIL import Image, PngImagePlugin
+    fig.canvas.draw()
+    info = PngImagePlugin.PngInfo()
+    info.add_text("Software", f"Matplotlib version{matplotlib.__version__}, https://matplotlib.org/")
+    w, h = fig.canvas.get_width_height()
+    img = Image.frombuffer("RGBA", (w, h), fig.canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB")
+    img.save(path, format="png", compress_level=compression, pnginfo=info, dpi=(dpi, dpi))
+
+
 class Figures:
     """The figure set being drawn: style, output, manifest entries."""
 
@@ -396,15 +443,27 @@ class Figures:
         self.style = STYLES[style]
         self.style_name = style
         self.items, self.skipped = [], []
+        self.grid = None  # the 3x2 time-series figure, drawn into again by the next one (new(reuse=True))
 
     task = 0  # the drawing task in progress: keeps the manifest in task order across workers
 
-    def new(self, nrows, ncols, width, height, **kw):
+    def new(self, nrows, ncols, width, height, reuse=False, **kw):
         """A figure `width` ("single" or "double" column) wide, `height` inches at the default style
-        (scaled for the paper), with room at the top for the title (default style) and legend rows."""
+        (scaled for the paper), with room at the top for the title (default style) and legend rows.
+        reuse=True (the 3x2 time series: Fig. 3, each Fig. 4, the extrinsics): the previous such figure
+        emptied and resized instead of a new one; its axes and ticks, half of a figure's cost, stay."""
         w, h = self.new_size(width, height)
-        fig, axs = plt.subplots(nrows, ncols, figsize=(w, h), **kw)
-        return fig, axs
+        if not reuse:
+            return plt.subplots(nrows, ncols, figsize=(w, h), **kw)
+        key = (nrows, ncols, width, tuple(sorted(kw.items())))
+        if self.grid is None or self.grid[0] != key:
+            if self.grid is not None:
+                plt.close(self.grid[1])
+            self.grid = (key,) + tuple(plt.subplots(nrows, ncols, figsize=(w, h), **kw))
+        else:
+            empty(self.grid[1])
+            self.grid[1].set_size_inches(w, h)
+        return self.grid[1], self.grid[2]
 
     def new_size(self, width, height):
         """(w, h) inches of a figure `width` ("single"/"double" column) of `height` in at the default style."""
@@ -435,14 +494,13 @@ class Figures:
         if self.style["footer"]:
             fig.text(0.005, 0.004, self.footer, fontsize=6.5, color="#444444", ha="left", va="bottom")
         files = {"png": f"{name}.png"}
-        # zlib level 3: faster than the default 6 and no larger on flat plot colours.
-        fig.savefig(os.path.join(self.out, files["png"]), dpi=self.style["dpi"],
-                    pil_kwargs={"compress_level": self.style["png_compression"]})
+        save_png(fig, os.path.join(self.out, files["png"]), self.style["dpi"], self.style["png_compression"])
         if self.vector != "none":
             files[self.vector] = f"{name}.{self.vector}"
             fig.savefig(os.path.join(self.out, files[self.vector]), dpi=self.style["dpi"])
         size = [round(v, 3) for v in fig.get_size_inches()]
-        plt.close(fig)
+        if self.grid is None or fig is not self.grid[1]:
+            plt.close(fig)
         self.items.append({"task": self.task, "name": name, "title": title, "caption": caption, "files": files,
                            "size_in": size, "layers": layers or [],
                            "skipped_layers": [{"layer": k, "reason": r} for k, r in (skipped_layers or [])],
@@ -516,7 +574,7 @@ def time_limits(*ts):
 
 
 def fig3(F, est, gt, reps, chosen, colors, t0):
-    fig, axs = F.new(3, 2, "double", 7.2, sharex=True)
+    fig, axs = F.new(3, 2, "double", 7.2, sharex=True, reuse=True)
     F.adjust(fig, left=0.07, hspace=0.12, wspace=0.16)
     tg, te = gt["t"] - t0, est["t"] - t0
     names = [("x", "$x$ [m]"), ("y", "$y$ [m]"), ("z", "$z$ [m]"),
@@ -688,7 +746,7 @@ def fig4(F, oid, r, anchor, truth_objects, sym, colors, t0, label_of):
     ang = unwrapped_euler(R, truth_eul)
     if truth is not None:  # the truth's angles on the estimate's turn
         truth_eul = truth_eul + 360.0 * np.round((np.median(ang, axis=0) - truth_eul) / 360.0)
-    fig, axs = F.new(3, 2, "double", 6.5, sharex=True)
+    fig, axs = F.new(3, 2, "double", 6.5, sharex=True, reuse=True)
     F.adjust(fig, hspace=0.12, wspace=0.2)
     c = colors.get(oid, C_EST)
     labels = ["$x$ [m]", "$y$ [m]", "$z$ [m]", r"roll $\phi$ [°]", r"pitch $\theta$ [°]", r"yaw $\psi$ [°]"]
@@ -764,7 +822,7 @@ def extrinsics(F, causal, smoothed, prior, truth, t0):
         final = np.r_[ps[-1], ds[-1]]
     same_prior = truth is not None and np.allclose(truth[0], p_prior, atol=1e-6) and \
         np.abs(log_so3_deg(np.transpose(R_prior, (0, 2, 1)) @ truth[1])).max() < 1e-4
-    fig, axs = F.new(3, 2, "double", 6.5, sharex=True)
+    fig, axs = F.new(3, 2, "double", 6.5, sharex=True, reuse=True)
     F.adjust(fig, hspace=0.12, wspace=0.2)
     ax_names = "xyz"
     span = []
@@ -1070,18 +1128,28 @@ def as_traj(tab):
 
 def used_parts(run_dir, tab):
     """The `used` column of the run's reprojection.csv (which part of each detection updated the filter)
-    for the rows of eval's reprojection_aligned.csv, matched by (timestamp, object); None when absent."""
+    for the rows of eval's reprojection_aligned.csv, matched by (timestamp, object); "" where the run's
+    file has no such row; None when the file or the column is absent."""
     path = os.path.join(run_dir, "reprojection.csv") if run_dir else None
     if tab is None or not path or not os.path.exists(path):
         return None
-    with open(path) as f:
-        head = f.readline().strip().split(",")
-        if "used" not in head:
-            return None
-        k = head.index("used")
-        rows = [ln.rstrip("\n").split(",") for ln in f if ln.strip()]
-    part = {(int(r[0]), int(r[1])): r[k] for r in rows}
-    return [part.get((int(t), int(o)), "") for t, o in zip(tab["timestamp_ns"], tab["object_id"])]
+    run = read_table(path)
+    if "used" not in run:
+        return None
+    ts_run, obj_run = need(run, "timestamp_ns", "object_id")
+    # (timestamp, object) as one integer: the timestamp's rank among both files' stamps, then the object.
+    stamps, rank = np.unique(np.r_[ts_run, tab["timestamp_ns"]], return_inverse=True)
+    objs = np.r_[obj_run, tab["object_id"]].astype(np.int64)
+    objs -= objs.min(initial=0)
+    key = rank.astype(np.int64) * (int(objs.max(initial=0)) + 1) + objs
+    k_run, k_tab = key[:len(ts_run)], key[len(ts_run):]
+    if not len(k_run):
+        return [""] * len(k_tab)
+    order = np.argsort(k_run, kind="stable")
+    j = np.maximum(np.searchsorted(k_run[order], k_tab, side="right") - 1, 0)  # a repeated row: the last
+    found = k_run[order][j] == k_tab
+    used = np.asarray(run["used"], dtype=str)
+    return np.where(found, used[order][j], "").tolist()
 
 
 def read_reprojections(tab, parts=None):
@@ -1193,7 +1261,24 @@ def make_tasks(F, a, x, chosen, colors, label_of):
     return tasks
 
 
+def wait_for_args(argv):
+    """`--args-from FILE` (roe starts the script before its input exists, so that the imports above run
+    while roe computes): the arguments, once roe has written FILE as {"args": [...]}; None on
+    {"abort": true} (roe stopped before the figures). Otherwise `argv` itself."""
+    if len(argv) != 2 or argv[0] != "--args-from":
+        return argv
+    import time
+    while not os.path.exists(argv[1]):  # written whole (renamed into place); roe's death ends this process
+        time.sleep(0.004)
+    with open(argv[1]) as f:
+        d = json.load(f)
+    return None if d.get("abort") else [str(v) for v in d["args"]]
+
+
 def main():
+    argv = wait_for_args(sys.argv[1:])
+    if argv is None:
+        return 0
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--eval", required=True, dest="eval_dir")
     ap.add_argument("--run", default=None)
@@ -1208,12 +1293,15 @@ def main():
     ap.add_argument("--style", default="default", choices=sorted(STYLES))
     ap.add_argument("--dpi", type=int, default=0, help="PNG resolution (0: the style's, 130 or 300)")
     ap.add_argument("--jobs", type=int, default=0, help="processes drawing (0: min(2, CPUs))")
-    a = ap.parse_args()
+    a = ap.parse_args(argv)
     plt.rcParams.update(BASE_RC)
     plt.rcParams.update(STYLES[a.style]["rc"])
     if a.dpi > 0:
         STYLES[a.style]["dpi"] = a.dpi
     plt.rcParams["savefig.dpi"] = STYLES[a.style]["dpi"]  # also the resolution of rasterised parts
+    # Laid out at the resolution it is saved at: the text is measured (and the mathtext parsed) once,
+    # not once at the screen's dpi and again at the PNG's.
+    plt.rcParams["figure.dpi"] = STYLES[a.style]["dpi"]
     try:
         if a.tables:
             TABLES.update(read_json(a.tables))

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <future>
+#include <map>
 #include <cstdlib>
 
 #include "roe/core/error.hpp"
@@ -116,9 +117,10 @@ std::string FigureSet::status() const {
   return s + (formats.empty() ? "" : " (" + formats + ")");
 }
 
-double run_plot_script(const std::string& script_text, const std::string& name, const fs::path& dir,
-                       const std::vector<std::string>& args) {
-  // Debian's interpreter (the python3 on PATH may be a build without matplotlib); ROE_PYTHON overrides.
+namespace {
+
+/// The interpreter: Debian's (the python3 on PATH may be a build without matplotlib); ROE_PYTHON overrides.
+fs::path python_executable() {
   const char* env = std::getenv("ROE_PYTHON");
   const std::string python = env && *env ? env : "/usr/bin/python3";
   const fs::path exe = io::find_executable(python);
@@ -128,22 +130,11 @@ double run_plot_script(const std::string& script_text, const std::string& name, 
                                  "interpreter that has them)",
                                  python, python.find('/') == std::string::npos ? " on PATH" : ""));
   }
-  const fs::path script = dir / ("." + name);
-  io::write_file_atomic(script, script_text);
-  std::vector<std::string> argv = {exe.string(), script.string()};
-  argv.insert(argv.end(), args.begin(), args.end());
-  const auto t0 = std::chrono::steady_clock::now();
-  io::ProcessResult r;
-  try {
-    r = io::run_process(argv);
-  } catch (...) {
-    std::error_code ec;
-    fs::remove(script, ec);
-    throw;
-  }
-  std::error_code ec;
-  fs::remove(script, ec);
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return exe;
+}
+
+/// The script's exit turned into roe's errors (see run_plot_script).
+void check_result(const io::ProcessResult& r, const fs::path& exe, const std::string& name) {
   const std::string why = last_lines(r.output, 1);
   if (r.exec_failed || (r.exit_code == 126 || r.exit_code == 127))
     throw InputError(fmt::format("cannot draw the figures: {} could not be run (exit {}){}", exe.string(),
@@ -159,15 +150,102 @@ double run_plot_script(const std::string& script_text, const std::string& name, 
     throw Error(fmt::format("{} was killed by signal {} ({})", name, r.term_signal, strsignal(r.term_signal)));
   if (r.exit_code != 0)
     throw Error(fmt::format("{} failed (exit {}):\n{}", name, r.exit_code, last_lines(r.output, 12)));
-  return wall;
+}
+
+}  // namespace
+
+struct PlotProcess::State {
+  std::string name;
+  fs::path exe, script, go;
+  std::chrono::steady_clock::time_point t0;
+  std::future<io::ProcessResult> result;
+};
+
+PlotProcess::PlotProcess(const std::string& script_text, const std::string& name, const fs::path& dir)
+    : s_(std::make_unique<State>()) {
+  s_->name = name;
+  s_->exe = python_executable();
+  s_->script = dir / ("." + name);
+  s_->go = dir / ("." + name + ".args.json");
+  io::write_file_atomic(s_->script, script_text);
+  const std::vector<std::string> argv = {s_->exe.string(), s_->script.string(), "--args-from", s_->go.string()};
+  s_->t0 = std::chrono::steady_clock::now();
+  try {
+    s_->result = std::async(std::launch::async, [argv] { return io::run_process(argv); });
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(s_->script, ec);
+    throw;
+  }
+}
+
+PlotProcess::~PlotProcess() {
+  if (!s_->result.valid()) return;
+  try {  // never run(): the script exits on {"abort": true}
+    io::write_file_atomic(s_->go, io::dump_json(nlohmann::json{{"abort", true}}));
+  } catch (...) {  // it then waits until roe is gone (PR_SET_PDEATHSIG); nothing more to do here
+  }
+  s_->result.wait();
+  std::error_code ec;
+  fs::remove(s_->script, ec);
+  fs::remove(s_->go, ec);
+}
+
+double PlotProcess::run(const std::vector<std::string>& args) {
+  io::ProcessResult r;
+  try {
+    io::write_file_atomic(s_->go, io::dump_json(nlohmann::json{{"args", args}}));
+    r = s_->result.get();  // (an exception here is run_process's own: no process could be created)
+  } catch (...) {
+    if (s_->result.valid()) {
+      try {
+        io::write_file_atomic(s_->go, io::dump_json(nlohmann::json{{"abort", true}}));
+      } catch (...) {
+      }
+      s_->result.wait();
+    }
+    std::error_code ec;
+    fs::remove(s_->script, ec);
+    fs::remove(s_->go, ec);
+    throw;
+  }
+  std::error_code ec;
+  fs::remove(s_->script, ec);
+  fs::remove(s_->go, ec);
+  check_result(r, s_->exe, s_->name);
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - s_->t0).count();
+}
+
+double run_plot_script(const std::string& script_text, const std::string& name, const fs::path& dir,
+                       const std::vector<std::string>& args) {
+  const fs::path exe = python_executable();
+  const fs::path script = dir / ("." + name);
+  io::write_file_atomic(script, script_text);
+  std::vector<std::string> argv = {exe.string(), script.string()};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const auto t0 = std::chrono::steady_clock::now();
+  io::ProcessResult r;
+  try {
+    r = io::run_process(argv);
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(script, ec);
+    throw;
+  }
+  std::error_code ec;
+  fs::remove(script, ec);
+  check_result(r, exe, name);
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 namespace {
 
-/// The numeric CSV `csv` as a raw float64 file (row-major, the header's columns) for plot_run.py, which
-/// reads it with np.fromfile instead of parsing the text again (the states of a 300 s run are 56 MB).
-/// Returns its entry of the --tables manifest, or null when the file is absent or has a field that is not
-/// a number (the script then reads the CSV itself, with its own checks and messages).
+/// The CSV `csv` as a raw float64 file (row-major, the header's columns) for plot_run.py, which reads
+/// it with np.fromfile instead of parsing the text again (the states of a 300 s run are 56 MB). A column
+/// whose first field is not a number (reprojection.csv's status, used) is text: stored as the index of
+/// each value in its list of distinct values, which the entry carries ("text": {column: [values]}).
+/// Returns its entry of the --tables manifest, or null when the file is absent or a numeric column has a
+/// field that is not a number (the script then reads the CSV itself, with its own checks and messages).
 json export_table(const fs::path& csv, const fs::path& bin) {
   std::error_code ec;
   if (!fs::is_regular_file(csv, ec)) return nullptr;
@@ -177,10 +255,36 @@ json export_table(const fs::path& csv, const fs::path& bin) {
     io::CsvReader r(csv, co);
     const std::size_t n = r.header().size();
     std::vector<double> v;
-    while (r.next())
-      for (std::size_t i = 0; i < n; ++i) v.push_back(r.is_empty(i) ? std::nan("") : r.get_double_nonfinite(i));
+    std::vector<std::map<std::string, double, std::less<>>> text(n);  // value -> index, per text column
+    std::vector<bool> is_text(n, false);
+    for (bool first = true; r.next(); first = false)
+      for (std::size_t i = 0; i < n; ++i) {
+        if (first && !r.is_empty(i)) {
+          try {
+            r.get_double_nonfinite(i);
+          } catch (const InputError&) {
+            is_text[i] = true;
+          }
+        }
+        if (!is_text[i]) {
+          v.push_back(r.is_empty(i) ? std::nan("") : r.get_double_nonfinite(i));
+          continue;
+        }
+        const std::string_view f = r.field(i);
+        auto it = text[i].find(f);
+        if (it == text[i].end()) it = text[i].emplace(std::string(f), static_cast<double>(text[i].size())).first;
+        v.push_back(it->second);
+      }
     io::write_file_atomic(bin, std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double)));
-    return {{"bin", bin.string()}, {"columns", r.header()}, {"rows", n ? v.size() / n : 0}};
+    json entry = {{"bin", bin.string()}, {"columns", r.header()}, {"rows", n ? v.size() / n : 0}};
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!is_text[i]) continue;
+      json values = json::array();
+      for (std::size_t k = 0; k < text[i].size(); ++k) values.push_back("");
+      for (const auto& [value, k] : text[i]) values[static_cast<std::size_t>(k)] = value;
+      entry["text"][r.header()[i]] = values;
+    }
+    return entry;
   } catch (const InputError&) {
     return nullptr;
   }
@@ -210,7 +314,7 @@ std::vector<fs::path> export_tables(const std::vector<fs::path>& tables, const f
 }  // namespace
 
 FigureSet render_figures(const fs::path& eval_dir, const fs::path& run_dir, const fs::path& dataset,
-                         const fs::path& out_dir, const FigureOptions& o) {
+                         const fs::path& out_dir, const FigureOptions& o, PlotProcess* started) {
   check_figure_options(o);
   std::vector<std::string> args = {"--eval", eval_dir.string(), "--out", out_dir.string(), "--objects", o.objects,
                                    "--plot-mode", o.plot_mode, "--vector", o.vector, "--style", o.style};
@@ -230,11 +334,12 @@ FigureSet render_figures(const fs::path& eval_dir, const fs::path& run_dir, cons
   if (o.color_by_error) args.push_back("--color-by-error");
   // Larger tables first: the two threads share them about evenly.
   std::vector<fs::path> tables = {eval_dir / "errors.csv", eval_dir / "est_matched_aligned.csv",
-                                  eval_dir / "gt_matched.csv"};
+                                  eval_dir / "gt_matched.csv", eval_dir / "reprojection_aligned.csv"};
   if (!run_dir.empty()) {
     std::error_code ec;
     const bool smoothed = fs::exists(run_dir / "states_filter.csv", ec);
     tables.insert(tables.begin(), {run_dir / (smoothed ? "states_filter.csv" : "states.csv"), run_dir / "objects.csv"});
+    tables.push_back(run_dir / "reprojection.csv");
   }
   std::vector<fs::path> temporaries = {sym_file};
   const auto remove_temporaries = [&] {
@@ -247,7 +352,7 @@ FigureSet render_figures(const fs::path& eval_dir, const fs::path& run_dir, cons
     const auto written = export_tables(tables, out_dir, manifest);
     temporaries.insert(temporaries.end(), written.begin(), written.end());
     args.insert(args.end(), {"--tables", manifest.string()});
-    wall = run_plot_script(plot_run_script(), "plot_run.py", out_dir, args);
+    wall = started ? started->run(args) : run_plot_script(plot_run_script(), "plot_run.py", out_dir, args);
   } catch (...) {
     remove_temporaries();
     throw;

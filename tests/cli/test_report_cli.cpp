@@ -270,3 +270,31 @@ TEST_CASE("roe eval --plot and roe report: a signal during plotting kills the pl
   CHECK_FALSE(fs::exists(t / "r.html"));
   CHECK_FALSE(fs::exists(t / "figs"));
 }
+
+// The plotting process starts before eval (its imports overlap eval); when eval then refuses its input,
+// the process is told to stop: roe exits 2 with the eval error, the interpreter is gone and nothing is
+// left beside the report (the stand-in interpreter records its pid and runs the real python3).
+TEST_CASE("roe report: an eval error stops the plotting process started ahead of it", "[cli][report]") {
+  if (sh("/usr/bin/python3 -c 'import matplotlib, numpy' 2>/dev/null").first != 0) {
+    WARN("skipped: /usr/bin/python3 with matplotlib and numpy is needed");
+    return;
+  }
+  TempDir t("roe_report_early");
+  const std::string sample = std::string(ROE_SOURCE_DIR) + "/datasets/sample";
+  REQUIRE(run_roe("-q run " + sample + " --out " + (t / "run").string()).code == 0);
+  const fs::path wrapper = t.write("bin/python", "#!/bin/sh\necho $$ > " + (t / "child.pid").string() +
+                                                     "\nexec /usr/bin/python3 \"$@\"\n");
+  fs::permissions(wrapper, fs::perms::owner_all);
+  auto [rc, out] = sh("ROE_PYTHON=" + wrapper.string() + " " + ROE_BINARY + " report " + (t / "run").string() +
+                      " --out " + (t / "r.html").string() + " --align bogus 2>&1");
+  INFO(out);
+  CHECK(rc == 2);
+  CHECK(out.find("unknown alignment 'bogus'") != std::string::npos);
+  REQUIRE(fs::exists(t / "child.pid"));  // it was started, before eval
+  const std::string child = slurp(t / "child.pid");
+  CHECK(sh("kill -0 " + child.substr(0, child.find('\n')) + " 2>/dev/null").first != 0);
+  for (const auto& e : fs::directory_iterator(t.path)) {
+    INFO(e.path());
+    CHECK((e.path().filename() == "run" || e.path().filename() == "bin" || e.path().filename() == "child.pid"));
+  }
+}

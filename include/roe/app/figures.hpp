@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -50,6 +51,24 @@ struct FigureSet {
 double run_plot_script(const std::string& script_text, const std::string& name, const std::filesystem::path& dir,
                        const std::vector<std::string>& args);
 
+/// A plotting script started before its input exists: python and matplotlib import (≈ 0.6 s of CPU)
+/// while roe computes what the figures show. The script is run with `--args-from FILE` and waits for
+/// FILE; run() writes it (the arguments) and waits for the script, with run_plot_script's errors. A
+/// process never run() is told to exit and waited for on destruction (an earlier stage threw).
+class PlotProcess {
+ public:
+  PlotProcess(const std::string& script_text, const std::string& name, const std::filesystem::path& dir);
+  ~PlotProcess();
+  PlotProcess(const PlotProcess&) = delete;
+  PlotProcess& operator=(const PlotProcess&) = delete;
+  /// Hands `args` over and waits; throws as run_plot_script. Returns the wall time since the start [s].
+  double run(const std::vector<std::string>& args);
+
+ private:
+  struct State;
+  std::unique_ptr<State> s_;
+};
+
 /// The plotting script (scripts/plot_run.py).
 const std::string& plot_run_script();
 
@@ -64,8 +83,9 @@ nlohmann::json symmetries_json(const std::vector<std::pair<int, ObjectSymmetry>>
 /// when the interpreter is missing, cannot import matplotlib/numpy, or the script rejects its input
 /// (each case with its own message), roe::Error (exit 3) when the script fails otherwise. The script
 /// runs in its own process group and dies with roe (Ctrl-C, SIGTERM); no temporary is left.
+/// `started`: plot_run_script() already started in `out_dir` (PlotProcess), or null to start it here.
 FigureSet render_figures(const std::filesystem::path& eval_dir, const std::filesystem::path& run_dir,
                          const std::filesystem::path& dataset, const std::filesystem::path& out_dir,
-                         const FigureOptions& options);
+                         const FigureOptions& options, PlotProcess* started = nullptr);
 
 }  // namespace roe::app
