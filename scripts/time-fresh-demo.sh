@@ -87,8 +87,9 @@ chmod +x "$run/root/timed-sh"
 
 in_chroot() { taskset -c "$cpus" chroot "$run" /usr/bin/env -i HOME=/root PATH=/usr/sbin:/usr/bin:/sbin:/bin \
   LANG=C.UTF-8 "$@"; }
-# bc for the step timer: not part of the demo's packages, installed before the clock starts.
-in_chroot apt-get update -qq >/dev/null && in_chroot apt-get install -y -qq --no-install-recommends bc >/dev/null
+# Before the clock starts: make (the one command a user must have to type `make demo`; build-essential
+# would bring it) and bc for the step timer.
+in_chroot apt-get update -qq >/dev/null && in_chroot apt-get install -y -qq --no-install-recommends make bc >/dev/null
 packages_before=$(in_chroot dpkg-query -W -f='${Status}\n' | grep -c "install ok installed")
 load_before=$(cut -d' ' -f1-3 /proc/loadavg)
 start=$(date +%s.%N)
