@@ -69,17 +69,20 @@ git clone -q --no-local "$repo" "$run/root/roe"
 git -C "$run/root/roe" checkout -q "$commit"
 # ../shared beside the clone is not needed: the demo reads the embedded datasets/sample.
 
-# One line of timing per recipe line: make runs each through $SHELL; this one records wall, user+sys of
-# everything the line ran (bash's `times`: children) and the line itself.
+# One line of timing per recipe line: make runs each through $SHELL (sub-makes and CMake's makefiles
+# too); this one records the make level, wall, user+sys of everything the line ran (bash's `times`,
+# children; called in this shell, not in a subshell) and the line itself.
 cat >"$run/root/timed-sh" <<'EOF'
 #!/bin/bash
 start=$(date +%s.%N)
 /bin/sh "$@"
 rc=$?
 end=$(date +%s.%N)
-read -r _ _ cu cs < <(times | tr '\n' ' ')
-to_s() { local m=${1%%m*} s=${1#*m}; s=${s%s}; echo "$m*60+$s" | bc -l 2>/dev/null || echo "?"; }
-printf '%s\t%s\t%s\t%s\t%s\n' "$(date -u +%T)" "$(echo "$end-$start" | bc -l | xargs printf '%.1f')" \
+times >/tmp/timed-sh.$$
+read -r _ _ cu cs < <(tr '\n' ' ' </tmp/timed-sh.$$)
+rm -f /tmp/timed-sh.$$
+to_s() { local m=${1%%m*} s=${1#*m}; s=${s%s}; echo "$m*60+$s" | bc -l; }
+printf '%s\t%s\t%s\t%s\t%s\t%s\n' "${MAKELEVEL:-0}" "$(date -u +%T)" "$(echo "$end-$start" | bc -l | xargs printf '%.1f')" \
   "$(to_s "$cu")" "$(to_s "$cs")" "${!#}" >>/root/steps.tsv
 exit $rc
 EOF
@@ -112,9 +115,11 @@ cp "$run/root/demo.log" "$work/demo.log"
   read -r wall user sys <"$work/total.txt" || true
   printf 'total: wall %.0f s, CPU %.0f s (user %.0f + sys %.0f)\n' "$(echo "$end - $start" | bc -l)" \
     "$(echo "${user:-0} + ${sys:-0}" | bc -l)" "${user:-0}" "${sys:-0}"
-  echo "each recipe line (nested make lines include their children):"
+  echo "each recipe line of make demo (a \$(MAKE) line includes its sub-make):"
   printf '  %-8s %8s %9s %8s  %s\n' "end" "wall s" "user s" "sys s" "line"
-  while IFS=$'\t' read -r t w u s line; do
+  top=$(cut -f1 "$run/root/steps.tsv" | sort -n | head -1)
+  while IFS=$'\t' read -r level t w u s line; do
+    [[ $level == "$top" && $line != nproc ]] || continue
     printf '  %-8s %8s %9.1f %8.1f  %s\n' "$t" "$w" "$u" "$s" "${line:0:90}"
   done <"$run/root/steps.tsv"
 } | tee "$report"
