@@ -23,6 +23,8 @@ demo=(
   libzstd-dev libsqlite3-dev                                        # ROS 2 bags: MCAP zstd chunks, rosbag2 .db3
   zlib1g-dev                                                        # evo result zips
   python3 python3-numpy python3-matplotlib                          # plots (roe eval --plot)
+  python3-munkres    # fills matplotlib's fonttools "python3-scipy | python3-munkres": without it apt takes scipy,
+                     # whose pythran brings Boost, python3-dev and OpenBLAS headers (25 packages, 45 MB)
 )
 infer=(
   libopencv-dev                                                     # roe-image, roe-infer (ROE_WITH_OPENCV)
