@@ -15,10 +15,9 @@ if(ROE_TESTS_ON)
                                                           ROE_HAVE_TORCH_BACKEND=0)
   if(TARGET test_cli)
     add_dependencies(test_cli roe-without-optional)
-    target_compile_definitions(test_cli PRIVATE
-      ROE_BINARY_WITHOUT_OPTIONAL="$<TARGET_FILE:roe-without-optional>"
-      ROE_BUILT_OPENCV=${ROE_HAVE_OPENCV} ROE_BUILT_CERES=${ROE_HAVE_CERES}
-      ROE_BUILT_TORCH=${ROE_HAVE_TORCH_BACKEND})
+    # On the one file that uses them, so the other CLI tests' objects do not change with them.
+    set_source_files_properties(${CMAKE_SOURCE_DIR}/tests/cli/test_features.cpp PROPERTIES COMPILE_DEFINITIONS
+      "ROE_BINARY_WITHOUT_OPTIONAL=\"$<TARGET_FILE:roe-without-optional>\";ROE_BUILT_OPENCV=${ROE_HAVE_OPENCV};ROE_BUILT_CERES=${ROE_HAVE_CERES};ROE_BUILT_TORCH=${ROE_HAVE_TORCH_BACKEND}")
   endif()
   add_test(NAME cli/configure-without-opencv-ceres
            COMMAND ${CMAKE_COMMAND} -DSOURCE=${CMAKE_SOURCE_DIR} -DSCRATCH=${CMAKE_BINARY_DIR}/test-tmp/configure-without
