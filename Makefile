@@ -14,20 +14,23 @@ DEPS ?= test
 deps:
 	scripts/install-deps.sh $(DEPS)
 
-$(BUILD)/CMakeCache.txt:
-	cmake -S . -B $(BUILD) $(CMAKE_FLAGS)
-
-configure: $(BUILD)/CMakeCache.txt
+# Configures every time (seconds): the optional libraries (ROE_WITH_OPENCV, ROE_WITH_CERES, ROE_WITH_TORCH:
+# AUTO) and the tests are looked for again, so packages installed since the last run are picked up.
+# `make test` and `make install` require what they need (-D...=ON), so a missing package fails there.
+WITH_ALL := -DROE_WITH_OPENCV=ON -DROE_WITH_CERES=ON
+configure:
+	cmake -S . -B $(BUILD) $(CMAKE_FLAGS) $(CONFIGURE_FLAGS)
 
 build: configure
 	cmake --build $(BUILD) -j $(JOBS)
 
 test:
 	scripts/install-deps.sh test
-	$(MAKE) build
+	$(MAKE) build CONFIGURE_FLAGS="$(WITH_ALL) -DROE_BUILD_TESTS=ON"
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
-# The demo needs the roe executable only: no tests, benchmarks or image helpers (issue 24: make demo <= 8 min).
+# The demo needs the roe executable only: no tests, benchmarks or image helpers, and neither OpenCV nor
+# Ceres (issue 38: make demo <= 4 min on a fresh 2-core bookworm; docs/install.md, scripts/time-fresh-demo.sh).
 demo:
 	scripts/install-deps.sh demo
 	$(MAKE) configure
@@ -43,11 +46,13 @@ sample: build
 PREFIX ?= /usr/local
 install:
 	scripts/install-deps.sh infer
-	$(MAKE) configure
+	$(MAKE) configure CONFIGURE_FLAGS="$(WITH_ALL)"
 	cmake --build $(BUILD) -j $(JOBS) --target roe roe-image roe-infer
 	cmake --install $(BUILD) --prefix $(PREFIX)
 
-bench: build
+# The benchmarks link the image helpers' libraries: OpenCV is required (scripts/install-deps.sh infer).
+bench:
+	$(MAKE) build CONFIGURE_FLAGS="$(WITH_ALL)"
 	scripts/bench.sh $(BUILD)
 
 # The libFuzzer targets (tests/fuzz/fuzz_*.cpp) in build-fuzz/ with clang, ASan and UBSan; run them with
@@ -71,5 +76,5 @@ verify-poet:
 	@if ! /usr/bin/python3 -c 'import torch, torchvision' 2>/dev/null; then \
 	  echo "verify-poet: skipped (needs python3-torch and python3-torchvision)"; exit 0; fi; \
 	test -n "$(POET)" -a -n "$(YOLO)" -a -n "$(DDETR)" || { echo "verify-poet: set POET, YOLO and DDETR (checkouts)"; exit 2; }; \
-	$(MAKE) configure && cmake --build $(BUILD) -j $(JOBS) --target roe roe-infer && \
+	$(MAKE) configure CONFIGURE_FLAGS="$(WITH_ALL)" && cmake --build $(BUILD) -j $(JOBS) --target roe roe-infer && \
 	/usr/bin/python3 scripts/verify-poet-export.py --poet $(POET) --yolo $(YOLO) --ddetr $(DDETR) --roe $(ROE) --work $(VERIFY_WORK)

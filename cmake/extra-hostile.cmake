@@ -1,7 +1,7 @@
 # The hostile-input catalogue (docs/TESTING.md, "Hostile inputs"): scripts/hostile-catalogue.py makes
 # about 180 damaged inputs and runs the roe binary on each under 10 s and 1 GB; every one must end in
 # exit 0 (where documented), 1 or 2. Two cases at a time, to share the machine.
-if(ROE_BUILD_TESTS AND NOT ROE_FUZZ)
+if(ROE_TESTS_ON AND NOT ROE_FUZZ)
   find_package(Python3 COMPONENTS Interpreter)
   if(Python3_Interpreter_FOUND)
     add_test(NAME cli/hostile-catalogue

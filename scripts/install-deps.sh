@@ -3,12 +3,13 @@
 # everything is present; runs `apt-get update` only when something is missing.
 #   scripts/install-deps.sh [PROFILE...] [--dev] [--list]
 # Profiles (several may be given; the default is `test`, what CI needs):
-#   demo    build `roe` alone and run scripts/demo.sh (make demo): compilers, the libraries roe links,
-#           OpenCV's headers (CMake configures the image helpers too), Catch2 (configured, not built),
-#           matplotlib for the demo's plots
-#   test    build everything and run the whole test suite (make test): demo + LibTorch, GNU parallel,
-#           Slurm, chromium (roe report's browser test), clang + libFuzzer (the fuzz smoke test)
-#   infer   build and install the helpers for `roe infer` with LibTorch (make install): demo + LibTorch
+#   demo    build `roe` alone and run scripts/demo.sh (make demo): compilers, CMake, the libraries every
+#           roe links, matplotlib for the demo's plots. No OpenCV, Ceres or Catch2: CMake builds roe
+#           without them (roe refine, roe import realsense and roe infer then say what to install)
+#   infer   every command, installed (make install): demo + OpenCV (the image helpers), Ceres (roe
+#           refine), LibTorch (the PoET pose head of roe infer)
+#   test    build everything and run the whole test suite (make test): infer + Catch2, GNU parallel,
+#           Slurm, chromium (roe report's browser test), clang + libFuzzer (the fuzz smoke test), scipy
 #   all     every profile
 #   --dev   also the developer tools (formatter, fixture and reference generators)
 #   --list  print the packages of the chosen profiles, one per line, and install nothing
@@ -17,19 +18,22 @@ set -euo pipefail
 
 demo=(
   build-essential cmake pkg-config
-  libeigen3-dev libfmt-dev nlohmann-json3-dev libcli11-dev catch2   # core, CLI (Catch2: configure only)
+  libeigen3-dev libfmt-dev nlohmann-json3-dev libcli11-dev          # core, CLI
   liblz4-dev libbz2-dev libyaml-cpp-dev libssl-dev                  # ROS bags, Kalibr YAML, sha256
   libzstd-dev libsqlite3-dev                                        # ROS 2 bags: MCAP zstd chunks, rosbag2 .db3
   zlib1g-dev                                                        # evo result zips
-  libceres-dev                                                      # roe refine: the batch MAP (Ceres Solver 2.1)
-  libopencv-dev                                                     # found at configure time (roe-image, roe-infer)
   python3 python3-numpy python3-matplotlib                          # plots (roe eval --plot)
+  python3-munkres    # fills matplotlib's fonttools "python3-scipy | python3-munkres": without it apt takes scipy,
+                     # whose pythran brings Boost, python3-dev and OpenBLAS headers (25 packages, 45 MB)
 )
 infer=(
-  libtorch-dev                                                      # the PoET pose head (roe-infer)
+  libopencv-dev                                                     # roe-image, roe-infer (ROE_WITH_OPENCV)
+  libceres-dev                                                      # roe refine: the batch MAP, Ceres Solver 2.1 (ROE_WITH_CERES)
+  libtorch-dev                                                      # the PoET pose head (roe-infer; ROE_WITH_TORCH)
   libopenblas0-pthread                                              # LibTorch's BLAS: without it the reference BLAS (13x slower GEMMs)
 )
 test_only=(
+  catch2                                                            # the test framework (Catch2 v2)
   parallel slurm-wlm munge                                          # roe sweep: the real-engine tests (GNU parallel, single-node Slurm)
   chromium                                                          # roe report's browser test (tests/cli/test_report_cli.cpp)
   clang libclang-rt-14-dev                                          # fuzz/smoke test: libFuzzer, ASan, UBSan

@@ -4,6 +4,7 @@
 #include "command.hpp"
 #include "roe/app/refine.hpp"
 #include "roe/core/error.hpp"
+#include "roe/features.hpp"
 
 namespace roe::cli {
 namespace {
@@ -34,7 +35,11 @@ RunFn setup(CLI::App& sub) {
                "Marginals for white detection errors (default: inflated by the correlation fitted to the residuals, "
                "docs/refine.md §2b)");
   sub.add_flag("--no-covariance", a->no_covariance, "Skip the marginal covariances (σ columns written as 0)");
-  return [a]() {
+  return [a]() -> int {
+#if !ROE_HAVE_CERES  // cmake/features.cmake: refine/ and app::refine_run are not built
+    (void)a;
+    throw InputError(not_built_message(kCeresFeature, "refine"));
+#else
     if (a->run.empty()) throw InputError("RUN_DIR is required", {"roe refine"});
     if (a->out.empty()) throw InputError("--out RUN_DIR2 is required", {"roe refine"});
     a->opt.refine.loss = refine::parse_loss(a->loss);
@@ -44,6 +49,7 @@ RunFn setup(CLI::App& sub) {
     const auto r = app::refine_run(a->run, a->out, a->opt);
     emit(r.to_json(), r.to_text());
     return 0;
+#endif
   };
 }
 

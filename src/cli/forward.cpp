@@ -12,6 +12,7 @@
 #include <system_error>
 
 #include "command.hpp"
+#include "roe/features.hpp"
 #include "roe/io/install_paths.hpp"
 
 namespace roe::cli {
@@ -68,9 +69,20 @@ std::string how_to_add(const ForwardedCommand& c) {
 
 }  // namespace
 
-const ForwardedCommand* forward_to_helper(int argc, char** argv, std::string& error) {
+const ForwardedCommand* forward_to_helper(int argc, char** argv, std::string& error, int& exit_code) {
   const ForwardedCommand* c = forwarded_command(argc, argv);
   if (c == nullptr) return nullptr;
+  if (!kOpenCVFeature.built) {  // no helpers in this build (cmake/features.cmake)
+    if (asks_for_help(argc, argv)) {
+      std::cout << c->description << "\nUsage: " << synopsis(*c) << "\n\n"
+                << not_built_message(kOpenCVFeature, command_path(*c)) << "\n";
+      error.clear();
+      return c;
+    }
+    error = not_built_message(kOpenCVFeature, command_path(*c));
+    exit_code = 2;
+    return c;
+  }
   const std::string here = io::executable_dir().string();
   // The build tree keeps the helpers beside roe; an installation puts them in PREFIX/libexec/roe.
   std::string tried;
@@ -91,6 +103,7 @@ const ForwardedCommand* forward_to_helper(int argc, char** argv, std::string& er
     error.clear();
     return c;
   }
+  exit_code = 3;
   error = "the command '" + command_path(*c) + "' runs in the helper " + c->helper +
           ", which is not installed with this roe (looked for " + tried + "); " + how_to_add(*c);
   return c;

@@ -145,7 +145,11 @@ int refuse_unknown_first_word(CLI::App& app, int argc, char** argv) {
 /// about the command, exit code 2 (DESIGN §1); --help and --version exit 0.
 int usage_error(CLI::App& app, const CLI::ParseError& e, int argc, char** argv) {
   if (g_json_errors && dynamic_cast<const CLI::CallForVersion*>(&e)) {
-    std::cout << roe::io::dump_json({{"command", "version"}, {"version", roe::kVersion}, {"exit_code", 0}}, 2)
+    std::cout << roe::io::dump_json({{"command", "version"},
+                                     {"version", roe::kVersion},
+                                     {"features", features_json()},
+                                     {"exit_code", 0}},
+                                    2)
               << std::endl;
     return 0;
   }
@@ -239,9 +243,10 @@ int main(int argc, char** argv) {
 #ifdef ROE_CLI_FORWARDS
   // Before anything else (signal handlers included: exec keeps only ignored signals ignored).
   std::string forward_error;
-  if (const ForwardedCommand* c = forward_to_helper(argc, argv, forward_error)) {
+  int forward_code = 3;
+  if (const ForwardedCommand* c = forward_to_helper(argc, argv, forward_error, forward_code)) {
     if (forward_error.empty()) return 0;  // its --help, answered by roe itself (the helper is not installed)
-    return fail(3, std::string(c->parent[0] ? std::string(c->parent) + " " : "") + c->name, "error: ",
+    return fail(forward_code, std::string(c->parent[0] ? std::string(c->parent) + " " : "") + c->name, "error: ",
                 forward_error);
   }
 #endif
@@ -250,7 +255,7 @@ int main(int argc, char** argv) {
                "roe"};
   app.require_subcommand(1);
   app.fallthrough();  // global flags may follow the subcommand
-  app.set_version_flag("--version", std::string("roe ") + roe::kVersion);
+  app.set_version_flag("--version", version_text());
   app.add_flag("-q,--quiet", g_globals.quiet, "No progress bars and no human summary on stdout");
   app.add_flag("-v,--verbose", g_globals.verbose, "More logging on stderr (repeat for debug)");
   app.add_flag("--json", g_globals.json, "Print one JSON document with the command's summary on stdout");
