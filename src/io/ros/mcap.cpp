@@ -131,6 +131,50 @@ const std::array<std::array<std::uint32_t, 256>, 8>& crc_tables() {
 
 std::string op_name(int op) { return fmt::format("0x{:02x}", op); }
 
+/// A Chunk Index record of the summary: the chunk's time span and place, and the offset of each
+/// channel's message index. False when it is malformed or points outside the data section.
+bool parse_chunk_index(std::string_view content, std::uint64_t summary_start, ChunkInfo& ci,
+                       std::map<std::uint16_t, std::uint64_t>& offs) {
+  Rd c(content);
+  ci.start_ns = ns(c.num<std::uint64_t>());
+  ci.end_ns = ns(c.num<std::uint64_t>());
+  ci.offset = c.num<std::uint64_t>();
+  const auto chunk_len = c.num<std::uint64_t>();
+  Rd m(c.bytes(c.num<std::uint32_t>()));
+  while (c.ok() && m.ok() && m.left() > 0) {
+    const auto ch = m.num<std::uint16_t>();
+    const auto off = m.num<std::uint64_t>();
+    if (m.ok()) offs[ch] = off;
+  }
+  c.num<std::uint64_t>();  // message_index_length
+  c.str();                 // compression (read again from the chunk itself)
+  if (!(c.ok() && m.ok() && ci.offset >= 8 && chunk_len <= summary_start && ci.offset <= summary_start - chunk_len))
+    return false;
+  for (const auto& kv : offs) ci.counts[kv.first] = 0;
+  ci.channels_known = !offs.empty();
+  return true;
+}
+
+/// A Statistics record: the message count and the count per channel. False when it is malformed.
+bool parse_statistics(std::string_view content, std::uint64_t& messages, std::map<std::uint16_t, std::uint64_t>& counts) {
+  Rd s(content);
+  messages = s.num<std::uint64_t>();
+  s.num<std::uint16_t>();
+  s.num<std::uint32_t>();
+  s.num<std::uint32_t>();
+  s.num<std::uint32_t>();
+  s.num<std::uint32_t>();
+  s.num<std::uint64_t>();
+  s.num<std::uint64_t>();
+  Rd m(s.bytes(s.num<std::uint32_t>()));
+  while (s.ok() && m.ok() && m.left() > 0) {
+    const auto ch = m.num<std::uint16_t>();
+    const auto n = m.num<std::uint64_t>();
+    if (m.ok()) counts[ch] = n;
+  }
+  return s.ok() && m.ok();
+}
+
 }  // namespace
 
 std::uint32_t crc32(std::string_view data, std::uint32_t crc) {
@@ -266,44 +310,14 @@ bool Reader::read_summary() {
       ok = parse_channel(content, c);
       if (ok) channels_[c.id] = std::move(c);
     } else if (rop == kChunkIndex) {
-      Rd c(content);
       ChunkInfo ci;
-      ci.start_ns = ns(c.num<std::uint64_t>());
-      ci.end_ns = ns(c.num<std::uint64_t>());
-      ci.offset = c.num<std::uint64_t>();
-      const auto chunk_len = c.num<std::uint64_t>();
-      Rd m(c.bytes(c.num<std::uint32_t>()));
       std::map<std::uint16_t, std::uint64_t> offs;
-      while (c.ok() && m.ok() && m.left() > 0) {
-        const auto ch = m.num<std::uint16_t>();
-        const auto off = m.num<std::uint64_t>();
-        if (m.ok()) offs[ch] = off;
-      }
-      c.num<std::uint64_t>();  // message_index_length
-      c.str();                 // compression (read again from the chunk itself)
-      ok = c.ok() && m.ok() && ci.offset >= 8 && chunk_len <= summary_start && ci.offset <= summary_start - chunk_len;
-      if (!ok) return fallback(summary_start + p, "chunk index record points outside the data section");
-      for (const auto& kv : offs) ci.counts[kv.first] = 0;
-      ci.channels_known = !offs.empty();
+      if (!parse_chunk_index(content, summary_start, ci, offs))
+        return fallback(summary_start + p, "chunk index record points outside the data section");
       chunks.push_back(std::move(ci));
       index_offsets.push_back(std::move(offs));
     } else if (rop == kStatistics) {
-      Rd s(content);
-      stat_messages = s.num<std::uint64_t>();
-      s.num<std::uint16_t>();
-      s.num<std::uint32_t>();
-      s.num<std::uint32_t>();
-      s.num<std::uint32_t>();
-      s.num<std::uint32_t>();
-      s.num<std::uint64_t>();
-      s.num<std::uint64_t>();
-      Rd m(s.bytes(s.num<std::uint32_t>()));
-      while (s.ok() && m.ok() && m.left() > 0) {
-        const auto ch = m.num<std::uint16_t>();
-        const auto n = m.num<std::uint64_t>();
-        if (m.ok()) stat_counts_[ch] = n;
-      }
-      ok = s.ok() && m.ok();
+      ok = parse_statistics(content, stat_messages, stat_counts_);
       have_stats = ok;
     }
     if (!ok) return fallback(summary_start + p, "malformed summary record (opcode " + op_name(rop) + ")");
