@@ -103,6 +103,15 @@ void check_time(const CsvReader& r, std::size_t col, Timestamp t, bool have_prev
 
 namespace {
 
+/// Motive and Vicon exports: several header rows roe reads itself, rows of any length, no comment lines.
+CsvOptions export_csv_options() {
+  CsvOptions o;
+  o.header = CsvHeader::kNone;
+  o.ragged = true;
+  o.comment_prefix = "";
+  return o;
+}
+
 /// " \"a\" \"b\"": the bodies an error offers.
 std::string quoted_list(const std::vector<std::string>& names) {
   std::string list;
@@ -308,11 +317,7 @@ MocapData read_motive_csv(const fs::path& file, const std::string& body) {
   MocapData out;
   out.format = "motive";
   out.y_up = true;
-  CsvOptions o;
-  o.header = CsvHeader::kNone;
-  o.ragged = true;
-  o.comment_prefix = "";
-  CsvReader r(file, o);
+  CsvReader r(file, export_csv_options());
   const std::string src = file.string();
   const MotiveHeader h = read_motive_header(r, src, out.warnings);
   choose_motive_body(h, body, src, out);
@@ -465,11 +470,7 @@ MocapData read_vicon_csv(const fs::path& file, const std::string& body) {
   MocapData out;
   out.format = "vicon";
   out.rotation_type = "helical";
-  CsvOptions o;
-  o.header = CsvHeader::kNone;
-  o.ragged = true;
-  o.comment_prefix = "";
-  CsvReader r(file, o);
+  CsvReader r(file, export_csv_options());
   const std::string src = file.string();
   const ViconSection v = read_vicon_section(r, src, out);
   const ViconGroup g = choose_vicon_group(v, body, src, out);
