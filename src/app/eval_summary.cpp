@@ -116,6 +116,11 @@ std::vector<std::string> duplicate_label_warnings(const std::vector<Row>& rows) 
 
 }  // namespace
 
+const std::vector<std::string>& eval_report_metric_names() {
+  static const std::vector<std::string> names(std::begin(kCols), std::end(kCols));
+  return names;
+}
+
 std::vector<std::pair<std::string, double>> eval_report_metrics(const json& j, const std::string& file) {
   try {
     if (!j.contains("per_axis") || !j["per_axis"].contains("pos_rmse_m") || !j["per_axis"].contains("rpy_rmse_deg"))

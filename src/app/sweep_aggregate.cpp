@@ -82,20 +82,7 @@ json summary_json(const eval::SampleSummary& s) {
 
 }  // namespace
 
-const std::vector<std::string>& sweep_metric_names() {
-  static const std::vector<std::string> names = [] {
-    std::vector<std::string> n;
-    // The same columns as `roe eval --summary`, read from a report with every number present.
-    json r = {{"per_axis",
-               {{"pos_rmse_m", {{"x", 0.0}, {"y", 0.0}, {"z", 0.0}}},
-                {"rpy_rmse_deg", {{"roll", 0.0}, {"pitch", 0.0}, {"yaw", 0.0}}}}},
-              {"ape_trans_m", {{"rmse", 0.0}}},
-              {"ape_rot_deg", {{"rmse", 0.0}}}};
-    for (const auto& [name, v] : eval_report_metrics(r, "")) n.push_back(name);
-    return n;
-  }();
-  return names;
-}
+const std::vector<std::string>& sweep_metric_names() { return eval_report_metric_names(); }
 
 Aggregate aggregate_results(const std::vector<JobResult>& results, const std::vector<std::string>& axis_names,
                             const AggregateOptions& o) {

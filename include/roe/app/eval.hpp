@@ -177,6 +177,10 @@ EvalResult run_eval(const EvalOptions& options);
 /// `file` when the report lacks them. (Also read by `roe sweep aggregate`.)
 std::vector<std::pair<std::string, double>> eval_report_metrics(const nlohmann::json& report, const std::string& file);
 
+/// The names of eval_report_metrics' figures, in its order (the columns of `--summary` and of sweep
+/// aggregates).
+const std::vector<std::string>& eval_report_metric_names();
+
 struct EvalSummaryOptions {
   std::vector<std::string> reports;  ///< report.json files (or folders containing one)
   /// FILE: writes FILE (without a .csv/.json/.md extension) + .csv, .json and .md; a path ending in '/'
