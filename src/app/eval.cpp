@@ -371,10 +371,10 @@ std::string per_object_text(const json& objects, const std::string& euler_metric
         s += fmt::format("{}  {:<9} {:>5}   (no matched pose){}\n", head, subset, 0, first ? "         " + counts : "");
         continue;
       }
+      const io::AxisRmse a = io::read_axis_rmse(f, "", "per_object." + std::string(subset));
       s += fmt::format("{}  {:<9} {:>5}   {:7.3f} {:7.3f} {:7.3f}     {:7.2f} {:7.2f} {:7.2f}{}\n", head, subset,
-                       f["n"].get<int>(), f["pos_rmse_m"]["x"].get<double>(), f["pos_rmse_m"]["y"].get<double>(),
-                       f["pos_rmse_m"]["z"].get<double>(), f["rpy_rmse_deg"]["roll"].get<double>(),
-                       f["rpy_rmse_deg"]["pitch"].get<double>(), f["rpy_rmse_deg"]["yaw"].get<double>(), tail);
+                       f["n"].get<int>(), a.pos_m.x(), a.pos_m.y(), a.pos_m.z(), a.rpy_deg.x(), a.rpy_deg.y(),
+                       a.rpy_deg.z(), tail);
     }
   }
   return s;
@@ -391,10 +391,9 @@ std::string rpy_row(const char* name, const json& v, const char* unit = "") {
 /// and for a metric other than `error` the rotation error's figures, the 360° jumps and a warning.
 std::string per_axis_text(const json& pa) {
   std::string s = "\n  RMSE            x         y         z   |     roll     pitch       yaw\n";
+  const io::AxisRmse a = io::read_axis_rmse(pa);
   s += fmt::format("  {:<10} {:9.4f} {:9.4f} {:9.4f}   | {:8.3f}  {:8.3f}  {:8.3f}   (m | deg)\n", "per-axis",
-                   pa["pos_rmse_m"]["x"].get<double>(), pa["pos_rmse_m"]["y"].get<double>(),
-                   pa["pos_rmse_m"]["z"].get<double>(), pa["rpy_rmse_deg"]["roll"].get<double>(),
-                   pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>());
+                   a.pos_m.x(), a.pos_m.y(), a.pos_m.z(), a.rpy_deg.x(), a.rpy_deg.y(), a.rpy_deg.z());
   const std::string metric = pa["euler_metric"].get<std::string>();
   s += fmt::format("\n  Euler [deg], metric '{}': {}\n               roll     pitch       yaw\n", metric,
                    pa["euler_definition"].get<std::string>());

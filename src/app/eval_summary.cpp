@@ -11,6 +11,7 @@
 #include "roe/core/error.hpp"
 #include "roe/eval/metrics.hpp"
 #include "roe/io/csv.hpp"
+#include "roe/io/eval_report.hpp"
 #include "roe/io/evo_result.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
@@ -123,15 +124,10 @@ const std::vector<std::string>& eval_report_metric_names() {
 
 std::vector<std::pair<std::string, double>> eval_report_metrics(const json& j, const std::string& file) {
   try {
-    if (!j.contains("per_axis") || !j["per_axis"].contains("pos_rmse_m") || !j["per_axis"].contains("rpy_rmse_deg"))
-      throw InputError("not a roe eval report: per_axis.pos_rmse_m / rpy_rmse_deg missing", {file});
-    const auto& pa = j["per_axis"];
-    if (!pa["pos_rmse_m"].is_object() || !pa["rpy_rmse_deg"].is_object())
-      throw InputError("not a roe eval report: per_axis.pos_rmse_m / rpy_rmse_deg missing", {file});
-    const double v[kNumCols] = {pa["pos_rmse_m"]["x"].get<double>(),       pa["pos_rmse_m"]["y"].get<double>(),
-                                pa["pos_rmse_m"]["z"].get<double>(),       pa["rpy_rmse_deg"]["roll"].get<double>(),
-                                pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>(),
-                                num(j, file, "ape_trans_m", "rmse"),       num(j, file, "ape_rot_deg", "rmse")};
+    const io::AxisRmse a = io::read_axis_rmse(j.is_object() && j.contains("per_axis") ? j["per_axis"] : json(), file);
+    const double v[kNumCols] = {a.pos_m.x(),   a.pos_m.y(),   a.pos_m.z(),
+                                a.rpy_deg.x(), a.rpy_deg.y(), a.rpy_deg.z(),
+                                num(j, file, "ape_trans_m", "rmse"), num(j, file, "ape_rot_deg", "rmse")};
     std::vector<std::pair<std::string, double>> out;
     for (int k = 0; k < kNumCols; ++k) out.emplace_back(kCols[k], v[k]);
     return out;

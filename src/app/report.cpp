@@ -11,6 +11,7 @@
 #include "roe/app/calib_check.hpp"
 #include "roe/app/eval.hpp"
 #include "roe/core/error.hpp"
+#include "roe/io/eval_report.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 
@@ -172,11 +173,9 @@ std::string ReportResult::to_text() const {
   const json& s = summary;
   std::string t = fmt::format("roe report: {} ({:.1f} MB, {} figures)\n", s["out"].get<std::string>(),
                               s["bytes"].get<double>() / 1e6, s["figures"].size());
-  const json& pa = s["per_axis"];
-  t += fmt::format("  RMSE x/y/z {:.4f} {:.4f} {:.4f} m, roll/pitch/yaw {:.3f} {:.3f} {:.3f} deg\n",
-                   pa["pos_rmse_m"]["x"].get<double>(), pa["pos_rmse_m"]["y"].get<double>(),
-                   pa["pos_rmse_m"]["z"].get<double>(), pa["rpy_rmse_deg"]["roll"].get<double>(),
-                   pa["rpy_rmse_deg"]["pitch"].get<double>(), pa["rpy_rmse_deg"]["yaw"].get<double>());
+  const io::AxisRmse a = io::read_axis_rmse(s["per_axis"]);
+  t += fmt::format("  RMSE x/y/z {:.4f} {:.4f} {:.4f} m, roll/pitch/yaw {:.3f} {:.3f} {:.3f} deg\n", a.pos_m.x(),
+                   a.pos_m.y(), a.pos_m.z(), a.rpy_deg.x(), a.rpy_deg.y(), a.rpy_deg.z());
   const json& c = s["calib_check"];
   if (c.contains("error"))
     t += "  calib-check: not run (" + c["error"].get<std::string>() + ")\n";

@@ -8,6 +8,7 @@
 #include <tuple>
 
 #include "roe/app/report.hpp"
+#include "roe/io/eval_report.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 #include "roe/version.hpp"
@@ -177,11 +178,11 @@ std::string fit_cells(const json& f) {
     for (int k = 0; k < 6; ++k) s += "<td class=\"na\">–</td>";
     return s;
   }
+  const io::AxisRmse a = io::read_axis_rmse(f, "", "per_object");
   return fmt::format("<td>{}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.2f}</td><td>{:.2f}</td>"
                      "<td>{:.2f}</td>",
-                     f["n"].get<int>(), f["pos_rmse_m"]["x"].get<double>(), f["pos_rmse_m"]["y"].get<double>(),
-                     f["pos_rmse_m"]["z"].get<double>(), f["rpy_rmse_deg"]["roll"].get<double>(),
-                     f["rpy_rmse_deg"]["pitch"].get<double>(), f["rpy_rmse_deg"]["yaw"].get<double>());
+                     f["n"].get<int>(), a.pos_m.x(), a.pos_m.y(), a.pos_m.z(), a.rpy_deg.x(), a.rpy_deg.y(),
+                     a.rpy_deg.z());
 }
 
 /// Detections per object by status (run.json) and, as roe eval prints them, the RMSE of the object's

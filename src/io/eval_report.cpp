@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "roe/core/error.hpp"
 #include "roe/core/parallel.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/json.hpp"
@@ -23,8 +24,14 @@ json stats_json(const eval::Stats& s) {
   return {{"rmse", s.rmse}, {"mean", s.mean}, {"median", s.median}, {"std", s.std},
           {"min", s.min},   {"max", s.max},   {"sse", s.sse},       {"n", s.n}};
 }
-json xyz_json(const Eigen::Vector3d& v) { return {{"x", v.x()}, {"y", v.y()}, {"z", v.z()}}; }
-json rpy_json(const Eigen::Vector3d& v) { return {{"roll", v.x()}, {"pitch", v.y()}, {"yaw", v.z()}}; }
+// The keys of the RMSE blocks, written here and read back by read_axis_rmse.
+constexpr const char* kPosRmse = "pos_rmse_m";
+constexpr const char* kRpyRmse = "rpy_rmse_deg";
+constexpr const char* kXyz[] = {"x", "y", "z"};
+constexpr const char* kRpy[] = {"roll", "pitch", "yaw"};
+
+json xyz_json(const Eigen::Vector3d& v) { return {{kXyz[0], v.x()}, {kXyz[1], v.y()}, {kXyz[2], v.z()}}; }
+json rpy_json(const Eigen::Vector3d& v) { return {{kRpy[0], v.x()}, {kRpy[1], v.y()}, {kRpy[2], v.z()}}; }
 json optional_json(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
 
 json euler_stats_json(const eval::EulerStats& e) {
@@ -35,9 +42,9 @@ json euler_stats_json(const eval::EulerStats& e) {
 /// figures, the share of 360° jumps and a warning.
 json per_axis_json(const eval::ApeResult& ape) {
   const eval::EulerMetric m = ape.euler_metric;
-  json j = {{"pos_rmse_m", xyz_json(ape.pos_rmse_m)},
+  json j = {{kPosRmse, xyz_json(ape.pos_rmse_m)},
             {"pos_mean_m", xyz_json(ape.pos_mean_m)},
-            {"rpy_rmse_deg", rpy_json(ape.rpy_rmse_deg)},
+            {kRpyRmse, rpy_json(ape.rpy_rmse_deg)},
             {"rpy_mean_deg", rpy_json(ape.rpy.mean)},
             {"rpy_std_deg", rpy_json(ape.rpy.std)},
             {"euler_metric", eval::to_string(m)},
@@ -136,8 +143,8 @@ json rpe_json(const eval::Report& r) {
 json fit_json(const eval::ObjectFit& f) {
   if (f.n == 0) return json{{"n", 0}};
   return json{{"n", f.n},
-              {"pos_rmse_m", xyz_json(f.pos_rmse_m)},
-              {"rpy_rmse_deg", rpy_json(f.rpy_rmse_deg)},
+              {kPosRmse, xyz_json(f.pos_rmse_m)},
+              {kRpyRmse, rpy_json(f.rpy_rmse_deg)},
               {"ape_trans_rmse_m", f.ape_trans_rmse_m},
               {"ape_rot_rmse_deg", f.ape_rot_rmse_deg}};
 }
@@ -414,6 +421,23 @@ std::string detection_sigmas_csv(const eval::DetectionCalibration& d) {
 }
 
 }  // namespace
+
+AxisRmse read_axis_rmse(const json& block, const std::string& file, const std::string& path) {
+  const auto three = [&](const char* key, const char* const (&names)[3]) {
+    Eigen::Vector3d v;
+    for (int i = 0; i < 3; ++i) {
+      const json* x = block.is_object() && block.contains(key) && block[key].is_object() && block[key].contains(names[i])
+                          ? &block[key][names[i]]
+                          : nullptr;
+      if (!x || !x->is_number())
+        throw InputError(fmt::format("not a roe eval report: missing number {}.{}.{}", path, key, names[i]),
+                         {file, 0, 0, fmt::format("{}.{}.{}", path, key, names[i])});
+      v[i] = x->get<double>();
+    }
+    return v;
+  };
+  return {three(kPosRmse, kXyz), three(kRpyRmse, kRpy)};
+}
 
 json eval_report_json(const eval::Report& r, const EvalReportContext& c) {
   const eval::ApeResult& ape = r.ape;

@@ -24,6 +24,20 @@ struct EvalReportContext {
   std::vector<std::string> warnings;  ///< every warning, in order
 };
 
+/// The position and Euler RMSE of report.json's `per_axis` block and of each per-object subset (`all`,
+/// `accepted`), read back by the commands that show them (roe eval's text, --summary, roe report): the
+/// one reader of the keys eval_report_json writes, beside it (pos_rmse_m {x, y, z}, rpy_rmse_deg {roll,
+/// pitch, yaw}).
+struct AxisRmse {
+  Eigen::Vector3d pos_m = Eigen::Vector3d::Zero();    ///< x, y, z
+  Eigen::Vector3d rpy_deg = Eigen::Vector3d::Zero();  ///< roll, pitch, yaw (under the report's Euler metric)
+};
+
+/// `block`'s RMSE; InputError "not a roe eval report" naming `file` and the key path (`path` + key) when a
+/// number is missing.
+AxisRmse read_axis_rmse(const nlohmann::json& block, const std::string& file = "",
+                        const std::string& path = "per_axis");
+
 /// report.json's content (without `outputs` and `plots`, which the caller adds).
 nlohmann::json eval_report_json(const eval::Report& r, const EvalReportContext& c);
 
