@@ -109,7 +109,7 @@ json body_rotation_json(const eval::Report& r) {
   const eval::BodyRotationFit& b = *r.body_rotation;
   const auto metrics = [](const eval::ApeResult& a) {
     return json{{"ape_rot_deg", stats_json(a.rot_deg)},
-                {"rpy_rmse_deg", rpy_json(a.rpy_rmse_deg)},
+                {kRpyRmse, rpy_json(a.rpy_rmse_deg)},
                 {"rpy_mean_deg", rpy_json(a.rpy.mean)},
                 {"rpy_std_deg", rpy_json(a.rpy.std)},
                 {"euler_metric", eval::to_string(a.euler_metric)}};
