@@ -40,6 +40,14 @@ Eigen::Matrix<double, 6, 1> residual_of(const refine::DetectionResidual& f, cons
   return r;
 }
 
+/// The filter's prediction ẑ = T_O_C of the scene's object (ekf::predict_object).
+Pose filter_prediction(const Scene& s) {
+  ekf::CoreState x;
+  x.p_W_I = s.T_W_I.p;
+  x.q_W_I = s.T_W_I.q;
+  return ekf::predict_object(x, s.T_I_C, s.T_O_W).T_O_C_hat;
+}
+
 }  // namespace
 
 TEST_CASE("refine/factors: the camera-frame detection residual is the detection's error in the camera frame") {
@@ -47,10 +55,7 @@ TEST_CASE("refine/factors: the camera-frame detection residual is the detection'
   for (int trial = 0; trial < 50; ++trial) {
     const Scene s = random_scene(rng);
     // The filter's prediction ẑ = T_O_C must be the inverse of the T_C_O composed here.
-    ekf::CoreState x;
-    x.p_W_I = s.T_W_I.p;
-    x.q_W_I = s.T_W_I.q;
-    const Pose z_hat = ekf::predict_object(x, s.T_I_C, s.T_O_W).T_O_C_hat;
+    const Pose z_hat = filter_prediction(s);
     REQUIRE(math::pose_difference(z_hat.inverse(), s.T_C_O()).norm() < 1e-12);
     // A detection t + n_t, Exp(n_r) R (the convention of the σ, measurement.hpp).
     std::normal_distribution<double> n(0.0, 0.3);
@@ -74,10 +79,7 @@ TEST_CASE("refine/factors: the object-frame detection residual equals the filter
   std::mt19937 rng(5);
   for (int trial = 0; trial < 50; ++trial) {
     const Scene s = random_scene(rng);
-    ekf::CoreState x;
-    x.p_W_I = s.T_W_I.p;
-    x.q_W_I = s.T_W_I.q;
-    const Pose z_hat = ekf::predict_object(x, s.T_I_C, s.T_O_W).T_O_C_hat;
+    const Pose z_hat = filter_prediction(s);
     std::normal_distribution<double> n(0.0, 1e-3);
     const Pose z(z_hat.q * math::exp_quat(Vector3d(n(rng), n(rng), n(rng))), z_hat.p + Vector3d(n(rng), n(rng), n(rng)));
     refine::DetectionResidual f;
