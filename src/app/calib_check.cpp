@@ -11,11 +11,11 @@
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
 #include "roe/ekf/images.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
-#include "roe/io/run_files.hpp"
+#include "roe/store/run_files.hpp"
 
 namespace roe::app {
 
@@ -83,7 +83,7 @@ struct StatesTrace {
 // every column is read.
 StatesTrace read_states(const fs::path& file) {
   StatesTrace t;
-  io::for_each_state_row(file, {}, [&](const io::StateRow& s) {
+  store::for_each_state_row(file, {}, [&](const store::StateRow& s) {
     t.extrinsics.push_back({s.t_ns, s.T_I_C, s.sigma.tail<6>()});
     t.final_gyro_bias = s.x.b_g;
   });
@@ -94,7 +94,7 @@ StatesTrace read_states(const fs::path& file) {
 /// Each object's last row of objects.csv (its final pose and anchor-relative σ).
 std::map<int, calib::ObjectEstimate> read_objects(const fs::path& file) {
   std::map<int, calib::ObjectEstimate> out;
-  for (const io::ObjectRow& row : io::read_objects_csv(file)) {
+  for (const store::ObjectRow& row : store::read_objects_csv(file)) {
     calib::ObjectEstimate& o = out[row.object_id];
     o.id = row.object_id;
     o.anchor = row.anchor;
@@ -111,9 +111,9 @@ calib::CheckResult dataset_identity(const RunJson& run, const fs::path& dataset,
   std::vector<std::string> changed;
   std::size_t compared = 0;
   const std::vector<std::pair<std::string, fs::path>> files = {
-      {"roe.json", io::manifest_path(dataset)},
-      {"mav0/imu0/data.csv", io::imu_csv_path(dataset)},
-      {"detections/" + detections + "/detections.csv", io::detections_dir(dataset, detections) / "detections.csv"}};
+      {"roe.json", store::manifest_path(dataset)},
+      {"mav0/imu0/data.csv", store::imu_csv_path(dataset)},
+      {"detections/" + detections + "/detections.csv", store::detections_dir(dataset, detections) / "detections.csv"}};
   for (const auto& [key, path] : files) {
     if (!sha.is_object() || !sha.contains(key) || !sha[key].is_string())
       throw InputError("missing key", {run.file(), 0, 0, "inputs.sha256." + key});
@@ -235,11 +235,11 @@ fs::path choose_dataset(const RunJson& run, const CalibCheckOptions& opt, CalibC
     if (!opt.dataset.empty()) {
       dataset = io::without_trailing_separator(opt.dataset);
       res.dataset_from = "option";
-      if (!fs::is_regular_file(io::manifest_path(dataset), ec))
+      if (!fs::is_regular_file(store::manifest_path(dataset), ec))
         throw InputError("not a dataset folder: roe.json is missing", {dataset.string()});
     } else {
       const fs::path named = run.string("inputs.dataset_abs");
-      if (fs::is_regular_file(io::manifest_path(named), ec)) {
+      if (fs::is_regular_file(store::manifest_path(named), ec)) {
         dataset = named;
         res.dataset_from = "run.json";
       } else {
@@ -261,15 +261,15 @@ fs::path choose_dataset(const RunJson& run, const CalibCheckOptions& opt, CalibC
 /// estimated from the run's detections and the gyro.
 void read_dataset_checks(const fs::path& dataset, const CalibCheckOptions& opt, double min_score,
                          const StatesTrace& states, CalibCheckResult& res, calib::CalibInput& in) {
-  const DatasetManifest man = io::read_manifest(dataset);
+  const DatasetManifest man = store::read_manifest(dataset);
   if (man.truth) {
     in.true_T_I_C = man.truth->T_I_C;
     for (const auto& o : man.truth->objects) in.true_T_W_O[o.id] = o.T_W_O;
   }
   in.declared_time_offset_s = man.camera ? man.camera->time_offset_s : 0.0;
   log::info("estimating the camera-IMU time offset from {} and the gyro", res.detections);
-  const auto imu = io::read_imu_csv(io::imu_csv_path(dataset));
-  auto dets = io::read_detections_csv(io::detections_dir(dataset, res.detections) / "detections.csv");
+  const auto imu = store::read_imu_csv(store::imu_csv_path(dataset));
+  auto dets = store::read_detections_csv(store::detections_dir(dataset, res.detections) / "detections.csv");
   ekf::FilterOptions score_rule;  // the filter's own rule for which detections count (min_score)
   score_rule.min_score = min_score;
   dets.erase(std::remove_if(dets.begin(), dets.end(),

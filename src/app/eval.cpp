@@ -11,7 +11,7 @@
 #include "roe/core/error.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/ros/message_bag.hpp"
-#include "roe/io/eval_report.hpp"
+#include "roe/store/eval_report.hpp"
 #include "roe/io/evo_result.hpp"
 #include "roe/io/input.hpp"
 #include "roe/io/output.hpp"
@@ -301,7 +301,7 @@ EvalResult run_eval(const EvalOptions& options) {
   const eval::Report rep = eval::evaluate(ei, {gt.traj.t_ns, gt.traj.poses}, params);
   warnings.insert(warnings.end(), rep.warnings.begin(), rep.warnings.end());
 
-  io::EvalReportContext ctx;
+  store::EvalReportContext ctx;
   ctx.label = o.label.empty() ? label_of(est.in, est.run) : o.label;
   ctx.est_path = est.in.path.string();
   ctx.gt_path = gt.path.string();
@@ -311,7 +311,7 @@ EvalResult run_eval(const EvalOptions& options) {
   if (!gauge) ctx.no_gauge_reason = no_gauge;
   if (sig) ctx.detections_source = sig->description;
   ctx.warnings = warnings;
-  json report = io::eval_report_json(rep, ctx);
+  json report = store::eval_report_json(rep, ctx);
 
   EvalResult res;
   // evo's result file: checked before anything is written, written after the folder (nothing half-written).
@@ -331,7 +331,7 @@ EvalResult run_eval(const EvalOptions& options) {
   }
   if (!out.empty()) {
     io::OutputDir dir(out, o.force, {o.est, o.gt});
-    report["outputs"] = {{"dir", out.string()}, {"files", io::write_eval_files(dir, rep, ctx)}};
+    report["outputs"] = {{"dir", out.string()}, {"files", store::write_eval_files(dir, rep, ctx)}};
     io::write_file_atomic(dir.file("report.json"), io::dump_json(report, 2) + "\n");
     if (o.plot) {
       res.plot_status = render_eval_plots(dir.tmp(), o);  // throws: a plotting failure commits nothing
@@ -371,7 +371,7 @@ std::string per_object_text(const json& objects, const std::string& euler_metric
         s += fmt::format("{}  {:<9} {:>5}   (no matched pose){}\n", head, subset, 0, first ? "         " + counts : "");
         continue;
       }
-      const io::AxisRmse a = io::read_axis_rmse(f, "", "per_object." + std::string(subset));
+      const store::AxisRmse a = store::read_axis_rmse(f, "", "per_object." + std::string(subset));
       s += fmt::format("{}  {:<9} {:>5}   {:7.3f} {:7.3f} {:7.3f}     {:7.2f} {:7.2f} {:7.2f}{}\n", head, subset,
                        f["n"].get<int>(), a.pos_m.x(), a.pos_m.y(), a.pos_m.z(), a.rpy_deg.x(), a.rpy_deg.y(),
                        a.rpy_deg.z(), tail);
@@ -391,7 +391,7 @@ std::string rpy_row(const char* name, const json& v, const char* unit = "") {
 /// and for a metric other than `error` the rotation error's figures, the 360° jumps and a warning.
 std::string per_axis_text(const json& pa) {
   std::string s = "\n  RMSE            x         y         z   |     roll     pitch       yaw\n";
-  const io::AxisRmse a = io::read_axis_rmse(pa);
+  const store::AxisRmse a = store::read_axis_rmse(pa);
   s += fmt::format("  {:<10} {:9.4f} {:9.4f} {:9.4f}   | {:8.3f}  {:8.3f}  {:8.3f}   (m | deg)\n", "per-axis",
                    a.pos_m.x(), a.pos_m.y(), a.pos_m.z(), a.rpy_deg.x(), a.rpy_deg.y(), a.rpy_deg.z());
   const std::string metric = pa["euler_metric"].get<std::string>();

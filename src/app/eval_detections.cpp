@@ -6,10 +6,10 @@
 
 #include "roe/app/eval.hpp"
 #include "roe/core/error.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/input.hpp"
 #include "roe/io/json.hpp"
-#include "roe/io/run_files.hpp"
+#include "roe/store/run_files.hpp"
 
 namespace roe::app {
 namespace fs = std::filesystem;
@@ -32,7 +32,7 @@ std::optional<DetectionSigmaSource> load_detection_sigmas(const EvalOptions& o, 
                                                           std::vector<std::string>& warnings) {
   const bool asked = !o.detections.empty();
   const fs::path gt = o.gt;
-  const bool dataset = !gt.empty() && io::is_folder(gt) && io::path_exists(io::manifest_path(gt));
+  const bool dataset = !gt.empty() && io::is_folder(gt) && io::path_exists(store::manifest_path(gt));
   if (asked && !dataset)
     throw InputError("--detections needs --gt DATASET (a roe dataset folder): the true T_C_O is computed from "
                      "its ground truth and roe.json's truth.T_I_C and truth.objects",
@@ -43,7 +43,7 @@ std::optional<DetectionSigmaSource> load_detection_sigmas(const EvalOptions& o, 
     const fs::path as_file = o.detections;
     csv = io::path_exists(as_file) && !io::is_folder(as_file)
               ? as_file
-              : io::detections_dir(gt, o.detections) / "detections.csv";
+              : store::detections_dir(gt, o.detections) / "detections.csv";
     if (!io::path_exists(csv))
       throw InputError(fmt::format("--detections {}: neither a detections.csv file nor a detection set of {} ({})",
                                    o.detections, gt.string(), csv.string()),
@@ -52,11 +52,11 @@ std::optional<DetectionSigmaSource> load_detection_sigmas(const EvalOptions& o, 
     if (!est_is_run) return std::nullopt;
     const std::string set = run_detection_set(o.est);
     if (set.empty()) return std::nullopt;
-    csv = io::detections_dir(gt, set) / "detections.csv";
+    csv = store::detections_dir(gt, set) / "detections.csv";
     if (!io::path_exists(csv)) return std::nullopt;
   }
   DetectionSigmaSource s;
-  s.detections = io::read_detections_csv(csv);
+  s.detections = store::read_detections_csv(csv);
   const bool any_sigma = std::any_of(s.detections.begin(), s.detections.end(), [](const Detection& d) { return d.sigma.has_value(); });
   if (!any_sigma) {
     if (asked)
@@ -66,8 +66,8 @@ std::optional<DetectionSigmaSource> load_detection_sigmas(const EvalOptions& o, 
   }
   // The truth: roe.json's truth section (a simulation, or a real recording whose objects were surveyed in
   // the ground truth's world); without truth.T_I_C the calibrated camera.T_I_C stands in.
-  const DatasetManifest man = io::read_manifest(gt);
-  const std::string mpath = io::manifest_path(gt).string();
+  const DatasetManifest man = store::read_manifest(gt);
+  const std::string mpath = store::manifest_path(gt).string();
   if (!man.truth || man.truth->objects.empty()) {
     const std::string why = mpath + " has no truth.objects: the true object poses T_W_O are needed";
     if (asked) throw InputError("cannot calibrate the detection sigmas: " + why, {mpath, 0, 0, "truth.objects"});
@@ -89,7 +89,7 @@ std::optional<eval::GaugeTruth> load_gauge_truth(const fs::path& run_dir, const 
     return std::nullopt;
   };
   const fs::path rj = run_dir / "run.json", objects = run_dir / "objects.csv";
-  if (!gt.truth_world || !io::path_exists(io::manifest_path(gt.path)))
+  if (!gt.truth_world || !io::path_exists(store::manifest_path(gt.path)))
     return none("the ground truth is not a dataset's state_groundtruth_estimate0 with a roe.json truth section");
   if (!io::path_exists(rj) || !io::path_exists(objects)) return none("the run folder has no run.json or objects.csv");
   const nlohmann::json j = io::parse_json_file(rj);
@@ -107,15 +107,15 @@ std::optional<eval::GaugeTruth> load_gauge_truth(const fs::path& run_dir, const 
   if (j.contains("relocks") && j["relocks"].is_array() && !j["relocks"].empty())
     return none("the anchor was re-locked during the run: W changed");
   const int anchor = j["anchor_id"].get<int>();
-  const DatasetManifest man = io::read_manifest(gt.path);
+  const DatasetManifest man = store::read_manifest(gt.path);
   const TruthObject* truth = nullptr;
   if (man.truth)
     for (const auto& ob : man.truth->objects)
       if (ob.id == anchor) truth = &ob;
-  if (!truth) return none(fmt::format("{} has no truth for the anchor object {}", io::manifest_path(gt.path).string(), anchor));
-  const std::vector<io::ObjectRow> rows = io::read_objects_csv(objects);
-  const io::ObjectRow* first = nullptr;
-  const io::ObjectRow* last = nullptr;
+  if (!truth) return none(fmt::format("{} has no truth for the anchor object {}", store::manifest_path(gt.path).string(), anchor));
+  const std::vector<store::ObjectRow> rows = store::read_objects_csv(objects);
+  const store::ObjectRow* first = nullptr;
+  const store::ObjectRow* last = nullptr;
   for (const auto& r : rows) {
     if (r.object_id != anchor) continue;
     if (!first) first = &r;
@@ -128,7 +128,7 @@ std::optional<eval::GaugeTruth> load_gauge_truth(const fs::path& run_dir, const 
   t.t_from_ns = first->t_ns;
   t.description = fmt::format("anchor_gauge {}: anchor object {} (its T_O_W in {}, its true pose in {}), from its first "
                               "sight at {:.6f} s",
-                              g, anchor, objects.string(), io::manifest_path(gt.path).string(), to_seconds(first->t_ns));
+                              g, anchor, objects.string(), store::manifest_path(gt.path).string(), to_seconds(first->t_ns));
   return t;
 }
 

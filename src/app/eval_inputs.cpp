@@ -9,23 +9,23 @@
 #include "roe/io/input.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/ros/message_bag.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/mocap_formats.hpp"
 #include "roe/io/ros/bag_poses.hpp"
-#include "roe/io/run_files.hpp"
+#include "roe/store/run_files.hpp"
 
 namespace roe::app {
 
 namespace fs = std::filesystem;
 
 std::vector<ReprojectionCsvRow> read_reprojection_csv(const fs::path& file) {
-  return io::read_reprojection_csv(file);
+  return store::read_reprojection_csv(file);
 }
 
 std::vector<std::optional<eval::PoseCovariance>> read_states_covariance(const fs::path& file,
                                                                         const std::vector<Timestamp>& t_ns,
                                                                         std::string* why) {
-  io::RunFileRead read;
+  store::RunFileRead read;
   read.columns = {"timestamp_ns"};
   for (const char* g : {"sigma_p_W_I", "sigma_theta_W_I"})
     for (const char* a : {"_x", "_y", "_z"}) read.columns.push_back(std::string(g) + a);
@@ -33,9 +33,9 @@ std::vector<std::optional<eval::PoseCovariance>> read_states_covariance(const fs
   std::vector<Timestamp> st;
   std::vector<eval::PoseCovariance> sc;
   std::string missing;
-  const bool have = io::for_each_state_row(
+  const bool have = store::for_each_state_row(
       file, read,
-      [&](const io::StateRow& s) {
+      [&](const store::StateRow& s) {
         st.push_back(s.t_ns);
         eval::PoseCovariance c;
         c.P_p.diagonal() = s.sigma.head<3>().cwiseAbs2();
@@ -132,7 +132,7 @@ EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warn
                     "read as such)",
                     o.gt_format));
   // A roe dataset (roe.json + mav0/...), an EuRoC sequence folder (mav0/...) or a mav0 folder itself.
-  const bool has_manifest = io::path_exists(io::manifest_path(in.path));
+  const bool has_manifest = io::path_exists(store::manifest_path(in.path));
   fs::path mav0 = in.path / "mav0";
   if (!io::is_folder(mav0) && io::path_exists(in.path / "state_groundtruth_estimate0")) mav0 = in.path;
   const fs::path gt_csv = mav0 / "state_groundtruth_estimate0" / "data.csv";
@@ -149,7 +149,7 @@ EvalInput load_ground_truth(const EvalOptions& o, std::vector<std::string>& warn
     Pose T_B_I;
     double offset_s = 0.0;
     if (has_manifest) {
-      const DatasetManifest man = io::read_manifest(in.path);
+      const DatasetManifest man = store::read_manifest(in.path);
       if (man.mocap) {
         T_B_I = man.mocap->T_B_I;
         offset_s = man.mocap->time_offset_s;

@@ -11,7 +11,7 @@
 #include "roe/core/error.hpp"
 #include "roe/eval/metrics.hpp"
 #include "roe/io/csv.hpp"
-#include "roe/io/eval_report.hpp"
+#include "roe/store/eval_report.hpp"
 #include "roe/io/evo_result.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
@@ -124,7 +124,7 @@ const std::vector<std::string>& eval_report_metric_names() {
 
 std::vector<std::pair<std::string, double>> eval_report_metrics(const json& j, const std::string& file) {
   try {
-    const io::AxisRmse a = io::read_axis_rmse(j.is_object() && j.contains("per_axis") ? j["per_axis"] : json(), file);
+    const store::AxisRmse a = store::read_axis_rmse(j.is_object() && j.contains("per_axis") ? j["per_axis"] : json(), file);
     const double v[kNumCols] = {a.pos_m.x(),   a.pos_m.y(),   a.pos_m.z(),
                                 a.rpy_deg.x(), a.rpy_deg.y(), a.rpy_deg.z(),
                                 num(j, file, "ape_trans_m", "rmse"), num(j, file, "ape_rot_deg", "rmse")};

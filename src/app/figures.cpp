@@ -14,7 +14,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/io/csv.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/process.hpp"
@@ -324,7 +324,7 @@ FigureSet render_figures(const fs::path& eval_dir, const fs::path& run_dir, cons
     args.insert(args.end(), {"--dataset", dataset.string()});
     // The symmetries as the dataset reader resolved them (models_info): Fig. 4 of a symmetric object.
     std::vector<std::pair<int, ObjectSymmetry>> objects;
-    for (const ObjectInfo& obj : io::read_manifest(dataset).objects) objects.emplace_back(obj.id, obj.symmetry);
+    for (const ObjectInfo& obj : store::read_manifest(dataset).objects) objects.emplace_back(obj.id, obj.symmetry);
     const json sym = symmetries_json(objects);
     if (!sym.empty()) {
       io::write_file_atomic(sym_file, io::dump_json(sym));

@@ -8,7 +8,7 @@
 #include "roe/app/import.hpp"
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
 
@@ -157,7 +157,7 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
     m.sources.push_back(si);
     io::write_file_atomic(staged.stage(imu_out), io::read_file(*imu_yaml));
   }
-  io::write_manifest(m, staged.stage(io::manifest_path(dataset)));
+  store::write_manifest(m, staged.stage(store::manifest_path(dataset)));
   staged.commit();
   for (const auto& w : S.warnings) log::warn("{}", w);
   return S;

@@ -12,7 +12,7 @@
 #include "roe/core/log.hpp"
 #include "roe/io/ros/message_bag.hpp"
 #include "roe/io/csv.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/mocap_formats.hpp"
 #include "roe/io/ros/bag_poses.hpp"
 #include "roe/io/output.hpp"
@@ -67,7 +67,7 @@ void begin_dataset_change(io::StagedFiles& staged, const fs::path& dataset) {
 
 DatasetManifest open_or_create_manifest(const fs::path& dataset, bool& created) {
   created = false;
-  if (io::path_exists(io::manifest_path(dataset))) return io::read_manifest(dataset);
+  if (io::path_exists(store::manifest_path(dataset))) return store::read_manifest(dataset);
   if (!io::is_folder(dataset))
     throw InputError(io::path_exists(dataset) ? "dataset path exists and is not a folder" : "no such dataset folder",
                      {dataset.string()});
@@ -162,7 +162,7 @@ InputError no_imu_for_offset(const fs::path& dataset, const fs::path& imu_csv) {
                                 "(`roe import realsense BAG --out {}`, a bag with the IMU streams enabled), or give "
                                 "the offset with --time-offset S (0 for clocks synchronised in hardware)",
                                 dataset.string(), imu_csv.string(),
-                                fs::exists(io::manifest_path(dataset)) ? "" : "; the dataset does not exist yet",
+                                fs::exists(store::manifest_path(dataset)) ? "" : "; the dataset does not exist yet",
                                 dataset.string()),
                     {imu_csv.string()});
 }
@@ -198,8 +198,8 @@ void check_import(const fs::path& file, const fs::path& dataset, const ImportMoc
     (void)io::require_regular_file(file, "mocap file");
   if (io::path_exists(csv) && !opt.force)
     throw InputError("the dataset already has mocap data (use --force to replace it)", {csv.string()});
-  if (opt.estimate_offset && !io::path_exists(io::imu_csv_path(dataset)))  // before reading the take
-    throw no_imu_for_offset(dataset, io::imu_csv_path(dataset));
+  if (opt.estimate_offset && !io::path_exists(store::imu_csv_path(dataset)))  // before reading the take
+    throw no_imu_for_offset(dataset, store::imu_csv_path(dataset));
 }
 
 /// Y-up world (Motive) → Z-up: x stays, y_Z = −z_Y, z_Z = y_Y (a +90° rotation about x).
@@ -214,9 +214,9 @@ void to_z_up(std::vector<StampedPose>& poses) {
 /// with warnings when the estimate is weak or at the edge of the search.
 calib::MocapOffsetEstimate estimate_offset(const fs::path& dataset, const std::vector<StampedPose>& poses,
                                            const ImportMocapOptions& opt, std::vector<std::string>& warnings) {
-  const fs::path imu_csv = io::imu_csv_path(dataset);
+  const fs::path imu_csv = store::imu_csv_path(dataset);
   if (!io::path_exists(imu_csv)) throw no_imu_for_offset(dataset, imu_csv);
-  const auto imu = io::read_imu_csv(imu_csv);
+  const auto imu = store::read_imu_csv(imu_csv);
   std::vector<StampedPose> shifted = poses;
   if (opt.time_offset_s)
     for (auto& p : shifted) p.t_ns += from_seconds(*opt.time_offset_s);
@@ -314,7 +314,7 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
   S.poses = d.poses.size();
 
   // Write the poses (file clock; the offset goes into roe.json) and the manifest.
-  io::write_mocap_csv(staged.stage(S.csv), d.poses);
+  store::write_mocap_csv(staged.stage(S.csv), d.poses);
   const SourceRecord src = source_record(file, d, opt, S, y_up, offset);
   // A forced re-import replaces the record of the same folder.
   m.sources.erase(std::remove_if(m.sources.begin(), m.sources.end(),
@@ -325,7 +325,7 @@ ImportMocapSummary import_mocap(const fs::path& file, const fs::path& dataset, c
                   m.sources.end());
   m.sources.push_back(src);
   if (opt.mocap_name == "mocap0") update_mocap_info(m, d, offset, S.warnings);
-  io::write_manifest(m, staged.stage(io::manifest_path(dataset)));
+  store::write_manifest(m, staged.stage(store::manifest_path(dataset)));
   staged.commit();
   for (const auto& w : S.warnings) log::warn("{}", w);
   return S;

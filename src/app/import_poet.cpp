@@ -9,7 +9,7 @@
 
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/poet_results.hpp"
@@ -146,10 +146,10 @@ using MatchedImages = std::vector<std::pair<Timestamp, const io::PoetImageResult
 /// stamps. Two ids for one frame, or one id for two frames, are input errors; unknown ids are skipped.
 MatchedImages match_images(const io::PoetResults& results, const fs::path& results_json, const fs::path& dataset,
                            ImportPoetSummary& s, const Warn& warn) {
-  const fs::path cam_csv = io::cam_csv_path(dataset);
+  const fs::path cam_csv = store::cam_csv_path(dataset);
   const bool have_frames = io::path_exists(cam_csv);
   std::vector<CameraFrame> frames;
-  if (have_frames) frames = io::read_cam_csv(cam_csv);
+  if (have_frames) frames = store::read_cam_csv(cam_csv);
   // key → frame indices it may denote (a set: one frame may offer the same key by several rules).
   std::map<std::string, std::set<std::size_t>> by_key;
   for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -263,7 +263,7 @@ void conversion_warnings(const ImportPoetSummary& s, const ClassMapper& mapper, 
   if (mapper.by_name() && s.class_map.empty() && s.dropped_unmapped_class > 0)
     throw InputError("no PoET class matches an object of roe.json by name (objects: " +
                          std::to_string(manifest.objects.size()) + "); pass --class-map FILE or --classes FILE",
-                     {io::manifest_path(dataset).string()});
+                     {store::manifest_path(dataset).string()});
   if (s.dropped_non_finite) warn(std::to_string(s.dropped_non_finite) + " detection(s) with non-finite t or rot (NaN/Infinity) dropped");
   for (const auto& [c, n] : dropped.unmapped_by_class)
     warn(std::to_string(n) + " detection(s) of PoET class " + std::to_string(c) + " map to no object and were dropped");
@@ -285,8 +285,8 @@ void conversion_warnings(const ImportPoetSummary& s, const ClassMapper& mapper, 
 void write_import(const fs::path& results_json, const fs::path& dataset, const ImportPoetOptions& opt,
                   DatasetManifest& manifest, const std::vector<Detection>& out, ImportPoetSummary& s) {
   const std::string sha = io::sha256_file(results_json);
-  io::OutputDir dir(io::detections_dir(dataset, opt.name), opt.force, {results_json});
-  io::write_detections_csv(dir.file("detections.csv"), out);
+  io::OutputDir dir(store::detections_dir(dataset, opt.name), opt.force, {results_json});
+  store::write_detections_csv(dir.file("detections.csv"), out);
   nlohmann::json meta = {
       {"producer", "roe import poet"},
       {"roe_version", kVersion},
@@ -323,7 +323,7 @@ void write_import(const fs::path& results_json, const fs::path& dataset, const I
   // The detections folder and roe.json change together: roe.json is written (staged) first, so a
   // failure there leaves both as they were; then the folder is moved into place and roe.json after it.
   io::StagedFiles staged;
-  io::write_manifest(manifest, staged.stage(io::manifest_path(dataset)));
+  store::write_manifest(manifest, staged.stage(store::manifest_path(dataset)));
   {
     const io::DeferSignals defer;  // a Ctrl-C waits until both are in place
     dir.commit();
@@ -338,10 +338,10 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
   if (!io::is_plain_name(opt.name))
     throw InputError("--name must be a plain folder name, got \"" + opt.name + "\"");
   const auto rot_format = io::parse_poet_rotation_format(opt.rotation, "--rotation");
-  DatasetManifest manifest = io::read_manifest(dataset);  // checks that the dataset is there
+  DatasetManifest manifest = store::read_manifest(dataset);  // checks that the dataset is there
   // roe.json is read again under the dataset's lock before it is changed (a concurrent import).
   const io::FolderLock lock(dataset);
-  manifest = io::read_manifest(dataset);
+  manifest = store::read_manifest(dataset);
   const io::PoetResults results = io::read_poet_results(results_json, rot_format);
 
   ImportPoetSummary s;
@@ -351,7 +351,7 @@ ImportPoetSummary import_poet(const fs::path& results_json, const fs::path& data
   };
   const MatchedImages matched = match_images(results, results_json, dataset, s, warn);
   ClassMapper mapper(manifest, opt.classes_file.empty() ? io::ycbv_class_names() : io::read_poet_class_names(opt.classes_file),
-                     opt.class_map_file, io::manifest_path(dataset).string());
+                     opt.class_map_file, store::manifest_path(dataset).string());
   if (mapper.identity()) warn("roe.json lists no objects: object ids are PoET's class ids");
   ClassMapper::Dropped dropped;
   const std::vector<Detection> out = convert_detections(matched, mapper, s, dropped);

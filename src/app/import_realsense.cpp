@@ -16,7 +16,7 @@
 #include "roe/image/frame_processor.hpp"
 #include "roe/io/ros/message_bag.hpp"
 #include "roe/io/csv.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
 #include "roe/io/ros/realsense_recording.hpp"
@@ -469,11 +469,11 @@ ImportRealsenseSummary import_realsense(const fs::path& bag_path, const fs::path
   std::string T_I_C_source;
   const Pose T_I_C = camera_imu_extrinsics(d, st, !imu.empty(), S, T_I_C_source);
   const DatasetManifest m = build_manifest(bag_path, *bag, st, d, imu, proc, T_I_C, T_I_C_source, united, opt, S);
-  if (!frames.empty()) io::write_cam_csv(out.file("mav0/cam0/data.csv"), frames);
-  if (!imu.empty()) io::write_imu_csv(out.file("mav0/imu0/data.csv"), imu);
+  if (!frames.empty()) store::write_cam_csv(out.file("mav0/cam0/data.csv"), frames);
+  if (!imu.empty()) store::write_imu_csv(out.file("mav0/imu0/data.csv"), imu);
   if (!d.accel.empty()) write_xyz_csv(out.file("mav0/imu0_raw/accel.csv"), d.accel, "m s^-2");
   if (!d.gyro.empty()) write_xyz_csv(out.file("mav0/imu0_raw/gyro.csv"), d.gyro, "rad s^-1");
-  io::write_manifest(m, out.file("roe.json"));
+  store::write_manifest(m, out.file("roe.json"));
   out.commit();
   for (const auto& w : S.warnings) log::warn("{}", w);
   return S;

@@ -15,7 +15,7 @@
 #include "roe/infer/model.hpp"
 #include "roe/infer/pose_head.hpp"
 #include "roe/io/csv.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/version.hpp"
 
@@ -186,7 +186,7 @@ void set_model_camera(infer::PoetModel& model, const DatasetManifest& manifest, 
       return model.preprocess(bytes, first_image.string());
     } catch (const InputError&) {
       throw InputError("roe.json has no camera and the images are not at the model's size; add the camera intrinsics so "
-                       "that roe can warp them", {io::manifest_path(dataset).string()});
+                       "that roe can warp them", {store::manifest_path(dataset).string()});
     }
   }();
   model.set_camera(static_cast<int>(probe.shape[3]), static_cast<int>(probe.shape[2]), std::nullopt);
@@ -376,10 +376,10 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
     s.warnings.push_back(w);
   };
   check_options(opt);
-  DatasetManifest manifest = io::read_manifest(dataset);
-  const fs::path cam_csv = io::cam_csv_path(dataset);
+  DatasetManifest manifest = store::read_manifest(dataset);
+  const fs::path cam_csv = store::cam_csv_path(dataset);
   if (!io::path_exists(cam_csv)) throw InputError("the dataset has no frames (missing " + cam_csv.string() + ")", {dataset.string()});
-  const std::vector<CameraFrame> frames = io::read_cam_csv(cam_csv);
+  const std::vector<CameraFrame> frames = store::read_cam_csv(cam_csv);
   s.frames_in_dataset = frames.size();
   if (frames.empty()) throw InputError("the dataset has no frames", {cam_csv.string()});
 
@@ -388,14 +388,14 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
   check_bundle_usable(bundle, opt);
   // The output set: an existing one is refused (without --force) before any frame is computed; the
   // folder itself is created only at the end (an interrupted run leaves no temporary folder).
-  io::OutputDir::check(io::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
+  io::OutputDir::check(store::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
 
   // Selection, and everything that can be checked before the model is loaded and a frame computed.
   const auto [first, last] = parse_frame_range(opt.frames, frames.size());
   std::vector<std::size_t> sel;
   for (std::size_t i = first; i < last; i += static_cast<std::size_t>(opt.every)) sel.push_back(i);
   s.frames_selected = sel.size();
-  const fs::path img_dir = io::cam_image_dir(dataset);
+  const fs::path img_dir = store::cam_image_dir(dataset);
   check_selected_images(frames, sel, img_dir, cam_csv);
   BoxesByStamp ext;
   if (!opt.boxes_file.empty()) {
@@ -419,7 +419,7 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
   infer::DetectionCache cache(dataset / "cache" / "infer" / bundle.model_id / s.config_hash / "frames.jsonl", bundle.model_id,
                               s.config_hash);
   s.cache_file = cache.file();
-  ClassMapper mapper(manifest, class_names_by_id(bundle), opt.class_map_file, io::manifest_path(dataset).string());
+  ClassMapper mapper(manifest, class_names_by_id(bundle), opt.class_map_file, store::manifest_path(dataset).string());
   if (mapper.identity()) warn("roe.json lists no objects: object ids are the model's class ids");
 
   const FrameLoop loop{model, cache, mapper, opt.boxes_file.empty() ? nullptr : &ext, opt.use_cache};
@@ -433,8 +433,8 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
   for (double v : r.computed_ms) sum += v;
   s.mean_ms_computed = r.computed_ms.empty() ? 0.0 : sum / static_cast<double>(r.computed_ms.size());
 
-  io::OutputDir dir(io::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
-  io::write_detections_csv(dir.file("detections.csv"), r.detections);
+  io::OutputDir dir(store::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
+  store::write_detections_csv(dir.file("detections.csv"), r.detections);
   const nlohmann::json meta = detection_set_meta(s, opt, bundle, model, cfg, mapper, r, sel.size());
   io::write_file_atomic(dir.file("meta.json"), io::dump_json(meta, 2) + "\n");
   dir.commit();

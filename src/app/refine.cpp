@@ -14,11 +14,11 @@
 #include "roe/core/log.hpp"
 #include "roe/ekf/images.hpp"
 #include "roe/ekf/measurement.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
-#include "roe/io/run_files.hpp"
+#include "roe/store/run_files.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "roe/version.hpp"
 
@@ -80,8 +80,8 @@ RunInfo read_run_json(const fs::path& file) {
 /// The dataset the run read, checked against the run's hashes of the IMU and the detections.
 Dataset read_run_dataset(const RunInfo& run, const fs::path& dataset, const fs::path& run_json) {
   const std::vector<std::pair<std::string, fs::path>> files = {
-      {"mav0/imu0/data.csv", io::imu_csv_path(dataset)},
-      {"detections/" + run.detections + "/detections.csv", io::detections_dir(dataset, run.detections) / "detections.csv"}};
+      {"mav0/imu0/data.csv", store::imu_csv_path(dataset)},
+      {"detections/" + run.detections + "/detections.csv", store::detections_dir(dataset, run.detections) / "detections.csv"}};
   for (const auto& [key, path] : files) {
     const auto it = run.sha256.find(key);
     if (it == run.sha256.end()) throw InputError("missing key", {run_json.string(), 0, 0, "inputs.sha256." + key});
@@ -89,10 +89,10 @@ Dataset read_run_dataset(const RunInfo& run, const fs::path& dataset, const fs::
       throw InputError(fmt::format("{} is not the file the run read (another dataset, or changed since the run)", key),
                        {path.string()});
   }
-  io::DatasetParts parts;
+  store::DatasetParts parts;
   parts.frames = parts.mocap = parts.groundtruth = false;
   parts.detection_names = {run.detections};
-  return io::read_dataset(dataset, parts);
+  return store::read_dataset(dataset, parts);
 }
 
 ekf::DetectionStatus parse_status(const std::string& s, const fs::path& file) {
@@ -110,7 +110,7 @@ bool used_by_refine(ekf::DetectionStatus s) {
 }
 
 struct RunTables {
-  std::vector<io::StateRow> states;
+  std::vector<store::StateRow> states;
   std::map<int, Pose> T_O_W;  ///< each object's last row
   std::vector<eval::DetectionPose> reprojection;
   std::map<std::pair<Timestamp, int>, ekf::DetectionStatus> status;
@@ -118,9 +118,9 @@ struct RunTables {
 
 RunTables read_tables(const fs::path& run_dir) {
   RunTables t;
-  t.states = io::read_states_csv(run_dir / "states.csv");
-  for (const auto& row : io::read_objects_csv(run_dir / "objects.csv")) t.T_O_W[row.object_id] = row.T_O_W;
-  t.reprojection = io::read_reprojection_csv(run_dir / "reprojection.csv");
+  t.states = store::read_states_csv(run_dir / "states.csv");
+  for (const auto& row : store::read_objects_csv(run_dir / "objects.csv")) t.T_O_W[row.object_id] = row.T_O_W;
+  t.reprojection = store::read_reprojection_csv(run_dir / "reprojection.csv");
   for (const auto& p : t.reprojection)
     t.status[{p.t_ns, p.object_id}] = parse_status(p.status, run_dir / "reprojection.csv");
   if (t.states.size() < 2) throw InputError("fewer than 2 state rows", {(run_dir / "states.csv").string()});
@@ -156,13 +156,13 @@ refine::RefineInput make_input(const RunInfo& run, const Dataset& ds, const RunT
 
 Vector6d sigma_of(const refine::Mat6& C) { return C.diagonal().cwiseMax(0.0).cwiseSqrt(); }
 
-std::vector<io::StateRow> refined_states(const refine::RefineResult& r, const RunTables& t,
+std::vector<store::StateRow> refined_states(const refine::RefineResult& r, const RunTables& t,
                                          const std::vector<ImuSample>& imu) {
   std::vector<Timestamp> times;
   times.reserve(t.states.size());
   for (const auto& s : t.states) times.push_back(s.t_ns);
   const std::vector<refine::StateSample> x = refine::states_at(r, imu, times);
-  std::vector<io::StateRow> rows(t.states.size());
+  std::vector<store::StateRow> rows(t.states.size());
   const Vector6d s_extr = sigma_of(r.cov_T_I_C);
   for (std::size_t i = 0; i < rows.size(); ++i) {
     rows[i].t_ns = x[i].t_ns;
@@ -174,11 +174,11 @@ std::vector<io::StateRow> refined_states(const refine::RefineResult& r, const Ru
   return rows;
 }
 
-std::vector<io::ObjectRow> refined_objects(const refine::RefineResult& r) {
-  std::vector<io::ObjectRow> rows;
+std::vector<store::ObjectRow> refined_objects(const refine::RefineResult& r) {
+  std::vector<store::ObjectRow> rows;
   const Timestamp t = r.nodes.back().t_ns;
   for (const auto& [id, o] : r.objects) {
-    io::ObjectRow row;
+    store::ObjectRow row;
     row.t_ns = t;
     row.object_id = id;
     row.anchor = o.anchor;
@@ -193,7 +193,7 @@ std::vector<io::ObjectRow> refined_objects(const refine::RefineResult& r) {
 }
 
 /// The run's reprojection rows with the refined calibration: T_W_I = T_O_W⁻¹ · T_C_O⁻¹ · T_I_C⁻¹.
-std::vector<io::ReprojectionRow> refined_reprojection(const refine::RefineResult& r, const RunTables& t,
+std::vector<store::ReprojectionRow> refined_reprojection(const refine::RefineResult& r, const RunTables& t,
                                                       const std::vector<ekf::ImageDetections>& images,
                                                       const fs::path& file) {
   std::map<std::pair<Timestamp, int>, const Detection*> det;
@@ -201,10 +201,10 @@ std::vector<io::ReprojectionRow> refined_reprojection(const refine::RefineResult
     for (const auto& d : im.detections) det[{im.t_ns, d.object_id}] = &d;
   std::map<std::pair<Timestamp, int>, double> chi2;
   for (const auto& f : r.detections) chi2[{f.t_ns, f.object_id}] = f.chi2;
-  std::vector<io::ReprojectionRow> rows;
+  std::vector<store::ReprojectionRow> rows;
   rows.reserve(t.reprojection.size());
   for (const auto& p : t.reprojection) {
-    io::ReprojectionRow row;
+    store::ReprojectionRow row;
     row.t_ns = p.t_ns;
     row.object_id = p.object_id;
     row.outcome.object_id = p.object_id;
@@ -286,10 +286,10 @@ RefineCommandResult refine_run(const fs::path& run_dir_in, const fs::path& out_d
     res.warnings.push_back("the marginal covariances could not be computed (rank-deficient problem): σ written as 0");
 
   const auto t_write = Clock::now();
-  const std::vector<io::StateRow> states = refined_states(r, tables, ds.imu);
-  io::write_states_csv(dir.file("states.csv"), states);
-  io::write_objects_csv(dir.file("objects.csv"), refined_objects(r));
-  io::write_reprojection_csv(dir.file("reprojection.csv"),
+  const std::vector<store::StateRow> states = refined_states(r, tables, ds.imu);
+  store::write_states_csv(dir.file("states.csv"), states);
+  store::write_objects_csv(dir.file("objects.csv"), refined_objects(r));
+  store::write_reprojection_csv(dir.file("reprojection.csv"),
                              refined_reprojection(r, tables, images, run_dir / "reprojection.csv"));
   for (const auto format : {io::TrajectoryFormat::kCsv, io::TrajectoryFormat::kTum})
     io::write_trajectory(dir.file(format == io::TrajectoryFormat::kCsv ? "trajectory.csv" : "trajectory.tum"),

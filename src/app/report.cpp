@@ -11,7 +11,7 @@
 #include "roe/app/calib_check.hpp"
 #include "roe/app/eval.hpp"
 #include "roe/core/error.hpp"
-#include "roe/io/eval_report.hpp"
+#include "roe/store/eval_report.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 
@@ -173,7 +173,7 @@ std::string ReportResult::to_text() const {
   const json& s = summary;
   std::string t = fmt::format("roe report: {} ({:.1f} MB, {} figures)\n", s["out"].get<std::string>(),
                               s["bytes"].get<double>() / 1e6, s["figures"].size());
-  const io::AxisRmse a = io::read_axis_rmse(s["per_axis"]);
+  const store::AxisRmse a = store::read_axis_rmse(s["per_axis"]);
   t += fmt::format("  RMSE x/y/z {:.4f} {:.4f} {:.4f} m, roll/pitch/yaw {:.3f} {:.3f} {:.3f} deg\n", a.pos_m.x(),
                    a.pos_m.y(), a.pos_m.z(), a.rpy_deg.x(), a.rpy_deg.y(), a.rpy_deg.z());
   const json& c = s["calib_check"];

@@ -8,7 +8,7 @@
 #include <tuple>
 
 #include "roe/app/report.hpp"
-#include "roe/io/eval_report.hpp"
+#include "roe/store/eval_report.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 #include "roe/version.hpp"
@@ -178,7 +178,7 @@ std::string fit_cells(const json& f) {
     for (int k = 0; k < 6; ++k) s += "<td class=\"na\">–</td>";
     return s;
   }
-  const io::AxisRmse a = io::read_axis_rmse(f, "", "per_object");
+  const store::AxisRmse a = store::read_axis_rmse(f, "", "per_object");
   return fmt::format("<td>{}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.2f}</td><td>{:.2f}</td>"
                      "<td>{:.2f}</td>",
                      f["n"].get<int>(), a.pos_m.x(), a.pos_m.y(), a.pos_m.z(), a.rpy_deg.x(), a.rpy_deg.y(),

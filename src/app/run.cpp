@@ -14,7 +14,7 @@
 #include "roe/core/log.hpp"
 #include "roe/core/parallel.hpp"
 #include "roe/ekf/smoother.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
 #include "roe/io/trajectory_io.hpp"
@@ -255,12 +255,12 @@ void add_trajectory_writers(const std::vector<StateRow>& rows, const io::OutputD
 // largest (the states tables) first: the same bytes as one after the other.
 void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
   std::vector<std::function<void()>> writers;
-  writers.push_back([&] { io::write_states_csv(dir.file("states.csv"), r.states); });
-  if (r.smoothed) writers.push_back([&] { io::write_states_csv(dir.file("states_filter.csv"), r.filter_states); });
-  writers.push_back([&] { io::write_objects_csv(dir.file("objects.csv"), r.objects); });
+  writers.push_back([&] { store::write_states_csv(dir.file("states.csv"), r.states); });
+  if (r.smoothed) writers.push_back([&] { store::write_states_csv(dir.file("states_filter.csv"), r.filter_states); });
+  writers.push_back([&] { store::write_objects_csv(dir.file("objects.csv"), r.objects); });
   add_trajectory_writers(r.states, dir, "", writers);
   if (r.smoothed) add_trajectory_writers(r.filter_states, dir, "_filter", writers);
-  writers.push_back([&] { io::write_reprojection_csv(dir.file("reprojection.csv"), r.reprojection); });
+  writers.push_back([&] { store::write_reprojection_csv(dir.file("reprojection.csv"), r.reprojection); });
   run_all(writers, available_cpus());
 }
 
@@ -381,12 +381,12 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
   // Refuses a non-empty RUN_DIR, and one that is or contains the dataset or the config, before any work.
   io::OutputDir dir(out_dir, options.force, {dataset_dir, options.config_file});
 
-  io::DatasetParts parts;
+  store::DatasetParts parts;
   parts.mocap = false;
   parts.groundtruth = false;
   if (!options.detections.empty()) parts.detection_names = {options.detections};
   log::info("config: {}", options.config_file.empty() ? "roe's defaults (no --config)" : options.config_file);
-  const Dataset dataset = io::read_dataset(dataset_dir, parts);
+  const Dataset dataset = store::read_dataset(dataset_dir, parts);
   const double read_s = seconds_since(t_start);
   {
     std::size_t n_det = 0;
@@ -413,10 +413,10 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
                  {"dataset_abs", io::provenance_path(dataset_dir)},
                  {"detections", set},
                  {"sha256",
-                  {{"roe.json", io::sha256_file(io::manifest_path(dataset_dir))},
-                   {"mav0/imu0/data.csv", io::sha256_file(io::imu_csv_path(dataset_dir))},
+                  {{"roe.json", io::sha256_file(store::manifest_path(dataset_dir))},
+                   {"mav0/imu0/data.csv", io::sha256_file(store::imu_csv_path(dataset_dir))},
                    {"detections/" + set + "/detections.csv",
-                    io::sha256_file(io::detections_dir(dataset_dir, set) / "detections.csv")}}}};
+                    io::sha256_file(store::detections_dir(dataset_dir, set) / "detections.csv")}}}};
   if (!options.config_file.empty()) {
     inputs["config"] = options.config_file;
     inputs["config_abs"] = io::provenance_path(options.config_file);

@@ -8,7 +8,7 @@
 #include <cmath>
 
 #include "roe/core/error.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/input.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/kalibr.hpp"
@@ -379,10 +379,10 @@ GroundTruthInput read_groundtruth_input(const std::filesystem::path& dir) {
                                  "quaternion) or {} (TUM-VI)",
                                  candidates[0].string(), candidates[1].string()),
                      {in.mav0.string()});
-  in.imu = io::read_imu_csv(in.imu_file);
+  in.imu = store::read_imu_csv(in.imu_file);
   if (const auto yaml = in.mav0 / "imu0" / "sensor.yaml"; io::path_exists(yaml))
     in.imu_noise = io::read_kalibr_imu(yaml).noise;
-  io::GroundTruthFile gt = io::read_groundtruth_file(in.gt_file);
+  store::GroundTruthFile gt = store::read_groundtruth_file(in.gt_file);
   in.layout = gt.layout;
   in.pose_only = gt.pose_only();
   in.states = in.pose_only ? sim::states_from_poses(gt.poses) : std::move(gt.states);
@@ -502,7 +502,7 @@ SimulateResult simulate(const SimulateOptions& opt, const std::filesystem::path&
     }
   // The file first: writing roe.json checks what it points at.
   if (!symmetries.empty()) io::write_models_info(dir.tmp() / kModelsInfo, symmetries);
-  io::write_dataset_files(run.dataset, dir.tmp());
+  store::write_dataset_files(run.dataset, dir.tmp());
   // detections/sim/meta.json: who produced the detections and with which configuration.
   const json meta = {{"producer", std::string("roe simulate ") + roe::kVersion},
                      {"seed", opt.seed},

@@ -11,7 +11,7 @@
 #include "roe/app/sweep.hpp"
 #include "roe/core/error.hpp"
 #include "roe/core/log.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 #include "roe/sim/simulator.hpp"
@@ -118,7 +118,7 @@ DatasetEntry read_dataset(const Where& w, const json& j, const std::string& path
   if (!d.seeds.empty()) w.fail(path + ".seeds", "seeds apply to simulator presets, not to a dataset folder");
   if (duration) w.fail(path + ".duration_s", "duration_s applies to simulator presets, not to a dataset folder");
   const fs::path p = fs::path(dir).is_absolute() ? fs::path(dir) : spec_dir / dir;
-  if (!fs::is_regular_file(io::manifest_path(p)))
+  if (!fs::is_regular_file(store::manifest_path(p)))
     w.fail(path + ".path", fmt::format("not a dataset folder (no roe.json): {}", p.string()));
   d.label = dir;
   d.content = {{"path", io::provenance_path(p)}};

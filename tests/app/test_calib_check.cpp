@@ -9,7 +9,7 @@
 #include "roe/app/calib_check.hpp"
 #include "roe/app/run.hpp"
 #include "roe/core/error.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/math/so3.hpp"
 
@@ -25,7 +25,7 @@ fs::path write_and_run(const Dataset& d, const test::TempDir& tmp, const std::st
                        const std::string& filter_json =
                            R"({"use_detection_sigmas": true, "extrinsics_sigma_p_m": 0.05, "extrinsics_sigma_rot_deg": 5.0})") {
   const fs::path ds = tmp / name;
-  io::write_dataset(d, ds, false);
+  store::write_dataset(d, ds, false);
   // The causal filter: calib-check judges the filter (it reads states_filter.csv after a smoother).
   const fs::path cfg = tmp.write(name + ".json", R"({"smoother": "none", "filter": )" + filter_json + "}");
   app::RunOptions o;

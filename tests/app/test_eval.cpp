@@ -12,7 +12,7 @@
 
 #include "roe/app/eval.hpp"
 #include "roe/core/error.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/trajectory_io.hpp"
@@ -55,11 +55,11 @@ struct Fixture {
       const double s = 0.01 * i;
       mocap.push_back({t0 + i * 10'000'000LL, truth_imu(s + offset_s) * T_B_I.inverse()});
     }
-    io::write_mocap_csv(dataset / "mav0/mocap0/data.csv", mocap);
+    store::write_mocap_csv(dataset / "mav0/mocap0/data.csv", mocap);
     DatasetManifest m;
     m.name = "synthetic";
     m.mocap = MocapInfo{"rig", T_B_I, offset_s};
-    io::write_manifest(m, dataset / "roe.json");
+    store::write_manifest(m, dataset / "roe.json");
 
     // Run: T_W_I at 20 Hz in the run's world (T_W_M · T_M_I), with alternating errors.
     std::vector<Timestamp> t;

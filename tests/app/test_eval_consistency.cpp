@@ -11,7 +11,7 @@
 #include "roe/app/eval.hpp"
 #include "roe/app/run.hpp"
 #include "roe/app/sweep.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/math/distributions.hpp"
 #include "roe/math/euler.hpp"
@@ -55,7 +55,7 @@ TEST_CASE("roe eval: matched Monte-Carlo ANEES in the estimator's gauge inside t
   double sum_p = 0.0, sum_r = 0.0, sum_r_aligned = 0.0;
   for (int run = 0; run < N; ++run) {
     const fs::path ds = root / ("ds" + std::to_string(run)), out = root / ("run" + std::to_string(run));
-    io::write_dataset(test::simulate_preset("matched", 100 + run, 20.0), ds, true);
+    store::write_dataset(test::simulate_preset("matched", 100 + run, 20.0), ds, true);
     app::RunOptions ro;
     ro.config_file = (root / "config.json").string();
     (void)app::run(ds, out, ro);

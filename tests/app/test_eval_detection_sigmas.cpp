@@ -10,7 +10,7 @@
 #include "roe/app/eval.hpp"
 #include "roe/core/error.hpp"
 #include "roe/eval/detection_calibration.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "support/scaled_sigma_detections.hpp"
@@ -68,7 +68,7 @@ struct SigmaFixture {
         dets.push_back(detect(d.groundtruth[k].t_ns - 20'000'000LL, o.id, T_C_O));
       }
     }
-    io::write_dataset(d, dataset, false);
+    store::write_dataset(d, dataset, false);
     // A run folder: the true trajectory at 20 Hz and a run.json naming the dataset and the set.
     fs::create_directories(run);
     std::vector<Timestamp> t;

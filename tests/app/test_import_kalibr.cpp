@@ -7,7 +7,7 @@
 
 #include "support/test_util.hpp"
 #include "roe/app/import.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/math/so3.hpp"
 
 namespace fs = std::filesystem;
@@ -61,7 +61,7 @@ fs::path dataset_with_camera(const TempDir& d, int width, int height, double f) 
   c.cx = width / 2.0;
   c.cy = height / 2.0;
   m.camera = c;  // distortion_model "none": undistorted images
-  io::write_manifest(m, io::manifest_path(ds));
+  store::write_manifest(m, store::manifest_path(ds));
   return ds;
 }
 
@@ -71,7 +71,7 @@ TEST_CASE("import kalibr: T_I_C is the inverse of T_cam_imu, noise and time shif
   TempDir d;
   const fs::path ds = d.path / "ds";
   const auto s = app::import_kalibr(d.write("cc.yaml", kCamchain), d.write("imu.yaml", kImu), ds, {});
-  const auto m = io::read_manifest(ds);
+  const auto m = store::read_manifest(ds);
   REQUIRE(m.camera);
   Eigen::Matrix3d R_C_I;
   R_C_I << 0, -1, 0, 0, 0, -1, 1, 0, 0;
@@ -98,10 +98,10 @@ TEST_CASE("import kalibr: T_I_C is the inverse of T_cam_imu, noise and time shif
   app::ImportKalibrOptions f;
   f.force = true;
   app::import_kalibr(d.path / "cc.yaml", d.path / "imu.yaml", ds, f);
-  CHECK(io::read_manifest(ds).sources.size() == 2);
+  CHECK(store::read_manifest(ds).sources.size() == 2);
   // Re-importing only the camchain keeps the IMU noise, calib/imu.yaml and their source record.
   app::import_kalibr(d.path / "cc.yaml", std::nullopt, ds, f);
-  const auto again = io::read_manifest(ds);
+  const auto again = store::read_manifest(ds);
   REQUIRE(again.sources.size() == 2);
   CHECK(again.sources[0].kind == "kalibr-imu");
   CHECK(again.sources[1].kind == "kalibr-camchain");
@@ -118,7 +118,7 @@ TEST_CASE("import kalibr: a dataset with other image sizes keeps its intrinsics"
   const auto s = app::import_kalibr(d.write("cc.yaml", kCamchain), std::nullopt, ds, {});
   CHECK_FALSE(s.intrinsics_written);
   CHECK_FALSE(s.warnings.empty());
-  const auto back = io::read_manifest(ds);
+  const auto back = store::read_manifest(ds);
   CHECK(back.camera->fx == 900);
   CHECK(back.camera->T_I_C.p.isApprox(Eigen::Vector3d(0.03, 0.02, 0.01), 1e-12));
   CHECK_FALSE(s.created_manifest);
@@ -134,9 +134,9 @@ TEST_CASE("import kalibr: imu.yaml's update_rate against the dataset's IMU rate"
     DatasetManifest m;
     m.name = "x";
     m.imu = ImuInfo{rate, {}};
-    io::write_manifest(m, io::manifest_path(ds));
+    store::write_manifest(m, store::manifest_path(ds));
     const auto s = app::import_kalibr(d.write("cc.yaml", kCamchain), d.write("imu.yaml", kImu), ds, {});
-    const auto back = io::read_manifest(ds);
+    const auto back = store::read_manifest(ds);
     CHECK(back.imu->rate_hz == rate);
     CHECK(back.imu->noise.gyro_noise_density == 0.00016);
     return s.warnings;
@@ -198,7 +198,7 @@ TEST_CASE("import kalibr onto undistorted images keeps their model and intrinsic
     std::string cc = kCamchain;
     cc.replace(cc.find("[0.01, -0.02, 0.001, 0.002]"), 27, coeffs);
     const auto s = app::import_kalibr(d.write("cc.yaml", cc), std::nullopt, ds, {});
-    after = io::read_manifest(ds);
+    after = store::read_manifest(ds);
     return s;
   };
   DatasetManifest m;

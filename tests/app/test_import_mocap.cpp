@@ -11,7 +11,7 @@
 #include "support/test_util.hpp"
 #include "roe/app/import.hpp"
 #include "roe/calib/mocap_time_offset.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "roe/math/so3.hpp"
 
@@ -118,7 +118,7 @@ TEST_CASE("import mocap --estimate-offset writes the offset into roe.json", "[ap
   simulate(offset, imu, mocap, 3);
   const fs::path ds = d.path / "ds";
   fs::create_directories(ds / "mav0/imu0");
-  io::write_imu_csv(io::imu_csv_path(ds), imu);
+  store::write_imu_csv(store::imu_csv_path(ds), imu);
   io::write_trajectory(d.path / "gt.tum", mocap, io::TrajectoryFormat::kTum);
   app::ImportMocapOptions o;
   o.estimate_offset = true;
@@ -127,11 +127,11 @@ TEST_CASE("import mocap --estimate-offset writes the offset into roe.json", "[ap
   CHECK(s.created_manifest);
   REQUIRE(s.estimate);
   CHECK(std::abs(s.time_offset_s - offset) < 1.0 / 120.0);
-  const auto m = io::read_manifest(ds);
+  const auto m = store::read_manifest(ds);
   REQUIRE(m.mocap);
   CHECK(m.mocap->time_offset_s == s.time_offset_s);
   // Stamps stay in the mocap clock (the offset is applied by readers of roe.json).
-  const auto written = io::read_mocap_csv(io::mocap_csv_path(ds));
+  const auto written = store::read_mocap_csv(store::mocap_csv_path(ds));
   REQUIRE(written.size() == mocap.size());
   CHECK(written.front().t_ns == mocap.front().t_ns);
   CHECK(m.sources.at(0).options.at("time_offset_source") == "estimated");
@@ -178,7 +178,7 @@ TEST_CASE("import mocap: the real Motive file into a new dataset, then overwrite
   CHECK(s.rate_hz == Approx(120));
   CHECK(s.up == "y");
   CHECK(s.created_manifest);
-  const auto m = io::read_manifest(ds);
+  const auto m = store::read_manifest(ds);
   CHECK(m.name == "seq");
   REQUIRE(m.mocap);
   CHECK(m.mocap->body == "Rigid Body 1");
@@ -186,7 +186,7 @@ TEST_CASE("import mocap: the real Motive file into a new dataset, then overwrite
   REQUIRE(m.sources.size() == 1);
   CHECK(m.sources[0].kind == "motive-csv");
   CHECK(m.sources[0].sha256 == "1c1aa181bc1015bc782fe6577c1e437ada25e9fdb7ff4f3682ddd9d64b030280");
-  const auto p = io::read_mocap_csv(io::mocap_csv_path(ds));
+  const auto p = store::read_mocap_csv(store::mocap_csv_path(ds));
   REQUIRE(p.size() == 250);
   // Y-up → Z-up: (x, y, z)_Y = (0.060002, 0.019150, 0.076611) → (0.060002, −0.076611, 0.019150).
   CHECK(p[0].T.p.isApprox(Eigen::Vector3d(0.060002, -0.076611, 0.019150), 1e-9));
@@ -200,9 +200,9 @@ TEST_CASE("import mocap: the real Motive file into a new dataset, then overwrite
   forced.force = true;
   forced.up = "z";
   app::import_mocap(f, ds, forced);
-  const auto m2 = io::read_manifest(ds);
+  const auto m2 = store::read_manifest(ds);
   CHECK(m2.sources.size() == 1);
-  CHECK(io::read_mocap_csv(io::mocap_csv_path(ds))[0].T.p.isApprox(Eigen::Vector3d(0.060002, 0.019150, 0.076611), 1e-9));
+  CHECK(store::read_mocap_csv(store::mocap_csv_path(ds))[0].T.p.isApprox(Eigen::Vector3d(0.060002, 0.019150, 0.076611), 1e-9));
 }
 
 TEST_CASE("import mocap: the evo bag's groundtruth topic and EuRoC/TUM-VI ground truth", "[app][import][shared]") {
@@ -218,14 +218,14 @@ TEST_CASE("import mocap: the evo bag's groundtruth topic and EuRoC/TUM-VI ground
   const auto s = app::import_mocap(b, d.path / "evo", o);
   CHECK(s.format == "rosbag");
   CHECK(s.poses == 12765);
-  CHECK(io::read_mocap_csv(io::mocap_csv_path(d.path / "evo")).size() == 12765);
-  CHECK(io::read_manifest(d.path / "evo").sources.at(0).kind == "ros1-bag");
+  CHECK(store::read_mocap_csv(store::mocap_csv_path(d.path / "evo")).size() == 12765);
+  CHECK(store::read_manifest(d.path / "evo").sources.at(0).kind == "ros1-bag");
   CHECK_THROWS_WITH(app::import_mocap(b, d.path / "evo2", {}), Catch::Contains("--topic") && Catch::Contains("groundtruth"));
   const auto t = app::import_mocap(g, d.path / "tumvi", {});
   CHECK(t.format == "euroc");
   // No rate in the file: the median interval's (8.333 ms; the mean, 8.53 ms, is stretched by a 1.06 s gap).
   CHECK(t.rate_hz == Approx(1e9 / 8'333'000).epsilon(1e-12));
-  const auto p = io::read_mocap_csv(io::mocap_csv_path(d.path / "tumvi"));
+  const auto p = store::read_mocap_csv(store::mocap_csv_path(d.path / "tumvi"));
   REQUIRE_FALSE(p.empty());
   CHECK(p[0].t_ns == 1520530308189679351LL);
   CHECK(p[0].T.p.isApprox(Eigen::Vector3d(0.8417820384, -0.2193354118, 1.2499749141), 1e-12));
@@ -237,7 +237,7 @@ TEST_CASE("import mocap: the evo bag's groundtruth topic and EuRoC/TUM-VI ground
     CHECK(cs.rows == 12590);
     CHECK(cs.duplicates == 590);
     CHECK(cs.poses == 12000);
-    const auto cp = io::read_mocap_csv(io::mocap_csv_path(d.path / "cnspy"));
+    const auto cp = store::read_mocap_csv(store::mocap_csv_path(d.path / "cnspy"));
     CHECK(cp[0].t_ns == 5'000'000);
     CHECK(cp[0].T.p.isApprox(Eigen::Vector3d(-0.000693000000000055, 0.00131999999999999, 0.000394999999999923), 1e-15));
   }
@@ -256,11 +256,11 @@ TEST_CASE("import mocap: format detection (Vicon, Motive) and occlusion counts",
   CHECK(s.occluded == 1);
   CHECK(s.poses == 2);
   CHECK(s.up == "z");
-  const auto p = io::read_mocap_csv(io::mocap_csv_path(d.path / "ds"));
+  const auto p = store::read_mocap_csv(store::mocap_csv_path(d.path / "ds"));
   REQUIRE(p.size() == 2);
   CHECK(p[1].t_ns == 20'000'000);
   CHECK(p[1].T.p.isApprox(Eigen::Vector3d(1.0, 0.01, 0.0), 1e-12));
-  const auto m = io::read_manifest(d.path / "ds");
+  const auto m = store::read_manifest(d.path / "ds");
   CHECK(m.sources.at(0).kind == "vicon-csv");
   CHECK(m.sources.at(0).options.at("occluded") == "1");
   // Every frame occluded → nothing to import is bad input.
@@ -295,7 +295,7 @@ TEST_CASE("import mocap: --time-offset and --max-offset are checked before anyth
   o.time_offset_s = 1.7e9;
   const auto s = app::import_mocap(v, d.path / "ds", o);
   CHECK(s.time_offset_s == 1.7e9);
-  CHECK(io::read_manifest(d.path / "ds").mocap->time_offset_s == 1.7e9);
+  CHECK(store::read_manifest(d.path / "ds").mocap->time_offset_s == 1.7e9);
 }
 
 TEST_CASE("import mocap: --name cannot land on another stream, T_B_I follows its body, Motive's start time is kept",
@@ -319,31 +319,31 @@ TEST_CASE("import mocap: --name cannot land on another stream, T_B_I follows its
   o.body = "obj";
   o.mocap_name = "mocap_box-1";
   CHECK(app::import_mocap(v, ds, o).poses == 2);
-  CHECK_FALSE(io::read_manifest(ds).mocap);  // only mocap0 fills the mocap section
+  CHECK_FALSE(store::read_manifest(ds).mocap);  // only mocap0 fills the mocap section
 
   // mocap0 of body "cam" with a hand-set T_B_I; a forced re-import of the same body keeps it ...
   o.mocap_name = "mocap0";
   o.body = "cam";
   app::import_mocap(v, ds, o);
-  auto m = io::read_manifest(ds);
+  auto m = store::read_manifest(ds);
   m.mocap->T_B_I = Pose(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.1, 0, 0));
-  io::write_manifest(m, io::manifest_path(ds));
+  store::write_manifest(m, store::manifest_path(ds));
   o.force = true;
   CHECK(app::import_mocap(v, ds, o).warnings.empty());
-  CHECK(io::read_manifest(ds).mocap->T_B_I.p.x() == 0.1);
+  CHECK(store::read_manifest(ds).mocap->T_B_I.p.x() == 0.1);
   // ... one of another body resets it, with a warning.
   o.body = "obj";
   const auto s = app::import_mocap(v, ds, o);
   REQUIRE(s.warnings.size() == 1);
   CHECK_THAT(s.warnings[0], Catch::Contains("T_B_I is reset to identity"));
-  CHECK(io::read_manifest(ds).mocap->body == "obj");
-  CHECK(io::read_manifest(ds).mocap->T_B_I.p.isZero());
+  CHECK(store::read_manifest(ds).mocap->body == "obj");
+  CHECK(store::read_manifest(ds).mocap->T_B_I.p.isZero());
 
   // Motive's "Capture Start Time" is recorded with the import.
   const fs::path f = fs::path(ROE_SHARED_DATA_DIR) / "mocap/sample_optitrack_take_v1.21.csv";
   if (fs::exists(f)) {
     app::import_mocap(f, d.path / "motive", {});
-    const auto mm = io::read_manifest(d.path / "motive");
+    const auto mm = store::read_manifest(d.path / "motive");
     CHECK(mm.sources.at(0).options.at("capture_start_time") == "2016-01-05 03.49.50.755 PM");
   }
 }

@@ -7,7 +7,7 @@
 
 #include "roe/app/import_poet.hpp"
 #include "roe/core/error.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/output.hpp"
 
 namespace fs = std::filesystem;
@@ -34,7 +34,7 @@ fs::path make_dataset(const fs::path& root, const std::vector<std::pair<Timestam
   if (with_cam)
     for (const auto& [t, f] : frames) d.frames.push_back({t, f});
   const fs::path ds = root / "ds";
-  io::write_dataset(d, ds, false);
+  store::write_dataset(d, ds, false);
   return ds;
 }
 
@@ -78,7 +78,7 @@ TEST_CASE("ns-named frames: ids are timestamps, classes map by YCB-V name", "[im
   CHECK(s.dropped_unmapped_class == 1);  // class 1 (master chef can) is not in roe.json
   CHECK(s.class_map.at(5) == 5);
   CHECK(s.class_map.at(13) == 113);      // "024_bowl" = "Bowl"
-  const auto dets = io::read_detections_csv(ds / "detections/poet/detections.csv");
+  const auto dets = store::read_detections_csv(ds / "detections/poet/detections.csv");
   REQUIRE(dets.size() == 3);
   CHECK(dets[0].t_ns == 1000);
   CHECK(dets[0].object_id == 5);
@@ -88,7 +88,7 @@ TEST_CASE("ns-named frames: ids are timestamps, classes map by YCB-V name", "[im
   CHECK(dets[1].object_id == 113);
   CHECK(dets[2].t_ns == 3000);
   CHECK(fs::exists(ds / "detections/poet/meta.json"));
-  const auto m = io::read_manifest(ds);
+  const auto m = store::read_manifest(ds);
   REQUIRE(m.sources.size() == 1);
   CHECK(m.sources[0].kind == "poet");
   CHECK(m.sources[0].sha256 == io::sha256_file(res));
@@ -97,7 +97,7 @@ TEST_CASE("ns-named frames: ids are timestamps, classes map by YCB-V name", "[im
   CHECK(error_of([&] { app::import_poet(res, ds, o); }).find("detections/poet") != std::string::npos);
   o.force = true;
   CHECK_NOTHROW(app::import_poet(res, ds, o));
-  CHECK(io::read_manifest(ds).sources.size() == 1);
+  CHECK(store::read_manifest(ds).sources.size() == 1);
 }
 
 TEST_CASE("other file names: PoET ids and stems match, unknown ids are skipped", "[import_poet]") {
@@ -110,7 +110,7 @@ TEST_CASE("other file names: PoET ids and stems match, unknown ids are skipped",
   CHECK(s.images_matched == 3);
   CHECK(s.images_unknown == 1);
   CHECK(s.unknown_ids == std::vector<std::string>{"999"});
-  const auto dets = io::read_detections_csv(ds / "detections/poet/detections.csv");
+  const auto dets = store::read_detections_csv(ds / "detections/poet/detections.csv");
   REQUIRE(dets.size() == 3);
   CHECK(dets[0].t_ns == 10);
   CHECK(dets[1].t_ns == 20);
@@ -146,7 +146,7 @@ TEST_CASE("duplicate classes, NaN and quaternion models in one file", "[import_p
   CHECK(s.dropped_duplicate == 1);
   CHECK(s.dropped_non_finite == 1);
   CHECK(s.quaternion_rotations == 1);
-  const auto dets = io::read_detections_csv(ds / "detections/poet/detections.csv");
+  const auto dets = store::read_detections_csv(ds / "detections/poet/detections.csv");
   REQUIRE(dets.size() == 2);
   CHECK(dets[0].T_C_O.p.z() == Approx(0.5));  // the first (highest detector score) is kept
   CHECK(dets[1].object_id == 6);
@@ -162,7 +162,7 @@ TEST_CASE("class map file, class names file, and datasets without cam0/data.csv"
   auto s = app::import_poet(res, ds, {});
   CHECK(s.detections_written == 1);
   CHECK(s.class_map.at(14) == 2);
-  auto dets = io::read_detections_csv(ds / "detections/poet/detections.csv");
+  auto dets = store::read_detections_csv(ds / "detections/poet/detections.csv");
   REQUIRE(dets.size() == 1);
   CHECK(dets[0].t_ns == 5000);  // id taken as a timestamp (no cam0/data.csv)
   // An explicit map.
@@ -232,7 +232,7 @@ TEST_CASE("aleatoric log-variances and covariances become the sigma columns, mal
   CHECK(warned_missing);
   CHECK(warned_corr);
   // Read back from detections.csv (16 columns) and compared with the σ Python computed.
-  const auto dets = io::read_detections_csv(ds / "detections/poet/detections.csv");
+  const auto dets = store::read_detections_csv(ds / "detections/poet/detections.csv");
   const auto ex = nlohmann::json::parse(io::read_file(fx / "expected.json"))["good"];
   REQUIRE(dets.size() == 4);
   const std::pair<const char*, std::size_t> rows[] = {{"1000.0", 0}, {"1000.1", 1}, {"2000.0", 2}};

@@ -15,7 +15,7 @@
 #include "roe/app/import.hpp"
 #include "roe/image/frame_processor.hpp"
 #include "roe/io/csv.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/ros/ros1_bag.hpp"
 
@@ -41,7 +41,7 @@ std::string png_encoder(const std::string& raw, int w, int h) {
 void check_against_truth(const fs::path& ds, const testing::D435iBagSpec& spec, const testing::D435iBagTruth& truth,
                          const app::ImportRealsenseSummary& s) {
   // Merged IMU: every gyro stamp inside the accel range, gyro exact, accel = the (linear) truth.
-  const auto imu = io::read_imu_csv(io::imu_csv_path(ds));
+  const auto imu = store::read_imu_csv(store::imu_csv_path(ds));
   std::size_t inside = 0;
   for (Timestamp t : truth.gyro_stamps)
     if (t >= truth.accel_stamps.front() && t <= truth.accel_stamps.back()) ++inside;
@@ -66,18 +66,18 @@ void check_against_truth(const fs::path& ds, const testing::D435iBagSpec& spec, 
   while (acc.next()) CHECK(acc.get_int64(0) == truth.accel_stamps[n++]);
   CHECK(n == truth.accel_stamps.size());
   // Frames: header.stamp names, configured size.
-  const auto frames = io::read_cam_csv(io::cam_csv_path(ds));
+  const auto frames = store::read_cam_csv(store::cam_csv_path(ds));
   REQUIRE(frames.size() == truth.frame_stamps.size());
   for (std::size_t k = 0; k < frames.size(); ++k) {
     CHECK(frames[k].t_ns == truth.frame_stamps[k]);
     CHECK(frames[k].filename == std::to_string(truth.frame_stamps[k]) + ".png");
   }
-  const auto img = image::read_image(io::cam_image_dir(ds) / frames[0].filename);
+  const auto img = image::read_image(store::cam_image_dir(ds) / frames[0].filename);
   CHECK(img.width == 640);
   CHECK(img.height == 480);
   CHECK(img.channels == 3);
   // Manifest: processed intrinsics (centre crop of (704 − 640)/2 = 32, (528 − 480)/2 = 24 px).
-  const auto m = io::read_manifest(ds);
+  const auto m = store::read_manifest(ds);
   REQUIRE(m.camera);
   CHECK(m.camera->width == 640);
   CHECK(m.camera->height == 480);
@@ -112,7 +112,7 @@ TEST_CASE("import realsense: generated D435i bags (LZ4, bz2, none) match the gen
     CHECK(s.timestamp_domain == "Global Time");
     CHECK(s.source_distortion == "Inverse Brown Conrady");
     check_against_truth(d.path / "ds", spec, truth, s);
-    const auto m = io::read_manifest(d.path / "ds");
+    const auto m = store::read_manifest(d.path / "ds");
     const auto& opt = m.sources[0].options;
     CHECK(opt.at("source_distortion_model") == "Inverse Brown Conrady");
     CHECK(opt.at("timestamp_domain") == "Global Time");
@@ -175,8 +175,8 @@ TEST_CASE("import realsense: realsense-ros layout with compressed images", "[app
   CHECK(s.source_distortion == "plumb_bob");
   check_against_truth(d.path / "ds", spec, truth, s);
   // With zero distortion the output is an exact centre crop: compare pixels with the generator.
-  const auto frames = io::read_cam_csv(io::cam_csv_path(d.path / "ds"));
-  const auto img = image::read_image(io::cam_image_dir(d.path / "ds") / frames[1].filename);
+  const auto frames = store::read_cam_csv(store::cam_csv_path(d.path / "ds"));
+  const auto img = image::read_image(store::cam_image_dir(d.path / "ds") / frames[1].filename);
   for (auto [u, v] : {std::pair{0, 0}, std::pair{100, 200}, std::pair{639, 479}}) {
     const auto p = testing::D435iBagTruth::pixel(1, u + 32, v + 24);
     CHECK(img.at(u, v, 2) == p[0]);  // PNG pixels are BGR
@@ -268,7 +268,7 @@ TEST_CASE("import realsense: the real RealSense recorder bag", "[app][import][sh
         }) == 1);
   CHECK_FALSE(fs::exists(d.path / "ds" / "mav0" / "imu0" / "data.csv"));
   CHECK(s.timestamp_domain == "Hardware Clock");
-  const auto m = io::read_manifest(d.path / "ds");
+  const auto m = store::read_manifest(d.path / "ds");
   REQUIRE(m.camera);
   // 640x480 source, 640x480 crop: the intrinsics pass through unchanged.
   CHECK(m.camera->width == 640);
@@ -290,9 +290,9 @@ TEST_CASE("import realsense: the real RealSense recorder bag", "[app][import][sh
   CHECK(T.q.y() * T.q.w() > 0);  // q and −q are the same rotation; compare up to sign
   CHECK(std::abs(T.q.y()) == Approx(0.00646343).margin(1e-7));
   CHECK(std::abs(T.q.z()) == Approx(0.00515485).margin(1e-7));
-  const auto frames = io::read_cam_csv(io::cam_csv_path(d.path / "ds"));
+  const auto frames = store::read_cam_csv(store::cam_csv_path(d.path / "ds"));
   REQUIRE(frames.size() == 1);
-  const auto img = image::read_image(io::cam_image_dir(d.path / "ds") / frames[0].filename);
+  const auto img = image::read_image(store::cam_image_dir(d.path / "ds") / frames[0].filename);
   CHECK(img.width == 640);
   CHECK(img.height == 480);
   CHECK(img.channels == 3);
@@ -491,7 +491,7 @@ TEST_CASE("import realsense: a united realsense-ros IMU topic: repeated stamps c
   std::vector<Timestamp> expect;
   for (Timestamp t : truth.gyro_stamps)
     if (t >= truth.accel_stamps.front() && t <= truth.accel_stamps.back()) expect.push_back(t);
-  const auto imu = io::read_imu_csv(io::imu_csv_path(d.path / "ds"));
+  const auto imu = store::read_imu_csv(store::imu_csv_path(d.path / "ds"));
   REQUIRE(imu.size() == expect.size());
   for (std::size_t k = 0; k < imu.size(); ++k) {
     CHECK(imu[k].t_ns == expect[k]);
@@ -503,7 +503,7 @@ TEST_CASE("import realsense: a united realsense-ros IMU topic: repeated stamps c
   // The united topic carries the gyro stamps: its rate is the gyro's; the accelerometer's is unknown.
   CHECK(s.gyro_rate_hz == Approx(spec.gyro_hz).epsilon(1e-6));
   CHECK(s.accel_rate_hz == 0);
-  const auto m = io::read_manifest(d.path / "ds");
+  const auto m = store::read_manifest(d.path / "ds");
   REQUIRE(m.imu);
   CHECK(m.imu->rate_hz == Approx(spec.gyro_hz).epsilon(1e-6));
   const auto& opt = m.sources.at(0).options;
@@ -549,7 +549,7 @@ TEST_CASE("import realsense: each stream's timestamp domain is recorded, differe
   CHECK(s.imu_samples > 0);
   CHECK(s.timestamp_domain == "Global Time");
   CHECK(s.imu_timestamp_domain == "Global Time");
-  const auto m = io::read_manifest(d.path / "ds");
+  const auto m = store::read_manifest(d.path / "ds");
   CHECK(m.sources.at(0).options.at("timestamp_domain") == "Global Time");
   CHECK(m.sources.at(0).options.at("imu_timestamp_domain") == "Global Time");
   // Colour and IMU in different clocks: both recorded, and a warning.
@@ -560,7 +560,7 @@ TEST_CASE("import realsense: each stream's timestamp domain is recorded, differe
   CHECK(s2.imu_timestamp_domain == "Global Time");
   CHECK(count_prefix(s2.warnings, "the colour frames are stamped in \"Hardware Clock\" and the IMU samples in "
                                   "\"Global Time\": the two clocks are not comparable") == 1);
-  const auto m2 = io::read_manifest(d.path / "ds2");
+  const auto m2 = store::read_manifest(d.path / "ds2");
   CHECK(m2.sources.at(0).options.at("timestamp_domain") == "Hardware Clock");
   CHECK(m2.sources.at(0).options.at("imu_timestamp_domain") == "Global Time");
   // The same clock: no warning.

@@ -12,7 +12,7 @@
 
 #include "roe/app/import.hpp"
 #include "roe/image/frame_processor.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/math/so3.hpp"
 #include "fixtures/mcap_writer.hpp"
 #include "roe/app/run.hpp"
@@ -45,7 +45,7 @@ void check_dataset(const fs::path& ds, const app::ImportRealsenseSummary& s, boo
   const auto E = expected();
   const int W = E["width"], H = E["height"];
   // Images: the stamps and every pixel of every frame (no distortion, full-size crop: unchanged).
-  const auto cams = io::read_cam_csv(ds / "mav0/cam0/data.csv");
+  const auto cams = store::read_cam_csv(ds / "mav0/cam0/data.csv");
   REQUIRE(cams.size() == E["frames"].size());
   for (std::size_t k = 0; k < cams.size(); ++k) {
     CHECK(cams[k].t_ns == ns(E["frames"][k]));
@@ -63,7 +63,7 @@ void check_dataset(const fs::path& ds, const app::ImportRealsenseSummary& s, boo
     CHECK(bad == 0);
   }
   // Intrinsics.
-  const auto m = io::read_manifest(ds);
+  const auto m = store::read_manifest(ds);
   REQUIRE(m.camera);
   CHECK(m.camera->width == W);
   CHECK(m.camera->height == H);
@@ -72,7 +72,7 @@ void check_dataset(const fs::path& ds, const app::ImportRealsenseSummary& s, boo
   CHECK(m.camera->cx == E["K"][2].get<double>());
   CHECK(m.camera->cy == E["K"][5].get<double>());
   // IMU: the united topic as written, or accel interpolated at the gyro stamps.
-  const auto imu = io::read_imu_csv(ds / "mav0/imu0/data.csv");
+  const auto imu = store::read_imu_csv(ds / "mav0/imu0/data.csv");
   const auto& gyro = E["gyro"];
   const auto& acc = E["united_accel"];
   REQUIRE(imu.size() == gyro.size() - (united ? 0 : 1));  // the last gyro stamp is past the last accel
@@ -146,9 +146,9 @@ TEST_CASE("import realsense ROS 2: a simulated recording written as a ROS 2 bag 
   // The embedded simulated dataset's IMU, camera intrinsics and T_I_C, written as realsense-ros 4.x
   // topics (united IMU, CameraInfo, /tf_static) into an MCAP with zstd chunks; no images.
   const fs::path sample = fs::path(ROE_SOURCE_DIR) / "datasets/sample";
-  const auto man = io::read_manifest(sample);
-  const auto imu = io::read_imu_csv(sample / "mav0/imu0/data.csv");
-  const auto cams = io::read_cam_csv(sample / "mav0/cam0/data.csv");
+  const auto man = store::read_manifest(sample);
+  const auto imu = store::read_imu_csv(sample / "mav0/imu0/data.csv");
+  const auto cams = store::read_cam_csv(sample / "mav0/cam0/data.csv");
   test::TempDir d;
   {
     testing::McapWriter w(d.path / "sim.mcap", true);
@@ -191,7 +191,7 @@ TEST_CASE("import realsense ROS 2: a simulated recording written as a ROS 2 bag 
   const auto s = app::import_realsense(d.path / "sim.mcap", ds, o);
   CHECK(s.imu_samples == imu.size());
   REQUIRE(s.have_T_I_C);
-  const auto got = io::read_imu_csv(ds / "mav0/imu0/data.csv");
+  const auto got = store::read_imu_csv(ds / "mav0/imu0/data.csv");
   REQUIRE(got.size() == imu.size());
   for (std::size_t i = 0; i < imu.size(); i += 97) {
     CHECK(got[i].t_ns == imu[i].t_ns);
@@ -199,14 +199,14 @@ TEST_CASE("import realsense ROS 2: a simulated recording written as a ROS 2 bag 
     CHECK((got[i].accel - imu[i].accel).norm() < 1e-12);
   }
   // The detections, objects and IMU noise of the simulation join the imported dataset; then roe run.
-  auto m = io::read_manifest(ds);
+  auto m = store::read_manifest(ds);
   REQUIRE(m.camera);
   CHECK((m.camera->T_I_C.p - man.camera->T_I_C.p).norm() < 1e-12);
   CHECK(math::angle_between(m.camera->T_I_C.q, man.camera->T_I_C.q) < 1e-9);
   CHECK(m.camera->fx == man.camera->fx);
   m.objects = man.objects;
   m.imu->noise = man.imu->noise;
-  io::write_manifest(m, ds / "roe.json");
+  store::write_manifest(m, ds / "roe.json");
   fs::copy(sample / "detections", ds / "detections", fs::copy_options::recursive);
   fs::create_directories(ds / "mav0/cam0");
   fs::copy_file(sample / "mav0/cam0/data.csv", ds / "mav0/cam0/data.csv");

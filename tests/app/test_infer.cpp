@@ -12,7 +12,7 @@
 
 #include "roe/app/infer.hpp"
 #include "roe/core/error.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 
@@ -55,8 +55,8 @@ fs::path make_dataset(const fs::path& root, const std::vector<std::vector<Square
     d.frames.push_back({t, std::to_string(t) + ".png"});
   }
   const fs::path ds = root / "ds";
-  io::write_dataset(d, ds, false);
-  fs::create_directories(io::cam_image_dir(ds));
+  store::write_dataset(d, ds, false);
+  fs::create_directories(store::cam_image_dir(ds));
   for (std::size_t k = 0; k < frames.size(); ++k) {
     cv::Mat img(96 * scale, 128 * scale, CV_8UC3, cv::Scalar(128, 128, 128));
     for (const auto& s : frames[k]) {
@@ -66,7 +66,7 @@ fs::path make_dataset(const fs::path& root, const std::vector<std::vector<Square
       const int y0 = static_cast<int>(std::lround(s.cy * scale - side / 2.0));
       cv::rectangle(img, cv::Rect(x0, y0, side, side), bgr, cv::FILLED);
     }
-    REQUIRE(cv::imwrite((io::cam_image_dir(ds) / d.frames[k].filename).string(), img));
+    REQUIRE(cv::imwrite((store::cam_image_dir(ds) / d.frames[k].filename).string(), img));
   }
   return ds;
 }
@@ -99,7 +99,7 @@ TEST_CASE("roe infer writes detections, and a second run reuses the cache", "[in
   REQUIRE(progress.size() == 6);
   CHECK(progress.back() == std::make_pair<std::size_t, std::size_t>(5, 5));
 
-  const auto dets = io::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
+  const auto dets = store::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
   REQUIRE(dets.size() == 8);
   // Per frame: the right objects (class → object id by name), plausible poses, a detector score.
   std::map<Timestamp, std::set<int>> objects;
@@ -137,7 +137,7 @@ TEST_CASE("roe infer writes detections, and a second run reuses the cache", "[in
   CHECK(s2.frames_computed == 0);
   CHECK(s2.mean_ms_computed == 0.0);  // nothing computed
   CHECK(s2.config_hash == s.config_hash);
-  const auto dets2 = io::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
+  const auto dets2 = store::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
   REQUIRE(dets2.size() == dets.size());
   for (std::size_t k = 0; k < dets.size(); ++k) {
     CHECK(dets2[k].t_ns == dets[k].t_ns);
@@ -149,7 +149,7 @@ TEST_CASE("roe infer writes detections, and a second run reuses the cache", "[in
   CHECK(meta2.at("per_frame")[0].at("cached") == true);
 
   // A changed image is recomputed, the others are reused.
-  fs::copy_file(io::cam_image_dir(ds) / "1000000000.png", io::cam_image_dir(ds) / "1300000000.png",
+  fs::copy_file(store::cam_image_dir(ds) / "1000000000.png", store::cam_image_dir(ds) / "1300000000.png",
                 fs::copy_options::overwrite_existing);
   const auto s3 = app::run_infer(ds, o);
   CHECK(s3.frames_reused == 5);  // frame 3 now has frame 0's content, already in the cache
@@ -170,7 +170,7 @@ TEST_CASE("roe infer: --frames, --every, --name", "[infer]") {
   const auto s = app::run_infer(ds, o);
   CHECK(s.frames_selected == 2);  // frames 1 and 3
   CHECK(s.detections_written == 3);
-  const auto dets = io::read_detections_csv(ds / "detections/sub/detections.csv");
+  const auto dets = store::read_detections_csv(ds / "detections/sub/detections.csv");
   for (const auto& d : dets) CHECK(d.t_ns == 1'100'000'000);
   CHECK(app::parse_frame_range("2", 5) == std::make_pair<std::size_t, std::size_t>(2, 3));
   CHECK(app::parse_frame_range(":2", 5) == std::make_pair<std::size_t, std::size_t>(0, 2));
@@ -190,7 +190,7 @@ TEST_CASE("roe infer warps another camera to the training intrinsics", "[infer]"
   const auto s = app::run_infer(ds, o);
   CHECK(s.warp);
   CHECK(s.detections_written == 8);
-  const auto dets = io::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
+  const auto dets = store::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
   REQUIRE(dets.size() == 8);
   for (const auto& d : dets) CHECK(d.T_C_O.p.z() == Approx(0.3).margin(0.011));
   // Without the warp the 256x192 images do not fit the model.
@@ -214,7 +214,7 @@ TEST_CASE("roe infer with external boxes (PoET's ground-truth box mode)", "[infe
   const auto s = app::run_infer(ds, o);
   CHECK(s.frames_computed == 5);
   CHECK(s.detections_written == 3);
-  const auto dets = io::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
+  const auto dets = store::read_detections_csv(ds / "detections/tiny-poet/detections.csv");
   REQUIRE(dets.size() == 3);
   CHECK(dets[0].t_ns == 1'000'000'000);
   CHECK(dets[0].object_id == 11);
@@ -241,7 +241,7 @@ TEST_CASE("roe infer with external boxes (PoET's ground-truth box mode)", "[infe
                         "1000000000,1,19,19,43,43,0.9\n");
   app::run_infer(ds, o);
   std::map<int, double> score;
-  for (const auto& d : io::read_detections_csv(ds / "detections/tiny-poet/detections.csv"))
+  for (const auto& d : store::read_detections_csv(ds / "detections/tiny-poet/detections.csv"))
     if (d.t_ns == 1'000'000'000) score[d.object_id] = d.score;
   REQUIRE(score.size() == 2);
   CHECK(score.at(11) == Approx(0.9));
@@ -357,7 +357,7 @@ TEST_CASE("roe infer: boxes whose timestamps match no frame are an error, some u
 TEST_CASE("roe infer on frames without images writes nothing", "[infer]") {
   TmpDir tmp("noimg");
   const fs::path ds = make_dataset(tmp.path, kFrames);
-  fs::remove_all(io::cam_image_dir(ds));  // like a dataset from roe simulate: frames listed, no images
+  fs::remove_all(store::cam_image_dir(ds));  // like a dataset from roe simulate: frames listed, no images
   app::InferOptions o;
   o.model_dir = kTiny.string();
   const std::string e = input_error_of([&] { app::run_infer(ds, o); });
@@ -402,7 +402,7 @@ TEST_CASE("roe infer input errors", "[infer]") {
   o.every = 0;
   CHECK_THROWS_AS(app::run_infer(ds, o), InputError);
   o.every = 1;
-  fs::remove(io::cam_image_dir(ds) / "1200000000.png");
+  fs::remove(store::cam_image_dir(ds) / "1200000000.png");
   CHECK_THROWS_AS(app::run_infer(ds, o), InputError);
 }
 

@@ -9,7 +9,7 @@
 
 #include "roe/app/infer.hpp"
 #include "roe/app/run.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 
 namespace fs = std::filesystem;
 using namespace roe;
@@ -47,13 +47,13 @@ TEST_CASE("roe infer then roe run on a small dataset with images", "[infer][run]
     d.frames.push_back({t, std::to_string(t) + ".png"});
   }
   const fs::path ds = root / "ds";
-  io::write_dataset(d, ds, false);
-  fs::create_directories(io::cam_image_dir(ds));
+  store::write_dataset(d, ds, false);
+  fs::create_directories(store::cam_image_dir(ds));
   cv::Mat img(96, 128, CV_8UC3, cv::Scalar(128, 128, 128));
   cv::rectangle(img, cv::Rect(18, 18, 24, 24), cv::Scalar(0, 0, 255), cv::FILLED);
   cv::rectangle(img, cv::Rect(78, 48, 24, 24), cv::Scalar(0, 255, 0), cv::FILLED);
   cv::rectangle(img, cv::Rect(40, 60, 24, 24), cv::Scalar(255, 0, 0), cv::FILLED);
-  for (const auto& f : d.frames) REQUIRE(cv::imwrite((io::cam_image_dir(ds) / f.filename).string(), img));
+  for (const auto& f : d.frames) REQUIRE(cv::imwrite((store::cam_image_dir(ds) / f.filename).string(), img));
 
   app::InferOptions io_opt;
   io_opt.model_dir = (fs::path(ROE_SOURCE_DIR) / "tests/models/tiny_poet").string();

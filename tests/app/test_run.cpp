@@ -16,7 +16,7 @@
 #include "roe/core/error.hpp"
 #include "roe/eval/associate.hpp"
 #include "roe/eval/metrics.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/app/calib_check.hpp"
 #include "roe/io/json.hpp"
 
@@ -42,7 +42,7 @@ std::string slurp(const fs::path& p) {
 fs::path make_dataset(const std::string& name, double duration = 6.0, const std::string& preset = "matched") {
   const fs::path dir = temp_dir(name);
   const Dataset d = test::simulate_preset(preset, 3, duration);
-  io::write_dataset(d, dir, true);
+  store::write_dataset(d, dir, true);
   return dir;
 }
 
@@ -67,7 +67,7 @@ TEST_CASE("roe run writes the files of DESIGN §4", "[app][run]") {
   CHECK(row.find('.') == comma - 10);  // 9 decimals
   std::size_t rows = 1;
   while (std::getline(tr, row)) ++rows;
-  const Dataset d = io::read_dataset(ds);
+  const Dataset d = store::read_dataset(ds);
   CHECK(rows == d.imu.size());
   // states.csv: 24 state columns + 21 sigmas.
   std::ifstream st(out / "states.csv");
@@ -801,7 +801,7 @@ TEST_CASE("run.json records the IMU noise the filter used", "[app][run]") {
   CHECK(n.at("gyro_noise_density") == 0.002);
   CHECK(n.at("from").at("gyro_noise_density") == "config");
   CHECK(n.at("from").at("accel_noise_density") == "dataset");
-  const auto m = io::read_manifest(ds);
+  const auto m = store::read_manifest(ds);
   CHECK(n.at("accel_noise_density") == m.imu->noise.accel_noise_density);
   fs::remove_all(ds);
   fs::remove_all(out);

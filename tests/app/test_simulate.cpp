@@ -11,7 +11,7 @@
 #include "../support/euroc_snippet.hpp"
 #include "roe/app/simulate.hpp"
 #include "roe/core/error.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/math/so3.hpp"
 
@@ -257,7 +257,7 @@ TEST_CASE("simulate: same seed gives byte-identical folders, noise-free detectio
   CHECK(bytes(dir / "a" / "mav0/imu0/data.csv") == bytes(dir / "b" / "mav0/imu0/data.csv"));
 
   // The written folder reads back; truth and manifest are complete.
-  const Dataset d = io::read_dataset(dir / "a");
+  const Dataset d = store::read_dataset(dir / "a");
   REQUIRE(d.manifest.truth);
   CHECK(d.manifest.truth->objects.size() == 4);
   CHECK(d.manifest.camera->fx == Approx(919.806));
@@ -270,7 +270,7 @@ TEST_CASE("simulate: same seed gives byte-identical folders, noise-free detectio
   nf.preset = "noise-free";
   nf.duration_s = 8.0;
   app::simulate(nf, dir / "nf");
-  const Dataset dnf = io::read_dataset(dir / "nf");
+  const Dataset dnf = store::read_dataset(dir / "nf");
   const auto [worst_nf, n_nf] = compare_with_truth(dnf);
   CHECK(n_nf > 100);
   CHECK(worst_nf < 1e-9);
@@ -333,7 +333,7 @@ TEST_CASE("simulate --from-groundtruth on the real EuRoC V1_02 snippet", "[app][
   app::simulate(opt, dir / "b");
   CHECK(r.object_ids.size() == 2);
   CHECK(bytes(dir / "a/detections/sim/detections.csv") == bytes(dir / "b/detections/sim/detections.csv"));
-  const Dataset w = io::read_dataset(dir / "a");
+  const Dataset w = store::read_dataset(dir / "a");
   REQUIRE(w.imu.size() == imu.size());
   for (std::size_t k = 0; k < imu.size(); ++k) {
     REQUIRE(w.imu[k].t_ns == imu[k].t_ns);

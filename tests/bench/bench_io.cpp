@@ -13,7 +13,7 @@
 
 #include "bench_util.hpp"
 #include "roe/io/csv.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/math/so3.hpp"
 
 namespace fs = std::filesystem;
@@ -73,9 +73,9 @@ int main(int argc, char** argv) {
   const double minutes = argc > 1 ? std::atof(argv[1]) : 10.0;
   const Dataset d = synthetic(minutes);
   const fs::path dir = fs::temp_directory_path() / ("roe_bench_io_" + std::to_string(::getpid()));
-  const double t_write = best_of(3, [&] { io::write_dataset(d, dir, true); });
+  const double t_write = best_of(3, [&] { store::write_dataset(d, dir, true); });
   Dataset back;
-  const double t_read = best_of(3, [&] { back = io::read_dataset(dir); });
+  const double t_read = best_of(3, [&] { back = store::read_dataset(dir); });
   const double mb = static_cast<double>(folder_bytes(dir)) / 1e6;
   std::printf("synthetic %.1f min: %zu rows, %.1f MB\n", minutes, rows(d), mb);
   std::printf("  write_dataset: %.3f s (%.2f us/row, %.1f MB/s)\n", t_write, 1e6 * t_write / rows(d),
@@ -109,7 +109,7 @@ int main(int argc, char** argv) {
   const fs::path gt = fs::path(ROE_SOURCE_DIR) / ".." / "shared" / "data" / "eval" / "V102_groundtruth.csv";
   if (fs::exists(gt)) {
     std::vector<ImuState> states;
-    const double t = best_of(10, [&] { states = io::read_groundtruth_csv(gt); });
+    const double t = best_of(10, [&] { states = store::read_groundtruth_csv(gt); });
     std::printf("real EuRoC V1_02 ground truth: %zu rows (17 columns) in %.2f ms (%.2f us/row)\n",
                 states.size(), 1e3 * t, 1e6 * t / states.size());
   } else {

@@ -10,7 +10,7 @@
 
 #include "bench_util.hpp"
 #include "roe/app/simulate.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 
 namespace fs = std::filesystem;
 using namespace roe;
@@ -37,8 +37,8 @@ int main() {
 
   const fs::path mav0 = fs::path(ROE_SOURCE_DIR) / ".." / "shared" / "data" / "euroc_v102_snippet" / "mav0";
   if (fs::exists(mav0 / "imu0" / "data.csv")) {
-    const auto imu = io::read_imu_csv(mav0 / "imu0" / "data.csv");
-    const auto gt = io::read_groundtruth_csv(mav0 / "state_groundtruth_estimate0" / "data.csv");
+    const auto imu = store::read_imu_csv(mav0 / "imu0" / "data.csv");
+    const auto gt = store::read_groundtruth_csv(mav0 / "state_groundtruth_estimate0" / "data.csv");
     sim::FromGroundtruthConfig g;
     const double t_gt =
         best_of(5, [&] { dets = sim::simulate_from_groundtruth(imu, gt, g, 1).stats.detections; });

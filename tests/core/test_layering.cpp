@@ -142,6 +142,33 @@ TEST_CASE("the ROS wing (io/ros) stands on core, math and io's file primitives, 
   CHECK(violations({"io/ros"}, {"opencv", "torch", "CLI/"}).empty());
 }
 
+TEST_CASE("io stays below the estimator and roe's own files: store holds them, above io, ekf and eval",
+          "[layering]") {
+  // io (text formats, JSON/CSV primitives, OS helpers) includes no estimator room and no store; store (the
+  // dataset folder, run files, report.json) stands on io, ekf and eval and includes nothing of app, cli,
+  // image or infer (docs/architecture.md "store").
+  std::vector<std::string> bad;
+  for (const auto& i : roe_includes()) {
+    const std::string at = i.file + ":" + std::to_string(i.line) + ": " + i.header;
+    const bool in_io = (starts_with(i.file, "src/io/") || starts_with(i.file, "include/roe/io/")) && !in_ros_wing(i.file);
+    const bool in_store = starts_with(i.file, "src/store/") || starts_with(i.file, "include/roe/store/");
+    if (in_io) {
+      for (const char* f : {"roe/ekf/", "roe/sim/", "roe/calib/", "roe/refine/", "roe/store/", "roe/app/"})
+        if (starts_with(i.header, f)) bad.push_back(at);
+    }
+    if (in_store) {
+      for (const char* f : {"roe/app/", "roe/cli/", "roe/image/", "roe/infer/", "roe/io/ros/"})
+        if (starts_with(i.header, f)) bad.push_back(at);
+    }
+    // Below store, nothing reaches up into it (only app, cli, the tests and benchmarks).
+    if (starts_with(i.header, "roe/store/") && !in_store && !starts_with(i.file, "src/app/") &&
+        !starts_with(i.file, "include/roe/app/") && !starts_with(i.file, "src/cli/"))
+      bad.push_back(at);
+  }
+  for (const auto& s : bad) UNSCOPED_INFO(s);
+  CHECK(bad.empty());
+}
+
 TEST_CASE("JSON is serialised only through io::dump_json (invalid UTF-8 must not throw)", "[layering]") {
   // nlohmann's dump() throws on a string that is not UTF-8 (a path, a body name from a cp1252 file);
   // io::dump_json replaces such bytes. A plain .dump( anywhere else would bring the crash back.

@@ -1,7 +1,7 @@
 // libFuzzer target: strict JSON (parse_json_text, the key locator) and roe.json (manifest_from_json),
 // read as a file so that the located-error path (read_json_file) runs as in roe.
 #include "fuzz_support.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -13,6 +13,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   for (const char* path : {"camera.fx", "objects[0].T_W_O.q", "a[1][2].b", "imu.noise"})
     (void)roe::io::json_key_location(t, path);
   const auto& file = roe::fuzz::input_file(data, size, "roe.json");
-  roe::fuzz::expect_clean([&] { (void)roe::io::read_json_file(file, roe::io::manifest_from_json); });
+  roe::fuzz::expect_clean([&] { (void)roe::io::read_json_file(file, roe::store::manifest_from_json); });
   return 0;
 }

@@ -11,7 +11,7 @@
 #include <unistd.h>
 
 #include "roe/app/infer.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 
 namespace fs = std::filesystem;
@@ -70,9 +70,9 @@ TEST_CASE("roe infer writes the aleatoric heads' sigmas as PyTorch computes them
   cam.cy = 48.0;
   d.manifest.camera = cam;
   d.frames.push_back({1'000'000'000, "1000000000.png"});
-  io::write_dataset(d, ds, false);
-  fs::create_directories(io::cam_image_dir(ds));
-  fs::copy_file(kTiny / "selftest/detector_input.png", io::cam_image_dir(ds) / "1000000000.png");
+  store::write_dataset(d, ds, false);
+  fs::create_directories(store::cam_image_dir(ds));
+  fs::copy_file(kTiny / "selftest/detector_input.png", store::cam_image_dir(ds) / "1000000000.png");
 
   app::InferOptions o;
   o.model_dir = kTiny.string();
@@ -91,7 +91,7 @@ TEST_CASE("roe infer writes the aleatoric heads' sigmas as PyTorch computes them
     std::getline(in, header);
     CHECK(header.find(",sigma_tx,sigma_ty,sigma_tz,sigma_rx,sigma_ry,sigma_rz") != std::string::npos);
   }
-  const auto dets = io::read_detections_csv(csv);
+  const auto dets = store::read_detections_csv(csv);
   const auto want = read_expected(kTiny / "selftest/expected_detections.csv");
   REQUIRE(want.size() == 3);
   REQUIRE(dets.size() == want.size());

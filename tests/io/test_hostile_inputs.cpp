@@ -11,7 +11,7 @@
 #include <fmt/format.h>
 
 #include "roe/io/csv.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/input.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/kalibr.hpp"
@@ -114,23 +114,23 @@ TEST_CASE("input class: a folder or a symlink loop where roe.json or a stream fi
           "[io][hostile]") {
   roe::test::TempDir d("roe_hostile");
   fs::create_directories(d / "roe.json");
-  CHECK_THAT(expect_input_error([&] { roe::io::read_manifest(d.path); }).what(),
+  CHECK_THAT(expect_input_error([&] { roe::store::read_manifest(d.path); }).what(),
              Contains("is a folder") && Contains("roe.json"));
   fs::remove(d / "roe.json");
   fs::create_symlink(d / "roe.json", d / "roe.json");
-  CHECK_THAT(expect_input_error([&] { roe::io::read_manifest(d.path); }).what(), Contains("symlink loop"));
+  CHECK_THAT(expect_input_error([&] { roe::store::read_manifest(d.path); }).what(), Contains("symlink loop"));
 
   // A dataset whose imu0/data.csv is a folder: not "0 samples".
   roe::test::TempDir e("roe_hostile");
   roe::Dataset ds;
   ds.manifest.name = "x";
-  roe::io::write_dataset(ds, e.path, true);
-  fs::create_directories(roe::io::imu_csv_path(e.path));
-  CHECK_THAT(expect_input_error([&] { roe::io::read_dataset(e.path, {}); }).what(),
+  roe::store::write_dataset(ds, e.path, true);
+  fs::create_directories(roe::store::imu_csv_path(e.path));
+  CHECK_THAT(expect_input_error([&] { roe::store::read_dataset(e.path, {}); }).what(),
              Contains("is a folder") && Contains("imu0"));
-  fs::remove(roe::io::imu_csv_path(e.path));
-  fs::create_symlink(roe::io::imu_csv_path(e.path), roe::io::imu_csv_path(e.path));
-  CHECK_THAT(expect_input_error([&] { roe::io::read_dataset(e.path, {}); }).what(), Contains("symlink loop"));
+  fs::remove(roe::store::imu_csv_path(e.path));
+  fs::create_symlink(roe::store::imu_csv_path(e.path), roe::store::imu_csv_path(e.path));
+  CHECK_THAT(expect_input_error([&] { roe::store::read_dataset(e.path, {}); }).what(), Contains("symlink loop"));
 }
 
 TEST_CASE("truncation class: the last line without its line end is a warning naming file and line, a short one says "
@@ -243,7 +243,7 @@ TEST_CASE("location class: semantic errors in roe.json give line and column besi
     text.replace(text.find(c.from), c.from.size(), c.to);
     d.write("roe.json", text);
     INFO(c.to);
-    const auto e = expect_input_error([&] { (void)roe::io::read_manifest(d.path); });
+    const auto e = expect_input_error([&] { (void)roe::store::read_manifest(d.path); });
     CHECK(e.context().key == c.key);
     CHECK(e.context().line == c.line);
     CHECK(e.context().column == c.column);
@@ -287,7 +287,7 @@ TEST_CASE("BOM class: every text reader skips a UTF-8 byte order mark", "[io][ho
   CHECK(roe::io::utf8_bom_length("\xEFx") == 0);  // a lone 0xEF is not a BOM
   const std::string sample = roe::io::read_file(fs::path(ROE_SOURCE_DIR) / "datasets/sample/roe.json");
   d.write("roe.json", bom + sample);
-  CHECK(roe::io::read_manifest(d.path).name == "paper-seq4");
+  CHECK(roe::store::read_manifest(d.path).name == "paper-seq4");
 }
 
 TEST_CASE("YAML class (fuzz finding): a camera or an IMU that is not a mapping is an input error, not yaml-cpp's "

@@ -83,7 +83,7 @@ TEST_CASE("models_info.json: errors name file, line, column and key", "[io][mode
   }
 }
 
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 
 TEST_CASE("roe.json objects point at a models_info.json (relative to roe.json's folder)", "[io][models_info]") {
   const fs::path dir = fs::temp_directory_path() / "roe_test_models_info_ds";
@@ -92,7 +92,7 @@ TEST_CASE("roe.json objects point at a models_info.json (relative to roe.json's 
   std::ofstream(dir / "models" / "models_info.json") << kInfo;
   const auto manifest = [&](const std::string& objects) {
     std::ofstream(dir / "roe.json") << R"({"schema": "roe-dataset/1", "name": "x", "objects": )" << objects << "}";
-    return io::read_manifest(dir);
+    return store::read_manifest(dir);
   };
   const auto m = manifest(R"([{"id": 4, "models_info": "models/models_info.json", "models_info_id": 13},
                                {"id": 2, "models_info": "models/models_info.json"}, {"id": 7}])");

@@ -5,8 +5,8 @@
 #include "roe/app/refine.hpp"
 #include "roe/app/run.hpp"
 #include "roe/app/simulate.hpp"
-#include "roe/io/dataset.hpp"
-#include "roe/io/run_files.hpp"
+#include "roe/store/dataset.hpp"
+#include "roe/store/run_files.hpp"
 #include "roe/math/se3.hpp"
 #include "support/test_util.hpp"
 
@@ -27,13 +27,13 @@ fs::path simulate(const test::TempDir& tmp, const std::string& preset, double du
 }
 
 /// Each object's last row of objects.csv.
-std::map<int, io::ObjectRow> last_objects(const fs::path& run) {
-  std::map<int, io::ObjectRow> m;
-  for (const auto& r : io::read_objects_csv(run / "objects.csv")) m[r.object_id] = r;
+std::map<int, store::ObjectRow> last_objects(const fs::path& run) {
+  std::map<int, store::ObjectRow> m;
+  for (const auto& r : store::read_objects_csv(run / "objects.csv")) m[r.object_id] = r;
   return m;
 }
 
-int anchor_of(const std::map<int, io::ObjectRow>& m) {
+int anchor_of(const std::map<int, store::ObjectRow>& m) {
   for (const auto& [id, r] : m)
     if (r.anchor) return id;
   FAIL("no anchor row");
@@ -55,9 +55,9 @@ TEST_CASE("refine/app: a noise-free simulation refines to the truth") {
   const auto res = app::refine_run(tmp / "run", tmp / "ref", opt);
   CHECK(res.result.report.usable);
 
-  const DatasetManifest man = io::read_manifest(ds);
+  const DatasetManifest man = store::read_manifest(ds);
   REQUIRE(man.truth);
-  const auto states = io::read_states_csv(tmp / "ref" / "states.csv");
+  const auto states = store::read_states_csv(tmp / "ref" / "states.csv");
   const Vector6d e_extr = math::pose_difference(man.truth->T_I_C, states.back().T_I_C);
   INFO("extrinsics error " << e_extr.head<3>().norm() * 1e3 << " mm, " << e_extr.tail<3>().norm() * kDeg << " deg");
   CHECK(e_extr.head<3>().norm() < 1e-4);
@@ -91,8 +91,8 @@ TEST_CASE("refine/app: on matched-calib the refinement agrees with the filter wi
   REQUIRE(res.result.report.covariance_ok);
 
   // The filter's own final extrinsics and σ (states_filter.csv: the causal filter beside the smoother).
-  const auto filt = io::read_states_csv(tmp / "run" / "states_filter.csv").back();
-  const auto ref = io::read_states_csv(tmp / "ref" / "states.csv").back();
+  const auto filt = store::read_states_csv(tmp / "run" / "states_filter.csv").back();
+  const auto ref = store::read_states_csv(tmp / "ref" / "states.csv").back();
   const Vector6d d = math::pose_difference(filt.T_I_C, ref.T_I_C);
   for (int i = 0; i < 6; ++i) {
     INFO("extrinsics component " << i << ": refined − filter " << d(i) << ", filter σ " << filt.sigma(15 + i)
@@ -149,7 +149,7 @@ TEST_CASE("refine/app: on a paper-real replica the marginals account for the cor
     INFO("extrinsics component " << i << ": σ " << std::sqrt(C(i, i)) << " vs white " << std::sqrt(Cw(i, i)));
     CHECK(C(i, i) > (i < 3 ? 1.0 : 4.0) * Cw(i, i));
   }
-  const DatasetManifest man = io::read_manifest(tmp / "ds");
+  const DatasetManifest man = store::read_manifest(tmp / "ds");
   REQUIRE(man.truth);
   const Vector6d e = math::pose_difference(man.truth->T_I_C, res.result.T_I_C);
   const double nees = e.dot(C.ldlt().solve(e)), nees_white = e.dot(Cw.ldlt().solve(e));

@@ -9,7 +9,7 @@
 
 #include "../support/euroc_snippet.hpp"
 #include "roe/core/error.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/math/so3.hpp"
 #include "roe/sim/simulator.hpp"
 

@@ -14,7 +14,7 @@
 #include "roe/eval/align.hpp"
 #include "roe/eval/associate.hpp"
 #include "roe/eval/metrics.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/sim/pose_groundtruth.hpp"
 #include "support/euroc_snippet.hpp"
 #include "support/test_util.hpp"
@@ -130,27 +130,27 @@ TEST_CASE("pose-only ground truth files: EuRoC 8 columns and TUM read as poses, 
                                   "#timestamp [ns], p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], "
                                   "q_RS_y [], q_RS_z []\n"
                                   "1000000000,1,2,3,1,0,0,0\n2000000000,2,2,3,1,0,0,0\n3000000000,3,2,3,1,0,0,0\n");
-  auto g = io::read_groundtruth_file(euroc8);
+  auto g = store::read_groundtruth_file(euroc8);
   CHECK(g.pose_only());
   CHECK(g.layout == "euroc");
   REQUIRE(g.poses.size() == 3);
   CHECK(g.poses[2].T.p.x() == 3.0);
   const fs::path tum = d.write("gt.tum", "# t x y z qx qy qz qw\n1.0 1 2 3 0 0 0 1\n2.0 2 2 3 0 0 0 1\n2.0 9 9 9 0 0 0 1\n");
-  g = io::read_groundtruth_file(tum);
+  g = store::read_groundtruth_file(tum);
   CHECK(g.pose_only());
   CHECK(g.layout == "tum");
   CHECK(g.poses.size() == 2);
   CHECK(g.duplicate_stamps == 1);
   const auto snippet = test::load_euroc_snippet();
   if (snippet) {
-    g = io::read_groundtruth_file(snippet->mav0 / "state_groundtruth_estimate0" / "data.csv");
+    g = store::read_groundtruth_file(snippet->mav0 / "state_groundtruth_estimate0" / "data.csv");
     CHECK_FALSE(g.pose_only());
     CHECK(g.states.size() == snippet->groundtruth.size());
   }
   // A malformed row is named with its line, as every trajectory reader does.
   const fs::path bad = d.write("bad.csv", "#timestamp [ns], p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], "
                                           "q_RS_x [], q_RS_y [], q_RS_z []\n1000000000,1,2,x,1,0,0,0\n");
-  CHECK_THROWS_WITH(io::read_groundtruth_file(bad), Catch::Contains("bad.csv") && Catch::Contains(":2"));
+  CHECK_THROWS_WITH(store::read_groundtruth_file(bad), Catch::Contains("bad.csv") && Catch::Contains(":2"));
 }
 
 TEST_CASE("simulate --from-groundtruth on the real TUM-VI room1 (8-column mocap) and roe run with 4 objects",

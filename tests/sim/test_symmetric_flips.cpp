@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "roe/app/simulate.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 
 #include "roe/ekf/symmetry.hpp"
 #include "roe/math/so3.hpp"
@@ -163,8 +163,8 @@ TEST_CASE("roe simulate --models-info describes the flips' symmetries for the fi
   app::simulate(opt, root / "plain");
   opt.models_info = true;
   app::simulate(opt, root / "described");
-  const DatasetManifest plain = io::read_manifest(root / "plain");
-  const DatasetManifest described = io::read_manifest(root / "described");  // reads models_info.json back
+  const DatasetManifest plain = store::read_manifest(root / "plain");
+  const DatasetManifest described = store::read_manifest(root / "described");  // reads models_info.json back
   REQUIRE(plain.objects.size() == described.objects.size());
   int symmetric = 0;
   for (std::size_t i = 0; i < plain.objects.size(); ++i) {

@@ -7,7 +7,7 @@
 #include <optional>
 #include <vector>
 
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 
 namespace roe::test {
 
@@ -21,8 +21,8 @@ struct EurocSnippet {
 inline std::optional<EurocSnippet> load_euroc_snippet() {
   const auto mav0 = std::filesystem::path(ROE_SHARED_DATA_DIR) / "euroc_v102_snippet" / "mav0";
   if (!std::filesystem::exists(mav0 / "imu0" / "data.csv")) return std::nullopt;
-  return EurocSnippet{mav0, io::read_imu_csv(mav0 / "imu0" / "data.csv"),
-                      io::read_groundtruth_csv(mav0 / "state_groundtruth_estimate0" / "data.csv")};
+  return EurocSnippet{mav0, store::read_imu_csv(mav0 / "imu0" / "data.csv"),
+                      store::read_groundtruth_csv(mav0 / "state_groundtruth_estimate0" / "data.csv")};
 }
 
 }  // namespace roe::test

@@ -95,12 +95,12 @@ void check_sweep_eval_setting(const EvalOptions& o, const std::string& key);
 /// One row of a run folder's reprojection.csv: the IMU pose T_W_I implied by one raw detection.
 using ReprojectionCsvRow = eval::DetectionPose;
 
-/// reprojection.csv (io::read_reprojection_csv: columns matched by name, any order; nis may be empty,
+/// reprojection.csv (store::read_reprojection_csv: columns matched by name, any order; nis may be empty,
 /// nan or absent). Rows sorted by time (non-decreasing).
 std::vector<ReprojectionCsvRow> read_reprojection_csv(const std::filesystem::path& file);
 
 /// Per-pose diagonal covariance from a run folder's states.csv, matched to `t_ns` by stamp (within 1 µs).
-/// Reads the columns by the names roe run writes (io::read_states_csv): `timestamp_ns`,
+/// Reads the columns by the names roe run writes (store::read_states_csv): `timestamp_ns`,
 /// `sigma_p_W_I_{x,y,z}` (m) and `sigma_theta_W_I_{x,y,z}` (rad); other columns are ignored, a σ may be
 /// nan (no NEES at that pose), a negative σ or decreasing stamps are input errors.
 /// Returns an empty vector (and a reason in *why) when the columns are not there.

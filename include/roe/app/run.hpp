@@ -28,7 +28,7 @@
 #include "roe/ekf/driver.hpp"
 #include "roe/ekf/health.hpp"
 #include "roe/ekf/options.hpp"
-#include "roe/io/run_files.hpp"
+#include "roe/store/run_files.hpp"
 
 namespace roe::app {
 
@@ -61,9 +61,9 @@ RunConfig run_config_from_file(const std::filesystem::path& file);
 nlohmann::json run_config_to_json(const RunConfig& c);
 
 /// The rows of states.csv, objects.csv and reprojection.csv (their columns: io/run_files.hpp).
-using StateRow = io::StateRow;
-using ObjectRow = io::ObjectRow;
-using ReprojectionRow = io::ReprojectionRow;
+using StateRow = store::StateRow;
+using ObjectRow = store::ObjectRow;
+using ReprojectionRow = store::ReprojectionRow;
 
 /// The result of a run in memory (what the files hold).
 struct RunOutput {

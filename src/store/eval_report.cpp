@@ -1,5 +1,5 @@
 // roe eval's output files from a typed eval::Report (docs/eval.md "Output").
-#include "roe/io/eval_report.hpp"
+#include "roe/store/eval_report.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -14,7 +14,15 @@
 #include "roe/io/trajectory_io.hpp"
 #include "roe/version.hpp"
 
-namespace roe::io {
+namespace roe::store {
+
+// store reads and writes through io's primitives.
+using io::CsvWriter;
+using io::OutputDir;
+using io::TrajectoryFormat;
+using io::json;
+using io::write_file_atomic;
+using io::write_trajectory;
 
 using nlohmann::json;
 
@@ -514,4 +522,4 @@ std::vector<std::string> write_eval_files(const OutputDir& dir, const eval::Repo
   return files;
 }
 
-}  // namespace roe::io
+}  // namespace roe::store

@@ -11,7 +11,7 @@
 #include "roe/core/dataset.hpp"
 #include "roe/io/json.hpp"
 
-namespace roe::io {
+namespace roe::store {
 
 namespace fs = std::filesystem;
 
@@ -36,17 +36,17 @@ fs::path groundtruth_csv_path(const fs::path& dataset);  ///< mav0/state_groundt
 fs::path detections_dir(const fs::path& dataset, const std::string& name);  ///< detections/<name>
 
 // roe.json
-json manifest_to_json(const DatasetManifest& m);
+io::json manifest_to_json(const DatasetManifest& m);
 /// Validates the schema: unknown keys, wrong types, non-unit quaternions → ConfigError with the key.
-DatasetManifest manifest_from_json(const json& j, const std::string& source);
+DatasetManifest manifest_from_json(const io::json& j, const std::string& source);
 DatasetManifest read_manifest(const fs::path& dataset);
 void write_manifest(const DatasetManifest& m, const fs::path& file);
 
 /// Reads a whole dataset folder (roe.json must exist).
 Dataset read_dataset(const fs::path& dataset, const DatasetParts& parts = {});
-/// Writes every non-empty stream and roe.json into `root` (an existing folder, e.g. OutputDir::tmp()).
+/// Writes every non-empty stream and roe.json into `root` (an existing folder, e.g. io::OutputDir::tmp()).
 void write_dataset_files(const Dataset& d, const fs::path& root);
-/// Writes a new dataset folder atomically (OutputDir; refuses a non-empty folder unless force).
+/// Writes a new dataset folder atomically (io::OutputDir; refuses a non-empty folder unless force).
 void write_dataset(const Dataset& d, const fs::path& dataset, bool force);
 
 // Streams (EuRoC column layouts of DESIGN §3).
@@ -77,4 +77,4 @@ void write_groundtruth_csv(const fs::path& file, const std::vector<ImuState>& st
 std::vector<Detection> read_detections_csv(const fs::path& file);
 void write_detections_csv(const fs::path& file, const std::vector<Detection>& detections);
 
-}  // namespace roe::io
+}  // namespace roe::store

@@ -1,5 +1,5 @@
 // The run folder's tables: one column table per file, used by its writer and its reader.
-#include "roe/io/run_files.hpp"
+#include "roe/store/run_files.hpp"
 
 #include <fmt/format.h>
 
@@ -12,7 +12,14 @@
 #include "roe/io/output.hpp"
 #include "roe/math/so3.hpp"
 
-namespace roe::io {
+namespace roe::store {
+
+// store reads and writes through io's primitives.
+using io::AtomicFile;
+using io::CsvHeader;
+using io::CsvOptions;
+using io::CsvReader;
+using io::CsvWriter;
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -310,4 +317,4 @@ std::vector<eval::DetectionPose> read_reprojection_csv(const fs::path& file) {
   return read_all(reprojection_table(), file, read);
 }
 
-}  // namespace roe::io
+}  // namespace roe::store

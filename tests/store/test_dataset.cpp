@@ -7,7 +7,7 @@
 #include <string>
 
 #include "support/test_util.hpp"
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/math/so3.hpp"
 
@@ -109,7 +109,7 @@ Dataset make_dataset() {
 
 void check_equal(const Dataset& a, const Dataset& b) {
   // The manifest compares through its JSON (every field, doubles exactly).
-  CHECK(io::manifest_to_json(a.manifest) == io::manifest_to_json(b.manifest));
+  CHECK(store::manifest_to_json(a.manifest) == store::manifest_to_json(b.manifest));
   CHECK(same(a.manifest.camera->T_I_C, b.manifest.camera->T_I_C));
   CHECK(same(a.manifest.truth->objects[1].T_W_O, b.manifest.truth->objects[1].T_W_O));
   REQUIRE(a.imu.size() == b.imu.size());
@@ -173,9 +173,9 @@ json minimal_manifest() { return json{{"schema", "roe-dataset/1"}, {"name", "x"}
 TEST_CASE("dataset: write then read gives identical structs and writing twice identical bytes", "[dataset]") {
   TempDir tmp("roundtrip");
   const Dataset d = make_dataset();
-  io::write_dataset(d, tmp.path / "a", false);
-  io::write_dataset(d, tmp.path / "b", false);
-  const Dataset back = io::read_dataset(tmp.path / "a");
+  store::write_dataset(d, tmp.path / "a", false);
+  store::write_dataset(d, tmp.path / "b", false);
+  const Dataset back = store::read_dataset(tmp.path / "a");
   check_equal(d, back);
   const auto bytes_a = folder_bytes(tmp.path / "a");
   CHECK(bytes_a == folder_bytes(tmp.path / "b"));
@@ -193,29 +193,29 @@ TEST_CASE("dataset: write then read gives identical structs and writing twice id
   CHECK(bytes_a.at("detections/poet/detections.csv").find(",sigma_rz\n") != std::string::npos);
 
   // Writing what was read gives the same bytes again.
-  io::write_dataset(back, tmp.path / "c", false);
+  store::write_dataset(back, tmp.path / "c", false);
   CHECK(folder_bytes(tmp.path / "c") == bytes_a);
 
   // Parts and named detection sets.
-  io::DatasetParts parts;
+  store::DatasetParts parts;
   parts.imu = false;
   parts.detection_names = {"poet"};
-  const Dataset some = io::read_dataset(tmp.path / "a", parts);
+  const Dataset some = store::read_dataset(tmp.path / "a", parts);
   CHECK(some.imu.empty());
   CHECK(some.groundtruth.size() == d.groundtruth.size());
   CHECK(some.detections.size() == 1);
   parts.detection_names = {"nope"};
-  auto e = expect_input_error([&] { io::read_dataset(tmp.path / "a", parts); });
+  auto e = expect_input_error([&] { store::read_dataset(tmp.path / "a", parts); });
   CHECK(std::string(e.what()).find("available: empty, poet, sim") != std::string::npos);
 
   // An existing dataset is not replaced without force, and is with it.
-  e = expect_input_error([&] { io::write_dataset(d, tmp.path / "a", false); });
+  e = expect_input_error([&] { store::write_dataset(d, tmp.path / "a", false); });
   CHECK(std::string(e.what()).find("not empty") != std::string::npos);
   Dataset small;
   small.manifest.name = "small";
-  io::write_dataset(small, tmp.path / "a", true);
+  store::write_dataset(small, tmp.path / "a", true);
   CHECK(folder_bytes(tmp.path / "a").size() == 1);
-  CHECK(io::read_dataset(tmp.path / "a").manifest.name == "small");
+  CHECK(store::read_dataset(tmp.path / "a").manifest.name == "small");
 }
 
 TEST_CASE("dataset: the committed sample manifest is written back byte for byte", "[dataset][manifest]") {
@@ -223,15 +223,15 @@ TEST_CASE("dataset: the committed sample manifest is written back byte for byte"
   // part of what users diff between datasets: reading and writing the sample changes no byte.
   const fs::path sample = fs::path(ROE_SOURCE_DIR) / "datasets" / "sample" / "roe.json";
   TempDir tmp("manifest-bytes");
-  io::write_manifest(io::read_manifest(sample.parent_path()), tmp.path / "roe.json");
+  store::write_manifest(store::read_manifest(sample.parent_path()), tmp.path / "roe.json");
   CHECK(io::read_file(tmp.path / "roe.json") == io::read_file(sample));
 }
 
 TEST_CASE("dataset: a folder without roe.json is refused", "[dataset]") {
   TempDir tmp("nomanifest");
-  auto e = expect_input_error([&] { io::read_dataset(tmp.path); });
+  auto e = expect_input_error([&] { store::read_dataset(tmp.path); });
   CHECK(e.context().file == (tmp.path / "roe.json").string());
-  e = expect_input_error([&] { io::read_dataset(tmp.path / "missing"); });
+  e = expect_input_error([&] { store::read_dataset(tmp.path / "missing"); });
   CHECK(std::string(e.what()).find("not found") != std::string::npos);
 }
 
@@ -242,7 +242,7 @@ TEST_CASE("dataset: manifest defaults for missing optional keys", "[dataset][man
   j["imu"] = {{"rate_hz", 200}};
   j["objects"] = {{{"id", 5}}};
   j["truth"] = {{"T_I_C", {{"p", {0, 0, 0}}, {"q", {0, 0, 0, 1}}}}};
-  const DatasetManifest m = io::manifest_from_json(j, "roe.json");
+  const DatasetManifest m = store::manifest_from_json(j, "roe.json");
   CHECK(m.name == "x");
   CHECK(m.sources.empty());
   REQUIRE(m.camera);
@@ -262,10 +262,10 @@ TEST_CASE("dataset: manifest defaults for missing optional keys", "[dataset][man
   {
     DatasetManifest w = m;
     w.imu->noise.accel_noise_density = 0.0;
-    const json back = io::manifest_to_json(w);
+    const json back = store::manifest_to_json(w);
     CHECK_FALSE(back.at("imu").contains("gyro_noise_density"));
     CHECK(back.at("imu").at("accel_noise_density") == 0.0);
-    const DatasetManifest r = io::manifest_from_json(back, "roe.json");
+    const DatasetManifest r = store::manifest_from_json(back, "roe.json");
     CHECK(r.imu->noise.gyro_noise_density < 0.0);
     CHECK(r.imu->noise.accel_noise_density == 0.0);
   }
@@ -275,7 +275,7 @@ TEST_CASE("dataset: manifest defaults for missing optional keys", "[dataset][man
   REQUIRE(m.truth);
   CHECK(m.truth->objects.empty());
   CHECK_FALSE(m.truth->imu_noise);
-  const DatasetManifest bare = io::manifest_from_json(minimal_manifest(), "roe.json");
+  const DatasetManifest bare = store::manifest_from_json(minimal_manifest(), "roe.json");
   CHECK_FALSE(bare.camera);
   CHECK_FALSE(bare.imu);
   CHECK_FALSE(bare.mocap);
@@ -382,7 +382,7 @@ TEST_CASE("dataset: manifest schema errors name the key path", "[dataset][manife
     CAPTURE(c.name);
     json j = minimal_manifest();
     c.edit(j);
-    auto e = expect_config_error([&] { io::manifest_from_json(j, "data/roe.json"); });
+    auto e = expect_config_error([&] { store::manifest_from_json(j, "data/roe.json"); });
     CHECK(e.context().file == "data/roe.json");
     CHECK(e.context().key == c.key);
     CHECK(std::string(e.what()).find(c.what) != std::string::npos);
@@ -390,22 +390,22 @@ TEST_CASE("dataset: manifest schema errors name the key path", "[dataset][manife
   // A non-unit quaternion inside the tolerance is accepted and normalised.
   json j = minimal_manifest();
   j["mocap"] = {{"T_B_I", {{"p", {0, 0, 0}}, {"q", {0, 0, 0, 1.0000005}}}}};
-  CHECK(std::abs(io::manifest_from_json(j, "roe.json").mocap->T_B_I.q.norm() - 1.0) < 1e-15);
+  CHECK(std::abs(store::manifest_from_json(j, "roe.json").mocap->T_B_I.q.norm() - 1.0) < 1e-15);
 }
 
 TEST_CASE("dataset: manifest file errors carry line and column", "[dataset][manifest]") {
   TempDir tmp("badjson");
   write_text(tmp.path / "roe.json", "{\n  \"schema\": \"roe-dataset/1\",\n  \"name\": x\n}\n");
-  auto e = expect_input_error([&] { io::read_manifest(tmp.path); });
+  auto e = expect_input_error([&] { store::read_manifest(tmp.path); });
   CHECK(e.context().line == 3);
   CHECK(e.context().column == 11);  // the x
   // At the start of a line, and JSON that stops early (reported where it stops).
   write_text(tmp.path / "roe.json", "{\n]\n");
-  e = expect_input_error([&] { io::read_manifest(tmp.path); });
+  e = expect_input_error([&] { store::read_manifest(tmp.path); });
   CHECK(e.context().line == 2);
   CHECK(e.context().column == 1);
   write_text(tmp.path / "roe.json", "{\n  \"name\": \"a\",\n");
-  e = expect_input_error([&] { io::read_manifest(tmp.path); });
+  e = expect_input_error([&] { store::read_manifest(tmp.path); });
   CHECK(e.context().line == 3);
   CHECK(e.context().column == 1);
 }
@@ -418,29 +418,29 @@ TEST_CASE("dataset: stream readers reject malformed rows with line and column", 
   const fs::path f = tmp.path / "f.csv";
 
   write_text(f, imu_h + "1,0,0,0,0,0,9.81\n2,0,0,0,0,0,nan\n");
-  auto e = expect_input_error([&] { io::read_imu_csv(f); });
+  auto e = expect_input_error([&] { store::read_imu_csv(f); });
   CHECK(e.context().line == 3);
   CHECK(e.context().column == 7);
 
   write_text(f, imu_h + "2,0,0,0,0,0,9.81\n1,0,0,0,0,0,9.81\n");
-  e = expect_input_error([&] { io::read_imu_csv(f); });
+  e = expect_input_error([&] { store::read_imu_csv(f); });
   CHECK(e.context().line == 3);
   CHECK(e.context().column == 1);
 
   // Readings beyond any IMU's range (a corrupt cell): the cell is named, not a filter divergence later.
   write_text(f, imu_h + "1,0,0,0,0,0,9.81\n2,0,1e300,0,0,0,9.81\n");
-  e = expect_input_error([&] { io::read_imu_csv(f); });
+  e = expect_input_error([&] { store::read_imu_csv(f); });
   CHECK(e.context().line == 3);
   CHECK(e.context().column == 3);
   CHECK(std::string(e.what()).find("beyond any IMU's range") != std::string::npos);
   write_text(f, imu_h + "1,0,0,0,0,0,9810\n");
-  e = expect_input_error([&] { io::read_imu_csv(f); });
+  e = expect_input_error([&] { store::read_imu_csv(f); });
   CHECK(e.context().column == 7);
   write_text(f, imu_h + "1,-999,0,0,0,0,-4999\n");
-  CHECK(io::read_imu_csv(f).size() == 1);
+  CHECK(store::read_imu_csv(f).size() == 1);
 
   write_text(f, "#timestamp [ns],w_RS_S_x [rad s^-1]\n1,0\n");
-  e = expect_input_error([&] { io::read_imu_csv(f); });
+  e = expect_input_error([&] { store::read_imu_csv(f); });
   CHECK(e.context().line == 1);
   CHECK(e.context().column == 3);
 
@@ -449,21 +449,21 @@ TEST_CASE("dataset: stream readers reject malformed rows with line and column", 
       f,
       "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n"
       "1,0,0,0,1,0,0,0\n2,0,0,0,0.5,0,0,0\n");
-  e = expect_input_error([&] { io::read_mocap_csv(f); });
+  e = expect_input_error([&] { store::read_mocap_csv(f); });
   CHECK(e.context().line == 3);
   CHECK(e.context().column == 5);
   CHECK(std::string(e.what()).find("not unit norm") != std::string::npos);
 
   // cam0: duplicate stamp, and a path instead of a file name.
   write_text(f, "#timestamp [ns],filename\n1,1.png\n1,2.png\n");
-  e = expect_input_error([&] { io::read_cam_csv(f); });
+  e = expect_input_error([&] { store::read_cam_csv(f); });
   CHECK(e.context().line == 3);
   CHECK(e.context().column == 1);
   write_text(f, "#timestamp [ns],filename\n1,../1.png\n");
-  e = expect_input_error([&] { io::read_cam_csv(f); });
+  e = expect_input_error([&] { store::read_cam_csv(f); });
   CHECK(e.context().column == 2);
   write_text(f, "#timestamp [ns],filename\n1,\n2,2.png\n");
-  CHECK(io::read_cam_csv(f).size() == 2);
+  CHECK(store::read_cam_csv(f).size() == 2);
 }
 
 TEST_CASE("dataset: detections.csv rules", "[dataset][detections]") {
@@ -475,7 +475,7 @@ TEST_CASE("dataset: detections.csv rules", "[dataset][detections]") {
       "sigma_ry,sigma_rz\n";
 
   write_text(f, h + "10,1,0.1,0.2,1.5,0,0,0,1,0.9\n10,2,0,0,1,0,0,0,1,\n20,1,0,0,1,0,0,1,0,0.5\n");
-  auto dets = io::read_detections_csv(f);
+  auto dets = store::read_detections_csv(f);
   REQUIRE(dets.size() == 3);
   CHECK(dets[0].T_C_O.p == Eigen::Vector3d(0.1, 0.2, 1.5));
   CHECK(dets[0].score == 0.9);
@@ -484,48 +484,48 @@ TEST_CASE("dataset: detections.csv rules", "[dataset][detections]") {
   CHECK_FALSE(dets[0].sigma);
 
   write_text(f, hs + "10,1,0,0,1,0,0,0,1,0.9,0.01,0.01,0.03,0.1,0.1,0.1\n10,2,0,0,1,0,0,0,1,0.8,,,,,,\n");
-  dets = io::read_detections_csv(f);
+  dets = store::read_detections_csv(f);
   REQUIRE(dets.size() == 2);
   REQUIRE(dets[0].sigma);
   CHECK((*dets[0].sigma)[2] == 0.03);
   CHECK_FALSE(dets[1].sigma);
 
   write_text(f, h + "10,1,0,0,1,0,0,0,1,0.9\n10,1,0,0,1,0,0,0,1,0.8\n");
-  auto e = expect_input_error([&] { io::read_detections_csv(f); });
+  auto e = expect_input_error([&] { store::read_detections_csv(f); });
   CHECK(e.context().line == 3);
   CHECK(e.context().column == 2);
   CHECK(std::string(e.what()).find("duplicate detection of object 1") != std::string::npos);
 
   write_text(f, h + "20,1,0,0,1,0,0,0,1,0.9\n10,2,0,0,1,0,0,0,1,0.8\n");
-  e = expect_input_error([&] { io::read_detections_csv(f); });
+  e = expect_input_error([&] { store::read_detections_csv(f); });
   CHECK(e.context().line == 3);
   CHECK(e.context().column == 1);
 
   write_text(f, h + "10,1,0,0,1,0,0,0,1,nan\n");
-  e = expect_input_error([&] { io::read_detections_csv(f); });
+  e = expect_input_error([&] { store::read_detections_csv(f); });
   CHECK(e.context().column == 10);
 
   write_text(f, "timestamp_ns,object_id,tx,ty,tz,qw,qx,qy,qz,score\n");
-  e = expect_input_error([&] { io::read_detections_csv(f); });
+  e = expect_input_error([&] { store::read_detections_csv(f); });
   CHECK(e.context().line == 1);
   CHECK(e.context().column == 6);
 
   write_text(f, "timestamp_ns,object_id,tx,ty,tz,qx,qy,qz,qw,score,sigma_tx\n");
-  e = expect_input_error([&] { io::read_detections_csv(f); });
+  e = expect_input_error([&] { store::read_detections_csv(f); });
   CHECK(e.context().line == 1);
   CHECK(e.context().column == 11);
 
   write_text(f, hs + "10,1,0,0,1,0,0,0,1,0.9,0.01,,0.03,0.1,0.1,0.1\n");
-  e = expect_input_error([&] { io::read_detections_csv(f); });
+  e = expect_input_error([&] { store::read_detections_csv(f); });
   CHECK(e.context().line == 2);
   CHECK(std::string(e.what()).find("all empty or all given") != std::string::npos);
 
   write_text(f, hs + "10,1,0,0,1,0,0,0,1,0.9,0.01,0.02,0.03,0.1,-0.1,0.1\n");
-  e = expect_input_error([&] { io::read_detections_csv(f); });
+  e = expect_input_error([&] { store::read_detections_csv(f); });
   CHECK(e.context().column == 15);
 
   write_text(f, h + "10,-1,0,0,1,0,0,0,1,0.9\n");
-  e = expect_input_error([&] { io::read_detections_csv(f); });
+  e = expect_input_error([&] { store::read_detections_csv(f); });
   CHECK(e.context().column == 2);
 }
 
@@ -534,25 +534,25 @@ TEST_CASE("dataset: writers refuse unsorted streams and invalid manifests", "[da
   std::vector<ImuSample> imu(2);
   imu[0].t_ns = 2;
   imu[1].t_ns = 1;
-  CHECK_THROWS_AS(io::write_imu_csv(tmp.path / "imu.csv", imu), InternalError);
+  CHECK_THROWS_AS(store::write_imu_csv(tmp.path / "imu.csv", imu), InternalError);
   std::vector<Detection> dets(2);
   dets[0].t_ns = dets[1].t_ns = 5;  // same stamp, same object
-  CHECK_THROWS_AS(io::write_detections_csv(tmp.path / "d.csv", dets), InternalError);
+  CHECK_THROWS_AS(store::write_detections_csv(tmp.path / "d.csv", dets), InternalError);
   dets[1].object_id = 3;
-  CHECK_NOTHROW(io::write_detections_csv(tmp.path / "d.csv", dets));
+  CHECK_NOTHROW(store::write_detections_csv(tmp.path / "d.csv", dets));
   // Every earlier detection of the same stamp is compared, not only the previous one.
   dets.push_back(dets[0]);
   dets.back().object_id = 4;
-  CHECK_NOTHROW(io::write_detections_csv(tmp.path / "d.csv", dets));  // objects 0, 3, 4 at t = 5
+  CHECK_NOTHROW(store::write_detections_csv(tmp.path / "d.csv", dets));  // objects 0, 3, 4 at t = 5
   dets.back().object_id = 0;
-  CHECK_THROWS_AS(io::write_detections_csv(tmp.path / "d.csv", dets), InternalError);  // 0 again, two rows back
+  CHECK_THROWS_AS(store::write_detections_csv(tmp.path / "d.csv", dets), InternalError);  // 0 again, two rows back
   CHECK_FALSE(fs::exists(tmp.path / "imu.csv"));
   DatasetManifest m;
   m.objects = {{3, "a", false, "", -1, {}}, {3, "b", true, "", -1, {}}};
-  CHECK_THROWS_AS(io::write_manifest(m, tmp.path / "roe.json"), InternalError);
+  CHECK_THROWS_AS(store::write_manifest(m, tmp.path / "roe.json"), InternalError);
   m.objects.pop_back();
   m.schema = "other";
-  CHECK_THROWS_AS(io::write_manifest(m, tmp.path / "roe.json"), InternalError);
+  CHECK_THROWS_AS(store::write_manifest(m, tmp.path / "roe.json"), InternalError);
   CHECK_FALSE(fs::exists(tmp.path / "roe.json"));
 }
 
@@ -562,7 +562,7 @@ TEST_CASE("dataset: reads the real EuRoC V1_02 snippet (imu0, ground truth)", "[
     WARN("skipped: " << mav0 << " not found");
     return;
   }
-  const auto imu = io::read_imu_csv(mav0 / "imu0" / "data.csv");
+  const auto imu = store::read_imu_csv(mav0 / "imu0" / "data.csv");
   REQUIRE(imu.size() == 7999);
   CHECK(imu.front().t_ns == 1403715523912140000LL);
   CHECK(imu.front().gyro.x() == -0.0006981317);
@@ -570,7 +570,7 @@ TEST_CASE("dataset: reads the real EuRoC V1_02 snippet (imu0, ground truth)", "[
   // 200 Hz: the whole snippet spans 7998 intervals of 5 ms, give or take the 10 us stamp truncation.
   CHECK(std::abs(dt_seconds(imu.front().t_ns, imu.back().t_ns) - 39.99) < 0.01);
 
-  const auto gt = io::read_groundtruth_csv(mav0 / "state_groundtruth_estimate0" / "data.csv");
+  const auto gt = store::read_groundtruth_csv(mav0 / "state_groundtruth_estimate0" / "data.csv");
   REQUIRE(gt.size() == 3340);
   CHECK(gt.front().t_ns == 1403715524922140000LL);
   CHECK(gt.front().T_W_I.p == Eigen::Vector3d(0.515292, 1.996597, 0.971028));
@@ -584,11 +584,11 @@ TEST_CASE("dataset: reads the real EuRoC V1_02 snippet (imu0, ground truth)", "[
 
   // Our own writer reproduces the EuRoC header spelling exactly, and re-reading gives the same states.
   TempDir tmp("euroc");
-  io::write_groundtruth_csv(tmp.path / "gt.csv", gt);
+  store::write_groundtruth_csv(tmp.path / "gt.csv", gt);
   const std::string orig = io::read_file(mav0 / "state_groundtruth_estimate0" / "data.csv");
   const std::string ours = io::read_file(tmp.path / "gt.csv");
   CHECK(orig.substr(0, orig.find('\n')) == ours.substr(0, ours.find('\n')));
-  const auto gt2 = io::read_groundtruth_csv(tmp.path / "gt.csv");
+  const auto gt2 = store::read_groundtruth_csv(tmp.path / "gt.csv");
   REQUIRE(gt2.size() == gt.size());
   for (std::size_t i = 0; i < gt.size(); i += 97) CHECK(same(gt[i].T_W_I, gt2[i].T_W_I));
 }
@@ -599,9 +599,9 @@ TEST_CASE("dataset: reads other real EuRoC-layout files (V1_02 full GT, TUM-VI m
     WARN("skipped: shared data not found");
     return;
   }
-  const auto gt = io::read_groundtruth_csv(data / "eval" / "V102_groundtruth.csv");
+  const auto gt = store::read_groundtruth_csv(data / "eval" / "V102_groundtruth.csv");
   CHECK(gt.size() == 16702);
-  const auto mocap = io::read_mocap_csv(data / "tumvi" / "dataset-room1_512_16_gt.csv");
+  const auto mocap = store::read_mocap_csv(data / "tumvi" / "dataset-room1_512_16_gt.csv");
   REQUIRE(mocap.size() > 1000);
   CHECK(mocap.front().t_ns == 1520530308189679351LL);
   CHECK(mocap.front().T.p.x() == 0.8417820384);

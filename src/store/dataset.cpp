@@ -1,4 +1,4 @@
-#include "roe/io/dataset.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/io/models_info.hpp"
 
 #include <fmt/format.h>
@@ -14,7 +14,33 @@
 #include "roe/io/pose_json.hpp"
 #include "roe/io/trajectory_io.hpp"
 
-namespace roe::io {
+namespace roe::store {
+
+// store reads and writes through io's primitives.
+using io::CsvOptions;
+using io::CsvReader;
+using io::CsvWriter;
+using io::JsonObject;
+using io::OutputDir;
+using io::StampKind;
+using io::StampOrder;
+using io::Trajectory;
+using io::TrajectoryFormat;
+using io::dump_json;
+using io::imu_noise_to_json;
+using io::is_folder;
+using io::json;
+using io::optional_regular_file;
+using io::path_exists;
+using io::pose_from_json;
+using io::pose_to_json;
+using io::read_file_head;
+using io::read_imu_noise;
+using io::read_json_file;
+using io::read_models_info;
+using io::read_trajectory;
+using io::unit_quaternion;
+using io::write_file_atomic;
 namespace {
 
 using Eigen::Quaterniond;
@@ -811,4 +837,4 @@ void write_dataset(const Dataset& d, const fs::path& dataset, bool force) {
   out.commit();
 }
 
-}  // namespace roe::io
+}  // namespace roe::store

@@ -33,7 +33,7 @@
 #include "roe/ekf/imu.hpp"
 #include "roe/eval/evaluate.hpp"
 
-namespace roe::io {
+namespace roe::store {
 
 namespace fs = std::filesystem;
 
@@ -110,4 +110,4 @@ std::vector<ObjectRow> read_objects_csv(const fs::path& file);
 /// 0.05; nis may be empty, nan, or its column absent (nan). Stamps must not decrease.
 std::vector<eval::DetectionPose> read_reprojection_csv(const fs::path& file);
 
-}  // namespace roe::io
+}  // namespace roe::store

@@ -7,12 +7,13 @@
 #include "roe/core/error.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/io/output.hpp"
-#include "roe/io/run_files.hpp"
+#include "roe/store/run_files.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "support/test_util.hpp"
 
 using namespace roe;
 using namespace roe::io;
+using namespace roe::store;
 
 namespace {
 

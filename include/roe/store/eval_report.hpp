@@ -10,7 +10,7 @@
 #include "roe/eval/evaluate.hpp"
 #include "roe/io/output.hpp"
 
-namespace roe::io {
+namespace roe::store {
 
 /// What report.json says beyond the evaluation itself: the inputs and options as the caller read them.
 struct EvalReportContext {
@@ -45,7 +45,7 @@ nlohmann::json eval_report_json(const eval::Report& r, const EvalReportContext& 
 /// with RPE rpe.csv and rpe_summary.csv, with detections reprojection_aligned.csv and per_object.csv,
 /// with a detection σ calibration detection_sigmas.csv
 /// into `dir` (atomically, each). Returns the names written, in order.
-std::vector<std::string> write_eval_files(const OutputDir& dir, const eval::Report& r,
+std::vector<std::string> write_eval_files(const io::OutputDir& dir, const eval::Report& r,
                                           const EvalReportContext& c);
 
-}  // namespace roe::io
+}  // namespace roe::store
