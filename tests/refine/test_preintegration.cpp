@@ -6,6 +6,7 @@
 #include "roe/math/so3.hpp"
 #include "roe/refine/factors.hpp"
 #include "roe/refine/preintegration.hpp"
+#include "support/jacobian.hpp"
 
 namespace {
 
@@ -110,21 +111,19 @@ TEST_CASE("refine/preintegration: bias Jacobians match central differences of th
   std::size_t hint = 0;
   const ekf::ImuNoiseParams noise{0.01, 0.001, 0.1, 0.01};
   const auto pre = refine::preintegrate(imu, ti, tj, bg, ba, noise, hint);
-  const double h = 1e-6;
+  // error(δ): the preintegration at the biases (b_g, b_a) + δ against the one at (b_g, b_a), in its tangent
+  // space [Δp; Δv; Log(ΔRᵀ ΔR')].
+  const auto error = [&](const Eigen::VectorXd& d) {
+    std::size_t h = 0;
+    const auto q = refine::preintegrate(imu, ti, tj, bg + d.head<3>(), ba + d.tail<3>(), noise, h);
+    Eigen::Matrix<double, 9, 1> e;
+    e << q.dp - pre.dp, q.dv - pre.dv, math::log_quat(pre.dR.conjugate() * q.dR);
+    return Eigen::VectorXd(e);
+  };
+  const Eigen::MatrixXd num = test::check_jacobian(pre.J_bias, error, 1e-6);
   for (int c = 0; c < 6; ++c) {
-    Vector3d dbg = Vector3d::Zero(), dba = Vector3d::Zero();
-    (c < 3 ? dbg : dba)(c % 3) = h;
-    hint = 0;
-    const auto plus = refine::preintegrate(imu, ti, tj, bg + dbg, ba + dba, noise, hint);
-    hint = 0;
-    const auto minus = refine::preintegrate(imu, ti, tj, bg - dbg, ba - dba, noise, hint);
-    Eigen::Matrix<double, 9, 1> num;
-    num.segment<3>(0) = (plus.dp - minus.dp) / (2 * h);
-    num.segment<3>(3) = (plus.dv - minus.dv) / (2 * h);
-    num.segment<3>(6) = (math::log_quat(pre.dR.conjugate() * plus.dR) - math::log_quat(pre.dR.conjugate() * minus.dR)) / (2 * h);
-    INFO("bias component " << c << ": numeric " << num.transpose() << " analytic " << pre.J_bias.col(c).transpose());
-    CHECK((num - pre.J_bias.col(c)).norm() < 1e-6 * std::max(1.0, num.norm()));
-    CHECK(num.norm() > 1e-4);  // every bias moves the preintegration
+    INFO("bias component " << c);
+    CHECK(num.col(c).norm() > 1e-4);  // every bias moves the preintegration
   }
   // The covariance is symmetric positive definite and grows with the interval.
   const Eigen::LLT<refine::Mat9> llt(pre.cov);
