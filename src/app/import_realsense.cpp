@@ -19,6 +19,7 @@
 #include "roe/store/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
+#include "roe/io/ros/imu_streams.hpp"
 #include "roe/io/ros/realsense_recording.hpp"
 #include "roe/io/ros/msgs.hpp"
 
@@ -95,7 +96,7 @@ std::vector<ImuSample> merge_imu(io::RealsenseRecording& d, const io::RealsenseS
     if (d.gyro.empty()) S.gyro_rate_hz = median_rate_hz(d.united, imu_stamp);
     imu = std::move(d.united);
   } else if (!d.accel.empty() && !d.gyro.empty()) {
-    imu = merge_accel_gyro(d.accel, d.gyro, &S.gyro_outside_accel);
+    imu = io::merge_accel_gyro(d.accel, d.gyro, &S.gyro_outside_accel);
   } else if (!d.accel.empty() || !d.gyro.empty()) {
     S.warnings.push_back("only one of accel/gyro is present: imu0 not written (raw stream kept in imu0_raw)");
   } else if (!st.accel_topic.empty() || !st.gyro_topic.empty() || !st.imu_topic.empty()) {
@@ -271,34 +272,6 @@ Pose camera_imu_extrinsics(const io::RealsenseRecording& d, const io::RealsenseS
 }
 
 }  // namespace
-
-std::vector<ImuSample> merge_accel_gyro(const std::vector<Vec3Stamped>& accel, const std::vector<Vec3Stamped>& gyro,
-                                        std::size_t* dropped) {
-  std::vector<ImuSample> out;
-  out.reserve(gyro.size());
-  std::size_t n_drop = 0, j = 0;
-  for (const auto& [t, w] : gyro) {
-    if (accel.empty() || t < accel.front().first || t > accel.back().first) {
-      ++n_drop;
-      continue;
-    }
-    while (j + 1 < accel.size() && accel[j + 1].first < t) ++j;
-    // accel[j].first < t <= accel[j+1].first, or t == accel[j].first at the very start.
-    ImuSample s;
-    s.t_ns = t;
-    s.gyro = w;
-    if (accel[j].first == t || j + 1 >= accel.size()) {
-      s.accel = accel[j].second;
-    } else {
-      const Timestamp t0 = accel[j].first, t1 = accel[j + 1].first;
-      const double a = static_cast<double>(t - t0) / static_cast<double>(t1 - t0);
-      s.accel = (1.0 - a) * accel[j].second + a * accel[j + 1].second;
-    }
-    out.push_back(s);
-  }
-  if (dropped) *dropped = n_drop;
-  return out;
-}
 
 nlohmann::json ImportRealsenseSummary::to_json() const {
   nlohmann::json ext = nlohmann::json::object();

@@ -12,6 +12,7 @@
 
 #include "support/test_util.hpp"
 #include "fixtures/gen_d435i_bag.hpp"
+#include "roe/io/ros/imu_streams.hpp"
 #include "roe/app/import.hpp"
 #include "roe/image/frame_processor.hpp"
 #include "roe/io/csv.hpp"
@@ -241,7 +242,7 @@ TEST_CASE("merge_accel_gyro: interpolation and range", "[app][import]") {
   const V acc = {{10, {0, 0, 0}}, {20, {10, 20, 30}}, {40, {30, 20, 10}}};
   const V gyr = {{5, {1, 1, 1}}, {10, {2, 2, 2}}, {15, {3, 3, 3}}, {30, {4, 4, 4}}, {40, {5, 5, 5}}, {45, {6, 6, 6}}};
   std::size_t dropped = 0;
-  const auto m = app::merge_accel_gyro(acc, gyr, &dropped);
+  const auto m = io::merge_accel_gyro(acc, gyr, &dropped);
   REQUIRE(m.size() == 4);
   CHECK(dropped == 2);
   CHECK(m[0].accel.isApprox(Eigen::Vector3d(0, 0, 0)));

@@ -78,12 +78,6 @@ ImportRealsenseSummary import_realsense(const fs::path& bag, const fs::path& dat
                                         const ImportRealsenseOptions& options,
                                         const ProgressCallback& progress = {});
 
-/// Merges separate accel and gyro streams at the gyro stamps: the accelerometer is linearly
-/// interpolated between its two neighbouring samples; gyro samples before the first or after the
-/// last accel sample are dropped (counted in `dropped`). Both inputs must be time-sorted.
-std::vector<ImuSample> merge_accel_gyro(const std::vector<std::pair<Timestamp, Eigen::Vector3d>>& accel,
-                                        const std::vector<std::pair<Timestamp, Eigen::Vector3d>>& gyro,
-                                        std::size_t* dropped = nullptr);
 
 // ---------------------------------------------------------------------------------------------
 // mocap

@@ -4,7 +4,8 @@
 /// layout, any bag generation; io/ros/realsense_streams.hpp decides from the topic list) and everything of
 /// them but the colour images, read in one pass over the bag: the camera info, the IMU (united or accel and
 /// gyro apart), the recorder's stream info, intrinsics, metadata and tf/0, and /tf_static. What the
-/// samples become (the merged IMU, the camera model, the dataset) is the importer's (app/import_realsense).
+/// samples become is decided elsewhere: the merged IMU in io/ros/imu_streams.hpp, the camera model and the
+/// dataset by the importer (app/import_realsense).
 
 #include <cstdint>
 #include <map>
