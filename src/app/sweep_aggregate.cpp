@@ -12,6 +12,7 @@
 #include "roe/io/csv.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
+#include "roe/store/eval_report.hpp"
 
 namespace roe::app {
 namespace detail {
@@ -82,7 +83,7 @@ json summary_json(const eval::SampleSummary& s) {
 
 }  // namespace
 
-const std::vector<std::string>& sweep_metric_names() { return eval_report_metric_names(); }
+const std::vector<std::string>& sweep_metric_names() { return store::headline_metric_names(); }
 
 Aggregate aggregate_results(const std::vector<JobResult>& results, const std::vector<std::string>& axis_names,
                             const AggregateOptions& o) {
