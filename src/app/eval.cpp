@@ -193,13 +193,9 @@ eval::EvalParams eval_params(const EvalOptions& o, std::vector<std::string>& war
   return p;
 }
 
-nlohmann::json input_json(const EvalInput& in) {
-  return {{"path", in.path.string()},
-          {"kind", in.kind},
-          {"format", io::to_string(in.traj.format)},
-          {"description", in.description},
-          {"n_poses", in.traj.size()},
-          {"duplicate_stamps", in.traj.count_duplicate_stamps()}};
+store::ReportInput report_input(const EvalInput& in) {
+  return {in.path.string(), in.kind, io::to_string(in.traj.format), in.description, in.traj.size(),
+          in.traj.count_duplicate_stamps()};
 }
 
 nlohmann::json options_json(const EvalOptions& o) {
@@ -305,13 +301,14 @@ EvalResult run_eval(const EvalOptions& options) {
   ctx.label = o.label.empty() ? label_of(est.in, est.run) : o.label;
   ctx.est_path = est.in.path.string();
   ctx.gt_path = gt.path.string();
-  ctx.inputs = {{"est", input_json(est.in)}, {"gt", input_json(gt)}};
+  ctx.est = report_input(est.in);
+  ctx.gt = report_input(gt);
   ctx.options = options_json(o);
   ctx.cov_source = est.cov_source;
   if (!gauge) ctx.no_gauge_reason = no_gauge;
   if (sig) ctx.detections_source = sig->description;
   ctx.warnings = warnings;
-  json report = store::eval_report_json(rep, ctx);
+  store::EvalReportFile report = store::make_eval_report_file(rep, ctx);
 
   EvalResult res;
   // evo's result file: checked before anything is written, written after the folder (nothing half-written).
@@ -321,7 +318,7 @@ EvalResult run_eval(const EvalOptions& options) {
     if (!o.force && io::path_exists(o.save_results))
       throw InputError("the results file exists; pass --force to replace it", {o.save_results});
     evo = io::evo_ape_result(rep, ctx.gt_path, ctx.est_path);
-    report["evo_results"] = o.save_results;
+    report.evo_results = o.save_results;
   }
   const fs::path out = output_folder(o, est);
   if (o.plot && out.empty()) {
@@ -331,12 +328,12 @@ EvalResult run_eval(const EvalOptions& options) {
   }
   if (!out.empty()) {
     io::OutputDir dir(out, o.force, {o.est, o.gt});
-    report["outputs"] = {{"dir", out.string()}, {"files", store::write_eval_files(dir, rep, ctx)}};
-    io::write_file_atomic(dir.file("report.json"), io::dump_json(report, 2) + "\n");
+    report.outputs = store::ReportOutputs{out.string(), store::write_eval_files(dir, rep, ctx)};
+    io::write_file_atomic(dir.file("report.json"), io::dump_json(store::to_json(report), 2) + "\n");
     if (o.plot) {
       res.plot_status = render_eval_plots(dir.tmp(), o);  // throws: a plotting failure commits nothing
-      report["plots"] = {{"ok", true}, {"status", res.plot_status}};
-      io::write_file_atomic(dir.file("report.json"), io::dump_json(report, 2) + "\n");
+      report.plots = store::ReportPlots{true, res.plot_status};
+      io::write_file_atomic(dir.file("report.json"), io::dump_json(store::to_json(report), 2) + "\n");
     }
     dir.commit();
     res.out = out;
@@ -350,185 +347,167 @@ namespace {
 
 /// The per-object table: each object's RMSE over all its matched detections (the outliers the filter
 /// rejected included) and over the accepted ones alone, on two labelled rows.
-std::string per_object_text(const json& objects, const std::string& euler_metric) {
+std::string per_object_text(const std::vector<store::ReportObject>& objects, const std::string& euler_metric) {
   std::string s = "\n  per object (reprojected IMU pose of each raw detection, same alignment; 'all' includes the\n"
                   "  detections the filter rejected as outliers, 'accepted' only those it used)\n";
   if (euler_metric != "error") s += "  (roll/pitch/yaw under the Euler metric '" + euler_metric + "', not a rotation error)\n";
   s += "  object  detections  matched  subset        n   rmse x/y/z [m]              rmse roll/pitch/yaw [deg]   "
        "statuses\n";
-  for (const auto& o : objects) {
+  for (const store::ReportObject& o : objects) {
     std::string counts;
-    for (const auto& [k, v] : o["counts"].items())
-      counts += (counts.empty() ? "" : ", ") + k + " " + std::to_string(v.get<int>());
-    for (const char* subset : {"all", "accepted"}) {
-      const bool first = subset == std::string("all");
-      const std::string head = first ? fmt::format("  {:>6}  {:>10}  {:>7}", o["object_id"].get<int>(),
-                                                   o["n_detections"].get<int>(), o["n_matched"].get<int>())
+    for (const auto& [k, v] : o.counts) counts += (counts.empty() ? "" : ", ") + k + " " + std::to_string(v);
+    for (const auto& [subset, f] : {std::pair<const char*, const store::ReportFit*>{"all", &o.all},
+                                    std::pair<const char*, const store::ReportFit*>{"accepted", &o.accepted}}) {
+      const bool first = f == &o.all;
+      const std::string head = first ? fmt::format("  {:>6}  {:>10}  {:>7}", o.object_id, o.n_detections, o.n_matched)
                                      : std::string(29, ' ');
-      const json& f = o[subset];
       const std::string tail = first ? "     " + counts : "";
-      if (f["n"].get<int>() == 0) {
+      if (f->n == 0) {
         s += fmt::format("{}  {:<9} {:>5}   (no matched pose){}\n", head, subset, 0, first ? "         " + counts : "");
         continue;
       }
-      const store::AxisRmse a = store::read_axis_rmse(f, "", "per_object." + std::string(subset));
-      s += fmt::format("{}  {:<9} {:>5}   {:7.3f} {:7.3f} {:7.3f}     {:7.2f} {:7.2f} {:7.2f}{}\n", head, subset,
-                       f["n"].get<int>(), a.pos_m.x(), a.pos_m.y(), a.pos_m.z(), a.rpy_deg.x(), a.rpy_deg.y(),
-                       a.rpy_deg.z(), tail);
+      const Eigen::Vector3d& p = f->pos_rmse_m;
+      const Eigen::Vector3d& e = f->rpy_rmse_deg;
+      s += fmt::format("{}  {:<9} {:>5}   {:7.3f} {:7.3f} {:7.3f}     {:7.2f} {:7.2f} {:7.2f}{}\n", head, subset, f->n,
+                       p.x(), p.y(), p.z(), e.x(), e.y(), e.z(), tail);
     }
   }
   return s;
 }
 
-double number(const json& v) { return v.is_null() ? NAN : v.get<double>(); }
+double number(const std::optional<double>& v) { return v.value_or(NAN); }
 
-std::string rpy_row(const char* name, const json& v, const char* unit = "") {
-  return fmt::format("  {:<10} {:8.3f}  {:8.3f}  {:8.3f}{}\n", name, number(v["roll"]), number(v["pitch"]),
-                     number(v["yaw"]), unit);
+std::string rpy_row(const char* name, const Eigen::Vector3d& v) {
+  return fmt::format("  {:<10} {:8.3f}  {:8.3f}  {:8.3f}\n", name, v.x(), v.y(), v.z());
+}
+
+std::string euler_rows(const eval::EulerStats& e) {
+  return rpy_row("rmse", e.rmse) + rpy_row("mean", e.mean) + rpy_row("std", e.std);
 }
 
 /// The per-axis table: position RMSE, then the Euler figures (RMSE, mean, std) under their metric's name,
 /// and for a metric other than `error` the rotation error's figures, the 360° jumps and a warning.
-std::string per_axis_text(const json& pa) {
+std::string per_axis_text(const store::ReportPerAxis& pa) {
   std::string s = "\n  RMSE            x         y         z   |     roll     pitch       yaw\n";
-  const store::AxisRmse a = store::read_axis_rmse(pa);
-  s += fmt::format("  {:<10} {:9.4f} {:9.4f} {:9.4f}   | {:8.3f}  {:8.3f}  {:8.3f}   (m | deg)\n", "per-axis",
-                   a.pos_m.x(), a.pos_m.y(), a.pos_m.z(), a.rpy_deg.x(), a.rpy_deg.y(), a.rpy_deg.z());
-  const std::string metric = pa["euler_metric"].get<std::string>();
-  s += fmt::format("\n  Euler [deg], metric '{}': {}\n               roll     pitch       yaw\n", metric,
-                   pa["euler_definition"].get<std::string>());
-  s += rpy_row("rmse", pa["rpy_rmse_deg"]) + rpy_row("mean", pa["rpy_mean_deg"]) + rpy_row("std", pa["rpy_std_deg"]);
-  if (pa.contains("rotation_error_euler_deg")) {
-    const json& e = pa["rotation_error_euler_deg"];
+  const Eigen::Vector3d& p = pa.pos_rmse_m;
+  const Eigen::Vector3d& e = pa.rpy_deg.rmse;
+  s += fmt::format("  {:<10} {:9.4f} {:9.4f} {:9.4f}   | {:8.3f}  {:8.3f}  {:8.3f}   (m | deg)\n", "per-axis", p.x(),
+                   p.y(), p.z(), e.x(), e.y(), e.z());
+  s += fmt::format("\n  Euler [deg], metric '{}': {}\n               roll     pitch       yaw\n", pa.euler_metric,
+                   pa.euler_definition);
+  s += euler_rows(pa.rpy_deg);
+  if (pa.euler_metric != eval::to_string(eval::EulerMetric::kError)) {
     s += "  rotation error R_est^T*R_gt (metric 'error'):\n";
-    s += rpy_row("rmse", e["rmse"]) + rpy_row("mean", e["mean"]) + rpy_row("std", e["std"]);
-    const json& j = pa["jump_360_share"];
+    s += euler_rows(pa.rotation_error_euler_deg);
+    const Eigen::Vector3d& j = pa.jump_360_share;
     s += fmt::format("  360-deg jumps of the absolute-angle difference: roll {:.2f} %, pitch {:.2f} %, yaw {:.2f} %, "
                      "any axis {:.2f} % of the pairs\n",
-                     100 * number(j["roll"]), 100 * number(j["pitch"]), 100 * number(j["yaw"]), 100 * number(j["any"]));
-    s += "  warning: the '" + metric + "' figures are differences of absolute Euler angles, not a rotation error\n";
+                     100 * j.x(), 100 * j.y(), 100 * j.z(), 100 * pa.jump_360_share_any);
+    s += "  warning: the '" + pa.euler_metric + "' figures are differences of absolute Euler angles, not a rotation error\n";
   }
   return s;
 }
 
 /// --fit-body-rotation: the constant body-frame rotation and the figures with and without it.
-std::string body_rotation_text(const json& b) {
+std::string body_rotation_text(const store::ReportBodyRotation& b) {
   std::string s = fmt::format(
       "\n  body-frame rotation fit (diagnostic, not applied above): R_off = mean of R_est^T*R_gt, angle {:.3f} deg, "
       "roll/pitch/yaw {:.3f} {:.3f} {:.3f} deg\n",
-      b["angle_deg"].get<double>(), b["rpy_deg"]["roll"].get<double>(), b["rpy_deg"]["pitch"].get<double>(),
-      b["rpy_deg"]["yaw"].get<double>());
-  s += fmt::format("  {:<26} {:>9} | Euler rmse roll/pitch/yaw ('{}')\n", "", "rot rmse", b["with"]["euler_metric"].get<std::string>());
-  for (const char* k : {"without", "with"}) {
-    const json& m = b[k];
-    s += fmt::format("  {:<26} {:9.3f} | {:8.3f}  {:8.3f}  {:8.3f}\n",
-                     std::string(k) == "with" ? "with R_off removed" : "as evaluated (without)",
-                     m["ape_rot_deg"]["rmse"].get<double>(), m["rpy_rmse_deg"]["roll"].get<double>(),
-                     m["rpy_rmse_deg"]["pitch"].get<double>(), m["rpy_rmse_deg"]["yaw"].get<double>());
+      b.angle_deg, b.rpy_deg.x(), b.rpy_deg.y(), b.rpy_deg.z());
+  s += fmt::format("  {:<26} {:>9} | Euler rmse roll/pitch/yaw ('{}')\n", "", "rot rmse", b.with.euler_metric);
+  for (const auto& [name, m] : {std::pair{"as evaluated (without)", &b.without}, std::pair{"with R_off removed", &b.with}}) {
+    const Eigen::Vector3d& e = m->rpy_deg.rmse;
+    s += fmt::format("  {:<26} {:9.3f} | {:8.3f}  {:8.3f}  {:8.3f}\n", name, m->ape_rot_deg.rmse, e.x(), e.y(), e.z());
   }
   return s;
 }
 
 /// The NEES: in the estimator's gauge when there is one; else the position's after the alignment, and
 /// no orientation figure (the alignment's rotation error is in no covariance).
-std::string consistency_text(const json& c) {
-  const json& g = c["gauge"];
-  if (g["available"].get<bool>())
+std::string consistency_text(const store::ReportConsistency& c) {
+  const store::ReportGauge& g = c.gauge;
+  if (g.available)
     return fmt::format("\n  ANEES position {:.3f}, orientation {:.3f} in the estimator's gauge (expected 3 for a "
                        "consistent filter; {} poses; {})\n",
-                       number(g["anees_p"]), number(g["anees_r"]), g["n"].get<std::size_t>(),
-                       g["description"].get<std::string>());
+                       number(g.anees_p), number(g.anees_r), g.n, g.description);
   return fmt::format("\n  ANEES position {:.3f} after the alignment (expected 3 for a consistent filter); no orientation "
                      "ANEES: the alignment's rotation error is in no covariance, and no truth in the estimator's gauge "
                      "({})\n",
-                     number(c["aligned"]["anees_p"]), g.contains("reason") ? g["reason"].get<std::string>() : "");
+                     number(c.aligned_anees_p), g.reason);
 }
 
 /// The detection σ calibration: per object and for all, the fractions within 1/2/3σ, the NIS against
 /// χ²₆ and the σ scale that would make them consistent.
-std::string detection_calibration_text(const json& d) {
-  std::string s = "\n  detection sigmas against the truth (" + d["source"].get<std::string>() + ")\n";
-  const json& ex = d["expected"];
+std::string detection_calibration_text(const store::ReportDetectionCalibration& d) {
+  static_assert(eval::kNisProbabilities[2] == 0.5, "the median is nis_quantiles[2]");
+  std::string s = "\n  detection sigmas against the truth (" + d.source + ")\n";
   s += fmt::format("  {:<8} {:>5}   {:<15}  {:<15}  | {:>8} {:>7} {:>6} | {:>6} {:<7}| {:>6} {:<14}  {:>6} {:>6} {:>6}\n",
                    "object", "n", "t 1/2/3 sig [%]", "r 1/2/3 sig [%]", "NIS mean", "median", ">gate", "KS D", "p",
                    "scale", "[95 %]", "t", "r", "median");
-  const auto row = [&s](const std::string& name, const json& c) {
-    const auto pct = [](const json& a) {
-      return fmt::format("{:4.1f} {:4.1f} {:5.1f}", 100 * a[0].get<double>(), 100 * a[1].get<double>(),
-                         100 * a[2].get<double>());
+  const auto row = [&s](const std::string& name, const eval::SigmaCalibration& c) {
+    const auto pct = [](const std::array<double, 3>& a) {
+      return fmt::format("{:4.1f} {:4.1f} {:5.1f}", 100 * a[0], 100 * a[1], 100 * a[2]);
     };
     s += fmt::format("  {:<8} {:>5}   {}  {}  | {:8.2f} {:7.2f} {:5.1f}% | {:6.3f} {:<7.2g}| {:6.3f} {:<14}  {:6.3f} "
                      "{:6.3f} {:6.3f}\n",
-                     name, c["n"].get<std::size_t>(), pct(c["within_sigma_t"]), pct(c["within_sigma_r"]),
-                     c["nis_mean"].get<double>(), c["nis_quantiles"]["p50"].get<double>(),
-                     100 * c["frac_above_gate"].get<double>(), c["ks_statistic"].get<double>(),
-                     c["ks_p_value"].get<double>(), c["sigma_scale"].get<double>(),
-                     fmt::format("[{:.3f}, {:.3f}]", c["sigma_scale_ci95"][0].get<double>(),
-                                 c["sigma_scale_ci95"][1].get<double>()),
-                     c["sigma_scale_t"].get<double>(),
-                     c["sigma_scale_r"].get<double>(), c["sigma_scale_median"].get<double>());
+                     name, c.n, pct(c.within_t), pct(c.within_r), c.nis_mean, c.nis_quantiles[2],
+                     100 * c.frac_above_gate, c.ks_statistic, c.ks_p_value, c.sigma_scale,
+                     fmt::format("[{:.3f}, {:.3f}]", c.sigma_scale_lo, c.sigma_scale_hi), c.sigma_scale_t,
+                     c.sigma_scale_r, c.sigma_scale_median);
   };
-  for (const auto& o : d["per_object"]) row(std::to_string(o["object_id"].get<int>()), o);
-  row("all", d["all"]);
-  const auto& w = ex["within_sigma"];
+  for (const eval::ObjectCalibration& o : d.per_object) row(std::to_string(o.object_id), o.cal);
+  row("all", d.all);
+  const store::ExpectedCalibration ex = store::expected_calibration();
+  const auto& w = ex.within_sigma;
   s += fmt::format("  consistent: {:.1f} {:.1f} {:.1f} % within 1/2/3 sigma, NIS mean 6, median {:.2f}, {:.0f} % above the "
                    "gate {:.2f}, scale 1 (scale = true errors / reported sigma; R would need scale^2)\n",
-                   100 * w[0].get<double>(), 100 * w[1].get<double>(), 100 * w[2].get<double>(),
-                   ex["nis_quantiles"]["p50"].get<double>(), 100 * ex["frac_above_gate"].get<double>(),
-                   ex["gate"].get<double>());
+                   100 * w[0], 100 * w[1], 100 * w[2], ex.nis_quantiles[2], 100 * ex.frac_above_gate, ex.gate);
+  return s;
+}
+
+/// The RPE table: one row per block.
+std::string rpe_text(const std::vector<store::ReportRpe>& rpe) {
+  std::string s = "\n  RPE            pairs  trans rmse [m]   mean    median   |  rot rmse [deg]   mean   |  drift [%]\n";
+  for (const store::ReportRpe& e : rpe) {
+    const std::string what =
+        fmt::format("{} {}{}{}", e.delta, e.unit, e.all_pairs ? ", all" : "", e.pairs_from == "gt" ? ", gt" : "");
+    if (e.n_pairs == 0 || !e.trans_m || !e.rot_deg) {
+      s += fmt::format("  {:<13} {:>6}  (none)\n", what, 0);
+      continue;
+    }
+    s += fmt::format("  {:<13} {:>6}  {:13.4f} {:8.4f} {:8.4f}   | {:14.3f} {:7.3f}   | {:8}\n", what, e.n_pairs,
+                     e.trans_m->rmse, e.trans_m->mean, e.trans_m->median, e.rot_deg->rmse, e.rot_deg->mean,
+                     e.drift_pct ? fmt::format("{:.2f}", e.drift_pct->mean) : std::string("-"));
+  }
   return s;
 }
 
 }  // namespace
 
+nlohmann::json EvalResult::report_json() const { return store::to_json(report); }
+
 std::string EvalResult::to_text() const {
-  const json& r = report;
+  const store::EvalReportFile& r = report;
   std::string s;
-  const auto& as = r["association"];
-  const auto& al = r["alignment"];
-  s += fmt::format("roe eval: {}\n", r["info"]["label"].get<std::string>());
-  s += fmt::format("  estimate     {}\n", r["inputs"]["est"]["description"].get<std::string>());
-  s += fmt::format("  ground truth {}\n", r["inputs"]["gt"]["description"].get<std::string>());
-  s += fmt::format("  matched {} of {} estimate / {} ground-truth poses (max dt {} s, offset {} s, {})\n",
-                   as["n_matched"].get<std::size_t>(), as["n_est"].get<std::size_t>(),
-                   as["n_gt"].get<std::size_t>(), as["max_dt_s"].get<double>(), as["offset_s"].get<double>(),
-                   as["policy"].get<std::string>());
-  s += fmt::format("  alignment {} on {} pairs, scale {:.6f}\n", al["type"].get<std::string>(),
-                   al["n_aligned"].get<int>(), al["scale"].get<double>());
-  s += per_axis_text(r["per_axis"]);
-  if (!r["body_rotation"].is_null()) s += body_rotation_text(r["body_rotation"]);
+  const store::ReportAssociation& as = r.association;
+  const store::ReportAlignment& al = r.alignment;
+  s += fmt::format("roe eval: {}\n", r.label);
+  s += fmt::format("  estimate     {}\n", r.est.description);
+  s += fmt::format("  ground truth {}\n", r.gt.description);
+  s += fmt::format("  matched {} of {} estimate / {} ground-truth poses (max dt {} s, offset {} s, {})\n", as.n_matched,
+                   as.n_est, as.n_gt, as.max_dt_s, as.offset_s, as.policy);
+  s += fmt::format("  alignment {} on {} pairs, scale {:.6f}\n", al.type, al.n_aligned, al.scale);
+  s += per_axis_text(r.per_axis);
+  if (r.body_rotation) s += body_rotation_text(*r.body_rotation);
   s += "\n  APE            rmse      mean    median       std       min       max\n";
-  for (const auto& [key, name] :
-       {std::pair{"ape_trans_m", "trans [m]"}, std::pair{"ape_rot_deg", "rot [deg]"}}) {
-    const auto& st = r[key];
-    s += fmt::format("  {:<10} {:9.4f} {:9.4f} {:9.4f} {:9.4f} {:9.4f} {:9.4f}\n", name,
-                     st["rmse"].get<double>(), st["mean"].get<double>(), st["median"].get<double>(),
-                     st["std"].get<double>(), st["min"].get<double>(), st["max"].get<double>());
-  }
-  if (!r["rpe"].empty()) {
-    s += "\n  RPE            pairs  trans rmse [m]   mean    median   |  rot rmse [deg]   mean   |  drift [%]\n";
-    for (const auto& e : r["rpe"]) {
-      const std::string what = fmt::format("{} {}{}{}", e["delta"].get<double>(), e["unit"].get<std::string>(),
-                                           e["all_pairs"].get<bool>() ? ", all" : "",
-                                           e["pairs_from"].get<std::string>() == "gt" ? ", gt" : "");
-      if (e["n_pairs"].get<std::size_t>() == 0) {
-        s += fmt::format("  {:<13} {:>6}  (none)\n", what, 0);
-        continue;
-      }
-      const auto& tr = e["trans_m"];
-      const auto& ro = e["rot_deg"];
-      s += fmt::format("  {:<13} {:>6}  {:13.4f} {:8.4f} {:8.4f}   | {:14.3f} {:7.3f}   | {:8}\n", what,
-                       e["n_pairs"].get<std::size_t>(), tr["rmse"].get<double>(), tr["mean"].get<double>(),
-                       tr["median"].get<double>(), ro["rmse"].get<double>(), ro["mean"].get<double>(),
-                       e["drift_pct"].is_null() ? std::string("-")
-                                                : fmt::format("{:.2f}", e["drift_pct"]["mean"].get<double>()));
-    }
-  }
-  if (r["consistency"]["available"].get<bool>()) s += consistency_text(r["consistency"]);
-  if (!r["per_object"].empty()) s += per_object_text(r["per_object"], r["euler_metric"].get<std::string>());
-  if (r.contains("detection_calibration") && !r["detection_calibration"].is_null())
-    s += detection_calibration_text(r["detection_calibration"]);
-  for (const auto& w : r["warnings"]) s += "  warning: " + w.get<std::string>() + "\n";
+  for (const auto& [st, name] : {std::pair{&r.ape_trans_m, "trans [m]"}, std::pair{&r.ape_rot_deg, "rot [deg]"}})
+    s += fmt::format("  {:<10} {:9.4f} {:9.4f} {:9.4f} {:9.4f} {:9.4f} {:9.4f}\n", name, st->rmse, st->mean, st->median,
+                     st->std, st->min, st->max);
+  if (!r.rpe.empty()) s += rpe_text(r.rpe);
+  if (r.consistency.available) s += consistency_text(r.consistency);
+  if (!r.per_object.empty()) s += per_object_text(r.per_object, r.euler_metric);
+  if (r.detection_calibration) s += detection_calibration_text(*r.detection_calibration);
+  for (const std::string& w : r.warnings) s += "  warning: " + w + "\n";
   if (!out.empty()) s += fmt::format("\n  wrote {}\n", out.string());
   if (!plot_status.empty()) s += "  plots: " + plot_status + "\n";
   return s;

@@ -23,40 +23,24 @@ using nlohmann::json;
 
 namespace {
 
-constexpr const char* kCols[] = {"rmse_x_m",       "rmse_y_m",     "rmse_z_m",   "rmse_roll_deg",
-                                 "rmse_pitch_deg", "rmse_yaw_deg", "ate_rmse_m", "rot_rmse_deg"};
-constexpr int kNumCols = 8;
-
-double num(const json& j, const std::string& file, const char* a, const char* b) {
-  if (!j.contains(a) || !j[a].contains(b) || !j[a][b].is_number())
-    throw InputError(fmt::format("not a roe eval report: missing number {}.{}", a, b),
-                     {file, 0, 0, std::string(a) + "." + b});
-  return j[a][b].get<double>();
-}
+/// The headline columns (store::headline_metrics), then the RPE columns.
+std::size_t headline_count() { return store::headline_metric_names().size(); }
 
 /// The settings a report was made with that change its numbers: runs evaluated with different ones
-/// should not be averaged without saying so. (key in the summary, where in report.json, name in messages)
+/// should not be averaged without saying so. (key in the summary, its value in a report, name in messages)
 struct Setting {
   const char* key;
-  const char* section;
-  const char* field;
+  json (*value)(const store::EvalReportFile&);
   const char* name;
-  const char* before = nullptr;  ///< the value reports made before the setting existed had (null: unknown)
 };
-constexpr Setting kSettings[] = {{"alignment", "alignment", "type", "alignment (--align)"},
-                                 {"n_align", "alignment", "n_align_requested", "--n-align"},
-                                 {"max_dt_s", "association", "max_dt_s", "--max-dt"},
-                                 {"t_offset_s", "association", "offset_s", "--t-offset"},
-                                 {"assoc", "association", "policy", "association (--assoc)"},
-                                 {"euler_metric", "per_axis", "euler_metric", "Euler metric (--euler)", "error"}};
-
-json setting_value(const json& j, const Setting& s) {
-  if (j.contains(s.section) && j[s.section].is_object()) {
-    if (j[s.section].contains(s.field)) return j[s.section][s.field];
-    if (s.before) return s.before;  // the section is there, written before the setting existed
-  }
-  return nullptr;  // an older or foreign report: unknown
-}
+constexpr Setting kSettings[] = {
+    {"alignment", [](const store::EvalReportFile& f) { return json(f.alignment.type); }, "alignment (--align)"},
+    {"n_align", [](const store::EvalReportFile& f) { return json(f.alignment.n_align_requested); }, "--n-align"},
+    {"max_dt_s", [](const store::EvalReportFile& f) { return json(f.association.max_dt_s); }, "--max-dt"},
+    {"t_offset_s", [](const store::EvalReportFile& f) { return json(f.association.offset_s); }, "--t-offset"},
+    {"assoc", [](const store::EvalReportFile& f) { return json(f.association.policy); }, "association (--assoc)"},
+    {"euler_metric", [](const store::EvalReportFile& f) { return json(f.per_axis.euler_metric); },
+     "Euler metric (--euler)"}};
 
 std::string setting_text(const json& v) {
   if (v.is_null()) return "unknown";
@@ -67,16 +51,14 @@ std::string setting_text(const json& v) {
 
 /// The RPE blocks of a report, by a key naming delta, unit and mode ("1m", "0.5m_all_gt"), with their
 /// translation and rotation RMSE; blocks without pairs are left out.
-std::vector<std::pair<std::string, std::pair<double, double>>> rpe_blocks(const json& j) {
+std::vector<std::pair<std::string, std::pair<double, double>>> rpe_blocks(const store::EvalReportFile& f) {
   std::vector<std::pair<std::string, std::pair<double, double>>> out;
-  if (!j.contains("rpe") || !j["rpe"].is_array()) return out;
-  for (const auto& e : j["rpe"]) {
-    if (!e.contains("trans_m") || !e["trans_m"].is_object() || !e.contains("rot_deg") || !e["rot_deg"].is_object())
-      continue;
-    std::string key = fmt::format("{}{}", e.at("delta").get<double>(), e.at("unit").get<std::string>());
-    if (e.value("all_pairs", false)) key += "_all";
-    if (e.value("pairs_from", std::string("est")) == "gt") key += "_gt";
-    out.push_back({key, {e["trans_m"].at("rmse").get<double>(), e["rot_deg"].at("rmse").get<double>()}});
+  for (const store::ReportRpe& e : f.rpe) {
+    if (!e.trans_m || !e.rot_deg) continue;
+    std::string key = fmt::format("{}{}", e.delta, e.unit);
+    if (e.all_pairs) key += "_all";
+    if (e.pairs_from == "gt") key += "_gt";
+    out.push_back({key, {e.trans_m->rmse, e.rot_deg->rmse}});
   }
   return out;
 }
@@ -117,32 +99,13 @@ std::vector<std::string> duplicate_label_warnings(const std::vector<Row>& rows) 
 
 }  // namespace
 
-const std::vector<std::string>& eval_report_metric_names() {
-  static const std::vector<std::string> names(std::begin(kCols), std::end(kCols));
-  return names;
-}
-
-std::vector<std::pair<std::string, double>> eval_report_metrics(const json& j, const std::string& file) {
-  try {
-    const store::AxisRmse a = store::read_axis_rmse(j.is_object() && j.contains("per_axis") ? j["per_axis"] : json(), file);
-    const double v[kNumCols] = {a.pos_m.x(),   a.pos_m.y(),   a.pos_m.z(),
-                                a.rpy_deg.x(), a.rpy_deg.y(), a.rpy_deg.z(),
-                                num(j, file, "ape_trans_m", "rmse"), num(j, file, "ape_rot_deg", "rmse")};
-    std::vector<std::pair<std::string, double>> out;
-    for (int k = 0; k < kNumCols; ++k) out.emplace_back(kCols[k], v[k]);
-    return out;
-  } catch (const json::exception& e) {
-    throw InputError(std::string("not a roe eval report: ") + e.what(), {file});
-  }
-}
-
 namespace {
 
 struct Row {
   std::string label, file;
   std::optional<std::size_t> n_objects;  ///< none: not a roe run (no objects to count)
   std::size_t n_matched = 0;
-  std::vector<double> v;  ///< kCols (NaN where the report has no such figure), then RPE columns
+  std::vector<double> v;  ///< the headline metrics (NaN where the report has no such figure), then RPE columns
   json settings = json::object();
   std::vector<std::pair<std::string, std::pair<double, double>>> rpe;
 };
@@ -155,15 +118,18 @@ Row evo_row(const fs::path& f) {
   row.file = f.string();
   const std::string title = r.info.value("title", std::string());
   const std::string first_line = title.substr(0, title.find('\n'));
-  int col = -1;
-  if (first_line == "APE w.r.t. translation part (m)" || first_line == "APE w.r.t. point distance (m)") col = 6;
-  if (first_line == "APE w.r.t. rotation angle in degrees (deg)") col = 7;
+  const auto& names = store::headline_metric_names();
+  const auto column = [&names](const char* name) { return std::find(names.begin(), names.end(), name) - names.begin(); };
+  std::ptrdiff_t col = -1;
+  if (first_line == "APE w.r.t. translation part (m)" || first_line == "APE w.r.t. point distance (m)")
+    col = column("ate_rmse_m");
+  if (first_line == "APE w.r.t. rotation angle in degrees (deg)") col = column("rot_rmse_deg");
   if (col < 0 || !r.stats.contains("rmse"))
     throw InputError(fmt::format("evo result '{}': roe --summary reads evo's APE of the translation part, point "
                                  "distance or rotation angle in degrees (the columns ate_rmse_m, rot_rmse_deg)",
                                  first_line),
                      {row.file, 0, 0, "info.json:title"});
-  row.v.assign(kNumCols, std::numeric_limits<double>::quiet_NaN());
+  row.v.assign(headline_count(), std::numeric_limits<double>::quiet_NaN());
   row.v[static_cast<std::size_t>(col)] = r.stats["rmse"].get<double>();
   const std::string est = r.info.value("est_name", std::string());
   row.label = est.empty() ? f.stem().string() : label_from_path(est, false);
@@ -205,23 +171,15 @@ Row report_row(const fs::path& given) {
   fs::path f = given;
   if (io::is_folder(f)) f = io::path_exists(f / "report.json") ? f / "report.json" : f / "eval" / "report.json";
   if (io::path_exists(f) && !io::is_folder(f) && io::looks_like_zip(f)) return evo_row(f);
-  const json j = io::parse_json_file(f);
+  const store::EvalReportFile j = store::read_eval_report_file(f);
   Row row;
-  try {
-    row.file = f.string();
-    row.label = j.contains("info") && j["info"].contains("label") ? j["info"]["label"].get<std::string>()
-                                                                  : f.parent_path().filename().string();
-    const bool run = j.contains("inputs") && j["inputs"].contains("est") &&
-                     j["inputs"]["est"].value("kind", std::string()) == "run";
-    if (run || (j.contains("per_object") && !j["per_object"].empty()))
-      row.n_objects = j.contains("per_object") ? j["per_object"].size() : 0;
-    row.n_matched = j.contains("association") ? j["association"].value("n_matched", std::size_t{0}) : 0;
-    for (const auto& [name, value] : eval_report_metrics(j, row.file)) row.v.push_back(value);
-    for (const Setting& st : kSettings) row.settings[st.key] = setting_value(j, st);
-    row.rpe = rpe_blocks(j);
-  } catch (const json::exception& e) {
-    throw InputError(std::string("not a roe eval report: ") + e.what(), {f.string()});
-  }
+  row.file = f.string();
+  row.label = j.label;
+  if (j.est_is_run() || !j.per_object.empty()) row.n_objects = j.per_object.size();
+  row.n_matched = j.association.n_matched;
+  for (const auto& [name, value] : store::headline_metrics(j)) row.v.push_back(value);
+  for (const Setting& st : kSettings) row.settings[st.key] = st.value(j);
+  row.rpe = rpe_blocks(j);
   return row;
 }
 
@@ -322,10 +280,11 @@ json summary_json(const Table& t) {
 /// The RPE columns' Markdown table (none when no RPE block is in every report).
 std::string rpe_markdown(const Table& t) {
   const int n_cols = static_cast<int>(t.cols.size());
-  if (n_cols <= kNumCols) return "";
+  const int n_head = static_cast<int>(headline_count());
+  if (n_cols <= n_head) return "";
   std::string md = "\n| Run | Label |";
   std::string sep = "|---|---|";
-  for (int k = kNumCols; k < n_cols; k += 2) {
+  for (int k = n_head; k < n_cols; k += 2) {
     const std::string key = t.cols[k].substr(4, t.cols[k].size() - 4 - std::string("_trans_rmse_m").size());
     md += fmt::format(" RPE {} trans RMSE [m] | RPE {} rot RMSE [deg] |", key, key);
     sep += "---|---|";
@@ -334,7 +293,7 @@ std::string rpe_markdown(const Table& t) {
   const auto rpe_row = [&](const std::string& a, const std::string& b, const std::vector<double>& v,
                            const char* prefix) {
     std::string line = fmt::format("| {} | {} |", a, b);
-    for (int k = kNumCols; k < n_cols; k += 2)
+    for (int k = n_head; k < n_cols; k += 2)
       line += fmt::format(" {}{:.4f} | {}{:.3f} |", prefix, v[k], prefix, v[k + 1]);
     return line + "\n";
   };
@@ -455,7 +414,7 @@ EvalSummaryResult summarize_eval_reports(const EvalSummaryOptions& o) {
   t.warnings = duplicate_label_warnings(t.rows);
   t.n_label_warnings = t.warnings.size();
   t.common = common_settings(t.rows, t.warnings);
-  t.cols.assign(std::begin(kCols), std::end(kCols));
+  t.cols = store::headline_metric_names();
   add_rpe_columns(t.rows, t.cols, t.warnings);
   column_stats(t.rows, t.cols, t.mean, t.sd, t.warnings);
 

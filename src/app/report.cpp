@@ -156,16 +156,17 @@ ReportResult write_report(const ReportOptions& o) {
                {"figures", names},
                {"figures_skipped", skipped},
                {"figures_dir", o.figures_dir.empty() ? json(nullptr) : json(o.figures_dir)},
-               {"label", ev.report["info"]["label"]},
-               {"per_axis", ev.report["per_axis"]},
-               {"ape_trans_rmse_m", ev.report["ape_trans_m"]["rmse"]},
-               {"ape_rot_rmse_deg", ev.report["ape_rot_deg"]["rmse"]},
+               {"label", ev.report.label},
+               {"per_axis", store::to_json(ev.report.per_axis)},
+               {"ape_trans_rmse_m", ev.report.ape_trans_m.rmse},
+               {"ape_rot_rmse_deg", ev.report.ape_rot_deg.rmse},
                {"calib_check", calib.contains("error") ? json{{"error", calib["error"]}}
                                                        : json{{"passed", calib["passed"]}, {"counts", calib["counts"]}}},
                {"timing_s",
                 {{"eval", eval_s}, {"calib_check", calib_s}, {"figures", fig_s}, {"html", html_s},
                  {"total", seconds_since(t_start)}}},
-               {"warnings", ev.report["warnings"]}};
+               {"warnings", ev.report.warnings}};
+  r.eval = ev.report;
   return r;
 }
 
@@ -173,9 +174,10 @@ std::string ReportResult::to_text() const {
   const json& s = summary;
   std::string t = fmt::format("roe report: {} ({:.1f} MB, {} figures)\n", s["out"].get<std::string>(),
                               s["bytes"].get<double>() / 1e6, s["figures"].size());
-  const store::AxisRmse a = store::read_axis_rmse(s["per_axis"]);
-  t += fmt::format("  RMSE x/y/z {:.4f} {:.4f} {:.4f} m, roll/pitch/yaw {:.3f} {:.3f} {:.3f} deg\n", a.pos_m.x(),
-                   a.pos_m.y(), a.pos_m.z(), a.rpy_deg.x(), a.rpy_deg.y(), a.rpy_deg.z());
+  const Eigen::Vector3d& p = eval.per_axis.pos_rmse_m;
+  const Eigen::Vector3d& e = eval.per_axis.rpy_deg.rmse;
+  t += fmt::format("  RMSE x/y/z {:.4f} {:.4f} {:.4f} m, roll/pitch/yaw {:.3f} {:.3f} {:.3f} deg\n", p.x(), p.y(),
+                   p.z(), e.x(), e.y(), e.z());
   const json& c = s["calib_check"];
   if (c.contains("error"))
     t += "  calib-check: not run (" + c["error"].get<std::string>() + ")\n";

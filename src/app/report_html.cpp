@@ -79,7 +79,7 @@ std::string caption_html(const std::string& text) {
 
 namespace {
 
-/// `j` at a dotted path ("per_axis.pos_rmse_m.x"); null when absent.
+/// run.json's value at a dotted path ("counts.detections"); null when absent.
 const json& at_path(const json& j, const std::string& path) {
   static const json null;
   const json* cur = &j;
@@ -96,12 +96,13 @@ const json& at_path(const json& j, const std::string& path) {
 
 /// A table cell holding a number of the evaluation report: the shown value is rounded, the exact
 /// one is in data-value, and data-path says where it is in report.json (the browser test reads both).
-std::string num_cell(const json& report, const std::string& path, int decimals) {
-  const json& v = at_path(report, path);
-  if (!v.is_number()) return "<td class=\"na\">–</td>";
-  const double x = v.get<double>();
-  return fmt::format("<td data-path=\"{}\" data-value=\"{}\">{:.{}f}</td>", esc(path), io::dump_json(v), x, decimals);
+std::string num_cell(const std::string& path, const std::optional<double>& v, int decimals) {
+  if (!v) return "<td class=\"na\">–</td>";
+  return fmt::format("<td data-path=\"{}\" data-value=\"{}\">{:.{}f}</td>", esc(path), io::dump_json(json(*v)), *v,
+                     decimals);
 }
+
+std::string plain(double v) { return fmt::format("{:.6g}", v); }
 
 std::string plain(const json& v) {
   if (v.is_string()) return v.get<std::string>();
@@ -120,50 +121,44 @@ void flatten_rows(const json& j, const std::string& prefix, std::string& out) {
   }
 }
 
-std::string section_summary(const json& ev) {
+std::string section_summary(const store::EvalReportFile& ev) {
   std::string s = "<section id=\"evaluation\"><h2>Evaluation</h2>\n";
-  const json& as = ev["association"];
-  const json& al = ev["alignment"];
+  const store::ReportAssociation& as = ev.association;
+  const store::ReportAlignment& al = ev.alignment;
   s += fmt::format(
       "<p>Estimate {} against ground truth {}: {} of {} estimate poses matched (max Δt {} s, {}); alignment "
       "<b>{}</b> on {} pairs, scale {:.6f}.</p>\n",
-      esc(plain(at_path(ev, "inputs.est.description"))), esc(plain(at_path(ev, "inputs.gt.description"))),
-      plain(as["n_matched"]), plain(as["n_est"]), plain(as["max_dt_s"]), esc(plain(as["policy"])),
-      esc(plain(al["type"])), plain(al["n_aligned"]), al.value("scale", 1.0));
+      esc(ev.est.description), esc(ev.gt.description), as.n_matched, as.n_est, plain(as.max_dt_s), esc(as.policy),
+      esc(al.type), al.n_aligned, al.scale);
   s += "<table class=\"num\" id=\"per-axis\"><caption>RMSE per axis (the paper's tables)</caption>\n"
        "<tr><th></th><th>x [m]</th><th>y [m]</th><th>z [m]</th><th>roll [°]</th><th>pitch [°]</th>"
        "<th>yaw [°]</th></tr>\n<tr><th>RMSE</th>";
-  for (const char* k : {"x", "y", "z"}) s += num_cell(ev, std::string("per_axis.pos_rmse_m.") + k, 4);
-  for (const char* k : {"roll", "pitch", "yaw"}) s += num_cell(ev, std::string("per_axis.rpy_rmse_deg.") + k, 3);
+  const std::vector<store::ReportCell> axes = store::per_axis_rmse_cells(ev);
+  for (std::size_t i = 0; i < axes.size(); ++i) s += num_cell(axes[i].path, axes[i].value, i < 3 ? 4 : 3);
   s += "</tr></table>\n";
   s += "<table class=\"num\" id=\"ape\"><caption>Absolute pose error (evo's statistics)</caption>\n<tr><th></th>";
-  const char* stats[] = {"rmse", "mean", "median", "std", "min", "max"};
-  for (const char* k : stats) s += fmt::format("<th>{}</th>", k);
+  for (const char* k : {"rmse", "mean", "median", "std", "min", "max"}) s += fmt::format("<th>{}</th>", k);
   s += "</tr>\n";
-  for (const auto& [key, name, dec] : {std::tuple{"ape_trans_m", "translation [m]", 4},
-                                       std::tuple{"ape_rot_deg", "rotation [°]", 3}}) {
+  for (const auto& [rotation, name, dec] : {std::tuple{false, "translation [m]", 4}, std::tuple{true, "rotation [°]", 3}}) {
     s += fmt::format("<tr><th>{}</th>", name);
-    for (const char* k : stats) s += num_cell(ev, std::string(key) + "." + k, dec);
+    for (const store::ReportCell& c : store::ape_cells(ev, rotation)) s += num_cell(c.path, c.value, dec);
     s += "</tr>\n";
   }
   s += "</table>\n";
-  if (at_path(ev, "consistency.available") == true) {
+  if (ev.consistency.available) {
     s += "<table class=\"num\" id=\"nees\"><caption>Average NEES after the alignment (3 expected)</caption>"
          "<tr><th>position</th><th>orientation</th></tr><tr>";
-    s += num_cell(ev, "consistency.anees_p", 3) + num_cell(ev, "consistency.anees_r", 3) + "</tr></table>\n";
+    for (const store::ReportCell& c : store::nees_cells(ev)) s += num_cell(c.path, c.value, 3);
+    s += "</tr></table>\n";
   }
-  if (ev.contains("rpe") && !ev["rpe"].empty()) {
+  if (!ev.rpe.empty()) {
     s += "<table class=\"num\" id=\"rpe\"><caption>Relative pose error</caption><tr><th>Δ</th><th>pairs</th>"
          "<th>trans rmse [m]</th><th>rot rmse [°]</th></tr>\n";
-    for (std::size_t i = 0; i < ev["rpe"].size(); ++i) {
-      const std::string p = fmt::format("rpe.{}", i);
-      s += fmt::format("<tr><th>{} {}</th><td>{}</td>", plain(ev["rpe"][i]["delta"]), esc(plain(ev["rpe"][i]["unit"])),
-                       plain(ev["rpe"][i]["n_pairs"]));
-      // rpe is an array: its cells carry no data-path (at_path walks objects only).
-      for (const char* k : {"trans_m", "rot_deg"}) {
-        const json& st = ev["rpe"][i][k];
-        s += st.is_object() ? fmt::format("<td>{:.4f}</td>", st["rmse"].get<double>()) : "<td class=\"na\">–</td>";
-      }
+    for (const store::ReportRpe& e : ev.rpe) {
+      s += fmt::format("<tr><th>{} {}</th><td>{}</td>", plain(e.delta), esc(e.unit), e.n_pairs);
+      // rpe is an array: its cells carry no data-path.
+      for (const std::optional<eval::Stats>& st : {e.trans_m, e.rot_deg})
+        s += st ? fmt::format("<td>{:.4f}</td>", st->rmse) : "<td class=\"na\">–</td>";
       s += "</tr>\n";
     }
     s += "</table>\n";
@@ -172,23 +167,23 @@ std::string section_summary(const json& ev) {
 }
 
 /// The RMSE cells of one subset ("all" or "accepted") of an object of report.json's per_object.
-std::string fit_cells(const json& f) {
-  if (!f.is_object() || f.value("n", 0) == 0) {
+std::string fit_cells(const store::ReportFit* f) {
+  if (!f || f->n == 0) {
     std::string s = "<td>0</td>";
     for (int k = 0; k < 6; ++k) s += "<td class=\"na\">–</td>";
     return s;
   }
-  const store::AxisRmse a = store::read_axis_rmse(f, "", "per_object");
+  const Eigen::Vector3d& p = f->pos_rmse_m;
+  const Eigen::Vector3d& e = f->rpy_rmse_deg;
   return fmt::format("<td>{}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.3f}</td><td>{:.2f}</td><td>{:.2f}</td>"
                      "<td>{:.2f}</td>",
-                     f["n"].get<int>(), a.pos_m.x(), a.pos_m.y(), a.pos_m.z(), a.rpy_deg.x(), a.rpy_deg.y(),
-                     a.rpy_deg.z());
+                     f->n, p.x(), p.y(), p.z(), e.x(), e.y(), e.z());
 }
 
 /// Detections per object by status (run.json) and, as roe eval prints them, the RMSE of the object's
 /// reprojected raw detections on two rows: all of them (the rejected outliers included) and the accepted
 /// ones alone; a last row with the totals run.json counts.
-std::string section_objects(const json& ev, const json& run) {
+std::string section_objects(const store::EvalReportFile& ev, const json& run) {
   std::string s = "<section id=\"objects\"><h2>Objects</h2>\n";
   const json& per = at_path(run, "counts.detections.per_object");
   const char* statuses[] = {"detections", "accepted", "initialized", "rejected_chi2", "rejected_no_main",
@@ -204,9 +199,8 @@ std::string section_objects(const json& ev, const json& run) {
   for (std::size_t i = 0; i < std::size(statuses); ++i)
     s += fmt::format("<th title=\"{}\">{}</th>", statuses[i], shown[i]);
   s += "<th>x</th><th>y</th><th>z</th><th>roll</th><th>pitch</th><th>yaw</th></tr>\n";
-  std::map<int, const json*> eval_obj;
-  if (ev.contains("per_object"))
-    for (const json& o : ev["per_object"]) eval_obj[o["object_id"].get<int>()] = &o;
+  std::map<int, const store::ReportObject*> eval_obj;
+  for (const store::ReportObject& o : ev.per_object) eval_obj[o.object_id] = &o;
   std::set<int> ids;
   for (const auto& [k, v] : eval_obj) ids.insert(k);
   if (per.is_object())
@@ -221,12 +215,12 @@ std::string section_objects(const json& ev, const json& run) {
   };
   for (int id : ids) {
     const std::string key = std::to_string(id);
-    const json* o = eval_obj.count(id) ? eval_obj[id] : nullptr;
+    const store::ReportObject* o = eval_obj.count(id) ? eval_obj[id] : nullptr;
     s += fmt::format("<tr class=\"subset-all\" data-object=\"{}\"><th rowspan=\"2\">{}</th>", id, id);
     s += count_cells(per.is_object() && per.contains(key) ? per[key] : json());
-    s += "<th>all</th>" + fit_cells(o ? (*o)["all"] : json()) + "</tr>\n";
+    s += "<th>all</th>" + fit_cells(o ? &o->all : nullptr) + "</tr>\n";
     s += fmt::format("<tr class=\"subset-accepted\" data-object=\"{}\"><th>accepted</th>{}</tr>\n", id,
-                     fit_cells(o ? o->value("accepted", json()) : json()));
+                     fit_cells(o ? &o->accepted : nullptr));
   }
   const json& total = at_path(run, "counts.detections");
   if (total.is_object()) {
@@ -309,14 +303,14 @@ summary{cursor:pointer}.meta{color:#555}
 
 }  // namespace
 
-std::string report_html(const json& ev, const json& run, const json& calib, const FigureSet& figures,
+std::string report_html(const store::EvalReportFile& ev, const json& run, const json& calib, const FigureSet& figures,
                         const fs::path& figures_dir) {
-  const std::string label = plain(at_path(ev, "info.label"));
+  const std::string& label = ev.label;
   std::string h = "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n";
   h += "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
   h += fmt::format("<title>roe report: {}</title>\n<style>{}</style></head><body>\n", esc(label), kStyle);
   h += fmt::format("<h1>roe report: {}</h1>\n<p class=\"meta\">run {} · ground truth {} · roe {}</p>\n", esc(label),
-                   esc(plain(at_path(ev, "inputs.est.path"))), esc(plain(at_path(ev, "inputs.gt.path"))), kVersion);
+                   esc(ev.est.path), esc(ev.gt.path), kVersion);
   h += "<nav><a href=\"#evaluation\">Evaluation</a> · <a href=\"#objects\">Objects</a> · <a href=\"#calib-check\">Calibration checks</a> · <a href=\"#figures\">Figures</a> · <a href=\"#configuration\">Configuration</a> · <a href=\"#warnings\">Warnings</a></nav>\n";
   h += section_summary(ev);
   h += section_objects(ev, run);
@@ -331,9 +325,9 @@ std::string report_html(const json& ev, const json& run, const json& calib, cons
                 {"timing_s", run.value("timing_s", json::object())}};
     h += section_table("configuration", "Configuration (run.json)", cfg, false);
   }
-  h += section_table("eval-options", "Evaluation options", ev.value("options", json::object()), false);
+  h += section_table("eval-options", "Evaluation options", ev.options, false);
   json warnings = json::array();
-  for (const json& w : ev.value("warnings", json::array())) warnings.push_back("eval: " + w.get<std::string>());
+  for (const std::string& w : ev.warnings) warnings.push_back("eval: " + w);
   if (run.is_object())
     for (const json& w : run.value("warnings", json::array())) warnings.push_back("run: " + plain(w));
   h += "<section id=\"warnings\"><h2>Warnings</h2>\n";
@@ -341,7 +335,7 @@ std::string report_html(const json& ev, const json& run, const json& calib, cons
   for (const json& w : warnings) h += "<p>" + esc(w.get<std::string>()) + "</p>\n";
   h += "</section>\n";
   // The evaluation report itself, for scripts (a data block: browsers do not execute it).
-  std::string data = io::dump_json(ev);
+  std::string data = io::dump_json(store::to_json(ev));
   for (std::size_t p = 0; (p = data.find("</", p)) != std::string::npos;) data.replace(p, 2, "<\\/");
   h += "<script type=\"application/json\" id=\"roe-eval-report\">" + data + "</script>\n";
   h += "</body></html>\n";

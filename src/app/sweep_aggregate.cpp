@@ -12,6 +12,7 @@
 #include "roe/io/csv.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
+#include "roe/store/eval_report.hpp"
 
 namespace roe::app {
 namespace detail {
@@ -75,14 +76,14 @@ std::string sweep_euler_metric() { return kDefaultEulerMetric; }
 
 json summary_json(const eval::SampleSummary& s) {
   const auto f = [](double v) { return std::isnan(v) ? json(nullptr) : json(v); };
-  return {{"n", s.n},           {"mean", f(s.mean)},       {"std", f(s.std)},         {"std_pop", f(s.std_pop)},
+  return {{"n", s.n},           {"mean", f(s.mean)},       {"std", f(s.std)},         {"std_sample", f(s.std_sample)},
           {"median", f(s.median)}, {"min", f(s.min)},      {"max", f(s.max)},         {"ci_low", f(s.ci_low)},
           {"ci_high", f(s.ci_high)}};
 }
 
 }  // namespace
 
-const std::vector<std::string>& sweep_metric_names() { return eval_report_metric_names(); }
+const std::vector<std::string>& sweep_metric_names() { return store::headline_metric_names(); }
 
 Aggregate aggregate_results(const std::vector<JobResult>& results, const std::vector<std::string>& axis_names,
                             const AggregateOptions& o) {
@@ -196,8 +197,9 @@ json Aggregate::to_json() const {
           {"metrics", sweep_metric_names()},
           {"euler_metric", sweep_euler_metric()},
           {"confidence", confidence},
-          {"std_definition", "sample (ddof 1); std_pop: population (ddof 0)"},
-          {"ci_definition", "mean ± t_{(1+confidence)/2, n-1} · std / sqrt(n)"},
+          {"std_definition", "std: population (ddof 0, numpy's default, as roe eval --summary); std_sample: "
+                             "sample (ddof 1), which the tables show and the CI uses"},
+          {"ci_definition", "mean ± t_{(1+confidence)/2, n-1} · std_sample / sqrt(n)"},
           {"wilcoxon_definition", "two-sided signed-rank, scipy.stats.wilcoxon defaults (zeros dropped, exact for "
                                   "n <= 50 without zeros, else normal approximation with tie correction)"},
           {"n_jobs", n_jobs},
@@ -209,7 +211,7 @@ json Aggregate::to_json() const {
 
 std::string Aggregate::markdown() const {
   const auto& metrics = sweep_metric_names();
-  std::string md = fmt::format("## Groups (mean ± std, [{:g} % CI]; Euler metric '{}')\n\n|", confidence * 100.0,
+  std::string md = fmt::format("## Groups (mean ± std_sample, [{:g} % CI]; Euler metric '{}')\n\n|", confidence * 100.0,
                                sweep_euler_metric());
   std::string sep = "|";
   for (const auto& a : group_by) {
@@ -230,7 +232,8 @@ std::string Aggregate::markdown() const {
     for (const auto& m : metrics) {
       const auto& s = g.metrics.at(m);
       const int d = decimals(m);
-      md += fmt::format(" {} ± {} [{}, {}] |", num(s.mean, d), num(s.std, d), num(s.ci_low, d), num(s.ci_high, d));
+      md += fmt::format(" {} ± {} [{}, {}] |", num(s.mean, d), num(s.std_sample, d), num(s.ci_low, d),
+                        num(s.ci_high, d));
     }
     md += "\n";
   }
@@ -263,7 +266,7 @@ std::string Aggregate::latex() const {
   const auto& metrics = sweep_metric_names();
   std::string cols(group_by.size() + 1, 'l');
   cols += std::string(metrics.size(), 'r');
-  std::string t = "% roe sweep aggregate: mean ± sample std; Euler metric '" + sweep_euler_metric() +
+  std::string t = "% roe sweep aggregate: mean ± std_sample (ddof 1); Euler metric '" + sweep_euler_metric() +
                   "'; needs \\usepackage{booktabs}\n\\begin{tabular}{" + cols + "}\n\\toprule\n";
   for (const auto& a : group_by) t += latex_escape(a) + " & ";
   t += "$n$";
@@ -274,7 +277,7 @@ std::string Aggregate::latex() const {
     t += std::to_string(g.n);
     for (const auto& m : metrics) {
       const auto& s = g.metrics.at(m);
-      t += fmt::format(" & ${} \\pm {}$", num(s.mean, decimals(m)), num(s.std, decimals(m)));
+      t += fmt::format(" & ${} \\pm {}$", num(s.mean, decimals(m)), num(s.std_sample, decimals(m)));
     }
     t += " \\\\\n";
   }
@@ -303,14 +306,15 @@ std::string Aggregate::latex() const {
 std::string Aggregate::csv() const {
   io::CsvWriter w;
   std::vector<std::string> h = group_by;
-  for (const char* c : {"metric", "n", "mean", "std", "std_pop", "median", "min", "max", "ci_low", "ci_high"}) h.push_back(c);
+  for (const char* c : {"metric", "n", "mean", "std_sample", "std", "median", "min", "max", "ci_low", "ci_high"})
+    h.push_back(c);
   w.header(h);
   for (const auto& g : groups)
     for (const auto& m : sweep_metric_names()) {
       for (const auto& a : group_by) w.add(value_text(g.key[a]));
       const auto& s = g.metrics.at(m);
       w.add(m).add(static_cast<std::int64_t>(s.n));
-      for (double v : {s.mean, s.std, s.std_pop, s.median, s.min, s.max, s.ci_low, s.ci_high}) w.add(v);
+      for (double v : {s.mean, s.std_sample, s.std, s.median, s.min, s.max, s.ci_low, s.ci_high}) w.add(v);
       w.end_row();
     }
   return w.str();
@@ -318,13 +322,13 @@ std::string Aggregate::csv() const {
 
 std::string Aggregate::comparisons_csv() const {
   io::CsvWriter w;
-  w.header({"a", "b", "scope", "metric", "n_pairs", "mean_diff", "std_diff", "ci_low", "ci_high", "wilcoxon_statistic",
+  w.header({"a", "b", "scope", "metric", "n_pairs", "mean_diff", "std_sample_diff", "ci_low", "ci_high", "wilcoxon_statistic",
             "wilcoxon_p", "wilcoxon_method"});
   for (const auto& c : comparisons)
     for (const auto& m : sweep_metric_names()) {
       const auto& p = c.metrics.at(m);
       w.add(c.a).add(c.b).add(key_text(c.key)).add(m).add(static_cast<std::int64_t>(c.n_pairs));
-      for (double v : {p.difference.mean, p.difference.std, p.difference.ci_low, p.difference.ci_high,
+      for (double v : {p.difference.mean, p.difference.std_sample, p.difference.ci_low, p.difference.ci_high,
                        p.wilcoxon.statistic, p.wilcoxon.p_value})
         w.add(v);
       w.add(p.wilcoxon.method);

@@ -116,7 +116,7 @@ void execute(const SweepJob& job, const fs::path& work, json& out) {
   const EvalResult er = run_eval(eo);
   timing["eval"] = seconds_since(t0);
   json metrics = json::object();
-  for (const auto& [name, value] : eval_report_metrics(er.report, eo.out + "/report.json")) metrics[name] = value;
+  for (const auto& [name, value] : store::headline_metrics(er.report)) metrics[name] = value;
   out["metrics"] = metrics;
   out["warnings"] = rr.output.warnings;
   out["timing_s"] = timing;

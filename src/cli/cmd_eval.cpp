@@ -274,7 +274,7 @@ RunFn setup(CLI::App& sub) {
                        {"roe eval"});
     a->opt.force = globals().force;
     const auto r = app::run_eval(a->opt);
-    emit(r.report, r.to_text());
+    emit(r.report_json(), r.to_text());
     return 0;
   };
 }

@@ -53,7 +53,7 @@ SampleSummary summarize_sample(const std::vector<double>& values, double confide
   s.confidence = confidence;
   s.n = values.size();
   if (values.empty()) {
-    s.mean = s.std = s.std_pop = s.median = s.min = s.max = s.ci_low = s.ci_high = kNaN;
+    s.mean = s.std = s.std_sample = s.median = s.min = s.max = s.ci_low = s.ci_high = kNaN;
     return s;
   }
   const Stats st = compute_stats(values);  // mean, median, min, max, population std (evo's definitions)
@@ -61,14 +61,14 @@ SampleSummary summarize_sample(const std::vector<double>& values, double confide
   s.median = st.median;
   s.min = st.min;
   s.max = st.max;
-  s.std_pop = st.std;
+  s.std = st.std;
   if (s.n < 2) {
-    s.std = s.ci_low = s.ci_high = kNaN;
+    s.std_sample = s.ci_low = s.ci_high = kNaN;
     return s;
   }
   const double n = static_cast<double>(s.n);
-  s.std = st.std * std::sqrt(n / (n - 1.0));
-  const double half = math::student_t_quantile(0.5 * (1.0 + confidence), n - 1.0) * s.std / std::sqrt(n);
+  s.std_sample = st.std * std::sqrt(n / (n - 1.0));
+  const double half = math::student_t_quantile(0.5 * (1.0 + confidence), n - 1.0) * s.std_sample / std::sqrt(n);
   s.ci_low = s.mean - half;
   s.ci_high = s.mean + half;
   return s;

@@ -2,6 +2,8 @@
 // against a synthetic dataset folder (roe.json with mocap T_B_I and time offset + mocap0), the
 // output files, per-object traces, NEES, error paths, and --summary.
 #include <catch2/catch.hpp>
+#include <fmt/format.h>
+#include <sstream>
 #include <cmath>
 #include <filesystem>
 #include <cstdlib>
@@ -114,7 +116,7 @@ TEST_CASE("roe eval: run folder vs dataset (mocap with T_B_I and time offset)", 
   o.est = f.run.string();
   o.gt = f.dataset.string();
   const app::EvalResult r = app::run_eval(o);
-  const auto& j = r.report;
+  const auto j = r.report_json();
   // every estimate pose has a mocap stamp within 10 ms (mocap at 100 Hz, shifted by the offset)
   CHECK(j["association"]["n_matched"] == 380);
   CHECK(j["association"]["max_abs_dt_s"].get<double>() < 1e-6);
@@ -193,7 +195,7 @@ TEST_CASE("roe eval: run folder vs dataset (mocap with T_B_I and time offset)", 
     o2.no_out = true;
     o2.t_offset_s = -f.offset_s;
     const auto r2 = app::run_eval(o2);
-    CHECK(r2.report["ape_trans_m"]["rmse"].get<double>() > 0.02);
+    CHECK(r2.report_json()["ape_trans_m"]["rmse"].get<double>() > 0.02);
   }
 }
 
@@ -248,13 +250,13 @@ TEST_CASE("roe eval: cnspy covariance in the body frame (type1) is rotated into 
   const auto r1 = app::run_eval(o);
   o.est = (root / "est2.csv").string();
   const auto r2 = app::run_eval(o);
-  REQUIRE(r1.report["association"]["n_matched"].get<int>() == n);
+  REQUIRE(r1.report_json()["association"]["n_matched"].get<int>() == n);
   // The average NEES (1/n) Σ eᵀ P_W⁻¹ e (3 for a consistent estimate), from either file.
-  CHECK(r2.report["consistency"]["anees_p"].get<double>() == Approx(nees_sum / n).epsilon(1e-6));
-  CHECK(r1.report["consistency"]["anees_p"].get<double>() == Approx(nees_sum / n).epsilon(1e-6));
+  CHECK(r2.report_json()["consistency"]["anees_p"].get<double>() == Approx(nees_sum / n).epsilon(1e-6));
+  CHECK(r1.report_json()["consistency"]["anees_p"].get<double>() == Approx(nees_sum / n).epsilon(1e-6));
   // Path lengths: the ground truth's, and the estimate's (longer: its errors zig-zag).
-  CHECK(r1.report["path_length_m"]["gt"].get<double>() == Approx(L).epsilon(1e-9));
-  CHECK(r1.report["path_length_m"]["est"].get<double>() > L + 0.5);
+  CHECK(r1.report_json()["path_length_m"]["gt"].get<double>() == Approx(L).epsilon(1e-9));
+  CHECK(r1.report_json()["path_length_m"]["est"].get<double>() > L + 0.5);
   fs::remove_all(root);
 }
 
@@ -270,17 +272,17 @@ TEST_CASE("roe eval: alignment variants and options", "[app][eval]") {
     INFO(a);
     if (std::string(a) == "posyaw") {
       // T_W_M is a pure yaw + translation: posyaw recovers it exactly as well
-      CHECK(r.report["ape_trans_m"]["rmse"].get<double>() < 1e-6);
+      CHECK(r.report_json()["ape_trans_m"]["rmse"].get<double>() < 1e-6);
     } else {
-      CHECK(r.report["ape_trans_m"]["rmse"].get<double>() < 1e-6);
-      CHECK(r.report["ape_rot_deg"]["rmse"].get<double>() < 1e-4);
+      CHECK(r.report_json()["ape_trans_m"]["rmse"].get<double>() < 1e-6);
+      CHECK(r.report_json()["ape_rot_deg"]["rmse"].get<double>() < 1e-4);
     }
   }
   o.align = "none";
-  CHECK(app::run_eval(o).report["ape_trans_m"]["rmse"].get<double>() > 0.5);
+  CHECK(app::run_eval(o).report_json()["ape_trans_m"]["rmse"].get<double>() > 0.5);
   o.align = "se3";
   o.n_align = 10;
-  CHECK(app::run_eval(o).report["alignment"]["n_aligned"] == 10);
+  CHECK(app::run_eval(o).report_json()["alignment"]["n_aligned"] == 10);
   o.n_align = 0;
   CHECK_THROWS_AS(app::run_eval(o), InputError);
   o.n_align = -1;
@@ -288,7 +290,7 @@ TEST_CASE("roe eval: alignment variants and options", "[app][eval]") {
   CHECK_THROWS_AS(app::run_eval(o), InputError);
   o.align = "se3";
   o.assoc = "unique";
-  CHECK(app::run_eval(o).report["association"]["policy"] == "unique");
+  CHECK(app::run_eval(o).report_json()["association"]["policy"] == "unique");
   o.assoc = "nearest";
   o.plot = true;  // --plot without an output folder
   CHECK_THROWS_AS(app::run_eval(o), InputError);
@@ -343,7 +345,7 @@ TEST_CASE("roe eval: degenerate (straight-line) trajectory is refused for se3, f
   o.no_out = true;
   CHECK_THROWS_AS(app::run_eval(o), eval::DegenerateAlignmentError);
   o.align = "origin";
-  CHECK(app::run_eval(o).report["ape_trans_m"]["rmse"].get<double>() < 1e-6);
+  CHECK(app::run_eval(o).report_json()["ape_trans_m"]["rmse"].get<double>() < 1e-6);
 }
 
 TEST_CASE("roe eval --summary: rows, mean and population std", "[app][eval]") {
@@ -371,6 +373,25 @@ TEST_CASE("roe eval --summary: rows, mean and population std", "[app][eval]") {
   for (double x : xs) var += (x - mean) * (x - mean) / 3.0;
   CHECK(s.summary["mean"]["rmse_x_m"].get<double>() == Approx(mean));
   CHECK(s.summary["std"]["rmse_x_m"].get<double>() == Approx(std::sqrt(var)));
+  // roe's one `std` convention: numpy's default (ddof 0), as evo_res prints it, and Python's pstdev;
+  // computed outside roe from the rows' values (docs/eval.md "One std convention")
+  for (const char* m : {"rmse_x_m", "rmse_yaw_deg", "ate_rmse_m"}) {
+    std::string list;
+    for (const auto& r : s.summary["runs"]) list += fmt::format("{}{}", list.empty() ? "" : ",", r[m].get<double>());
+    const test::RunResult py = test::run_shell(fmt::format("/usr/bin/python3 -c 'import statistics, numpy as np; v = [{}]; "
+                                               "print(repr(float(np.std(v))), repr(statistics.pstdev(v)), "
+                                               "repr(statistics.stdev(v)))'",
+                                               list));
+    REQUIRE(py.code == 0);
+    std::istringstream in(py.out);
+    double np_std = 0.0, pstdev = 0.0, stdev = 0.0;
+    in >> np_std >> pstdev >> stdev;
+    INFO(m << ": " << py.out);
+    CHECK(s.summary["std"][m].get<double>() == Approx(np_std).epsilon(1e-12));
+    CHECK(s.summary["std"][m].get<double>() == Approx(pstdev).epsilon(1e-12));
+    CHECK(s.summary["std"][m].get<double>() != Approx(stdev).epsilon(1e-6));  // not the sample std
+  }
+  CHECK(s.summary["std_definition"] == "population (ddof 0)");
   CHECK(s.summary["runs"][1]["label"] == "run1");
   CHECK(s.summary["runs"][0]["n_objects"] == 2);
   CHECK(s.markdown.find("| mean |") != std::string::npos);
@@ -401,6 +422,17 @@ TEST_CASE("roe eval --summary: rows, mean and population std", "[app][eval]") {
   std::ofstream(f.root / "bad.json") << R"({"per_axis": {"pos_rmse_m": {"x": "a"}, "rpy_rmse_deg": {}}})";
   so.reports = {(f.root / "bad.json").string()};  // wrong types: a clear InputError, not an internal error
   CHECK_THROWS_AS(app::summarize_eval_reports(so), InputError);
+  // the typed reader is strict: a report missing a field is refused, naming the file and the key path
+  {
+    io::json j = io::parse_json_file(fs::path(reports[0]) / "report.json");
+    j["per_axis"].erase("euler_metric");
+    std::ofstream(f.root / "old.json") << j.dump(2);
+    so.reports = {reports[1], (f.root / "old.json").string()};
+    const InputError e = test::expect_input_error([&] { app::summarize_eval_reports(so); });
+    CHECK(e.context().key == "per_axis.euler_metric");
+    CHECK(e.context().file == (f.root / "old.json").string());
+    CHECK_THAT(e.what(), Catch::Contains("not a roe eval report") && Catch::Contains("per_axis.euler_metric"));
+  }
 }
 
 TEST_CASE("roe eval --plot draws the figure set when matplotlib is available", "[app][eval][plot]") {
@@ -417,7 +449,7 @@ TEST_CASE("roe eval --plot draws the figure set when matplotlib is available", "
     WARN("skipped: " << e.what());
     return;
   }
-  CHECK(r.report["plots"]["ok"] == true);
+  CHECK(r.report_json()["plots"]["ok"] == true);
   const fs::path plots = f.run / "eval/plots";
   for (const char* p : {"fig3", "consistency", "trajectory", "errors"}) {
     CHECK(fs::file_size(plots / (std::string(p) + ".png")) > 10000);
@@ -439,7 +471,7 @@ TEST_CASE("roe eval --plot draws the figure set when matplotlib is available", "
   o.force = true;
   o.figures.vector = "svg";
   const auto r2 = app::run_eval(o);
-  REQUIRE(r2.report["plots"]["ok"] == true);
+  REQUIRE(r2.report_json()["plots"]["ok"] == true);
   CHECK(fs::file_size(plots / "rpe.png") > 10000);
   CHECK(fs::exists(plots / "rpe.svg"));
   CHECK(r2.plot_status.find("rpe") != std::string::npos);
@@ -522,10 +554,10 @@ TEST_CASE("roe eval: the matched-pairs warning counts only the span both traject
   o.gt = gt.string();
   o.no_out = true;
   const auto r = app::run_eval(o);
-  INFO(r.report["warnings"].dump());
-  CHECK(r.report["association"]["n_matched"] == 1601);
-  CHECK(r.report["association"]["n_overlap_max"] == 1601);
-  CHECK_FALSE(any_warning_contains(r.report, "were matched"));
+  INFO(r.report_json()["warnings"].dump());
+  CHECK(r.report_json()["association"]["n_matched"] == 1601);
+  CHECK(r.report_json()["association"]["n_overlap_max"] == 1601);
+  CHECK_FALSE(any_warning_contains(r.report_json(), "were matched"));
 
   // Two of three estimate stamps 7 ms late with --max-dt 5 ms: a third of the span matches.
   std::vector<Timestamp> late = stamps(0, 100'000'000, 101);  // 0 .. 10 s at 10 Hz
@@ -534,9 +566,9 @@ TEST_CASE("roe eval: the matched-pairs warning counts only the span both traject
   write_tum(est, late);
   o.max_dt_s = 0.005;
   const auto r2 = app::run_eval(o);
-  INFO(r2.report["warnings"].dump());
-  CHECK(r2.report["association"]["n_matched"] == 34);
-  CHECK(any_warning_contains(r2.report, "only 34 of at most 101 poses were matched"));
+  INFO(r2.report_json()["warnings"].dump());
+  CHECK(r2.report_json()["association"]["n_matched"] == 34);
+  CHECK(any_warning_contains(r2.report_json(), "only 34 of at most 101 poses were matched"));
 }
 
 TEST_CASE("roe eval: conflicting and invalid options are refused or named", "[app][eval]") {
@@ -572,18 +604,18 @@ TEST_CASE("roe eval: conflicting and invalid options are refused or named", "[ap
     o.est_format = "tum";
     o.t_offset_s = -f.offset_s;
     const auto r = app::run_eval(o);
-    CHECK(any_warning_contains(r.report, "--gt-source mocap is ignored"));
-    CHECK(any_warning_contains(r.report, "--est-format tum is ignored"));
+    CHECK(any_warning_contains(r.report_json(), "--gt-source mocap is ignored"));
+    CHECK(any_warning_contains(r.report_json(), "--est-format tum is ignored"));
   }
   SECTION("--n-align with --align origin: a warning, the first pair is used") {
     o.no_out = true;
     o.align = "origin";
     o.n_align = 5;
     const auto r = app::run_eval(o);
-    CHECK(r.report["alignment"]["n_aligned"] == 1);
-    CHECK(any_warning_contains(r.report, "--n-align 5 is ignored with --align origin"));
+    CHECK(r.report_json()["alignment"]["n_aligned"] == 1);
+    CHECK(any_warning_contains(r.report_json(), "--n-align 5 is ignored with --align origin"));
     o.n_align = -1;
-    CHECK_FALSE(any_warning_contains(app::run_eval(o).report, "--n-align"));
+    CHECK_FALSE(any_warning_contains(app::run_eval(o).report_json(), "--n-align"));
   }
 }
 

@@ -64,7 +64,7 @@ TEST_CASE("roe eval: matched Monte-Carlo ANEES in the estimator's gauge inside t
     eo.gt = ds.string();
     eo.no_out = true;
     const auto r = app::run_eval(eo);
-    const auto& c = r.report["consistency"];
+    const auto c = r.report_json()["consistency"];
     INFO("run " << run << ": " << io::dump_json(c, 2));
     REQUIRE(c["frame"] == "estimator gauge");
     sum_p += c["anees_p"].get<double>();
@@ -106,43 +106,43 @@ TEST_CASE("roe eval --euler: report.json keys, the rotation error beside it, the
     d.out = (root / "e_error").string();
     return d;
   }());
-  CHECK(def.report["euler_metric"] == "error");
-  CHECK(def.report["per_axis"]["euler_metric"] == "error");
-  CHECK(!def.report["per_axis"].contains("rotation_error_euler_deg"));
-  CHECK(def.report["per_axis"]["rpy_rmse_deg"]["yaw"].get<double>() == Approx(4.0).epsilon(1e-9));
-  CHECK(def.report["per_axis"]["rpy_mean_deg"]["yaw"].get<double>() == Approx(-4.0).epsilon(1e-9));
-  CHECK(def.report["per_axis"]["rpy_std_deg"]["yaw"].get<double>() == Approx(0.0).margin(1e-5));
+  CHECK(def.report_json()["euler_metric"] == "error");
+  CHECK(def.report_json()["per_axis"]["euler_metric"] == "error");
+  CHECK(!def.report_json()["per_axis"].contains("rotation_error_euler_deg"));
+  CHECK(def.report_json()["per_axis"]["rpy_rmse_deg"]["yaw"].get<double>() == Approx(4.0).epsilon(1e-9));
+  CHECK(def.report_json()["per_axis"]["rpy_mean_deg"]["yaw"].get<double>() == Approx(-4.0).epsilon(1e-9));
+  CHECK(def.report_json()["per_axis"]["rpy_std_deg"]["yaw"].get<double>() == Approx(0.0).margin(1e-5));
 
   o.euler = "absolute-unwrapped";
   o.out = (root / "e_unwrapped").string();
   const auto un = app::run_eval(o);
-  const auto& pa = un.report["per_axis"];
+  const auto pa = un.report_json()["per_axis"];
   // The estimate crosses 180 two samples before the truth: gt 177 / est 181 = −179 and gt 179 / est 183 =
   // −177 give est − gt = −356; the other 38 pairs +4.
   const double rmse = std::sqrt((38 * 16.0 + 2 * 356.0 * 356.0) / 40);
-  CHECK(un.report["euler_metric"] == "absolute-unwrapped");
+  CHECK(un.report_json()["euler_metric"] == "absolute-unwrapped");
   CHECK(pa["rpy_rmse_deg"]["yaw"].get<double>() == Approx(rmse).epsilon(1e-6));
   CHECK(pa["rpy_mean_deg"]["yaw"].get<double>() == Approx((38 * 4.0 - 2 * 356.0) / 40).epsilon(1e-6));
   CHECK(pa["jump_360_share"]["yaw"].get<double>() == Approx(2.0 / 40));
   CHECK(pa["jump_360_share"]["any"].get<double>() == Approx(2.0 / 40));
   CHECK(pa["rotation_error_euler_deg"]["rmse"]["yaw"].get<double>() ==
-        def.report["per_axis"]["rpy_rmse_deg"]["yaw"].get<double>());
+        def.report_json()["per_axis"]["rpy_rmse_deg"]["yaw"].get<double>());
   CHECK(pa["warning"].get<std::string>().find("not a rotation error") != std::string::npos);
   bool warned = false;
-  for (const auto& w : un.report["warnings"])
-    warned = warned || w.get<std::string>().find("not a rotation error (5.00 % of the pairs jumped") != std::string::npos;
+  for (const std::string& w : un.report.warnings)
+    warned = warned || w.find("not a rotation error (5.00 % of the pairs jumped") != std::string::npos;
   CHECK(warned);
   const std::string text = un.to_text();
   CHECK(text.find("metric 'absolute-unwrapped'") != std::string::npos);
   CHECK(text.find("rotation error R_est^T*R_gt (metric 'error')") != std::string::npos);
   CHECK(text.find("any axis 5.00 %") != std::string::npos);
-  CHECK(un.report["options"]["euler"] == "absolute-unwrapped");
+  CHECK(un.report_json()["options"]["euler"] == "absolute-unwrapped");
 
   o.euler = "absolute";
   o.out = (root / "e_absolute").string();
   const auto ab = app::run_eval(o);
-  CHECK(ab.report["per_axis"]["rpy_rmse_deg"]["yaw"].get<double>() == Approx(4.0).epsilon(1e-9));
-  CHECK(ab.report["per_axis"]["rpy_mean_deg"]["yaw"].get<double>() == Approx(4.0).epsilon(1e-9));
+  CHECK(ab.report_json()["per_axis"]["rpy_rmse_deg"]["yaw"].get<double>() == Approx(4.0).epsilon(1e-9));
+  CHECK(ab.report_json()["per_axis"]["rpy_mean_deg"]["yaw"].get<double>() == Approx(4.0).epsilon(1e-9));
 
   // --summary carries the metric's name in its header, and warns when the runs mix metrics.
   app::EvalSummaryOptions so;
@@ -180,16 +180,16 @@ TEST_CASE("roe eval --fit-body-rotation: report.json and text, never applied to 
   o.no_out = true;
   o.fit_body_rotation = true;
   const auto r = app::run_eval(o);
-  const auto& b = r.report["body_rotation"];
+  const auto b = r.report_json()["body_rotation"];
   REQUIRE(b.is_object());
   CHECK(b["angle_deg"].get<double>() == Approx(30.0).margin(1e-6));
   CHECK(b["with"]["ape_rot_deg"]["rmse"].get<double>() < 1e-6);
   CHECK(b["without"]["ape_rot_deg"]["rmse"].get<double>() == Approx(30.0).margin(1e-6));
-  CHECK(r.report["ape_rot_deg"]["rmse"].get<double>() == Approx(30.0).margin(1e-6));  // the headline keeps it
-  CHECK(r.report["options"]["fit_body_rotation"] == true);
+  CHECK(r.report_json()["ape_rot_deg"]["rmse"].get<double>() == Approx(30.0).margin(1e-6));  // the headline keeps it
+  CHECK(r.report_json()["options"]["fit_body_rotation"] == true);
   CHECK(r.to_text().find("body-frame rotation fit (diagnostic, not applied above)") != std::string::npos);
   o.fit_body_rotation = false;
-  CHECK(app::run_eval(o).report["body_rotation"].is_null());
+  CHECK(app::run_eval(o).report_json()["body_rotation"].is_null());
   fs::remove_all(root);
 }
 

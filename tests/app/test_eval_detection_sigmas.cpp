@@ -92,7 +92,7 @@ TEST_CASE("roe eval calibrates the detection sigmas of the set run.json names", 
   o.est = f.run.string();
   o.force = true;
   const app::EvalResult r = app::run_eval(o);
-  const auto& d = r.report["detection_calibration"];
+  const auto d = r.report_json()["detection_calibration"];
   REQUIRE(d.is_object());
   CHECK(d["n_evaluated"] == 2 * 599);
   const double s = d["all"]["sigma_scale"].get<double>();
@@ -127,10 +127,10 @@ TEST_CASE("roe eval --detections: a file, a set name, and the errors", "[app][ev
   o.no_out = true;
   o.detections = (f.dataset / "detections/sim/detections.csv").string();
   auto r = app::run_eval(o);
-  CHECK(std::abs(r.report["detection_calibration"]["all"]["sigma_scale"].get<double>() / 0.5 - 1.0) < 0.2);
+  CHECK(std::abs(r.report_json()["detection_calibration"]["all"]["sigma_scale"].get<double>() / 0.5 - 1.0) < 0.2);
   o.detections = "sim";
   r = app::run_eval(o);
-  CHECK(std::abs(r.report["detection_calibration"]["all"]["sigma_scale"].get<double>() / 0.5 - 1.0) < 0.2);
+  CHECK(std::abs(r.report_json()["detection_calibration"]["all"]["sigma_scale"].get<double>() / 0.5 - 1.0) < 0.2);
   o.detections = "nope";
   CHECK_THROWS_WITH(app::run_eval(o), Catch::Contains("neither a detections.csv file nor a detection set"));
   // The truth needs a dataset: a trajectory file as --gt is refused, naming the option.
@@ -145,9 +145,9 @@ TEST_CASE("roe eval: no truth objects is an error when asked, a warning otherwis
   o.est = f.run.string();
   o.no_out = true;
   auto r = app::run_eval(o);
-  CHECK(r.report["detection_calibration"].is_null());
+  CHECK(r.report_json()["detection_calibration"].is_null());
   bool warned = false;
-  for (const auto& w : r.report["warnings"]) warned |= w.get<std::string>().find("truth.objects") != std::string::npos;
+  for (const std::string& w : r.report.warnings) warned |= w.find("truth.objects") != std::string::npos;
   CHECK(warned);
   o.detections = "sim";
   try {

@@ -6,6 +6,9 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
+
+#include <fmt/format.h>
 
 #include "roe/app/sweep.hpp"
 #include "roe/core/error.hpp"
@@ -183,6 +186,71 @@ TEST_CASE("sweep aggregate: groups, CIs and paired Wilcoxon against scipy", "[ap
   AggregateOptions bad;
   bad.group_by = {"sequence"};
   CHECK_THROWS_AS(aggregate_results(results, {"dataset", "seed", "config"}, bad), InputError);
+}
+
+namespace {
+/// Python's own population and sample std of `v` (statistics.pstdev, statistics.stdev, and numpy's
+/// np.std with ddof 0 / 1 as a second opinion): computed outside roe, in the test.
+std::pair<double, double> python_std(const std::vector<double>& v) {
+  std::string list;
+  for (double x : v) list += fmt::format("{}{}", list.empty() ? "" : ",", x);
+  const roe::test::RunResult r = roe::test::run_shell(fmt::format(
+      "/usr/bin/python3 -c 'import statistics, numpy as np; v = [{}]; "
+      "a, b = statistics.pstdev(v), statistics.stdev(v); "
+      "assert abs(a - np.std(v)) < 1e-12 and abs(b - np.std(v, ddof=1)) < 1e-12; print(repr(a), repr(b))'",
+      list));
+  REQUIRE(r.code == 0);
+  std::istringstream in(r.out);
+  double pop = 0.0, sample = 0.0;
+  in >> pop >> sample;
+  return {pop, sample};
+}
+}  // namespace
+
+TEST_CASE("sweep aggregate: std is the population std, std_sample the sample one, named in every output",
+          "[app][sweep][std]") {
+  const std::vector<double> v = {0.061, 0.058, 0.072, 0.049, 0.066, 0.070, 0.055};
+  std::vector<JobResult> results;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    JobResult r;
+    r.id = "j" + std::to_string(i);
+    r.axes = {{"dataset", "d"}, {"seed", i + 1}};
+    for (const auto& m : sweep_metric_names()) r.metrics[m] = v[i];
+    results.push_back(r);
+  }
+  const Aggregate ag = aggregate_results(results, {"dataset", "seed"}, {});
+  REQUIRE(ag.groups.size() == 1);
+  const auto [pop, sample] = python_std(v);
+  REQUIRE(pop < sample);  // the two differ: a swapped name cannot pass
+  const eval::SampleSummary& s = ag.groups[0].metrics.at("ate_rmse_m");
+  CHECK(s.std == Approx(pop).epsilon(1e-12));
+  CHECK(s.std_sample == Approx(sample).epsilon(1e-12));
+  const json j = ag.to_json()["groups"][0]["metrics"]["ate_rmse_m"];
+  CHECK(j["std"].get<double>() == Approx(pop).epsilon(1e-12));
+  CHECK(j["std_sample"].get<double>() == Approx(sample).epsilon(1e-12));
+  CHECK_FALSE(j.contains("std_pop"));
+  // CSV: the columns by name
+  std::istringstream csv(ag.csv());
+  std::string header, row;
+  REQUIRE(std::getline(csv, header));
+  REQUIRE(std::getline(csv, row));
+  const auto cells = [](const std::string& line) {
+    std::vector<std::string> c;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, ',');) c.push_back(x);
+    return c;
+  };
+  const auto h = cells(header), r = cells(row);
+  const auto col = [&](const char* name) {
+    const auto it = std::find(h.begin(), h.end(), name);
+    REQUIRE(it != h.end());
+    return std::stod(r[static_cast<std::size_t>(it - h.begin())]);
+  };
+  CHECK(col("std") == Approx(pop).epsilon(1e-12));
+  CHECK(col("std_sample") == Approx(sample).epsilon(1e-12));
+  // Markdown and LaTeX show the sample std and say so
+  CHECK_THAT(ag.markdown(), Catch::Contains("mean ± std_sample") && Catch::Contains(fmt::format("± {:.4f}", sample)));
+  CHECK_THAT(ag.latex(), Catch::Contains("std\\_sample") || Catch::Contains("std_sample"));
 }
 
 TEST_CASE("sweep spec: the job count is checked from the axes' sizes before anything is expanded",

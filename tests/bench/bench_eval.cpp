@@ -120,7 +120,7 @@ int main(int argc, char** argv) {
   std::printf(
       "run_eval (parse + associate + align + metrics): %.3f s wall, %.3f s CPU; with all output files: "
       "%.3f s wall, %.3f s CPU; matched %zu\n",
-      t_total, c_total, t_total_out, c_total_out, r.report["association"]["n_matched"].get<std::size_t>());
+      t_total, c_total, t_total_out, c_total_out, r.report.association.n_matched);
   fs::remove_all(dir / "out");
   if (!keep) fs::remove_all(dir);
   return 0;

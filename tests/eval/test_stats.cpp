@@ -41,14 +41,15 @@ TEST_CASE("mean, std and the t confidence interval match scipy", "[eval][stats]"
     INFO("n " << v.size());
     CHECK(r.n == v.size());
     CHECK(r.mean == Approx(s["mean"].get<double>()).epsilon(1e-12));
-    CHECK(r.std == Approx(s["std"].get<double>()).epsilon(1e-10));
-    CHECK(r.std_pop == Approx(s["std_pop"].get<double>()).epsilon(1e-10));
+    CHECK(r.std == Approx(s["std"].get<double>()).epsilon(1e-10));  // population (numpy ddof 0)
+    CHECK(r.std_sample == Approx(s["std_sample"].get<double>()).epsilon(1e-10));  // ddof 1
     CHECK(r.ci_low == Approx(s["ci_low"].get<double>()).epsilon(1e-8));
     CHECK(r.ci_high == Approx(s["ci_high"].get<double>()).epsilon(1e-8));
   }
   const SampleSummary one = summarize_sample({0.5});
   CHECK(one.mean == 0.5);
-  CHECK(std::isnan(one.std));
+  CHECK(one.std == 0.0);  // population std of one value
+  CHECK(std::isnan(one.std_sample));
   CHECK(std::isnan(one.ci_low));
   CHECK(summarize_sample({}).n == 0);
 }

@@ -28,6 +28,7 @@
 #include "roe/core/types.hpp"
 #include "roe/eval/evaluate.hpp"
 #include "roe/io/trajectory_io.hpp"
+#include "roe/store/eval_report.hpp"
 
 namespace roe::app {
 
@@ -151,9 +152,11 @@ std::optional<eval::GaugeTruth> load_gauge_truth(const std::filesystem::path& ru
                                                  std::string* why);
 
 struct EvalResult {
-  nlohmann::json report;      ///< the report.json content
-  std::filesystem::path out;  ///< output folder, empty when nothing was written
-  std::string plot_status;    ///< what happened to --plot
+  store::EvalReportFile report;  ///< report.json, typed
+  std::filesystem::path out;     ///< output folder, empty when nothing was written
+  std::string plot_status;       ///< what happened to --plot
+  /// report.json's content (store::to_json).
+  nlohmann::json report_json() const;
   std::string to_text() const;
 };
 
@@ -171,15 +174,6 @@ std::string label_of(const EvalInput& in, bool is_dir);
 /// or when no pair matches (with explain_no_match's diagnosis); DataError when the alignment is
 /// degenerate.
 EvalResult run_eval(const EvalOptions& options);
-
-/// The headline numbers of a report.json, in `roe eval --summary`'s column order: rmse_x_m, rmse_y_m,
-/// rmse_z_m, rmse_roll_deg, rmse_pitch_deg, rmse_yaw_deg, ate_rmse_m, rot_rmse_deg. InputError naming
-/// `file` when the report lacks them. (Also read by `roe sweep aggregate`.)
-std::vector<std::pair<std::string, double>> eval_report_metrics(const nlohmann::json& report, const std::string& file);
-
-/// The names of eval_report_metrics' figures, in its order (the columns of `--summary` and of sweep
-/// aggregates).
-const std::vector<std::string>& eval_report_metric_names();
 
 struct EvalSummaryOptions {
   std::vector<std::string> reports;  ///< report.json files (or folders containing one)

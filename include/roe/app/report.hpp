@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "roe/app/figures.hpp"
+#include "roe/store/eval_report.hpp"
 
 namespace roe::app {
 
@@ -37,6 +38,7 @@ struct ReportOptions {
 
 struct ReportResult {
   nlohmann::json summary;  ///< out, bytes, figures, evaluation headline, calib-check verdict, timing
+  store::EvalReportFile eval;  ///< the evaluation's report.json
   std::string to_text() const;
 };
 
@@ -51,7 +53,7 @@ std::string caption_html(const std::string& text);
 /// The HTML document (exposed for tests): `eval` is roe eval's report.json, `run` run.json (may be
 /// null), `calib` calib-check's JSON (or {"error": message}), `figures` the figure set whose files lie
 /// in `figures_dir`.
-std::string report_html(const nlohmann::json& eval, const nlohmann::json& run, const nlohmann::json& calib,
+std::string report_html(const store::EvalReportFile& eval, const nlohmann::json& run, const nlohmann::json& calib,
                         const FigureSet& figures, const std::filesystem::path& figures_dir);
 
 }  // namespace roe::app

@@ -6,8 +6,9 @@
 /// eval/metrics.hpp's compute_stats (reused here for mean, median, min, max and the population std).
 ///
 /// Definitions (checked against python3-scipy 1.10 in tests/eval/test_stats.cpp):
-///  - std: sample standard deviation (ddof 1); std_pop: population (ddof 0, the paper's tables).
-///  - CI: mean ± t_{(1+c)/2, n−1} · std / √n (scipy.stats.t.interval); undefined (NaN) for n < 2.
+///  - std: population standard deviation (ddof 0: numpy's default, evo_res, the paper's tables, roe eval
+///    --summary); std_sample: the sample standard deviation (ddof 1), which the CI uses (docs/eval.md).
+///  - CI: mean ± t_{(1+c)/2, n−1} · std_sample / √n (scipy.stats.t.interval); undefined (NaN) for n < 2.
 ///  - Wilcoxon: scipy.stats.wilcoxon(d) with its defaults: zero_method "wilcox" (zero differences
 ///    dropped), no continuity correction, two-sided, method "auto" = exact null distribution when
 ///    n ≤ 50 and no difference is zero (the signed-rank sum r+ truncated to an integer when ties give
@@ -22,7 +23,9 @@ namespace roe::eval {
 
 struct SampleSummary {
   std::size_t n = 0;
-  double mean = 0.0, std = 0.0, std_pop = 0.0, median = 0.0, min = 0.0, max = 0.0;
+  double mean = 0.0, median = 0.0, min = 0.0, max = 0.0;
+  double std = 0.0;         ///< population (ddof 0)
+  double std_sample = 0.0;  ///< sample (ddof 1); NaN for n < 2
   double ci_low = 0.0, ci_high = 0.0;  ///< confidence interval of the mean (NaN for n < 2)
   double confidence = 0.95;
 };

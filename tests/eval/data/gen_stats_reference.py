@@ -25,8 +25,9 @@ def interval(x, conf):
     m = float(np.mean(x))
     s = float(np.std(x, ddof=1))
     lo, hi = stats.t.interval(conf, len(x) - 1, loc=m, scale=s / np.sqrt(len(x)))
-    return {"values": x.tolist(), "confidence": conf, "mean": m, "std": s,
-            "std_pop": float(np.std(x, ddof=0)), "ci_low": float(lo), "ci_high": float(hi)}
+    # roe's names (docs/eval.md "std"): std is numpy's default (ddof 0), std_sample the ddof-1 one
+    return {"values": x.tolist(), "confidence": conf, "mean": m, "std_sample": s,
+            "std": float(np.std(x, ddof=0)), "ci_low": float(lo), "ci_high": float(hi)}
 
 
 samples = [

@@ -1,0 +1,581 @@
+// report.json as one typed value (store/eval_report.hpp): one field mapping per block, walked by a writer
+// (to_json) and by a strict reader (read_eval_report), so the keys are spelled once, here.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <limits>
+#include <type_traits>
+
+#include "roe/core/error.hpp"
+#include "roe/io/json.hpp"
+#include "roe/store/eval_report.hpp"
+#include "roe/version.hpp"
+
+namespace roe::store {
+
+using nlohmann::json;
+
+namespace {
+
+template <class T>
+struct IsOptional : std::false_type {};
+template <class T>
+struct IsOptional<std::optional<T>> : std::true_type {};
+template <class T>
+struct IsVector : std::false_type {};
+template <class T>
+struct IsVector<std::vector<T>> : std::true_type {};
+template <class T>
+struct IsArray : std::false_type {};
+template <class T, std::size_t N>
+struct IsArray<std::array<T, N>> : std::true_type {};
+template <class T>
+struct IsMap : std::false_type {};
+template <class T>
+struct IsMap<std::map<std::string, T>> : std::true_type {};
+
+constexpr const char* kXyz[] = {"x", "y", "z"};
+constexpr const char* kRpy[] = {"roll", "pitch", "yaw"};
+// The RMSE blocks of per_axis and of each per-object subset.
+constexpr const char* kPosRmse = "pos_rmse_m";
+constexpr const char* kRpyRmse = "rpy_rmse_deg";
+
+// ---- the two walkers ------------------------------------------------------------------------------
+
+/// Writes each field into `j`. Fixed texts and derived values are written, never read.
+struct Writer {
+  static constexpr bool kReading = false;
+  json& j;
+
+  template <class T>
+  static json value(const T& v);
+
+  template <class T>
+  void operator()(const char* key, const T& v) {
+    j[key] = value(v);
+  }
+  /// A field present only when set (outputs, plots, evo_results).
+  template <class T>
+  void omittable(const char* key, const std::optional<T>& v) {
+    if (v) j[key] = value(*v);
+  }
+  void fixed(const char* key, json v) { j[key] = std::move(v); }
+  template <class F>
+  void nested(const char* key, F&& fields) {
+    json sub = json::object();
+    Writer w{sub};
+    fields(w);
+    j[key] = std::move(sub);
+  }
+  void axes(const char* key, const Eigen::Vector3d& v, const char* const (&names)[3]) {
+    j[key] = {{names[0], v.x()}, {names[1], v.y()}, {names[2], v.z()}};
+  }
+};
+
+/// Reads each field from `j`, strictly: a missing or mistyped key is an InputError naming the file and
+/// the key path.
+struct Reader {
+  static constexpr bool kReading = true;
+  const json& j;
+  const std::string& file;
+  std::string path;
+
+  std::string at(const char* key) const { return path.empty() ? key : path + "." + key; }
+  [[noreturn]] static void fail(const std::string& file, const std::string& path, const char* what) {
+    throw InputError(fmt::format("not a roe eval report: {} {}", path.empty() ? "the document" : path, what),
+                     {file, 0, 0, path});
+  }
+  const json& need(const char* key) const {
+    if (!j.is_object() || !j.contains(key)) fail(file, at(key), "is missing");
+    return j[key];
+  }
+  template <class T>
+  static void value(const json& x, T& v, const std::string& file, const std::string& path);
+
+  template <class T>
+  void operator()(const char* key, T& v) const {
+    value(need(key), v, file, at(key));
+  }
+  template <class T>
+  void omittable(const char* key, std::optional<T>& v) const {
+    v.reset();
+    if (!j.contains(key)) return;
+    v.emplace();
+    value(j[key], *v, file, at(key));
+  }
+  void fixed(const char*, const json&) const {}
+  template <class F>
+  void nested(const char* key, F&& fields) const {
+    const json& sub = need(key);
+    if (!sub.is_object()) fail(file, at(key), "is not an object");
+    Reader r{sub, file, at(key)};
+    fields(r);
+  }
+  void axes(const char* key, Eigen::Vector3d& v, const char* const (&names)[3]) const {
+    nested(key, [&](Reader& r) {
+      for (int i = 0; i < 3; ++i) r(names[i], v[i]);
+    });
+  }
+};
+
+// ---- the field mappings: one per block, used by both walkers ---------------------------------------
+
+template <class A>
+void fields(A& a, eval::Stats& s) {
+  a("rmse", s.rmse), a("mean", s.mean), a("median", s.median), a("std", s.std);
+  a("min", s.min), a("max", s.max), a("sse", s.sse), a("n", s.n);
+}
+
+template <class A>
+void fields(A& a, eval::EulerStats& e) {
+  a.axes("rmse", e.rmse, kRpy), a.axes("mean", e.mean, kRpy), a.axes("std", e.std, kRpy);
+}
+
+/// rpy_rmse_deg, rpy_mean_deg and rpy_std_deg beside each other (per_axis, body_rotation's metrics).
+template <class A>
+void rpy_fields(A& a, eval::EulerStats& e) {
+  a.axes(kRpyRmse, e.rmse, kRpy), a.axes("rpy_mean_deg", e.mean, kRpy), a.axes("rpy_std_deg", e.std, kRpy);
+}
+
+template <class A>
+void fields(A& a, ReportInput& in) {
+  a("path", in.path), a("kind", in.kind), a("format", in.format), a("description", in.description);
+  a("n_poses", in.n_poses), a("duplicate_stamps", in.duplicate_stamps);
+}
+
+template <class A>
+void fields(A& a, ReportAssociation& as) {
+  a("max_dt_s", as.max_dt_s), a("offset_s", as.offset_s), a("policy", as.policy), a("n_gt", as.n_gt);
+  a("n_est", as.n_est), a("n_matched", as.n_matched), a("n_overlap_max", as.n_overlap_max);
+  a("n_dropped_unique", as.n_dropped_unique), a("max_abs_dt_s", as.max_abs_dt_s);
+  a.fixed("rule", "nearest neighbour from the shorter trajectory, |t_gt - (t_est + offset)| <= max_dt (evo)");
+}
+
+template <class A>
+void fields(A& a, ReportAlignment& al) {
+  a("type", al.type), a("n_aligned", al.n_aligned), a("n_align_requested", al.n_align_requested);
+  a("scale", al.scale), a("R", al.R), a("t", al.t), a("q_xyzw", al.q_xyzw);
+  a.fixed("applied", "p' = s*R*p + t, R'_est = R*R_est");
+}
+
+template <class A>
+void fields(A& a, ReportPerAxis& p) {
+  a("euler_metric", p.euler_metric);  // first: it decides which fields follow
+  a.axes(kPosRmse, p.pos_rmse_m, kXyz), a.axes("pos_mean_m", p.pos_mean_m, kXyz);
+  rpy_fields(a, p.rpy_deg);
+  a("euler_definition", p.euler_definition), a("wrap", p.wrap);
+  a.fixed("pos_error", "p_est - p_gt"), a.fixed("rot_error", "R_est^T*R_gt"), a.fixed("euler", "ZYX (R=Rz*Ry*Rx)");
+  if (p.euler_metric == eval::to_string(eval::EulerMetric::kError)) return;
+  a.nested("rotation_error_euler_deg", [&](auto& r) {
+    fields(r, p.rotation_error_euler_deg);
+    r.fixed("definition", eval::euler_metric_definition(eval::EulerMetric::kError));
+  });
+  a.nested("jump_360_share", [&](auto& r) {
+    for (int i = 0; i < 3; ++i) r(kRpy[i], p.jump_360_share[i]);
+    r("any", p.jump_360_share_any);
+  });
+  a.fixed("warning", "rpy_* are differences of absolute Euler angles, not a rotation error: "
+                     "rotation_error_euler_deg holds the rotation error's figures");
+}
+
+template <class A>
+void fields(A& a, ReportCnspy& c) {
+  a("ARMSE_p", c.armse_p_m), a("ARMSE_R", c.armse_r_deg), a("ANEES_p", c.anees_p), a("ANEES_R", c.anees_r);
+  a.fixed("note", "ARMSE_* are cnspy's report values: the mean of the per-pose error norms (m, deg); ANEES_* are "
+                  "relative to the alignment, as cnspy computes them");
+}
+
+template <class A>
+void fields(A& a, ReportGauge& g) {
+  a("available", g.available);  // first: it decides which fields follow
+  if (!g.available) return a("reason", g.reason);
+  a("description", g.description), a("n", g.n), a("anees_p", g.anees_p), a("anees_r", g.anees_r);
+  a.nested("T_Wt_Wg", [&](auto& r) { r("p", g.T_Wt_Wg_p), r("q", g.T_Wt_Wg_q); });
+}
+
+template <class A>
+void fields(A& a, ReportConsistency& c) {
+  a("available", c.available), a("source", c.source), a("frame", c.frame);
+  a("anees_p", c.anees_p), a("anees_r", c.anees_r), a("gauge", c.gauge);
+  a.fixed("dof", 3), a.fixed("expected", 3.0);
+  a.nested("aligned", [&](auto& r) {
+    r("anees_p", c.aligned_anees_p), r("anees_r", c.aligned_anees_r);
+    r.fixed("note", "relative to the alignment, which is fitted on positions: its rotation error is in no "
+                    "covariance and inflates anees_r (not a consistency figure)");
+  });
+  a.fixed("definition",
+          "estimator gauge: NEES of the unaligned estimate against the truth mapped into the estimator's world "
+          "(T_Wg_Wt from the anchor, eval/gauge.hpp) with the estimate's own covariance, from the anchor's first "
+          "sight; alignment: NEES_p = e_p^T P_p^-1 e_p (e_p = p_gt - p_est, P_p rotated by the alignment), "
+          "NEES_R = dtheta^T P_theta^-1 dtheta, dtheta = Log(R_est^T R_gt). anees_r is given only in the "
+          "estimator's gauge");
+}
+
+template <class A>
+void fields(A& a, ReportBodyMetrics& m) {
+  a("ape_rot_deg", m.ape_rot_deg), a("euler_metric", m.euler_metric);
+  rpy_fields(a, m.rpy_deg);
+}
+
+template <class A>
+void fields(A& a, ReportBodyRotation& b) {
+  a("q_xyzw", b.q_xyzw), a("angle_deg", b.angle_deg), a.axes("rpy_deg", b.rpy_deg, kRpy);
+  a.fixed("definition", "R_off = mean on SO(3) of R_est^T*R_gt after the alignment; 'with' replaces R_est by "
+                        "R_est*R_off (positions unchanged). A diagnostic: the headline figures do not use it");
+  a("without", b.without), a("with", b.with);
+}
+
+template <class A>
+void fields(A& a, ReportRpe& e) {
+  a("delta", e.delta), a("unit", e.unit), a("all_pairs", e.all_pairs), a("pairs_from", e.pairs_from);
+  a("rel_tol", e.rel_tol), a("n_pairs", e.n_pairs), a("trans_m", e.trans_m), a("rot_deg", e.rot_deg);
+  a("drift_pct", e.drift_pct);
+}
+
+template <class A>
+void fields(A& a, ReportFit& f) {
+  a("n", f.n);  // first: a subset without matches has nothing else
+  if (f.n == 0) return;
+  a.axes(kPosRmse, f.pos_rmse_m, kXyz), a.axes(kRpyRmse, f.rpy_rmse_deg, kRpy);
+  a("ape_trans_rmse_m", f.ape_trans_rmse_m), a("ape_rot_rmse_deg", f.ape_rot_rmse_deg);
+}
+
+template <class A>
+void fields(A& a, ReportObject& o) {
+  a("object_id", o.object_id), a("n_detections", o.n_detections), a("counts", o.counts);
+  a("n_valid_pose", o.n_valid_pose), a("n_matched", o.n_matched), a("all", o.all), a("accepted", o.accepted);
+}
+
+/// nis_quantiles as report.json names them: p05, p25, p50, p75, p95 (eval::kNisProbabilities).
+std::string quantile_key(std::size_t i) { return fmt::format("p{:02.0f}", 100.0 * eval::kNisProbabilities[i]); }
+
+template <class A>
+void fields(A& a, eval::SigmaCalibration& c) {
+  a("n", c.n), a("within_sigma_t", c.within_t), a("within_sigma_r", c.within_r), a("nis_mean", c.nis_mean);
+  a.nested("nis_quantiles", [&](auto& r) {
+    for (std::size_t i = 0; i < c.nis_quantiles.size(); ++i) r(quantile_key(i).c_str(), c.nis_quantiles[i]);
+  });
+  a("frac_above_gate", c.frac_above_gate), a("ks_statistic", c.ks_statistic), a("ks_p_value", c.ks_p_value);
+  a("sigma_scale", c.sigma_scale);
+  std::array<double, 2> ci{c.sigma_scale_lo, c.sigma_scale_hi};
+  a("sigma_scale_ci95", ci);
+  if constexpr (A::kReading) c.sigma_scale_lo = ci[0], c.sigma_scale_hi = ci[1];
+  a.fixed("R_scale", c.sigma_scale * c.sigma_scale);
+  a("sigma_scale_t", c.sigma_scale_t), a("sigma_scale_r", c.sigma_scale_r);
+  a("sigma_scale_median", c.sigma_scale_median);
+}
+
+template <class A>
+void fields(A& a, eval::ObjectCalibration& o) {
+  fields(a, o.cal);
+  a("object_id", o.object_id);
+}
+
+template <class A>
+void fields(A& a, ExpectedCalibration& e) {
+  a("within_sigma", e.within_sigma), a("nis_mean", e.nis_mean);
+  a.nested("nis_quantiles", [&](auto& r) {
+    for (std::size_t i = 0; i < e.nis_quantiles.size(); ++i) r(quantile_key(i).c_str(), e.nis_quantiles[i]);
+  });
+  a("frac_above_gate", e.frac_above_gate), a("gate", e.gate), a("sigma_scale", e.sigma_scale);
+}
+
+template <class A>
+void fields(A& a, ReportDetectionCalibration& d) {
+  a("source", d.source), a("n_detections", d.n_detections), a("n_evaluated", d.n_evaluated);
+  a("n_without_sigma", d.n_without_sigma), a("n_without_object_truth", d.n_without_object_truth);
+  a("n_outside_truth", d.n_outside_truth), a("all", d.all), a("per_object", d.per_object);
+  if constexpr (!A::kReading) a.fixed("expected", Writer::value(expected_calibration()));
+  a.fixed("definition",
+          "e = [t_meas - t_true ; Log(R_meas R_true^T)] in camera axes (m, rad), T_C_O_true = (T_W_I T_I_C)^-1 T_W_O "
+          "at t_cam + camera time offset; z = e / sigma; within_sigma_t/_r = fraction of |z| <= 1, 2, 3 over the "
+          "3 translation / rotation axes; NIS = |z|^2 vs chi2(6); sigma_scale = sqrt(sum NIS / 6n) (ML, R_scale = "
+          "sigma_scale^2), ci95 from chi2(6n); sigma_scale_median = sqrt(median NIS / chi2(6) median)");
+}
+
+template <class A>
+void fields(A& a, ReportOutputs& o) {
+  a("dir", o.dir), a("files", o.files);
+}
+
+template <class A>
+void fields(A& a, ReportPlots& p) {
+  a("ok", p.ok), a("status", p.status);
+}
+
+template <class A>
+void fields(A& a, EvalReportFile& f) {
+  a.nested("info", [&](auto& r) {
+    r("title", f.title), r("ref_name", f.ref_name), r("est_name", f.est_name), r("label", f.label);
+    r("roe_version", f.roe_version);
+  });
+  a.nested("inputs", [&](auto& r) { r("est", f.est), r("gt", f.gt); });
+  a("association", f.association), a("alignment", f.alignment), a("ape_trans_m", f.ape_trans_m);
+  a("ape_rot_deg", f.ape_rot_deg), a("euler_metric", f.euler_metric), a("per_axis", f.per_axis);
+  a("cnspy", f.cnspy), a("consistency", f.consistency), a("body_rotation", f.body_rotation), a("rpe", f.rpe);
+  a.fixed("rpe_definition",
+          "E_ij = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j), Q ground truth, P aligned estimate (evo RPE); trans_m = |trans(E)|, "
+          "rot_deg = angle of rot(E), drift_pct = 100 trans_m / ground-truth path length from i to j");
+  a("per_object", f.per_object), a("detection_calibration", f.detection_calibration);
+  a.nested("path_length_m", [&](auto& r) { r("est", f.path_length_est_m), r("gt", f.path_length_gt_m); });
+  a("options", f.options), a("warnings", f.warnings);
+  a.omittable("evo_results", f.evo_results), a.omittable("outputs", f.outputs), a.omittable("plots", f.plots);
+}
+
+// ---- values ----------------------------------------------------------------------------------------
+
+template <class T>
+json Writer::value(const T& v) {
+  if constexpr (std::is_same_v<T, json> || std::is_arithmetic_v<T> || std::is_same_v<T, std::string>) {
+    return json(v);
+  } else if constexpr (IsOptional<T>::value) {
+    return v ? value(*v) : json(nullptr);
+  } else if constexpr (IsVector<T>::value || IsArray<T>::value) {
+    json out = json::array();
+    for (const auto& x : v) out.push_back(value(x));
+    return out;
+  } else if constexpr (IsMap<T>::value) {
+    json out = json::object();
+    for (const auto& [k, x] : v) out[k] = value(x);
+    return out;
+  } else {
+    json out = json::object();
+    Writer w{out};
+    fields(w, const_cast<T&>(v));  // the mapping is shared with the reader; the writer only reads v
+    return out;
+  }
+}
+
+template <class T>
+void Reader::value(const json& x, T& v, const std::string& file, const std::string& path) {
+  const auto need = [&](bool ok, const char* what) {
+    if (!ok) fail(file, path, what);
+  };
+  if constexpr (std::is_same_v<T, json>) {
+    need(x.is_object(), "is not an object");
+    v = x;
+  } else if constexpr (std::is_same_v<T, bool>) {
+    need(x.is_boolean(), "is not true or false");
+    v = x.get<bool>();
+  } else if constexpr (std::is_floating_point_v<T>) {
+    need(x.is_number() || x.is_null(), "is not a number");  // null: a NaN, as JSON writes it
+    v = x.is_null() ? std::numeric_limits<T>::quiet_NaN() : x.get<T>();
+  } else if constexpr (std::is_unsigned_v<T>) {
+    need(x.is_number_unsigned(), "is not a count (an integer >= 0)");
+    v = x.get<T>();
+  } else if constexpr (std::is_integral_v<T>) {
+    need(x.is_number_integer(), "is not an integer");
+    v = x.get<T>();
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    need(x.is_string(), "is not a string");
+    v = x.get<std::string>();
+  } else if constexpr (IsOptional<T>::value) {
+    v.reset();
+    if (x.is_null()) return;
+    v.emplace();
+    value(x, *v, file, path);
+  } else if constexpr (IsVector<T>::value) {
+    need(x.is_array(), "is not an array");
+    v.resize(x.size());
+    for (std::size_t i = 0; i < x.size(); ++i) value(x[i], v[i], file, fmt::format("{}[{}]", path, i));
+  } else if constexpr (IsArray<T>::value) {
+    need(x.is_array() && x.size() == v.size(), "is not an array of the expected length");
+    for (std::size_t i = 0; i < v.size(); ++i) value(x[i], v[i], file, fmt::format("{}[{}]", path, i));
+  } else if constexpr (IsMap<T>::value) {
+    need(x.is_object(), "is not an object");
+    v.clear();
+    for (const auto& [k, e] : x.items()) value(e, v[k], file, path + "." + k);
+  } else {
+    need(x.is_object(), "is not an object");
+    Reader r{x, file, path};
+    fields(r, v);
+  }
+}
+
+
+}  // namespace
+
+namespace {
+
+ReportPerAxis per_axis_of(const eval::ApeResult& ape) {
+  ReportPerAxis p;
+  const eval::EulerMetric m = ape.euler_metric;
+  p.pos_rmse_m = ape.pos_rmse_m;
+  p.pos_mean_m = ape.pos_mean_m;
+  p.rpy_deg = {ape.rpy_rmse_deg, ape.rpy.mean, ape.rpy.std};
+  p.euler_metric = eval::to_string(m);
+  p.euler_definition = eval::euler_metric_definition(m);
+  p.wrap = m == eval::EulerMetric::kAbsoluteUnwrapped ? "none: (-360,360)" : "[-180,180)";
+  if (m != eval::EulerMetric::kError) {
+    p.rotation_error_euler_deg = ape.rpy_error;
+    p.jump_360_share = ape.jump_share;
+    p.jump_360_share_any = ape.jump_share_any;
+  }
+  return p;
+}
+
+/// The NEES: in the estimator's gauge where the run and the truth allow it (the headline), and
+/// relative to the alignment (its rotation error inflates the orientation NEES: not headlined).
+ReportConsistency consistency_of(const eval::Report& r, const EvalReportContext& c) {
+  ReportConsistency out;
+  ReportGauge& g = out.gauge;
+  g.available = r.gauge.has_value();
+  if (r.gauge) {
+    const Pose& T = r.gauge->truth.T_Wt_Wg;
+    g.description = r.gauge->truth.description;
+    g.n = r.gauge->n;
+    g.anees_p = r.gauge->anees_p;
+    g.anees_r = r.gauge->anees_r;
+    g.T_Wt_Wg_p = {T.p.x(), T.p.y(), T.p.z()};
+    g.T_Wt_Wg_q = {T.q.x(), T.q.y(), T.q.z(), T.q.w()};
+  } else {
+    g.reason = r.cov.empty() ? std::string("no covariances") : c.no_gauge_reason;
+  }
+  out.available = !r.cov.empty();
+  out.source = c.cov_source;
+  out.frame = r.cov.empty() ? "none" : g.available ? "estimator gauge" : "alignment";
+  out.anees_p = g.available ? r.gauge->anees_p : r.ape.anees_p;
+  out.anees_r = g.available ? r.gauge->anees_r : std::nullopt;
+  out.aligned_anees_p = r.ape.anees_p;
+  out.aligned_anees_r = r.ape.anees_r;
+  return out;
+}
+
+ReportBodyMetrics body_metrics_of(const eval::ApeResult& a) {
+  return {a.rot_deg, {a.rpy_rmse_deg, a.rpy.mean, a.rpy.std}, eval::to_string(a.euler_metric)};
+}
+
+std::vector<ReportRpe> rpe_of(const eval::Report& r) {
+  std::vector<ReportRpe> out;
+  for (const eval::RpeResult& e : r.rpe) {
+    const eval::RpeOptions& ro = e.options;
+    ReportRpe b{ro.delta, eval::to_string(ro.unit), ro.all_pairs, eval::to_string(ro.pairs_from), ro.rel_tol,
+                e.pairs.size(), std::nullopt, std::nullopt, std::nullopt};
+    if (!e.pairs.empty()) b.trans_m = e.trans_m, b.rot_deg = e.rot_deg;
+    if (e.trans_pct.n != 0) b.drift_pct = e.trans_pct;
+    out.push_back(std::move(b));
+  }
+  return out;
+}
+
+ReportFit fit_of(const eval::ObjectFit& f) {
+  return {f.n, f.pos_rmse_m, f.rpy_rmse_deg, f.ape_trans_rmse_m, f.ape_rot_rmse_deg};
+}
+
+ReportAlignment alignment_of(const eval::Report& r) {
+  const eval::Alignment& al = r.alignment;
+  const Eigen::Quaterniond qa = al.q();
+  ReportAlignment out{eval::to_string(r.align_type()), al.n_used, r.params.n_align, al.s, {}, {}, {}};
+  for (int i = 0; i < 3; ++i) out.R[static_cast<std::size_t>(i)] = {al.R(i, 0), al.R(i, 1), al.R(i, 2)};
+  out.t = {al.t.x(), al.t.y(), al.t.z()};
+  out.q_xyzw = {qa.x(), qa.y(), qa.z(), qa.w()};
+  return out;
+}
+
+}  // namespace
+
+ExpectedCalibration expected_calibration() {
+  ExpectedCalibration e;
+  e.within_sigma = eval::expected_within();
+  e.nis_quantiles = eval::chi2_6_quantiles();
+  e.gate = eval::nis_gate();
+  return e;
+}
+
+EvalReportFile make_eval_report_file(const eval::Report& r, const EvalReportContext& c) {
+  const eval::ApeResult& ape = r.ape;
+  EvalReportFile f;
+  f.title = "roe eval: " + c.label;
+  f.ref_name = c.gt_path;
+  f.est_name = c.est_path;
+  f.label = c.label;
+  f.roe_version = kVersion;
+  f.est = c.est;
+  f.gt = c.gt;
+  const eval::AssociationOptions& ao = r.params.assoc;
+  f.association = {ao.max_dt_s,          ao.offset_s,       eval::to_string(ao.policy),
+                   r.n_gt,               r.n_est,           r.association.size(),
+                   r.overlap.n_max(),    r.association.n_dropped_unique, r.max_abs_dt_s};
+  f.alignment = alignment_of(r);
+  f.ape_trans_m = ape.trans_m;
+  f.ape_rot_deg = ape.rot_deg;
+  f.euler_metric = eval::to_string(ape.euler_metric);
+  f.per_axis = per_axis_of(ape);
+  f.cnspy = {ape.armse_p_m, ape.armse_r_deg, ape.anees_p, ape.anees_r};
+  f.consistency = consistency_of(r, c);
+  if (r.body_rotation) {
+    const eval::BodyRotationFit& b = *r.body_rotation;
+    f.body_rotation = ReportBodyRotation{{b.q_off.x(), b.q_off.y(), b.q_off.z(), b.q_off.w()}, b.angle_deg,
+                                         b.rpy_deg, body_metrics_of(r.ape), body_metrics_of(b.ape)};
+  }
+  f.rpe = rpe_of(r);
+  for (const eval::ObjectReport& o : r.objects)
+    f.per_object.push_back({o.object_id, o.n_detections, o.counts, o.n_valid_pose, o.n_matched, fit_of(o.all),
+                            fit_of(o.accepted)});
+  if (r.detection_calibration) {
+    const eval::DetectionCalibration& d = *r.detection_calibration;
+    f.detection_calibration = ReportDetectionCalibration{
+        c.detections_source, d.n_detections,    d.all.n, d.n_without_sigma, d.n_without_object_truth,
+        d.n_outside_truth,   d.all,             d.objects};
+  }
+  f.path_length_est_m = r.path_length_est_m;
+  f.path_length_gt_m = r.path_length_gt_m;
+  f.options = c.options;
+  f.warnings = c.warnings;
+  return f;
+}
+
+json to_json(const EvalReportFile& f) { return Writer::value(f); }
+
+json to_json(const ReportPerAxis& p) { return Writer::value(p); }
+
+EvalReportFile read_eval_report(const json& j, const std::string& file) {
+  EvalReportFile f;
+  Reader::value(j, f, file, "");
+  return f;
+}
+
+EvalReportFile read_eval_report_file(const std::filesystem::path& path) {
+  return read_eval_report(io::parse_json_file(path), path.string());
+}
+
+std::vector<ReportCell> per_axis_rmse_cells(const EvalReportFile& f) {
+  std::vector<ReportCell> out;
+  for (int i = 0; i < 3; ++i)
+    out.push_back({fmt::format("per_axis.{}.{}", kPosRmse, kXyz[i]), f.per_axis.pos_rmse_m[i]});
+  for (int i = 0; i < 3; ++i)
+    out.push_back({fmt::format("per_axis.{}.{}", kRpyRmse, kRpy[i]), f.per_axis.rpy_deg.rmse[i]});
+  return out;
+}
+
+std::vector<ReportCell> ape_cells(const EvalReportFile& f, bool rotation) {
+  const eval::Stats& s = rotation ? f.ape_rot_deg : f.ape_trans_m;
+  const std::string block = rotation ? "ape_rot_deg" : "ape_trans_m";
+  std::vector<ReportCell> out;
+  for (const auto& [key, v] : {std::pair{"rmse", s.rmse}, std::pair{"mean", s.mean}, std::pair{"median", s.median},
+                               std::pair{"std", s.std}, std::pair{"min", s.min}, std::pair{"max", s.max}})
+    out.push_back({block + "." + key, v});
+  return out;
+}
+
+std::vector<ReportCell> nees_cells(const EvalReportFile& f) {
+  return {{"consistency.anees_p", f.consistency.anees_p}, {"consistency.anees_r", f.consistency.anees_r}};
+}
+
+const std::vector<std::string>& headline_metric_names() {
+  static const std::vector<std::string> names = {"rmse_x_m",       "rmse_y_m",     "rmse_z_m",  "rmse_roll_deg",
+                                                 "rmse_pitch_deg", "rmse_yaw_deg", "ate_rmse_m", "rot_rmse_deg"};
+  return names;
+}
+
+std::vector<std::pair<std::string, double>> headline_metrics(const EvalReportFile& f) {
+  const Eigen::Vector3d& p = f.per_axis.pos_rmse_m;
+  const Eigen::Vector3d& e = f.per_axis.rpy_deg.rmse;
+  const double v[] = {p.x(), p.y(), p.z(), e.x(), e.y(), e.z(), f.ape_trans_m.rmse, f.ape_rot_deg.rmse};
+  const auto& names = headline_metric_names();
+  std::vector<std::pair<std::string, double>> out;
+  for (std::size_t k = 0; k < names.size(); ++k) out.emplace_back(names[k], v[k]);
+  return out;
+}
+
+}  // namespace roe::store
