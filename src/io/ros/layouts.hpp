@@ -12,6 +12,7 @@
 // kept as doubles are marked as_f32(...); variable-length sequences go through sequence().
 // Private to src/io/ros.
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <limits>
@@ -123,9 +124,17 @@ void sequence(C& c, Vec& v, std::size_t min_bytes, F&& element,
 
 /// `n` float64 fields roe does not keep: read and dropped, written as zeros.
 template <class C>
-void unused_f64(C& c, int n) {
-  double ignored = 0.0;
-  for (int i = 0; i < n; ++i) field(c, ignored);
+void unused_f64(C& c, std::size_t n) {
+  if constexpr (C::kReads) {
+    // Stepped over at once, failing where n calls of f64() would: the first aligns (CDR), the rest follow.
+    if (n == 0) return;
+    c.f64();
+    const std::size_t whole = std::min(n - 1, c.remaining() / 8);
+    c.bytes(8 * whole);
+    if (whole < n - 1) c.f64();
+  } else {
+    for (std::size_t i = 0; i < n; ++i) c.f64(0.0);
+  }
 }
 
 /// Whether an optional last field of `n` bytes is there: exactly `n` bytes left to read; always written.

@@ -44,6 +44,13 @@ class Cursor {
   float f32() { return raw<float>(); }
   double f64() { return raw<double>(); }
   std::string str();
+  /// The next `n` bytes (no alignment).
+  std::string_view bytes(std::size_t n) {
+    need(n);
+    const std::string_view v = d_.substr(pos_, n);
+    pos_ += n;
+    return v;
+  }
   /// uint8[] sequence: a view into the message.
   std::string_view byte_sequence();
   ros::Header header();
