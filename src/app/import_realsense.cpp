@@ -214,8 +214,8 @@ std::vector<CameraFrame> write_images(io::MessageBag& bag, const std::string& to
     const std::string w = m.where();
     std::optional<ros::CompressedImage> ci;
     std::optional<ros::Image> im;
-    if (compressed) ci = io::decode_compressed_image(m);
-    else im = io::decode_image(m);
+    if (compressed) ci = io::decode<ros::msg::CompressedImage>(m);
+    else im = io::decode<ros::msg::Image>(m);
     const Timestamp stamp = compressed ? ci->header.stamp_ns : im->header.stamp_ns;
     if (!seen.insert(stamp).second) {
       ++dup_frames;

@@ -21,6 +21,8 @@
 
 namespace fs = std::filesystem;
 using namespace roe;
+namespace msg = roe::io::ros::msg;
+using roe::io::ros::Wire;
 
 namespace {
 
@@ -161,7 +163,8 @@ TEST_CASE("import realsense ROS 2: a simulated recording written as a ROS 2 bag 
     l_c.child_frame_id = "camera_color_optical_frame";
     l_c.transform.t = man.camera->T_I_C.p;  // camera_link = the IMU frame here
     l_c.transform.q = man.camera->T_I_C.q;
-    w.message(3, static_cast<std::uint64_t>(imu.front().t_ns), io::cdr::encode_tf_message({l_i, l_c}));
+    w.message(3, static_cast<std::uint64_t>(imu.front().t_ns),
+              io::ros::encode<msg::TFMessage>(Wire::cdr, {l_i, l_c}));
     std::size_t c = 0;
     for (const auto& s : imu) {
       while (c < cams.size() && cams[c].t_ns <= s.t_ns) {
@@ -173,7 +176,8 @@ TEST_CASE("import realsense ROS 2: a simulated recording written as a ROS 2 bag 
         ci.distortion_model = "plumb_bob";
         ci.D = {0, 0, 0, 0, 0};
         ci.K = {man.camera->fx, 0, man.camera->cx, 0, man.camera->fy, man.camera->cy, 0, 0, 1};
-        w.message(2, static_cast<std::uint64_t>(cams[c].t_ns), io::cdr::encode_camera_info(ci));
+        w.message(2, static_cast<std::uint64_t>(cams[c].t_ns),
+                  io::ros::encode<msg::CameraInfo>(Wire::cdr, ci));
         ++c;
       }
       io::ros::Imu m;
@@ -181,7 +185,7 @@ TEST_CASE("import realsense ROS 2: a simulated recording written as a ROS 2 bag 
       m.header.frame_id = "camera_imu_optical_frame";
       m.angular_velocity = s.gyro;
       m.linear_acceleration = s.accel;
-      w.message(1, static_cast<std::uint64_t>(s.t_ns), io::cdr::encode_imu(m));
+      w.message(1, static_cast<std::uint64_t>(s.t_ns), io::ros::encode<msg::Imu>(Wire::cdr, m));
     }
     w.finish();
   }

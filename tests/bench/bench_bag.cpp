@@ -16,6 +16,8 @@
 
 namespace fs = std::filesystem;
 using namespace roe;
+namespace msg = roe::io::ros::msg;
+using roe::io::ros::Wire;
 
 namespace {
 
@@ -38,10 +40,10 @@ Stat read_all(const fs::path& file) {
                ++n;
                bytes += m.data.size();
                if (m.connection->type == "sensor_msgs/Image") {
-                 const auto im = io::ros::decode_image(m.data, "bench");
+                 const auto im = io::ros::decode<msg::Image>(Wire::ros1, m.data, "bench");
                  bytes += im.data[im.data.size() / 2] == 0x7f;  // touch the payload
                } else if (m.connection->type == "sensor_msgs/Imu") {
-                 (void)io::ros::decode_imu(m.data, "bench");
+                 (void)io::ros::decode<msg::Imu>(Wire::ros1, m.data, "bench");
                }
                return true;
              });

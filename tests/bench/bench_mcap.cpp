@@ -27,6 +27,8 @@
 
 namespace fs = std::filesystem;
 using namespace roe;
+namespace msg = roe::io::ros::msg;
+using roe::io::ros::Wire;
 
 namespace {
 
@@ -52,7 +54,7 @@ std::uint64_t write_bag(const fs::path& file, bool zstd, double message_mb) {
       io::ros::Imu m;
       m.header.stamp_ns = t0 + k * 33'333'333LL + j * 5'000'000LL;
       m.angular_velocity = Eigen::Vector3d(0.01 * j, 0.02, -0.03);
-      const std::string b = io::cdr::encode_imu(m);
+      const std::string b = io::ros::encode<msg::Imu>(Wire::cdr, m);
       w.message(2, static_cast<std::uint64_t>(m.header.stamp_ns), b);
       payload += b.size();
     }

@@ -7,24 +7,26 @@
 #include <string_view>
 
 #include "roe/core/error.hpp"
-#include "roe/io/ros/cdr.hpp"
+#include "roe/io/ros/msgs.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
-  namespace cdr = roe::io::cdr;
-  const std::string_view msg(reinterpret_cast<const char*>(data) + 1, size - 1);
+  namespace ros = roe::io::ros;
+  namespace msg = ros::msg;
+  using ros::Wire;
+  const std::string_view bytes(reinterpret_cast<const char*>(data) + 1, size - 1);
   const std::string w = "fuzz";
   try {
     switch (data[0] % 9) {
-      case 0: cdr::decode_image(msg, w); break;
-      case 1: cdr::decode_compressed_image(msg, w); break;
-      case 2: cdr::decode_camera_info(msg, w); break;
-      case 3: cdr::decode_imu(msg, w); break;
-      case 4: cdr::decode_pose_stamped(msg, w); break;
-      case 5: cdr::decode_pose_with_covariance_stamped(msg, w); break;
-      case 6: cdr::decode_transform_stamped(msg, w); break;
-      case 7: cdr::decode_odometry(msg, w); break;
-      default: cdr::decode_tf_message(msg, w); break;
+      case 0: ros::decode<msg::Image>(Wire::cdr, bytes, w); break;
+      case 1: ros::decode<msg::CompressedImage>(Wire::cdr, bytes, w); break;
+      case 2: ros::decode<msg::CameraInfo>(Wire::cdr, bytes, w); break;
+      case 3: ros::decode<msg::Imu>(Wire::cdr, bytes, w); break;
+      case 4: ros::decode<msg::PoseStamped>(Wire::cdr, bytes, w); break;
+      case 5: ros::decode<msg::PoseWithCovarianceStamped>(Wire::cdr, bytes, w); break;
+      case 6: ros::decode<msg::TransformStamped>(Wire::cdr, bytes, w); break;
+      case 7: ros::decode<msg::Odometry>(Wire::cdr, bytes, w); break;
+      default: ros::decode<msg::TFMessage>(Wire::cdr, bytes, w); break;
     }
   } catch (const roe::InputError&) {
   }

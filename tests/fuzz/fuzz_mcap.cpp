@@ -7,20 +7,22 @@
 #include <string>
 
 #include "roe/core/error.hpp"
-#include "roe/io/ros/cdr.hpp"
+#include "roe/io/ros/msgs.hpp"
 #include "roe/io/ros/mcap.hpp"
 
 namespace {
 void decode(const std::string& schema, std::string_view data) {
-  namespace cdr = roe::io::cdr;
+  namespace ros = roe::io::ros;
+  namespace msg = ros::msg;
+  using ros::Wire;
   const std::string w = "fuzz";
   try {
-    if (schema == "sensor_msgs/msg/Image") cdr::decode_image(data, w);
-    else if (schema == "sensor_msgs/msg/CompressedImage") cdr::decode_compressed_image(data, w);
-    else if (schema == "sensor_msgs/msg/CameraInfo") cdr::decode_camera_info(data, w);
-    else if (schema == "sensor_msgs/msg/Imu") cdr::decode_imu(data, w);
-    else if (schema == "nav_msgs/msg/Odometry") cdr::decode_odometry(data, w);
-    else cdr::decode_tf_message(data, w);
+    if (schema == "sensor_msgs/msg/Image") ros::decode<msg::Image>(Wire::cdr, data, w);
+    else if (schema == "sensor_msgs/msg/CompressedImage") ros::decode<msg::CompressedImage>(Wire::cdr, data, w);
+    else if (schema == "sensor_msgs/msg/CameraInfo") ros::decode<msg::CameraInfo>(Wire::cdr, data, w);
+    else if (schema == "sensor_msgs/msg/Imu") ros::decode<msg::Imu>(Wire::cdr, data, w);
+    else if (schema == "nav_msgs/msg/Odometry") ros::decode<msg::Odometry>(Wire::cdr, data, w);
+    else ros::decode<msg::TFMessage>(Wire::cdr, data, w);
   } catch (const roe::InputError&) {
   }
 }

@@ -12,28 +12,30 @@
 namespace {
 void decode(const roe::io::ros1::MessageView& m) {
   namespace ros = roe::io::ros;
+  namespace msg = ros::msg;
+  using ros::Wire;
   const std::string& t = m.connection->type;
   const std::string w = "fuzz";
   try {
-    if (t == "sensor_msgs/Image") ros::decode_image(m.data, w);
-    else if (t == "sensor_msgs/CompressedImage") ros::decode_compressed_image(m.data, w);
-    else if (t == "sensor_msgs/CameraInfo") ros::decode_camera_info(m.data, w);
-    else if (t == "sensor_msgs/Imu") ros::decode_imu(m.data, w);
-    else if (t == "geometry_msgs/Transform") ros::decode_transform(m.data, w);
-    else if (t == "geometry_msgs/PoseStamped") ros::decode_pose_stamped(m.data, w);
-    else if (t == "geometry_msgs/TransformStamped") ros::decode_transform_stamped(m.data, w);
-    else if (t == "nav_msgs/Odometry") ros::decode_odometry(m.data, w);
-    else if (t == "tf2_msgs/TFMessage") ros::decode_tf_message(m.data, w);
-    else if (t == "realsense_msgs/StreamInfo") ros::decode_stream_info(m.data, w);
-    else if (t == "realsense_msgs/ImuIntrinsic") ros::decode_rs_imu_intrinsic(m.data, w);
-    else if (t == "diagnostic_msgs/KeyValue") ros::decode_key_value(m.data, w);
+    if (t == "sensor_msgs/Image") ros::decode<msg::Image>(Wire::ros1, m.data, w);
+    else if (t == "sensor_msgs/CompressedImage") ros::decode<msg::CompressedImage>(Wire::ros1, m.data, w);
+    else if (t == "sensor_msgs/CameraInfo") ros::decode<msg::CameraInfo>(Wire::ros1, m.data, w);
+    else if (t == "sensor_msgs/Imu") ros::decode<msg::Imu>(Wire::ros1, m.data, w);
+    else if (t == "geometry_msgs/Transform") ros::decode<msg::Transform>(Wire::ros1, m.data, w);
+    else if (t == "geometry_msgs/PoseStamped") ros::decode<msg::PoseStamped>(Wire::ros1, m.data, w);
+    else if (t == "geometry_msgs/TransformStamped") ros::decode<msg::TransformStamped>(Wire::ros1, m.data, w);
+    else if (t == "nav_msgs/Odometry") ros::decode<msg::Odometry>(Wire::ros1, m.data, w);
+    else if (t == "tf2_msgs/TFMessage") ros::decode<msg::TFMessage>(Wire::ros1, m.data, w);
+    else if (t == "realsense_msgs/StreamInfo") ros::decode<msg::StreamInfo>(Wire::ros1, m.data, w);
+    else if (t == "realsense_msgs/ImuIntrinsic") ros::decode<msg::ImuIntrinsic>(Wire::ros1, m.data, w);
+    else if (t == "diagnostic_msgs/KeyValue") ros::decode<msg::KeyValue>(Wire::ros1, m.data, w);
     else {
       // Unknown types: exercise every decoder on the bytes anyway.
-      try { ros::decode_imu(m.data, w); } catch (const roe::InputError&) {}
-      try { ros::decode_camera_info(m.data, w); } catch (const roe::InputError&) {}
-      try { ros::decode_image(m.data, w); } catch (const roe::InputError&) {}
-      try { ros::decode_tf_message(m.data, w); } catch (const roe::InputError&) {}
-      try { ros::decode_odometry(m.data, w); } catch (const roe::InputError&) {}
+      try { ros::decode<msg::Imu>(Wire::ros1, m.data, w); } catch (const roe::InputError&) {}
+      try { ros::decode<msg::CameraInfo>(Wire::ros1, m.data, w); } catch (const roe::InputError&) {}
+      try { ros::decode<msg::Image>(Wire::ros1, m.data, w); } catch (const roe::InputError&) {}
+      try { ros::decode<msg::TFMessage>(Wire::ros1, m.data, w); } catch (const roe::InputError&) {}
+      try { ros::decode<msg::Odometry>(Wire::ros1, m.data, w); } catch (const roe::InputError&) {}
     }
   } catch (const roe::InputError&) {
   }

@@ -16,6 +16,8 @@
 
 namespace fs = std::filesystem;
 using namespace roe;
+namespace msg = roe::io::ros::msg;
+using roe::io::ros::Wire;
 
 namespace {
 using roe::test::TempDir;
@@ -258,18 +260,22 @@ TEST_CASE("bag poses: PoseStamped, TransformStamped, Odometry and TF topics", "[
     p.child_frame_id = "body";
     p.transform.t = Eigen::Vector3d(k, 2 * k, 3);
     p.transform.q = Eigen::Quaterniond(Eigen::AngleAxisd(0.1 * k, Eigen::Vector3d::UnitZ()));
-    w.write("/pose", "geometry_msgs/PoseStamped", p.header.stamp_ns + 5, io::ros::encode_pose_stamped(p));
-    w.write("/ts", "geometry_msgs/TransformStamped", p.header.stamp_ns + 5, io::ros::encode_transform_stamped(p));
-    w.write("/odom", "nav_msgs/Odometry", p.header.stamp_ns + 5, io::ros::encode_odometry(p));
-    io::ros::Writer tf;
-    tf.u32(2).header(p.header).str("body").vec3(p.transform.t).quat_xyzw(p.transform.q);
-    tf.header(p.header).str("other").vec3(-p.transform.t).quat_xyzw(p.transform.q);
-    w.write("/tf", "tf2_msgs/TFMessage", p.header.stamp_ns + 5, tf.bytes());
+    w.write("/pose", "geometry_msgs/PoseStamped", p.header.stamp_ns + 5,
+            io::ros::encode<msg::PoseStamped>(Wire::ros1, p));
+    w.write("/ts", "geometry_msgs/TransformStamped", p.header.stamp_ns + 5,
+            io::ros::encode<msg::TransformStamped>(Wire::ros1, p));
+    w.write("/odom", "nav_msgs/Odometry", p.header.stamp_ns + 5,
+            io::ros::encode<msg::Odometry>(Wire::ros1, p));
+    io::ros::StampedTransform other = p;
+    other.child_frame_id = "other";
+    other.transform.t = -p.transform.t;
+    w.write("/tf", "tf2_msgs/TFMessage", p.header.stamp_ns + 5,
+            io::ros::encode<msg::TFMessage>(Wire::ros1, {p, other}));
   }
   io::ros::StampedTransform bad;
   bad.header.stamp_ns = 5'000'000'000LL;
   bad.transform.q = Eigen::Quaterniond(0.5, 0.5, 0.5, 0.6);
-  w.write("/badq", "geometry_msgs/PoseStamped", 1, io::ros::encode_pose_stamped(bad));
+  w.write("/badq", "geometry_msgs/PoseStamped", 1, io::ros::encode<msg::PoseStamped>(Wire::ros1, bad));
   const fs::path f = d.path / "p.bag";
   w.save(f.string());
   for (const char* topic : {"/pose", "/ts", "/odom"}) {
@@ -297,7 +303,8 @@ TEST_CASE("bag poses: a bag cut inside its only chunk says it is damaged, not th
     io::ros::StampedTransform p;
     p.header.stamp_ns = 1'000'000'000LL + k * 10'000'000LL;
     p.transform.q = Eigen::Quaterniond::Identity();
-    w.write("/pose", "geometry_msgs/PoseStamped", p.header.stamp_ns, io::ros::encode_pose_stamped(p));
+    w.write("/pose", "geometry_msgs/PoseStamped", p.header.stamp_ns,
+            io::ros::encode<msg::PoseStamped>(Wire::ros1, p));
   }
   const fs::path whole = d.path / "whole.bag";
   w.save(whole.string());

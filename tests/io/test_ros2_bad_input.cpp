@@ -20,6 +20,8 @@
 
 namespace fs = std::filesystem;
 using namespace roe;
+namespace msg = roe::io::ros::msg;
+using roe::io::ros::Wire;
 namespace mcap = roe::io::mcap;
 
 namespace {
@@ -170,27 +172,31 @@ TEST_CASE("cdr bad input: string and sequence lengths beyond the message, bad en
   t.header.frame_id = "odom";
   t.child_frame_id = "base";
   t.transform.t = Eigen::Vector3d(1, 2, 3);
-  const std::string ok = io::cdr::encode_tf_message({t, t});
-  const auto back = io::cdr::decode_tf_message(ok, "m");
+  const std::string ok = io::ros::encode<msg::TFMessage>(Wire::cdr, {t, t});
+  const auto back = io::ros::decode<msg::TFMessage>(Wire::cdr, ok, "m");
   REQUIRE(back.size() == 2);
   CHECK(back[1].child_frame_id == "base");
   CHECK(back[1].header.stamp_ns == t.header.stamp_ns);
   std::string b = ok;
   put<std::uint32_t>(b, 4, 1000000);  // transform count
-  CHECK_THROWS_WITH(io::cdr::decode_tf_message(b, "topic /tf"),
-                    Catch::Contains("topic /tf") && Catch::Contains("sequence length 1000000 exceeds the message"));
+  CHECK_THROWS_WITH(
+      io::ros::decode<msg::TFMessage>(Wire::cdr, b, "topic /tf"),
+      Catch::Contains("topic /tf") && Catch::Contains("sequence length 1000000 exceeds the message"));
   b = ok;
   put<std::uint32_t>(b, 16, 0x7FFFFFFF);  // frame_id length (after count, sec, nanosec)
-  CHECK_THROWS_WITH(io::cdr::decode_tf_message(b, "m"), Catch::Contains("string length 2147483647 exceeds the message"));
+  CHECK_THROWS_WITH(io::ros::decode<msg::TFMessage>(Wire::cdr, b, "m"),
+                    Catch::Contains("string length 2147483647 exceeds the message"));
   b = ok;
   b[20 + 4] = 'X';  // the NUL of "odom"
-  CHECK_THROWS_WITH(io::cdr::decode_tf_message(b, "m"), Catch::Contains("not NUL-terminated"));
+  CHECK_THROWS_WITH(io::ros::decode<msg::TFMessage>(Wire::cdr, b, "m"),
+                    Catch::Contains("not NUL-terminated"));
   b = ok;
   b[1] = 3;  // PL_CDR_LE: not plain CDR
-  CHECK_THROWS_WITH(io::cdr::decode_tf_message(b, "m"), Catch::Contains("not plain CDR"));
+  CHECK_THROWS_WITH(io::ros::decode<msg::TFMessage>(Wire::cdr, b, "m"), Catch::Contains("not plain CDR"));
   for (std::size_t cut = 0; cut < ok.size() - 3; ++cut)
-    CHECK_THROWS_AS(io::cdr::decode_tf_message(ok.substr(0, cut), "m"), InputError);
-  CHECK_THROWS_WITH(io::cdr::decode_tf_message(ok + std::string(8, '\0'), "m"), Catch::Contains("trailing bytes"));
+    CHECK_THROWS_AS(io::ros::decode<msg::TFMessage>(Wire::cdr, ok.substr(0, cut), "m"), InputError);
+  CHECK_THROWS_WITH(io::ros::decode<msg::TFMessage>(Wire::cdr, ok + std::string(8, '\0'), "m"),
+                    Catch::Contains("trailing bytes"));
   // Big-endian CDR of the same message decodes to the same values.
   std::string be(4, '\0');  // encapsulation 0x00 0x00: CDR big-endian
   auto u32be = [&](std::uint32_t v) {
@@ -214,7 +220,7 @@ TEST_CASE("cdr bad input: string and sequence lengths beyond the message, bad en
   strbe("odom");
   strbe("base");
   for (double d : {1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0}) f64be(d);
-  const auto bt = io::cdr::decode_tf_message(be, "be");
+  const auto bt = io::ros::decode<msg::TFMessage>(Wire::cdr, be, "be");
   REQUIRE(bt.size() == 1);
   CHECK(bt[0].header.stamp_ns == 1'500'000'000'123);
   CHECK(bt[0].transform.t == Eigen::Vector3d(1, 2, 3));
@@ -369,7 +375,7 @@ TEST_CASE("rosbag2: a folder without metadata.yaml and a lone zstd-compressed MC
   CHECK(zb->message_count("/camera/camera/color/image_raw") == 6);
   std::size_t n = 0;
   zb->for_each({"/camera/camera/imu"}, [&](const io::BagMessage& m) {
-    n += io::decode_imu(m).header.frame_id == "camera_imu_optical_frame";
+    n += io::decode<msg::Imu>(m).header.frame_id == "camera_imu_optical_frame";
     return true;
   });
   CHECK(n == 120);

@@ -14,6 +14,8 @@
 
 namespace fs = std::filesystem;
 using namespace roe;
+namespace msg = roe::io::ros::msg;
+using roe::io::ros::Wire;
 namespace ros = roe::io::ros;
 
 namespace {
@@ -87,8 +89,10 @@ TEST_CASE("ros2 real: the Nav2 TurtleBot MCAP decodes with the pinned values", "
   std::vector<ros::StampedTransform> odom, amcl;
   std::vector<ros::StampedTransform> statics;
   bag->for_each({"/odom", "/amcl_pose", "/tf_static"}, [&](const io::BagMessage& m) {
-    if (m.topic->topic == "/tf_static") statics = io::decode_tf_message(m);
-    else (m.topic->topic == "/odom" ? odom : amcl).push_back(io::decode_stamped_pose(m));
+    if (m.topic->topic == "/tf_static")
+      statics = io::decode<msg::TFMessage>(m);
+    else
+      (m.topic->topic == "/odom" ? odom : amcl).push_back(io::decode_stamped_pose(m));
     return true;
   });
   REQUIRE(odom.size() == 2639);
@@ -143,7 +147,7 @@ TEST_CASE("ros2 real: the rosbag2 SQLite /tf bag, as a folder and as the .db3", 
     std::vector<ros::StampedTransform> tf;
     bag->for_each({"/tf"}, [&](const io::BagMessage& m) {
       CHECK(m.location.rfind("messages row id ", 0) == 0);
-      for (const auto& t : io::decode_tf_message(m)) tf.push_back(t);
+      for (const auto& t : io::decode<msg::TFMessage>(m)) tf.push_back(t);
       return true;
     });
     REQUIRE(tf.size() == 517);

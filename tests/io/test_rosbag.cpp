@@ -14,6 +14,8 @@ namespace fs = std::filesystem;
 using namespace roe;
 namespace ros1 = roe::io::ros1;
 namespace ros = roe::io::ros;
+namespace msg = roe::io::ros::msg;
+using roe::io::ros::Wire;
 
 namespace {
 
@@ -24,12 +26,13 @@ std::string small_bag(const std::string& compression, bool indexed = true, std::
     m.header.stamp_ns = 1'000'000'000LL + k * 5'000'000LL;
     m.header.seq = static_cast<std::uint32_t>(k);
     m.angular_velocity = Eigen::Vector3d(k, -k, 0.5 * k);
-    w.write("/imu", "sensor_msgs/Imu", m.header.stamp_ns, ros::encode_imu(m));
+    w.write("/imu", "sensor_msgs/Imu", m.header.stamp_ns, ros::encode<msg::Imu>(Wire::ros1, m));
     if (k % 10 == 0) {
       ros::StampedTransform p;
       p.header.stamp_ns = m.header.stamp_ns;
       p.transform.t = Eigen::Vector3d(k * 0.01, 0, 1);
-      w.write("/pose", "geometry_msgs/PoseStamped", m.header.stamp_ns, ros::encode_pose_stamped(p));
+      w.write("/pose", "geometry_msgs/PoseStamped", m.header.stamp_ns,
+              ros::encode<msg::PoseStamped>(Wire::ros1, p));
     }
   }
   return w.finish();
@@ -38,7 +41,7 @@ std::string small_bag(const std::string& compression, bool indexed = true, std::
 std::vector<Timestamp> imu_stamps(ros1::Reader& r) {
   std::vector<Timestamp> t;
   r.for_each_topic({"/imu"}, [&](const ros1::MessageView& m) {
-    const auto imu = ros::decode_imu(m.data, "test");
+    const auto imu = ros::decode<msg::Imu>(Wire::ros1, m.data, "test");
     CHECK(imu.angular_velocity.x() == static_cast<double>(imu.header.seq));
     t.push_back(imu.header.stamp_ns);
     return true;
@@ -49,8 +52,12 @@ std::vector<Timestamp> imu_stamps(ros1::Reader& r) {
 std::string shared(const char* rel) { return std::string(ROE_SHARED_DATA_DIR) + "/" + rel; }
 
 // A bag's little-endian uint32 fields, read and overwritten in place (ROS's own uint32 coding).
-std::uint32_t get_le32(const std::string& b, std::size_t at) { return ros::decode_uint32(b.substr(at, 4), "test"); }
-void put_le32(std::string& b, std::size_t at, std::uint32_t v) { b.replace(at, 4, ros::encode_uint32(v)); }
+std::uint32_t get_le32(const std::string& b, std::size_t at) {
+  return ros::decode<msg::UInt32>(Wire::ros1, b.substr(at, 4), "test");
+}
+void put_le32(std::string& b, std::size_t at, std::uint32_t v) {
+  b.replace(at, 4, ros::encode<msg::UInt32>(Wire::ros1, v));
+}
 
 std::size_t count_messages(ros1::Reader& r) {
   std::size_t n = 0;
@@ -82,7 +89,7 @@ TEST_CASE("rosbag: round trip for every compression, indexed and unindexed", "[i
       CHECK(t.front() == 1'000'000'000LL);
       std::size_t poses = 0;
       r.for_each_topic({"/pose"}, [&](const ros1::MessageView& m) {
-        const auto p = ros::decode_pose_stamped(m.data, "t");
+        const auto p = ros::decode<msg::PoseStamped>(Wire::ros1, m.data, "t");
         CHECK(p.transform.t.x() == Approx(poses * 0.1));
         ++poses;
         return true;
@@ -123,7 +130,7 @@ TEST_CASE("rosbag: chunks beyond 64 KiB (growing decompression buffers) and prog
     r.for_each_topic(
         {"/imu"},
         [&](const ros1::MessageView& m) {
-          const auto imu = ros::decode_imu(m.data, "test");
+          const auto imu = ros::decode<msg::Imu>(Wire::ros1, m.data, "test");
           CHECK(imu.header.seq == seen);
           CHECK(imu.angular_velocity.z() == 0.5 * seen);
           ++seen;
@@ -148,7 +155,7 @@ TEST_CASE("rosbag: iteration is in record-time order across chunks that overlap"
   for (std::size_t i = 0; i < ts.size(); ++i) {
     ros::Imu m;
     m.header.seq = static_cast<std::uint32_t>(i);
-    w.write("/a", "sensor_msgs/Imu", ts[i] * 1'000'000, ros::encode_imu(m));
+    w.write("/a", "sensor_msgs/Imu", ts[i] * 1'000'000, ros::encode<msg::Imu>(Wire::ros1, m));
   }
   ros1::Reader r(w.finish(), "mem");
   std::vector<Timestamp> got;
@@ -273,11 +280,11 @@ TEST_CASE("rosbag: unknown compression and absurd sizes are skipped, not trusted
 TEST_CASE("ros_msgs: decoders check bounds and trailing bytes", "[io][rosbag]") {
   ros::Imu m;
   m.header.frame_id = "imu";
-  const std::string enc = ros::encode_imu(m);
-  CHECK_NOTHROW(ros::decode_imu(enc, "t"));
-  CHECK_THROWS_WITH(ros::decode_imu(enc.substr(0, enc.size() - 1), "imu.bag: /imu"),
+  const std::string enc = ros::encode<msg::Imu>(Wire::ros1, m);
+  CHECK_NOTHROW(ros::decode<msg::Imu>(Wire::ros1, enc, "t"));
+  CHECK_THROWS_WITH(ros::decode<msg::Imu>(Wire::ros1, enc.substr(0, enc.size() - 1), "imu.bag: /imu"),
                     Catch::Contains("imu.bag: /imu") && Catch::Contains("too short"));
-  CHECK_THROWS_WITH(ros::decode_imu(enc + "x", "t"), Catch::Contains("trailing"));
+  CHECK_THROWS_WITH(ros::decode<msg::Imu>(Wire::ros1, enc + "x", "t"), Catch::Contains("trailing"));
   ros::Image im;
   im.width = 4;
   im.height = 2;
@@ -285,18 +292,24 @@ TEST_CASE("ros_msgs: decoders check bounds and trailing bytes", "[io][rosbag]") 
   im.encoding = "rgb8";
   const std::string px(23, '\1');  // one byte short of step x height
   im.data = px;
-  CHECK_THROWS_AS(ros::decode_image(ros::encode_image(im), "t"), InputError);
+  CHECK_THROWS_AS(ros::decode<msg::Image>(Wire::ros1, ros::encode<msg::Image>(Wire::ros1, im), "t"),
+                  InputError);
   // A huge length prefix must not allocate or read out of bounds.
-  std::string evil = ros::encode_uint32(0) + ros::encode_uint32(0) + ros::encode_uint32(0) + ros::encode_uint32(0xFFFFFFF0u);
-  CHECK_THROWS_AS(ros::decode_tf_message(ros::encode_uint32(0x7FFFFFFF) + evil, "t"), InputError);
-  CHECK_THROWS_AS(ros::decode_camera_info(evil, "t"), InputError);
+  std::string evil = ros::encode<msg::UInt32>(Wire::ros1, 0) + ros::encode<msg::UInt32>(Wire::ros1, 0) +
+                     ros::encode<msg::UInt32>(Wire::ros1, 0) +
+                     ros::encode<msg::UInt32>(Wire::ros1, 0xFFFFFFF0u);
+  CHECK_THROWS_AS(
+      ros::decode<msg::TFMessage>(Wire::ros1, ros::encode<msg::UInt32>(Wire::ros1, 0x7FFFFFFF) + evil, "t"),
+      InputError);
+  CHECK_THROWS_AS(ros::decode<msg::CameraInfo>(Wire::ros1, evil, "t"), InputError);
   // Values survive a round trip.
   ros::CameraInfo ci;
   ci.width = 640;
   ci.distortion_model = "Inverse Brown Conrady";
   ci.D = {0.1, 0.2, 0.3, 0.4, 0.5};
   ci.K = {1, 0, 2, 0, 3, 4, 0, 0, 1};
-  const auto back = ros::decode_camera_info(ros::encode_camera_info(ci), "t");
+  const auto back =
+      ros::decode<msg::CameraInfo>(Wire::ros1, ros::encode<msg::CameraInfo>(Wire::ros1, ci), "t");
   CHECK(back.D == ci.D);
   CHECK(back.K == ci.K);
   CHECK(back.distortion_model == ci.distortion_model);
@@ -305,17 +318,19 @@ TEST_CASE("ros_msgs: decoders check bounds and trailing bytes", "[io][rosbag]") 
   for (std::size_t k = 0; k < ii.data.size(); ++k) ii.data[k] = 0.5f + static_cast<float>(k);
   for (std::size_t k = 0; k < ii.noise_variances.size(); ++k) ii.noise_variances[k] = -1.25f * (1.0f + k);
   for (std::size_t k = 0; k < ii.bias_variances.size(); ++k) ii.bias_variances[k] = 1e-6f * (3.0f + k);
-  const auto iback = ros::decode_rs_imu_intrinsic(ros::encode_rs_imu_intrinsic(ii), "t");
+  const auto iback =
+      ros::decode<msg::ImuIntrinsic>(Wire::ros1, ros::encode<msg::ImuIntrinsic>(Wire::ros1, ii), "t");
   CHECK(iback.data == ii.data);
   CHECK(iback.noise_variances == ii.noise_variances);
   CHECK(iback.bias_variances == ii.bias_variances);
-  CHECK_THROWS_WITH(ros::decode_rs_imu_intrinsic(ros::encode_rs_imu_intrinsic(ii) + "x", "t"),
-                    Catch::Contains("trailing"));
+  CHECK_THROWS_WITH(
+      ros::decode<msg::ImuIntrinsic>(Wire::ros1, ros::encode<msg::ImuIntrinsic>(Wire::ros1, ii) + "x", "t"),
+      Catch::Contains("trailing"));
   const float f = -3.75f;
   std::string f_bytes(4, '\0');
   std::memcpy(f_bytes.data(), &f, 4);  // little-endian, as ROS serialises it (and every machine roe runs on)
-  CHECK(ros::decode_float32(f_bytes, "t") == f);
-  CHECK_THROWS_AS(ros::decode_float32(f_bytes.substr(1), "t"), InputError);
+  CHECK(ros::decode<msg::Float32>(Wire::ros1, f_bytes, "t") == f);
+  CHECK_THROWS_AS(ros::decode<msg::Float32>(Wire::ros1, f_bytes.substr(1), "t"), InputError);
 }
 
 TEST_CASE("rosbag: the real RealSense recorder bag", "[io][rosbag][shared]") {
@@ -336,16 +351,17 @@ TEST_CASE("rosbag: the real RealSense recorder bag", "[io][rosbag][shared]") {
   r.for_each_topic({"/device_0/sensor_1/Color_0/info/camera_info", "/device_0/sensor_1/Color_0/image/data", "/file_version"},
                    [&](const ros1::MessageView& m) {
                      if (m.connection->topic == "/file_version") {
-                       CHECK(ros::decode_uint32(m.data, "v") == 3);  // file_version 3 (SDK of 2018)
+                       CHECK(ros::decode<msg::UInt32>(Wire::ros1, m.data, "v") ==
+                             3);  // file_version 3 (SDK of 2018)
                      } else if (m.connection->type == "sensor_msgs/CameraInfo") {
-                       const auto ci = ros::decode_camera_info(m.data, "ci");
+                       const auto ci = ros::decode<msg::CameraInfo>(Wire::ros1, m.data, "ci");
                        CHECK(ci.K[0] == Approx(613.204).margin(1e-3));
                        CHECK(ci.K[4] == Approx(613.419).margin(1e-3));
                        CHECK(ci.K[2] == Approx(319.939).margin(1e-3));
                        CHECK(ci.K[5] == Approx(239.183).margin(1e-3));
                        CHECK(ci.distortion_model == "Brown Conrady");
                      } else {
-                       const auto im = ros::decode_image(m.data, "im");
+                       const auto im = ros::decode<msg::Image>(Wire::ros1, m.data, "im");
                        CHECK(im.encoding == "rgb8");
                        CHECK(im.width == 640);
                        CHECK(im.step == 1920);
@@ -384,22 +400,24 @@ TEST_CASE("ros_msgs: librealsense >= 2.49 images (header.version \"1\") end with
   const std::string px = "\x01\x02\x03\x04\x05\x06";
   im.data = px;
   im.depth_units = 0.001f;
-  const std::string modern = ros::encode_image(im);
+  const std::string modern = ros::encode<msg::Image>(Wire::ros1, im);
   ros::Image old = im;
   old.header.frame_id = "0";
-  const std::string old_bytes = ros::encode_image(old);
+  const std::string old_bytes = ros::encode<msg::Image>(Wire::ros1, old);
   REQUIRE(modern.size() == old_bytes.size() + 4);
-  const auto back = ros::decode_image(modern, "modern.bag: /image");
+  const auto back = ros::decode<msg::Image>(Wire::ros1, modern, "modern.bag: /image");
   CHECK(back.depth_units == 0.001f);
   CHECK(back.data == px);
   CHECK(back.header.stamp_ns == im.header.stamp_ns);
-  CHECK(ros::decode_image(old_bytes, "t").depth_units == 0.0f);
+  CHECK(ros::decode<msg::Image>(Wire::ros1, old_bytes, "t").depth_units == 0.0f);
   // Other trailing bytes are still malformed: 4 bytes after an old-layout image, or more than 4.
-  CHECK_THROWS_WITH(ros::decode_image(old_bytes + std::string(4, '\0'), "old.bag: /image"),
+  CHECK_THROWS_WITH(ros::decode<msg::Image>(Wire::ros1, old_bytes + std::string(4, '\0'), "old.bag: /image"),
                     Catch::Contains("old.bag: /image") && Catch::Contains("4 unexpected trailing bytes"));
-  CHECK_THROWS_WITH(ros::decode_image(modern + "x", "t"), Catch::Contains("5 unexpected trailing bytes"));
-  CHECK_THROWS_WITH(ros::decode_image(modern + "abcd", "t"), Catch::Contains("8 unexpected trailing bytes"));
-  CHECK_THROWS_AS(ros::decode_image(modern.substr(0, modern.size() - 2), "t"), InputError);
+  CHECK_THROWS_WITH(ros::decode<msg::Image>(Wire::ros1, modern + "x", "t"),
+                    Catch::Contains("5 unexpected trailing bytes"));
+  CHECK_THROWS_WITH(ros::decode<msg::Image>(Wire::ros1, modern + "abcd", "t"),
+                    Catch::Contains("8 unexpected trailing bytes"));
+  CHECK_THROWS_AS(ros::decode<msg::Image>(Wire::ros1, modern.substr(0, modern.size() - 2), "t"), InputError);
 }
 
 TEST_CASE("rosbag: damage() names the most specific problem first, the index fallback after it", "[io][rosbag]") {

@@ -52,7 +52,7 @@ void read_tf_chain(MessageBag& reader, const std::string& topic, const std::stri
   reader.for_each(topics, [&](const BagMessage& m) {
     const bool is_static = m.topic->topic == kStatic;
     if (!is_static) ++out.rows;
-    for (auto& tr : decode_tf_message(m)) {
+    for (auto& tr : decode<ros::msg::TFMessage>(m)) {
       if (tr.header.stamp_ns == 0 && !is_static) {
         tr.header.stamp_ns = m.log_time_ns;
         zero_stamps = true;
@@ -99,7 +99,7 @@ MocapData read_bag_poses(const fs::path& bag_file, const std::string& topic, con
   reader->for_each({topic}, [&](const BagMessage& m) {
     ++out.rows;
     if (tf) {
-      for (auto& tr : decode_tf_message(m)) {
+      for (auto& tr : decode<ros::msg::TFMessage>(m)) {
         pairs.insert({tr.header.frame_id, tr.child_frame_id});
         if ((child_frame.empty() || tr.child_frame_id == child_frame) &&
             (parent_frame.empty() || tr.header.frame_id == parent_frame))

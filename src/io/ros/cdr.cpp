@@ -1,4 +1,4 @@
-// CDR (XCDR1) decoders of the ROS 2 messages roe imports (include/roe/io/ros/cdr.hpp).
+// The CDR (XCDR1) cursor and writer (include/roe/io/ros/cdr.hpp).
 #include "roe/io/ros/cdr.hpp"
 
 #include <cstring>
@@ -7,7 +7,7 @@
 
 namespace roe::io::cdr {
 
-Cursor::Cursor(std::string_view msg, std::string where) : d_(msg), where_(std::move(where)) {
+Cursor::Cursor(std::string_view msg, const std::string& where) : d_(msg), where_(where) {
   if (msg.size() < 4) {
     pos_ = 0;
     fail("shorter than the 4-byte CDR encapsulation header");
@@ -26,36 +26,9 @@ void Cursor::fail(const std::string& what) const {
                    std::to_string(d_.size()) + ")");
 }
 
-void Cursor::need(std::size_t n) const {
-  if (n > d_.size() - pos_) fail("message too short (needs " + std::to_string(n) + " more bytes)");
+void Cursor::too_short(std::size_t n) const {
+  fail("message too short (needs " + std::to_string(n) + " more bytes)");
 }
-
-void Cursor::align(std::size_t n) {
-  const std::size_t off = (pos_ - 4) % n;
-  if (off) {
-    need(n - off);
-    pos_ += n - off;
-  }
-}
-
-template <class T>
-T Cursor::raw() {
-  align(sizeof(T));
-  need(sizeof(T));
-  unsigned char b[sizeof(T)];
-  std::memcpy(b, d_.data() + pos_, sizeof(T));
-  if (big_)
-    for (std::size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(b[i], b[sizeof(T) - 1 - i]);
-  pos_ += sizeof(T);
-  T v;
-  std::memcpy(&v, b, sizeof(T));
-  return v;
-}
-
-std::uint8_t Cursor::u8() { return raw<std::uint8_t>(); }
-std::uint32_t Cursor::u32() { return raw<std::uint32_t>(); }
-std::int32_t Cursor::i32() { return raw<std::int32_t>(); }
-double Cursor::f64() { return raw<double>(); }
 
 std::string Cursor::str() {
   const std::uint32_t n = u32();
@@ -90,73 +63,6 @@ void Cursor::finish() const {
   if (remaining() > 3) fail(std::to_string(remaining()) + " unexpected trailing bytes");
 }
 
-ros::Image decode_image(std::string_view msg, const std::string& where) {
-  Cursor c(msg, where);
-  ros::Image m = layout::image(c);
-  c.finish();
-  layout::check_image_size(c, m);
-  return m;
-}
-
-ros::CompressedImage decode_compressed_image(std::string_view msg, const std::string& where) {
-  Cursor c(msg, where);
-  ros::CompressedImage m = layout::compressed_image(c);
-  c.finish();
-  return m;
-}
-
-ros::CameraInfo decode_camera_info(std::string_view msg, const std::string& where) {
-  Cursor c(msg, where);
-  ros::CameraInfo m = layout::camera_info(c);
-  c.finish();
-  return m;
-}
-
-ros::Imu decode_imu(std::string_view msg, const std::string& where) {
-  Cursor c(msg, where);
-  ros::Imu m = layout::imu(c);
-  c.finish();
-  return m;
-}
-
-ros::StampedTransform decode_pose_stamped(std::string_view msg, const std::string& where) {
-  Cursor c(msg, where);
-  ros::StampedTransform m = layout::pose_stamped(c);
-  c.finish();
-  return m;
-}
-
-ros::StampedTransform decode_pose_with_covariance_stamped(std::string_view msg, const std::string& where) {
-  Cursor c(msg, where);
-  ros::StampedTransform m = layout::pose_with_covariance_stamped(c);
-  c.finish();
-  return m;
-}
-
-ros::StampedTransform decode_transform_stamped(std::string_view msg, const std::string& where) {
-  Cursor c(msg, where);
-  ros::StampedTransform m = layout::transform_stamped(c);
-  c.finish();
-  return m;
-}
-
-ros::StampedTransform decode_odometry(std::string_view msg, const std::string& where) {
-  Cursor c(msg, where);
-  ros::StampedTransform m = layout::odometry(c);
-  c.finish();
-  return m;
-}
-
-std::vector<ros::StampedTransform> decode_tf_message(std::string_view msg, const std::string& where) {
-  Cursor c(msg, where);
-  // A TransformStamped takes at least 8 (stamp) + 4 + 4 (two empty strings) + 56 (pose) bytes.
-  const std::uint32_t n = layout::count(c, 72);
-  std::vector<ros::StampedTransform> out(n);
-  for (auto& m : out) m = layout::transform_stamped(c);
-  c.finish();
-  return out;
-}
-
 // ---------------------------------------------------------------------------------------------
 // Writer
 // ---------------------------------------------------------------------------------------------
@@ -174,6 +80,11 @@ Writer& Writer::u32(std::uint32_t v) {
   return *this;
 }
 Writer& Writer::i32(std::int32_t v) { return u32(static_cast<std::uint32_t>(v)); }
+Writer& Writer::f32(float v) {
+  align(4);
+  out_.append(reinterpret_cast<const char*>(&v), 4);
+  return *this;
+}
 Writer& Writer::f64(double v) {
   align(8);
   out_.append(reinterpret_cast<const char*>(&v), 8);
@@ -195,43 +106,6 @@ Writer& Writer::header(const ros::Header& h) {
   i32(static_cast<std::int32_t>(s));
   u32(static_cast<std::uint32_t>(h.stamp_ns - s * kNsPerSecond));
   return str(h.frame_id);
-}
-Writer& Writer::vec3(const Eigen::Vector3d& v) { return f64(v.x()).f64(v.y()).f64(v.z()); }
-Writer& Writer::quat_xyzw(const Eigen::Quaterniond& q) { return f64(q.x()).f64(q.y()).f64(q.z()).f64(q.w()); }
-
-std::string encode_imu(const ros::Imu& m) {
-  Writer w;
-  w.header(m.header).quat_xyzw(m.orientation);
-  for (double d : m.orientation_covariance) w.f64(d);
-  w.vec3(m.angular_velocity);
-  for (double d : m.angular_velocity_covariance) w.f64(d);
-  w.vec3(m.linear_acceleration);
-  for (double d : m.linear_acceleration_covariance) w.f64(d);
-  return w.bytes();
-}
-
-std::string encode_camera_info(const ros::CameraInfo& m) {
-  Writer w;
-  w.header(m.header).u32(m.height).u32(m.width).str(m.distortion_model).u32(static_cast<std::uint32_t>(m.D.size()));
-  for (double d : m.D) w.f64(d);
-  for (double d : m.K) w.f64(d);
-  for (double d : m.R) w.f64(d);
-  for (double d : m.P) w.f64(d);
-  w.u32(m.binning_x).u32(m.binning_y).u32(m.roi_x).u32(m.roi_y).u32(m.roi_height).u32(m.roi_width);
-  return w.u8(m.roi_do_rectify ? 1 : 0).bytes();
-}
-
-std::string encode_pose_stamped(const ros::StampedTransform& m) {
-  Writer w;
-  w.header(m.header).vec3(m.transform.t).quat_xyzw(m.transform.q);
-  return w.bytes();
-}
-
-std::string encode_tf_message(const std::vector<ros::StampedTransform>& m) {
-  Writer w;
-  w.u32(static_cast<std::uint32_t>(m.size()));
-  for (const auto& t : m) w.header(t.header).str(t.child_frame_id).vec3(t.transform.t).quat_xyzw(t.transform.q);
-  return w.bytes();
 }
 
 }  // namespace roe::io::cdr

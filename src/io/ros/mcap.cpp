@@ -5,6 +5,8 @@
 #include <array>
 #include <cstring>
 #include <limits>
+#include <optional>
+#include <utility>
 #include <set>
 
 #include <fmt/format.h>
@@ -130,6 +132,24 @@ const std::array<std::array<std::uint32_t, 256>, 8>& crc_tables() {
 }
 
 std::string op_name(int op) { return fmt::format("0x{:02x}", op); }
+
+/// Walks a block of records (opcode u8, length u64, content: a chunk's records, or the summary section):
+/// fn(opcode, content, offset in the block) for each in turn while fn returns true. Returns the offset of
+/// a record that runs past the end of the block, if one does (the walk stops there).
+template <class F>
+std::optional<std::uint64_t> for_each_record(std::string_view records, F&& fn) {
+  std::uint64_t p = 0;
+  while (p < records.size()) {
+    Rd r(records.substr(static_cast<std::size_t>(p)));
+    const auto op = r.num<std::uint8_t>();
+    const auto len = r.num<std::uint64_t>();
+    const std::string_view content = r.bytes(len);
+    if (!r.ok()) return p;
+    if (!fn(op, content, p)) break;
+    p += kRecordPrefix + len;
+  }
+  return std::nullopt;
+}
 
 /// A Chunk Index record of the summary: the chunk's time span and place, and the offset of each
 /// channel's message index. False when it is malformed or points outside the data section.
@@ -293,36 +313,37 @@ bool Reader::read_summary() {
   bool have_stats = false;
   std::uint64_t stat_messages = 0;
   std::vector<std::map<std::uint16_t, std::uint64_t>> index_offsets;
-  std::uint64_t p = 0;
-  while (p < end) {
-    Rd r(std::string_view(summary).substr(static_cast<std::size_t>(p), static_cast<std::size_t>(end - p)));
-    const auto rop = r.num<std::uint8_t>();
-    const auto len = r.num<std::uint64_t>();
-    const std::string_view content = r.bytes(len);
-    if (!r.ok()) return fallback(summary_start + p, "summary record runs past the summary section");
-    bool ok = true;
-    if (rop == kSchema) {
-      Schema s;
-      ok = parse_schema(content, s);
-      if (ok) schemas_[s.id] = std::move(s);
-    } else if (rop == kChannel) {
-      Channel c;
-      ok = parse_channel(content, c);
-      if (ok) channels_[c.id] = std::move(c);
-    } else if (rop == kChunkIndex) {
-      ChunkInfo ci;
-      std::map<std::uint16_t, std::uint64_t> offs;
-      if (!parse_chunk_index(content, summary_start, ci, offs))
-        return fallback(summary_start + p, "chunk index record points outside the data section");
-      chunks.push_back(std::move(ci));
-      index_offsets.push_back(std::move(offs));
-    } else if (rop == kStatistics) {
-      ok = parse_statistics(content, stat_messages, stat_counts_);
-      have_stats = ok;
-    }
-    if (!ok) return fallback(summary_start + p, "malformed summary record (opcode " + op_name(rop) + ")");
-    p += kRecordPrefix + len;
-  }
+  std::optional<std::pair<std::uint64_t, std::string>> unusable;  // where the summary fails, and why
+  const auto runs_past = for_each_record(
+      std::string_view(summary).substr(0, static_cast<std::size_t>(end)),
+      [&](std::uint8_t rop, std::string_view content, std::uint64_t p) {
+        bool ok = true;
+        if (rop == kSchema) {
+          Schema s;
+          ok = parse_schema(content, s);
+          if (ok) schemas_[s.id] = std::move(s);
+        } else if (rop == kChannel) {
+          Channel c;
+          ok = parse_channel(content, c);
+          if (ok) channels_[c.id] = std::move(c);
+        } else if (rop == kChunkIndex) {
+          ChunkInfo ci;
+          std::map<std::uint16_t, std::uint64_t> offs;
+          if (!parse_chunk_index(content, summary_start, ci, offs)) {
+            unusable = {p, "chunk index record points outside the data section"};
+            return false;
+          }
+          chunks.push_back(std::move(ci));
+          index_offsets.push_back(std::move(offs));
+        } else if (rop == kStatistics) {
+          ok = parse_statistics(content, stat_messages, stat_counts_);
+          have_stats = ok;
+        }
+        if (!ok) unusable = {p, "malformed summary record (opcode " + op_name(rop) + ")"};
+        return ok;
+      });
+  if (runs_past) return fallback(summary_start + *runs_past, "summary record runs past the summary section");
+  if (unusable) return fallback(summary_start + unusable->first, unusable->second);
   if (chunks.empty() && (!have_stats || stat_messages > 0)) {
     warn(summary_start, "the summary has no chunk index (unchunked file); scanning the data section", false);
     return false;
@@ -348,16 +369,7 @@ bool Reader::read_summary() {
 }
 
 void Reader::learn_records(std::string_view records, std::uint64_t where, ChunkInfo* count_into) {
-  std::uint64_t p = 0;
-  while (p < records.size()) {
-    Rd r(records.substr(static_cast<std::size_t>(p)));
-    const auto op = r.num<std::uint8_t>();
-    const auto len = r.num<std::uint64_t>();
-    const std::string_view content = r.bytes(len);
-    if (!r.ok()) {
-      warn(where, fmt::format("inside chunk at uncompressed offset {}: record runs past the end of the chunk", p));
-      return;
-    }
+  const auto runs_past = for_each_record(records, [&](std::uint8_t op, std::string_view content, std::uint64_t p) {
     if (op == kSchema) {
       Schema s;
       if (parse_schema(content, s)) schemas_.emplace(s.id, std::move(s));
@@ -370,8 +382,10 @@ void Reader::learn_records(std::string_view records, std::uint64_t where, ChunkI
       MessageHead m;
       if (parse_message(content, m)) count_into->counts[m.channel] += 1;
     }
-    p += kRecordPrefix + len;
-  }
+    return true;
+  });
+  if (runs_past)
+    warn(where, fmt::format("inside chunk at uncompressed offset {}: record runs past the end of the chunk", *runs_past));
 }
 
 void Reader::scan() {
@@ -602,18 +616,7 @@ void Reader::for_each(const std::function<bool(const Channel&)>& select,
     if (!load_chunk(c, bytes, begin)) return;
     const auto buf = merge.hold(std::move(bytes));
     const std::string_view records = std::string_view(*buf).substr(begin);
-    std::uint64_t p = 0;
-    while (p < records.size()) {
-      Rd r(records.substr(static_cast<std::size_t>(p)));
-      const auto op = r.num<std::uint8_t>();
-      const auto len = r.num<std::uint64_t>();
-      const std::string_view content = r.bytes(len);
-      if (!r.ok()) {
-        warn(c.offset, fmt::format("inside chunk at uncompressed offset {}: record runs past the end of the chunk; "
-                                   "rest of the chunk skipped",
-                                   p));
-        break;
-      }
+    const auto runs_past = for_each_record(records, [&](std::uint8_t op, std::string_view content, std::uint64_t p) {
       if (op == kMessage) {
         MessageHead m;
         if (parse_message(content, m)) push(m, buf, c.offset);
@@ -624,8 +627,12 @@ void Reader::for_each(const std::function<bool(const Channel&)>& select,
         if (parse_channel(content, ch) && select(ch)) ids.insert(ch.id);
         if (!ch.topic.empty()) channels_.emplace(ch.id, std::move(ch));
       }
-      p += kRecordPrefix + len;
-    }
+      return true;
+    });
+    if (runs_past)
+      warn(c.offset, fmt::format("inside chunk at uncompressed offset {}: record runs past the end of the chunk; "
+                                 "rest of the chunk skipped",
+                                 *runs_past));
   });
 }
 

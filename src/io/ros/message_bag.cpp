@@ -12,7 +12,6 @@
 #include <fmt/format.h>
 
 #include "roe/core/error.hpp"
-#include "roe/io/ros/cdr.hpp"
 #include "roe/io/ros/compression.hpp"
 #include "roe/io/ros/mcap.hpp"
 #include "roe/io/output.hpp"
@@ -448,41 +447,27 @@ std::string bag_sha256(const fs::path& path) {
 // ---------------------------------------------------------------------------------------------
 // Decoders
 // ---------------------------------------------------------------------------------------------
-namespace {
-template <class Ros1, class Cdr>
-auto decode(const BagMessage& m, Ros1 ros1, Cdr cdr) {
+ros::Wire message_wire(const BagMessage& m) {
   const std::string& enc = m.topic->encoding;
-  if (enc == "ros1") return ros1(m.data, m.where());
-  if (enc == "cdr") return cdr(m.data, m.where());
+  if (enc == "ros1") return ros::Wire::ros1;
+  if (enc == "cdr") return ros::Wire::cdr;
   throw InputError(m.where() + ": message encoding \"" + enc + "\" is not one roe decodes (ros1, cdr)");
-}
-}  // namespace
-
-ros::Image decode_image(const BagMessage& m) { return decode(m, ros::decode_image, cdr::decode_image); }
-ros::CompressedImage decode_compressed_image(const BagMessage& m) {
-  return decode(m, ros::decode_compressed_image, cdr::decode_compressed_image);
-}
-ros::CameraInfo decode_camera_info(const BagMessage& m) {
-  return decode(m, ros::decode_camera_info, cdr::decode_camera_info);
-}
-ros::Imu decode_imu(const BagMessage& m) { return decode(m, ros::decode_imu, cdr::decode_imu); }
-std::vector<ros::StampedTransform> decode_tf_message(const BagMessage& m) {
-  return decode(m, ros::decode_tf_message, cdr::decode_tf_message);
 }
 
 bool is_pose_type(const std::string& t) {
-  return t == "geometry_msgs/PoseStamped" || t == "geometry_msgs/TransformStamped" ||
-         t == "geometry_msgs/PoseWithCovarianceStamped" || t == "nav_msgs/Odometry" || t == "tf2_msgs/TFMessage";
+  namespace msg = ros::msg;
+  return t == msg::PoseStamped::kType || t == msg::TransformStamped::kType ||
+         t == msg::PoseWithCovarianceStamped::kType || t == msg::Odometry::kType ||
+         t == msg::TFMessage::kType;
 }
 
 ros::StampedTransform decode_stamped_pose(const BagMessage& m) {
+  namespace msg = ros::msg;
   const std::string& t = m.topic->type;
-  if (t == "geometry_msgs/PoseStamped") return decode(m, ros::decode_pose_stamped, cdr::decode_pose_stamped);
-  if (t == "geometry_msgs/TransformStamped")
-    return decode(m, ros::decode_transform_stamped, cdr::decode_transform_stamped);
-  if (t == "geometry_msgs/PoseWithCovarianceStamped")
-    return decode(m, ros::decode_pose_with_covariance_stamped, cdr::decode_pose_with_covariance_stamped);
-  if (t == "nav_msgs/Odometry") return decode(m, ros::decode_odometry, cdr::decode_odometry);
+  if (t == msg::PoseStamped::kType) return decode<msg::PoseStamped>(m);
+  if (t == msg::TransformStamped::kType) return decode<msg::TransformStamped>(m);
+  if (t == msg::PoseWithCovarianceStamped::kType) return decode<msg::PoseWithCovarianceStamped>(m);
+  if (t == msg::Odometry::kType) return decode<msg::Odometry>(m);
   throw InputError(m.where() + ": type " + t + " is not a stamped pose");
 }
 

@@ -9,6 +9,15 @@
 namespace roe::io {
 namespace {
 
+namespace msg = ros::msg;
+
+/// The RealSense recorder's and realsense2_camera's own types (StreamInfo, ImuIntrinsic, IMUInfo,
+/// KeyValue, Transform) come in ROS 1 bags: read in the ROS 1 wire format.
+template <class M>
+typename M::Value decode_ros1(const BagMessage& m) {
+  return ros::decode<M>(ros::Wire::ros1, m.data, m.where());
+}
+
 /// Recorder layout: sensor prefix → its "Name" (diagnostic_msgs/KeyValue on /device_D/sensor_S/info).
 std::map<std::string, std::string> read_sensor_names(MessageBag& bag) {
   std::set<std::string> info;
@@ -17,7 +26,7 @@ std::map<std::string, std::string> read_sensor_names(MessageBag& bag) {
       info.insert(t.topic);
   std::map<std::string, std::string> names;
   bag.for_each(info, [&](const BagMessage& m) {
-    const auto kv = ros::decode_key_value(m.data, m.where());
+    const auto kv = decode_ros1<msg::KeyValue>(m);
     if (kv.key == "Name") names[*recorder_sensor_info(m.topic->topic)] = kv.value;
     return true;
   });
@@ -61,32 +70,32 @@ RealsenseRecording read_realsense_recording(MessageBag& bag, const RealsenseStre
   bag.for_each(topics, [&](const BagMessage& m) {
     const std::string& t = m.topic->topic;
     if (t == st.camera_info_topic) {
-      if (!d.cam_info) d.cam_info = decode_camera_info(m);
+      if (!d.cam_info) d.cam_info = decode<msg::CameraInfo>(m);
     } else if (t == st.imu_topic) {  // before accel/gyro: a united topic given as one of them too
-      const auto imu = decode_imu(m);
+      const auto imu = decode<msg::Imu>(m);
       d.united.push_back({imu.header.stamp_ns, imu.angular_velocity, imu.linear_acceleration});
       if (d.imu_frame.empty()) d.imu_frame = imu.header.frame_id;
     } else if (t == st.accel_topic || t == st.gyro_topic) {
-      const auto imu = decode_imu(m);
+      const auto imu = decode<msg::Imu>(m);
       if (t == st.accel_topic) d.accel.emplace_back(imu.header.stamp_ns, imu.linear_acceleration);
       if (t == st.gyro_topic) d.gyro.emplace_back(imu.header.stamp_ns, imu.angular_velocity);
       if (t == st.gyro_topic && st.imu_topic.empty() && d.imu_frame.empty()) d.imu_frame = imu.header.frame_id;
     } else if (t == st.tf_static_topic) {
-      for (auto& tr : decode_tf_message(m)) d.tf_static.push_back(std::move(tr));
+      for (auto& tr : decode<msg::TFMessage>(m)) d.tf_static.push_back(std::move(tr));
     } else if (t == st.metadata_topic || t == st.accel_meta_topic || t == st.gyro_meta_topic) {
-      const auto kv = ros::decode_key_value(m.data, m.where());
+      const auto kv = decode_ros1<msg::KeyValue>(m);
       if (kv.key == "timestamp_domain" && !d.domain_of.count(t)) d.domain_of[t] = kv.value;
     } else if (t == st.color_info_topic) {
-      d.color_fps = ros::decode_stream_info(m.data, m.where()).fps;
+      d.color_fps = decode_ros1<msg::StreamInfo>(m).fps;
     } else if (t == st.accel_info_topic || t == st.gyro_info_topic) {
-      (t == st.accel_info_topic ? d.accel_fps : d.gyro_fps) = ros::decode_stream_info(m.data, m.where()).fps;
+      (t == st.accel_info_topic ? d.accel_fps : d.gyro_fps) = decode_ros1<msg::StreamInfo>(m).fps;
     } else if (t == st.accel_intr_topic || t == st.gyro_intr_topic) {
-      const auto ii = m.topic->type == "realsense_msgs/ImuIntrinsic" ? ros::decode_rs_imu_intrinsic(m.data, m.where())
-                                                                      : ros::decode_rs2_imu_info(m.data, m.where());
+      const auto ii = m.topic->type == msg::ImuIntrinsic::kType ? decode_ros1<msg::ImuIntrinsic>(m)
+                                                                   : decode_ros1<msg::IMUInfo>(m);
       (t == st.accel_intr_topic ? d.accel_intr : d.gyro_intr) = ii;
     } else {
       const auto s = recorder_stream(t);
-      if (s && !d.recorder_tf.count(s->label)) d.recorder_tf[s->label] = ros::decode_transform(m.data, m.where());
+      if (s && !d.recorder_tf.count(s->label)) d.recorder_tf[s->label] = decode_ros1<msg::Transform>(m);
     }
     return true;
   });

@@ -111,16 +111,18 @@ std::string bag_sha256(const fs::path& path);
 /// "sensor_msgs/msg/Imu" → "sensor_msgs/Imu"; other spellings unchanged.
 std::string normalize_ros_type(const std::string& type);
 
-// Decoders for either serialisation, chosen by the message's topic encoding. InputError names
-// BagMessage::where(); a topic of another encoding (json, protobuf, ...) is refused, never guessed at.
-ros::Image decode_image(const BagMessage& m);
-ros::CompressedImage decode_compressed_image(const BagMessage& m);
-ros::CameraInfo decode_camera_info(const BagMessage& m);
-ros::Imu decode_imu(const BagMessage& m);
+/// The wire format of a message, from its topic's message encoding ("ros1" or "cdr"); InputError naming
+/// BagMessage::where() for another encoding (json, protobuf, ...): refused, never guessed at.
+ros::Wire message_wire(const BagMessage& m);
+/// Decodes a message of type M (a ros::msg tag) in its topic's wire format. InputError names
+/// BagMessage::where().
+template <class M>
+typename M::Value decode(const BagMessage& m) {
+  return ros::decode<M>(message_wire(m), m.data, m.where());
+}
 /// PoseStamped, TransformStamped, PoseWithCovarianceStamped or Odometry, by the topic's type.
 ros::StampedTransform decode_stamped_pose(const BagMessage& m);
-std::vector<ros::StampedTransform> decode_tf_message(const BagMessage& m);
-/// Whether decode_stamped_pose or decode_tf_message reads this (normalised) type.
+/// Whether decode_stamped_pose or decode<ros::msg::TFMessage> reads this (normalised) type.
 bool is_pose_type(const std::string& type);
 
 }  // namespace roe::io

@@ -1,8 +1,8 @@
 #pragma once
 /// @file
-/// Decoders (and, for test fixtures, encoders) of the ROS1 message types roe imports, from the ROS1
-/// serialization: little-endian fixed-size fields, strings and variable arrays prefixed by a uint32
-/// length, fixed-size arrays without prefix, time = uint32 sec + uint32 nsec.
+/// The ROS message types roe imports, decode<M> and encode<M> for them in either wire format, and the
+/// ROS 1 serialization: little-endian fixed-size fields, strings and variable arrays prefixed by a uint32
+/// length, fixed-size arrays without prefix, time = uint32 sec + uint32 nsec (CDR: cdr.hpp).
 ///
 /// A decoder throws roe::InputError ("message too short", "trailing bytes", ...) naming the topic and
 /// the bag byte offset passed in `where`; it never reads out of bounds. Image payloads are views into
@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cstdint>
+#include <cstring>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -33,8 +34,8 @@ struct Header {
 ///
 /// librealsense >= 2.49 extends it in its recorder bags: when header.version (serialized in the
 /// frame_id slot) is "1", a float32 `depth_units` follows `data` in every video frame, colour
-/// included (third-party/realsense-file/rosbag/msgs/sensor_msgs/Image.h). decode_image reads it;
-/// encode_image writes it for frame_id "1", as the SDK does.
+/// included (third-party/realsense-file/rosbag/msgs/sensor_msgs/Image.h). decode<msg::Image> reads it
+/// in ROS 1 messages; encode<msg::Image> writes it for frame_id "1", as the SDK does.
 struct Image {
   Header header;
   std::uint32_t height = 0, width = 0;
@@ -120,58 +121,126 @@ struct KeyValue {
   std::string key, value;
 };
 
-/// Bounds-checked reader over one serialized message: the primitives; the messages' field layouts are
-/// shared with the ROS 2 decoders (src/io/ros/layouts.hpp).
+/// The two wire formats of the messages: the ROS 1 serialization (this header's Cursor and Writer) and
+/// CDR for ROS 2 (cdr.hpp).
+enum class Wire { ros1, cdr };
+
+/// The message types roe decodes and encodes: each tag names the ROS type (ROS 1 spelling, as
+/// normalize_ros_type writes it) and the struct it decodes to. Each has one field layout, in
+/// src/io/ros/layouts.hpp, that both wire formats' cursors read and both writers write; adding a type is a
+/// tag here and a layout there.
+namespace msg {
+/// The struct a message type decodes to (each tag adds its ROS type name, kType).
+template <class V>
+struct Message {
+  using Value = V;
+};
+// clang-format off
+struct Image : Message<ros::Image> { static constexpr auto kType = "sensor_msgs/Image"; };
+struct CompressedImage : Message<ros::CompressedImage> {
+  static constexpr auto kType = "sensor_msgs/CompressedImage"; };
+struct CameraInfo : Message<ros::CameraInfo> { static constexpr auto kType = "sensor_msgs/CameraInfo"; };
+struct Imu : Message<ros::Imu> { static constexpr auto kType = "sensor_msgs/Imu"; };
+struct Transform : Message<ros::Transform> { static constexpr auto kType = "geometry_msgs/Transform"; };
+struct PoseStamped : Message<StampedTransform> { static constexpr auto kType = "geometry_msgs/PoseStamped"; };
+struct PoseWithCovarianceStamped : Message<StampedTransform> {
+  static constexpr auto kType = "geometry_msgs/PoseWithCovarianceStamped"; };
+struct TransformStamped : Message<StampedTransform> {
+  static constexpr auto kType = "geometry_msgs/TransformStamped"; };
+struct Odometry : Message<StampedTransform> { static constexpr auto kType = "nav_msgs/Odometry"; };
+struct TFMessage : Message<std::vector<StampedTransform>> {
+  static constexpr auto kType = "tf2_msgs/TFMessage"; };
+struct StreamInfo : Message<ros::StreamInfo> { static constexpr auto kType = "realsense_msgs/StreamInfo"; };
+/// float32 fields.
+struct ImuIntrinsic : Message<ros::ImuIntrinsic> {
+  static constexpr auto kType = "realsense_msgs/ImuIntrinsic"; };
+/// float64 fields and a frame id.
+struct IMUInfo : Message<ros::ImuIntrinsic> { static constexpr auto kType = "realsense2_camera/IMUInfo"; };
+struct Extrinsics : Message<ros::Extrinsics> {
+  static constexpr auto kType = "realsense2_camera/Extrinsics"; };
+struct KeyValue : Message<ros::KeyValue> { static constexpr auto kType = "diagnostic_msgs/KeyValue"; };
+struct UInt32 : Message<std::uint32_t> { static constexpr auto kType = "std_msgs/UInt32"; };
+struct Float32 : Message<float> { static constexpr auto kType = "std_msgs/Float32"; };
+struct String : Message<std::string> { static constexpr auto kType = "std_msgs/String"; };
+// clang-format on
+}  // namespace msg
+
+/// Decodes one serialized message of type M (a msg:: tag) in `wire` format. `where` names the source in
+/// errors (e.g. "bag.bag: /topic at byte 1234").
+template <class M>
+typename M::Value decode(Wire wire, std::string_view bytes, const std::string& where);
+/// Serializes a message of type M in `wire` format (test fixtures, benchmarks); decode<M> reads it back.
+template <class M>
+std::string encode(Wire wire, const typename M::Value& m);
+
+/// Bounds-checked reader over one ROS 1 serialized message: the primitives the field layouts
+/// (src/io/ros/layouts.hpp) read.
 class Cursor {
  public:
-  Cursor(std::string_view data, std::string where) : d_(data), where_(std::move(where)) {}
-  std::uint8_t u8();
-  std::uint32_t u32();
-  std::int32_t i32();
-  float f32();
-  double f64();
-  Timestamp time();
-  std::string str();
-  std::string_view bytes(std::size_t n);
+  static constexpr Wire kWire = Wire::ros1;
+  static constexpr bool kReads = true;
+  /// The fewest bytes a std_msgs/Header takes: seq, stamp, an empty frame_id.
+  static constexpr std::size_t kMinHeaderBytes = 4 + 8 + 4;
+
+  /// `where` (named in errors) is kept by reference: it must outlive the cursor.
+  Cursor(std::string_view data, const std::string& where) : d_(data), where_(where) {}
+  Cursor(std::string_view data, std::string&& where) = delete;
+  std::uint8_t u8() { return num<std::uint8_t>(); }
+  std::uint32_t u32() { return num<std::uint32_t>(); }
+  float f32() { return num<float>(); }
+  double f64() { return num<double>(); }
+  Timestamp time() {
+    const std::uint32_t s = u32();
+    const std::uint32_t ns = u32();
+    return static_cast<Timestamp>(s) * kNsPerSecond + static_cast<Timestamp>(ns);
+  }
+  std::string str() { return std::string(bytes(u32())); }
+  std::string_view bytes(std::size_t n) {
+    need(n);
+    std::string_view v = d_.substr(pos_, n);
+    pos_ += n;
+    return v;
+  }
   /// uint8[] with a length prefix.
-  std::string_view byte_sequence();
-  Header header();
+  std::string_view byte_sequence() { return bytes(u32()); }
+  Header header() {
+    Header h;
+    h.seq = u32();
+    h.stamp_ns = time();
+    h.frame_id = str();
+    return h;
+  }
   std::size_t remaining() const { return d_.size() - pos_; }
   /// InputError unless every byte was consumed.
   void finish() const;
   [[noreturn]] void fail(const std::string& what) const;
 
  private:
-  void need(std::size_t n) const;
+  template <class T>
+  T num() {
+    need(sizeof(T));
+    T v;
+    std::memcpy(&v, d_.data() + pos_, sizeof(T));  // little-endian, as is every platform roe targets
+    pos_ += sizeof(T);
+    return v;
+  }
+  void need(std::size_t n) const {
+    if (n > d_.size() - pos_) too_short(n);
+  }
+  [[noreturn]] void too_short(std::size_t n) const;
   std::string_view d_;
   std::size_t pos_ = 0;
-  std::string where_;
+  const std::string& where_;
 };
 
-// Decoders. `where` names the source in errors (e.g. "bag.bag: /topic at byte 1234").
-Header decode_header_only(std::string_view msg, const std::string& where);
-Image decode_image(std::string_view msg, const std::string& where);
-CompressedImage decode_compressed_image(std::string_view msg, const std::string& where);
-CameraInfo decode_camera_info(std::string_view msg, const std::string& where);
-Imu decode_imu(std::string_view msg, const std::string& where);
-Transform decode_transform(std::string_view msg, const std::string& where);  ///< geometry_msgs/Transform
-StampedTransform decode_pose_stamped(std::string_view msg, const std::string& where);
-StampedTransform decode_pose_with_covariance_stamped(std::string_view msg, const std::string& where);
-StampedTransform decode_transform_stamped(std::string_view msg, const std::string& where);
-StampedTransform decode_odometry(std::string_view msg, const std::string& where);
-std::vector<StampedTransform> decode_tf_message(std::string_view msg, const std::string& where);
-StreamInfo decode_stream_info(std::string_view msg, const std::string& where);
-ImuIntrinsic decode_rs_imu_intrinsic(std::string_view msg, const std::string& where);
-ImuIntrinsic decode_rs2_imu_info(std::string_view msg, const std::string& where);
-Extrinsics decode_rs2_extrinsics(std::string_view msg, const std::string& where);
-KeyValue decode_key_value(std::string_view msg, const std::string& where);
-std::uint32_t decode_uint32(std::string_view msg, const std::string& where);
-float decode_float32(std::string_view msg, const std::string& where);
-std::string decode_string(std::string_view msg, const std::string& where);
-
-/// Appends ROS1-serialized fields to a byte string (used by the test fixtures' bag writer).
+/// Appends ROS 1 serialized fields to a byte string: the primitives the layouts write (encode<M>), and
+/// for hand-made messages in tests.
 class Writer {
  public:
+  static constexpr Wire kWire = Wire::ros1;
+  static constexpr bool kReads = false;
+  static constexpr std::size_t kMinHeaderBytes = Cursor::kMinHeaderBytes;
+
   Writer& u8(std::uint8_t v);
   Writer& u32(std::uint32_t v);
   Writer& f32(float v);
@@ -180,25 +249,10 @@ class Writer {
   Writer& str(std::string_view s);
   Writer& byte_sequence(std::string_view b);
   Writer& header(const Header& h);
-  Writer& vec3(const Eigen::Vector3d& v);
-  Writer& quat_xyzw(const Eigen::Quaterniond& q);
   const std::string& bytes() const { return out_; }
 
  private:
   std::string out_;
 };
-
-std::string encode_image(const Image& m);
-std::string encode_compressed_image(const CompressedImage& m);
-std::string encode_camera_info(const CameraInfo& m);
-std::string encode_imu(const Imu& m);
-std::string encode_transform(const Transform& t);
-std::string encode_pose_stamped(const StampedTransform& m);
-std::string encode_transform_stamped(const StampedTransform& m);
-std::string encode_odometry(const StampedTransform& m);
-std::string encode_stream_info(const StreamInfo& m);
-std::string encode_rs_imu_intrinsic(const ImuIntrinsic& m);
-std::string encode_key_value(const KeyValue& m);
-std::string encode_uint32(std::uint32_t v);
 
 }  // namespace roe::io::ros
