@@ -116,15 +116,15 @@ class Filter {
   /// One image at time(): gate, stacked update, first-sight initialisations.
   FrameResult update(const std::vector<Detection>& detections);
 
-  Timestamp time() const { return t_ns_; }
-  const CoreState& core() const { return x_; }
-  const Pose& T_I_C() const { return T_I_C_; }
-  const std::vector<ObjectEntry>& objects() const { return objects_; }
+  Timestamp time() const { return s_.t_ns; }
+  const CoreState& core() const { return s_.x; }
+  const Pose& T_I_C() const { return s_.T_I_C; }
+  const std::vector<ObjectEntry>& objects() const { return s_.objects; }
   /// nullptr when the object has no object-world yet.
   const ObjectEntry* object(int id) const;
   int anchor_id() const { return anchor_id_; }
-  int dim() const { return n_; }
-  int extrinsics_offset() const { return extr_offset_; }
+  int dim() const { return s_.dim; }
+  int extrinsics_offset() const { return s_.extr_offset; }
   /// Diagonal entry of P (always current, also between updates).
   double variance(int i) const { return cc_pending_ && i < kCore ? Pcc_(i, i) : P_(i, i); }
   /// Entry (i, j) of the core 15x15 block of P (always current).
@@ -185,7 +185,7 @@ class Filter {
  private:
   struct MeasBlock {
     int det = 0;  // index into the detection vector
-    int obj = 0;  // index into objects_
+    int obj = 0;  // index into s_.objects (objects())
     // The first m rows of r, H, R and S are used (m < 6 after the split gate kept one part: the selected
     // rows moved up, the rest zero, S's identity-padded).
     int m = 6;
@@ -211,8 +211,6 @@ class Filter {
   void stacked_pht(int nb);
   /// sync_core(), then applies the pending core transition Φ to the core/rest cross-covariance.
   void sync_cross_covariance();
-  /// snapshot() into an existing StateEstimate (its object list's storage reused).
-  void snapshot_into(StateEstimate& s) const;
   /// Recording: ends the propagation segment since the last node (a kPropagate node) if it has steps.
   void close_segment();
   /// Recording: a node of the given kind with the current state and (synchronised) covariance.
@@ -252,14 +250,11 @@ class Filter {
   FilterOptions opt_;
   ImuNoiseParams noise_;
   bool initialized_ = false;
-  Timestamp t_ns_ = 0;
+  // The nominal state with its error-state layout (time, core, extrinsics, object-worlds, offsets, dim): the
+  // one state struct with ⊞/⊟ (state.hpp), held here and changed in place.
+  StateEstimate s_;
   Vec3 gyro_ = Vec3::Zero(), accel_ = Vec3::Zero();
-  CoreState x_;
-  Pose T_I_C_;
-  std::vector<ObjectEntry> objects_;
   int anchor_id_ = -1;
-  int extr_offset_ = -1;
-  int n_ = kCore;
   Eigen::MatrixXd P_;
   // The core block of P while propagating (authoritative while cc_pending_; P_'s top-left block is stale
   // until sync_core()).
@@ -278,7 +273,6 @@ class Filter {
   Eigen::MatrixXd ws_W_;    // n x m: P Hᵀ L⁻ᵀ (S = L Lᵀ); first the gather buffer of P's columns
   Eigen::VectorXd ws_r_, ws_dx_, ws_u_;
   std::vector<Pose> ws_z_;
-  StateEstimate ws_state_;  // boxplus's snapshot
   std::vector<char> ws_usable_;
   std::vector<int> ws_new_objects_, ws_inliers_, ws_row0_;
   struct Pending {
