@@ -255,7 +255,24 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
     rec_->steps.push_back({t, s_.x, F});
     accumulate_transition(F, rec_PhiT_);
   }
+  if (reference_)
+    propagate_dense(F, dt);
+  else
+    propagate_covariance(F, dt);
+  check_propagated();
+}
 
+void Filter::propagate_dense(const CoreTransition& F, double dt) {
+  sync_cross_covariance();
+  Eigen::MatrixXd Fn = Eigen::MatrixXd::Identity(s_.dim, s_.dim);
+  Fn.topLeftCorner<kCore, kCore>() = F.dense();
+  P_ = (Fn * P_ * Fn.transpose()).eval();
+  auto Pcc = P_.topLeftCorner<kCore, kCore>();
+  add_process_noise(noise_, dt, Pcc);
+  P_ = (0.5 * (P_ + P_.transpose())).eval();
+}
+
+void Filter::propagate_covariance(const CoreTransition& F, double dt) {
   // P_cc ← F P_cc Fᵀ + Q with every product on columns (contiguous): C = P_cc Fᵀ changes only the
   // columns p, v, θ (F's rows b_g, b_a are the identity), and B = F C = Cᵀ Fᵀ (symmetric) needs only
   // B[0:9, 0:9] = (C[:, 0:9]ᵀ Fᵀ)[:, 0:9]; B[9:15, 0:9] = C[9:15, 0:9], B[9:15, 9:15] = P[9:15, 9:15].
@@ -301,9 +318,12 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
     accumulate_transition(F, PhiT_);
     phi_pending_ = true;
   }
+}
+
+void Filter::check_propagated() {
   // Cheap guard rails every sample: core state and core variances.
   bool ok = s_.x.p_W_I.allFinite() && s_.x.v_W_I.allFinite() && s_.x.q_W_I.coeffs().allFinite();
-  for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(Pcc_(i, i)) && Pcc_(i, i) > 0.0;
+  for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(variance(i)) && variance(i) > 0.0;
   if (!ok) check_covariance(false, "propagation");
   // check_state(core_only) on squared norms: a state clearly inside the bounds (norm² ≤ (0.999999·max)², so
   // that the rounded norm is ≤ max) skips it; anything else (near or over a bound, non-finite: NaN fails every
@@ -753,6 +773,15 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
 }
 
 void Filter::stacked_pht(int nb) {
+  if (reference_) {  // P H_kᵀ with the full 6 x n H_k
+    for (int k = 0; k < nb; ++k) {
+      const MeasBlock& b = blocks_[k];
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(6, s_.dim);
+      for (int j = 0; j < b.nc; ++j) H.col(b.idx[j]) += b.H.col(j);
+      ws_PHt_.middleCols<6>(6 * k) = P_ * H.transpose();
+    }
+    return;
+  }
   // H_k's compact columns: p, θ [, the extrinsics' p, θ] (shared by every block), then the object's (one run
   // of o.dim contiguous state columns; build_block).
   const int ns = s_.extr_offset >= 0 ? 12 : 6;
@@ -1009,6 +1038,7 @@ bool Filter::apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, co
   const int ni = static_cast<int>(inliers.size()), m = row0[ni];
   bool inflated = false;
   for (int a = 0; a < ni; ++a) inflated |= blocks_[inliers[a]].k > 1.0;
+  if ((!inflated || s_.dim == kCore) && reference_) return reference_update(inliers, row0, dx);
   if (!inflated || s_.dim == kCore) return stacked_update(P_, Y, S, ws_r_.head(m), dx, {ws_L_, ws_W_, ws_u_});
   // The stacked R is block-diagonal (detections independent of each other); √k per row of each block.
   Eigen::MatrixXd R = Eigen::MatrixXd::Zero(m, m);
@@ -1023,6 +1053,25 @@ bool Filter::apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, co
   rows.clear();
   for (int i = kCore; i < s_.dim; ++i) rows.push_back(i);
   return stacked_update_constant_gain(P_, Y, S, R, d, ws_r_.head(m), rows, dx);
+}
+
+bool Filter::reference_update(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx) {
+  const int ni = static_cast<int>(inliers.size()), m = row0[ni], n = s_.dim;
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m, n), R = Eigen::MatrixXd::Zero(m, m);
+  for (int a = 0; a < ni; ++a) {
+    const MeasBlock& b = blocks_[inliers[a]];
+    for (int j = 0; j < b.nc; ++j) H.block(row0[a], b.idx[j], b.m, 1) += b.H.col(j).head(b.m);
+    R.block(row0[a], row0[a], b.m, b.m) = b.R.topLeftCorner(b.m, b.m);
+  }
+  const Eigen::MatrixXd S = H * P_ * H.transpose() + R;
+  const Eigen::LLT<Eigen::MatrixXd> llt(S);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::MatrixXd K = llt.solve(H * P_).transpose();  // P Hᵀ S⁻¹ (P and S symmetric)
+  dx = K * ws_r_.head(m);
+  const Eigen::MatrixXd IKH = Eigen::MatrixXd::Identity(n, n) - K * H;
+  P_ = IKH * P_ * IKH.transpose() + K * R * K.transpose();
+  P_ = (0.5 * (P_ + P_.transpose())).eval();
+  return true;
 }
 
 void Filter::learn_sigma_scale(const std::vector<double>& frame_samples) {

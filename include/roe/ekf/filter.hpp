@@ -181,6 +181,13 @@ class Filter {
   /// Measurement noise R of a detection in the update's residual frame, or (object_frame) in the
   /// T_O_C frame used by the first-sight initialisation (options: meas_sigma_*, use_detection_sigmas).
   Mat6 measurement_covariance(const Detection& d, bool object_frame) const;
+  /// Test-only reference arithmetic (tests/ekf/test_filter_bound.cpp), set before initialize(): the
+  /// covariance propagated densely, P ← F P Fᵀ + Q on the whole n x n matrix at every IMU sample (F the dense
+  /// transition; no fixed-size core block, no lazy cross terms), every P H_kᵀ from the full 6 x n H_k, and the
+  /// stacked update in the textbook Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ, K = P Hᵀ S⁻¹ with
+  /// S = H P Hᵀ + R formed densely (the constant-gain update of correlated detection errors is the same in
+  /// both). The policy (gates, first sight, relock, σ scale) is the same code. Roughly 10x slower.
+  void set_reference_arithmetic(bool on) { reference_ = on; }
 
  private:
   struct MeasBlock {
@@ -204,6 +211,13 @@ class Filter {
     int nruns = 0;
   };
 
+  /// The covariance part of propagate(): the block-sparse core propagation (and Φ), or propagate_dense.
+  void propagate_covariance(const CoreTransition& F, double dt);
+  void propagate_dense(const CoreTransition& F, double dt);
+  /// propagate()'s guard rails: core state and core variances.
+  void check_propagated();
+  /// The reference arithmetic's stacked update (set_reference_arithmetic).
+  bool reference_update(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx);
   /// Writes the propagated core block Pcc_ back into P_ (a copy; every reader of P_'s core block calls it).
   void sync_core();
   /// ws_PHt_'s first 6·nb columns ← P H_kᵀ of blocks_[0 … nb−1]: the columns every H_k shares (core p, θ,
@@ -306,6 +320,7 @@ class Filter {
                             const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx);
   std::size_t n_updates_ = 0;
   FilterRecording* rec_ = nullptr;
+  bool reference_ = false;  // set_reference_arithmetic
   Mat15 rec_PhiT_ = Mat15::Identity();  // Φᵀ of the recording's open propagation segment
 };
 
