@@ -2,6 +2,7 @@
 /// @file
 /// The self-calibrating multi-object error-state EKF of the paper (§III), DESIGN §6.
 ///
+/// The nominal state is one StateEstimate (state.hpp), corrected in place with its ⊞.
 /// Error state (this order, one dense covariance P owned by this class — the only code that
 /// propagates, updates, augments and symmetrises it):
 ///   [δp_W_I, δv_W_I, δθ_W_I, δb_g, δb_a | δp_I_C, δθ_I_C | per object: δp_O_W, δθ_O_W]
