@@ -108,7 +108,7 @@ Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const 
     s_.extr_offset = kCore;
     s_.dim = kCore + 6;
   }
-  P_ = Eigen::MatrixXd::Zero(s_.dim, s_.dim);
+  cov_.reset(s_.dim);
   blocks_.reserve(16);
 }
 
@@ -137,30 +137,27 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
   gyro_ = gyro0;
   accel_ = accel0;
 
-  P_.setZero();
-  cc_pending_ = false;
+  Eigen::MatrixXd& P = cov_.reset(s_.dim);
   const auto sq = [](double s) { return s * s; };
   const double d2r = math::kRadPerDeg;
   for (int i = 0; i < 3; ++i) {
-    P_(kP + i, kP + i) = sq(opt_.init_sigma_p_m);
-    P_(kV + i, kV + i) = sq(opt_.init_sigma_v_mps);
-    P_(kBg + i, kBg + i) = sq(opt_.init_sigma_gyro_bias);
-    P_(kBa + i, kBa + i) = sq(opt_.init_sigma_accel_bias);
+    P(kP + i, kP + i) = sq(opt_.init_sigma_p_m);
+    P(kV + i, kV + i) = sq(opt_.init_sigma_v_mps);
+    P(kBg + i, kBg + i) = sq(opt_.init_sigma_gyro_bias);
+    P(kBa + i, kBa + i) = sq(opt_.init_sigma_accel_bias);
   }
   // Attitude: roll/pitch and yaw σ are given about W's axes (tilt about x, y; yaw about z) and mapped
   // into the local error: δθ_local = R_W_Iᵀ δθ_W.
   const Mat3 R = s_.x.q_W_I.toRotationMatrix();
   const Vec3 var_W(sq(opt_.init_sigma_roll_pitch_deg * d2r), sq(opt_.init_sigma_roll_pitch_deg * d2r),
                    sq(opt_.init_sigma_yaw_deg * d2r));
-  P_.block<3, 3>(kTheta, kTheta) = R.transpose() * var_W.asDiagonal() * R;
+  P.block<3, 3>(kTheta, kTheta) = R.transpose() * var_W.asDiagonal() * R;
   if (s_.extr_offset >= 0) {
     for (int i = 0; i < 3; ++i) {
-      P_(s_.extr_offset + i, s_.extr_offset + i) = sq(opt_.extrinsics_sigma_p_m);
-      P_(s_.extr_offset + 3 + i, s_.extr_offset + 3 + i) = sq(opt_.extrinsics_sigma_rot_deg * d2r);
+      P(s_.extr_offset + i, s_.extr_offset + i) = sq(opt_.extrinsics_sigma_p_m);
+      P(s_.extr_offset + 3 + i, s_.extr_offset + 3 + i) = sq(opt_.extrinsics_sigma_rot_deg * d2r);
     }
   }
-  PhiT_.setIdentity();
-  phi_pending_ = false;
   initialized_ = true;
   check_covariance(true, "initialisation");
   if (rec_) {
@@ -174,11 +171,11 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
 StateEstimate Filter::snapshot() const { return s_; }
 
 RecordedNode& Filter::push_node(RecordedNode::Kind kind) {
-  sync_cross_covariance();
+  cov_.full();
   RecordedNode& nd = rec_->nodes.emplace_back();
   nd.kind = kind;
   nd.x = snapshot();
-  nd.P = P_;
+  nd.P = cov_.stored();
   nd.steps = rec_->steps.size();
   nd.first_step = nd.steps;
   return nd;
@@ -194,8 +191,7 @@ void Filter::close_segment() {
   nd.steps = rec_->steps.size();
   nd.first_step = first;
   nd.Phi = rec_PhiT_.transpose();
-  sync_core();
-  nd.P_cc = P_.topLeftCorner<15, 15>();
+  nd.P_cc = cov_.core_block();
   rec_PhiT_.setIdentity();
 }
 
@@ -207,35 +203,6 @@ const ObjectEntry* Filter::object(int id) const {
   return nullptr;
 }
 
-namespace {
-
-/// Φᵀ ← Φᵀ Fᵀ for the accumulated core transition Φ = F_k⋯F_1 (kept transposed, see propagate), using
-/// the block structure that every product of F's keeps: Φ's columns b_g and b_a are [Φ_pbg; Φ_vbg; Φ_θbg; I; 0]
-/// and [Φ_pba; Φ_vba; 0; 0; I], its column θ is [Φ_pθ; Φ_vθ; Φ_θθ; 0; 0] (F's rows b_g, b_a are the identity
-/// and F_θba = 0). So in Φᵀ's rows θ, b_g only the θ columns need products with F (the identity and zero
-/// blocks give F's own blocks exactly) and the row b_a needs none: 108 multiply-adds instead of the 405 of
-/// the generic CoreTransition::apply_right_transposed on the 9 rows, with the same operations in the same
-/// order on every non-trivial entry (the skipped terms are exact zeros, the identity blocks exact copies).
-void accumulate_transition(const CoreTransition& F, Mat15& PhiT) {
-  const double dt = F.dt;
-  // Rows θ and b_g: X_θ = their θ columns, X_bg = [0; I], X_ba = 0.
-  Eigen::Matrix<double, 6, 3> dv, dth;
-  const Eigen::Matrix<double, 6, 3> X_th = PhiT.block<6, 3>(kTheta, kTheta);
-  dv.noalias() = X_th * F.F_vtheta.transpose();
-  dv.bottomRows<3>() += F.F_vbg.transpose();
-  dth.noalias() = X_th * F.F_tt.transpose();
-  dth.bottomRows<3>() += F.F_tbg.transpose();
-  PhiT.block<6, 3>(kTheta, kP) += dt * PhiT.block<6, 3>(kTheta, kV) + (0.5 * dt) * dv;
-  PhiT.block<6, 3>(kTheta, kV) += dv;
-  PhiT.block<6, 3>(kTheta, kTheta) = dth;
-  // Row b_a: X_θ = 0, X_bg = 0, X_ba = I, so dv = F_vbaᵀ and its θ columns stay 0.
-  PhiT.block<3, 3>(kBa, kP) += dt * PhiT.block<3, 3>(kBa, kV) + (0.5 * dt) * F.F_vba.transpose();
-  PhiT.block<3, 3>(kBa, kV) += F.F_vba.transpose();
-  // Φ's columns p, v: Φ_pv accumulates dt.
-  PhiT.block<3, 3>(kV, kP).diagonal().array() += dt;
-}
-
-}  // namespace
 
 void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   ROE_CHECK(initialized_, "propagate before initialize");
@@ -256,68 +223,10 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
     accumulate_transition(F, rec_PhiT_);
   }
   if (reference_)
-    propagate_dense(F, dt);
+    cov_.propagate_dense(F, noise_, dt);
   else
-    propagate_covariance(F, dt);
+    cov_.propagate(F, noise_, dt);
   check_propagated();
-}
-
-void Filter::propagate_dense(const CoreTransition& F, double dt) {
-  sync_cross_covariance();
-  Eigen::MatrixXd Fn = Eigen::MatrixXd::Identity(s_.dim, s_.dim);
-  Fn.topLeftCorner<kCore, kCore>() = F.dense();
-  P_ = (Fn * P_ * Fn.transpose()).eval();
-  auto Pcc = P_.topLeftCorner<kCore, kCore>();
-  add_process_noise(noise_, dt, Pcc);
-  P_ = (0.5 * (P_ + P_.transpose())).eval();
-}
-
-void Filter::propagate_covariance(const CoreTransition& F, double dt) {
-  // P_cc ← F P_cc Fᵀ + Q with every product on columns (contiguous): C = P_cc Fᵀ changes only the
-  // columns p, v, θ (F's rows b_g, b_a are the identity), and B = F C = Cᵀ Fᵀ (symmetric) needs only
-  // B[0:9, 0:9] = (C[:, 0:9]ᵀ Fᵀ)[:, 0:9]; B[9:15, 0:9] = C[9:15, 0:9], B[9:15, 9:15] = P[9:15, 9:15].
-  // Of B[0:9, 0:9] = T Fᵀ (T = C[:, 0:9]ᵀ) only the lower block triangle is formed: its column p on all 9
-  // rows, v on rows v, θ, θ on rows θ (so δθ's product, the costliest, on 3 rows instead of 9); the diagonal
-  // blocks are symmetrised and the upper blocks mirrored. 675 + 297 multiply-adds instead of 2 x 675.
-  // The core block is propagated in the fixed-size Pcc_ (no strided copies per sample); P_'s top-left block
-  // takes it back on the next sync_core().
-  if (!cc_pending_) {
-    Pcc_ = P_.topLeftCorner<15, 15>();
-    cc_pending_ = true;
-  }
-  Mat15& C = Pcc_;
-  F.apply_right_transposed(C);
-  const Eigen::Matrix<double, 9, 15> T = C.leftCols<9>().transpose();
-  Eigen::Matrix<double, 9, 3> dv;  // (T Fᵀ)[:, v] − T[:, v]
-  dv.noalias() = T.middleCols<3>(kTheta) * F.F_vtheta.transpose();
-  dv.noalias() += T.middleCols<3>(kBg) * F.F_vbg.transpose();
-  dv.noalias() += T.middleCols<3>(kBa) * F.F_vba.transpose();
-  Mat3 dth;  // (T Fᵀ)[θ, θ]
-  dth.noalias() = T.block<3, 3>(kTheta, kTheta) * F.F_tt.transpose();
-  dth.noalias() += T.block<3, 3>(kTheta, kBg) * F.F_tbg.transpose();
-  Eigen::Matrix<double, 9, 9> B;
-  B.leftCols<3>() = T.middleCols<3>(kP) + (dt * T.middleCols<3>(kV) + (0.5 * dt) * dv);
-  B.block<6, 3>(kV, kV) = T.block<6, 3>(kV, kV) + dv.bottomRows<6>();
-  B.block<3, 3>(kTheta, kTheta) = dth;
-  for (int d = 0; d < 9; d += 3) {
-    const Mat3 D = B.block<3, 3>(d, d);
-    B.block<3, 3>(d, d) = 0.5 * (D + D.transpose());
-  }
-  B.block<3, 3>(kP, kV) = B.block<3, 3>(kV, kP).transpose();
-  B.block<3, 3>(kP, kTheta) = B.block<3, 3>(kTheta, kP).transpose();
-  B.block<3, 3>(kV, kTheta) = B.block<3, 3>(kTheta, kV).transpose();
-  // C's rows b_g, b_a (columns 0:9) are B's; its bias block is P's.
-  C.topLeftCorner<9, 9>() = B;
-  C.block<9, 6>(0, 9) = C.block<6, 9>(9, 0).transpose();
-  add_process_noise(noise_, dt, C);
-  if (s_.dim > kCore) {
-    // Φᵀ ← Φᵀ Fᵀ (Φ = F_k⋯F_1 is kept transposed so that the products run on columns). Φ's columns p and v
-    // (Φᵀ's rows p, v) stay [I; 0; 0; 0; 0] and [Σdt I; I; 0; 0; 0] (F's columns p, v are trivial), so
-    // only Φᵀ's rows θ, b_g, b_a need the product (and of those only the θ columns, accumulate_transition)
-    // and Φ_pv accumulates dt.
-    accumulate_transition(F, PhiT_);
-    phi_pending_ = true;
-  }
 }
 
 void Filter::check_propagated() {
@@ -338,49 +247,14 @@ void Filter::check_propagated() {
     check_state("propagation", /*core_only=*/true);
 }
 
-void Filter::sync_core() {
-  if (!cc_pending_) return;
-  P_.topLeftCorner<15, 15>() = Pcc_;
-  cc_pending_ = false;
-}
-
-void Filter::sync_cross_covariance() {
-  sync_core();
-  if (!phi_pending_) return;
-  const int r = s_.dim - kCore;
-  if (r > 0) {
-    // P_rc ← P_rc Φᵀ on the contiguous columns of the bottom-left block; Φ's rows b_g, b_a are the
-    // identity, so only P_rc's columns p, v, θ (and P_cr's rows) change. Column j of the result is a sum
-    // of axpys over P_rc's columns; Φ's exact zeros are skipped.
-    tmp_cross_.resize(r, 9);
-    for (int j = 0; j < 9; ++j) {
-      double* __restrict t = tmp_cross_.col(j).data();
-      for (int i = 0; i < r; ++i) t[i] = 0.0;
-      for (int k = 0; k < kCore; ++k) {
-        const double phi = PhiT_(k, j);
-        if (phi == 0.0) continue;
-        const double* __restrict p = &P_(kCore, k);
-        for (int i = 0; i < r; ++i) t[i] += phi * p[i];
-      }
-    }
-    P_.bottomLeftCorner(r, 9) = tmp_cross_;
-    P_.topRightCorner(9, r) = tmp_cross_.transpose();
-  }
-  PhiT_.setIdentity();
-  phi_pending_ = false;
-}
-
-const Eigen::MatrixXd& Filter::covariance() {
-  sync_cross_covariance();
-  return P_;
-}
+const Eigen::MatrixXd& Filter::covariance() { return cov_.full(); }
 
 Mat6 Filter::object_covariance(const ObjectEntry& o) const {
   Mat6 C = Mat6::Zero();
   if (o.dim == 0) return C;
   // The anchor's estimated components are its leading rotation components (δθ_x, δθ_y[, δθ_z]).
   const int first = o.dim == 6 ? 0 : 3;
-  C.block(first, first, o.dim, o.dim) = P_.block(o.offset, o.offset, o.dim, o.dim);
+  C.block(first, first, o.dim, o.dim) = cov_.stored().block(o.offset, o.offset, o.dim, o.dim);
   return C;
 }
 
@@ -401,7 +275,7 @@ Mat6 Filter::object_covariance_relative_to_anchor(const ObjectEntry& o) const {
   Eigen::Matrix<double, 12, 12> C = Eigen::Matrix<double, 12, 12>::Zero();
   for (int i = 0; i < 12; ++i)
     for (int j = 0; j < 12; ++j)
-      if (idx[i] >= 0 && idx[j] >= 0) C(i, j) = P_(idx[i], idx[j]);
+      if (idx[i] >= 0 && idx[j] >= 0) C(i, j) = cov_.stored()(idx[i], idx[j]);
   const Eigen::Matrix<double, 6, 12> J = relative_pose_jacobian(a->T_O_W, o.T_O_W);
   return J * C * J.transpose();
 }
@@ -683,7 +557,7 @@ int anchor_gauge_map(AnchorGauge gauge, const Mat3& R_O_W, Mat6& Gamma) {
 }  // namespace
 
 void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor) {
-  sync_cross_covariance();
+  Eigen::MatrixXd& P = cov_.full();
   close_segment();
   const ObjectInit in = init_object(s_.x, s_.T_I_C, z);
   // Compact J_x (6 x nc) over the columns it touches.
@@ -704,7 +578,7 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   }
   // P_xa = P J_xᵀ (n x 6);  P_aa = J_x P J_xᵀ + J_z R J_zᵀ.
   Eigen::MatrixXd P_xa = Eigen::MatrixXd::Zero(s_.dim, 6);
-  for (int j = 0; j < nc; ++j) P_xa.noalias() += P_.col(idx[j]) * Jx.col(j).transpose();
+  for (int j = 0; j < nc; ++j) P_xa.noalias() += P.col(idx[j]) * Jx.col(j).transpose();
   Mat6 P_aa = in.J_z * R * in.J_z.transpose();
   for (int j = 0; j < nc; ++j) P_aa.noalias() += Jx.col(j) * P_xa.row(idx[j]);
   P_aa = 0.5 * (P_aa + P_aa.transpose()).eval();
@@ -718,13 +592,13 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   if (!anchor) {
     // Plain augmentation.
     Eigen::MatrixXd P_new(s_.dim + 6, s_.dim + 6);
-    P_new.topLeftCorner(s_.dim, s_.dim) = P_;
+    P_new.topLeftCorner(s_.dim, s_.dim) = P;
     P_new.topRightCorner(s_.dim, 6) = P_xa;
     P_new.bottomLeftCorner(6, s_.dim) = P_xa.transpose();
     P_new.bottomRightCorner<6, 6>() = P_aa;
     o.offset = s_.dim;
     o.dim = 6;
-    P_.swap(P_new);
+    P.swap(P_new);
     s_.dim += 6;
     s_.objects.push_back(o);
     check_state("object initialisation");
@@ -743,7 +617,7 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   const Eigen::MatrixXd G = gauge_generator();  // s_.objects does not contain the anchor yet
   const int n_aug = s_.dim + 6;
   Eigen::MatrixXd P_aug(n_aug, n_aug);
-  P_aug.topLeftCorner(s_.dim, s_.dim) = P_;
+  P_aug.topLeftCorner(s_.dim, s_.dim) = P;
   P_aug.topRightCorner(s_.dim, 6) = P_xa;
   P_aug.bottomLeftCorner(6, s_.dim) = P_xa.transpose();
   P_aug.bottomRightCorner<6, 6>() = P_aa;
@@ -756,7 +630,7 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   const int n_old = s_.dim;
   o.offset = keep > 0 ? s_.dim : -1;
   o.dim = keep;
-  P_.swap(P_new);
+  P.swap(P_new);
   s_.dim += keep;
   s_.objects.push_back(o);
   check_state("anchor initialisation");
@@ -773,12 +647,13 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
 }
 
 void Filter::stacked_pht(int nb) {
+  const Eigen::MatrixXd& P = cov_.stored();  // brought up to date by update()
   if (reference_) {  // P H_kᵀ with the full 6 x n H_k
     for (int k = 0; k < nb; ++k) {
       const MeasBlock& b = blocks_[k];
       Eigen::MatrixXd H = Eigen::MatrixXd::Zero(6, s_.dim);
       for (int j = 0; j < b.nc; ++j) H.col(b.idx[j]) += b.H.col(j);
-      ws_PHt_.middleCols<6>(6 * k) = P_ * H.transpose();
+      ws_PHt_.middleCols<6>(6 * k) = P * H.transpose();
     }
     return;
   }
@@ -790,9 +665,9 @@ void Filter::stacked_pht(int nb) {
     const Eigen::Index cols = std::max<Eigen::Index>(ns, ws_W_.rows() == s_.dim ? ws_W_.cols() : 0);
     ws_W_.resize(s_.dim, cols);
   }
-  ws_W_.leftCols<3>() = P_.middleCols<3>(kP);
-  ws_W_.middleCols<3>(3) = P_.middleCols<3>(kTheta);
-  if (ns == 12) ws_W_.middleCols<6>(6) = P_.middleCols<6>(s_.extr_offset);
+  ws_W_.leftCols<3>() = P.middleCols<3>(kP);
+  ws_W_.middleCols<3>(3) = P.middleCols<3>(kTheta);
+  if (ns == 12) ws_W_.middleCols<6>(6) = P.middleCols<6>(s_.extr_offset);
   if (ws_Hs_.cols() != ns || ws_Hs_.rows() < 6 * nb)
     ws_Hs_.resize(std::max<Eigen::Index>(6 * nb, ws_Hs_.cols() == ns ? ws_Hs_.rows() : 0), ns);
   for (int k = 0; k < nb; ++k) ws_Hs_.middleRows<6>(6 * k) = blocks_[k].H.leftCols(ns);
@@ -805,14 +680,14 @@ void Filter::stacked_pht(int nb) {
     const ObjectEntry& o = s_.objects[b.obj];
     ROE_CHECK(b.nc == ns + o.dim, "stacked_pht: unexpected measurement Jacobian layout");
     if (o.dim > 0)
-      add_abt(&PHt(0, 6 * k), PHt.outerStride(), &P_(0, o.offset), P_.outerStride(), b.H.col(ns).data(), 6, s_.dim, 6,
+      add_abt(&PHt(0, 6 * k), PHt.outerStride(), &P(0, o.offset), P.outerStride(), b.H.col(ns).data(), 6, s_.dim, 6,
               o.dim, 1.0, /*lower=*/false);
   }
 }
 
 FrameResult Filter::update(const std::vector<Detection>& dets) {
   ROE_CHECK(initialized_, "update before initialize");
-  sync_core();
+  cov_.sync_core();
   FrameResult res;
   res.t_ns = s_.t_ns;
   res.detections.resize(dets.size());
@@ -842,7 +717,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
 
   relock_lost_position(res);
   ws_scale_.clear();
-  sync_cross_covariance();
+  cov_.full();
   build_blocks(dets);
   if (!blocks_.empty()) {
     gate_blocks(dets, res);
@@ -1039,7 +914,7 @@ bool Filter::apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, co
   bool inflated = false;
   for (int a = 0; a < ni; ++a) inflated |= blocks_[inliers[a]].k > 1.0;
   if ((!inflated || s_.dim == kCore) && reference_) return reference_update(inliers, row0, dx);
-  if (!inflated || s_.dim == kCore) return stacked_update(P_, Y, S, ws_r_.head(m), dx, {ws_L_, ws_W_, ws_u_});
+  if (!inflated || s_.dim == kCore) return stacked_update(cov_.full(), Y, S, ws_r_.head(m), dx, {ws_L_, ws_W_, ws_u_});
   // The stacked R is block-diagonal (detections independent of each other); √k per row of each block.
   Eigen::MatrixXd R = Eigen::MatrixXd::Zero(m, m);
   Eigen::VectorXd d(m);
@@ -1052,10 +927,11 @@ bool Filter::apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, co
   std::vector<Eigen::Index>& rows = ws_const_rows_;
   rows.clear();
   for (int i = kCore; i < s_.dim; ++i) rows.push_back(i);
-  return stacked_update_constant_gain(P_, Y, S, R, d, ws_r_.head(m), rows, dx);
+  return stacked_update_constant_gain(cov_.full(), Y, S, R, d, ws_r_.head(m), rows, dx);
 }
 
 bool Filter::reference_update(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx) {
+  Eigen::MatrixXd& P = cov_.full();
   const int ni = static_cast<int>(inliers.size()), m = row0[ni], n = s_.dim;
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m, n), R = Eigen::MatrixXd::Zero(m, m);
   for (int a = 0; a < ni; ++a) {
@@ -1063,14 +939,14 @@ bool Filter::reference_update(const std::vector<int>& inliers, const std::vector
     for (int j = 0; j < b.nc; ++j) H.block(row0[a], b.idx[j], b.m, 1) += b.H.col(j).head(b.m);
     R.block(row0[a], row0[a], b.m, b.m) = b.R.topLeftCorner(b.m, b.m);
   }
-  const Eigen::MatrixXd S = H * P_ * H.transpose() + R;
+  const Eigen::MatrixXd S = H * P * H.transpose() + R;
   const Eigen::LLT<Eigen::MatrixXd> llt(S);
   if (llt.info() != Eigen::Success) return false;
-  const Eigen::MatrixXd K = llt.solve(H * P_).transpose();  // P Hᵀ S⁻¹ (P and S symmetric)
+  const Eigen::MatrixXd K = llt.solve(H * P).transpose();  // P Hᵀ S⁻¹ (P and S symmetric)
   dx = K * ws_r_.head(m);
   const Eigen::MatrixXd IKH = Eigen::MatrixXd::Identity(n, n) - K * H;
-  P_ = IKH * P_ * IKH.transpose() + K * R * K.transpose();
-  P_ = (0.5 * (P_ + P_.transpose())).eval();
+  P = IKH * P * IKH.transpose() + K * R * K.transpose();
+  P = (0.5 * (P + P.transpose())).eval();
   return true;
 }
 
@@ -1110,8 +986,8 @@ void Filter::relock_lost_position(FrameResult& res) {
   // by noise added now.
   const Relock& r = *res.relock;
   const double span = std::max(to_seconds(s_.t_ns - r.since_ns), opt_.relock_after_s);
-  P_.block<3, 3>(kP, kP).diagonal().array() += r.offset.squaredNorm() + r.residual_sigma * r.residual_sigma;
-  P_.block<3, 3>(kV, kV).diagonal().array() += r.drift_per_s.squaredNorm() + r.offset.squaredNorm() / (span * span);
+  cov_.inflate_core(kP, r.offset.squaredNorm() + r.residual_sigma * r.residual_sigma);
+  cov_.inflate_core(kV, r.drift_per_s.squaredNorm() + r.offset.squaredNorm() / (span * span));
   lost_position_.accepted(s_.t_ns);
 }
 
@@ -1192,9 +1068,9 @@ void Filter::check_state(const char* where, bool core_only) const {
 
 void Filter::check_covariance(bool full, const char* where) {
   static const char* names[] = {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a"};
-  sync_core();
+  cov_.sync_core();
   for (int i = 0; i < s_.dim; ++i) {
-    const double d = P_(i, i);
+    const double d = cov_.stored()(i, i);
     if (!std::isfinite(d) || d <= 0.0) {
       std::string comp = i < kCore ? std::string(names[i / 3]) + "[" + std::to_string(i % 3) + "]"
                                    : "error-state index " + std::to_string(i);
@@ -1203,10 +1079,10 @@ void Filter::check_covariance(bool full, const char* where) {
     }
   }
   if (!full) return;
-  sync_cross_covariance();
-  if (!P_.allFinite())
+  const Eigen::MatrixXd& P = cov_.full();
+  if (!P.allFinite())
     throw NumericError(fmt::format("filter diverged at {} ({}): covariance is not finite", when(), where));
-  Eigen::LLT<Eigen::MatrixXd> llt(P_);
+  Eigen::LLT<Eigen::MatrixXd> llt(P);
   if (llt.info() != Eigen::Success)
     throw NumericError(
         fmt::format("filter diverged at {} ({}): covariance is not positive definite", when(), where));

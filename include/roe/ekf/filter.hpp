@@ -3,8 +3,9 @@
 /// The self-calibrating multi-object error-state EKF of the paper (§III), DESIGN §6.
 ///
 /// The nominal state is one StateEstimate (state.hpp), corrected in place with its ⊞.
-/// Error state (this order, one dense covariance P owned by this class — the only code that
-/// propagates, updates, augments and symmetrises it):
+/// Error state (this order, one dense covariance P owned by this class through its FilterCovariance
+/// (covariance.hpp: the propagation and the lazy cross terms) — the only code that propagates, updates,
+/// augments and symmetrises it):
 ///   [δp_W_I, δv_W_I, δθ_W_I, δb_g, δb_a | δp_I_C, δθ_I_C | per object: δp_O_W, δθ_O_W]
 /// - the extrinsics block is present only with FilterOptions::estimate_extrinsics;
 /// - objects are appended on first sight (augmentation with J_x P J_xᵀ + J_z R J_zᵀ and cross terms
@@ -22,7 +23,7 @@
 /// and of it only the lower block triangle (mirrored; diagonal blocks symmetrised), + Q. The core/rest cross-covariance is updated lazily with the accumulated transition
 /// Φ = F_k⋯F_1 (kept transposed, only its non-trivial columns θ, b_g, b_a multiplied) the next time it is
 /// needed (update, augmentation, covariance()). Between images P_cc lives in a fixed-size 15x15 member and
-/// goes back into P with that sync (a copy). No heap allocation per IMU sample; one per image (the
+/// goes back into P with that sync (a copy); FilterCovariance, covariance.hpp. No heap allocation per IMU sample; one per image (the
 /// FrameResult's detection list).
 ///
 /// Update per image: residual and H per detection of an initialised object (the paper's T_O_C
@@ -48,6 +49,7 @@
 #include <vector>
 
 #include "roe/core/types.hpp"
+#include "roe/ekf/covariance.hpp"
 #include "roe/ekf/imu.hpp"
 #include "roe/ekf/measurement.hpp"
 #include "roe/ekf/options.hpp"
@@ -127,9 +129,9 @@ class Filter {
   int dim() const { return s_.dim; }
   int extrinsics_offset() const { return s_.extr_offset; }
   /// Diagonal entry of P (always current, also between updates).
-  double variance(int i) const { return cc_pending_ && i < kCore ? Pcc_(i, i) : P_(i, i); }
+  double variance(int i) const { return cov_.variance(i); }
   /// Entry (i, j) of the core 15x15 block of P (always current).
-  double core_covariance(int i, int j) const { return cc_pending_ ? Pcc_(i, j) : P_(i, j); }
+  double core_covariance(int i, int j) const { return cov_.core(i, j); }
   /// Covariance of an object's error state [δp_O_W; δθ_O_W] (6x6; rows/columns of components the
   /// anchor does not estimate are 0). Always current: propagation changes only the core rows/columns.
   Mat6 object_covariance(const ObjectEntry& o) const;
@@ -212,20 +214,13 @@ class Filter {
     int nruns = 0;
   };
 
-  /// The covariance part of propagate(): the block-sparse core propagation (and Φ), or propagate_dense.
-  void propagate_covariance(const CoreTransition& F, double dt);
-  void propagate_dense(const CoreTransition& F, double dt);
   /// propagate()'s guard rails: core state and core variances.
   void check_propagated();
   /// The reference arithmetic's stacked update (set_reference_arithmetic).
   bool reference_update(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx);
-  /// Writes the propagated core block Pcc_ back into P_ (a copy; every reader of P_'s core block calls it).
-  void sync_core();
   /// ws_PHt_'s first 6·nb columns ← P H_kᵀ of blocks_[0 … nb−1]: the columns every H_k shares (core p, θ,
   /// extrinsics; gathered once) in one product, each object's own columns in place.
   void stacked_pht(int nb);
-  /// sync_core(), then applies the pending core transition Φ to the core/rest cross-covariance.
-  void sync_cross_covariance();
   /// Recording: ends the propagation segment since the last node (a kPropagate node) if it has steps.
   void close_segment();
   /// Recording: a node of the given kind with the current state and (synchronised) covariance.
@@ -270,14 +265,7 @@ class Filter {
   StateEstimate s_;
   Vec3 gyro_ = Vec3::Zero(), accel_ = Vec3::Zero();
   int anchor_id_ = -1;
-  Eigen::MatrixXd P_;
-  // The core block of P while propagating (authoritative while cc_pending_; P_'s top-left block is stale
-  // until sync_core()).
-  Mat15 Pcc_;
-  bool cc_pending_ = false;
-  Mat15 PhiT_ = Mat15::Identity();  // Φᵀ, Φ = F_k⋯F_1 since the last cross-covariance sync
-  bool phi_pending_ = false;
-  Eigen::MatrixXd tmp_cross_;
+  FilterCovariance cov_;  // P behind its door (covariance.hpp): propagation, lazy cross terms, sync
   std::vector<MeasBlock> blocks_;
   // Update workspaces, kept between images and only grown (no heap allocation per image once the state
   // dimension and the number of detections per image have been seen).
