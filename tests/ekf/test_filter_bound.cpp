@@ -25,7 +25,6 @@
 #include "roe/ekf/driver.hpp"
 #include "roe/ekf/filter.hpp"
 #include "roe/ekf/images.hpp"
-#include "../support/euroc_snippet.hpp"
 
 using namespace roe;
 
@@ -118,15 +117,10 @@ TEST_CASE("filter bound: the fast arithmetic equals the dense reference within 1
 
 TEST_CASE("filter bound: the fast arithmetic equals the dense reference within 1e-9 on the EuRoC snippet",
           "[ekf][bound][euroc]") {
-  const auto snippet = test::load_euroc_snippet();
-  if (!snippet) {
+  const auto d = test::euroc_snippet_with_objects();
+  if (!d) {
     WARN("skipped: the EuRoC snippet is absent");
     return;
   }
-  app::SimulateOptions so;
-  so.from_groundtruth = snippet->mav0.string();
-  so.objects = 4;
-  so.seed = 1;
-  const Dataset d = app::simulate_dataset(so).dataset;
-  check_bound(d, app::RunConfig{}.filter);
+  check_bound(*d, app::RunConfig{}.filter);
 }

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
-#include <filesystem>
 
 #include "filter_support.hpp"
 #include "roe/ekf/smoother.hpp"
@@ -12,7 +11,6 @@
 using namespace roe;
 using ekf::Vec3;
 using ekf::Vec6;
-namespace fs = std::filesystem;
 
 namespace {
 
@@ -427,16 +425,12 @@ TEST_CASE("smoother: IMU-rate means from the segment ends equal the textbook RTS
 
 TEST_CASE("smoother: IMU-rate means from the segment ends equal the textbook RTS on the EuRoC snippet",
           "[ekf][smoother][euroc]") {
-  const fs::path mav0 = fs::path(ROE_SHARED_DATA_DIR) / "euroc_v102_snippet" / "mav0";
-  if (!fs::exists(mav0)) {
-    WARN("skipped: " << mav0 << " absent");
+  const auto snippet = test::euroc_snippet_with_objects();
+  if (!snippet) {
+    WARN("skipped: the EuRoC snippet is absent");
     return;
   }
-  app::SimulateOptions so;
-  so.from_groundtruth = mav0.string();
-  so.objects = 4;
-  so.seed = 1;
-  const Dataset d = app::simulate_dataset(so).dataset;
+  const Dataset& d = *snippet;
   // roe run's built-in filter (camera-frame residual, split gate, learned σ scale) without the re-lock: its
   // covariance inflation enters the segment's Q in ekf::smooth (filter.cpp, relock_lost_position), which the
   // textbook pass above does not model.
