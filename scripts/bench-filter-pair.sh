@@ -5,7 +5,9 @@
 # new, old, new, old ... on CPUS (default 1: one core, so the smoother runs on one thread; CPUS=0,1 lets
 # it use two), then RUNS (default 7) whole-process `roe run` of paper-seq4 per binary and config, new and
 # old alternating: the default config (RTS smoother, states at the IMU rate) and the same with
-# "output": {"rate": "images"} (the smoother forms the covariance at the image rows only since issue 41).
+# "output": {"rate": "images"} (the smoother forms the covariance at the image rows only since issue 41), and
+# the same two configs on the 142 s, 200 Hz handheld-size case (paper-seq2, 3 objects, --duration 142;
+# HANDHELD=0 skips it), with the run folder's size.
 # Prints the machine, the load before and after, every bench_filter line of every round, and the medians:
 # bench_filter's filter CPU and backward-pass times per rate, roe run's wall and CPU (user + system).
 # On a loaded machine compare the CPU times and the ratios, not the wall times.
@@ -56,26 +58,39 @@ for tag in ("new", "old"):
 PY
 # Whole process: one dataset, then roe run per binary and config, alternating.
 "$BUILD/roe" -q simulate --preset paper-seq4 --seed 1 --out "$work/seq4" >/dev/null
+HANDHELD=${HANDHELD:-1}
+[ "$HANDHELD" = 1 ] && "$BUILD/roe" -q simulate --preset paper-seq2 --seed 1 --duration 142 --out "$work/handheld" >/dev/null
 echo '{"output": {"rate": "images"}}' >"$work/images.json"
-one() {  # one ROE TAG CONFIG_NAME [--config FILE]
-  local roe=$1 tag=$2 name=$3
-  shift 3
-  /usr/bin/time -f '%e %U %S %M' -o "$work/t" taskset -c "$CPUS" "$roe" -q run "$work/seq4" "$@" --out "$work/run-$tag" --force >/dev/null 2>&1
-  tail -n 1 "$work/t" | awk '{printf "%.3f %.3f %.0f\n", $1, $2 + $3, $4 / 1024}' >>"$work/run-$tag-$name"
+one() {  # one ROE TAG DATASET CONFIG_NAME [--config FILE]
+  local roe=$1 tag=$2 ds=$3 name=$4
+  shift 4
+  rm -rf "$work/run-$tag"
+  /usr/bin/time -f '%e %U %S %M' -o "$work/t" taskset -c "$CPUS" "$roe" -q run "$work/$ds" "$@" --out "$work/run-$tag" --force >/dev/null 2>&1
+  local mb
+  mb=$(du -sm "$work/run-$tag" | cut -f1)
+  tail -n 1 "$work/t" | awk -v mb="$mb" '{printf "%.3f %.3f %.0f %s\n", $1, $2 + $3, $4 / 1024, mb}' >>"$work/run-$tag-$ds-$name"
 }
+datasets=seq4
+[ "$HANDHELD" = 1 ] && datasets="seq4 handheld"
 for ((i = 0; i < RUNS; i++)); do
-  one "$BUILD/roe" new default
-  one "$OLD/roe" old default
-  one "$BUILD/roe" new images --config "$work/images.json"
-  one "$OLD/roe" old images --config "$work/images.json"
+  for ds in $datasets; do
+    one "$BUILD/roe" new "$ds" default
+    one "$OLD/roe" old "$ds" default
+    one "$BUILD/roe" new "$ds" images --config "$work/images.json"
+    one "$OLD/roe" old "$ds" images --config "$work/images.json"
+  done
 done
 median() {  # median COLUMN FILE
   sort -n -k"$1" "$2" | awk -v c="$1" '{a[NR]=$c} END {print a[int((NR+1)/2)]}'
 }
-for name in default images; do
-  for tag in new old; do
-    f=$work/run-$tag-$name
-    echo "median $tag roe run paper-seq4 ($name): $(median 1 "$f") s wall, $(median 2 "$f") s CPU, $(median 3 "$f") MB ($RUNS runs)"
+for ds in $datasets; do
+  label=paper-seq4
+  [ "$ds" = handheld ] && label="handheld-size (paper-seq2 142 s, 200 Hz)"
+  for name in default images; do
+    for tag in new old; do
+      f=$work/run-$tag-$ds-$name
+      echo "median $tag roe run $label ($name): $(median 1 "$f") s wall, $(median 2 "$f") s CPU, $(median 3 "$f") MB max RSS, run folder $(median 4 "$f") MB ($RUNS runs)"
+    done
   done
 done
 echo "load after: $(cut -d' ' -f1-3 /proc/loadavg)"

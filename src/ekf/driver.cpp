@@ -157,6 +157,7 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
   Filter filter(opt, noise, T_I_C_prior);
   filter.set_symmetries(symmetries);
   filter.set_recording(recording);
+  observer.on_start(filter);
   if (recording != nullptr) {
     // One step per IMU sample and per image between samples; a node per segment, per update and per new
     // object. Reserved once: a growing vector would copy every node (~4 kB each) at each doubling.

@@ -95,7 +95,6 @@ std::string to_string(DetectionStatus s) {
 Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const Pose& T_I_C_prior)
     : opt_(options),
       noise_(noise),
-      T_I_C_(T_I_C_prior),
       lost_position_(options.relock_after_s, options.relock_min_detections, options.init_gate_p_m) {
   ROE_CHECK(opt_.chi2_confidence > 0.0 && opt_.chi2_confidence < 1.0, "chi2_confidence must be in (0, 1)");
   gate_ = math::chi2_quantile(opt_.chi2_confidence, 6.0);
@@ -104,16 +103,17 @@ Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const 
   gate2_ = math::chi2_quantile(opt_.chi2_confidence, 2.0);
   chi2_median6_ = math::chi2_quantile(0.5, 6.0);
   chi2_median5_ = math::chi2_quantile(0.5, 5.0);
+  s_.T_I_C = T_I_C_prior;
   if (opt_.estimate_extrinsics) {
-    extr_offset_ = kCore;
-    n_ = kCore + 6;
+    s_.extr_offset = kCore;
+    s_.dim = kCore + 6;
   }
-  P_ = Eigen::MatrixXd::Zero(n_, n_);
+  cov_.reset(s_.dim);
   blocks_.reserve(16);
 }
 
 std::string Filter::when() const {
-  const Timestamp s = t_ns_ / kNsPerSecond, ns = t_ns_ % kNsPerSecond;
+  const Timestamp s = s_.t_ns / kNsPerSecond, ns = s_.t_ns % kNsPerSecond;
   return fmt::format("t = {}.{:09d} s", s, ns < 0 ? -ns : ns);
 }
 
@@ -129,38 +129,35 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
   // |f_yz|).
   const double roll = std::atan2(f.y(), f.z());
   const double pitch = std::atan2(-f.x(), std::hypot(f.y(), f.z()));
-  x_ = CoreState();
-  x_.q_W_I = Eigen::Quaterniond(math::from_euler_zyx(Vec3(roll, pitch, 0.0))).normalized();
-  x_.b_g = gyro_bias ? *gyro_bias : opt_.init_gyro_bias;
-  x_.b_a = opt_.init_accel_bias;
-  t_ns_ = t0;
+  s_.x = CoreState();
+  s_.x.q_W_I = Eigen::Quaterniond(math::from_euler_zyx(Vec3(roll, pitch, 0.0))).normalized();
+  s_.x.b_g = gyro_bias ? *gyro_bias : opt_.init_gyro_bias;
+  s_.x.b_a = opt_.init_accel_bias;
+  s_.t_ns = t0;
   gyro_ = gyro0;
   accel_ = accel0;
 
-  P_.setZero();
-  cc_pending_ = false;
+  Eigen::MatrixXd& P = cov_.reset(s_.dim);
   const auto sq = [](double s) { return s * s; };
   const double d2r = math::kRadPerDeg;
   for (int i = 0; i < 3; ++i) {
-    P_(kP + i, kP + i) = sq(opt_.init_sigma_p_m);
-    P_(kV + i, kV + i) = sq(opt_.init_sigma_v_mps);
-    P_(kBg + i, kBg + i) = sq(opt_.init_sigma_gyro_bias);
-    P_(kBa + i, kBa + i) = sq(opt_.init_sigma_accel_bias);
+    P(kP + i, kP + i) = sq(opt_.init_sigma_p_m);
+    P(kV + i, kV + i) = sq(opt_.init_sigma_v_mps);
+    P(kBg + i, kBg + i) = sq(opt_.init_sigma_gyro_bias);
+    P(kBa + i, kBa + i) = sq(opt_.init_sigma_accel_bias);
   }
   // Attitude: roll/pitch and yaw σ are given about W's axes (tilt about x, y; yaw about z) and mapped
   // into the local error: δθ_local = R_W_Iᵀ δθ_W.
-  const Mat3 R = x_.q_W_I.toRotationMatrix();
+  const Mat3 R = s_.x.q_W_I.toRotationMatrix();
   const Vec3 var_W(sq(opt_.init_sigma_roll_pitch_deg * d2r), sq(opt_.init_sigma_roll_pitch_deg * d2r),
                    sq(opt_.init_sigma_yaw_deg * d2r));
-  P_.block<3, 3>(kTheta, kTheta) = R.transpose() * var_W.asDiagonal() * R;
-  if (extr_offset_ >= 0) {
+  P.block<3, 3>(kTheta, kTheta) = R.transpose() * var_W.asDiagonal() * R;
+  if (s_.extr_offset >= 0) {
     for (int i = 0; i < 3; ++i) {
-      P_(extr_offset_ + i, extr_offset_ + i) = sq(opt_.extrinsics_sigma_p_m);
-      P_(extr_offset_ + 3 + i, extr_offset_ + 3 + i) = sq(opt_.extrinsics_sigma_rot_deg * d2r);
+      P(s_.extr_offset + i, s_.extr_offset + i) = sq(opt_.extrinsics_sigma_p_m);
+      P(s_.extr_offset + 3 + i, s_.extr_offset + 3 + i) = sq(opt_.extrinsics_sigma_rot_deg * d2r);
     }
   }
-  PhiT_.setIdentity();
-  phi_pending_ = false;
   initialized_ = true;
   check_covariance(true, "initialisation");
   if (rec_) {
@@ -171,27 +168,14 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
   }
 }
 
-StateEstimate Filter::snapshot() const {
-  StateEstimate s;
-  snapshot_into(s);
-  return s;
-}
-
-void Filter::snapshot_into(StateEstimate& s) const {
-  s.t_ns = t_ns_;
-  s.x = x_;
-  s.T_I_C = T_I_C_;
-  s.extr_offset = extr_offset_;
-  s.dim = n_;
-  s.objects = objects_;  // copy-assignment: reuses s.objects' storage
-}
+StateEstimate Filter::snapshot() const { return s_; }
 
 RecordedNode& Filter::push_node(RecordedNode::Kind kind) {
-  sync_cross_covariance();
+  cov_.full();
   RecordedNode& nd = rec_->nodes.emplace_back();
   nd.kind = kind;
   nd.x = snapshot();
-  nd.P = P_;
+  nd.P = cov_.stored();
   nd.steps = rec_->steps.size();
   nd.first_step = nd.steps;
   return nd;
@@ -207,116 +191,48 @@ void Filter::close_segment() {
   nd.steps = rec_->steps.size();
   nd.first_step = first;
   nd.Phi = rec_PhiT_.transpose();
-  sync_core();
-  nd.P_cc = P_.topLeftCorner<15, 15>();
+  nd.P_cc = cov_.core_block();
   rec_PhiT_.setIdentity();
 }
 
 void Filter::finish_recording() { close_segment(); }
 
 const ObjectEntry* Filter::object(int id) const {
-  for (const auto& o : objects_)
+  for (const auto& o : s_.objects)
     if (o.id == id) return &o;
   return nullptr;
 }
 
-namespace {
-
-/// Φᵀ ← Φᵀ Fᵀ for the accumulated core transition Φ = F_k⋯F_1 (kept transposed, see propagate), using
-/// the block structure that every product of F's keeps: Φ's columns b_g and b_a are [Φ_pbg; Φ_vbg; Φ_θbg; I; 0]
-/// and [Φ_pba; Φ_vba; 0; 0; I], its column θ is [Φ_pθ; Φ_vθ; Φ_θθ; 0; 0] (F's rows b_g, b_a are the identity
-/// and F_θba = 0). So in Φᵀ's rows θ, b_g only the θ columns need products with F (the identity and zero
-/// blocks give F's own blocks exactly) and the row b_a needs none: 108 multiply-adds instead of the 405 of
-/// the generic CoreTransition::apply_right_transposed on the 9 rows, with the same operations in the same
-/// order on every non-trivial entry (the skipped terms are exact zeros, the identity blocks exact copies).
-void accumulate_transition(const CoreTransition& F, Mat15& PhiT) {
-  const double dt = F.dt;
-  // Rows θ and b_g: X_θ = their θ columns, X_bg = [0; I], X_ba = 0.
-  Eigen::Matrix<double, 6, 3> dv, dth;
-  const Eigen::Matrix<double, 6, 3> X_th = PhiT.block<6, 3>(kTheta, kTheta);
-  dv.noalias() = X_th * F.F_vtheta.transpose();
-  dv.bottomRows<3>() += F.F_vbg.transpose();
-  dth.noalias() = X_th * F.F_tt.transpose();
-  dth.bottomRows<3>() += F.F_tbg.transpose();
-  PhiT.block<6, 3>(kTheta, kP) += dt * PhiT.block<6, 3>(kTheta, kV) + (0.5 * dt) * dv;
-  PhiT.block<6, 3>(kTheta, kV) += dv;
-  PhiT.block<6, 3>(kTheta, kTheta) = dth;
-  // Row b_a: X_θ = 0, X_bg = 0, X_ba = I, so dv = F_vbaᵀ and its θ columns stay 0.
-  PhiT.block<3, 3>(kBa, kP) += dt * PhiT.block<3, 3>(kBa, kV) + (0.5 * dt) * F.F_vba.transpose();
-  PhiT.block<3, 3>(kBa, kV) += F.F_vba.transpose();
-  // Φ's columns p, v: Φ_pv accumulates dt.
-  PhiT.block<3, 3>(kV, kP).diagonal().array() += dt;
-}
-
-}  // namespace
 
 void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   ROE_CHECK(initialized_, "propagate before initialize");
-  ROE_CHECK(t >= t_ns_, "propagation backwards in time");
-  if (t == t_ns_) {
+  ROE_CHECK(t >= s_.t_ns, "propagation backwards in time");
+  if (t == s_.t_ns) {
     gyro_ = gyro;
     accel_ = accel;
     return;
   }
-  const double dt = dt_seconds(t_ns_, t);
+  const double dt = dt_seconds(s_.t_ns, t);
   CoreTransition F;
-  x_ = integrate(x_, gyro_, accel_, gyro, accel, dt, &F);
-  t_ns_ = t;
+  s_.x = integrate(s_.x, gyro_, accel_, gyro, accel, dt, &F);
+  s_.t_ns = t;
   gyro_ = gyro;
   accel_ = accel;
   if (rec_) {
-    rec_->steps.push_back({t, x_, F});
+    rec_->steps.push_back({t, s_.x, F});
     accumulate_transition(F, rec_PhiT_);
   }
+  if (reference_)
+    cov_.propagate_dense(F, noise_, dt);
+  else
+    cov_.propagate(F, noise_, dt);
+  check_propagated();
+}
 
-  // P_cc ← F P_cc Fᵀ + Q with every product on columns (contiguous): C = P_cc Fᵀ changes only the
-  // columns p, v, θ (F's rows b_g, b_a are the identity), and B = F C = Cᵀ Fᵀ (symmetric) needs only
-  // B[0:9, 0:9] = (C[:, 0:9]ᵀ Fᵀ)[:, 0:9]; B[9:15, 0:9] = C[9:15, 0:9], B[9:15, 9:15] = P[9:15, 9:15].
-  // Of B[0:9, 0:9] = T Fᵀ (T = C[:, 0:9]ᵀ) only the lower block triangle is formed: its column p on all 9
-  // rows, v on rows v, θ, θ on rows θ (so δθ's product, the costliest, on 3 rows instead of 9); the diagonal
-  // blocks are symmetrised and the upper blocks mirrored. 675 + 297 multiply-adds instead of 2 x 675.
-  // The core block is propagated in the fixed-size Pcc_ (no strided copies per sample); P_'s top-left block
-  // takes it back on the next sync_core().
-  if (!cc_pending_) {
-    Pcc_ = P_.topLeftCorner<15, 15>();
-    cc_pending_ = true;
-  }
-  Mat15& C = Pcc_;
-  F.apply_right_transposed(C);
-  const Eigen::Matrix<double, 9, 15> T = C.leftCols<9>().transpose();
-  Eigen::Matrix<double, 9, 3> dv;  // (T Fᵀ)[:, v] − T[:, v]
-  dv.noalias() = T.middleCols<3>(kTheta) * F.F_vtheta.transpose();
-  dv.noalias() += T.middleCols<3>(kBg) * F.F_vbg.transpose();
-  dv.noalias() += T.middleCols<3>(kBa) * F.F_vba.transpose();
-  Mat3 dth;  // (T Fᵀ)[θ, θ]
-  dth.noalias() = T.block<3, 3>(kTheta, kTheta) * F.F_tt.transpose();
-  dth.noalias() += T.block<3, 3>(kTheta, kBg) * F.F_tbg.transpose();
-  Eigen::Matrix<double, 9, 9> B;
-  B.leftCols<3>() = T.middleCols<3>(kP) + (dt * T.middleCols<3>(kV) + (0.5 * dt) * dv);
-  B.block<6, 3>(kV, kV) = T.block<6, 3>(kV, kV) + dv.bottomRows<6>();
-  B.block<3, 3>(kTheta, kTheta) = dth;
-  for (int d = 0; d < 9; d += 3) {
-    const Mat3 D = B.block<3, 3>(d, d);
-    B.block<3, 3>(d, d) = 0.5 * (D + D.transpose());
-  }
-  B.block<3, 3>(kP, kV) = B.block<3, 3>(kV, kP).transpose();
-  B.block<3, 3>(kP, kTheta) = B.block<3, 3>(kTheta, kP).transpose();
-  B.block<3, 3>(kV, kTheta) = B.block<3, 3>(kTheta, kV).transpose();
-  // C's rows b_g, b_a (columns 0:9) are B's; its bias block is P's.
-  C.topLeftCorner<9, 9>() = B;
-  C.block<9, 6>(0, 9) = C.block<6, 9>(9, 0).transpose();
-  add_process_noise(noise_, dt, C);
-  if (n_ > kCore) {
-    // Φᵀ ← Φᵀ Fᵀ (Φ = F_k⋯F_1 is kept transposed so that the products run on columns). Φ's columns p and v
-    // (Φᵀ's rows p, v) stay [I; 0; 0; 0; 0] and [Σdt I; I; 0; 0; 0] (F's columns p, v are trivial), so
-    // only Φᵀ's rows θ, b_g, b_a need the product (and of those only the θ columns, accumulate_transition)
-    // and Φ_pv accumulates dt.
-    accumulate_transition(F, PhiT_);
-    phi_pending_ = true;
-  }
+void Filter::check_propagated() {
   // Cheap guard rails every sample: core state and core variances.
-  bool ok = x_.p_W_I.allFinite() && x_.v_W_I.allFinite() && x_.q_W_I.coeffs().allFinite();
-  for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(Pcc_(i, i)) && Pcc_(i, i) > 0.0;
+  bool ok = s_.x.p_W_I.allFinite() && s_.x.v_W_I.allFinite() && s_.x.q_W_I.coeffs().allFinite();
+  for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(variance(i)) && variance(i) > 0.0;
   if (!ok) check_covariance(false, "propagation");
   // check_state(core_only) on squared norms: a state clearly inside the bounds (norm² ≤ (0.999999·max)², so
   // that the rounded norm is ≤ max) skips it; anything else (near or over a bound, non-finite: NaN fails every
@@ -325,55 +241,20 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
     const double b = 0.999999 * max, b2 = b * b;  // b2 finite: a finite norm² ≤ b2 has finite components
     return max > 0.0 && b2 <= std::numeric_limits<double>::max() && v.squaredNorm() <= b2;
   };
-  if (!(inside(x_.p_W_I, opt_.max_position_m) && inside(x_.v_W_I, opt_.max_velocity_mps) &&
-        inside(x_.b_g, opt_.max_gyro_bias) && inside(x_.b_a, opt_.max_accel_bias) &&
-        x_.q_W_I.coeffs().squaredNorm() <= 2.0))
+  if (!(inside(s_.x.p_W_I, opt_.max_position_m) && inside(s_.x.v_W_I, opt_.max_velocity_mps) &&
+        inside(s_.x.b_g, opt_.max_gyro_bias) && inside(s_.x.b_a, opt_.max_accel_bias) &&
+        s_.x.q_W_I.coeffs().squaredNorm() <= 2.0))
     check_state("propagation", /*core_only=*/true);
 }
 
-void Filter::sync_core() {
-  if (!cc_pending_) return;
-  P_.topLeftCorner<15, 15>() = Pcc_;
-  cc_pending_ = false;
-}
-
-void Filter::sync_cross_covariance() {
-  sync_core();
-  if (!phi_pending_) return;
-  const int r = n_ - kCore;
-  if (r > 0) {
-    // P_rc ← P_rc Φᵀ on the contiguous columns of the bottom-left block; Φ's rows b_g, b_a are the
-    // identity, so only P_rc's columns p, v, θ (and P_cr's rows) change. Column j of the result is a sum
-    // of axpys over P_rc's columns; Φ's exact zeros are skipped.
-    tmp_cross_.resize(r, 9);
-    for (int j = 0; j < 9; ++j) {
-      double* __restrict t = tmp_cross_.col(j).data();
-      for (int i = 0; i < r; ++i) t[i] = 0.0;
-      for (int k = 0; k < kCore; ++k) {
-        const double phi = PhiT_(k, j);
-        if (phi == 0.0) continue;
-        const double* __restrict p = &P_(kCore, k);
-        for (int i = 0; i < r; ++i) t[i] += phi * p[i];
-      }
-    }
-    P_.bottomLeftCorner(r, 9) = tmp_cross_;
-    P_.topRightCorner(9, r) = tmp_cross_.transpose();
-  }
-  PhiT_.setIdentity();
-  phi_pending_ = false;
-}
-
-const Eigen::MatrixXd& Filter::covariance() {
-  sync_cross_covariance();
-  return P_;
-}
+const Eigen::MatrixXd& Filter::covariance() { return cov_.full(); }
 
 Mat6 Filter::object_covariance(const ObjectEntry& o) const {
   Mat6 C = Mat6::Zero();
   if (o.dim == 0) return C;
   // The anchor's estimated components are its leading rotation components (δθ_x, δθ_y[, δθ_z]).
   const int first = o.dim == 6 ? 0 : 3;
-  C.block(first, first, o.dim, o.dim) = P_.block(o.offset, o.offset, o.dim, o.dim);
+  C.block(first, first, o.dim, o.dim) = cov_.stored().block(o.offset, o.offset, o.dim, o.dim);
   return C;
 }
 
@@ -394,27 +275,20 @@ Mat6 Filter::object_covariance_relative_to_anchor(const ObjectEntry& o) const {
   Eigen::Matrix<double, 12, 12> C = Eigen::Matrix<double, 12, 12>::Zero();
   for (int i = 0; i < 12; ++i)
     for (int j = 0; j < 12; ++j)
-      if (idx[i] >= 0 && idx[j] >= 0) C(i, j) = P_(idx[i], idx[j]);
+      if (idx[i] >= 0 && idx[j] >= 0) C(i, j) = cov_.stored()(idx[i], idx[j]);
   const Eigen::Matrix<double, 6, 12> J = relative_pose_jacobian(a->T_O_W, o.T_O_W);
   return J * C * J.transpose();
 }
 
 void Filter::boxplus(const Eigen::VectorXd& dx) {
-  ROE_CHECK(dx.size() == n_, "boxplus: wrong size");
-  // One definition of ⊞ (state.hpp), applied to a snapshot (a workspace: no allocation per update) and
-  // written back.
-  StateEstimate& s = ws_state_;
-  snapshot_into(s);
-  ekf::boxplus(s, dx);
-  x_ = s.x;
-  T_I_C_ = s.T_I_C;
-  for (std::size_t i = 0; i < objects_.size(); ++i) objects_[i].T_O_W = s.objects[i].T_O_W;
+  ROE_CHECK(dx.size() == s_.dim, "boxplus: wrong size");
+  ekf::boxplus(s_, dx);  // the one definition of ⊞ (state.hpp), on the held state
 }
 
 Pose Filter::predict(int object_id) const {
   const ObjectEntry* o = object(object_id);
   ROE_CHECK(o != nullptr, "predict: object not initialised");
-  return predict_object(x_, T_I_C_, o->T_O_W).T_O_C_hat;
+  return predict_object(s_.x, s_.T_I_C, o->T_O_W).T_O_C_hat;
 }
 
 namespace {
@@ -461,7 +335,7 @@ const ObjectSymmetry* Filter::symmetry(int object_id) const {
 }
 
 void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock& b) const {
-  const ObjectPrediction pr = predict_object(x_, T_I_C_, o.T_O_W);
+  const ObjectPrediction pr = predict_object(s_.x, s_.T_I_C, o.T_O_W);
   const ObjectSymmetry* sym = symmetry(o.id);
   const Pose z = sym ? nearest_equivalent(pr.T_O_C_hat, z_detected, *sym) : z_detected;
   b.r = object_residual(pr.T_O_C_hat, z);
@@ -487,9 +361,9 @@ void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock
   };
   put(kP, pr.H_p_WI, 3);
   put(kTheta, pr.H_theta_WI, 3);
-  if (extr_offset_ >= 0) {
-    put(extr_offset_, pr.H_p_IC, 3);
-    put(extr_offset_ + 3, pr.H_theta_IC, 3);
+  if (s_.extr_offset >= 0) {
+    put(s_.extr_offset, pr.H_p_IC, 3);
+    put(s_.extr_offset + 3, pr.H_theta_IC, 3);
   }
   if (o.dim == 6) {
     put(o.offset, pr.H_p_OW, 3);
@@ -544,7 +418,7 @@ void Filter::measurement_jacobian(int object_id, const Pose& z, Vec6& r, Eigen::
   build_block(*o, z, b);
   ROE_CHECK(b.m == 6, "measurement_jacobian: the object has a continuous symmetry (5 rows): use measurement_rows");
   r = b.r;
-  H = Eigen::MatrixXd::Zero(6, n_);
+  H = Eigen::MatrixXd::Zero(6, s_.dim);
   for (int j = 0; j < b.nc; ++j) H.col(b.idx[j]) += b.H.col(j);
 }
 
@@ -602,7 +476,7 @@ void Filter::measurement_rows(int object_id, const Pose& z, ResidualPart part, E
   Eigen::MatrixXd no_pht(0, 6);
   select_rows(part, b, no_pht, 0);
   r = b.r.head(b.m);
-  H = Eigen::MatrixXd::Zero(b.m, n_);
+  H = Eigen::MatrixXd::Zero(b.m, s_.dim);
   for (int j = 0; j < b.nc; ++j) H.col(b.idx[j]) += b.H.col(j).head(b.m);
 }
 
@@ -643,12 +517,12 @@ Eigen::MatrixXd Filter::gauge_generator() const {
   //   p' = Exp(−φ)(p − t):  δp' = δp − t + [p]× φ      v' = Exp(−φ) v:  δv' = δv + [v]× φ
   //   R' = Exp(−φ) R:       δθ' = δθ − Rᵀ φ
   //   T_O_W' = T_O_W T_W_W':  δp_O' = δp_O + R_O_W t,  δθ_O' = δθ_O + φ
-  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n_, 6);
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(s_.dim, 6);
   G.block<3, 3>(kP, 0) = -Mat3::Identity();
-  G.block<3, 3>(kP, 3) = skew(x_.p_W_I);
-  G.block<3, 3>(kV, 3) = skew(x_.v_W_I);
-  G.block<3, 3>(kTheta, 3) = -x_.q_W_I.toRotationMatrix().transpose();
-  for (const auto& o : objects_) {
+  G.block<3, 3>(kP, 3) = skew(s_.x.p_W_I);
+  G.block<3, 3>(kV, 3) = skew(s_.x.v_W_I);
+  G.block<3, 3>(kTheta, 3) = -s_.x.q_W_I.toRotationMatrix().transpose();
+  for (const auto& o : s_.objects) {
     if (o.dim == 6) {
       G.block<3, 3>(o.offset, 0) = o.T_O_W.R();
       G.block<3, 3>(o.offset + 3, 3) = Mat3::Identity();
@@ -683,9 +557,9 @@ int anchor_gauge_map(AnchorGauge gauge, const Mat3& R_O_W, Mat6& Gamma) {
 }  // namespace
 
 void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor) {
-  sync_cross_covariance();
+  Eigen::MatrixXd& P = cov_.full();
   close_segment();
-  const ObjectInit in = init_object(x_, T_I_C_, z);
+  const ObjectInit in = init_object(s_.x, s_.T_I_C, z);
   // Compact J_x (6 x nc) over the columns it touches.
   Eigen::Matrix<double, 6, 12> Jx;
   int idx[12];
@@ -698,13 +572,13 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   };
   put3(kP, in.J_p_WI);
   put3(kTheta, in.J_theta_WI);
-  if (extr_offset_ >= 0) {
-    put3(extr_offset_, in.J_p_IC);
-    put3(extr_offset_ + 3, in.J_theta_IC);
+  if (s_.extr_offset >= 0) {
+    put3(s_.extr_offset, in.J_p_IC);
+    put3(s_.extr_offset + 3, in.J_theta_IC);
   }
   // P_xa = P J_xᵀ (n x 6);  P_aa = J_x P J_xᵀ + J_z R J_zᵀ.
-  Eigen::MatrixXd P_xa = Eigen::MatrixXd::Zero(n_, 6);
-  for (int j = 0; j < nc; ++j) P_xa.noalias() += P_.col(idx[j]) * Jx.col(j).transpose();
+  Eigen::MatrixXd P_xa = Eigen::MatrixXd::Zero(s_.dim, 6);
+  for (int j = 0; j < nc; ++j) P_xa.noalias() += P.col(idx[j]) * Jx.col(j).transpose();
   Mat6 P_aa = in.J_z * R * in.J_z.transpose();
   for (int j = 0; j < nc; ++j) P_aa.noalias() += Jx.col(j) * P_xa.row(idx[j]);
   P_aa = 0.5 * (P_aa + P_aa.transpose()).eval();
@@ -713,20 +587,20 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   o.id = id;
   o.T_O_W = in.T_O_W;
   o.anchor = anchor;
-  o.t_init_ns = t_ns_;
+  o.t_init_ns = s_.t_ns;
 
   if (!anchor) {
     // Plain augmentation.
-    Eigen::MatrixXd P_new(n_ + 6, n_ + 6);
-    P_new.topLeftCorner(n_, n_) = P_;
-    P_new.topRightCorner(n_, 6) = P_xa;
-    P_new.bottomLeftCorner(6, n_) = P_xa.transpose();
+    Eigen::MatrixXd P_new(s_.dim + 6, s_.dim + 6);
+    P_new.topLeftCorner(s_.dim, s_.dim) = P;
+    P_new.topRightCorner(s_.dim, 6) = P_xa;
+    P_new.bottomLeftCorner(6, s_.dim) = P_xa.transpose();
     P_new.bottomRightCorner<6, 6>() = P_aa;
-    o.offset = n_;
+    o.offset = s_.dim;
     o.dim = 6;
-    P_.swap(P_new);
-    n_ += 6;
-    objects_.push_back(o);
+    P.swap(P_new);
+    s_.dim += 6;
+    s_.objects.push_back(o);
     check_state("object initialisation");
     check_covariance(true, "object initialisation");
     if (rec_) push_node(RecordedNode::Kind::kAugment).append_only = true;
@@ -740,25 +614,25 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   // (kPositionYaw) or nothing (kPose).
   Mat6 Gamma;
   const int keep = anchor_gauge_map(opt_.anchor_gauge, in.T_O_W.R(), Gamma);
-  const Eigen::MatrixXd G = gauge_generator();  // objects_ does not contain the anchor yet
-  const int n_aug = n_ + 6;
+  const Eigen::MatrixXd G = gauge_generator();  // s_.objects does not contain the anchor yet
+  const int n_aug = s_.dim + 6;
   Eigen::MatrixXd P_aug(n_aug, n_aug);
-  P_aug.topLeftCorner(n_, n_) = P_;
-  P_aug.topRightCorner(n_, 6) = P_xa;
-  P_aug.bottomLeftCorner(6, n_) = P_xa.transpose();
+  P_aug.topLeftCorner(s_.dim, s_.dim) = P;
+  P_aug.topRightCorner(s_.dim, 6) = P_xa;
+  P_aug.bottomLeftCorner(6, s_.dim) = P_xa.transpose();
   P_aug.bottomRightCorner<6, 6>() = P_aa;
-  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n_ + keep, n_aug);
-  M.topLeftCorner(n_, n_).setIdentity();
-  M.topRightCorner(n_, 6) = G * Gamma;
-  for (int k = 0; k < keep; ++k) M(n_ + k, n_ + 3 + k) = 1.0;
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(s_.dim + keep, n_aug);
+  M.topLeftCorner(s_.dim, s_.dim).setIdentity();
+  M.topRightCorner(s_.dim, 6) = G * Gamma;
+  for (int k = 0; k < keep; ++k) M(s_.dim + k, s_.dim + 3 + k) = 1.0;
   Eigen::MatrixXd P_new = M * P_aug * M.transpose();
   P_new = 0.5 * (P_new + P_new.transpose()).eval();
-  const int n_old = n_;
-  o.offset = keep > 0 ? n_ : -1;
+  const int n_old = s_.dim;
+  o.offset = keep > 0 ? s_.dim : -1;
   o.dim = keep;
-  P_.swap(P_new);
-  n_ += keep;
-  objects_.push_back(o);
+  P.swap(P_new);
+  s_.dim += keep;
+  s_.objects.push_back(o);
   check_state("anchor initialisation");
   check_covariance(true, "anchor initialisation");
   if (rec_) {
@@ -773,39 +647,49 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
 }
 
 void Filter::stacked_pht(int nb) {
+  const Eigen::MatrixXd& P = cov_.stored();  // brought up to date by update()
+  if (reference_) {  // P H_kᵀ with the full 6 x n H_k
+    for (int k = 0; k < nb; ++k) {
+      const MeasBlock& b = blocks_[k];
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(6, s_.dim);
+      for (int j = 0; j < b.nc; ++j) H.col(b.idx[j]) += b.H.col(j);
+      ws_PHt_.middleCols<6>(6 * k) = P * H.transpose();
+    }
+    return;
+  }
   // H_k's compact columns: p, θ [, the extrinsics' p, θ] (shared by every block), then the object's (one run
   // of o.dim contiguous state columns; build_block).
-  const int ns = extr_offset_ >= 0 ? 12 : 6;
+  const int ns = s_.extr_offset >= 0 ? 12 : 6;
   Eigen::MatrixXd& PHt = ws_PHt_;
-  if (ws_W_.rows() != n_ || ws_W_.cols() < ns) {
-    const Eigen::Index cols = std::max<Eigen::Index>(ns, ws_W_.rows() == n_ ? ws_W_.cols() : 0);
-    ws_W_.resize(n_, cols);
+  if (ws_W_.rows() != s_.dim || ws_W_.cols() < ns) {
+    const Eigen::Index cols = std::max<Eigen::Index>(ns, ws_W_.rows() == s_.dim ? ws_W_.cols() : 0);
+    ws_W_.resize(s_.dim, cols);
   }
-  ws_W_.leftCols<3>() = P_.middleCols<3>(kP);
-  ws_W_.middleCols<3>(3) = P_.middleCols<3>(kTheta);
-  if (ns == 12) ws_W_.middleCols<6>(6) = P_.middleCols<6>(extr_offset_);
+  ws_W_.leftCols<3>() = P.middleCols<3>(kP);
+  ws_W_.middleCols<3>(3) = P.middleCols<3>(kTheta);
+  if (ns == 12) ws_W_.middleCols<6>(6) = P.middleCols<6>(s_.extr_offset);
   if (ws_Hs_.cols() != ns || ws_Hs_.rows() < 6 * nb)
     ws_Hs_.resize(std::max<Eigen::Index>(6 * nb, ws_Hs_.cols() == ns ? ws_Hs_.rows() : 0), ns);
   for (int k = 0; k < nb; ++k) ws_Hs_.middleRows<6>(6 * k) = blocks_[k].H.leftCols(ns);
   // The shared columns of all blocks in one product, then each block's object columns (read in place).
   PHt.leftCols(6 * nb).setZero();
-  add_abt(PHt.data(), PHt.outerStride(), ws_W_.data(), ws_W_.outerStride(), ws_Hs_.data(), ws_Hs_.outerStride(), n_,
+  add_abt(PHt.data(), PHt.outerStride(), ws_W_.data(), ws_W_.outerStride(), ws_Hs_.data(), ws_Hs_.outerStride(), s_.dim,
           6 * nb, ns, 1.0, /*lower=*/false);
   for (int k = 0; k < nb; ++k) {
     const MeasBlock& b = blocks_[k];
-    const ObjectEntry& o = objects_[b.obj];
+    const ObjectEntry& o = s_.objects[b.obj];
     ROE_CHECK(b.nc == ns + o.dim, "stacked_pht: unexpected measurement Jacobian layout");
     if (o.dim > 0)
-      add_abt(&PHt(0, 6 * k), PHt.outerStride(), &P_(0, o.offset), P_.outerStride(), b.H.col(ns).data(), 6, n_, 6,
+      add_abt(&PHt(0, 6 * k), PHt.outerStride(), &P(0, o.offset), P.outerStride(), b.H.col(ns).data(), 6, s_.dim, 6,
               o.dim, 1.0, /*lower=*/false);
   }
 }
 
 FrameResult Filter::update(const std::vector<Detection>& dets) {
   ROE_CHECK(initialized_, "update before initialize");
-  sync_core();
+  cov_.sync_core();
   FrameResult res;
-  res.t_ns = t_ns_;
+  res.t_ns = s_.t_ns;
   res.detections.resize(dets.size());
   const int anchor_det = screen_detections(dets, res);
   std::vector<char>& usable = ws_usable_;
@@ -833,7 +717,7 @@ FrameResult Filter::update(const std::vector<Detection>& dets) {
 
   relock_lost_position(res);
   ws_scale_.clear();
-  sync_cross_covariance();
+  cov_.full();
   build_blocks(dets);
   if (!blocks_.empty()) {
     gate_blocks(dets, res);
@@ -874,7 +758,7 @@ int Filter::screen_detections(const std::vector<Detection>& dets, FrameResult& r
   }
   // Anchor choice: the configured id (run_filter passes the rule's choice over the whole run), or the rule
   // (images.hpp) on the one image known here.
-  if (anchor_id_ < 0) anchor_id_ = choose_anchor({ImageDetections{t_ns_, dets}}, t_ns_, t_ns_, opt_).id;
+  if (anchor_id_ < 0) anchor_id_ = choose_anchor({ImageDetections{s_.t_ns, dets}}, s_.t_ns, s_.t_ns, opt_).id;
   int anchor_det = -1;
   for (std::size_t i = 0; i < dets.size(); ++i)
     if (usable[i] && dets[i].object_id == anchor_id_) anchor_det = static_cast<int>(i);
@@ -888,7 +772,7 @@ void Filter::set_implied_poses(const std::vector<Detection>& dets, FrameResult& 
     const ObjectEntry* o = object(dets[i].object_id);
     if (o == nullptr) continue;
     res.detections[i].has_T_W_I = true;
-    res.detections[i].T_W_I = o->T_O_W.inverse() * ws_z_[i] * T_I_C_.inverse();
+    res.detections[i].T_W_I = o->T_O_W.inverse() * ws_z_[i] * s_.T_I_C.inverse();
   }
 }
 
@@ -905,7 +789,7 @@ void Filter::build_blocks(const std::vector<Detection>& dets) {
     }
     MeasBlock b;
     b.det = static_cast<int>(i);
-    b.obj = static_cast<int>(o - objects_.data());
+    b.obj = static_cast<int>(o - s_.objects.data());
     build_block(*o, ws_z_[i], b);
     b.R = measurement_covariance(dets[i], opt_.residual_frame == ResidualFrame::kObject);
     b.k = error_inflation(dets[i].object_id);
@@ -918,7 +802,7 @@ void Filter::gate_blocks(const std::vector<Detection>& dets, FrameResult& res) {
   const int nb = static_cast<int>(blocks_.size());
   // P H_kᵀ per block (n x 6, from H_k's ≤ 18 non-zero columns) and the block S_k for the gate.
   Eigen::MatrixXd& PHt = ws_PHt_;
-  if (PHt.rows() != n_ || PHt.cols() < 6 * nb) PHt.resize(n_, std::max<Eigen::Index>(6 * nb, PHt.cols()));
+  if (PHt.rows() != s_.dim || PHt.cols() < 6 * nb) PHt.resize(s_.dim, std::max<Eigen::Index>(6 * nb, PHt.cols()));
   std::vector<int>& inliers = ws_inliers_;
   inliers.clear();
   stacked_pht(nb);
@@ -1014,11 +898,11 @@ double Filter::error_inflation(int object_id) {
   if (!(tau > 0.0)) return 1.0;
   auto it = last_detection_ns_.find(object_id);
   if (it == last_detection_ns_.end()) {
-    last_detection_ns_[object_id] = t_ns_;
+    last_detection_ns_[object_id] = s_.t_ns;
     return 1.0;
   }
-  const double dt = to_seconds(t_ns_ - it->second);
-  it->second = t_ns_;
+  const double dt = to_seconds(s_.t_ns - it->second);
+  it->second = s_.t_ns;
   // AR(1) errors with lag correlation ρ: a mean of N of them has the variance of N (1−ρ)/(1+ρ) white ones.
   const double rho = std::exp(-std::max(dt, 0.0) / tau);
   return (1.0 + rho) / std::max(1.0 - rho, 1e-6);
@@ -1029,7 +913,8 @@ bool Filter::apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, co
   const int ni = static_cast<int>(inliers.size()), m = row0[ni];
   bool inflated = false;
   for (int a = 0; a < ni; ++a) inflated |= blocks_[inliers[a]].k > 1.0;
-  if (!inflated || n_ == kCore) return stacked_update(P_, Y, S, ws_r_.head(m), dx, {ws_L_, ws_W_, ws_u_});
+  if ((!inflated || s_.dim == kCore) && reference_) return reference_update(inliers, row0, dx);
+  if (!inflated || s_.dim == kCore) return stacked_update(cov_.full(), Y, S, ws_r_.head(m), dx, {ws_L_, ws_W_, ws_u_});
   // The stacked R is block-diagonal (detections independent of each other); √k per row of each block.
   Eigen::MatrixXd R = Eigen::MatrixXd::Zero(m, m);
   Eigen::VectorXd d(m);
@@ -1041,8 +926,28 @@ bool Filter::apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, co
   // The constant states: the extrinsics and the object-worlds (the anchor's kept components included).
   std::vector<Eigen::Index>& rows = ws_const_rows_;
   rows.clear();
-  for (int i = kCore; i < n_; ++i) rows.push_back(i);
-  return stacked_update_constant_gain(P_, Y, S, R, d, ws_r_.head(m), rows, dx);
+  for (int i = kCore; i < s_.dim; ++i) rows.push_back(i);
+  return stacked_update_constant_gain(cov_.full(), Y, S, R, d, ws_r_.head(m), rows, dx);
+}
+
+bool Filter::reference_update(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx) {
+  Eigen::MatrixXd& P = cov_.full();
+  const int ni = static_cast<int>(inliers.size()), m = row0[ni], n = s_.dim;
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m, n), R = Eigen::MatrixXd::Zero(m, m);
+  for (int a = 0; a < ni; ++a) {
+    const MeasBlock& b = blocks_[inliers[a]];
+    for (int j = 0; j < b.nc; ++j) H.block(row0[a], b.idx[j], b.m, 1) += b.H.col(j).head(b.m);
+    R.block(row0[a], row0[a], b.m, b.m) = b.R.topLeftCorner(b.m, b.m);
+  }
+  const Eigen::MatrixXd S = H * P * H.transpose() + R;
+  const Eigen::LLT<Eigen::MatrixXd> llt(S);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::MatrixXd K = llt.solve(H * P).transpose();  // P Hᵀ S⁻¹ (P and S symmetric)
+  dx = K * ws_r_.head(m);
+  const Eigen::MatrixXd IKH = Eigen::MatrixXd::Identity(n, n) - K * H;
+  P = IKH * P * IKH.transpose() + K * R * K.transpose();
+  P = (0.5 * (P + P.transpose())).eval();
+  return true;
 }
 
 void Filter::learn_sigma_scale(const std::vector<double>& frame_samples) {
@@ -1073,17 +978,17 @@ void Filter::relock_lost_position(FrameResult& res) {
   // propagation segment's Q (P_cc at the segment's end minus Φ P_a Φᵀ): without IMU steps since the last
   // recorded node there is no such segment, and the decision waits for the next image.
   if (rec_ != nullptr && !rec_->nodes.empty() && rec_->steps.size() == rec_->nodes.back().steps) return;
-  res.relock = lost_position_.check(t_ns_);
+  res.relock = lost_position_.check(s_.t_ns);
   if (!res.relock) return;
   // The observed offset (and its scatter) for the position; for the velocity the drift of the offset, or
   // the offset spread over the time the position was refused, whichever the data say more of. Only the
   // core block changes: P_cc is always current and the pending cross-covariance transition is unaffected
   // by noise added now.
   const Relock& r = *res.relock;
-  const double span = std::max(to_seconds(t_ns_ - r.since_ns), opt_.relock_after_s);
-  P_.block<3, 3>(kP, kP).diagonal().array() += r.offset.squaredNorm() + r.residual_sigma * r.residual_sigma;
-  P_.block<3, 3>(kV, kV).diagonal().array() += r.drift_per_s.squaredNorm() + r.offset.squaredNorm() / (span * span);
-  lost_position_.accepted(t_ns_);
+  const double span = std::max(to_seconds(s_.t_ns - r.since_ns), opt_.relock_after_s);
+  cov_.inflate_core(kP, r.offset.squaredNorm() + r.residual_sigma * r.residual_sigma);
+  cov_.inflate_core(kV, r.drift_per_s.squaredNorm() + r.offset.squaredNorm() / (span * span));
+  lost_position_.accepted(s_.t_ns);
 }
 
 void Filter::observe_lockout(const std::vector<Detection>& dets, FrameResult& res) {
@@ -1094,25 +999,25 @@ void Filter::observe_lockout(const std::vector<Detection>& dets, FrameResult& re
   }
   if (!lost_position_.enabled()) return;
   if (position || res.position_used) {
-    lost_position_.accepted(t_ns_);
+    lost_position_.accepted(s_.t_ns);
     return;
   }
   // Offsets of the refused detections' implied camera position from the estimate, from the detected
   // translation alone: p_W_C = p_W_O − R̂_W_C t_C_O (a flipped or noisy detected rotation does not move it).
-  const Mat3 R_W_C = x_.q_W_I.toRotationMatrix() * T_I_C_.R();
-  const Vec3 p_W_C = x_.p_W_I + x_.q_W_I * T_I_C_.p;
+  const Mat3 R_W_C = s_.x.q_W_I.toRotationMatrix() * s_.T_I_C.R();
+  const Vec3 p_W_C = s_.x.p_W_I + s_.x.q_W_I * s_.T_I_C.p;
   for (std::size_t i = 0; i < dets.size(); ++i) {
     const DetectionOutcome& d = res.detections[i];
     const bool refused = d.status == DetectionStatus::kRejectedChi2 || d.status == DetectionStatus::kAccepted;
     if (!refused || !d.has_T_W_I) continue;
     const Pose T_W_O = object(d.object_id)->T_O_W.inverse();
-    lost_position_.refused(t_ns_, d.object_id, T_W_O.p - R_W_C * dets[i].T_C_O.p - p_W_C);
+    lost_position_.refused(s_.t_ns, d.object_id, T_W_O.p - R_W_C * dets[i].T_C_O.p - p_W_C);
   }
 }
 
 bool Filter::confirm_first_sight(int id, const Pose& z) {
   if (opt_.init_min_detections <= 1) return true;
-  const Pose cand = init_object(x_, T_I_C_, z).T_O_W;
+  const Pose cand = init_object(s_.x, s_.T_I_C, z).T_O_W;
   auto it = std::find_if(pending_.begin(), pending_.end(), [id](const auto& p) { return p.first == id; });
   if (it == pending_.end()) {
     pending_.push_back({id, Pending{cand, 1}});
@@ -1137,35 +1042,35 @@ void Filter::check_state(const char* where, bool core_only) const {
   const auto fail = [&](const std::string& what) {
     throw NumericError(fmt::format("filter diverged at {} ({}): {}", when(), where, what));
   };
-  if (!x_.p_W_I.allFinite() || !x_.v_W_I.allFinite() || !x_.q_W_I.coeffs().allFinite() ||
-      !x_.b_g.allFinite() || !x_.b_a.allFinite())
+  if (!s_.x.p_W_I.allFinite() || !s_.x.v_W_I.allFinite() || !s_.x.q_W_I.coeffs().allFinite() ||
+      !s_.x.b_g.allFinite() || !s_.x.b_a.allFinite())
     fail("non-finite core state");
-  if (x_.p_W_I.norm() > opt_.max_position_m)
-    fail(fmt::format("|p_W_I| = {:.4g} m exceeds max_position_m = {:.4g}", x_.p_W_I.norm(),
+  if (s_.x.p_W_I.norm() > opt_.max_position_m)
+    fail(fmt::format("|p_W_I| = {:.4g} m exceeds max_position_m = {:.4g}", s_.x.p_W_I.norm(),
                      opt_.max_position_m));
-  if (x_.v_W_I.norm() > opt_.max_velocity_mps)
-    fail(fmt::format("|v_W_I| = {:.4g} m/s exceeds max_velocity_mps = {:.4g}", x_.v_W_I.norm(),
+  if (s_.x.v_W_I.norm() > opt_.max_velocity_mps)
+    fail(fmt::format("|v_W_I| = {:.4g} m/s exceeds max_velocity_mps = {:.4g}", s_.x.v_W_I.norm(),
                      opt_.max_velocity_mps));
-  if (x_.b_g.norm() > opt_.max_gyro_bias)
-    fail(fmt::format("|b_g| = {:.4g} rad/s exceeds max_gyro_bias = {:.4g}", x_.b_g.norm(),
+  if (s_.x.b_g.norm() > opt_.max_gyro_bias)
+    fail(fmt::format("|b_g| = {:.4g} rad/s exceeds max_gyro_bias = {:.4g}", s_.x.b_g.norm(),
                      opt_.max_gyro_bias));
-  if (x_.b_a.norm() > opt_.max_accel_bias)
-    fail(fmt::format("|b_a| = {:.4g} m/s² exceeds max_accel_bias = {:.4g}", x_.b_a.norm(),
+  if (s_.x.b_a.norm() > opt_.max_accel_bias)
+    fail(fmt::format("|b_a| = {:.4g} m/s² exceeds max_accel_bias = {:.4g}", s_.x.b_a.norm(),
                      opt_.max_accel_bias));
   // Propagation changes only the core state; the extrinsics and object-worlds were checked when they last
   // changed (update, initialisation).
   if (core_only) return;
-  if (!T_I_C_.p.allFinite() || !T_I_C_.q.coeffs().allFinite()) fail("non-finite extrinsics");
-  for (const auto& o : objects_)
+  if (!s_.T_I_C.p.allFinite() || !s_.T_I_C.q.coeffs().allFinite()) fail("non-finite extrinsics");
+  for (const auto& o : s_.objects)
     if (!o.T_O_W.p.allFinite() || !o.T_O_W.q.coeffs().allFinite() || o.T_O_W.p.norm() > opt_.max_position_m)
       fail(fmt::format("object-world of object {} is non-finite or out of bounds", o.id));
 }
 
 void Filter::check_covariance(bool full, const char* where) {
   static const char* names[] = {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a"};
-  sync_core();
-  for (int i = 0; i < n_; ++i) {
-    const double d = P_(i, i);
+  cov_.sync_core();
+  for (int i = 0; i < s_.dim; ++i) {
+    const double d = cov_.stored()(i, i);
     if (!std::isfinite(d) || d <= 0.0) {
       std::string comp = i < kCore ? std::string(names[i / 3]) + "[" + std::to_string(i % 3) + "]"
                                    : "error-state index " + std::to_string(i);
@@ -1174,10 +1079,10 @@ void Filter::check_covariance(bool full, const char* where) {
     }
   }
   if (!full) return;
-  sync_cross_covariance();
-  if (!P_.allFinite())
+  const Eigen::MatrixXd& P = cov_.full();
+  if (!P.allFinite())
     throw NumericError(fmt::format("filter diverged at {} ({}): covariance is not finite", when(), where));
-  Eigen::LLT<Eigen::MatrixXd> llt(P_);
+  Eigen::LLT<Eigen::MatrixXd> llt(P);
   if (llt.info() != Eigen::Success)
     throw NumericError(
         fmt::format("filter diverged at {} ({}): covariance is not positive definite", when(), where));

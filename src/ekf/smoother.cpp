@@ -87,35 +87,41 @@ Eigen::Matrix<double, 6, 6> pose_block(const Mat15& P) {
 /// What the backward pass needs from one propagation segment a → b (docs in smoother.hpp): with
 /// Pp = P_b⁻ and D = P_s,b − P_b⁻, the smoothed δ_a and P_s,a, and, for the IMU steps inside the segment,
 /// the core part of λ = P_b⁻⁻¹ δ_b (the mean) and W = P_b⁻⁻¹ D P_b⁻⁻¹ reduced to the 30 directions the
-/// steps' covariance sees (M = Tᵀ W T, T = diag(I₁₅, P_a,rc)).
+/// steps' covariance sees (M = Tᵀ W T, T = diag(I₁₅, P_a,rc); only when asked for: `with_M`).
 struct SegmentGain {
   VecX delta_a;
   MatX Ps_a;
   Vec15 lambda_c = Vec15::Zero();
+  bool with_M = false;
   Eigen::Matrix<double, 30, 30> M = Eigen::Matrix<double, 30, 30>::Zero();
 };
 
 /// The segment's gain C = P_a Φᵀ P_b⁻⁻¹ without forming it. Propagation adds process noise Q to the core
 /// block only, so P_a Φᵀ = Φ⁻¹ (P_b⁻ − Q) and C = Φ⁻¹ (I − Q P_b⁻⁻¹), where Q P_b⁻⁻¹ has 15 non-zero rows:
 /// δ_a = Φ⁻¹ (δ_b − Q λ), P_s,a = P_a + Φ⁻¹ G D Gᵀ Φ⁻ᵀ with G = I − Q P_b⁻⁻¹, all in O(15 n²) after one
-/// Cholesky factor of P_b⁻ (the direct form C D Cᵀ costs several n³ products per segment).
-SegmentGain segment_gain(const RecordedNode& nd, const MatX& Pa, const MatX& Ps, const VecX& delta_b) {
+/// Cholesky factor of P_b⁻ (the direct form C D Cᵀ costs several n³ products per segment). M (`with_M`: a
+/// step strictly inside the segment asks for its covariance) needs the solve on T's 30 columns and
+/// Zᵀ (D Z); without it the solve has P_b⁻⁻¹'s 15 core columns only (the same numbers: a triangular solve
+/// treats its right-hand sides column by column).
+SegmentGain segment_gain(const RecordedNode& nd, const MatX& Pa, const MatX& Ps, const VecX& delta_b, bool with_M) {
   const Eigen::Index n = Pa.rows(), r = n - kCore;
   const MatX Pp = predicted_covariance(nd, Pa);
   const auto llt = factor(Pp, nd.x.t_ns, "predicted");
-  MatX T = MatX::Zero(n, 30);
+  MatX T = MatX::Zero(n, with_M ? 30 : kCore);
   T.topLeftCorner<kCore, kCore>().setIdentity();
-  if (r > 0) T.bottomRightCorner(r, kCore) = Pa.bottomLeftCorner(r, kCore);
+  if (with_M && r > 0) T.bottomRightCorner(r, kCore) = Pa.bottomLeftCorner(r, kCore);
   const MatX Z = llt.solve(T);  // P_b⁻⁻¹ T; its first 15 columns are P_b⁻⁻¹'s core columns
   const VecX lambda = llt.solve(delta_b);
   MatX D = Ps - Pp;
 
   SegmentGain g;
   g.lambda_c = lambda.head<kCore>();
-  const MatX DZ = D * Z;
-  g.M.triangularView<Eigen::Lower>() = Z.transpose() * DZ;
-  g.M.triangularView<Eigen::StrictlyUpper>() = g.M.transpose();
-
+  g.with_M = with_M;
+  if (with_M) {
+    const MatX DZ = D * Z;
+    g.M.triangularView<Eigen::Lower>() = Z.transpose() * DZ;
+    g.M.triangularView<Eigen::StrictlyUpper>() = g.M.transpose();
+  }
   const Mat15 Phi_inv = nd.Phi.inverse();
   const Mat15 Q = nd.P_cc - nd.Phi * Pa.topLeftCorner<kCore, kCore>() * nd.Phi.transpose();
   g.delta_a = delta_b;
@@ -136,12 +142,18 @@ SegmentGain segment_gain(const RecordedNode& nd, const MatX& Pa, const MatX& Ps,
 
 /// What the IMU steps inside one propagation segment a → b need from the backward pass: the segment
 /// (its kPropagate node b; a is the node before it), the smoothed δ_a's core part, λ's core part and M of
-/// its SegmentGain, and the smoothed state at a's extrinsics (constant inside the segment).
+/// its SegmentGain (`with_M`: some step strictly inside the segment asks for its covariance), and the
+/// smoothed state at a's extrinsics (constant inside the segment). Without M, the covariance of the last
+/// step (b itself, an update's or an augmentation's time) is the smoothed P_s,b of the backward pass: its
+/// core block and extrinsics' variances.
 struct StepsTask {
   std::size_t node = 0;
   Vec15 delta_a;
   Vec15 lambda_c;
+  bool with_M = false;
   Eigen::Matrix<double, 30, 30> M;
+  Mat15 Ps_b_cc;
+  Vec6 extr_var_b = Vec6::Zero();
   Pose T_I_C;
   Vec6 extr_var = Vec6::Zero();
 };
@@ -182,12 +194,18 @@ void smooth_segment_means(const FilterRecording& rec, const StepsTask& task, con
 /// smooth_segment_means: P(t) and Φ(t, a) re-propagated from P_a with the recorded F and the same process
 /// noise, then backwards Ψ = Φ(b, t), A_t = [P_cc(t) Ψᵀ, Φ(t, a) P_a,cr] = G_t Tᵀ with G_t = [P_cc(t) Ψᵀ,
 /// Φ(t, a)] (15 x 30): P_s(t) = P_cc(t) + G_t M G_tᵀ (fixed-size products only; of P_s(t) only the entries
-/// the output holds: the variances and the [δp; δθ] block). Nothing when no step of the segment is marked.
+/// the output holds: the variances and the [δp; δθ] block). Nothing when no step of the segment is marked;
+/// without M only the last step can be, and its covariance is P_s,b (equal to P_cc(b) + G_b M G_bᵀ in exact
+/// arithmetic: G_b = [P_b⁻,cc, Φ(b, a)], so G_b M G_bᵀ = (P_b⁻ W P_b⁻)_cc = D_cc).
 void smooth_segment_covariances(const FilterRecording& rec, const StepsTask& task, const ImuNoiseParams& noise,
                                 const std::vector<char>& want, SmootherResult& res) {
   const RecordedNode& nd = rec.nodes[task.node];
   const std::size_t m = nd.steps - nd.first_step;
-  if (std::find(want.begin() + nd.first_step, want.begin() + nd.steps, 1) == want.begin() + nd.steps) return;
+  if (!task.with_M) {
+    if (want[nd.steps - 1])
+      set_covariance(res.states[nd.steps], task.Ps_b_cc.diagonal(), pose_block(task.Ps_b_cc), task.extr_var_b);
+    return;
+  }
   std::vector<Mat15> Pcc(m), Phi(m);
   Mat15 Pc = rec.nodes[task.node - 1].P.topLeftCorner<kCore, kCore>();
   Mat15 Ph = Mat15::Identity();
@@ -391,10 +409,14 @@ SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, c
       case RecordedNode::Kind::kPropagate: {
         const RecordedNode& a = nodes[j - 1];
         ROE_CHECK(a.kind != RecordedNode::Kind::kPropagate, "smooth: two propagation nodes in a row");
-        SegmentGain g = segment_gain(nd, a.P, Ps, boxminus(xs, nd.x));
+        // M only when a step strictly inside the segment asks for its covariance (the last one can take P_s,b).
+        const bool inner = std::find(want.begin() + nd.first_step, want.begin() + nd.steps - 1, 1) !=
+                           want.begin() + nd.steps - 1;
+        SegmentGain g = segment_gain(nd, a.P, Ps, boxminus(xs, nd.x), inner);
         StateEstimate xa = a.x;
         boxplus(xa, g.delta_a);
-        steps.push({j, g.delta_a.head<kCore>(), g.lambda_c, g.M, xa.T_I_C, extrinsics_variance(g.Ps_a, xa.extr_offset)});
+        steps.push({j, g.delta_a.head<kCore>(), g.lambda_c, g.with_M, g.M, Ps.topLeftCorner<kCore, kCore>(),
+                    extrinsics_variance(Ps, nd.x.extr_offset), xa.T_I_C, extrinsics_variance(g.Ps_a, xa.extr_offset)});
         xs = std::move(xa);
         Ps = std::move(g.Ps_a);
         break;

@@ -10,9 +10,10 @@
 // A second line per rate ("default") times the filter with roe run's built-in defaults (configs/default.json:
 // camera-frame residual, split gate, detection sigmas with the learned scale, relock, IMU noise x 4), causal,
 // with an observer that records nothing: what users run, without roe run's per-sample output rows.
-// usage: bench_filter [repetitions=15] [--each] [--filter-only]
+// usage: bench_filter [repetitions=15] [--each] [--filter-only] [--rate HZ]
 //   --each: also print every repetition's filter wall time; --filter-only: only the filter lines (no
-//   run_dataset, no smoother; for profiling the filter with perf).
+//   run_dataset, no smoother; for profiling the filter with perf); --rate HZ: only that IMU rate (200 or 400;
+//   default both).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -76,15 +77,17 @@ double min_of(const std::vector<double>& v) { return *std::min_element(v.begin()
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::atoi(argv[1]) : 15;
   bool each = false, filter_only = false;
+  std::vector<double> rates = {200.0, 400.0};
   for (int a = 2; a < argc; ++a) {
     each |= std::string(argv[a]) == "--each";
     filter_only |= std::string(argv[a]) == "--filter-only";
+    if (std::string(argv[a]) == "--rate" && a + 1 < argc) rates = {std::atof(argv[++a])};
   }
   fmt::print("bench_filter: paper-seq4, 60 s, seed 1, FilterOptions' plain defaults; {} repetitions, median (min) [ms]\n",
              reps);
   fmt::print("{:>8} {:>7} {:>8} {:>20} {:>14} {:>20} {:>20} {:>12}\n", "IMU Hz", "images", "updates",
              "filter wall", "filter CPU (min)", "propagation only", "run_dataset", "x real time");
-  for (double rate : {200.0, 400.0}) {
+  for (double rate : rates) {
     sim::SimConfig c = app::sim_config_from_preset("paper-seq4");
     c.imu.rate_hz = rate;
     c.duration_s = 60.0;

@@ -5,8 +5,10 @@
 #include <catch2/catch.hpp>
 
 #include <Eigen/Core>
+#include <filesystem>
 #include <functional>
 #include <map>
+#include <optional>
 #include <vector>
 
 #include "roe/app/run.hpp"
@@ -24,6 +26,18 @@ inline Dataset simulate_preset(const std::string& preset, std::uint64_t seed, do
   sim::SimConfig c = app::sim_config_from_preset(preset);
   c.duration_s = duration_s;
   return sim::simulate(c, seed);
+}
+
+/// The real EuRoC V1_02 snippet of ../shared/data (its IMU and ground truth) with 4 synthesised objects
+/// (seed 1), or nothing when ../shared/data is absent (the caller WARNs and returns).
+inline std::optional<Dataset> euroc_snippet_with_objects() {
+  const auto mav0 = std::filesystem::path(ROE_SHARED_DATA_DIR) / "euroc_v102_snippet" / "mav0";
+  if (!std::filesystem::exists(mav0)) return std::nullopt;
+  app::SimulateOptions so;
+  so.from_groundtruth = mav0.string();
+  so.objects = 4;
+  so.seed = 1;
+  return app::simulate_dataset(so).dataset;
 }
 
 /// Ground-truth state at each estimate row (same stamps: the estimate is written at the IMU stamps,

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
-#include <filesystem>
 
 #include "filter_support.hpp"
 #include "roe/ekf/smoother.hpp"
@@ -12,7 +11,6 @@
 using namespace roe;
 using ekf::Vec3;
 using ekf::Vec6;
-namespace fs = std::filesystem;
 
 namespace {
 
@@ -361,7 +359,7 @@ void check_means_and_sparse_covariance(const Recorded& r) {
   const std::vector<ekf::SmoothedState> ref = dense_rts(r.rec, r.noise);
   REQUIRE(full.states.size() == ref.size());
   REQUIRE(sparse.states.size() == ref.size());
-  double max_dp = 0, max_dv = 0, max_dth = 0, max_dsig = 0;
+  double max_dp = 0, max_dv = 0, max_dth = 0, max_dsig = 0, max_dsig_sparse = 0, max_dcov_sparse = 0;
   std::size_t with_cov = 0;
   for (std::size_t k = 0; k < ref.size(); ++k) {
     const auto &a = full.states[k], &s = sparse.states[k], &e = ref[k];
@@ -382,15 +380,27 @@ void check_means_and_sparse_covariance(const Recorded& r) {
         k == 0 || std::binary_search(r.image_times.begin(), r.image_times.end(), a.t_ns);
     if (asked) {
       ++with_cov;
-      REQUIRE(s.sigma == a.sigma);
-      REQUIRE(s.pose_cov == a.pose_cov);
+      // At a segment's end (an update's time) the sparse pass takes P_s,b of the backward pass instead of
+      // P_cc(b) + G_b M G_bᵀ (the same matrix in exact arithmetic, smoother.cpp), and skips M: round-off.
+      REQUIRE(s.sigma.allFinite());
+      max_dsig_sparse =
+          std::max(max_dsig_sparse, ((s.sigma - a.sigma).array().abs() / (a.sigma.array() + 1e-300)).maxCoeff());
+      max_dcov_sparse = std::max(max_dcov_sparse, (s.pose_cov - a.pose_cov).norm() / a.pose_cov.norm());
     } else {
       REQUIRE(s.sigma.array().isNaN().all());
       REQUIRE(s.pose_cov.array().isNaN().all());
     }
   }
   INFO("position " << max_dp << " rel, velocity " << max_dv << " rel, rotation " << max_dth << " rad, sigma "
-                   << max_dsig << " rel; " << with_cov << " of " << ref.size() << " rows with a covariance");
+                   << max_dsig << " rel; " << with_cov << " of " << ref.size() << " rows with a covariance; the "
+                   << "sparse pass's sigma " << max_dsig_sparse << " rel, pose covariance " << max_dcov_sparse
+                   << " rel from the all-steps pass");
+  // The sparse pass's covariance at a segment's end is the backward recursion's own P_s,b; the all-steps pass
+  // re-forms it as P_cc(b) + G_b M G_bᵀ through P_b⁻⁻¹ (entries up to 10⁶ times the gyro bias variance), whose
+  // round-off is what differs. Measured (2026-12-03): paper-seq4 8 s σ 1.5e-9, pose covariance 1.2e-9
+  // relative; EuRoC snippet σ 1.7e-7 (gyro bias; 2.9e-8 in p, v, θ), pose covariance 7.5e-9 relative.
+  CHECK(max_dsig_sparse < 1e-6);
+  CHECK(max_dcov_sparse < 5e-8);
   CHECK(with_cov > r.image_times.size() / 2);
   CHECK(with_cov < ref.size() / 4);
   CHECK(max_dp < 1e-9);
@@ -398,8 +408,8 @@ void check_means_and_sparse_covariance(const Recorded& r) {
   CHECK(max_dth < 1e-9);
   // σ: the textbook pass's own inversions of n x n covariances at every step (2e-9 relative measured on
   // "matched" 4 s, 2.3e-6 on the EuRoC snippet's 40 s); the σ path itself is the one of issue 24, and the
-  // covariance at an asked time is compared bit for bit with the all-steps pass above. Measured on the EuRoC
-  // snippet (2026-12-03): position 7.0e-13, velocity 4.4e-13 relative, rotation 3.1e-14 rad.
+  // covariance at an asked time is compared with the all-steps pass above. Measured on the EuRoC snippet
+  // (2026-12-03): position 7.0e-13, velocity 4.4e-13 relative, rotation 3.1e-14 rad.
   CHECK(max_dsig < 1e-5);
 }
 
@@ -415,16 +425,12 @@ TEST_CASE("smoother: IMU-rate means from the segment ends equal the textbook RTS
 
 TEST_CASE("smoother: IMU-rate means from the segment ends equal the textbook RTS on the EuRoC snippet",
           "[ekf][smoother][euroc]") {
-  const fs::path mav0 = fs::path(ROE_SHARED_DATA_DIR) / "euroc_v102_snippet" / "mav0";
-  if (!fs::exists(mav0)) {
-    WARN("skipped: " << mav0 << " absent");
+  const auto snippet = test::euroc_snippet_with_objects();
+  if (!snippet) {
+    WARN("skipped: the EuRoC snippet is absent");
     return;
   }
-  app::SimulateOptions so;
-  so.from_groundtruth = mav0.string();
-  so.objects = 4;
-  so.seed = 1;
-  const Dataset d = app::simulate_dataset(so).dataset;
+  const Dataset& d = *snippet;
   // roe run's built-in filter (camera-frame residual, split gate, learned σ scale) without the re-lock: its
   // covariance inflation enters the segment's Q in ekf::smooth (filter.cpp, relock_lost_position), which the
   // textbook pass above does not model.

@@ -22,6 +22,8 @@ namespace roe::ekf {
 class FilterObserver {
  public:
   virtual ~FilterObserver() = default;
+  /// Once, on the new filter before its initialisation (tests: Filter::set_reference_arithmetic).
+  virtual void on_start(Filter& /*filter*/) {}
   /// After initialisation and after every IMU propagation step (the IMU-rate trajectory).
   virtual void on_imu(const Filter& /*filter*/) {}
   /// After each image.

@@ -2,8 +2,10 @@
 /// @file
 /// The self-calibrating multi-object error-state EKF of the paper (§III), DESIGN §6.
 ///
-/// Error state (this order, one dense covariance P owned by this class — the only code that
-/// propagates, updates, augments and symmetrises it):
+/// The nominal state is one StateEstimate (state.hpp), corrected in place with its ⊞.
+/// Error state (this order, one dense covariance P owned by this class through its FilterCovariance
+/// (covariance.hpp: the propagation and the lazy cross terms) — the only code that propagates, updates,
+/// augments and symmetrises it):
 ///   [δp_W_I, δv_W_I, δθ_W_I, δb_g, δb_a | δp_I_C, δθ_I_C | per object: δp_O_W, δθ_O_W]
 /// - the extrinsics block is present only with FilterOptions::estimate_extrinsics;
 /// - objects are appended on first sight (augmentation with J_x P J_xᵀ + J_z R J_zᵀ and cross terms
@@ -21,7 +23,7 @@
 /// and of it only the lower block triangle (mirrored; diagonal blocks symmetrised), + Q. The core/rest cross-covariance is updated lazily with the accumulated transition
 /// Φ = F_k⋯F_1 (kept transposed, only its non-trivial columns θ, b_g, b_a multiplied) the next time it is
 /// needed (update, augmentation, covariance()). Between images P_cc lives in a fixed-size 15x15 member and
-/// goes back into P with that sync (a copy). No heap allocation per IMU sample; one per image (the
+/// goes back into P with that sync (a copy); FilterCovariance, covariance.hpp. No heap allocation per IMU sample; one per image (the
 /// FrameResult's detection list).
 ///
 /// Update per image: residual and H per detection of an initialised object (the paper's T_O_C
@@ -47,6 +49,7 @@
 #include <vector>
 
 #include "roe/core/types.hpp"
+#include "roe/ekf/covariance.hpp"
 #include "roe/ekf/imu.hpp"
 #include "roe/ekf/measurement.hpp"
 #include "roe/ekf/options.hpp"
@@ -116,19 +119,19 @@ class Filter {
   /// One image at time(): gate, stacked update, first-sight initialisations.
   FrameResult update(const std::vector<Detection>& detections);
 
-  Timestamp time() const { return t_ns_; }
-  const CoreState& core() const { return x_; }
-  const Pose& T_I_C() const { return T_I_C_; }
-  const std::vector<ObjectEntry>& objects() const { return objects_; }
+  Timestamp time() const { return s_.t_ns; }
+  const CoreState& core() const { return s_.x; }
+  const Pose& T_I_C() const { return s_.T_I_C; }
+  const std::vector<ObjectEntry>& objects() const { return s_.objects; }
   /// nullptr when the object has no object-world yet.
   const ObjectEntry* object(int id) const;
   int anchor_id() const { return anchor_id_; }
-  int dim() const { return n_; }
-  int extrinsics_offset() const { return extr_offset_; }
+  int dim() const { return s_.dim; }
+  int extrinsics_offset() const { return s_.extr_offset; }
   /// Diagonal entry of P (always current, also between updates).
-  double variance(int i) const { return cc_pending_ && i < kCore ? Pcc_(i, i) : P_(i, i); }
+  double variance(int i) const { return cov_.variance(i); }
   /// Entry (i, j) of the core 15x15 block of P (always current).
-  double core_covariance(int i, int j) const { return cc_pending_ ? Pcc_(i, j) : P_(i, j); }
+  double core_covariance(int i, int j) const { return cov_.core(i, j); }
   /// Covariance of an object's error state [δp_O_W; δθ_O_W] (6x6; rows/columns of components the
   /// anchor does not estimate are 0). Always current: propagation changes only the core rows/columns.
   Mat6 object_covariance(const ObjectEntry& o) const;
@@ -181,11 +184,18 @@ class Filter {
   /// Measurement noise R of a detection in the update's residual frame, or (object_frame) in the
   /// T_O_C frame used by the first-sight initialisation (options: meas_sigma_*, use_detection_sigmas).
   Mat6 measurement_covariance(const Detection& d, bool object_frame) const;
+  /// Test-only reference arithmetic (tests/ekf/test_filter_bound.cpp), set before initialize(): the
+  /// covariance propagated densely, P ← F P Fᵀ + Q on the whole n x n matrix at every IMU sample (F the dense
+  /// transition; no fixed-size core block, no lazy cross terms), every P H_kᵀ from the full 6 x n H_k, and the
+  /// stacked update in the textbook Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ, K = P Hᵀ S⁻¹ with
+  /// S = H P Hᵀ + R formed densely (the constant-gain update of correlated detection errors is the same in
+  /// both). The policy (gates, first sight, relock, σ scale) is the same code. Roughly 10x slower.
+  void set_reference_arithmetic(bool on) { reference_ = on; }
 
  private:
   struct MeasBlock {
     int det = 0;  // index into the detection vector
-    int obj = 0;  // index into objects_
+    int obj = 0;  // index into s_.objects (objects())
     // The first m rows of r, H, R and S are used (m < 6 after the split gate kept one part: the selected
     // rows moved up, the rest zero, S's identity-padded).
     int m = 6;
@@ -204,15 +214,13 @@ class Filter {
     int nruns = 0;
   };
 
-  /// Writes the propagated core block Pcc_ back into P_ (a copy; every reader of P_'s core block calls it).
-  void sync_core();
+  /// propagate()'s guard rails: core state and core variances.
+  void check_propagated();
+  /// The reference arithmetic's stacked update (set_reference_arithmetic).
+  bool reference_update(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx);
   /// ws_PHt_'s first 6·nb columns ← P H_kᵀ of blocks_[0 … nb−1]: the columns every H_k shares (core p, θ,
   /// extrinsics; gathered once) in one product, each object's own columns in place.
   void stacked_pht(int nb);
-  /// sync_core(), then applies the pending core transition Φ to the core/rest cross-covariance.
-  void sync_cross_covariance();
-  /// snapshot() into an existing StateEstimate (its object list's storage reused).
-  void snapshot_into(StateEstimate& s) const;
   /// Recording: ends the propagation segment since the last node (a kPropagate node) if it has steps.
   void close_segment();
   /// Recording: a node of the given kind with the current state and (synchronised) covariance.
@@ -252,22 +260,12 @@ class Filter {
   FilterOptions opt_;
   ImuNoiseParams noise_;
   bool initialized_ = false;
-  Timestamp t_ns_ = 0;
+  // The nominal state with its error-state layout (time, core, extrinsics, object-worlds, offsets, dim): the
+  // one state struct with ⊞/⊟ (state.hpp), held here and changed in place.
+  StateEstimate s_;
   Vec3 gyro_ = Vec3::Zero(), accel_ = Vec3::Zero();
-  CoreState x_;
-  Pose T_I_C_;
-  std::vector<ObjectEntry> objects_;
   int anchor_id_ = -1;
-  int extr_offset_ = -1;
-  int n_ = kCore;
-  Eigen::MatrixXd P_;
-  // The core block of P while propagating (authoritative while cc_pending_; P_'s top-left block is stale
-  // until sync_core()).
-  Mat15 Pcc_;
-  bool cc_pending_ = false;
-  Mat15 PhiT_ = Mat15::Identity();  // Φᵀ, Φ = F_k⋯F_1 since the last cross-covariance sync
-  bool phi_pending_ = false;
-  Eigen::MatrixXd tmp_cross_;
+  FilterCovariance cov_;  // P behind its door (covariance.hpp): propagation, lazy cross terms, sync
   std::vector<MeasBlock> blocks_;
   // Update workspaces, kept between images and only grown (no heap allocation per image once the state
   // dimension and the number of detections per image have been seen).
@@ -278,7 +276,6 @@ class Filter {
   Eigen::MatrixXd ws_W_;    // n x m: P Hᵀ L⁻ᵀ (S = L Lᵀ); first the gather buffer of P's columns
   Eigen::VectorXd ws_r_, ws_dx_, ws_u_;
   std::vector<Pose> ws_z_;
-  StateEstimate ws_state_;  // boxplus's snapshot
   std::vector<char> ws_usable_;
   std::vector<int> ws_new_objects_, ws_inliers_, ws_row0_;
   struct Pending {
@@ -312,6 +309,7 @@ class Filter {
                             const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx);
   std::size_t n_updates_ = 0;
   FilterRecording* rec_ = nullptr;
+  bool reference_ = false;  // set_reference_arithmetic
   Mat15 rec_PhiT_ = Mat15::Identity();  // Φᵀ of the recording's open propagation segment
 };
 

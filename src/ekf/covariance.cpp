@@ -1,0 +1,142 @@
+#include "roe/ekf/covariance.hpp"
+
+#include <utility>
+
+namespace roe::ekf {
+
+// Φᵀ ← Φᵀ Fᵀ for the accumulated core transition Φ = F_k⋯F_1 (kept transposed), using
+// the block structure that every product of F's keeps: Φ's columns b_g and b_a are [Φ_pbg; Φ_vbg; Φ_θbg; I; 0]
+// and [Φ_pba; Φ_vba; 0; 0; I], its column θ is [Φ_pθ; Φ_vθ; Φ_θθ; 0; 0] (F's rows b_g, b_a are the identity
+// and F_θba = 0). So in Φᵀ's rows θ, b_g only the θ columns need products with F (the identity and zero
+// blocks give F's own blocks exactly) and the row b_a needs none: 108 multiply-adds instead of the 405 of
+// the generic CoreTransition::apply_right_transposed on the 9 rows, with the same operations in the same
+// order on every non-trivial entry (the skipped terms are exact zeros, the identity blocks exact copies).
+void accumulate_transition(const CoreTransition& F, Mat15& PhiT) {
+  const double dt = F.dt;
+  // Rows θ and b_g: X_θ = their θ columns, X_bg = [0; I], X_ba = 0.
+  Eigen::Matrix<double, 6, 3> dv, dth;
+  const Eigen::Matrix<double, 6, 3> X_th = PhiT.block<6, 3>(kTheta, kTheta);
+  dv.noalias() = X_th * F.F_vtheta.transpose();
+  dv.bottomRows<3>() += F.F_vbg.transpose();
+  dth.noalias() = X_th * F.F_tt.transpose();
+  dth.bottomRows<3>() += F.F_tbg.transpose();
+  PhiT.block<6, 3>(kTheta, kP) += dt * PhiT.block<6, 3>(kTheta, kV) + (0.5 * dt) * dv;
+  PhiT.block<6, 3>(kTheta, kV) += dv;
+  PhiT.block<6, 3>(kTheta, kTheta) = dth;
+  // Row b_a: X_θ = 0, X_bg = 0, X_ba = I, so dv = F_vbaᵀ and its θ columns stay 0.
+  PhiT.block<3, 3>(kBa, kP) += dt * PhiT.block<3, 3>(kBa, kV) + (0.5 * dt) * F.F_vba.transpose();
+  PhiT.block<3, 3>(kBa, kV) += F.F_vba.transpose();
+  // Φ's columns p, v: Φ_pv accumulates dt.
+  PhiT.block<3, 3>(kV, kP).diagonal().array() += dt;
+}
+
+Eigen::MatrixXd& FilterCovariance::reset(int n) {
+  P_ = Eigen::MatrixXd::Zero(n, n);
+  cc_pending_ = false;
+  PhiT_.setIdentity();
+  phi_pending_ = false;
+  return P_;
+}
+
+void FilterCovariance::propagate_dense(const CoreTransition& F, const ImuNoiseParams& noise, double dt) {
+  full();
+  Eigen::MatrixXd Fn = Eigen::MatrixXd::Identity(dim(), dim());
+  Fn.topLeftCorner<kCore, kCore>() = F.dense();
+  P_ = (Fn * P_ * Fn.transpose()).eval();
+  auto Pcc = P_.topLeftCorner<kCore, kCore>();
+  add_process_noise(noise, dt, Pcc);
+  P_ = (0.5 * (P_ + P_.transpose())).eval();
+}
+
+void FilterCovariance::propagate(const CoreTransition& F, const ImuNoiseParams& noise, double dt) {
+  // P_cc ← F P_cc Fᵀ + Q with every product on columns (contiguous): C = P_cc Fᵀ changes only the
+  // columns p, v, θ (F's rows b_g, b_a are the identity), and B = F C = Cᵀ Fᵀ (symmetric) needs only
+  // B[0:9, 0:9] = (C[:, 0:9]ᵀ Fᵀ)[:, 0:9]; B[9:15, 0:9] = C[9:15, 0:9], B[9:15, 9:15] = P[9:15, 9:15].
+  // Of B[0:9, 0:9] = T Fᵀ (T = C[:, 0:9]ᵀ) only the lower block triangle is formed: its column p on all 9
+  // rows, v on rows v, θ, θ on rows θ (so δθ's product, the costliest, on 3 rows instead of 9); the diagonal
+  // blocks are symmetrised and the upper blocks mirrored. 675 + 297 multiply-adds instead of 2 x 675.
+  // The core block is propagated in the fixed-size Pcc_ (no strided copies per sample); P_'s top-left block
+  // takes it back on the next sync_core().
+  if (!cc_pending_) {
+    Pcc_ = P_.topLeftCorner<15, 15>();
+    cc_pending_ = true;
+  }
+  Mat15& C = Pcc_;
+  F.apply_right_transposed(C);
+  const Eigen::Matrix<double, 9, 15> T = C.leftCols<9>().transpose();
+  Eigen::Matrix<double, 9, 3> dv;  // (T Fᵀ)[:, v] − T[:, v]
+  dv.noalias() = T.middleCols<3>(kTheta) * F.F_vtheta.transpose();
+  dv.noalias() += T.middleCols<3>(kBg) * F.F_vbg.transpose();
+  dv.noalias() += T.middleCols<3>(kBa) * F.F_vba.transpose();
+  Mat3 dth;  // (T Fᵀ)[θ, θ]
+  dth.noalias() = T.block<3, 3>(kTheta, kTheta) * F.F_tt.transpose();
+  dth.noalias() += T.block<3, 3>(kTheta, kBg) * F.F_tbg.transpose();
+  Eigen::Matrix<double, 9, 9> B;
+  B.leftCols<3>() = T.middleCols<3>(kP) + (dt * T.middleCols<3>(kV) + (0.5 * dt) * dv);
+  B.block<6, 3>(kV, kV) = T.block<6, 3>(kV, kV) + dv.bottomRows<6>();
+  B.block<3, 3>(kTheta, kTheta) = dth;
+  for (int d = 0; d < 9; d += 3) {
+    const Mat3 D = B.block<3, 3>(d, d);
+    B.block<3, 3>(d, d) = 0.5 * (D + D.transpose());
+  }
+  B.block<3, 3>(kP, kV) = B.block<3, 3>(kV, kP).transpose();
+  B.block<3, 3>(kP, kTheta) = B.block<3, 3>(kTheta, kP).transpose();
+  B.block<3, 3>(kV, kTheta) = B.block<3, 3>(kTheta, kV).transpose();
+  // C's rows b_g, b_a (columns 0:9) are B's; its bias block is P's.
+  C.topLeftCorner<9, 9>() = B;
+  C.block<9, 6>(0, 9) = C.block<6, 9>(9, 0).transpose();
+  add_process_noise(noise, dt, C);
+  if (dim() > kCore) {
+    // Φᵀ ← Φᵀ Fᵀ (Φ = F_k⋯F_1 is kept transposed so that the products run on columns). Φ's columns p and v
+    // (Φᵀ's rows p, v) stay [I; 0; 0; 0; 0] and [Σdt I; I; 0; 0; 0] (F's columns p, v are trivial), so
+    // only Φᵀ's rows θ, b_g, b_a need the product (and of those only the θ columns, accumulate_transition)
+    // and Φ_pv accumulates dt.
+    accumulate_transition(F, PhiT_);
+    phi_pending_ = true;
+  }
+}
+
+void FilterCovariance::sync_core() {
+  if (!cc_pending_) return;
+  P_.topLeftCorner<15, 15>() = Pcc_;
+  cc_pending_ = false;
+}
+
+Eigen::MatrixXd& FilterCovariance::full() {
+  sync_core();
+  if (!phi_pending_) return P_;
+  const int r = dim() - kCore;
+  if (r > 0) {
+    // P_rc ← P_rc Φᵀ on the contiguous columns of the bottom-left block; Φ's rows b_g, b_a are the
+    // identity, so only P_rc's columns p, v, θ (and P_cr's rows) change. Column j of the result is a sum
+    // of axpys over P_rc's columns; Φ's exact zeros are skipped.
+    tmp_cross_.resize(r, 9);
+    for (int j = 0; j < 9; ++j) {
+      double* __restrict t = tmp_cross_.col(j).data();
+      for (int i = 0; i < r; ++i) t[i] = 0.0;
+      for (int k = 0; k < kCore; ++k) {
+        const double phi = PhiT_(k, j);
+        if (phi == 0.0) continue;
+        const double* __restrict p = &P_(kCore, k);
+        for (int i = 0; i < r; ++i) t[i] += phi * p[i];
+      }
+    }
+    P_.bottomLeftCorner(r, 9) = tmp_cross_;
+    P_.topRightCorner(9, r) = tmp_cross_.transpose();
+  }
+  PhiT_.setIdentity();
+  phi_pending_ = false;
+  return P_;
+}
+
+const Eigen::Block<const Eigen::MatrixXd, kCore, kCore> FilterCovariance::core_block() {
+  sync_core();
+  return std::as_const(P_).topLeftCorner<kCore, kCore>();
+}
+
+void FilterCovariance::inflate_core(int first, double var) {
+  sync_core();
+  P_.block<3, 3>(first, first).diagonal().array() += var;
+}
+
+}  // namespace roe::ekf
