@@ -375,6 +375,13 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
   const auto t_write = Clock::now();
   write_outputs(r, dir);
   const std::string set = choose_detections(dataset, options.detections);
+  // Who produced the set (its meta.json, when it has one): in the log, and a malformed one is an input error.
+  res.detections_meta = store::read_detection_set_meta(dataset_dir, set);
+  if (res.detections_meta)
+    log::info("detection set {}: by {}{}, {} frames processed", set, res.detections_meta->producer,
+              res.detections_meta->roe_version.empty() ? "" : " " + res.detections_meta->roe_version,
+              res.detections_meta->frames_processed);
+
   store::RunRecord& rec = res.record;
   rec = run_record(r, dataset, config);
   rec.inputs.dataset = dataset_dir.string();

@@ -20,6 +20,7 @@
 #include <array>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -28,6 +29,7 @@
 #include "roe/ekf/driver.hpp"
 #include "roe/ekf/health.hpp"
 #include "roe/ekf/options.hpp"
+#include "roe/store/dataset.hpp"
 #include "roe/store/run_config.hpp"
 #include "roe/store/run_files.hpp"
 #include "roe/store/run_record.hpp"
@@ -84,6 +86,8 @@ struct RunResult {
   std::filesystem::path out;
   RunOutput output;
   store::RunRecord record;  ///< run.json
+  /// The detection set's meta.json (who produced it; store/dataset.hpp), nullopt when it has none.
+  std::optional<store::DetectionSetMeta> detections_meta;
   nlohmann::json to_json() const;
   std::string to_text() const;
 };
