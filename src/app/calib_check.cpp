@@ -14,8 +14,8 @@
 #include "roe/store/dataset.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
-#include "roe/io/pose_json.hpp"
 #include "roe/store/run_files.hpp"
+#include "roe/store/run_record.hpp"
 
 namespace roe::app {
 
@@ -25,53 +25,6 @@ using nlohmann::json;
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-
-/// run.json's value at a dotted key path; InputError naming the file and the key when absent or of
-/// the wrong type.
-class RunJson {
- public:
-  explicit RunJson(const fs::path& file) : file_(file.string()), j_(io::parse_json_file(file)) {}
-
-  const json& at(const std::string& path) const {
-    const json* v = &j_;
-    std::size_t b = 0;
-    while (b <= path.size()) {
-      const std::size_t e = std::min(path.find('.', b), path.size());
-      const std::string key = path.substr(b, e - b);
-      if (!v->is_object() || !v->contains(key))
-        throw InputError("missing key (is this a run folder written by this version of roe run?)",
-                         {file_, 0, 0, path});
-      v = &(*v)[key];
-      b = e + 1;
-    }
-    return *v;
-  }
-  double number(const std::string& path) const {
-    const json& v = at(path);
-    if (!v.is_number()) throw InputError("expected a number", {file_, 0, 0, path});
-    return v.get<double>();
-  }
-  bool boolean(const std::string& path) const {
-    const json& v = at(path);
-    if (!v.is_boolean()) throw InputError("expected true or false", {file_, 0, 0, path});
-    return v.get<bool>();
-  }
-  std::string string(const std::string& path) const {
-    const json& v = at(path);
-    if (!v.is_string()) throw InputError("expected a string", {file_, 0, 0, path});
-    return v.get<std::string>();
-  }
-  Pose pose(const std::string& path) const {
-    at(path + ".p");  // a missing key says so, like every other key of run.json
-    at(path + ".q");
-    return io::pose_from_json(at(path), file_, path, {1e-3, nullptr});
-  }
-  const std::string& file() const { return file_; }
-
- private:
-  std::string file_;
-  json j_;
-};
 
 struct StatesTrace {
   std::vector<calib::ExtrinsicsSample> extrinsics;
@@ -105,9 +58,10 @@ std::map<int, calib::ObjectEstimate> read_objects(const fs::path& file) {
 }
 
 /// The dataset files the run hashed, compared with their current contents.
-calib::CheckResult dataset_identity(const RunJson& run, const fs::path& dataset, const std::string& detections) {
+calib::CheckResult dataset_identity(const store::RunRecord& run, const fs::path& run_json, const fs::path& dataset,
+                                    const std::string& detections) {
   calib::CheckResult r{"dataset.identity", calib::CheckStatus::kPass, "", {}};
-  const json& sha = run.at("inputs.sha256");
+  const std::map<std::string, std::string>& sha = run.inputs.sha256;
   std::vector<std::string> changed;
   std::size_t compared = 0;
   const std::vector<std::pair<std::string, fs::path>> files = {
@@ -115,15 +69,15 @@ calib::CheckResult dataset_identity(const RunJson& run, const fs::path& dataset,
       {"mav0/imu0/data.csv", store::imu_csv_path(dataset)},
       {"detections/" + detections + "/detections.csv", store::detections_dir(dataset, detections) / "detections.csv"}};
   for (const auto& [key, path] : files) {
-    if (!sha.is_object() || !sha.contains(key) || !sha[key].is_string())
-      throw InputError("missing key", {run.file(), 0, 0, "inputs.sha256." + key});
+    const auto hash = sha.find(key);
+    if (hash == sha.end()) throw InputError("missing key", {run_json.string(), 0, 0, "inputs.sha256." + key});
     std::error_code ec;
     if (!fs::is_regular_file(path, ec)) {
       changed.push_back(key + " (missing)");
       continue;
     }
     ++compared;
-    if (io::sha256_file(path) != sha[key].get<std::string>()) changed.push_back(key);
+    if (io::sha256_file(path) != hash->second) changed.push_back(key);
   }
   if (changed.empty()) {
     r.message = fmt::format("roe.json, the IMU and detections/{} are the files the run read", detections);
@@ -194,67 +148,49 @@ namespace {
 
 /// The detections per object as run.json counts them (counts.detections.per_object), into `objects`;
 /// an object that never entered the state gets an entry of its own.
-void add_detection_counts(const RunJson& run, const calib::CalibInput& in,
+void add_detection_counts(const store::RunRecord& run, const calib::CalibInput& in,
                           std::map<int, calib::ObjectEstimate>& objects) {
-  const json& per_object = run.at("counts.detections.per_object");
-  if (!per_object.is_object())
-    throw InputError("expected an object", {run.file(), 0, 0, "counts.detections.per_object"});
-  for (const auto& [key, v] : per_object.items()) {
-    int id = 0;
-    try {
-      std::size_t used = 0;
-      id = std::stoi(key, &used);
-      if (used != key.size()) throw std::invalid_argument(key);
-    } catch (const std::exception&) {
-      throw InputError("expected an object id", {run.file(), 0, 0, "counts.detections.per_object." + key});
-    }
-    if (!v.is_object() || !v.contains("detections") || !v["detections"].is_number_unsigned())
-      throw InputError("missing key", {run.file(), 0, 0, "counts.detections.per_object." + key + ".detections"});
-    const auto n = v["detections"].get<std::size_t>();
+  for (const auto& [id, counts] : run.counts.per_object) {
     auto it = objects.find(id);
     if (it == objects.end()) {
       calib::ObjectEstimate o;
       o.id = id;
       o.anchor = in.anchor_id && id == *in.anchor_id;
-      o.detections = n;
+      o.detections = counts.detections;
       objects[id] = o;  // never entered the state
     } else {
-      it->second.detections = n;
+      it->second.detections = counts.detections;
     }
   }
 }
 
-/// The dataset to check against: --dataset, else the one the run read when it is still there (empty:
-/// none). dataset.identity is skipped with --no-dataset and inconclusive when the run's dataset is gone
-/// (--strict fails then).
-fs::path choose_dataset(const RunJson& run, const CalibCheckOptions& opt, CalibCheckResult& res,
+/// The dataset to check against: --dataset, else the one the run read when it is still there
+/// (store::find_run_dataset; empty: none). dataset.identity is skipped with --no-dataset and inconclusive
+/// when the run's dataset is gone (--strict fails then).
+fs::path choose_dataset(const store::RunRecord& run, const CalibCheckOptions& opt, CalibCheckResult& res,
                         calib::CheckResult& identity, calib::CalibInput& in) {
   std::error_code ec;
-  fs::path dataset;
-  if (!opt.no_dataset) {
-    if (!opt.dataset.empty()) {
-      dataset = io::without_trailing_separator(opt.dataset);
-      res.dataset_from = "option";
-      if (!fs::is_regular_file(store::manifest_path(dataset), ec))
-        throw InputError("not a dataset folder: roe.json is missing", {dataset.string()});
-    } else {
-      const fs::path named = run.string("inputs.dataset_abs");
-      if (fs::is_regular_file(store::manifest_path(named), ec)) {
-        dataset = named;
-        res.dataset_from = "run.json";
-      } else {
-        identity.status = calib::CheckStatus::kInconclusive;
-        identity.message = fmt::format("the run's dataset {} is not there (give --dataset, or --no-dataset)",
-                                       named.string());
-        in.dataset_absent_reason = in.time_offset_absent_reason = "no dataset (dataset.identity)";
-        res.warnings.push_back(identity.message + ": the truth and time-offset checks are skipped");
-      }
-    }
-  } else {
+  if (opt.no_dataset) {
     in.dataset_absent_reason = in.time_offset_absent_reason = "--no-dataset";
+    return {};
   }
-
-  return dataset;
+  if (!opt.dataset.empty()) {
+    const fs::path dataset = io::without_trailing_separator(opt.dataset);
+    res.dataset_from = "option";
+    if (!fs::is_regular_file(store::manifest_path(dataset), ec))
+      throw InputError("not a dataset folder: roe.json is missing", {dataset.string()});
+    return dataset;
+  }
+  if (const auto named = store::find_run_dataset(run)) {
+    res.dataset_from = "run.json";
+    return *named;
+  }
+  identity.status = calib::CheckStatus::kInconclusive;
+  identity.message = fmt::format("the run's dataset {} is not there (give --dataset, or --no-dataset)",
+                                 run.inputs.dataset_abs);
+  in.dataset_absent_reason = in.time_offset_absent_reason = "no dataset (dataset.identity)";
+  res.warnings.push_back(identity.message + ": the truth and time-offset checks are skipped");
+  return {};
 }
 
 /// What the dataset knows: the truth (when simulated), the declared camera time offset and the offset
@@ -299,20 +235,17 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
   CalibCheckResult res;
   res.run_dir = run_dir;
   res.strict = opt.strict;
-  const RunJson run(run_dir / "run.json");
+  const store::RunRecord run = store::read_run_json(run_dir / "run.json");
   calib::CalibInput in;
-  in.extrinsics_estimated = run.boolean("config.filter.estimate_extrinsics");
-  {
-    const json& a = run.at("anchor_id");
-    if (!a.is_null() && !a.is_number_integer()) throw InputError("expected an object id or null", {run.file(), 0, 0, "anchor_id"});
-    if (!a.is_null()) in.anchor_id = a.get<int>();
-  }
-  const double sp = run.number("config.filter.extrinsics_sigma_p_m");
-  const double sr = run.number("config.filter.extrinsics_sigma_rot_deg") * kDeg;
+  const ekf::FilterOptions& filter = run.config.filter;
+  in.extrinsics_estimated = filter.estimate_extrinsics;
+  in.anchor_id = run.anchor_id;
+  const double sp = filter.extrinsics_sigma_p_m;
+  const double sr = filter.extrinsics_sigma_rot_deg * kDeg;
   in.prior_sigma << sp, sp, sp, sr, sr, sr;
-  in.prior_T_I_C = run.pose("init.T_I_C");
-  const double min_score = run.number("config.filter.min_score");
-  res.detections = run.string("inputs.detections");
+  in.prior_T_I_C = run.init.T_I_C;
+  const double min_score = filter.min_score;
+  res.detections = run.inputs.detections;
 
   // The filter's own (causal) history: with "smoother": "rts" states.csv holds the smoothed estimate, whose
   // constant states carry their final value and σ at every time, and the filter's is in states_filter.csv.
@@ -327,7 +260,7 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
   const fs::path dataset = choose_dataset(run, opt, res, identity, in);
   if (!dataset.empty()) {
     res.dataset = dataset.string();
-    identity = dataset_identity(run, dataset, res.detections);
+    identity = dataset_identity(run, run_dir / "run.json", dataset, res.detections);
     if (identity.status == calib::CheckStatus::kPass) {
       read_dataset_checks(dataset, opt, min_score, states, res, in);
     } else {

@@ -12,6 +12,7 @@
 #include "roe/io/json.hpp"
 #include "roe/io/ros/message_bag.hpp"
 #include "roe/store/eval_report.hpp"
+#include "roe/store/run_record.hpp"
 #include "roe/io/evo_result.hpp"
 #include "roe/io/input.hpp"
 #include "roe/io/output.hpp"
@@ -114,8 +115,7 @@ void check_gt_source(const std::string& v) {
                      {"", 0, 0, "gt-source"});
 }
 
-/// `roe eval RUN_DIR` without --gt: the dataset the run's run.json names (its absolute path, else the
-/// path as given to `roe run`). `note` says where the ground truth came from.
+/// `roe eval RUN_DIR` without --gt: the dataset the run's run.json names (store::find_run_dataset). `note` says where the ground truth came from.
 EvalOptions with_ground_truth(EvalOptions o, std::string& note) {
   if (!o.gt.empty()) return o;
   if (!o.est.empty() && !io::path_exists(o.est)) throw InputError("estimate not found", {o.est});
@@ -126,14 +126,9 @@ EvalOptions with_ground_truth(EvalOptions o, std::string& note) {
   if (!io::path_exists(rj))
     throw InputError("--gt DATASET is required: this folder has no run.json naming the dataset it ran on",
                      {o.est});
-  const json j = io::parse_json_file(rj);
-  const json in = j.is_object() ? j.value("inputs", json::object()) : json::object();
-  for (const char* key : {"dataset_abs", "dataset"}) {
-    if (!in.is_object() || !in.contains(key) || !in[key].is_string()) continue;
-    const std::string d = in[key].get<std::string>();
-    if (d.empty() || !io::is_folder(d)) continue;
-    o.gt = d;
-    note = fmt::format("the dataset {} names ({})", rj.string(), d);
+  if (const auto d = store::find_run_dataset(store::read_run_json(rj))) {
+    o.gt = d->string();
+    note = fmt::format("the dataset {} names ({})", rj.string(), o.gt);
     return o;
   }
   throw InputError("--gt DATASET is required: the dataset this run names is not there any more (pass --gt)",

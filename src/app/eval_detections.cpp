@@ -10,20 +10,17 @@
 #include "roe/io/input.hpp"
 #include "roe/io/json.hpp"
 #include "roe/store/run_files.hpp"
+#include "roe/store/run_record.hpp"
 
 namespace roe::app {
 namespace fs = std::filesystem;
 
 namespace {
 
-/// The detection set a run folder's run.json names (inputs.detections), "" when none.
+/// The detection set a run folder's run.json names (inputs.detections), "" when the folder has no run.json.
 std::string run_detection_set(const fs::path& run_dir) {
   const fs::path rj = run_dir / "run.json";
-  if (!io::path_exists(rj)) return "";
-  const nlohmann::json j = io::parse_json_file(rj);
-  if (!j.is_object() || !j.contains("inputs") || !j["inputs"].is_object()) return "";
-  const auto& in = j["inputs"];
-  return in.contains("detections") && in["detections"].is_string() ? in["detections"].get<std::string>() : "";
+  return io::path_exists(rj) ? store::read_run_json(rj).inputs.detections : std::string();
 }
 
 }  // namespace
@@ -92,21 +89,14 @@ std::optional<eval::GaugeTruth> load_gauge_truth(const fs::path& run_dir, const 
   if (!gt.truth_world || !io::path_exists(store::manifest_path(gt.path)))
     return none("the ground truth is not a dataset's state_groundtruth_estimate0 with a roe.json truth section");
   if (!io::path_exists(rj) || !io::path_exists(objects)) return none("the run folder has no run.json or objects.csv");
-  const nlohmann::json j = io::parse_json_file(rj);
-  const nlohmann::json* gauge = nullptr;
-  if (j.is_object() && j.contains("config") && j["config"].is_object() && j["config"].contains("filter") &&
-      j["config"]["filter"].is_object() && j["config"]["filter"].contains("anchor_gauge"))
-    gauge = &j["config"]["filter"]["anchor_gauge"];
-  if (!gauge || !gauge->is_string()) return none(rj.string() + " names no config.filter.anchor_gauge");
-  const std::string g = gauge->get<std::string>();
-  if (g != "pose" && g != "position_yaw")
+  const store::RunRecord run = store::read_run_json(rj);
+  const ekf::AnchorGauge g = run.config.filter.anchor_gauge;
+  if (g != ekf::AnchorGauge::kPose && g != ekf::AnchorGauge::kPositionYaw)
     return none(fmt::format("anchor_gauge '{}' leaves the yaw of W to the initial prior, not to the anchor: the truth "
                             "in that gauge is not determined",
-                            g));
-  if (!j.contains("anchor_id") || !j["anchor_id"].is_number_integer()) return none(rj.string() + " names no anchor");
-  if (j.contains("relocks") && j["relocks"].is_array() && !j["relocks"].empty())
-    return none("the anchor was re-locked during the run: W changed");
-  const int anchor = j["anchor_id"].get<int>();
+                            ekf::to_string(g)));
+  if (!run.relocks.empty()) return none("the anchor was re-locked during the run: W changed");
+  const int anchor = run.anchor_id;
   const DatasetManifest man = store::read_manifest(gt.path);
   const TruthObject* truth = nullptr;
   if (man.truth)
@@ -122,13 +112,13 @@ std::optional<eval::GaugeTruth> load_gauge_truth(const fs::path& run_dir, const 
     last = &r;
   }
   if (!first) return none(fmt::format("{} has no row of the anchor object {}", objects.string(), anchor));
-  const eval::GaugeKind kind = g == "pose" ? eval::GaugeKind::kPose : eval::GaugeKind::kPositionYaw;
+  const eval::GaugeKind kind = g == ekf::AnchorGauge::kPose ? eval::GaugeKind::kPose : eval::GaugeKind::kPositionYaw;
   eval::GaugeTruth t;
   t.T_Wt_Wg = eval::estimator_gauge(kind, last->T_O_W, truth->T_W_O);
   t.t_from_ns = first->t_ns;
   t.description = fmt::format("anchor_gauge {}: anchor object {} (its T_O_W in {}, its true pose in {}), from its first "
                               "sight at {:.6f} s",
-                              g, anchor, objects.string(), store::manifest_path(gt.path).string(), to_seconds(first->t_ns));
+                              ekf::to_string(g), anchor, objects.string(), store::manifest_path(gt.path).string(), to_seconds(first->t_ns));
   return t;
 }
 

@@ -287,22 +287,23 @@ void write_import(const fs::path& results_json, const fs::path& dataset, const I
   const std::string sha = io::sha256_file(results_json);
   io::OutputDir dir(store::detections_dir(dataset, opt.name), opt.force, {results_json});
   store::write_detections_csv(dir.file("detections.csv"), out);
-  nlohmann::json meta = {
-      {"producer", "roe import poet"},
-      {"roe_version", kVersion},
+  store::DetectionSetMeta meta;
+  meta.producer = "roe import poet";
+  meta.roe_version = kVersion;
+  meta.frames_processed = s.images_matched;
+  meta.score = "empty: PoET's results.json has no detection score";
+  meta.sigma = s.sigma_from_log_variances + s.sigma_from_covariance == 0
+                   ? "none: the entries carry no uncertainty"
+                   : "camera frame, m and rad (rotation error about the camera axes, R_meas = Exp(n) R); "
+                     "sigma = exp(s/2) of PoET's aleatoric log-variances s = log(sigma^2), or sqrt of a 6x6 "
+                     "covariance's diagonal (its correlations dropped)";
+  meta.details = {
       {"source", {{"path", results_json.string()}, {"sha256", sha}, {"format", "poet results.json"}}},
       {"options",
        {{"name", opt.name}, {"rotation", opt.rotation}, {"classes", opt.classes_file}, {"class_map", opt.class_map_file}}},
-      {"score", "empty: PoET's results.json has no detection score"},
-      {"sigma", s.sigma_from_log_variances + s.sigma_from_covariance == 0
-                    ? "none: the entries carry no uncertainty"
-                    : "camera frame, m and rad (rotation error about the camera axes, R_meas = Exp(n) R); "
-                      "sigma = exp(s/2) of PoET's aleatoric log-variances s = log(sigma^2), or sqrt of a 6x6 "
-                      "covariance's diagonal (its correlations dropped)"},
-      {"frames_processed", s.images_matched},
       {"summary", s.to_json()}};
-  meta["summary"].erase("output");
-  io::write_file_atomic(dir.file("meta.json"), io::dump_json(meta, 2) + "\n");
+  meta.details["summary"].erase("output");
+  store::write_detection_set_meta(dir.file("meta.json"), meta);
 
   // Record the import in roe.json (replacing an earlier import into the same detections name).
   SourceRecord rec;

@@ -314,35 +314,38 @@ void warn_dropped(const FrameResults& r, const InferSummary& s, const infer::Poe
 }
 
 /// detections/<name>/meta.json.
-nlohmann::json detection_set_meta(const InferSummary& s, const InferOptions& opt, const infer::PoetBundle& bundle,
-                                  const infer::PoetModel& model, const nlohmann::json& cfg, const ClassMapper& mapper,
-                                  const FrameResults& r, std::size_t frames_processed) {
+store::DetectionSetMeta detection_set_meta(const InferSummary& s, const InferOptions& opt, const infer::PoetBundle& bundle,
+                                           const infer::PoetModel& model, const nlohmann::json& cfg,
+                                           const ClassMapper& mapper, const FrameResults& r,
+                                           std::size_t frames_processed) {
   nlohmann::json class_map = nlohmann::json::object();
   for (const auto& [c, o] : mapper.used()) class_map[std::to_string(c)] = o;
-  return {{"producer", "roe infer"},
-          {"roe_version", kVersion},
-          {"model",
-           {{"model_id", bundle.model_id},
-            {"bundle", fs::absolute(opt.model_dir).lexically_normal().string()},
-            {"provenance", bundle.provenance},
-            {"libtorch", infer::PoseHead::runtime_version()},
-            {"device", s.device},
-            {"pose_head_optimized", model.pose_head_optimized()},
-            {"cpu_threads", infer::PoseHead::threads()}}},
-          {"config_hash", s.config_hash},
-          {"config", cfg},
-          {"options",
-           {{"frames", opt.frames}, {"every", opt.every}, {"warp", opt.warp}, {"boxes", opt.boxes_file},
-            {"class_map", opt.class_map_file}, {"use_cache", opt.use_cache}, {"threads", opt.threads}}},
-          {"class_map", class_map},
-          {"selftest", s.selftest},
-          {"frames_processed", frames_processed},
-          {"frames_computed", s.frames_computed},
-          {"frames_reused", s.frames_reused},
-          {"mean_ms_computed", s.mean_ms_computed},
-          {"score", "detector confidence (objectness x class probability) of the box the pose belongs to"},
-          {"per_frame", r.per_frame},
-          {"warnings", s.warnings}};
+  store::DetectionSetMeta meta;
+  meta.producer = "roe infer";
+  meta.roe_version = kVersion;
+  meta.frames_processed = frames_processed;
+  meta.score = "detector confidence (objectness x class probability) of the box the pose belongs to";
+  meta.details = {{"model",
+                   {{"model_id", bundle.model_id},
+                    {"bundle", fs::absolute(opt.model_dir).lexically_normal().string()},
+                    {"provenance", bundle.provenance},
+                    {"libtorch", infer::PoseHead::runtime_version()},
+                    {"device", s.device},
+                    {"pose_head_optimized", model.pose_head_optimized()},
+                    {"cpu_threads", infer::PoseHead::threads()}}},
+                  {"config_hash", s.config_hash},
+                  {"config", cfg},
+                  {"options",
+                   {{"frames", opt.frames}, {"every", opt.every}, {"warp", opt.warp}, {"boxes", opt.boxes_file},
+                    {"class_map", opt.class_map_file}, {"use_cache", opt.use_cache}, {"threads", opt.threads}}},
+                  {"class_map", class_map},
+                  {"selftest", s.selftest},
+                  {"frames_computed", s.frames_computed},
+                  {"frames_reused", s.frames_reused},
+                  {"mean_ms_computed", s.mean_ms_computed},
+                  {"per_frame", r.per_frame},
+                  {"warnings", s.warnings}};
+  return meta;
 }
 
 /// The output set's name, checked: a plain folder name.
@@ -435,8 +438,8 @@ InferSummary run_infer(const fs::path& dataset, const InferOptions& opt, const P
 
   io::OutputDir dir(store::detections_dir(dataset, name), opt.force, {opt.model_dir, opt.boxes_file});
   store::write_detections_csv(dir.file("detections.csv"), r.detections);
-  const nlohmann::json meta = detection_set_meta(s, opt, bundle, model, cfg, mapper, r, sel.size());
-  io::write_file_atomic(dir.file("meta.json"), io::dump_json(meta, 2) + "\n");
+  store::write_detection_set_meta(dir.file("meta.json"),
+                                  detection_set_meta(s, opt, bundle, model, cfg, mapper, r, sel.size()));
   dir.commit();
   s.output_dir = dir.final_dir();
   return s;

@@ -19,6 +19,7 @@
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
 #include "roe/store/run_files.hpp"
+#include "roe/store/run_record.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "roe/version.hpp"
 
@@ -31,67 +32,33 @@ namespace {
 
 using Clock = SteadyClock;
 
-/// What refine reads of run.json, typed.
-struct RunInfo {
-  json raw;
-  RunConfig config;
-  std::string dataset_abs, detections;
-  std::map<std::string, std::string> sha256;
-  int anchor_id = -1;
-  Pose prior_T_I_C;
-  Eigen::Vector3d init_gyro_bias = Eigen::Vector3d::Zero();
-  ekf::ImuNoiseParams noise;
-  double detection_sigma_scale = 1.0;
-};
-
-RunInfo read_run_json(const fs::path& file) {
-  RunInfo r;
-  r.raw = io::parse_json_file(file);
-  const std::string src = file.string();
-  io::JsonObject o(r.raw, src);
-  if (!o.has("config") || !o.has("inputs") || !o.has("anchor_id") || !o.has("init") || !o.has("imu_noise"))
-    throw InputError("not a run.json of roe run (config, inputs, anchor_id, init or imu_noise missing)", {src});
-  std::string command;
-  o.require("command", command);
-  if (command != "run") throw InputError(fmt::format("refines the output of roe run, not of roe {}", command), {src, 0, 0, "command"});
-  r.config = run_config_from_json(r.raw.at("config"), src);
-  io::JsonObject in = o.child("inputs");
-  in.require("dataset_abs", r.dataset_abs);
-  in.require("detections", r.detections);
-  in.require("sha256", r.sha256);
-  if (!r.raw.at("anchor_id").is_number_integer())
-    throw InputError("the run has no anchor (anchor_id null): nothing to refine against", {src, 0, 0, "anchor_id"});
-  o.get("anchor_id", r.anchor_id);
-  io::JsonObject init = o.child("init");
-  std::vector<double> bg;
-  init.require("gyro_bias", bg);
-  if (bg.size() != 3) throw InputError("expected 3 numbers", {src, 0, 0, "init.gyro_bias"});
-  r.init_gyro_bias = Eigen::Vector3d(bg[0], bg[1], bg[2]);
-  r.prior_T_I_C = io::pose_from_json(r.raw.at("init").at("T_I_C"), src, "init.T_I_C");
-  ImuNoise n;
-  io::JsonObject noise = o.child("imu_noise");
-  io::read_imu_noise(noise, n);
-  if (!n.known()) throw InputError("imu_noise: the four noise values are required", {src, 0, 0, "imu_noise"});
-  r.noise = {n.gyro_noise_density, n.gyro_random_walk, n.accel_noise_density, n.accel_random_walk};
-  if (o.has("detection_sigmas")) o.child("detection_sigmas").get("final_scale", r.detection_sigma_scale);
+/// The run.json refine starts from: one of roe run with an anchor.
+store::RunRecord read_run(const fs::path& run_dir) {
+  store::RunRecord r = store::read_run_folder_record(run_dir);
+  const std::string src = (run_dir / "run.json").string();
+  if (r.command != "run")
+    throw InputError(fmt::format("refines the output of roe run, not of roe {}", r.command), {src, 0, 0, "command"});
+  if (r.anchor_id < 0)
+    throw InputError("the run has no anchor (anchor_id -1): nothing to refine against", {src, 0, 0, "anchor_id"});
   return r;
 }
 
 /// The dataset the run read, checked against the run's hashes of the IMU and the detections.
-Dataset read_run_dataset(const RunInfo& run, const fs::path& dataset, const fs::path& run_json) {
+Dataset read_run_dataset(const store::RunRecord& run, const fs::path& dataset, const fs::path& run_json) {
+  const std::string& set = run.inputs.detections;
   const std::vector<std::pair<std::string, fs::path>> files = {
       {"mav0/imu0/data.csv", store::imu_csv_path(dataset)},
-      {"detections/" + run.detections + "/detections.csv", store::detections_dir(dataset, run.detections) / "detections.csv"}};
+      {"detections/" + set + "/detections.csv", store::detections_dir(dataset, set) / "detections.csv"}};
   for (const auto& [key, path] : files) {
-    const auto it = run.sha256.find(key);
-    if (it == run.sha256.end()) throw InputError("missing key", {run_json.string(), 0, 0, "inputs.sha256." + key});
+    const auto it = run.inputs.sha256.find(key);
+    if (it == run.inputs.sha256.end()) throw InputError("missing key", {run_json.string(), 0, 0, "inputs.sha256." + key});
     if (io::sha256_file(path) != it->second)
       throw InputError(fmt::format("{} is not the file the run read (another dataset, or changed since the run)", key),
                        {path.string()});
   }
   store::DatasetParts parts;
   parts.frames = parts.mocap = parts.groundtruth = false;
-  parts.detection_names = {run.detections};
+  parts.detection_names = {set};
   return store::read_dataset(dataset, parts);
 }
 
@@ -127,13 +94,13 @@ RunTables read_tables(const fs::path& run_dir) {
   return t;
 }
 
-refine::RefineInput make_input(const RunInfo& run, const Dataset& ds, const RunTables& t,
+refine::RefineInput make_input(const store::RunRecord& run, const Dataset& ds, const RunTables& t,
                                const std::vector<ekf::ImageDetections>& images) {
   refine::RefineInput in;
   in.imu = ds.imu;
-  in.noise = run.noise;
+  in.noise = run.imu_noise;
   in.filter = run.config.filter;
-  in.detection_sigma_scale = run.detection_sigma_scale;
+  in.detection_sigma_scale = run.detection_sigmas.final_scale;
   for (const auto& o : ds.manifest.objects)
     if (!o.symmetry.empty()) in.symmetries[o.id] = o.symmetry;
   for (const auto& im : images) {
@@ -145,11 +112,11 @@ refine::RefineInput make_input(const RunInfo& run, const Dataset& ds, const RunT
     if (!used.detections.empty()) in.images.push_back(std::move(used));
   }
   for (const auto& s : t.states) in.initial.push_back({s.t_ns, s.x});
-  in.prior_T_I_C = run.prior_T_I_C;
+  in.prior_T_I_C = run.init.T_I_C;
   in.initial_T_I_C = t.states.back().T_I_C;
   in.initial_T_O_W = t.T_O_W;
   in.anchor_id = run.anchor_id;
-  in.prior_b_g = run.init_gyro_bias;
+  in.prior_b_g = run.init.gyro_bias;
   in.prior_b_a = run.config.filter.init_accel_bias;
   return in;
 }
@@ -221,39 +188,32 @@ std::vector<store::ReprojectionRow> refined_reprojection(const refine::RefineRes
   return rows;
 }
 
-/// The correlated-error model the solve used (docs/refine.md §2b), with the autocovariance it was fitted to.
-json error_model_json(const refine::SolveReport& s) {
-  const refine::DetectionErrorModel& m = s.error_model;
-  json ac = json::array();
-  for (const auto& b : m.autocovariance) ac.push_back({{"lag_s", b.lag_s}, {"cov", b.cov}, {"pairs", b.pairs}});
-  return {{"correlated", m.correlated},   {"tau_s", m.tau_s},
-          {"sigma_bias", m.sigma_bias}, {"sigma_white", m.sigma_white},
-          {"autocovariance", ac}};
-}
-
-json solve_json(const refine::RefineResult& r, const refine::RefineOptions& o) {
+/// The solve as run.json records it (its "refine" block; the correlated-error model of docs/refine.md §2b
+/// with the autocovariance it was fitted to).
+store::RefineRecord refine_record(const refine::RefineResult& r, const refine::RefineOptions& o) {
   const refine::SolveReport& s = r.report;
-  std::size_t down = 0;
-  for (const auto& d : r.detections) down += d.weight < 0.5 ? 1 : 0;
-  return {{"options",
-           {{"loss", refine::to_string(o.loss)},
-            {"loss_scale", o.loss_scale},
-            {"max_iterations", o.max_iterations},
-            {"linear_solver", o.linear_solver},
-            {"covariance", o.covariance},
-            {"correlated_errors", o.correlated_errors}}},
-          {"detection_error_model", error_model_json(s)},
-          {"nodes", s.nodes},
-          {"imu_factors", s.imu_factors},
-          {"detection_factors", s.detection_factors},
-          {"detections_weight_below_half", down},
-          {"parameters", s.parameters},
-          {"residuals", s.residuals},
-          {"iterations", s.iterations},
-          {"initial_cost", s.initial_cost},
-          {"final_cost", s.final_cost},
-          {"termination", s.termination},
-          {"covariance_ok", s.covariance_ok}};
+  store::RefineRecord rec;
+  rec.loss = refine::to_string(o.loss);
+  rec.loss_scale = o.loss_scale;
+  rec.max_iterations = o.max_iterations;
+  rec.linear_solver = o.linear_solver;
+  rec.covariance = o.covariance;
+  rec.correlated_errors = o.correlated_errors;
+  const refine::DetectionErrorModel& m = s.error_model;
+  rec.error_model = {m.correlated, m.tau_s, m.sigma_bias, m.sigma_white, {}};
+  for (const auto& b : m.autocovariance) rec.error_model.autocovariance.push_back({b.lag_s, b.cov, b.pairs});
+  rec.nodes = s.nodes;
+  rec.imu_factors = s.imu_factors;
+  rec.detection_factors = s.detection_factors;
+  for (const auto& d : r.detections) rec.detections_weight_below_half += d.weight < 0.5 ? 1 : 0;
+  rec.parameters = s.parameters;
+  rec.residuals = s.residuals;
+  rec.iterations = s.iterations;
+  rec.initial_cost = s.initial_cost;
+  rec.final_cost = s.final_cost;
+  rec.termination = s.termination;
+  rec.covariance_ok = s.covariance_ok;
+  return rec;
 }
 
 }  // namespace
@@ -261,16 +221,21 @@ json solve_json(const refine::RefineResult& r, const refine::RefineOptions& o) {
 RefineCommandResult refine_run(const fs::path& run_dir_in, const fs::path& out_dir, const RefineCommandOptions& opt) {
   const auto t_start = Clock::now();
   const fs::path run_dir = io::without_trailing_separator(run_dir_in);
-  std::error_code ec;
-  if (!fs::is_regular_file(run_dir / "run.json", ec))
-    throw InputError("not a run folder: run.json is missing", {run_dir.string()});
-  const RunInfo run = read_run_json(run_dir / "run.json");
-  const fs::path dataset = opt.dataset.empty() ? fs::path(run.dataset_abs) : io::without_trailing_separator(opt.dataset);
+  const store::RunRecord run = read_run(run_dir);
+  fs::path dataset = io::without_trailing_separator(opt.dataset);
+  if (opt.dataset.empty()) {
+    const auto named = store::find_run_dataset(run);
+    if (!named)
+      throw InputError(fmt::format("the dataset the run read ({}) is not there any more (give --dataset)",
+                                   run.inputs.dataset_abs),
+                       {(run_dir / "run.json").string(), 0, 0, "inputs.dataset_abs"});
+    dataset = *named;
+  }
   io::OutputDir dir(out_dir, opt.force, {run_dir, dataset});
   const Dataset ds = read_run_dataset(run, dataset, run_dir / "run.json");
   const RunTables tables = read_tables(run_dir);
   const Timestamp offset_ns = ds.manifest.camera ? from_seconds(ds.manifest.camera->time_offset_s) : 0;
-  const std::vector<ekf::ImageDetections> images = ekf::group_images(ds.detections.at(run.detections), offset_ns);
+  const std::vector<ekf::ImageDetections> images = ekf::group_images(ds.detections.at(run.inputs.detections), offset_ns);
   const double read_s = seconds_since(t_start);
 
   RefineCommandResult res;
@@ -297,38 +262,35 @@ RefineCommandResult refine_run(const fs::path& run_dir_in, const fs::path& out_d
                          [&states](std::size_t i) { return StampedPose{states[i].t_ns, Pose(states[i].x.q_W_I, states[i].x.p_W_I)}; },
                          format);
 
-  json report = run.raw;
-  report["roe_version"] = kVersion;
-  report["command"] = "refine";
-  report["final"]["T_I_C"] = io::pose_to_json(r.T_I_C);
-  json objs = json::array();
-  for (const auto& [id, o] : r.objects)
-    objs.push_back({{"id", id}, {"anchor", o.anchor}, {"T_O_W", io::pose_to_json(o.T_O_W)}});
-  report["final"]["objects"] = objs;
-  report["refine"] = solve_json(r, opt.refine);
-  report["refine"]["input_run"] = run_dir.string();
-  report["refine"]["input_run_abs"] = io::provenance_path(run_dir);
-  report["refine"]["dataset"] = dataset.string();
-  report["warnings"] = res.warnings;
-  report["timing_s"] = {{"read", read_s},
-                        {"solve", r.report.solve_s},
-                        {"solve_residuals", r.report.residual_s},
-                        {"solve_jacobians", r.report.jacobian_s},
-                        {"solve_linear", r.report.linear_solver_s},
-                        {"covariance", r.report.covariance_s},
-                        {"write", seconds_since(t_write)},
-                        {"total", seconds_since(t_start)}};
-  io::write_file_atomic(dir.file("run.json"), io::dump_json(report, 2) + "\n");
+  store::RunRecord& rec = res.record;
+  rec = run;
+  rec.roe_version = kVersion;
+  rec.command = "refine";
+  rec.final_T_I_C = r.T_I_C;
+  rec.final_objects.clear();
+  for (const auto& [id, o] : r.objects) rec.final_objects.push_back({id, o.anchor, o.T_O_W});
+  rec.refine = refine_record(r, opt.refine);
+  rec.refine->input_run = run_dir.string();
+  rec.refine->input_run_abs = io::provenance_path(run_dir);
+  rec.refine->dataset = dataset.string();
+  rec.warnings = res.warnings;
+  rec.timing_s = {{"read", read_s},
+                  {"solve", r.report.solve_s},
+                  {"solve_residuals", r.report.residual_s},
+                  {"solve_jacobians", r.report.jacobian_s},
+                  {"solve_linear", r.report.linear_solver_s},
+                  {"covariance", r.report.covariance_s},
+                  {"write", seconds_since(t_write)},
+                  {"total", seconds_since(t_start)}};
+  store::write_run_json(dir.file("run.json"), rec);
   dir.commit();
-  res.report = report;
   return res;
 }
 
 json RefineCommandResult::to_json() const {
-  return {{"command", "refine"}, {"out", out.string()}, {"refine", report.at("refine")},
-          {"timing_s", report.at("timing_s")}, {"warnings", warnings}};
+  return {{"command", "refine"}, {"out", out.string()}, {"refine", store::run_record_to_json(record).at("refine")},
+          {"timing_s", record.timing_s}, {"warnings", warnings}};
 }
-
 std::string RefineCommandResult::to_text() const {
   const refine::SolveReport& s = result.report;
   std::string t = fmt::format("roe refine → {}\n", out.string());
@@ -339,7 +301,7 @@ std::string RefineCommandResult::to_text() const {
   t += fmt::format("  T_I_C p = [{:.4f} {:.4f} {:.4f}] m, σ {:.1f} mm / {:.3f}°\n", result.T_I_C.p.x(), result.T_I_C.p.y(),
                    result.T_I_C.p.z(), se.head<3>().maxCoeff() * 1e3, se.tail<3>().maxCoeff() * 180.0 / M_PI);
   t += fmt::format("  solve {:.3f} s, covariance {:.3f} s, total {:.3f} s\n", s.solve_s, s.covariance_s,
-                   report.at("timing_s").at("total").get<double>());
+                   record.timing_s.at("total"));
   return t;
 }
 

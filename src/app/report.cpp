@@ -47,17 +47,15 @@ void check_outputs(const ReportOptions& o) {
   if (!o.figures_dir.empty()) io::OutputDir::check(o.figures_dir, o.force, {o.run_dir, o.gt});
 }
 
-/// --gt, or the dataset run.json names when it is still there.
-std::string ground_truth(const ReportOptions& o, const json& run) {
+/// --gt, or the dataset run.json names when it is still there (store::find_run_dataset).
+std::string ground_truth(const ReportOptions& o, const std::optional<store::RunRecord>& run) {
   if (!o.gt.empty()) return o.gt;
-  const json& in = run.is_object() ? run.value("inputs", json::object()) : json::object();
-  const std::string ds = in.value("dataset_abs", std::string());
-  std::error_code ec;
-  if (!ds.empty() && fs::exists(fs::path(ds) / "roe.json", ec)) return ds;
-  throw InputError(ds.empty() ? "--gt DATASET|GT_FILE is required (run.json names no dataset)"
-                              : fmt::format("--gt DATASET|GT_FILE is required: the dataset run.json names ({}) "
-                                            "is not there any more",
-                                            ds),
+  if (run)
+    if (const auto ds = store::find_run_dataset(*run)) return ds->string();
+  throw InputError(!run ? "--gt DATASET|GT_FILE is required (the run folder has no run.json naming its dataset)"
+                        : fmt::format("--gt DATASET|GT_FILE is required: the dataset run.json names ({}) "
+                                      "is not there any more",
+                                      run->inputs.dataset_abs),
                    {o.run_dir});
 }
 
@@ -85,9 +83,11 @@ ReportResult write_report(const ReportOptions& o) {
     throw InputError("not a run folder (roe report reads the folder roe run wrote)", {o.run_dir});
   check_outputs(o);
   const fs::path run_json_path = fs::path(o.run_dir) / "run.json";
-  const json run = fs::exists(run_json_path) ? io::parse_json_file(run_json_path) : json();
+  std::optional<store::RunRecord> record;
+  if (fs::exists(run_json_path)) record = store::read_run_json(run_json_path);
+  const json run = record ? store::run_record_to_json(*record) : json();
   ReportOptions opt = o;
-  opt.gt = ground_truth(o, run);
+  opt.gt = ground_truth(o, record);
 
   // Scratch space: a never-committed OutputDir beside the report, removed on return, on an exception
   // and on SIGINT/SIGTERM/SIGHUP (with the plotting process).
@@ -136,7 +136,7 @@ ReportResult write_report(const ReportOptions& o) {
   const double fig_s = seconds_since(t);
   const json calib = calib_future.get();
   t = std::chrono::steady_clock::now();
-  const std::string html = report_html(ev.report, run, calib, figs, fig_dir);
+  const std::string html = report_html(ev.report, run, calib, figs, fig_dir, record ? &*record : nullptr);
   {
     io::DeferSignals defer;  // the report and its figures folder appear together
     io::write_file_atomic(out, html, o.force);

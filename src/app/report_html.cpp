@@ -1,6 +1,7 @@
 // roe report: the HTML document (no script, no external resource; figures as data: URIs).
 #include <fmt/format.h>
 
+#include <array>
 #include <cmath>
 #include <iterator>
 #include <map>
@@ -78,21 +79,6 @@ std::string caption_html(const std::string& text) {
 }
 
 namespace {
-
-/// run.json's value at a dotted path ("counts.detections"); null when absent.
-const json& at_path(const json& j, const std::string& path) {
-  static const json null;
-  const json* cur = &j;
-  std::size_t start = 0;
-  while (start <= path.size()) {
-    const std::size_t end = std::min(path.find('.', start), path.size());
-    const std::string key = path.substr(start, end - start);
-    if (!cur->is_object() || !cur->contains(key)) return null;
-    cur = &(*cur)[key];
-    start = end + 1;
-  }
-  return *cur;
-}
 
 /// A table cell holding a number of the evaluation report: the shown value is rounded, the exact
 /// one is in data-value, and data-path says where it is in report.json (the browser test reads both).
@@ -183,13 +169,12 @@ std::string fit_cells(const store::ReportFit* f) {
 /// Detections per object by status (run.json) and, as roe eval prints them, the RMSE of the object's
 /// reprojected raw detections on two rows: all of them (the rejected outliers included) and the accepted
 /// ones alone; a last row with the totals run.json counts.
-std::string section_objects(const store::EvalReportFile& ev, const json& run) {
+std::string section_objects(const store::EvalReportFile& ev, const store::RunRecord* run) {
   std::string s = "<section id=\"objects\"><h2>Objects</h2>\n";
-  const json& per = at_path(run, "counts.detections.per_object");
   const char* statuses[] = {"detections", "accepted", "initialized", "rejected_chi2", "rejected_no_main",
                             "rejected_score", "rejected_no_imu", "pending_init"};
   s += "<table class=\"num\" id=\"counts\"><caption>Detections per object (run.json";
-  s += run.contains("anchor_id") ? fmt::format("; anchor object {}", plain(run["anchor_id"])) : std::string();
+  s += run ? fmt::format("; anchor object {}", run->anchor_id) : std::string();
   s += ") and the RMSE of each object's reprojected raw detections against the ground truth (same alignment): "
        "<i>all</i> includes the detections the filter rejected as outliers, <i>accepted</i> only those it used"
        "</caption>\n<tr><th rowspan=\"2\">object</th><th colspan=\"8\">detections by status</th>"
@@ -203,32 +188,33 @@ std::string section_objects(const store::EvalReportFile& ev, const json& run) {
   for (const store::ReportObject& o : ev.per_object) eval_obj[o.object_id] = &o;
   std::set<int> ids;
   for (const auto& [k, v] : eval_obj) ids.insert(k);
-  if (per.is_object())
-    for (const auto& [k, v] : per.items()) ids.insert(std::stoi(k));
-  const auto count_cells = [&](const json& c) {
+  if (run)
+    for (const auto& [k, v] : run->counts.per_object) ids.insert(k);
+  // The counts in the order of `statuses`.
+  const auto by_status = [](const ekf::DetectionCounts& c) {
+    return std::array<std::size_t, 8>{c.detections,     c.accepted,       c.initialized,     c.rejected_chi2,
+                                      c.rejected_no_main, c.rejected_score, c.rejected_no_imu, c.pending_init};
+  };
+  const auto count_cells = [&](const ekf::DetectionCounts* c) {
     std::string t;
-    for (const char* k : statuses) {
-      const json& v = c.is_object() ? c.value(k, json()) : json();
-      t += v.is_number() ? fmt::format("<td rowspan=\"2\">{}</td>", plain(v)) : "<td rowspan=\"2\" class=\"na\">–</td>";
-    }
+    for (std::size_t i = 0; i < std::size(statuses); ++i)
+      t += c ? fmt::format("<td rowspan=\"2\">{}</td>", by_status(*c)[i]) : "<td rowspan=\"2\" class=\"na\">–</td>";
     return t;
   };
   for (int id : ids) {
-    const std::string key = std::to_string(id);
     const store::ReportObject* o = eval_obj.count(id) ? eval_obj[id] : nullptr;
     s += fmt::format("<tr class=\"subset-all\" data-object=\"{}\"><th rowspan=\"2\">{}</th>", id, id);
-    s += count_cells(per.is_object() && per.contains(key) ? per[key] : json());
+    const ekf::DetectionCounts* counts = nullptr;
+    if (run)
+      if (const auto it = run->counts.per_object.find(id); it != run->counts.per_object.end()) counts = &it->second;
+    s += count_cells(counts);
     s += "<th>all</th>" + fit_cells(o ? &o->all : nullptr) + "</tr>\n";
     s += fmt::format("<tr class=\"subset-accepted\" data-object=\"{}\"><th>accepted</th>{}</tr>\n", id,
                      fit_cells(o ? &o->accepted : nullptr));
   }
-  const json& total = at_path(run, "counts.detections");
-  if (total.is_object()) {
+  if (run) {
     s += "<tr class=\"total\"><th>total</th>";
-    for (const char* k : statuses) {
-      const json& v = total.value(k, json());
-      s += v.is_number() ? fmt::format("<td>{}</td>", plain(v)) : "<td class=\"na\">–</td>";
-    }
+    for (const std::size_t n : by_status(run->counts.detections)) s += fmt::format("<td>{}</td>", n);
     s += "<td colspan=\"8\"></td></tr>\n";
   }
   return s + "</table></section>\n";
@@ -304,7 +290,7 @@ summary{cursor:pointer}.meta{color:#555}
 }  // namespace
 
 std::string report_html(const store::EvalReportFile& ev, const json& run, const json& calib, const FigureSet& figures,
-                        const fs::path& figures_dir) {
+                        const fs::path& figures_dir, const store::RunRecord* run_record) {
   const std::string& label = ev.label;
   std::string h = "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n";
   h += "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
@@ -313,7 +299,7 @@ std::string report_html(const store::EvalReportFile& ev, const json& run, const 
                    esc(ev.est.path), esc(ev.gt.path), kVersion);
   h += "<nav><a href=\"#evaluation\">Evaluation</a> · <a href=\"#objects\">Objects</a> · <a href=\"#calib-check\">Calibration checks</a> · <a href=\"#figures\">Figures</a> · <a href=\"#configuration\">Configuration</a> · <a href=\"#warnings\">Warnings</a></nav>\n";
   h += section_summary(ev);
-  h += section_objects(ev, run);
+  h += section_objects(ev, run_record);
   h += section_calib(calib);
   h += section_figures(figures, figures_dir);
   if (run.is_object() && run.contains("health")) h += section_table("health", "Health", run["health"], true);

@@ -17,6 +17,7 @@
 #include "roe/store/dataset.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/pose_json.hpp"
+#include "roe/store/run_record.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "roe/version.hpp"
 
@@ -264,84 +265,50 @@ void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
   run_all(writers, available_cpus());
 }
 
-json counts_json(const ekf::DetectionCounts& c) {
-  return {{"detections", c.detections},
-          {"accepted", c.accepted},
-          {"initialized", c.initialized},
-          {"rejected_chi2", c.rejected_chi2},
-          {"rejected_no_main", c.rejected_no_main},
-          {"rejected_score", c.rejected_score},
-          {"rejected_no_imu", c.rejected_no_imu},
-          {"pending_init", c.pending_init}};
-}
-
-// Per object and in total: every status, so that the totals add up to the detections.
-json counts_json(const RunOutput& r) {
-  json per = json::object();
-  ekf::DetectionCounts total;
-  for (const auto& [id, c] : r.summary.counts) {
-    per[std::to_string(id)] = counts_json(c);
-    total += c;
-  }
-  json j = counts_json(total);
-  j["per_object"] = per;
-  return j;
-}
-
-json nis_json(const ekf::NisStats& n) {
-  if (n.count == 0) return {{"count", 0}, {"dof", 6}, {"gate", n.gate}};
-  return {{"count", n.count},   {"dof", 6},         {"median", n.median}, {"p25", n.p25},
-          {"p75", n.p75},       {"p95", n.p95},     {"max", n.max},       {"mean", n.mean},
-          {"gate", n.gate},     {"fraction_above_gate", n.fraction_above_gate},
-          {"median_ratio", n.median_ratio}};
-}
-
-json health_json(const ekf::RunHealth& h, const ekf::HealthLimits& l, Timestamp t0) {
-  return {{"healthy", h.healthy()},
-          {"problems", h.problems},
-          {"duration_s", h.duration_s},
-          {"accepted_updates", h.accepted_updates},
-          {"supported_fraction", h.supported_fraction},
-          {"longest_dead_reckoning_s", h.longest_dead_reckoning_s},
-          {"longest_dead_reckoning_from_s", to_seconds(h.dead_reckoning_from_ns - t0)},
-          {"longest_dead_reckoning_to_s", to_seconds(h.dead_reckoning_to_ns - t0)},
-          {"nis_median_ratio", h.nis.median_ratio},
-          {"limits",
-           {{"support_window_s", l.support_window_s},
-            {"min_supported_fraction", l.min_supported_fraction},
-            {"max_dead_reckoning_s", l.max_dead_reckoning_s},
-            {"max_nis_median_ratio", l.max_nis_median_ratio}}}};
-}
-
-// Where the estimate was declared lost and re-locked (FilterOptions::relock_after_s).
-json relocks_json(const ekf::FilterRunSummary& s) {
-  const auto v3 = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
-  json a = json::array();
-  for (const auto& e : s.relocks)
-    a.push_back({{"t_s", to_seconds(e.t_ns - s.t_first_ns)},
-                 {"refused_since_s", to_seconds(e.what.since_ns - s.t_first_ns)},
-                 {"offset", v3(e.what.offset)},
-                 {"drift_per_s", v3(e.what.drift_per_s)},
-                 {"residual_sigma", e.what.residual_sigma},
-                 {"detections", e.what.detections},
-                 {"objects", e.what.objects}});
-  return a;
-}
-
-// The initial state: the extrinsics prior, the init window and where the gyro bias came from.
-json init_json(const ekf::FilterRunSummary& s, const Pose& T_I_C_prior) {
-  const auto v3 = [](const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); };
-  json j = {{"T_I_C", io::pose_to_json(T_I_C_prior)},
-            {"window_samples", s.init.samples},
-            {"window_s", s.init.duration_s},
-            {"accel_mean", v3(s.init.mean_accel)},
-            {"accel_std", v3(s.init.std_accel)},
-            {"gyro_mean", v3(s.init.mean_gyro)},
-            {"gyro_std", v3(s.init.std_gyro)},
-            {"gyro_bias", v3(s.init_gyro_bias)},
-            {"gyro_bias_from", s.gyro_bias_from_rest ? "rest" : "config"}};
-  if (!s.gyro_bias_rest_refused.empty()) j["gyro_bias_rest_refused"] = s.gyro_bias_rest_refused;
-  return j;
+// What run.json records of a run (store/run_record.hpp); the inputs and the timings are the caller's.
+store::RunRecord run_record(const RunOutput& r, const Dataset& dataset, const RunConfig& config) {
+  store::RunRecord rec;
+  rec.roe_version = kVersion;
+  rec.command = "run";
+  rec.config = config;
+  rec.anchor_id = r.summary.anchor.id;
+  store::RunCounts& c = rec.counts;
+  c.imu_samples = dataset.imu.size();
+  c.camera_frames = dataset.frames.size();
+  Timestamp last = std::numeric_limits<Timestamp>::min();
+  for (const auto& p : r.reprojection)
+    if (p.t_ns != last) {
+      ++c.images_with_detections;
+      last = p.t_ns;
+    }
+  c.updates = r.summary.updates;
+  c.trajectory_rows = r.states.size();
+  c.per_object = r.summary.counts;  // every status per object, so that the totals add up to the detections
+  for (const auto& [id, n] : r.summary.counts) c.detections += n;
+  rec.nis = r.health.nis;
+  const Timestamp t0 = r.summary.t_first_ns;
+  const ekf::RunHealth& h = r.health;
+  rec.health = {h.problems, h.duration_s, h.accepted_updates, h.supported_fraction, h.longest_dead_reckoning_s,
+                to_seconds(h.dead_reckoning_from_ns - t0), to_seconds(h.dead_reckoning_to_ns - t0),
+                h.nis.median_ratio, config.health};
+  // Where the estimate was declared lost and re-locked (FilterOptions::relock_after_s).
+  for (const auto& e : r.summary.relocks)
+    rec.relocks.push_back({to_seconds(e.t_ns - t0), to_seconds(e.what.since_ns - t0), e.what.offset,
+                           e.what.drift_per_s, e.what.residual_sigma, e.what.detections, e.what.objects});
+  rec.detection_sigmas = {r.summary.detection_sigmas_present,
+                          config.filter.use_detection_sigmas && r.summary.detection_sigmas_present,
+                          r.summary.detection_sigma_scale};
+  // The initial state: the extrinsics prior, the init window and where the gyro bias came from.
+  const ekf::FilterRunSummary& s = r.summary;
+  rec.init = {r.prior_T_I_C,          s.init.samples,   s.init.duration_s, s.init.mean_accel,
+              s.init.std_accel,       s.init.mean_gyro, s.init.std_gyro,   s.init_gyro_bias,
+              s.gyro_bias_from_rest ? "rest" : "config", s.gyro_bias_rest_refused};
+  rec.imu_noise = r.imu_noise;
+  rec.imu_noise_from = r.imu_noise_from;
+  rec.final_T_I_C = s.final_T_I_C;
+  for (const auto& [id, T_O_W] : s.final_T_O_W) rec.final_objects.push_back({id, id == s.anchor.id, T_O_W});
+  rec.warnings = r.warnings;
+  return rec;
 }
 
 // run_dataset names files relative to the dataset ("roe.json", "mav0/imu0/data.csv") and the config
@@ -408,115 +375,70 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
   const auto t_write = Clock::now();
   write_outputs(r, dir);
   const std::string set = choose_detections(dataset, options.detections);
+  // Who produced the set (its meta.json, when it has one): in the log, and a malformed one is an input error.
+  res.detections_meta = store::read_detection_set_meta(dataset_dir, set);
+  if (res.detections_meta)
+    log::info("detection set {}: by {}{}, {} frames processed", set, res.detections_meta->producer,
+              res.detections_meta->roe_version.empty() ? "" : " " + res.detections_meta->roe_version,
+              res.detections_meta->frames_processed);
 
-  json inputs = {{"dataset", dataset_dir.string()},
-                 {"dataset_abs", io::provenance_path(dataset_dir)},
-                 {"detections", set},
-                 {"sha256",
-                  {{"roe.json", io::sha256_file(store::manifest_path(dataset_dir))},
-                   {"mav0/imu0/data.csv", io::sha256_file(store::imu_csv_path(dataset_dir))},
-                   {"detections/" + set + "/detections.csv",
-                    io::sha256_file(store::detections_dir(dataset_dir, set) / "detections.csv")}}}};
+  store::RunRecord& rec = res.record;
+  rec = run_record(r, dataset, config);
+  rec.inputs.dataset = dataset_dir.string();
+  rec.inputs.dataset_abs = io::provenance_path(dataset_dir);
+  rec.inputs.detections = set;
+  rec.inputs.sha256 = {
+      {"roe.json", io::sha256_file(store::manifest_path(dataset_dir))},
+      {"mav0/imu0/data.csv", io::sha256_file(store::imu_csv_path(dataset_dir))},
+      {"detections/" + set + "/detections.csv", io::sha256_file(store::detections_dir(dataset_dir, set) / "detections.csv")}};
   if (!options.config_file.empty()) {
-    inputs["config"] = options.config_file;
-    inputs["config_abs"] = io::provenance_path(options.config_file);
+    rec.inputs.config = options.config_file;
+    rec.inputs.config_abs = io::provenance_path(options.config_file);
   }
-  std::size_t images = 0;
-  {
-    Timestamp last = std::numeric_limits<Timestamp>::min();
-    for (const auto& p : r.reprojection)
-      if (p.t_ns != last) {
-        ++images;
-        last = p.t_ns;
-      }
-  }
-  json report = {
-      {"roe_version", kVersion},
-      {"command", "run"},
-      {"config", run_config_to_json(config)},
-      {"inputs", inputs},
-      {"anchor_id", r.summary.anchor.id},
-      {"counts",
-       {{"imu_samples", dataset.imu.size()},
-        {"camera_frames", dataset.frames.size()},
-        {"images_with_detections", images},
-        {"updates", r.summary.updates},
-        {"trajectory_rows", r.states.size()},
-        {"detections", counts_json(r)}}},
-      {"nis", nis_json(r.health.nis)},
-      {"health", health_json(r.health, config.health, r.summary.t_first_ns)},
-      {"relocks", relocks_json(r.summary)},
-      {"detection_sigmas",
-       {{"present", r.summary.detection_sigmas_present},
-        {"used", config.filter.use_detection_sigmas && r.summary.detection_sigmas_present},
-        {"final_scale", r.summary.detection_sigma_scale}}},
-      {"init", init_json(r.summary, r.prior_T_I_C)},
-      {"imu_noise", io::imu_noise_to_json(r.imu_noise)},
-      {"final", {{"T_I_C", io::pose_to_json(r.summary.final_T_I_C)}}},
-      {"warnings", r.warnings}};
-  report["imu_noise"]["from"] = {{"gyro_noise_density", r.imu_noise_from[0]},
-                                 {"gyro_random_walk", r.imu_noise_from[1]},
-                                 {"accel_noise_density", r.imu_noise_from[2]},
-                                 {"accel_random_walk", r.imu_noise_from[3]}};
-  json objs = json::array();
-  for (const auto& kv : r.summary.final_T_O_W)
-    objs.push_back({{"id", kv.first},
-                    {"anchor", kv.first == r.summary.anchor.id},
-                    {"T_O_W", io::pose_to_json(kv.second)}});
-  report["final"]["objects"] = objs;
-  report["timing_s"] = {{"read", read_s},
-                        {"filter", r.filter_wall_s},
-                        {"smoother", r.smoother_wall_s},
-                        {"write", seconds_since(t_write)},
-                        {"total", seconds_since(t_start)}};
-  io::write_file_atomic(dir.file("run.json"), io::dump_json(report, 2) + "\n");
+  rec.timing_s = {{"read", read_s},
+                  {"filter", r.filter_wall_s},
+                  {"smoother", r.smoother_wall_s},
+                  {"write", seconds_since(t_write)},
+                  {"total", seconds_since(t_start)}};
+  store::write_run_json(dir.file("run.json"), rec);
   dir.commit();
   log::info("wrote {} ({} trajectory rows)", out_dir.string(), r.states.size());
-  res.report = report;
   return res;
 }
-
 json RunResult::to_json() const {
+  const json j = store::run_record_to_json(record);
   return {
-      {"out", out.string()},           {"anchor_id", output.summary.anchor.id}, {"updates", output.summary.updates},
-      {"counts", report.at("counts")}, {"nis", report.at("nis")},       {"timing_s", report.at("timing_s")},
-      {"health", report.at("health")},  {"warnings", output.warnings}};
+      {"out", out.string()},       {"anchor_id", output.summary.anchor.id}, {"updates", output.summary.updates},
+      {"counts", j.at("counts")}, {"nis", j.at("nis")},                    {"timing_s", j.at("timing_s")},
+      {"health", j.at("health")}, {"warnings", output.warnings}};
 }
 
 std::string RunResult::to_text() const {
-  const json& c = report.at("counts");
-  const json& d = c.at("detections");
+  const store::RunCounts& c = record.counts;
+  const ekf::DetectionCounts& d = c.detections;
   std::string s = fmt::format("roe run → {}\n", out.string());
-  s += fmt::format("  IMU samples {}, images with detections {}, updates {}, anchor object {}\n",
-                   c.at("imu_samples").get<std::size_t>(), c.at("images_with_detections").get<std::size_t>(),
-                   output.summary.updates, output.summary.anchor.id);
+  s += fmt::format("  IMU samples {}, images with detections {}, updates {}, anchor object {}\n", c.imu_samples,
+                   c.images_with_detections, output.summary.updates, output.summary.anchor.id);
   s += fmt::format("  detections {}: accepted {}, initialised {}, rejected χ² {}, rejected without anchor {}",
-                   d.at("detections").get<std::size_t>(), d.at("accepted").get<std::size_t>(),
-                   d.at("initialized").get<std::size_t>(), d.at("rejected_chi2").get<std::size_t>(),
-                   d.at("rejected_no_main").get<std::size_t>());
+                   d.detections, d.accepted, d.initialized, d.rejected_chi2, d.rejected_no_main);
   // The rarer statuses only when they occur.
-  for (const auto& [key, text] : {std::pair{"rejected_score", "below min_score"},
-                                  std::pair{"rejected_no_imu", "outside the IMU stream"},
-                                  std::pair{"pending_init", "awaiting initialisation"}})
-    if (const auto n = d.at(key).get<std::size_t>(); n > 0) s += fmt::format(", {} {}", text, n);
+  for (const auto& [n, text] : {std::pair{d.rejected_score, "below min_score"},
+                                std::pair{d.rejected_no_imu, "outside the IMU stream"},
+                                std::pair{d.pending_init, "awaiting initialisation"}})
+    if (n > 0) s += fmt::format(", {} {}", text, n);
   s += "\n";
-  const json& n = report.at("nis");
-  if (n.at("count").get<std::size_t>() > 0)
+  const ekf::NisStats& n = record.nis;
+  if (n.count > 0)
     s += fmt::format("  NIS (6 dof): median {:.2f} (quartiles {:.2f}, {:.2f}; χ²₆ median 5.35), p95 {:.2f}, "
                      "{:.1f} % above the gate {:.2f}\n",
-                     n.at("median").get<double>(), n.at("p25").get<double>(), n.at("p75").get<double>(),
-                     n.at("p95").get<double>(), 100.0 * n.at("fraction_above_gate").get<double>(),
-                     n.at("gate").get<double>());
-  const json& h = report.at("health");
+                     n.median, n.p25, n.p75, n.p95, 100.0 * n.fraction_above_gate, n.gate);
+  const store::RunHealthRecord& h = record.health;
   s += fmt::format("  health: {} — {:.1f} % of the {:.1f} s within {:g} s after an accepted update, longest "
                    "dead reckoning {:.2f} s\n",
-                   h.at("healthy").get<bool>() ? "healthy" : "UNHEALTHY",
-                   100.0 * h.at("supported_fraction").get<double>(), h.at("duration_s").get<double>(),
-                   h.at("limits").at("support_window_s").get<double>(),
-                   h.at("longest_dead_reckoning_s").get<double>());
-  for (const auto& p : h.at("problems")) s += "    " + p.get<std::string>() + "\n";
-  s += fmt::format("  filter {:.3f} s, total {:.3f} s\n", report.at("timing_s").at("filter").get<double>(),
-                   report.at("timing_s").at("total").get<double>());
+                   h.healthy() ? "healthy" : "UNHEALTHY", 100.0 * h.supported_fraction, h.duration_s,
+                   h.limits.support_window_s, h.longest_dead_reckoning_s);
+  for (const auto& p : h.problems) s += "    " + p + "\n";
+  s += fmt::format("  filter {:.3f} s, total {:.3f} s\n", record.timing_s.at("filter"), record.timing_s.at("total"));
   return s;
 }
 

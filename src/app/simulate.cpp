@@ -504,12 +504,12 @@ SimulateResult simulate(const SimulateOptions& opt, const std::filesystem::path&
   if (!symmetries.empty()) io::write_models_info(dir.tmp() / kModelsInfo, symmetries);
   store::write_dataset_files(run.dataset, dir.tmp());
   // detections/sim/meta.json: who produced the detections and with which configuration.
-  const json meta = {{"producer", std::string("roe simulate ") + roe::kVersion},
-                     {"seed", opt.seed},
-                     {"frames_processed", run.stats.frames},
-                     {"detections", run.stats.detections},
-                     {"config", effective}};
-  io::write_file_atomic(dir.file("detections/sim/meta.json"), io::dump_json(meta, 2) + "\n");
+  store::DetectionSetMeta meta;
+  meta.producer = std::string("roe simulate ") + roe::kVersion;
+  meta.frames_processed = run.stats.frames;
+  meta.detections = run.stats.detections;
+  meta.details = {{"seed", opt.seed}, {"config", effective}};
+  store::write_detection_set_meta(dir.file("detections/sim/meta.json"), meta);
   dir.commit();
   log::info("wrote {}", out.string());
 

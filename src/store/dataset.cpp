@@ -837,4 +837,54 @@ void write_dataset(const Dataset& d, const fs::path& dataset, bool force) {
   out.commit();
 }
 
+// -------------------------------------------------------------------------------------------------
+// detections/<name>/meta.json
+
+fs::path detection_set_meta_path(const fs::path& dataset, const std::string& name) {
+  return detections_dir(dataset, name) / "meta.json";
+}
+
+io::json detection_set_meta_to_json(const DetectionSetMeta& m) {
+  io::json j = m.details.is_object() ? m.details : io::json::object();
+  j["producer"] = m.producer;
+  j["frames_processed"] = m.frames_processed;
+  if (!m.roe_version.empty()) j["roe_version"] = m.roe_version;
+  if (m.detections) j["detections"] = *m.detections;
+  if (!m.score.empty()) j["score"] = m.score;
+  if (!m.sigma.empty()) j["sigma"] = m.sigma;
+  return j;
+}
+
+DetectionSetMeta detection_set_meta_from_json(const io::json& j, const std::string& source) {
+  if (!j.is_object()) throw ConfigError("expected a JSON object (a detection set's meta.json)", {source});
+  DetectionSetMeta m;
+  io::JsonObject o(j, source);
+  o.require("producer", m.producer);
+  o.require("frames_processed", m.frames_processed);
+  o.get("roe_version", m.roe_version);
+  std::size_t n = 0;
+  if (o.has("detections")) {
+    o.get("detections", n);
+    m.detections = n;
+  }
+  o.get("score", m.score);
+  o.get("sigma", m.sigma);
+  for (const auto& [key, value] : j.items())
+    if (key != "producer" && key != "frames_processed" && key != "roe_version" && key != "detections" &&
+        key != "score" && key != "sigma")
+      m.details[key] = value;
+  return m;
+}
+
+void write_detection_set_meta(const fs::path& file, const DetectionSetMeta& m) {
+  io::write_file_atomic(file, io::dump_json(detection_set_meta_to_json(m), 2) + "\n");
+}
+
+std::optional<DetectionSetMeta> read_detection_set_meta(const fs::path& dataset, const std::string& name) {
+  const fs::path file = detection_set_meta_path(dataset, name);
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) return std::nullopt;
+  return io::read_json_file(file, detection_set_meta_from_json);
+}
+
 }  // namespace roe::store

@@ -11,6 +11,7 @@
 #include "roe/core/error.hpp"
 #include "roe/eval/detection_calibration.hpp"
 #include "roe/store/dataset.hpp"
+#include "roe/store/run_record.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/trajectory_io.hpp"
 #include "support/scaled_sigma_detections.hpp"
@@ -78,8 +79,10 @@ struct SigmaFixture {
       p.push_back(d.groundtruth[k].T_W_I);
     }
     io::write_trajectory(run / "trajectory.csv", t, p, io::TrajectoryFormat::kCsv);
-    std::ofstream(run / "run.json") << "{\"inputs\": {\"dataset\": \"" << dataset.string()
-                                    << "\", \"detections\": \"sim\"}}\n";
+    store::RunRecord rec;
+    rec.inputs.dataset = dataset.string();
+    rec.inputs.detections = "sim";
+    store::write_run_json(run / "run.json", rec);
   }
   ~SigmaFixture() { fs::remove_all(root); }
 };

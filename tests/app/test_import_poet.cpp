@@ -87,7 +87,16 @@ TEST_CASE("ns-named frames: ids are timestamps, classes map by YCB-V name", "[im
   CHECK(std::isnan(dets[0].score));  // PoET has no score
   CHECK(dets[1].object_id == 113);
   CHECK(dets[2].t_ns == 3000);
-  CHECK(fs::exists(ds / "detections/poet/meta.json"));
+  {  // meta.json through its one reader: the typed keys and the importer's own record
+    const auto meta = store::read_detection_set_meta(ds, "poet");
+    REQUIRE(meta);
+    CHECK(meta->producer == "roe import poet");
+    CHECK(meta->frames_processed == s.images_matched);
+    CHECK_THAT(meta->score, Catch::Contains("no detection score"));
+    CHECK(!meta->sigma.empty());
+    CHECK(meta->details.at("source").at("format") == "poet results.json");
+    CHECK(!meta->details.at("summary").contains("output"));
+  }
   const auto m = store::read_manifest(ds);
   REQUIRE(m.sources.size() == 1);
   CHECK(m.sources[0].kind == "poet");

@@ -16,6 +16,7 @@
 #include <string>
 
 #include "roe/app/eval.hpp"
+#include "roe/store/run_record.hpp"
 
 namespace fs = std::filesystem;
 
@@ -267,7 +268,11 @@ TEST_CASE("roe eval RUN_DIR without --gt uses the dataset run.json names, and sa
   const auto missing = run("eval " + (dir / "run").string() + " --no-out");
   CHECK(missing.code == 2);
   CHECK_THAT(missing.out, Catch::Contains("run.json"));
-  std::ofstream(dir / "run/run.json") << nlohmann::json{{"inputs", {{"dataset", ds.string()}}}}.dump();
+  // run.json through its writer (store/run_record.hpp), naming the dataset (a roe dataset: it has a roe.json).
+  std::ofstream(ds / "roe.json") << R"({"schema": "roe-dataset/1", "name": "V1_01_easy"})";
+  roe::store::RunRecord rec;
+  rec.inputs.dataset = ds.string();
+  roe::store::write_run_json(dir / "run/run.json", rec);
   const auto r = run("eval " + (dir / "run").string() + " --no-out", false);
   REQUIRE(r.code == 0);
   CHECK_THAT(r.out, Catch::Contains("from the dataset"));

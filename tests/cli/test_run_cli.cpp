@@ -162,3 +162,25 @@ TEST_CASE("roe run: a run config's semantic error names the key and its line and
   CHECK(!fs::exists(tmp / "r1"));
   CHECK(!fs::exists(tmp / "r2"));
 }
+
+TEST_CASE("roe run names the producer of its detection set from meta.json, and refuses a malformed one",
+          "[cli][run]") {
+  roe::test::TempDir tmp("roe_cli_run_meta");
+  const fs::path ds = tmp / "ds";
+  REQUIRE(roe_run("-q simulate --preset paper-seq4 --seed 3 --duration 4 --out " + q(ds)).code == 0);
+  const auto ok = roe_run("-v run " + q(ds) + " --out " + q(tmp / "run"));  // -v: the info lines
+  REQUIRE(ok.code == 0);
+  CHECK_THAT(ok.out, Catch::Contains("detection set sim: by roe simulate"));
+  // frames_processed as a string: exit 2 naming the file, the key and its line; nothing written.
+  const fs::path meta = ds / "detections" / "sim" / "meta.json";
+  auto j = nlohmann::json::parse(slurp(meta));
+  j["frames_processed"] = "many";
+  std::ofstream(meta) << j.dump(2);
+  const auto bad = roe_run("run " + q(ds) + " --out " + q(tmp / "run2"));
+  CHECK(bad.code == 2);
+  CHECK_THAT(bad.out, Catch::Contains("meta.json") && Catch::Contains("frames_processed"));
+  CHECK(empty_or_absent(tmp / "run2"));
+  // A set without meta.json (hand-made, or older) runs as before.
+  fs::remove(meta);
+  CHECK(roe_run("run " + q(ds) + " --out " + q(tmp / "run3")).code == 0);
+}

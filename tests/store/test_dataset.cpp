@@ -901,3 +901,49 @@ TEST_CASE("json: text that is not UTF-8 is written with U+FFFD, not an exception
   CHECK(io::parse_json_text(text, "t")["body"] == "K\xef\xbf\xbdrper 1");
   CHECK(io::dump_json(j, 2).find('\n') != std::string::npos);
 }
+
+TEST_CASE("detection-set meta.json: one writer for the three producers, a strict reader", "[store][meta]") {
+  const roe::test::TempDir tmp("roe_meta");
+  const fs::path ds = tmp.path / "ds";
+  fs::create_directories(ds / "detections" / "poet");
+  // roe import poet's keys: the typed ones and its own record.
+  store::DetectionSetMeta m;
+  m.producer = "roe import poet";
+  m.roe_version = "1.2.3";
+  m.frames_processed = 42;
+  m.score = "empty";
+  m.sigma = "none";
+  m.details = {{"source", {{"path", "results.json"}, {"sha256", "ab"}}}, {"summary", {{"images_matched", 42}}}};
+  const fs::path file = store::detection_set_meta_path(ds, "poet");
+  store::write_detection_set_meta(file, m);
+  const auto back = store::read_detection_set_meta(ds, "poet");
+  REQUIRE(back);
+  CHECK(back->producer == "roe import poet");
+  CHECK(back->frames_processed == 42);
+  CHECK(!back->detections);
+  CHECK(back->details == m.details);
+  CHECK(store::detection_set_meta_to_json(*back) == store::detection_set_meta_to_json(m));
+  const auto j = io::parse_json_file(file);
+  CHECK(j.at("source").at("sha256") == "ab");  // the producer's keys at the top level, as before
+  CHECK(j.at("roe_version") == "1.2.3");
+  // roe simulate's: no roe_version key, a detection count.
+  store::DetectionSetMeta s;
+  s.producer = "roe simulate 1.2.3";
+  s.frames_processed = 10;
+  s.detections = 30;
+  s.details = {{"seed", 7}};
+  const io::json sj = store::detection_set_meta_to_json(s);
+  CHECK(!sj.contains("roe_version"));
+  CHECK(store::detection_set_meta_from_json(sj, "x").detections == std::optional<std::size_t>(30));
+  // Strict: a missing producer, a mistyped count.
+  io::json bad = sj;
+  bad.erase("producer");
+  CHECK_THROWS_AS(store::detection_set_meta_from_json(bad, "x"), ConfigError);
+  bad = sj;
+  bad["frames_processed"] = -1;
+  std::ofstream(file) << io::dump_json(bad, 2);
+  const auto e = roe::test::expect_input_error([&] { store::read_detection_set_meta(ds, "poet"); });
+  CHECK(e.context().key == "frames_processed");
+  CHECK(e.context().line > 0);
+  CHECK(!store::read_detection_set_meta(ds, "none"));  // a set without meta.json
+}

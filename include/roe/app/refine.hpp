@@ -19,11 +19,12 @@
 #include <string>
 
 #include "roe/refine/refine.hpp"
+#include "roe/store/run_record.hpp"
 
 namespace roe::app {
 
 struct RefineCommandOptions {
-  std::string dataset;  ///< empty: run.json's inputs.dataset_abs
+  std::string dataset;  ///< empty: the dataset run.json names (store::find_run_dataset)
   refine::RefineOptions refine;
   bool force = false;
 };
@@ -31,7 +32,7 @@ struct RefineCommandOptions {
 struct RefineCommandResult {
   std::filesystem::path out;
   refine::RefineResult result;
-  nlohmann::json report;  ///< run.json
+  store::RunRecord record;  ///< run.json
   std::vector<std::string> warnings;
   nlohmann::json to_json() const;
   std::string to_text() const;

@@ -20,6 +20,7 @@
 
 #include "roe/app/figures.hpp"
 #include "roe/store/eval_report.hpp"
+#include "roe/store/run_record.hpp"
 
 namespace roe::app {
 
@@ -52,8 +53,10 @@ std::string caption_html(const std::string& text);
 
 /// The HTML document (exposed for tests): `eval` is roe eval's report.json, `run` run.json (may be
 /// null), `calib` calib-check's JSON (or {"error": message}), `figures` the figure set whose files lie
-/// in `figures_dir`.
+/// in `figures_dir`; `run_record` the same run.json typed (null when there is none: the detection counts
+/// are then left out).
 std::string report_html(const store::EvalReportFile& eval, const nlohmann::json& run, const nlohmann::json& calib,
-                        const FigureSet& figures, const std::filesystem::path& figures_dir);
+                        const FigureSet& figures, const std::filesystem::path& figures_dir,
+                        const store::RunRecord* run_record = nullptr);
 
 }  // namespace roe::app

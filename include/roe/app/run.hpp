@@ -20,6 +20,7 @@
 #include <array>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -28,37 +29,20 @@
 #include "roe/ekf/driver.hpp"
 #include "roe/ekf/health.hpp"
 #include "roe/ekf/options.hpp"
+#include "roe/store/dataset.hpp"
+#include "roe/store/run_config.hpp"
 #include "roe/store/run_files.hpp"
+#include "roe/store/run_record.hpp"
 
 namespace roe::app {
 
-/// roe's recommended filter settings, the built-in defaults of `roe run` (= configs/default.json): the
-/// plain FilterOptions with the changes that made every shipped preset, the sample and the EuRoC V1_02
-/// snippet both healthy and more accurate (measured in docs/RESULTS.md §6, the decision in docs/filter.md
-/// §12): updates from every initialised object (require_anchor false), a measurement noise larger along the
-/// viewing ray than across it and growing with depth, the initial gyro bias from the init window when the
-/// IMU rests, and the IMU noise of roe.json scaled by 4.
-ekf::FilterOptions recommended_filter_options();
-
-struct RunConfig {
-  ekf::FilterOptions filter = recommended_filter_options();
-  /// Rows of trajectory.csv/.tum and states.csv: "imu" (every IMU sample) or "images" (after each
-  /// image update).
-  std::string output_rate = "imu";
-  /// "none": the outputs are the filter's (causal) estimate; "rts": trajectory.csv/.tum and states.csv
-  /// hold the fixed-interval RTS smoothed estimate (ekf/smoother.hpp) and the filter's estimate goes to
-  /// trajectory_filter.csv/.tum and states_filter.csv. The default is "rts": `roe run` is an offline tool;
-  /// configs/paper.json sets "none" (the paper's causal filter).
-  std::string smoother = "rts";
-  std::string description;  ///< free text (configs/*.json say what they are for)
-  /// When a run is judged unhealthy (`roe run` exits 1): "health": {...} in the config.
-  ekf::HealthLimits health;
-};
-
-/// Strict loader (ConfigError naming the file and key) and its inverse (what run.json echoes).
-RunConfig run_config_from_json(const nlohmann::json& j, const std::string& source);
+/// The run configuration (its struct and JSON mapping: store/run_config.hpp); a config file, shipped ones
+/// included (`--config paper`), is read by run_config_from_file.
+using RunConfig = store::RunConfig;
+using store::recommended_filter_options;
+using store::run_config_from_json;
+using store::run_config_to_json;
 RunConfig run_config_from_file(const std::filesystem::path& file);
-nlohmann::json run_config_to_json(const RunConfig& c);
 
 /// The rows of states.csv, objects.csv and reprojection.csv (their columns: io/run_files.hpp).
 using StateRow = store::StateRow;
@@ -101,7 +85,9 @@ struct RunOptions {
 struct RunResult {
   std::filesystem::path out;
   RunOutput output;
-  nlohmann::json report;  ///< run.json
+  store::RunRecord record;  ///< run.json
+  /// The detection set's meta.json (who produced it; store/dataset.hpp), nullopt when it has none.
+  std::optional<store::DetectionSetMeta> detections_meta;
   nlohmann::json to_json() const;
   std::string to_text() const;
 };

@@ -5,6 +5,7 @@
 /// stamps) and report file:line:column. Writers go through temporary files + rename.
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -76,5 +77,29 @@ void write_groundtruth_csv(const fs::path& file, const std::vector<ImuState>& st
 /// time; several rows may share a stamp (one per object); a duplicate (stamp, object) is an error.
 std::vector<Detection> read_detections_csv(const fs::path& file);
 void write_detections_csv(const fs::path& file, const std::vector<Detection>& detections);
+
+/// detections/<name>/meta.json: who produced a detection set, and what its score and σ columns mean. The
+/// keys every producer writes are typed; the producer's own record (roe simulate: seed, config; roe import
+/// poet: source, options, summary; roe infer: model, config, options, class_map, per_frame, …) is kept as
+/// written in `details`. One writer (roe simulate, roe import poet and roe infer write through it) and one
+/// strict reader: `producer` (a string) and `frames_processed` (an integer >= 0) are required,
+/// `roe_version`, `score`, `sigma` (strings) and `detections` (an integer >= 0) optional; a wrong type is a
+/// ConfigError naming the file, the key, its line and column.
+struct DetectionSetMeta {
+  std::string producer;      ///< "roe simulate <version>", "roe import poet", "roe infer"
+  std::string roe_version;   ///< empty: not written (roe simulate names its version in `producer`)
+  std::size_t frames_processed = 0;
+  std::optional<std::size_t> detections;  ///< the number of detections (roe simulate)
+  std::string score;  ///< what detections.csv's score means (empty: not written)
+  std::string sigma;  ///< what its σ columns mean (empty: not written)
+  io::json details = io::json::object();  ///< the producer's other keys, as written
+};
+fs::path detection_set_meta_path(const fs::path& dataset, const std::string& name);  ///< detections/<name>/meta.json
+io::json detection_set_meta_to_json(const DetectionSetMeta& m);
+DetectionSetMeta detection_set_meta_from_json(const io::json& j, const std::string& source);
+/// Written atomically (two-space indent, final newline).
+void write_detection_set_meta(const fs::path& file, const DetectionSetMeta& m);
+/// The meta.json of a set; nullopt when the set has none (a hand-made set, or one written before roe wrote it).
+std::optional<DetectionSetMeta> read_detection_set_meta(const fs::path& dataset, const std::string& name);
 
 }  // namespace roe::store

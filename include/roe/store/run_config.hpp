@@ -1,0 +1,45 @@
+#pragma once
+/// @file
+/// The run configuration of `roe run` (configs/*.json, run.json's "config"): the struct, roe's defaults and
+/// its one JSON mapping both ways. {"filter": {FilterOptions keys}, "output": {"rate": "imu" | "images"},
+/// "smoother": "none" | "rts", "health": {HealthLimits keys}, "description": text}; every key optional,
+/// unknown keys are errors (ConfigError naming the source and the key path). Reading a config *file*
+/// (shipped configs resolved to the bytes compiled into roe) is app::run_config_from_file.
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "roe/ekf/health.hpp"
+#include "roe/ekf/options.hpp"
+
+namespace roe::store {
+
+/// roe's recommended filter settings, the built-in defaults of `roe run` (= configs/default.json): the
+/// plain FilterOptions with the changes that made every shipped preset, the sample and the EuRoC V1_02
+/// snippet both healthy and more accurate (measured in docs/RESULTS.md §6, the decision in docs/filter.md
+/// §12): updates from every initialised object (require_anchor false), a measurement noise larger along the
+/// viewing ray than across it and growing with depth, the initial gyro bias from the init window when the
+/// IMU rests, and the IMU noise of roe.json scaled by 4.
+ekf::FilterOptions recommended_filter_options();
+
+struct RunConfig {
+  ekf::FilterOptions filter = recommended_filter_options();
+  /// Rows of trajectory.csv/.tum and states.csv: "imu" (every IMU sample) or "images" (after each
+  /// image update).
+  std::string output_rate = "imu";
+  /// "none": the outputs are the filter's (causal) estimate; "rts": trajectory.csv/.tum and states.csv
+  /// hold the fixed-interval RTS smoothed estimate (ekf/smoother.hpp) and the filter's estimate goes to
+  /// trajectory_filter.csv/.tum and states_filter.csv. The default is "rts": `roe run` is an offline tool;
+  /// configs/paper.json sets "none" (the paper's causal filter).
+  std::string smoother = "rts";
+  std::string description;  ///< free text (configs/*.json say what they are for)
+  /// When a run is judged unhealthy (`roe run` exits 1): "health": {...} in the config.
+  ekf::HealthLimits health;
+};
+
+/// Strict loader (ConfigError naming `source` and the key) and its inverse (what run.json echoes):
+/// run_config_to_json(run_config_from_json(j)) == j for every j run_config_to_json wrote.
+RunConfig run_config_from_json(const nlohmann::json& j, const std::string& source);
+nlohmann::json run_config_to_json(const RunConfig& c);
+
+}  // namespace roe::store
