@@ -36,7 +36,7 @@ struct StatesTrace {
 // every column is read.
 StatesTrace read_states(const fs::path& file) {
   StatesTrace t;
-  store::for_each_state_row(file, {}, [&](const store::StateRow& s) {
+  store::for_each_state_row(file, {}, [&](const store::RecordedState& s) {
     t.extrinsics.push_back({s.t_ns, s.T_I_C, s.sigma.tail<6>()});
     t.final_gyro_bias = s.x.b_g;
   });

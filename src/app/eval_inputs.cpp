@@ -35,7 +35,7 @@ std::vector<std::optional<eval::PoseCovariance>> read_states_covariance(const fs
   std::string missing;
   const bool have = store::for_each_state_row(
       file, read,
-      [&](const store::StateRow& s) {
+      [&](const store::RecordedState& s) {
         st.push_back(s.t_ns);
         eval::PoseCovariance c;
         c.P_p.diagonal() = s.sigma.head<3>().cwiseAbs2();

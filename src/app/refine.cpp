@@ -77,7 +77,7 @@ bool used_by_refine(ekf::DetectionStatus s) {
 }
 
 struct RunTables {
-  std::vector<store::StateRow> states;
+  std::vector<store::RecordedState> states;
   std::map<int, Pose> T_O_W;  ///< each object's last row
   std::vector<eval::DetectionPose> reprojection;
   std::map<std::pair<Timestamp, int>, ekf::DetectionStatus> status;
@@ -123,13 +123,13 @@ refine::RefineInput make_input(const store::RunRecord& run, const Dataset& ds, c
 
 Vector6d sigma_of(const refine::Mat6& C) { return C.diagonal().cwiseMax(0.0).cwiseSqrt(); }
 
-std::vector<store::StateRow> refined_states(const refine::RefineResult& r, const RunTables& t,
+std::vector<store::RecordedState> refined_states(const refine::RefineResult& r, const RunTables& t,
                                          const std::vector<ImuSample>& imu) {
   std::vector<Timestamp> times;
   times.reserve(t.states.size());
   for (const auto& s : t.states) times.push_back(s.t_ns);
   const std::vector<refine::StateSample> x = refine::states_at(r, imu, times);
-  std::vector<store::StateRow> rows(t.states.size());
+  std::vector<store::RecordedState> rows(t.states.size());
   const Vector6d s_extr = sigma_of(r.cov_T_I_C);
   for (std::size_t i = 0; i < rows.size(); ++i) {
     rows[i].t_ns = x[i].t_ns;
@@ -251,7 +251,7 @@ RefineCommandResult refine_run(const fs::path& run_dir_in, const fs::path& out_d
     res.warnings.push_back("the marginal covariances could not be computed (rank-deficient problem): σ written as 0");
 
   const auto t_write = Clock::now();
-  const std::vector<store::StateRow> states = refined_states(r, tables, ds.imu);
+  const std::vector<store::RecordedState> states = refined_states(r, tables, ds.imu);
   store::write_states_csv(dir.file("states.csv"), states);
   store::write_objects_csv(dir.file("objects.csv"), refined_objects(r));
   store::write_reprojection_csv(dir.file("reprojection.csv"),

@@ -55,7 +55,7 @@ class Recorder : public ekf::FilterObserver {
 
  private:
   void record_state(const ekf::Filter& f) {
-    StateRow s;
+    RecordedState s;
     s.t_ns = f.time();
     s.x = f.core();
     s.T_I_C = f.T_I_C();
@@ -213,12 +213,12 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
     ekf::SmootherOptions sopt;
     if (config.output_rate != "imu") {
       row_times.reserve(out.states.size());
-      for (const StateRow& row : out.states) row_times.push_back(row.t_ns);
+      for (const RecordedState& row : out.states) row_times.push_back(row.t_ns);
       sopt.covariance_at = &row_times;
     }
     const ekf::SmootherResult sm = ekf::smooth(recording, noise, sopt);
     out.filter_states = out.states;
-    for (StateRow& row : out.states) {
+    for (RecordedState& row : out.states) {
       const auto it = std::lower_bound(sm.states.begin(), sm.states.end(), row.t_ns,
                                        [](const ekf::SmoothedState& s, Timestamp t) { return s.t_ns < t; });
       ROE_CHECK(it != sm.states.end() && it->t_ns == row.t_ns, "smoother: a state row without a smoothed state");
@@ -241,7 +241,7 @@ namespace {
 
 // Writers of trajectory.csv and trajectory.tum (with a suffix: trajectory_filter.csv, ...) from state rows,
 // read in place.
-void add_trajectory_writers(const std::vector<StateRow>& rows, const io::OutputDir& dir, const std::string& suffix,
+void add_trajectory_writers(const std::vector<RecordedState>& rows, const io::OutputDir& dir, const std::string& suffix,
                             std::vector<std::function<void()>>& writers) {
   for (const auto format : {io::TrajectoryFormat::kCsv, io::TrajectoryFormat::kTum})
     writers.push_back([&rows, &dir, suffix, format] {

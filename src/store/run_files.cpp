@@ -100,9 +100,9 @@ Column<W, R> stamp_column() {
 }
 
 // states.csv
-const Table<StateRow>& states_table() {
-  static const Table<StateRow> t = [] {
-    Table<StateRow> t{stamp_column<StateRow, StateRow>()};
+const Table<RecordedState>& states_table() {
+  static const Table<RecordedState> t = [] {
+    Table<RecordedState> t{stamp_column<RecordedState, RecordedState>()};
     axes(t, "p_W_I", "xyz", ROE_VEC(x.p_W_I));
     axes(t, "v_W_I", "xyz", ROE_VEC(x.v_W_I));
     axes(t, "q_W_I", "xyzw", ROE_QUAT(x.q_W_I));
@@ -277,14 +277,14 @@ const std::vector<std::string>& reprojection_csv_columns() {
   return n;
 }
 
-std::string format_states_csv(const std::vector<StateRow>& rows) { return fill_table(states_table(), rows).str(); }
+std::string format_states_csv(const std::vector<RecordedState>& rows) { return fill_table(states_table(), rows).str(); }
 std::string format_objects_csv(const std::vector<ObjectRow>& rows) { return fill_table(objects_table(), rows).str(); }
 std::string format_reprojection_csv(const std::vector<ReprojectionRow>& rows) {
   return fill_table(reprojection_table(), rows).str();
 }
 // The writers stream the table into the file in pieces of CsvWriter::kFlushBytes (the same bytes as
 // format_*: fill_table with a sink).
-void write_states_csv(const fs::path& file, const std::vector<StateRow>& rows) {
+void write_states_csv(const fs::path& file, const std::vector<RecordedState>& rows) {
   AtomicFile f(file);
   fill_table(states_table(), rows, &f);
   f.commit();
@@ -300,13 +300,13 @@ void write_reprojection_csv(const fs::path& file, const std::vector<Reprojection
   f.commit();
 }
 
-std::vector<StateRow> read_states_csv(const fs::path& file, const RunFileRead& read) {
+std::vector<RecordedState> read_states_csv(const fs::path& file, const RunFileRead& read) {
   return read_all(states_table(), file, read);
 }
 
 bool for_each_state_row(const fs::path& file, const RunFileRead& read,
-                        const std::function<void(const StateRow&)>& fn, std::string* missing) {
-  return read_table(states_table(), file, read, missing, [&](StateRow&& row) { fn(row); });
+                        const std::function<void(const RecordedState&)>& fn, std::string* missing) {
+  return read_table(states_table(), file, read, missing, [&](RecordedState&& row) { fn(row); });
 }
 
 std::vector<ObjectRow> read_objects_csv(const fs::path& file) { return read_all(objects_table(), file, {}); }

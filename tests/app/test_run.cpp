@@ -514,7 +514,7 @@ namespace {
 // roe eval's pipeline on state rows of a run of the EuRoC snippet: nearest association within 10 ms,
 // SE(3) Umeyama alignment and APE over every matched row of the whole recording. Returns the worst axis
 // (m, deg).
-std::pair<double, double> euroc_worst_axis(const Dataset& d, const std::vector<app::StateRow>& states,
+std::pair<double, double> euroc_worst_axis(const Dataset& d, const std::vector<app::RecordedState>& states,
                                            std::uint64_t seed, const char* what) {
   std::vector<Timestamp> t_est, t_gt;
   std::vector<Pose> est_all, gt_all;

@@ -43,7 +43,7 @@ inline std::optional<Dataset> euroc_snippet_with_objects() {
 /// Ground-truth state at each estimate row (same stamps: the estimate is written at the IMU stamps,
 /// the simulated ground truth is at the IMU stamps too). Rows without a truth stamp are dropped.
 struct Matched {
-  std::vector<const app::StateRow*> est;
+  std::vector<const app::RecordedState*> est;
   std::vector<const ImuState*> gt;
 };
 inline Matched match(const app::RunOutput& r, const Dataset& d, double skip_s = 0.0) {

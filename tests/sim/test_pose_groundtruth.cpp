@@ -57,7 +57,7 @@ std::optional<fs::path> tumvi_mav0(const test::TempDir& d) {
 }
 
 // Worst-axis position RMSE (m) of `states` against the dataset's ground truth after SE(3) alignment, as roe eval.
-double worst_axis(const Dataset& d, const std::vector<app::StateRow>& states) {
+double worst_axis(const Dataset& d, const std::vector<app::RecordedState>& states) {
   std::vector<Timestamp> t_est, t_gt;
   std::vector<Pose> est_all, gt_all, est, gt;
   for (const auto& s : states) {

@@ -78,9 +78,9 @@ TEST_CASE("run files: write then read gives the rows back", "[io][run_files]") {
   std::mt19937 g(7);
   std::uniform_real_distribution<double> u(0.0, 2.0);
   SECTION("states.csv") {
-    std::vector<StateRow> rows(50);
+    std::vector<RecordedState> rows(50);
     for (std::size_t i = 0; i < rows.size(); ++i) {
-      StateRow& s = rows[i];
+      RecordedState& s = rows[i];
       s.t_ns = 1000000000LL * 1700000000 + static_cast<Timestamp>(i / 2) * 2500000;  // pairs of equal stamps
       s.x.p_W_I = random_vec(g);
       s.x.v_W_I = random_vec(g);
@@ -91,7 +91,7 @@ TEST_CASE("run files: write then read gives the rows back", "[io][run_files]") {
       for (int k = 0; k < 21; ++k) s.sigma(k) = k % 7 == 0 ? 0.0 : u(g);
     }
     write_states_csv(tmp / "states.csv", rows);
-    const std::vector<StateRow> back = read_states_csv(tmp / "states.csv");
+    const std::vector<RecordedState> back = read_states_csv(tmp / "states.csv");
     REQUIRE(back.size() == rows.size());
     for (std::size_t i = 0; i < rows.size(); ++i) {
       CHECK(back[i].t_ns == rows[i].t_ns);
@@ -110,7 +110,7 @@ TEST_CASE("run files: write then read gives the rows back", "[io][run_files]") {
     const auto part = read_states_csv(tmp / "states.csv", some);
     REQUIRE(part.size() == rows.size());
     std::size_t n = 0;
-    CHECK(for_each_state_row(tmp / "states.csv", some, [&](const StateRow& r) { CHECK(r.sigma(7) == rows[n++].sigma(7)); }));
+    CHECK(for_each_state_row(tmp / "states.csv", some, [&](const RecordedState& r) { CHECK(r.sigma(7) == rows[n++].sigma(7)); }));
     CHECK(n == rows.size());
     CHECK(part[5].sigma(7) == rows[5].sigma(7));
     CHECK(part[5].sigma(6) == 0.0);
@@ -181,7 +181,7 @@ TEST_CASE("run files: write then read gives the rows back", "[io][run_files]") {
 
 TEST_CASE("run files: readers name the file, line and column of what is wrong", "[io][run_files]") {
   test::TempDir tmp("roe_run_files_bad");
-  StateRow s;
+  RecordedState s;
   s.t_ns = 100;
   ObjectRow o;
   o.t_ns = 100;
@@ -205,7 +205,7 @@ TEST_CASE("run files: readers name the file, line and column of what is wrong", 
     // With `missing`, the same is a reason instead of an error.
     std::string why;
     std::size_t n = 0;
-    CHECK_FALSE(for_each_state_row(f, {}, [&](const StateRow&) { ++n; }, &why));
+    CHECK_FALSE(for_each_state_row(f, {}, [&](const RecordedState&) { ++n; }, &why));
     CHECK(n == 0);
     CHECK_THAT(why, Catch::Contains("sigma_p_I_C_y"));
     // A column the reader is not asked for may be missing.
@@ -302,7 +302,7 @@ TEST_CASE("run files: tables streamed into the file in pieces have the bytes of 
   test::TempDir tmp("roe_run_files_stream");
   std::mt19937 g(11);
   // 6000 rows of ~560 bytes: 3.4 MB, so the writer appends several 1 MiB pieces and a tail.
-  std::vector<StateRow> rows(6000);
+  std::vector<RecordedState> rows(6000);
   for (std::size_t i = 0; i < rows.size(); ++i) {
     rows[i].t_ns = 1700000000000000000LL + static_cast<Timestamp>(i) * 5000000;
     rows[i].x.p_W_I = random_vec(g);

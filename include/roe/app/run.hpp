@@ -45,15 +45,15 @@ using store::run_config_to_json;
 RunConfig run_config_from_file(const std::filesystem::path& file);
 
 /// The rows of states.csv, objects.csv and reprojection.csv (their columns: io/run_files.hpp).
-using StateRow = store::StateRow;
+using RecordedState = store::RecordedState;
 using ObjectRow = store::ObjectRow;
 using ReprojectionRow = store::ReprojectionRow;
 
 /// The result of a run in memory (what the files hold).
 struct RunOutput {
-  std::vector<StateRow> states;  ///< the estimate (smoothed with RunConfig::smoother "rts")
+  std::vector<RecordedState> states;  ///< the estimate (smoothed with RunConfig::smoother "rts")
   /// With the smoother: the filter's estimate at the same times as `states`; empty otherwise.
-  std::vector<StateRow> filter_states;
+  std::vector<RecordedState> filter_states;
   bool smoothed = false;
   double smoother_wall_s = 0.0;
   std::vector<ObjectRow> objects;

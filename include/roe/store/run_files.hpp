@@ -17,7 +17,7 @@
 /// a missing column (at the header line, naming it), a value that is not a number, a non-finite number
 /// where the writer never writes one, a quaternion that is not unit (|‖q‖ − 1| > tolerance), a negative
 /// σ, decreasing stamps. write → read gives the rows back: numbers exactly, quaternions in the canonical
-/// hemisphere and normalised (to an ulp or two); states.csv does not hold StateRow::pose_cov (reads as 0).
+/// hemisphere and normalised (to an ulp or two); states.csv does not hold RecordedState::pose_cov (reads as 0).
 ///
 /// Adding a column to a file is one line in its table in run_files.cpp (name, how to write it, how to
 /// read it; `optional` when older files without it must still be read).
@@ -37,10 +37,11 @@ namespace roe::store {
 
 namespace fs = std::filesystem;
 
-/// The filter's state at one time as a run records it: a row of states.csv (t, x, T_I_C, sigma; trajectory.csv
+/// The filter's state at one time as a run records it (named for that, not "a row": it carries more than the
+/// file): what a row of states.csv holds (t, x, T_I_C, sigma; trajectory.csv
 /// holds t, p_W_I, q_W_I of it) plus pose_cov, which the run keeps in memory for the consistency tests and
 /// no file carries (read_states_csv leaves it zero).
-struct StateRow {
+struct RecordedState {
   Timestamp t_ns = 0;
   ekf::CoreState x;
   Pose T_I_C;
@@ -77,10 +78,10 @@ const std::vector<std::string>& objects_csv_columns();
 const std::vector<std::string>& reprojection_csv_columns();
 
 /// The text of each file (header + rows), and the same written atomically (io/output.hpp).
-std::string format_states_csv(const std::vector<StateRow>& rows);
+std::string format_states_csv(const std::vector<RecordedState>& rows);
 std::string format_objects_csv(const std::vector<ObjectRow>& rows);
 std::string format_reprojection_csv(const std::vector<ReprojectionRow>& rows);
-void write_states_csv(const fs::path& file, const std::vector<StateRow>& rows);
+void write_states_csv(const fs::path& file, const std::vector<RecordedState>& rows);
 void write_objects_csv(const fs::path& file, const std::vector<ObjectRow>& rows);
 void write_reprojection_csv(const fs::path& file, const std::vector<ReprojectionRow>& rows);
 
@@ -97,11 +98,11 @@ struct RunFileRead {
 };
 
 /// states.csv (or states_filter.csv). Stamps must not decrease; quaternions unit within 1e-3; σ ≥ 0.
-std::vector<StateRow> read_states_csv(const fs::path& file, const RunFileRead& read = {});
+std::vector<RecordedState> read_states_csv(const fs::path& file, const RunFileRead& read = {});
 /// The same row by row, nothing kept (a 60 s run at the IMU rate is 24,000 rows of 600 bytes): fn(row)
 /// for each data row in order. With `missing` non-null, a listed column that the header lacks is not an
 /// error: *missing says which and the result is false (eval then skips its NEES with that reason).
-bool for_each_state_row(const fs::path& file, const RunFileRead& read, const std::function<void(const StateRow&)>& fn,
+bool for_each_state_row(const fs::path& file, const RunFileRead& read, const std::function<void(const RecordedState&)>& fn,
                         std::string* missing = nullptr);
 /// objects.csv. Stamps must not decrease; anchor 0 or 1; quaternions unit within 1e-3; σ ≥ 0.
 std::vector<ObjectRow> read_objects_csv(const fs::path& file);
