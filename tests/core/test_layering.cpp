@@ -160,11 +160,30 @@ TEST_CASE("io stays below the estimator and roe's own files: store holds them, a
       for (const char* f : {"roe/app/", "roe/cli/", "roe/image/", "roe/infer/", "roe/io/ros/"})
         if (starts_with(i.header, f)) bad.push_back(at);
     }
-    // Below store, nothing reaches up into it (only app, cli, the tests and benchmarks).
-    if (starts_with(i.header, "roe/store/") && !in_store && !starts_with(i.file, "src/app/") &&
+    // Below store, nothing reaches up into it (only pipeline, app, cli, the tests and benchmarks).
+    const bool in_pipeline = starts_with(i.file, "src/pipeline/") || starts_with(i.file, "include/roe/pipeline/");
+    if (starts_with(i.header, "roe/store/") && !in_store && !in_pipeline && !starts_with(i.file, "src/app/") &&
         !starts_with(i.file, "include/roe/app/") && !starts_with(i.file, "src/cli/"))
       bad.push_back(at);
   }
+  for (const auto& s : bad) UNSCOPED_INFO(s);
+  CHECK(bad.empty());
+}
+
+TEST_CASE("the run pipeline reads and writes no file, and only app reaches it", "[layering]") {
+  // pipeline (roe run's dataset → filter → smoother → rows, docs/architecture.md "pipeline") stands on
+  // core, math, ekf and store's types; it includes no I/O, JSON or stream header, nothing of io, app, cli,
+  // image or infer, and nothing but app includes it.
+  const auto v = violations({"pipeline"}, {"roe/io/", "roe/app/", "roe/cli/", "roe/image/", "roe/infer/",
+                                           "nlohmann", "fstream", "iostream", "cstdio", "opencv", "torch"});
+  for (const auto& s : v) UNSCOPED_INFO(s);
+  CHECK(v.empty());
+  std::vector<std::string> bad;
+  for (const auto& i : roe_includes())
+    if (starts_with(i.header, "roe/pipeline/") && !starts_with(i.file, "src/pipeline/") &&
+        !starts_with(i.file, "include/roe/pipeline/") && !starts_with(i.file, "src/app/") &&
+        !starts_with(i.file, "include/roe/app/"))
+      bad.push_back(i.file + ":" + std::to_string(i.line) + ": " + i.header);
   for (const auto& s : bad) UNSCOPED_INFO(s);
   CHECK(bad.empty());
 }

@@ -29,6 +29,7 @@
 #include "roe/ekf/driver.hpp"
 #include "roe/ekf/health.hpp"
 #include "roe/ekf/options.hpp"
+#include "roe/pipeline/run.hpp"
 #include "roe/store/dataset.hpp"
 #include "roe/store/run_config.hpp"
 #include "roe/store/run_files.hpp"
@@ -49,32 +50,9 @@ using RecordedState = store::RecordedState;
 using ObjectRow = store::ObjectRow;
 using ReprojectionRow = store::ReprojectionRow;
 
-/// The result of a run in memory (what the files hold).
-struct RunOutput {
-  std::vector<RecordedState> states;  ///< the estimate (smoothed with RunConfig::smoother "rts")
-  /// With the smoother: the filter's estimate at the same times as `states`; empty otherwise.
-  std::vector<RecordedState> filter_states;
-  bool smoothed = false;
-  double smoother_wall_s = 0.0;
-  std::vector<ObjectRow> objects;
-  std::vector<ReprojectionRow> reprojection;
-  /// The anchor, per-object counts, NIS values, update times and the final state (ekf/driver.hpp).
-  ekf::FilterRunSummary summary;
-  ekf::RunHealth health;  ///< against RunConfig::health
-  Pose prior_T_I_C;  ///< the extrinsics the filter started from (roe.json camera.T_I_C)
-  std::vector<std::string> warnings;
-  double filter_wall_s = 0.0;
-  /// The IMU noise the filter used (after imu_noise_scale), and where each value came from
-  /// ("config" or "dataset"), in the order gyro_noise_density, gyro_random_walk, accel_noise_density,
-  /// accel_random_walk.
-  ekf::ImuNoiseParams imu_noise;
-  std::array<std::string, 4> imu_noise_from;
-};
-
-/// Runs the filter on a dataset in memory with the detection set `detections_name` (empty: the only
-/// one). Validates the inputs (InputError: no IMU, unknown object ids, bad options; DataError: no
-/// detections, configured anchor never detected) and throws NumericError when the filter diverges.
-RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name, const RunConfig& config);
+/// The run in memory and the function that makes it: the pipeline room (pipeline/run.hpp).
+using pipeline::RunOutput;
+using pipeline::run_dataset;
 
 struct RunOptions {
   std::string config_file;  ///< empty: built-in defaults (= configs/default.json)

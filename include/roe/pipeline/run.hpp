@@ -1,0 +1,52 @@
+#pragma once
+/// @file
+/// The run pipeline of `roe run`, I/O-free: a dataset in memory and a run configuration in, the filter's
+/// (and with "smoother": "rts" the smoother's) rows, summary, health and warnings out. The app reads the
+/// dataset and writes the run folder (app/run.hpp); everything decided about the data between is here,
+/// where tests reach it without files.
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "roe/core/dataset.hpp"
+#include "roe/ekf/driver.hpp"
+#include "roe/ekf/health.hpp"
+#include "roe/ekf/imu.hpp"
+#include "roe/store/run_config.hpp"
+#include "roe/store/run_files.hpp"
+
+namespace roe::pipeline {
+
+/// The result of a run in memory (what the files hold).
+struct RunOutput {
+  std::vector<store::RecordedState> states;  ///< the estimate (smoothed with store::RunConfig::smoother "rts")
+  /// With the smoother: the filter's estimate at the same times as `states`; empty otherwise.
+  std::vector<store::RecordedState> filter_states;
+  bool smoothed = false;
+  double smoother_wall_s = 0.0;
+  std::vector<store::ObjectRow> objects;
+  std::vector<store::ReprojectionRow> reprojection;
+  /// The anchor, per-object counts, NIS values, update times and the final state (ekf/driver.hpp).
+  ekf::FilterRunSummary summary;
+  ekf::RunHealth health;  ///< against store::RunConfig::health
+  Pose prior_T_I_C;  ///< the extrinsics the filter started from (roe.json camera.T_I_C)
+  std::vector<std::string> warnings;
+  double filter_wall_s = 0.0;
+  /// The IMU noise the filter used (after imu_noise_scale), and where each value came from
+  /// ("config" or "dataset"), in the order gyro_noise_density, gyro_random_walk, accel_noise_density,
+  /// accel_random_walk.
+  ekf::ImuNoiseParams imu_noise;
+  std::array<std::string, 4> imu_noise_from;
+};
+
+/// Runs the filter on a dataset in memory with the detection set `detections_name` (empty: the only
+/// one). Validates the inputs (InputError: no IMU, unknown object ids, bad options; DataError: no
+/// detections, configured anchor never detected) and throws NumericError when the filter diverges.
+RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name, const store::RunConfig& config);
+
+/// The detection set a run fuses: `name` when given (InputError naming the available sets when the dataset
+/// has no such set), else the dataset's only one (InputError when it has none or several).
+std::string choose_detections(const Dataset& dataset, const std::string& name);
+
+}  // namespace roe::pipeline

@@ -1,0 +1,236 @@
+// The run pipeline of `roe run` (pipeline/run.hpp): dataset in memory → measurement stream → filter →
+// smoother → the rows and summary the run files and run.json are made of. No file is read or written here.
+#include "roe/pipeline/run.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include "roe/core/clock.hpp"
+#include "roe/core/error.hpp"
+#include "roe/ekf/smoother.hpp"
+
+namespace roe::pipeline {
+namespace {
+
+using Clock = SteadyClock;
+using store::ObjectRow;
+using store::RecordedState;
+
+// Collects the filter's output rows in memory (the counts and the final state are run_filter's summary).
+class Recorder : public ekf::FilterObserver {
+ public:
+  Recorder(RunOutput& out, bool imu_rate) : out_(out), imu_rate_(imu_rate) {}
+
+  void on_imu(const ekf::Filter& f) override {
+    if (imu_rate_) record_state(f);
+  }
+
+  void on_image(ekf::Filter& f, const ekf::FrameResult& r) override {
+    if (!imu_rate_) record_state(f);
+    for (const auto& d : r.detections) out_.reprojection.push_back({r.t_ns, d.object_id, d});
+    if (r.detections.empty() || r.detections.front().status == ekf::DetectionStatus::kRejectedNoImu) return;
+    for (const auto& o : f.objects()) {
+      ObjectRow row;
+      row.t_ns = r.t_ns;
+      row.object_id = o.id;
+      row.anchor = o.anchor;
+      row.T_O_W = o.T_O_W;
+      row.sigma = f.object_covariance(o).diagonal().cwiseSqrt();
+      row.sigma_W_O = f.object_covariance_in_world(o).diagonal().cwiseMax(0.0).cwiseSqrt();
+      if (!o.anchor) row.sigma_A_O = f.object_covariance_relative_to_anchor(o).diagonal().cwiseMax(0.0).cwiseSqrt();
+      out_.objects.push_back(row);
+    }
+  }
+
+ private:
+  void record_state(const ekf::Filter& f) {
+    RecordedState s;
+    s.t_ns = f.time();
+    s.x = f.core();
+    s.T_I_C = f.T_I_C();
+    for (int i = 0; i < 15; ++i) s.sigma(i) = std::sqrt(f.variance(i));
+    const int e = f.extrinsics_offset();
+    for (int i = 0; i < 6; ++i) s.sigma(15 + i) = e >= 0 ? std::sqrt(f.variance(e + i)) : 0.0;
+    // Pose covariance [δp; δθ]: the core block of P is always current (no sync needed).
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b)
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            s.pose_cov(3 * a + i, 3 * b + j) = f.core_covariance(a == 0 ? ekf::kP + i : ekf::kTheta + i,
+                                                                 b == 0 ? ekf::kP + j : ekf::kTheta + j);
+    out_.states.push_back(s);
+  }
+
+  RunOutput& out_;
+  bool imu_rate_;
+};
+
+}  // namespace
+
+std::string choose_detections(const Dataset& d, const std::string& name) {
+  std::vector<std::string> names;
+  for (const auto& kv : d.detections) names.push_back(kv.first);
+  const std::string list = names.empty() ? "none" : fmt::format("{}", fmt::join(names, ", "));
+  if (!name.empty()) {
+    if (!d.detections.count(name))
+      throw InputError(fmt::format("no detection set '{}' in the dataset (available: {})", name, list),
+                       {"detections/" + name});
+    return name;
+  }
+  if (names.size() == 1) return names.front();
+  if (names.empty())
+    throw InputError(
+        "the dataset has no detections (detections/<name>/detections.csv); run `roe infer` or "
+        "`roe import poet` first",
+        {"detections/"});
+  throw InputError(
+      fmt::format("the dataset has several detection sets ({}); choose one with --detections", list),
+      {"detections/"});
+}
+
+namespace {
+
+// The filter's IMU noise: the config's value where it gives one (>= 0), else roe.json's; `from` says which.
+ekf::ImuNoiseParams imu_noise(const Dataset& d, const ekf::FilterOptions& o, std::array<std::string, 4>& from) {
+  ekf::ImuNoiseParams n;
+  const ImuNoise* ds = d.manifest.imu ? &d.manifest.imu->noise : nullptr;
+  int i = 0;
+  const auto pick = [&](double opt, double ImuNoise::*field, const char* key) {
+    if (opt >= 0.0) {
+      from[i++] = "config";
+      return opt;
+    }
+    if (ds == nullptr || !(ds->*field >= 0.0))
+      throw ConfigError(fmt::format("IMU noise unknown: roe.json has no imu.{0}; set filter.{0} in the config "
+                                    "(or import a Kalibr imu.yaml with roe import kalibr)",
+                                    key),
+                        {"roe.json", 0, 0, std::string("imu.") + key});
+    from[i++] = "dataset";
+    return ds->*field;
+  };
+  n.gyro_noise_density = pick(o.gyro_noise_density, &ImuNoise::gyro_noise_density, "gyro_noise_density");
+  n.gyro_random_walk = pick(o.gyro_random_walk, &ImuNoise::gyro_random_walk, "gyro_random_walk");
+  n.accel_noise_density = pick(o.accel_noise_density, &ImuNoise::accel_noise_density, "accel_noise_density");
+  n.accel_random_walk = pick(o.accel_random_walk, &ImuNoise::accel_random_walk, "accel_random_walk");
+  n.gyro_noise_density *= o.imu_noise_scale;
+  n.gyro_random_walk *= o.imu_noise_scale;
+  n.accel_noise_density *= o.imu_noise_scale;
+  n.accel_random_walk *= o.imu_noise_scale;
+  return n;
+}
+
+}  // namespace
+
+RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name, const store::RunConfig& config) {
+  RunOutput out;
+  const ekf::FilterOptions& opt = config.filter;
+  if (dataset.imu.size() < 2)
+    throw InputError(fmt::format("the dataset has no usable IMU stream ({} samples in mav0/imu0/data.csv; "
+                                 "at least 2 needed)",
+                                 dataset.imu.size()),
+                     {"mav0/imu0/data.csv"});
+  const std::string set = choose_detections(dataset, detections_name);
+  const std::vector<Detection>& dets = dataset.detections.at(set);
+  const std::string det_file = "detections/" + set + "/detections.csv";
+  if (dets.empty())
+    throw DataError(fmt::format("{} has no detections: nothing to fuse with the IMU", det_file), {det_file});
+
+  // Object ids must be declared in roe.json. A dataset that declares none (a RealSense import, whose
+  // detections came from `roe import poet` or `roe infer` with the detector's class ids) takes the ids
+  // of its detections, with a warning; one that declares objects catches a mismatched detection set.
+  std::set<int> known;
+  for (const auto& o : dataset.manifest.objects) known.insert(o.id);
+  if (known.empty()) {
+    for (const auto& d : dets) known.insert(d.object_id);
+    out.warnings.push_back(fmt::format("roe.json declares no objects: using the {} object id(s) of {} ({})",
+                                       known.size(), det_file, fmt::join(known, ", ")));
+  }
+  for (std::size_t i = 0; i < dets.size(); ++i) {
+    if (!known.count(dets[i].object_id))
+      throw InputError(fmt::format("detection of unknown object id {} (roe.json objects: {}); data row {}",
+                                   dets[i].object_id, fmt::join(known, ", "), i + 1),
+                       {det_file, static_cast<std::int64_t>(i + 2), 2, "object_id"});
+  }
+  if (opt.anchor_id >= 0) {
+    if (!known.count(opt.anchor_id))
+      throw ConfigError(fmt::format("anchor_id {} is not an object of this dataset (roe.json objects: {})",
+                                    opt.anchor_id, fmt::join(known, ", ")),
+                        {"config", 0, 0, "filter.anchor_id"});
+    const bool seen = std::any_of(dets.begin(), dets.end(),
+                                  [&](const Detection& d) { return d.object_id == opt.anchor_id; });
+    if (!seen)
+      throw DataError(fmt::format("the anchor object {} is never detected in {}: no update could be made "
+                                  "(choose another filter.anchor_id, or -1 for the first object seen)",
+                                  opt.anchor_id, det_file),
+                      {det_file});
+  }
+
+  // Extrinsics prior.
+  Pose T_I_C;
+  if (dataset.manifest.camera) {
+    T_I_C = dataset.manifest.camera->T_I_C;
+  } else {
+    out.warnings.push_back("roe.json has no camera: T_I_C prior = identity");
+  }
+  out.prior_T_I_C = T_I_C;
+  const Timestamp offset_ns =
+      dataset.manifest.camera ? from_seconds(dataset.manifest.camera->time_offset_s) : 0;
+
+  const std::vector<ekf::ImageDetections> images = ekf::group_images(dets, offset_ns);
+  const ekf::ImuNoiseParams noise = imu_noise(dataset, opt, out.imu_noise_from);
+  out.imu_noise = noise;
+  if (noise.gyro_noise_density == 0.0 || noise.accel_noise_density == 0.0)
+    out.warnings.push_back(fmt::format(
+        "IMU noise density 0 (gyro {:g}, accel {:g}; from the {}): the filter trusts the IMU exactly, which "
+        "only a noise-free simulation justifies",
+        noise.gyro_noise_density, noise.accel_noise_density,
+        out.imu_noise_from[0] == out.imu_noise_from[2] ? out.imu_noise_from[0] : "dataset and config"));
+  out.states.reserve(config.output_rate == "imu" ? dataset.imu.size() : images.size());
+  out.reprojection.reserve(dets.size());
+  Recorder rec(out, config.output_rate == "imu");
+  const auto t0 = Clock::now();
+  const bool smooth = config.smoother == "rts";
+  ekf::FilterRecording recording;
+  std::map<int, ObjectSymmetry> symmetries;
+  for (const auto& o : dataset.manifest.objects)
+    if (!o.symmetry.empty() || o.symmetric) symmetries[o.id] = o.symmetry;  // empty: symmetric, group unknown
+  out.summary =
+      ekf::run_filter(dataset.imu, images, opt, noise, T_I_C, rec, smooth ? &recording : nullptr, symmetries);
+  out.filter_wall_s = seconds_since(t0);
+  if (smooth) {
+    // Every state row is at the filter's initial time or at the end of a propagation step.
+    const auto t1 = Clock::now();
+    // At the IMU rate every step is a row; at the image rate the smoother forms the covariance only at the
+    // rows (the mean at the other steps costs O(15²) each, ekf/smoother.hpp).
+    std::vector<Timestamp> row_times;
+    ekf::SmootherOptions sopt;
+    if (config.output_rate != "imu") {
+      row_times.reserve(out.states.size());
+      for (const RecordedState& row : out.states) row_times.push_back(row.t_ns);
+      sopt.covariance_at = &row_times;
+    }
+    const ekf::SmootherResult sm = ekf::smooth(recording, noise, sopt);
+    out.filter_states = out.states;
+    for (RecordedState& row : out.states) {
+      const auto it = std::lower_bound(sm.states.begin(), sm.states.end(), row.t_ns,
+                                       [](const ekf::SmoothedState& s, Timestamp t) { return s.t_ns < t; });
+      ROE_CHECK(it != sm.states.end() && it->t_ns == row.t_ns, "smoother: a state row without a smoothed state");
+      row.x = it->x;
+      row.T_I_C = it->T_I_C;
+      row.sigma = it->sigma;
+      row.pose_cov = it->pose_cov;
+    }
+    out.smoothed = true;
+    out.smoother_wall_s = seconds_since(t1);
+  }
+
+  const std::vector<std::string> w = ekf::run_warnings(out.summary, opt);
+  out.warnings.insert(out.warnings.end(), w.begin(), w.end());
+  out.health = ekf::assess_health(out.summary, opt, config.health);
+  return out;
+}
+
+}  // namespace roe::pipeline
