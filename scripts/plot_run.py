@@ -815,6 +815,11 @@ def extrinsics(F, causal, smoothed, prior, truth, t0):
         p_prior = np.stack(need(causal, "p_I_C_x", "p_I_C_y", "p_I_C_z"), axis=1)[:1]
         R_prior = quat_to_R(q0)
     t, p, sp, dth, sr = extrinsics_series(causal, p_prior, R_prior)
+    # A run written with --output standard records σ at the rows after each image only (empty cells between);
+    # the extrinsics change only at the updates, so the trace is those rows.
+    recorded = np.isfinite(sp).all(axis=1) & np.isfinite(sr).all(axis=1)
+    if not recorded.all():
+        t, p, sp, dth, sr = t[recorded], p[recorded], sp[recorded], dth[recorded], sr[recorded]
     t = t - t0
     final = None
     if smoothed is not None and smoothed["_n"] > 0:
@@ -1240,7 +1245,7 @@ def make_tasks(F, a, x, chosen, colors, label_of):
         tobj = {o["id"]: pose_q(o["T_W_O"]["p"], o["T_W_O"]["q"]) for o in truth.get("objects", [])}
         tasks += fig4_tasks(F, objs, anchor, tobj, x["symmetries"], colors, t0, label_of)
     else:
-        tasks.append((0.1, lambda: F.skip("fig4", "no objects.csv / run.json (not a run folder)")))
+        tasks.append((0.1, lambda: F.skip("fig4", a.run_absent or "no objects.csv / run.json (not a run folder)")))
     # The extrinsics as the causal filter had them: states_filter.csv when the smoother rewrote states.csv.
     causal = x["states_filter"] if x["states_filter"] is not None else x["states"]
     if causal is not None and "p_I_C_x" in causal:
@@ -1251,7 +1256,8 @@ def make_tasks(F, a, x, chosen, colors, label_of):
         tasks.append((2.0, lambda: extrinsics(F, causal, smoothed, prior, pose_q(tt["p"], tt["q"]) if tt else None,
                                               t0)))
     else:
-        tasks.append((0.1, lambda: F.skip("extrinsics", "no states.csv with the extrinsics (not a run folder)")))
+        tasks.append((0.1, lambda: F.skip("extrinsics", a.run_absent or
+                                          "no states.csv with the extrinsics (not a run folder)")))
     gate = (run_json.get("nis") or {}).get("gate")
     tasks.append((3.0, lambda: consistency(F, err, reps, colors, gate, t0)))
     tasks.append((1.2, lambda: trajectory(F, est, gt, reps, chosen, colors, err, a.plot_mode, a.color_by_error)))
@@ -1282,6 +1288,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--eval", required=True, dest="eval_dir")
     ap.add_argument("--run", default=None)
+    ap.add_argument("--run-absent", default=None,
+                    help="why the run folder has no states/objects tables (roe passes it for --output minimal)")
     ap.add_argument("--dataset", default=None)
     ap.add_argument("--tables", default=None, help="JSON {csv path: {bin, columns, rows}} of tables roe parsed")
     ap.add_argument("--symmetries", default=None, help="JSON {id: {discrete: [pose...], continuous: {axis, offset}}}")

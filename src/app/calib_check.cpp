@@ -33,11 +33,12 @@ struct StatesTrace {
 
 // roe run writes only finite numbers in states.csv (the filter stops on a non-finite state): a NaN or a
 // non-number in any column, read by a check or not, means the file is damaged (docs/calib-check.md), so
-// every column is read.
+// every column is read. Its σ cells may be empty (output level standard: σ recorded after each image only);
+// the trace is the rows with σ (the extrinsics change only at the updates).
 StatesTrace read_states(const fs::path& file) {
   StatesTrace t;
   store::for_each_state_row(file, {}, [&](const store::RecordedState& s) {
-    t.extrinsics.push_back({s.t_ns, s.T_I_C, s.sigma.tail<6>()});
+    if (!s.sigma.tail<6>().array().isNaN().any()) t.extrinsics.push_back({s.t_ns, s.T_I_C, s.sigma.tail<6>()});
     t.final_gyro_bias = s.x.b_g;
   });
   if (t.extrinsics.empty()) throw InputError("no data row", {file.string()});
@@ -249,12 +250,19 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
 
   // The filter's own (causal) history: with "smoother": "rts" states.csv holds the smoothed estimate, whose
   // constant states carry their final value and σ at every time, and the filter's is in states_filter.csv.
+  // A run written with output level minimal has neither: every check says it cannot judge.
   const fs::path filter_states = run_dir / "states_filter.csv";
-  StatesTrace states = read_states(fs::is_regular_file(filter_states, ec) ? filter_states : run_dir / "states.csv");
-  in.extrinsics = std::move(states.extrinsics);
-  auto objects = read_objects(run_dir / "objects.csv");
-  add_detection_counts(run, in, objects);
-  for (const auto& [id, o] : objects) in.objects.push_back(o);
+  in.estimate_absent_reason = store::run_file_absent_reason(run.config, "states.csv");
+  StatesTrace states;
+  if (in.estimate_absent_reason.empty()) {
+    states = read_states(fs::is_regular_file(filter_states, ec) ? filter_states : run_dir / "states.csv");
+    in.extrinsics = std::move(states.extrinsics);
+    auto objects = read_objects(run_dir / "objects.csv");
+    add_detection_counts(run, in, objects);
+    for (const auto& [id, o] : objects) in.objects.push_back(o);
+  } else {
+    res.warnings.push_back("no calibration check could be made: " + in.estimate_absent_reason);
+  }
 
   calib::CheckResult identity{"dataset.identity", calib::CheckStatus::kSkipped, "--no-dataset", {}};
   const fs::path dataset = choose_dataset(run, opt, res, identity, in);
@@ -262,7 +270,7 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
     res.dataset = dataset.string();
     identity = dataset_identity(run, run_dir / "run.json", dataset, res.detections);
     if (identity.status == calib::CheckStatus::kPass) {
-      read_dataset_checks(dataset, opt, min_score, states, res, in);
+      if (in.estimate_absent_reason.empty()) read_dataset_checks(dataset, opt, min_score, states, res, in);
     } else {
       in.dataset_absent_reason = in.time_offset_absent_reason =
           "the dataset is not the one the run read (dataset.identity)";

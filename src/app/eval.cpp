@@ -33,6 +33,17 @@ struct Estimate {
   std::string cov_source;
 };
 
+/// Why a run folder has no `file`: what its run.json's output level left out (store::run_file_absent_reason),
+/// else that it is missing.
+std::string absent_run_file(const fs::path& run_dir, const std::string& file) {
+  const fs::path rj = run_dir / "run.json";
+  if (io::path_exists(rj)) {
+    const std::string why = store::run_file_absent_reason(store::read_run_json(rj).config, file);
+    if (!why.empty()) return why;
+  }
+  return "the run folder has no " + file;
+}
+
 Estimate load_estimate(const EvalOptions& o, std::vector<std::string>& warnings) {
   Estimate e;
   e.in.path = o.est;
@@ -67,9 +78,13 @@ Estimate load_estimate(const EvalOptions& o, std::vector<std::string>& warnings)
     if (io::path_exists(rep)) {
       e.reprojection = read_reprojection_csv(rep);
       e.have_reprojection = true;
+    } else {
+      warnings.push_back("per-object reprojection traces not computed: " + absent_run_file(e.in.path, "reprojection.csv"));
     }
     const fs::path states = e.in.path / "states.csv";
-    if (io::path_exists(states)) {
+    if (!io::path_exists(states)) {
+      warnings.push_back("NEES not computed: " + absent_run_file(e.in.path, "states.csv"));
+    } else {
       std::string why;
       e.cov = read_states_covariance(states, e.in.traj.t_ns, &why);
       if (e.cov.empty()) {

@@ -88,8 +88,12 @@ std::optional<eval::GaugeTruth> load_gauge_truth(const fs::path& run_dir, const 
   const fs::path rj = run_dir / "run.json", objects = run_dir / "objects.csv";
   if (!gt.truth_world || !io::path_exists(store::manifest_path(gt.path)))
     return none("the ground truth is not a dataset's state_groundtruth_estimate0 with a roe.json truth section");
-  if (!io::path_exists(rj) || !io::path_exists(objects)) return none("the run folder has no run.json or objects.csv");
+  if (!io::path_exists(rj)) return none("the run folder has no run.json");
   const store::RunRecord run = store::read_run_json(rj);
+  if (!io::path_exists(objects)) {
+    const std::string level = store::run_file_absent_reason(run.config, "objects.csv");
+    return none(level.empty() ? "the run folder has no objects.csv" : level);
+  }
   const ekf::AnchorGauge g = run.config.filter.anchor_gauge;
   if (g != ekf::AnchorGauge::kPose && g != ekf::AnchorGauge::kPositionYaw)
     return none(fmt::format("anchor_gauge '{}' leaves the yaw of W to the initial prior, not to the anchor: the truth "

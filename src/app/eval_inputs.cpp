@@ -36,6 +36,7 @@ std::vector<std::optional<eval::PoseCovariance>> read_states_covariance(const fs
   const bool have = store::for_each_state_row(
       file, read,
       [&](const store::RecordedState& s) {
+        if (std::isnan(s.sigma(0)) || std::isnan(s.sigma(6))) return;  // σ not recorded at this row (level standard)
         st.push_back(s.t_ns);
         eval::PoseCovariance c;
         c.P_p.diagonal() = s.sigma.head<3>().cwiseAbs2();
@@ -58,7 +59,7 @@ std::vector<std::optional<eval::PoseCovariance>> read_states_covariance(const fs
     }
   }
   if (found == 0) {
-    if (why) *why = "no states.csv stamp matches a trajectory.csv stamp";
+    if (why) *why = "no states.csv stamp with σ matches a trajectory.csv stamp";
     return {};
   }
   return out;

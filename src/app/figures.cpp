@@ -15,6 +15,7 @@
 #include "roe/core/error.hpp"
 #include "roe/io/csv.hpp"
 #include "roe/store/dataset.hpp"
+#include "roe/store/run_record.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 #include "roe/io/process.hpp"
@@ -318,7 +319,14 @@ FigureSet render_figures(const fs::path& eval_dir, const fs::path& run_dir, cons
   check_figure_options(o);
   std::vector<std::string> args = {"--eval", eval_dir.string(), "--out", out_dir.string(), "--objects", o.objects,
                                    "--plot-mode", o.plot_mode, "--vector", o.vector, "--style", o.style};
-  if (!run_dir.empty()) args.insert(args.end(), {"--run", run_dir.string()});
+  if (!run_dir.empty()) {
+    args.insert(args.end(), {"--run", run_dir.string()});
+    // A run written with output level minimal: the figures that need its tables say why they are skipped.
+    if (io::path_exists(run_dir / "run.json")) {
+      const std::string why = store::run_file_absent_reason(store::read_run_json(run_dir / "run.json").config, "objects.csv");
+      if (!why.empty()) args.insert(args.end(), {"--run-absent", why});
+    }
+  }
   const fs::path sym_file = out_dir / ".symmetries.json";
   if (!dataset.empty()) {
     args.insert(args.end(), {"--dataset", dataset.string()});

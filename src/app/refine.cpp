@@ -222,6 +222,9 @@ RefineCommandResult refine_run(const fs::path& run_dir_in, const fs::path& out_d
   const auto t_start = Clock::now();
   const fs::path run_dir = io::without_trailing_separator(run_dir_in);
   const store::RunRecord run = read_run(run_dir);
+  if (const std::string why = store::run_file_absent_reason(run.config, "states.csv"); !why.empty())
+    throw InputError("roe refine starts from the run's states.csv, objects.csv and reprojection.csv: " + why,
+                     {(run_dir / "run.json").string(), 0, 0, "config.output.level"});
   fs::path dataset = io::without_trailing_separator(opt.dataset);
   if (opt.dataset.empty()) {
     const auto named = store::find_run_dataset(run);

@@ -45,14 +45,17 @@ void add_trajectory_writers(const std::vector<RecordedState>& rows, const io::Ou
 
 // The run's files, independent of each other, written by as many threads as the process may use, the
 // largest (the states tables) first: the same bytes as one after the other.
-void write_outputs(const RunOutput& r, const io::OutputDir& dir) {
+void write_outputs(const RunOutput& r, const RunConfig& config, const io::OutputDir& dir) {
   std::vector<std::function<void()>> writers;
-  writers.push_back([&] { store::write_states_csv(dir.file("states.csv"), r.states); });
-  if (r.smoothed) writers.push_back([&] { store::write_states_csv(dir.file("states_filter.csv"), r.filter_states); });
-  writers.push_back([&] { store::write_objects_csv(dir.file("objects.csv"), r.objects); });
+  const auto has = [&](const char* file) { return store::run_folder_has(config, file); };
+  if (has("states.csv")) writers.push_back([&] { store::write_states_csv(dir.file("states.csv"), r.states); });
+  if (r.smoothed && has("states_filter.csv"))
+    writers.push_back([&] { store::write_states_csv(dir.file("states_filter.csv"), r.filter_states); });
+  if (has("objects.csv")) writers.push_back([&] { store::write_objects_csv(dir.file("objects.csv"), r.objects); });
   add_trajectory_writers(r.states, dir, "", writers);
-  if (r.smoothed) add_trajectory_writers(r.filter_states, dir, "_filter", writers);
-  writers.push_back([&] { store::write_reprojection_csv(dir.file("reprojection.csv"), r.reprojection); });
+  if (r.smoothed && has("trajectory_filter.csv")) add_trajectory_writers(r.filter_states, dir, "_filter", writers);
+  if (has("reprojection.csv"))
+    writers.push_back([&] { store::write_reprojection_csv(dir.file("reprojection.csv"), r.reprojection); });
   run_all(writers, available_cpus());
 }
 
@@ -136,6 +139,7 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
   const auto t_start = Clock::now();
   RunConfig config;
   if (!options.config_file.empty()) config = run_config_from_file(options.config_file);
+  if (!options.output_level.empty()) config.output_level = options.output_level;  // --output over the config
   // Refuses a non-empty RUN_DIR, and one that is or contains the dataset or the config, before any work.
   io::OutputDir dir(out_dir, options.force, {dataset_dir, options.config_file});
 
@@ -164,7 +168,7 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
             r.imu_noise.accel_noise_density, r.imu_noise_from[2]);
 
   const auto t_write = Clock::now();
-  write_outputs(r, dir);
+  write_outputs(r, config, dir);
   const std::string set = pipeline::choose_detections(dataset, options.detections);
   // Who produced the set (its meta.json, when it has one): in the log, and a malformed one is an input error.
   res.detections_meta = store::read_detection_set_meta(dataset_dir, set);

@@ -434,15 +434,22 @@ CalibReport check_calibration(const CalibInput& in, const CalibThresholds& th) {
     throw InputError(fmt::format("settle_fraction must be in (0, 1] (got {})", th.settle_fraction));
   if (!(th.confidence > 0.5 && th.confidence < 1))
     throw InputError(fmt::format("confidence must be in (0.5, 1) (got {})", th.confidence));
-  if (in.extrinsics.empty()) throw InputError("the run has no extrinsics trace (states.csv has no row)");
+  using Check = CheckResult (*)(const CalibInput&, const CalibThresholds&);
+  static const std::pair<const char*, Check> checks[] = {
+      {"extrinsics.sigma", extrinsics_sigma}, {"extrinsics.settled", extrinsics_settled},
+      {"extrinsics.prior", extrinsics_prior}, {"objects.sigma", objects_sigma},
+      {"truth.extrinsics", truth_extrinsics}, {"truth.objects", truth_objects},
+      {"camera.time_offset", camera_time_offset}};
   CalibReport rep;
-  rep.checks.push_back(extrinsics_sigma(in, th));
-  rep.checks.push_back(extrinsics_settled(in, th));
-  rep.checks.push_back(extrinsics_prior(in, th));
-  rep.checks.push_back(objects_sigma(in, th));
-  rep.checks.push_back(truth_extrinsics(in, th));
-  rep.checks.push_back(truth_objects(in, th));
-  rep.checks.push_back(camera_time_offset(in, th));
+  if (!in.estimate_absent_reason.empty()) {  // nothing to judge: every check says why
+    for (const auto& [name, check] : checks) rep.checks.push_back(inconclusive(name, "cannot judge: " + in.estimate_absent_reason));
+    return rep;
+  }
+  if (in.extrinsics.empty()) throw InputError("the run has no extrinsics trace (states.csv has no row)");
+  for (const auto& [name, check] : checks) {
+    rep.checks.push_back(check(in, th));
+    ROE_CHECK(rep.checks.back().name == name, "calib-check: a check's name differs from its entry in the table");
+  }
   return rep;
 }
 

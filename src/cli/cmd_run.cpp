@@ -1,4 +1,4 @@
-// roe run DATASET [--config NAME|FILE] [--detections NAME] --out RUN_DIR
+// roe run DATASET [--config NAME|FILE] [--detections NAME] [--output full|standard|minimal] --out RUN_DIR
 // roe run --list-configs
 #include <fmt/format.h>
 
@@ -28,6 +28,11 @@ RunFn setup(CLI::App& sub) {
                  "{\"filter\": {...}, \"output\": {...}}");
   sub.add_flag("--list-configs", a->list, "List the shipped run configs and exit");
   sub.add_option("--detections", a->opt.detections, "Detection set detections/NAME (default: the only one)");
+  sub.add_option("--output", a->opt.output_level,
+                 "What RUN_DIR holds: full (every file, σ at every row; default), standard (σ only after each "
+                 "image: faster, smaller), minimal (trajectory.csv/.tum and run.json only); overrides the "
+                 "config's \"output\": {\"level\"}")
+      ->check(CLI::IsMember(store::output_levels()));
   sub.add_option("--out", a->out, "Output run folder (must not exist or be empty, unless --force)");
   return [a]() {
     if (a->list) {

@@ -206,10 +206,19 @@ void smooth_segment_covariances(const FilterRecording& rec, const StepsTask& tas
       set_covariance(res.states[nd.steps], task.Ps_b_cc.diagonal(), pose_block(task.Ps_b_cc), task.extr_var_b);
     return;
   }
-  std::vector<Mat15> Pcc(m), Phi(m);
+  // The first and one past the last step asked for: P(t) is re-propagated up to the last of them only and Ψ
+  // carried back to the first only (roe run's output level standard asks for the first step after an image).
+  std::size_t lo = m, hi = 0;
+  for (std::size_t i = 0; i < m; ++i)
+    if (want[nd.first_step + i]) {
+      lo = std::min(lo, i);
+      hi = i + 1;
+    }
+  if (lo == m) return;
+  std::vector<Mat15> Pcc(hi), Phi(hi);
   Mat15 Pc = rec.nodes[task.node - 1].P.topLeftCorner<kCore, kCore>();
   Mat15 Ph = Mat15::Identity();
-  for (std::size_t i = 0; i < m; ++i) {
+  for (std::size_t i = 0; i < hi; ++i) {
     const CoreTransition& F = rec.steps[nd.first_step + i].F;
     F.apply_left(Pc);
     F.apply_right_transposed(Pc);
@@ -222,7 +231,7 @@ void smooth_segment_covariances(const FilterRecording& rec, const StepsTask& tas
   Mat15 Psi = Mat15::Identity();  // Φ(b, t_i)
   Eigen::Matrix<double, kCore, 30> G, GM;
   constexpr int kPose[6] = {kP, kP + 1, kP + 2, kTheta, kTheta + 1, kTheta + 2};
-  for (std::size_t i = m; i-- > 0;) {
+  for (std::size_t i = m; i-- > lo;) {
     const RecordedStep& st = rec.steps[nd.first_step + i];
     if (want[nd.first_step + i]) {
       G.leftCols<kCore>().noalias() = Pcc[i] * Psi.transpose();
@@ -234,7 +243,7 @@ void smooth_segment_covariances(const FilterRecording& rec, const StepsTask& tas
         for (int r = 0; r < 6; ++r) pose_cov(r, c) = Pcc[i](kPose[r], kPose[c]) + GM.row(kPose[r]).dot(G.row(kPose[c]));
       set_covariance(res.states[nd.first_step + i + 1], var, pose_cov, task.extr_var);
     }
-    st.F.apply_right(Psi);
+    if (i > lo) st.F.apply_right(Psi);
   }
 }
 

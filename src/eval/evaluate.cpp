@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "roe/core/error.hpp"
 #include "roe/core/parallel.hpp"
@@ -42,20 +43,31 @@ void warn_duplicates(const Association& a, AssocPolicy policy, std::vector<std::
                             a.n_duplicate_gt));
 }
 
-/// The matched estimate covariances in the aligned frame; empty (with a warning) when one is missing.
+/// The matched estimate covariances in the aligned frame. A matched pose without one (a run that records σ
+/// after each image only) gets a nan covariance: its NEES is nan and left out of the ANEES, which a warning
+/// says is over the poses that have one. Empty (with a warning) when no matched pose has a covariance.
 std::vector<PoseCovariance> aligned_covariances(const EstimateInput& est, const Report& r,
                                                 std::vector<std::string>& w) {
   std::vector<PoseCovariance> cov;
   if (est.cov.empty()) return cov;
   const Association& a = r.association;
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    if (!est.cov[a.est_index[k]].has_value()) {
-      w.push_back("NEES not computed: some matched estimate poses have no covariance");
-      return {};
-    }
+  std::size_t with = 0;
+  for (std::size_t k = 0; k < a.size(); ++k) with += est.cov[a.est_index[k]].has_value() ? 1 : 0;
+  if (with == 0) {
+    w.push_back("NEES not computed: no matched estimate pose has a covariance");
+    return {};
   }
-  for (std::size_t k = 0; k < a.size(); ++k)
-    cov.push_back(align_covariance(*est.cov[a.est_index[k]], r.alignment.R, r.alignment.s));
+  if (with < a.size())
+    w.push_back(fmt::format("NEES over the {} of {} matched poses that have a covariance (the estimate records it at "
+                            "those poses only)",
+                            with, a.size()));
+  PoseCovariance none;
+  none.P_p.setConstant(std::numeric_limits<double>::quiet_NaN());
+  none.P_theta.setConstant(std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    const std::optional<PoseCovariance>& c = est.cov[a.est_index[k]];
+    cov.push_back(c ? align_covariance(*c, r.alignment.R, r.alignment.s) : none);
+  }
   return cov;
 }
 
@@ -134,7 +146,7 @@ void add_detection_calibration(const EstimateInput& est, const GroundTruthInput&
 
 /// NEES in the estimator's gauge (GaugeConsistency): the raw estimate and its own covariance.
 void add_gauge_consistency(const EstimateInput& est, Report& r) {
-  if (!est.gauge || r.cov.empty()) return;  // r.cov empty: some matched pose has no covariance
+  if (!est.gauge || r.cov.empty()) return;  // r.cov empty: no matched pose has a covariance
   GaugeConsistency g;
   g.truth = *est.gauge;
   const Pose T_Wg_Wt = g.truth.T_Wt_Wg.inverse();
@@ -142,8 +154,9 @@ void add_gauge_consistency(const EstimateInput& est, Report& r) {
   std::size_t np = 0, nr = 0;
   for (std::size_t k = 0; k < r.n_pairs(); ++k) {
     if (r.t_est(k) < g.truth.t_from_ns) continue;
-    ++g.n;
     const std::size_t ie = r.association.est_index[k];
+    if (!est.cov[ie]) continue;  // no covariance at this pose
+    ++g.n;
     const Nees e = pose_nees((*r.est_poses)[ie], T_Wg_Wt * r.gt(k), *est.cov[ie]);
     if (std::isfinite(e.pos)) sp += e.pos, ++np;
     if (std::isfinite(e.rot)) sr += e.rot, ++nr;

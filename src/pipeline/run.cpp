@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 
 #include "roe/core/clock.hpp"
@@ -19,17 +20,32 @@ using Clock = SteadyClock;
 using store::ObjectRow;
 using store::RecordedState;
 
+// Which state rows carry σ (store::RunConfig::output_level): every row; the first row and the first after each
+// image (level "standard" at the IMU rate); none (level "minimal": the trajectory only).
+enum class SigmaRows { kEvery, kAfterImages, kNone };
+
+SigmaRows sigma_rows(const store::RunConfig& c) {
+  if (c.output_level == "minimal") return SigmaRows::kNone;
+  return store::sigma_at_every_row(c) ? SigmaRows::kEvery : SigmaRows::kAfterImages;
+}
+
 // Collects the filter's output rows in memory (the counts and the final state are run_filter's summary).
+// A row without σ has nan in sigma and pose_cov (written as empty cells, store/run_files.hpp).
 class Recorder : public ekf::FilterObserver {
  public:
-  Recorder(RunOutput& out, bool imu_rate) : out_(out), imu_rate_(imu_rate) {}
+  Recorder(RunOutput& out, bool imu_rate, SigmaRows sigma) : out_(out), imu_rate_(imu_rate), sigma_(sigma) {}
 
   void on_imu(const ekf::Filter& f) override {
-    if (imu_rate_) record_state(f);
+    if (!imu_rate_) return;
+    record_state(f, sigma_ == SigmaRows::kEvery || (sigma_ == SigmaRows::kAfterImages && sigma_due_));
+    sigma_due_ = false;
   }
 
   void on_image(ekf::Filter& f, const ekf::FrameResult& r) override {
-    if (!imu_rate_) record_state(f);
+    if (imu_rate_)
+      sigma_due_ = true;
+    else
+      record_state(f, sigma_ != SigmaRows::kNone);
     for (const auto& d : r.detections) out_.reprojection.push_back({r.t_ns, d.object_id, d});
     if (r.detections.empty() || r.detections.front().status == ekf::DetectionStatus::kRejectedNoImu) return;
     for (const auto& o : f.objects()) {
@@ -46,11 +62,17 @@ class Recorder : public ekf::FilterObserver {
   }
 
  private:
-  void record_state(const ekf::Filter& f) {
+  void record_state(const ekf::Filter& f, bool with_sigma) {
     RecordedState s;
     s.t_ns = f.time();
     s.x = f.core();
     s.T_I_C = f.T_I_C();
+    if (!with_sigma) {
+      s.sigma.setConstant(std::numeric_limits<double>::quiet_NaN());
+      s.pose_cov.setConstant(std::numeric_limits<double>::quiet_NaN());
+      out_.states.push_back(s);
+      return;
+    }
     for (int i = 0; i < 15; ++i) s.sigma(i) = std::sqrt(f.variance(i));
     const int e = f.extrinsics_offset();
     for (int i = 0; i < 6; ++i) s.sigma(15 + i) = e >= 0 ? std::sqrt(f.variance(e + i)) : 0.0;
@@ -66,6 +88,8 @@ class Recorder : public ekf::FilterObserver {
 
   RunOutput& out_;
   bool imu_rate_;
+  SigmaRows sigma_;
+  bool sigma_due_ = true;  // the first row has σ (the prior), then the first after each image
 };
 
 }  // namespace
@@ -190,7 +214,7 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
         out.imu_noise_from[0] == out.imu_noise_from[2] ? out.imu_noise_from[0] : "dataset and config"));
   out.states.reserve(config.output_rate == "imu" ? dataset.imu.size() : images.size());
   out.reprojection.reserve(dets.size());
-  Recorder rec(out, config.output_rate == "imu");
+  Recorder rec(out, config.output_rate == "imu", sigma_rows(config));
   const auto t0 = Clock::now();
   const bool smooth = config.smoother == "rts";
   ekf::FilterRecording recording;
@@ -203,17 +227,17 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   if (smooth) {
     // Every state row is at the filter's initial time or at the end of a propagation step.
     const auto t1 = Clock::now();
-    // At the IMU rate every step is a row; at the image rate the smoother forms the covariance only at the
-    // rows (the mean at the other steps costs O(15²) each, ekf/smoother.hpp).
+    // The smoother forms the covariance only where a row has σ (every IMU step at level "full"; the mean at
+    // the other steps costs O(15²) each, ekf/smoother.hpp).
     std::vector<Timestamp> row_times;
     ekf::SmootherOptions sopt;
-    if (config.output_rate != "imu") {
-      row_times.reserve(out.states.size());
-      for (const RecordedState& row : out.states) row_times.push_back(row.t_ns);
+    if (!(config.output_rate == "imu" && sigma_rows(config) == SigmaRows::kEvery)) {
+      for (const RecordedState& row : out.states)
+        if (!std::isnan(row.sigma(0))) row_times.push_back(row.t_ns);
       sopt.covariance_at = &row_times;
     }
     const ekf::SmootherResult sm = ekf::smooth(recording, noise, sopt);
-    out.filter_states = out.states;
+    if (store::run_folder_has(config, "states_filter.csv")) out.filter_states = out.states;
     for (RecordedState& row : out.states) {
       const auto it = std::lower_bound(sm.states.begin(), sm.states.end(), row.t_ns,
                                        [](const ekf::SmoothedState& s, Timestamp t) { return s.t_ns < t; });

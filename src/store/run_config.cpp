@@ -3,6 +3,7 @@
 // loads, validates and echoes (run.json "config"), in this order.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <vector>
@@ -218,6 +219,10 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
     out.get("rate", c.output_rate);
     if (c.output_rate != "imu" && c.output_rate != "images")
       fail(out, "rate", "must be \"imu\" or \"images\"");
+    out.get("level", c.output_level);
+    const auto& levels = output_levels();
+    if (std::find(levels.begin(), levels.end(), c.output_level) == levels.end())
+      fail(out, "level", "must be \"full\", \"standard\" or \"minimal\"");
     out.finish();
   }
   {
@@ -237,8 +242,31 @@ json run_config_to_json(const RunConfig& c) {
             {"output", {{"rate", c.output_rate}}},
             {"smoother", c.smoother},
             {"health", echo(c.health, health_fields())}};
+  if (c.output_level != "full") j["output"]["level"] = c.output_level;
   if (!c.description.empty()) j["description"] = c.description;
   return j;
 }
+
+const std::vector<std::string>& output_levels() {
+  static const std::vector<std::string> levels = {"full", "standard", "minimal"};
+  return levels;
+}
+
+bool run_folder_has(const RunConfig& c, const std::string& file) {
+  if (file == "run.json" || file == "trajectory.csv" || file == "trajectory.tum") return true;
+  if (c.output_level == "minimal") return false;
+  if (file.find("_filter.") != std::string::npos) return c.smoother == "rts";
+  return true;
+}
+
+std::string run_file_absent_reason(const RunConfig& c, const std::string& file) {
+  if (run_folder_has(c, file)) return {};
+  if (c.output_level == "minimal")
+    return "the run was written with output level minimal: trajectory.csv/.tum and run.json only (`roe run "
+           "--output standard` or full writes the other files)";
+  return fmt::format("the run has no smoother (\"smoother\": \"{}\"), so no {}", c.smoother, file);
+}
+
+bool sigma_at_every_row(const RunConfig& c) { return c.output_level == "full" || c.output_rate == "images"; }
 
 }  // namespace roe::store

@@ -40,6 +40,8 @@ struct Field {
     if (v < 0) throw r.error(col, "a standard deviation must not be negative");
     return v;
   }
+  /// A σ the writer may leave empty (states.csv at output level "standard": not recorded at that row): nan.
+  double sigma_or_nan() const { return r.is_empty(col) ? kNaN : sigma(); }
   std::int64_t int64() const { return r.get_int64(col); }
   int integer() const { return r.get_int(col); }
   std::string text() const { return r.get_string(col); }
@@ -78,7 +80,8 @@ void axes(Table<W, R>& t, const std::string& prefix, const char* letters, typena
   for (int k = 0; letters[k] != '\0'; ++k) t.push_back({prefix + sep + letters[k], write, read, k});
 }
 
-// Accessor pairs for the tables below: a vector member (component k), a σ vector member from offset `off`,
+// Accessor pairs for the tables below: a vector member (component k), a σ vector member from offset `off`
+// (ROE_ROW_SIGMA: one a row may leave unrecorded, nan ↔ an empty cell),
 // a quaternion member (x y z w, written canonical, checked unit and normalised once w is read).
 #define ROE_VEC(m)                                                            \
   [](CsvWriter& w, const auto& r, int k) { w.add(r.m(k)); },                  \
@@ -86,6 +89,15 @@ void axes(Table<W, R>& t, const std::string& prefix, const char* letters, typena
 #define ROE_SIGMA(m, off)                                                     \
   [](CsvWriter& w, const auto& r, int k) { w.add(r.m((off) + k)); },          \
   [](const Field& f, auto& r, int k) { r.m((off) + k) = f.sigma(); }
+#define ROE_ROW_SIGMA(m, off)                                                         \
+  [](CsvWriter& w, const auto& r, int k) {                                            \
+    const double v = r.m((off) + k);                                                  \
+    if (std::isnan(v))                                                                \
+      w.add_empty();                                                                  \
+    else                                                                              \
+      w.add(v);                                                                       \
+  },                                                                                  \
+  [](const Field& f, auto& r, int k) { r.m((off) + k) = f.sigma_or_nan(); }
 #define ROE_QUAT(m)                                                                   \
   [](CsvWriter& w, const auto& r, int k) { w.add(math::canonical(r.m).coeffs()(k)); }, \
   [](const Field& f, auto& r, int k) {                                                \
@@ -110,13 +122,13 @@ const Table<RecordedState>& states_table() {
     axes(t, "b_a", "xyz", ROE_VEC(x.b_a));
     axes(t, "p_I_C", "xyz", ROE_VEC(T_I_C.p));
     axes(t, "q_I_C", "xyzw", ROE_QUAT(T_I_C.q));
-    axes(t, "sigma_p_W_I", "xyz", ROE_SIGMA(sigma, 0));
-    axes(t, "sigma_v_W_I", "xyz", ROE_SIGMA(sigma, 3));
-    axes(t, "sigma_theta_W_I", "xyz", ROE_SIGMA(sigma, 6));
-    axes(t, "sigma_b_g", "xyz", ROE_SIGMA(sigma, 9));
-    axes(t, "sigma_b_a", "xyz", ROE_SIGMA(sigma, 12));
-    axes(t, "sigma_p_I_C", "xyz", ROE_SIGMA(sigma, 15));
-    axes(t, "sigma_theta_I_C", "xyz", ROE_SIGMA(sigma, 18));
+    axes(t, "sigma_p_W_I", "xyz", ROE_ROW_SIGMA(sigma, 0));
+    axes(t, "sigma_v_W_I", "xyz", ROE_ROW_SIGMA(sigma, 3));
+    axes(t, "sigma_theta_W_I", "xyz", ROE_ROW_SIGMA(sigma, 6));
+    axes(t, "sigma_b_g", "xyz", ROE_ROW_SIGMA(sigma, 9));
+    axes(t, "sigma_b_a", "xyz", ROE_ROW_SIGMA(sigma, 12));
+    axes(t, "sigma_p_I_C", "xyz", ROE_ROW_SIGMA(sigma, 15));
+    axes(t, "sigma_theta_I_C", "xyz", ROE_ROW_SIGMA(sigma, 18));
     return t;
   }();
   return t;
@@ -190,6 +202,7 @@ const Table<ReprojectionRow, eval::DetectionPose>& reprojection_table() {
 
 #undef ROE_VEC
 #undef ROE_SIGMA
+#undef ROE_ROW_SIGMA
 #undef ROE_QUAT
 
 template <class W, class R>

@@ -223,3 +223,46 @@ TEST_CASE("evaluate: a duplicated ground-truth stamp uses its first pose, as the
     warned = warned || w.find("1 duplicated time stamp(s); the first pose of each is used") != std::string::npos;
   CHECK(warned);
 }
+
+TEST_CASE("evaluate: NEES over the matched poses that have a covariance, and a warning saying how many",
+          "[eval][evaluate]") {
+  const Pair p = helix(200);
+  PoseCovariance c;
+  c.P_p = Eigen::Matrix3d::Identity() * 0.02 * 0.02;
+  c.P_theta = Eigen::Matrix3d::Identity() * 1e-4;
+  const std::vector<std::optional<PoseCovariance>> all(200, c);
+  std::vector<std::optional<PoseCovariance>> some(200);
+  for (std::size_t i = 0; i < 200; i += 3) some[i] = c;  // as roe run's output level standard: some poses only
+  const Report r_all = evaluate({p.t, p.est, all, nullptr, "est"}, {p.t, p.gt}, EvalParams{});
+  const Report r_some = evaluate({p.t, p.est, some, nullptr, "est"}, {p.t, p.gt}, EvalParams{});
+  REQUIRE(r_all.ape.anees_p);
+  REQUIRE(r_some.ape.anees_p);
+  // The ANEES is the mean of the per-pose NEES of the poses with a covariance (the same poses, the same
+  // alignment: the covariance does not enter it).
+  double sp = 0.0, sr = 0.0;
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < r_all.n_pairs(); ++k) {
+    if (!some[r_all.association.est_index[k]]) {
+      CHECK(std::isnan(r_some.ape.nees[k].pos));
+      continue;
+    }
+    sp += r_all.ape.nees[k].pos;
+    sr += r_all.ape.nees[k].rot;
+    CHECK(r_some.ape.nees[k].pos == r_all.ape.nees[k].pos);
+    ++n;
+  }
+  CHECK(n == 67);
+  CHECK(*r_some.ape.anees_p == Approx(sp / n).epsilon(1e-12));
+  CHECK(*r_some.ape.anees_r == Approx(sr / n).epsilon(1e-12));
+  REQUIRE(r_some.warnings.size() == 1);
+  CHECK(r_some.warnings[0] == "NEES over the 67 of 200 matched poses that have a covariance (the estimate records it at "
+                              "those poses only)");
+  CHECK(r_all.warnings.empty());
+  // No matched pose with a covariance: no NEES, and a warning.
+  const std::vector<std::optional<PoseCovariance>> none(200);
+  const Report r_none = evaluate({p.t, p.est, none, nullptr, "est"}, {p.t, p.gt}, EvalParams{});
+  CHECK(r_none.cov.empty());
+  CHECK_FALSE(r_none.ape.anees_p);
+  REQUIRE(r_none.warnings.size() == 1);
+  CHECK(r_none.warnings[0] == "NEES not computed: no matched estimate pose has a covariance");
+}

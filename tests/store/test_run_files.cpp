@@ -298,6 +298,38 @@ TEST_CASE("run files: readers name the file, line and column of what is wrong", 
   }
 }
 
+TEST_CASE("run files: a states row without σ (output level standard) is empty cells, read back as nan",
+          "[io][run_files]") {
+  test::TempDir tmp("roe_run_files_no_sigma");
+  RecordedState with, without;
+  with.t_ns = 100;
+  with.sigma.setConstant(0.25);
+  without.t_ns = 200;
+  without.x.p_W_I = {1.5, -2.0, 3.0};
+  without.sigma.setConstant(std::nan(""));
+  const std::string text = format_states_csv({with, without});
+  // The second row: its 23 values, then 21 empty σ cells.
+  const std::string last = text.substr(text.find('\n', text.find('\n') + 1) + 1);
+  CHECK(last.substr(last.size() - 22) == std::string(21, ',') + "\n");
+  CHECK(last.find("nan") == std::string::npos);
+  const auto f = tmp.write("states.csv", text);
+  const auto rows = read_states_csv(f);  // the strict reader takes them
+  REQUIRE(rows.size() == 2);
+  CHECK(rows[0].sigma == with.sigma);
+  CHECK(rows[1].sigma.array().isNaN().all());
+  CHECK(rows[1].x.p_W_I == without.x.p_W_I);
+  CHECK(format_states_csv(rows) == text);
+  // A "nan" written out is still refused by the strict reader (roe never writes one); a negative σ too.
+  std::string bad = text;
+  bad.insert(bad.size() - 1, "nan");
+  const InputError e = test::expect_input_error([&] { read_states_csv(tmp.write("bad.csv", bad)); });
+  CHECK(e.context().line == 3);
+  CHECK(e.context().column == static_cast<std::int64_t>(states_csv_columns().size()));
+  std::string negative = text;
+  negative.insert(negative.size() - 1, "-1");
+  CHECK_THROWS_AS(read_states_csv(tmp.write("neg.csv", negative)), InputError);
+}
+
 TEST_CASE("run files: tables streamed into the file in pieces have the bytes of their text", "[io][run_files]") {
   test::TempDir tmp("roe_run_files_stream");
   std::mt19937 g(11);

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// `roe run DATASET [--config FILE] [--detections NAME] --out RUN_DIR`: reads a dataset folder, builds
+/// `roe run DATASET [--config FILE] [--detections NAME] [--output LEVEL] --out RUN_DIR`: reads a dataset folder, builds
 /// the measurement stream (detections grouped per image, shifted into the IMU clock by
 /// camera.time_offset_s), runs the multi-object EKF (roe::ekf) and writes RUN_DIR (DESIGN §4):
 ///   trajectory.csv   t,tx,ty,tz,qx,qy,qz,qw (seconds, 9 decimals): T_W_I
@@ -12,9 +12,11 @@
 ///   reprojection.csv timestamp_ns,object_id, T_W_I implied by the raw detection, status, nis
 ///   run.json         effective configuration, input hashes, counts, NIS statistics, health, timings,
 ///                    warnings
+/// (at output level "full", the default; "standard" leaves states*.csv's σ empty between images, "minimal"
+/// writes trajectory.csv/.tum and run.json only: store::RunConfig::output_level)
 ///
 /// Config file (configs/default.json, configs/paper.json): {"filter": {FilterOptions keys},
-/// "output": {"rate": "imu" | "images"}, "smoother": ..., "health": {HealthLimits keys}}; every key
+/// "output": {"rate": "imu" | "images", "level": "full" | "standard" | "minimal"}, "smoother": ..., "health": {HealthLimits keys}}; every key
 /// optional, unknown keys are errors.
 
 #include <array>
@@ -57,6 +59,9 @@ using pipeline::run_dataset;
 struct RunOptions {
   std::string config_file;  ///< empty: built-in defaults (= configs/default.json)
   std::string detections;   ///< --detections NAME; empty: the only set in the dataset
+  /// --output full|standard|minimal: the config's "output": {"level"} (store::RunConfig::output_level);
+  /// empty: the config's.
+  std::string output_level;
   bool force = false;
 };
 

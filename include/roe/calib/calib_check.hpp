@@ -91,6 +91,10 @@ struct CalibInput {
   /// Empty when the dataset was read; else why not, for the truth checks ("--no-dataset", …).
   std::string dataset_absent_reason;
   double declared_time_offset_s = 0.0;       ///< the dataset's camera.time_offset_s (applied by roe run)
+  /// Empty when the run's estimate (the extrinsics trace, the objects) was read; else why the run folder
+  /// has none (a run written with output level minimal): every check is then inconclusive, with this reason,
+  /// and `extrinsics` may be empty.
+  std::string estimate_absent_reason;
 };
 
 /// Limits (defaults and their reasons: docs/calib-check.md §2).

@@ -1,13 +1,15 @@
 #pragma once
 /// @file
 /// The run configuration of `roe run` (configs/*.json, run.json's "config"): the struct, roe's defaults and
-/// its one JSON mapping both ways. {"filter": {FilterOptions keys}, "output": {"rate": "imu" | "images"},
+/// its one JSON mapping both ways. {"filter": {FilterOptions keys}, "output": {"rate": "imu" | "images",
+/// "level": "full" | "standard" | "minimal"},
 /// "smoother": "none" | "rts", "health": {HealthLimits keys}, "description": text}; every key optional,
 /// unknown keys are errors (ConfigError naming the source and the key path). Reading a config *file*
 /// (shipped configs resolved to the bytes compiled into roe) is app::run_config_from_file.
 
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "roe/ekf/health.hpp"
 #include "roe/ekf/options.hpp"
@@ -27,6 +29,11 @@ struct RunConfig {
   /// Rows of trajectory.csv/.tum and states.csv: "imu" (every IMU sample) or "images" (after each
   /// image update).
   std::string output_rate = "imu";
+  /// What the run folder holds (docs/filter.md §9, "Output levels"): "full" (every file, σ at every row),
+  /// "standard" (the same files; states.csv/states_filter.csv give σ only at the first row after each image,
+  /// their σ cells are empty elsewhere), "minimal" (trajectory.csv/.tum and run.json only). Echoed in
+  /// run.json only when not "full", so that the config of a default run (and a sweep job's id) is unchanged.
+  std::string output_level = "full";
   /// "none": the outputs are the filter's (causal) estimate; "rts": trajectory.csv/.tum and states.csv
   /// hold the fixed-interval RTS smoothed estimate (ekf/smoother.hpp) and the filter's estimate goes to
   /// trajectory_filter.csv/.tum and states_filter.csv. The default is "rts": `roe run` is an offline tool;
@@ -41,5 +48,17 @@ struct RunConfig {
 /// run_config_to_json(run_config_from_json(j)) == j for every j run_config_to_json wrote.
 RunConfig run_config_from_json(const nlohmann::json& j, const std::string& source);
 nlohmann::json run_config_to_json(const RunConfig& c);
+
+/// The output levels, in order of what they keep: full, standard, minimal.
+const std::vector<std::string>& output_levels();
+/// Whether a run written with `c` holds `file` (a run folder's file name: "states.csv", "objects.csv",
+/// "reprojection.csv", "states_filter.csv", "trajectory_filter.csv", ...; the _filter files also need the
+/// smoother). trajectory.csv/.tum and run.json are in every run folder.
+bool run_folder_has(const RunConfig& c, const std::string& file);
+/// Why a run written with `c` has no `file`, as a reader says it ("the run was written with output level
+/// minimal (trajectory and run.json only)"); empty when the level writes the file (its absence is then damage).
+std::string run_file_absent_reason(const RunConfig& c, const std::string& file);
+/// Whether a run written with `c` records σ at every row of states.csv (level "full", or rate "images").
+bool sigma_at_every_row(const RunConfig& c);
 
 }  // namespace roe::store

@@ -16,7 +16,9 @@
 /// any order (extra columns are ignored), every error is a roe::InputError with file, line and column:
 /// a missing column (at the header line, naming it), a value that is not a number, a non-finite number
 /// where the writer never writes one, a quaternion that is not unit (|‖q‖ − 1| > tolerance), a negative
-/// σ, decreasing stamps. write → read gives the rows back: numbers exactly, quaternions in the canonical
+/// σ, decreasing stamps. A σ cell of states.csv may be empty: the run did not record σ at that row (output
+/// level "standard": σ at the first row and the first row after each image only); it reads as nan.
+/// write → read gives the rows back: numbers exactly (an unrecorded σ as nan), quaternions in the canonical
 /// hemisphere and normalised (to an ulp or two); states.csv does not hold RecordedState::pose_cov (reads as 0).
 ///
 /// Adding a column to a file is one line in its table in run_files.cpp (name, how to write it, how to
