@@ -7,7 +7,8 @@
 # old alternating: the default config (RTS smoother, states at the IMU rate) and the same with
 # "output": {"rate": "images"} (the smoother forms the covariance at the image rows only since issue 41), and
 # the same two configs on the 142 s, 200 Hz handheld-size case (paper-seq2, 3 objects, --duration 142;
-# HANDHELD=0 skips it), with the run folder's size.
+# HANDHELD=0 skips it), with the run folder's size; and (LEVELS=1, the default) the new binary's
+# `--output standard` and `--output minimal` on both.
 # Prints the machine, the load before and after, every bench_filter line of every round, and the medians:
 # bench_filter's filter CPU and backward-pass times per rate, roe run's wall and CPU (user + system).
 # On a loaded machine compare the CPU times and the ratios, not the wall times.
@@ -53,12 +54,18 @@ for tag in ("new", "old"):
             if m:
                 rows.setdefault((m[1], "backward pass, covariance at images: wall"), []).append(float(m[2]))
                 rows.setdefault((m[1], "backward pass, covariance at images: CPU"), []).append(float(m[3]))
+            m = re.search(r"^\s+(200|400) RTS smoother, covariance after each image \(--output standard\): backward "
+                          r"pass " + num + r" .*of all threads " + num, line)
+            if m:
+                rows.setdefault((m[1], "backward pass, covariance after each image (standard): wall"), []).append(float(m[2]))
+                rows.setdefault((m[1], "backward pass, covariance after each image (standard): CPU"), []).append(float(m[3]))
     for (rate, what), v in sorted(rows.items()):
         print(f"median {tag} {rate} Hz {what}: {statistics.median(v):.2f} ms (rounds: {', '.join(f'{x:.1f}' for x in v)})")
 PY
 # Whole process: one dataset, then roe run per binary and config, alternating.
 "$BUILD/roe" -q simulate --preset paper-seq4 --seed 1 --out "$work/seq4" >/dev/null
 HANDHELD=${HANDHELD:-1}
+LEVELS=${LEVELS:-1}
 [ "$HANDHELD" = 1 ] && "$BUILD/roe" -q simulate --preset paper-seq2 --seed 1 --duration 142 --out "$work/handheld" >/dev/null
 echo '{"output": {"rate": "images"}}' >"$work/images.json"
 one() {  # one ROE TAG DATASET CONFIG_NAME [--config FILE]
@@ -78,6 +85,10 @@ for ((i = 0; i < RUNS; i++)); do
     one "$OLD/roe" old "$ds" default
     one "$BUILD/roe" new "$ds" images --config "$work/images.json"
     one "$OLD/roe" old "$ds" images --config "$work/images.json"
+    if [ "$LEVELS" = 1 ]; then  # roe run --output (new only: the old binary has no levels)
+      one "$BUILD/roe" new "$ds" standard --output standard
+      one "$BUILD/roe" new "$ds" minimal --output minimal
+    fi
   done
 done
 median() {  # median COLUMN FILE
@@ -86,9 +97,10 @@ median() {  # median COLUMN FILE
 for ds in $datasets; do
   label=paper-seq4
   [ "$ds" = handheld ] && label="handheld-size (paper-seq2 142 s, 200 Hz)"
-  for name in default images; do
+  for name in default images standard minimal; do
     for tag in new old; do
       f=$work/run-$tag-$ds-$name
+      [ -f "$f" ] || continue
       echo "median $tag roe run $label ($name): $(median 1 "$f") s wall, $(median 2 "$f") s CPU, $(median 3 "$f") MB max RSS, run folder $(median 4 "$f") MB ($RUNS runs)"
     done
   done
