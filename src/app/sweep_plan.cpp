@@ -147,7 +147,7 @@ std::pair<std::string, json> read_config(const Where& w, const json& j, const st
 /// Sets `dotted` ("filter.chi2_confidence") in `config` after checking that a run config has that key.
 void apply_override(const Where& w, json& config, const std::string& dotted, const json& value,
                     const std::string& path) {
-  static const json defaults = run_config_to_json(RunConfig{});
+  static const json defaults = run_config_to_json(RunConfig{}, true);
   const json* node = &defaults;
   json* target = &config;
   std::size_t start = 0;

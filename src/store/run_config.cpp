@@ -237,12 +237,12 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
   return c;
 }
 
-json run_config_to_json(const RunConfig& c) {
+json run_config_to_json(const RunConfig& c, bool every_key) {
   json j = {{"filter", echo(c.filter, filter_fields())},
             {"output", {{"rate", c.output_rate}}},
             {"smoother", c.smoother},
             {"health", echo(c.health, health_fields())}};
-  if (c.output_level != "full") j["output"]["level"] = c.output_level;
+  if (every_key || c.output_level != "full") j["output"]["level"] = c.output_level;
   if (!c.description.empty()) j["description"] = c.description;
   return j;
 }

@@ -83,6 +83,21 @@ TEST_CASE("sweep spec: expansion, content-derived ids, a new seed adds jobs only
   CHECK(keep_indices(c, b_order).size() == 8);
 }
 
+TEST_CASE("sweep spec: output.level is an override like any run config key; full is the default job",
+          "[app][sweep]") {
+  const json base = {{"datasets", {{{"preset", "paper-seq4"}, {"duration_s", 5}}}}};
+  json axes = base;
+  axes["overrides"] = {{"output.level", {"full", "minimal"}}};
+  const SweepPlan p = plan_sweep(spec_with(axes), ".", "spec.json");
+  REQUIRE(p.jobs.size() == 2);
+  // "full" is the default: its job is the one without the override (same content, same id).
+  CHECK(p.jobs[0].id == plan_sweep(spec_with(base), ".", "spec.json").jobs[0].id);
+  CHECK_FALSE(p.jobs[0].content["run_config"]["output"].contains("level"));
+  CHECK(p.jobs[1].content["run_config"]["output"]["level"] == "minimal");
+  axes["overrides"] = {{"output.level", {"most"}}};
+  CHECK_THAT(config_error(spec_with(axes)), Catch::Contains("axes.overrides") && Catch::Contains("output.level"));
+}
+
 TEST_CASE("sweep spec: blocks share jobs, per-dataset seeds", "[app][sweep]") {
   // Table I (every sequence, seed 1) and Tables II/III (sequence 4, seeds 1-3): seq4 seed 1 once.
   const json axes = json::array({{{"datasets", {"paper-seq1", "paper-seq4"}}, {"configs", {"paper"}}},

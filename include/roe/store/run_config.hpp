@@ -47,7 +47,9 @@ struct RunConfig {
 /// Strict loader (ConfigError naming `source` and the key) and its inverse (what run.json echoes):
 /// run_config_to_json(run_config_from_json(j)) == j for every j run_config_to_json wrote.
 RunConfig run_config_from_json(const nlohmann::json& j, const std::string& source);
-nlohmann::json run_config_to_json(const RunConfig& c);
+/// `every_key`: also the keys echoed only away from their default (output.level), e.g. for the list of a
+/// run config's keys (roe sweep's overrides).
+nlohmann::json run_config_to_json(const RunConfig& c, bool every_key = false);
 
 /// The output levels, in order of what they keep: full, standard, minimal.
 const std::vector<std::string>& output_levels();
