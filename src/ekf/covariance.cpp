@@ -5,6 +5,8 @@
 #include <string>
 #include <utility>
 
+#include "roe/core/error.hpp"
+
 namespace roe::ekf {
 
 // Φᵀ ← Φᵀ Fᵀ for the accumulated core transition Φ = F_k⋯F_1 (kept transposed), using
@@ -34,6 +36,7 @@ void accumulate_transition(const CoreTransition& F, Mat15& PhiT) {
 }
 
 void CompactJacobian6::append3(int offset, const Mat63& block) {
+  ROE_CHECK(nc + 3 <= 12 && offset >= 0, "CompactJacobian6: more than 12 columns or a negative offset");
   for (int j = 0; j < 3; ++j) {
     J.col(nc) = block.col(j);
     idx[nc++] = offset + j;
@@ -47,6 +50,7 @@ Eigen::MatrixXd CompactJacobian6::dense(int n) const {
 }
 
 void FilterCovariance::reset(Eigen::MatrixXd P0) {
+  ROE_CHECK(P0.rows() == P0.cols(), "FilterCovariance::reset: P is not square");
   P_ = std::move(P0);
   cc_pending_ = false;
   PhiT_.setIdentity();
@@ -168,6 +172,7 @@ void FilterCovariance::take_segment(Mat15& Phi, Mat15& P_cc) {
 void FilterCovariance::augment(const CompactJacobian6& Jx, const Mat6& Q) {
   full();
   const int n = dim();
+  for (int j = 0; j < Jx.nc; ++j) ROE_CHECK(Jx.idx[j] < n, "FilterCovariance::augment: J_x column outside the state");
   // P_xa = P J_xᵀ (n x 6, from J_x's compact columns);  P_aa = J_x P J_xᵀ + Q.
   Eigen::MatrixXd P_xa = Eigen::MatrixXd::Zero(n, 6);
   for (int j = 0; j < Jx.nc; ++j) P_xa.noalias() += P_.col(Jx.idx[j]) * Jx.J.col(j).transpose();
@@ -183,6 +188,7 @@ void FilterCovariance::augment(const CompactJacobian6& Jx, const Mat6& Q) {
 }
 
 void FilterCovariance::change_variables(const Eigen::MatrixXd& M) {
+  ROE_CHECK(M.cols() == dim(), "FilterCovariance::change_variables: M's columns are not the state's");
   full();
   Eigen::MatrixXd P_new = M * P_ * M.transpose();
   P_.swap(P_new);
@@ -192,6 +198,7 @@ void FilterCovariance::change_variables(const Eigen::MatrixXd& M) {
 bool FilterCovariance::update(const Eigen::Ref<const Eigen::MatrixXd>& Y, const Eigen::Ref<const Eigen::MatrixXd>& S,
                               const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::VectorXd& dx,
                               const StackedUpdateBuffers& buf) {
+  ROE_CHECK(Y.rows() == dim(), "FilterCovariance::update: P Hᵀ's rows are not the state's");
   full();
   return stacked_update(P_, Y, S, r, dx, buf);
 }
@@ -202,12 +209,14 @@ bool FilterCovariance::update_constant_gain(const Eigen::Ref<const Eigen::Matrix
                                             const Eigen::Ref<const Eigen::VectorXd>& d,
                                             const Eigen::Ref<const Eigen::VectorXd>& r,
                                             const std::vector<Eigen::Index>& rows, Eigen::VectorXd& dx) {
+  ROE_CHECK(Y.rows() == dim(), "FilterCovariance::update_constant_gain: P Hᵀ's rows are not the state's");
   full();
   return stacked_update_constant_gain(P_, Y, S, R, d, r, rows, dx);
 }
 
 bool FilterCovariance::update_dense(const Eigen::MatrixXd& H, const Eigen::MatrixXd& R,
                                     const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::VectorXd& dx) {
+  ROE_CHECK(H.cols() == dim(), "FilterCovariance::update_dense: H's columns are not the state's");
   full();
   const Eigen::MatrixXd S = H * P_ * H.transpose() + R;
   const Eigen::LLT<Eigen::MatrixXd> llt(S);

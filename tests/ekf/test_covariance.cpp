@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "random_support.hpp"
+#include "roe/core/error.hpp"
 #include "roe/ekf/covariance.hpp"
 
 using namespace roe::ekf;
@@ -101,6 +102,13 @@ TEST_CASE("FilterCovariance: augment, then change_variables, equal the dense M P
   CHECK(rel_diff(cov.full(), M * P_aug * M.transpose()) < 1e-12);
   CHECK(cov.full() == cov.full().transpose());
   CHECK(!cov.check(true));
+  // A change of variables or an augmentation that does not fit the state is refused, P untouched.
+  const Eigen::MatrixXd kept = cov.full();
+  CHECK_THROWS_AS(cov.change_variables(M), roe::InternalError);  // M is (n + 2) x (n + 6)
+  CompactJacobian6 outside;
+  outside.append3(n + 2, random_matrix(6, 3, g));
+  CHECK_THROWS_AS(cov.augment(outside, Q), roe::InternalError);
+  CHECK(cov.full() == kept);
 
   // Propagation after the change: the new rows are constants (only the core block and its cross terms move).
   const auto Fs2 = transitions(7, g);
