@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -232,7 +233,10 @@ bool FilterCovariance::update_dense(const Eigen::MatrixXd& H, const Eigen::Matri
 std::optional<std::string> FilterCovariance::check(bool positive_definite) {
   static const char* names[] = {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a"};
   sync_core();
-  for (int i = 0; i < dim(); ++i) {
+  // Every update: one vectorised pass over the diagonal; the loop below only names the first bad entry.
+  const auto diag = P_.diagonal().array();
+  const bool diag_ok = ((diag > 0.0) && (diag < std::numeric_limits<double>::infinity())).all();
+  for (int i = 0; !diag_ok && i < dim(); ++i) {
     const double d = P_(i, i);
     if (!std::isfinite(d) || d <= 0.0) {
       const std::string comp = i < kCore ? std::string(names[i / 3]) + "[" + std::to_string(i % 3) + "]"
