@@ -1,6 +1,12 @@
 #include "roe/ekf/covariance.hpp"
 
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <limits>
+#include <string>
 #include <utility>
+
+#include "roe/core/error.hpp"
 
 namespace roe::ekf {
 
@@ -30,13 +36,30 @@ void accumulate_transition(const CoreTransition& F, Mat15& PhiT) {
   PhiT.block<3, 3>(kV, kP).diagonal().array() += dt;
 }
 
-Eigen::MatrixXd& FilterCovariance::reset(int n) {
-  P_ = Eigen::MatrixXd::Zero(n, n);
+void CompactJacobian6::append3(int offset, const Mat63& block) {
+  ROE_CHECK(nc + 3 <= 12 && offset >= 0, "CompactJacobian6: more than 12 columns or a negative offset");
+  for (int j = 0; j < 3; ++j) {
+    J.col(nc) = block.col(j);
+    idx[nc++] = offset + j;
+  }
+}
+
+Eigen::MatrixXd CompactJacobian6::dense(int n) const {
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(6, n);
+  for (int j = 0; j < nc; ++j) D.col(idx[j]) = J.col(j);
+  return D;
+}
+
+void FilterCovariance::reset(Eigen::MatrixXd P0) {
+  ROE_CHECK(P0.rows() == P0.cols(), "FilterCovariance::reset: P is not square");
+  P_ = std::move(P0);
   cc_pending_ = false;
   PhiT_.setIdentity();
   phi_pending_ = false;
-  return P_;
+  rec_PhiT_.setIdentity();
 }
+
+void FilterCovariance::symmetrise() { P_ = (0.5 * (P_ + P_.transpose())).eval(); }
 
 void FilterCovariance::propagate_dense(const CoreTransition& F, const ImuNoiseParams& noise, double dt) {
   full();
@@ -45,7 +68,8 @@ void FilterCovariance::propagate_dense(const CoreTransition& F, const ImuNoisePa
   P_ = (Fn * P_ * Fn.transpose()).eval();
   auto Pcc = P_.topLeftCorner<kCore, kCore>();
   add_process_noise(noise, dt, Pcc);
-  P_ = (0.5 * (P_ + P_.transpose())).eval();
+  symmetrise();
+  if (recording_) accumulate_transition(F, rec_PhiT_);
 }
 
 void FilterCovariance::propagate(const CoreTransition& F, const ImuNoiseParams& noise, double dt) {
@@ -57,6 +81,7 @@ void FilterCovariance::propagate(const CoreTransition& F, const ImuNoiseParams& 
   // blocks are symmetrised and the upper blocks mirrored. 675 + 297 multiply-adds instead of 2 x 675.
   // The core block is propagated in the fixed-size Pcc_ (no strided copies per sample); P_'s top-left block
   // takes it back on the next sync_core().
+  if (recording_) accumulate_transition(F, rec_PhiT_);
   if (!cc_pending_) {
     Pcc_ = P_.topLeftCorner<15, 15>();
     cc_pending_ = true;
@@ -102,7 +127,7 @@ void FilterCovariance::sync_core() {
   cc_pending_ = false;
 }
 
-Eigen::MatrixXd& FilterCovariance::full() {
+const Eigen::MatrixXd& FilterCovariance::full() {
   sync_core();
   if (!phi_pending_) return P_;
   const int r = dim() - kCore;
@@ -137,6 +162,94 @@ const Eigen::Block<const Eigen::MatrixXd, kCore, kCore> FilterCovariance::core_b
 void FilterCovariance::inflate_core(int first, double var) {
   sync_core();
   P_.block<3, 3>(first, first).diagonal().array() += var;
+}
+
+void FilterCovariance::take_segment(Mat15& Phi, Mat15& P_cc) {
+  Phi = rec_PhiT_.transpose();
+  P_cc = core_block();
+  rec_PhiT_.setIdentity();
+}
+
+void FilterCovariance::augment(const CompactJacobian6& Jx, const Mat6& Q) {
+  full();
+  const int n = dim();
+  for (int j = 0; j < Jx.nc; ++j) ROE_CHECK(Jx.idx[j] < n, "FilterCovariance::augment: J_x column outside the state");
+  // P_xa = P J_xᵀ (n x 6, from J_x's compact columns);  P_aa = J_x P J_xᵀ + Q.
+  Eigen::MatrixXd P_xa = Eigen::MatrixXd::Zero(n, 6);
+  for (int j = 0; j < Jx.nc; ++j) P_xa.noalias() += P_.col(Jx.idx[j]) * Jx.J.col(j).transpose();
+  Mat6 P_aa = Q;
+  for (int j = 0; j < Jx.nc; ++j) P_aa.noalias() += Jx.J.col(j) * P_xa.row(Jx.idx[j]);
+  P_aa = 0.5 * (P_aa + P_aa.transpose()).eval();
+  Eigen::MatrixXd P_new(n + 6, n + 6);
+  P_new.topLeftCorner(n, n) = P_;
+  P_new.topRightCorner(n, 6) = P_xa;
+  P_new.bottomLeftCorner(6, n) = P_xa.transpose();
+  P_new.bottomRightCorner<6, 6>() = P_aa;
+  P_.swap(P_new);
+}
+
+void FilterCovariance::change_variables(const Eigen::MatrixXd& M) {
+  ROE_CHECK(M.cols() == dim(), "FilterCovariance::change_variables: M's columns are not the state's");
+  full();
+  Eigen::MatrixXd P_new = M * P_ * M.transpose();
+  P_.swap(P_new);
+  symmetrise();
+}
+
+bool FilterCovariance::update(const Eigen::Ref<const Eigen::MatrixXd>& Y, const Eigen::Ref<const Eigen::MatrixXd>& S,
+                              const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::VectorXd& dx,
+                              const StackedUpdateBuffers& buf) {
+  ROE_CHECK(Y.rows() == dim(), "FilterCovariance::update: P Hᵀ's rows are not the state's");
+  full();
+  return stacked_update(P_, Y, S, r, dx, buf);
+}
+
+bool FilterCovariance::update_constant_gain(const Eigen::Ref<const Eigen::MatrixXd>& Y,
+                                            const Eigen::Ref<const Eigen::MatrixXd>& S,
+                                            const Eigen::Ref<const Eigen::MatrixXd>& R,
+                                            const Eigen::Ref<const Eigen::VectorXd>& d,
+                                            const Eigen::Ref<const Eigen::VectorXd>& r,
+                                            const std::vector<Eigen::Index>& rows, Eigen::VectorXd& dx) {
+  ROE_CHECK(Y.rows() == dim(), "FilterCovariance::update_constant_gain: P Hᵀ's rows are not the state's");
+  full();
+  return stacked_update_constant_gain(P_, Y, S, R, d, r, rows, dx);
+}
+
+bool FilterCovariance::update_dense(const Eigen::MatrixXd& H, const Eigen::MatrixXd& R,
+                                    const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::VectorXd& dx) {
+  ROE_CHECK(H.cols() == dim(), "FilterCovariance::update_dense: H's columns are not the state's");
+  full();
+  const Eigen::MatrixXd S = H * P_ * H.transpose() + R;
+  const Eigen::LLT<Eigen::MatrixXd> llt(S);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::MatrixXd K = llt.solve(H * P_).transpose();  // P Hᵀ S⁻¹ (P and S symmetric)
+  dx = K * r;
+  const Eigen::MatrixXd IKH = Eigen::MatrixXd::Identity(dim(), dim()) - K * H;
+  P_ = IKH * P_ * IKH.transpose() + K * R * K.transpose();
+  symmetrise();
+  return true;
+}
+
+std::optional<std::string> FilterCovariance::check(bool positive_definite) {
+  static const char* names[] = {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a"};
+  sync_core();
+  // Every update: one vectorised pass over the diagonal; the loop below only names the first bad entry.
+  const auto diag = P_.diagonal().array();
+  const bool diag_ok = ((diag > 0.0) && (diag < std::numeric_limits<double>::infinity())).all();
+  for (int i = 0; !diag_ok && i < dim(); ++i) {
+    const double d = P_(i, i);
+    if (!std::isfinite(d) || d <= 0.0) {
+      const std::string comp = i < kCore ? std::string(names[i / 3]) + "[" + std::to_string(i % 3) + "]"
+                                         : "error-state index " + std::to_string(i);
+      return "covariance diagonal of " + comp + (std::isfinite(d) ? " is not positive " : " is not finite ");
+    }
+  }
+  if (!positive_definite) return std::nullopt;
+  full();
+  if (!P_.allFinite()) return std::string("covariance is not finite");
+  if (Eigen::LLT<Eigen::MatrixXd>(P_).info() != Eigen::Success)
+    return std::string("covariance is not positive definite");
+  return std::nullopt;
 }
 
 }  // namespace roe::ekf

@@ -108,7 +108,7 @@ Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const 
     s_.extr_offset = kCore;
     s_.dim = kCore + 6;
   }
-  cov_.reset(s_.dim);
+  cov_.reset(Eigen::MatrixXd::Zero(s_.dim, s_.dim));
   blocks_.reserve(16);
 }
 
@@ -137,7 +137,7 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
   gyro_ = gyro0;
   accel_ = accel0;
 
-  Eigen::MatrixXd& P = cov_.reset(s_.dim);
+  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(s_.dim, s_.dim);
   const auto sq = [](double s) { return s * s; };
   const double d2r = math::kRadPerDeg;
   for (int i = 0; i < 3; ++i) {
@@ -158,12 +158,12 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
       P(s_.extr_offset + 3 + i, s_.extr_offset + 3 + i) = sq(opt_.extrinsics_sigma_rot_deg * d2r);
     }
   }
+  cov_.reset(std::move(P));
   initialized_ = true;
   check_covariance(true, "initialisation");
   if (rec_) {
     rec_->steps.clear();
     rec_->nodes.clear();
-    rec_PhiT_.setIdentity();
     push_node(RecordedNode::Kind::kInit);
   }
 }
@@ -171,11 +171,10 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
 StateEstimate Filter::snapshot() const { return s_; }
 
 RecordedNode& Filter::push_node(RecordedNode::Kind kind) {
-  cov_.full();
   RecordedNode& nd = rec_->nodes.emplace_back();
   nd.kind = kind;
   nd.x = snapshot();
-  nd.P = cov_.stored();
+  nd.P = cov_.full();
   nd.steps = rec_->steps.size();
   nd.first_step = nd.steps;
   return nd;
@@ -190,9 +189,7 @@ void Filter::close_segment() {
   nd.x = snapshot();
   nd.steps = rec_->steps.size();
   nd.first_step = first;
-  nd.Phi = rec_PhiT_.transpose();
-  nd.P_cc = cov_.core_block();
-  rec_PhiT_.setIdentity();
+  cov_.take_segment(nd.Phi, nd.P_cc);
 }
 
 void Filter::finish_recording() { close_segment(); }
@@ -218,10 +215,7 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   s_.t_ns = t;
   gyro_ = gyro;
   accel_ = accel;
-  if (rec_) {
-    rec_->steps.push_back({t, s_.x, F});
-    accumulate_transition(F, rec_PhiT_);
-  }
+  if (rec_) rec_->steps.push_back({t, s_.x, F});
   if (reference_)
     cov_.propagate_dense(F, noise_, dt);
   else
@@ -557,31 +551,18 @@ int anchor_gauge_map(AnchorGauge gauge, const Mat3& R_O_W, Mat6& Gamma) {
 }  // namespace
 
 void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor) {
-  Eigen::MatrixXd& P = cov_.full();
   close_segment();
   const ObjectInit in = init_object(s_.x, s_.T_I_C, z);
-  // Compact J_x (6 x nc) over the columns it touches.
-  Eigen::Matrix<double, 6, 12> Jx;
-  int idx[12];
-  int nc = 0;
-  auto put3 = [&](int off, const Mat63& blk) {
-    for (int j = 0; j < 3; ++j) {
-      Jx.col(nc) = blk.col(j);
-      idx[nc++] = off + j;
-    }
-  };
-  put3(kP, in.J_p_WI);
-  put3(kTheta, in.J_theta_WI);
+  // J_x over the columns it touches; the covariance grows by P J_xᵀ and J_x P J_xᵀ + J_z R J_zᵀ.
+  CompactJacobian6 Jx;
+  Jx.append3(kP, in.J_p_WI);
+  Jx.append3(kTheta, in.J_theta_WI);
   if (s_.extr_offset >= 0) {
-    put3(s_.extr_offset, in.J_p_IC);
-    put3(s_.extr_offset + 3, in.J_theta_IC);
+    Jx.append3(s_.extr_offset, in.J_p_IC);
+    Jx.append3(s_.extr_offset + 3, in.J_theta_IC);
   }
-  // P_xa = P J_xᵀ (n x 6);  P_aa = J_x P J_xᵀ + J_z R J_zᵀ.
-  Eigen::MatrixXd P_xa = Eigen::MatrixXd::Zero(s_.dim, 6);
-  for (int j = 0; j < nc; ++j) P_xa.noalias() += P.col(idx[j]) * Jx.col(j).transpose();
-  Mat6 P_aa = in.J_z * R * in.J_z.transpose();
-  for (int j = 0; j < nc; ++j) P_aa.noalias() += Jx.col(j) * P_xa.row(idx[j]);
-  P_aa = 0.5 * (P_aa + P_aa.transpose()).eval();
+  const Mat6 Q = in.J_z * R * in.J_z.transpose();
+  cov_.augment(Jx, Q);
 
   ObjectEntry o;
   o.id = id;
@@ -591,14 +572,8 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
 
   if (!anchor) {
     // Plain augmentation.
-    Eigen::MatrixXd P_new(s_.dim + 6, s_.dim + 6);
-    P_new.topLeftCorner(s_.dim, s_.dim) = P;
-    P_new.topRightCorner(s_.dim, 6) = P_xa;
-    P_new.bottomLeftCorner(6, s_.dim) = P_xa.transpose();
-    P_new.bottomRightCorner<6, 6>() = P_aa;
     o.offset = s_.dim;
     o.dim = 6;
-    P.swap(P_new);
     s_.dim += 6;
     s_.objects.push_back(o);
     check_state("object initialisation");
@@ -611,38 +586,29 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   // the anchor's error, choose γ = [t; φ] so that the fixed components vanish:
   //   t = −R_O_Wᵀ δp_a,  φ = −δθ_a (kPose)  or  φ = (0, 0, −δθ_a,z) (kPositionYaw),
   // φ = 0 (kPosition), then δx' = δx + G Γ δa; the anchor keeps δθ_a (kPosition), δθ_a,xy
-  // (kPositionYaw) or nothing (kPose).
+  // (kPositionYaw) or nothing (kPose): P' = M P_aug Mᵀ.
   Mat6 Gamma;
   const int keep = anchor_gauge_map(opt_.anchor_gauge, in.T_O_W.R(), Gamma);
   const Eigen::MatrixXd G = gauge_generator();  // s_.objects does not contain the anchor yet
   const int n_aug = s_.dim + 6;
-  Eigen::MatrixXd P_aug(n_aug, n_aug);
-  P_aug.topLeftCorner(s_.dim, s_.dim) = P;
-  P_aug.topRightCorner(s_.dim, 6) = P_xa;
-  P_aug.bottomLeftCorner(6, s_.dim) = P_xa.transpose();
-  P_aug.bottomRightCorner<6, 6>() = P_aa;
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(s_.dim + keep, n_aug);
   M.topLeftCorner(s_.dim, s_.dim).setIdentity();
   M.topRightCorner(s_.dim, 6) = G * Gamma;
   for (int k = 0; k < keep; ++k) M(s_.dim + k, s_.dim + 3 + k) = 1.0;
-  Eigen::MatrixXd P_new = M * P_aug * M.transpose();
-  P_new = 0.5 * (P_new + P_new.transpose()).eval();
+  cov_.change_variables(M);
   const int n_old = s_.dim;
   o.offset = keep > 0 ? s_.dim : -1;
   o.dim = keep;
-  P.swap(P_new);
   s_.dim += keep;
   s_.objects.push_back(o);
   check_state("anchor initialisation");
   check_covariance(true, "anchor initialisation");
   if (rec_) {
     // The link for the smoother: δy = M [δu; J_x δu + J_z n] = B δu + noise.
-    Eigen::MatrixXd Jx_full = Eigen::MatrixXd::Zero(6, n_old);
-    for (int j = 0; j < nc; ++j) Jx_full.col(idx[j]) = Jx.col(j);
     RecordedNode& nd = push_node(RecordedNode::Kind::kAugment);
     nd.append_only = false;
     nd.anchor = true;
-    nd.B = M.leftCols(n_old) + M.rightCols(6) * Jx_full;
+    nd.B = M.leftCols(n_old) + M.rightCols(6) * Jx.dense(n_old);
   }
 }
 
@@ -687,7 +653,6 @@ void Filter::stacked_pht(int nb) {
 
 FrameResult Filter::update(const std::vector<Detection>& dets) {
   ROE_CHECK(initialized_, "update before initialize");
-  cov_.sync_core();
   FrameResult res;
   res.t_ns = s_.t_ns;
   res.detections.resize(dets.size());
@@ -914,7 +879,7 @@ bool Filter::apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, co
   bool inflated = false;
   for (int a = 0; a < ni; ++a) inflated |= blocks_[inliers[a]].k > 1.0;
   if ((!inflated || s_.dim == kCore) && reference_) return reference_update(inliers, row0, dx);
-  if (!inflated || s_.dim == kCore) return stacked_update(cov_.full(), Y, S, ws_r_.head(m), dx, {ws_L_, ws_W_, ws_u_});
+  if (!inflated || s_.dim == kCore) return cov_.update(Y, S, ws_r_.head(m), dx, {ws_L_, ws_W_, ws_u_});
   // The stacked R is block-diagonal (detections independent of each other); √k per row of each block.
   Eigen::MatrixXd R = Eigen::MatrixXd::Zero(m, m);
   Eigen::VectorXd d(m);
@@ -927,11 +892,10 @@ bool Filter::apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, co
   std::vector<Eigen::Index>& rows = ws_const_rows_;
   rows.clear();
   for (int i = kCore; i < s_.dim; ++i) rows.push_back(i);
-  return stacked_update_constant_gain(cov_.full(), Y, S, R, d, ws_r_.head(m), rows, dx);
+  return cov_.update_constant_gain(Y, S, R, d, ws_r_.head(m), rows, dx);
 }
 
 bool Filter::reference_update(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx) {
-  Eigen::MatrixXd& P = cov_.full();
   const int ni = static_cast<int>(inliers.size()), m = row0[ni], n = s_.dim;
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m, n), R = Eigen::MatrixXd::Zero(m, m);
   for (int a = 0; a < ni; ++a) {
@@ -939,15 +903,7 @@ bool Filter::reference_update(const std::vector<int>& inliers, const std::vector
     for (int j = 0; j < b.nc; ++j) H.block(row0[a], b.idx[j], b.m, 1) += b.H.col(j).head(b.m);
     R.block(row0[a], row0[a], b.m, b.m) = b.R.topLeftCorner(b.m, b.m);
   }
-  const Eigen::MatrixXd S = H * P * H.transpose() + R;
-  const Eigen::LLT<Eigen::MatrixXd> llt(S);
-  if (llt.info() != Eigen::Success) return false;
-  const Eigen::MatrixXd K = llt.solve(H * P).transpose();  // P Hᵀ S⁻¹ (P and S symmetric)
-  dx = K * ws_r_.head(m);
-  const Eigen::MatrixXd IKH = Eigen::MatrixXd::Identity(n, n) - K * H;
-  P = IKH * P * IKH.transpose() + K * R * K.transpose();
-  P = (0.5 * (P + P.transpose())).eval();
-  return true;
+  return cov_.update_dense(H, R, ws_r_.head(m), dx);
 }
 
 void Filter::learn_sigma_scale(const std::vector<double>& frame_samples) {
@@ -1067,25 +1023,8 @@ void Filter::check_state(const char* where, bool core_only) const {
 }
 
 void Filter::check_covariance(bool full, const char* where) {
-  static const char* names[] = {"p_W_I", "v_W_I", "theta_W_I", "b_g", "b_a"};
-  cov_.sync_core();
-  for (int i = 0; i < s_.dim; ++i) {
-    const double d = cov_.stored()(i, i);
-    if (!std::isfinite(d) || d <= 0.0) {
-      std::string comp = i < kCore ? std::string(names[i / 3]) + "[" + std::to_string(i % 3) + "]"
-                                   : "error-state index " + std::to_string(i);
-      throw NumericError(fmt::format("filter diverged at {} ({}): covariance diagonal of {} is {} ", when(),
-                                     where, comp, std::isfinite(d) ? "not positive" : "not finite"));
-    }
-  }
-  if (!full) return;
-  const Eigen::MatrixXd& P = cov_.full();
-  if (!P.allFinite())
-    throw NumericError(fmt::format("filter diverged at {} ({}): covariance is not finite", when(), where));
-  Eigen::LLT<Eigen::MatrixXd> llt(P);
-  if (llt.info() != Eigen::Success)
-    throw NumericError(
-        fmt::format("filter diverged at {} ({}): covariance is not positive definite", when(), where));
+  if (const std::optional<std::string> problem = cov_.check(full))
+    throw NumericError(fmt::format("filter diverged at {} ({}): {}", when(), where, *problem));
 }
 
 }  // namespace roe::ekf

@@ -6,29 +6,12 @@
 #include <Eigen/Dense>
 #include <random>
 
+#include "random_support.hpp"
 #include "roe/ekf/stacked_update.hpp"
 
 using namespace roe::ekf;
-
-namespace {
-
-Eigen::MatrixXd random_spd(int n, std::mt19937& g) {
-  std::normal_distribution<double> N(0.0, 1.0);
-  Eigen::MatrixXd A(n, n);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) A(i, j) = N(g);
-  return A * A.transpose() + 0.1 * Eigen::MatrixXd::Identity(n, n);
-}
-
-Eigen::MatrixXd random_matrix(int r, int c, std::mt19937& g) {
-  std::normal_distribution<double> N(0.0, 1.0);
-  Eigen::MatrixXd A(r, c);
-  for (int i = 0; i < r; ++i)
-    for (int j = 0; j < c; ++j) A(i, j) = N(g);
-  return A;
-}
-
-}  // namespace
+using roe::ekf::test::random_matrix;
+using roe::ekf::test::random_spd;
 
 TEST_CASE("stacked_update: K, dx and the Joseph posterior of the textbook formulas", "[ekf][update]") {
   std::mt19937 g(23);

@@ -1,17 +1,27 @@
 #pragma once
 /// @file
-/// The filter's covariance behind one door (issue 41): the dense n x n P of the error state (filter.hpp's
-/// layout) with its block-sparse propagation. Only the 15 core rows/columns change per IMU sample: the core
-/// block is propagated in a fixed-size 15x15 member (authoritative while pending; P's top-left block is
-/// stale until the next sync), and the core/rest cross-covariance lazily with the accumulated transition
-/// Φ = F_k⋯F_1 (kept transposed, only its non-trivial columns multiplied) the next time the whole P is needed
-/// (update, augmentation, recording, covariance()). docs/filter.md §2. No heap allocation per IMU sample.
-/// The update, augmentation and the anchor's change of variables operate on full() (ekf::Filter's policy).
-/// I/O-free.
+/// The filter's covariance behind one door (issue 41; OpenVINS's StateHelper is the model): the dense n x n P
+/// of the error state (filter.hpp's layout) and every change made to it — initialisation, the block-sparse
+/// propagation, augmentation with a new object, the anchor's change of variables, the stacked update,
+/// symmetrisation — its checks (finite positive diagonal, positive definite) and the covariance part of the
+/// smoother's recording. ekf::Filter keeps the policy (which detections, which rows, which update, the gauge,
+/// the σ scale, first sight, re-lock) and the maths that decide what to apply (J_x, M, P Hᵀ, S); it reads P
+/// through the const accessors below and changes it only through this class.
+///
+/// Propagation: only the 15 core rows/columns change per IMU sample. The core block is propagated in a
+/// fixed-size 15x15 member (authoritative while pending; P's top-left block is stale until the next sync), and
+/// the core/rest cross-covariance lazily with the accumulated transition Φ = F_k⋯F_1 (kept transposed, only its
+/// non-trivial columns multiplied) the next time the whole P is needed (update, augmentation, recording,
+/// full()). docs/filter.md §1–2. No heap allocation per IMU sample. I/O-free.
 
 #include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "roe/ekf/imu.hpp"
+#include "roe/ekf/measurement.hpp"  // Mat6, Mat63
+#include "roe/ekf/stacked_update.hpp"
 
 namespace roe::ekf {
 
@@ -19,17 +29,61 @@ namespace roe::ekf {
 /// and the smoother recording's segment transition), on Φ's non-trivial columns only (filter/covariance.cpp).
 void accumulate_transition(const CoreTransition& F, Mat15& PhiT);
 
+/// A Jacobian of 6 rows that acts on at most 12 error-state columns, kept compact: its column j is the
+/// derivative with respect to error-state column idx[j] (the first-sight initialisation's J_x).
+struct CompactJacobian6 {
+  Eigen::Matrix<double, 6, 12> J;
+  int idx[12];
+  int nc = 0;
+  /// Appends three columns acting on the error-state columns offset … offset + 2.
+  void append3(int offset, const Mat63& block);
+  /// The same Jacobian on all n error-state columns (6 x n, zero elsewhere).
+  Eigen::MatrixXd dense(int n) const;
+};
+
 class FilterCovariance {
  public:
-  /// P ← 0 (n x n), nothing pending; returns P for the caller to fill (initialisation).
-  Eigen::MatrixXd& reset(int n);
+  /// P ← P0 (n x n, symmetric), nothing pending (initialisation).
+  void reset(Eigen::MatrixXd P0);
   int dim() const { return static_cast<int>(P_.rows()); }
 
-  /// One IMU step: P_cc ← F P_cc Fᵀ + Q on the fixed-size core block, Φ accumulated for the cross terms.
+  /// One IMU step: P_cc ← F P_cc Fᵀ + Q on the fixed-size core block, Φ accumulated for the cross terms (and
+  /// for the recording's segment while recording).
   void propagate(const CoreTransition& F, const ImuNoiseParams& noise, double dt);
   /// The same step on the whole matrix, P ← F P Fᵀ + Q with the dense F (the test-only reference arithmetic,
   /// Filter::set_reference_arithmetic).
   void propagate_dense(const CoreTransition& F, const ImuNoiseParams& noise, double dt);
+  /// Adds `var` to the three core variances from `first` on (the re-lock's inflation, process noise added now:
+  /// the pending cross-term transition is unaffected).
+  void inflate_core(int first, double var);
+
+  /// Augmentation with a new 6-dof state a = f(x, z) (first sight, measurement.hpp): with J_x its Jacobian on
+  /// the current error state and Q = J_z R J_zᵀ its measurement noise, P grows to
+  /// [P, P J_xᵀ; J_x P, J_x P J_xᵀ + Q] (the new diagonal block symmetrised), n → n + 6.
+  void augment(const CompactJacobian6& Jx, const Mat6& Q);
+  /// A linear change of variables of the error state, δx' = M δx (m x n; the anchor's gauge fix, docs/filter.md
+  /// §4): P ← M P Mᵀ, symmetrised; n → m.
+  void change_variables(const Eigen::MatrixXd& M);
+
+  /// The stacked update (stacked_update.hpp) of P with Y = P Hᵀ (n x m), S and r; δx to `dx`. False, with P
+  /// and dx untouched, when S is not positive definite.
+  bool update(const Eigen::Ref<const Eigen::MatrixXd>& Y, const Eigen::Ref<const Eigen::MatrixXd>& S,
+              const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::VectorXd& dx, const StackedUpdateBuffers& buf);
+  /// The same with a separate gain for the error-state rows `rows` (stacked_update_constant_gain).
+  bool update_constant_gain(const Eigen::Ref<const Eigen::MatrixXd>& Y, const Eigen::Ref<const Eigen::MatrixXd>& S,
+                            const Eigen::Ref<const Eigen::MatrixXd>& R, const Eigen::Ref<const Eigen::VectorXd>& d,
+                            const Eigen::Ref<const Eigen::VectorXd>& r, const std::vector<Eigen::Index>& rows,
+                            Eigen::VectorXd& dx);
+  /// The test-only reference update: the textbook Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ with
+  /// K = P Hᵀ S⁻¹, S = H P Hᵀ + R formed densely from the full H (m x n), then symmetrised. False, with P and
+  /// dx untouched, when S is not positive definite.
+  bool update_dense(const Eigen::MatrixXd& H, const Eigen::MatrixXd& R, const Eigen::Ref<const Eigen::VectorXd>& r,
+                    Eigen::VectorXd& dx);
+
+  /// The guard rails' checks: every diagonal entry finite and positive, and with `positive_definite` P finite
+  /// and its Cholesky factorisation successful. Nothing when all hold, else what failed ("covariance diagonal
+  /// of b_g[1] is not finite ", "covariance is not positive definite"), for the caller to name time and place.
+  std::optional<std::string> check(bool positive_definite);
 
   /// Diagonal entry i and core entry (i, j) (always current, also between updates).
   double variance(int i) const { return cc_pending_ && i < kCore ? Pcc_(i, i) : P_(i, i); }
@@ -38,21 +92,30 @@ class FilterCovariance {
   const Eigen::Block<const Eigen::MatrixXd, kCore, kCore> core_block();
   /// P as stored: every block outside the core rows/columns is always current (the objects' covariances).
   const Eigen::MatrixXd& stored() const { return P_; }
-  /// Writes the propagated core block back into P (the cross terms may still be pending).
-  void sync_core();
-  /// The whole covariance brought up to date (core block and cross terms), for the update and augmentation.
-  Eigen::MatrixXd& full();
-  /// Adds `var` to the three core variances from `first` on (the re-lock's inflation, process noise added now:
-  /// the pending cross-term transition is unaffected).
-  void inflate_core(int first, double var);
+  /// The whole covariance brought up to date (core block and cross terms): the update's P Hᵀ, covariance(),
+  /// the recording's snapshot of P.
+  const Eigen::MatrixXd& full();
+
+  /// Recording (the smoother's, smoother.hpp): while on, propagate() also accumulates the transition Φ of the
+  /// open propagation segment (from reset() or the last take_segment() on).
+  void set_recording(bool on) { recording_ = on; }
+  /// Closes the open segment: its Φ = F_k⋯F_1 and the core block P_cc at its end; the next segment starts.
+  void take_segment(Mat15& Phi, Mat15& P_cc);
 
  private:
+  /// Writes the propagated core block back into P (the cross terms may still be pending).
+  void sync_core();
+  /// P ← ½ (P + Pᵀ).
+  void symmetrise();
+
   Eigen::MatrixXd P_;
   Mat15 Pcc_;
   bool cc_pending_ = false;
   Mat15 PhiT_ = Mat15::Identity();  // Φᵀ, Φ = F_k⋯F_1 since the last cross-covariance sync
   bool phi_pending_ = false;
   Eigen::MatrixXd tmp_cross_;
+  bool recording_ = false;
+  Mat15 rec_PhiT_ = Mat15::Identity();  // Φᵀ of the recording's open propagation segment
 };
 
 }  // namespace roe::ekf

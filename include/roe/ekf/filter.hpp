@@ -3,9 +3,10 @@
 /// The self-calibrating multi-object error-state EKF of the paper (§III), DESIGN §6.
 ///
 /// The nominal state is one StateEstimate (state.hpp), corrected in place with its ⊞.
-/// Error state (this order, one dense covariance P owned by this class through its FilterCovariance
-/// (covariance.hpp: the propagation and the lazy cross terms) — the only code that propagates, updates,
-/// augments and symmetrises it):
+/// Error state (this order, one dense covariance P behind one door, the FilterCovariance member (covariance.hpp):
+/// the only code that changes P — propagation with the lazy cross terms, augmentation, the anchor's change of
+/// variables, the stacked update, symmetrisation, the checks, the recording's covariance; this class holds the
+/// policy and the maths that decide what to apply, and reads P through const accessors):
 ///   [δp_W_I, δv_W_I, δθ_W_I, δb_g, δb_a | δp_I_C, δθ_I_C | per object: δp_O_W, δθ_O_W]
 /// - the extrinsics block is present only with FilterOptions::estimate_extrinsics;
 /// - objects are appended on first sight (augmentation with J_x P J_xᵀ + J_z R J_zᵀ and cross terms
@@ -23,8 +24,8 @@
 /// and of it only the lower block triangle (mirrored; diagonal blocks symmetrised), + Q. The core/rest cross-covariance is updated lazily with the accumulated transition
 /// Φ = F_k⋯F_1 (kept transposed, only its non-trivial columns θ, b_g, b_a multiplied) the next time it is
 /// needed (update, augmentation, covariance()). Between images P_cc lives in a fixed-size 15x15 member and
-/// goes back into P with that sync (a copy); FilterCovariance, covariance.hpp. No heap allocation per IMU sample; one per image (the
-/// FrameResult's detection list).
+/// goes back into P with that sync (a copy); FilterCovariance, covariance.hpp. No heap allocation per IMU
+/// sample; one per image (the FrameResult's detection list).
 ///
 /// Update per image: residual and H per detection of an initialised object (the paper's T_O_C
 /// residual, or the same model with the residual formed on T_C_O, FilterOptions::residual_frame), a χ² test
@@ -159,7 +160,10 @@ class Filter {
 
   /// From now on, records into `rec` what the RTS smoother needs (smoother.hpp): call before
   /// initialize(), and finish_recording() after the last propagate(). nullptr stops recording.
-  void set_recording(FilterRecording* rec) { rec_ = rec; }
+  void set_recording(FilterRecording* rec) {
+    rec_ = rec;
+    cov_.set_recording(rec != nullptr);
+  }
   /// Closes the recording's last propagation segment.
   void finish_recording();
   /// The nominal state with its error-state layout.
@@ -216,7 +220,8 @@ class Filter {
 
   /// propagate()'s guard rails: core state and core variances.
   void check_propagated();
-  /// The reference arithmetic's stacked update (set_reference_arithmetic).
+  /// The reference arithmetic's stacked update (set_reference_arithmetic): the inliers' dense H and R, applied
+  /// by FilterCovariance::update_dense.
   bool reference_update(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx);
   /// ws_PHt_'s first 6·nb columns ← P H_kᵀ of blocks_[0 … nb−1]: the columns every H_k shares (core p, θ,
   /// extrinsics; gathered once) in one product, each object's own columns in place.
@@ -265,7 +270,7 @@ class Filter {
   StateEstimate s_;
   Vec3 gyro_ = Vec3::Zero(), accel_ = Vec3::Zero();
   int anchor_id_ = -1;
-  FilterCovariance cov_;  // P behind its door (covariance.hpp): propagation, lazy cross terms, sync
+  FilterCovariance cov_;  // P behind its door (covariance.hpp): every change to P goes through it
   std::vector<MeasBlock> blocks_;
   // Update workspaces, kept between images and only grown (no heap allocation per image once the state
   // dimension and the number of detections per image have been seen).
@@ -304,13 +309,13 @@ class Filter {
   std::map<int, Timestamp> last_detection_ns_;
   double error_inflation(int object_id);
   std::vector<Eigen::Index> ws_const_rows_;
-  // The stacked update: stacked_update, or stacked_update_constant_gain when a block's k > 1.
+  // The stacked update, applied by the covariance owner: FilterCovariance::update, or update_constant_gain when a
+  // block's k > 1.
   bool apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, const Eigen::Ref<const Eigen::MatrixXd>& S,
                             const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx);
   std::size_t n_updates_ = 0;
   FilterRecording* rec_ = nullptr;
   bool reference_ = false;  // set_reference_arithmetic
-  Mat15 rec_PhiT_ = Mat15::Identity();  // Φᵀ of the recording's open propagation segment
 };
 
 }  // namespace roe::ekf

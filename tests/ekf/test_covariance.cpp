@@ -1,0 +1,241 @@
+// The covariance owner's doors (ekf::FilterCovariance, covariance.hpp) against dense formulas written here:
+// augmentation [P, P J_xᵀ; J_x P, J_x P J_xᵀ + Q], the change of variables M P Mᵀ, the stacked update and the
+// smoother's segment recording, each after IMU steps whose cross terms are still pending (so a door that
+// forgot to bring P up to date fails), and the checks' findings.
+#include <catch2/catch.hpp>
+
+#include <Eigen/Dense>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "random_support.hpp"
+#include "roe/core/error.hpp"
+#include "roe/ekf/covariance.hpp"
+
+using namespace roe::ekf;
+using roe::ekf::test::random_matrix;
+using roe::ekf::test::random_spd;
+
+namespace {
+
+ImuNoiseParams noise() {
+  ImuNoiseParams q;
+  q.gyro_noise_density = 2e-3;
+  q.gyro_random_walk = 3e-5;
+  q.accel_noise_density = 2e-2;
+  q.accel_random_walk = 4e-4;
+  return q;
+}
+
+/// k IMU steps of a rotating, accelerating IMU (transitions with every non-trivial block non-zero).
+std::vector<CoreTransition> transitions(int k, std::mt19937& g) {
+  std::normal_distribution<double> N(0.0, 1.0);
+  std::vector<CoreTransition> Fs(k);
+  CoreState x;
+  x.b_g = Vec3(0.01, -0.02, 0.005);
+  x.b_a = Vec3(0.05, 0.02, -0.03);
+  for (auto& F : Fs) {
+    const Vec3 w(0.5 + 0.1 * N(g), -0.3 + 0.1 * N(g), 0.8 + 0.1 * N(g));
+    const Vec3 a(0.4 + N(g), -0.2 + N(g), 9.81 + N(g));
+    x = integrate(x, w, a, w, a, 0.0025, &F);
+  }
+  return Fs;
+}
+
+/// The dense reference of those steps: P ← F P Fᵀ + Q on the whole matrix, symmetrised.
+Eigen::MatrixXd propagate_dense(Eigen::MatrixXd P, const std::vector<CoreTransition>& Fs) {
+  const int n = static_cast<int>(P.rows());
+  for (const auto& F : Fs) {
+    Eigen::MatrixXd Fn = Eigen::MatrixXd::Identity(n, n);
+    Fn.topLeftCorner<kCore, kCore>() = F.dense();
+    P = Fn * P * Fn.transpose();
+    auto Pcc = P.topLeftCorner<kCore, kCore>();
+    add_process_noise(noise(), F.dt, Pcc);
+    P = (0.5 * (P + P.transpose())).eval();
+  }
+  return P;
+}
+
+double rel_diff(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B) {
+  return (A - B).cwiseAbs().maxCoeff() / B.cwiseAbs().maxCoeff();
+}
+
+}  // namespace
+
+TEST_CASE("FilterCovariance: augment, then change_variables, equal the dense M P_aug M^T", "[ekf][covariance]") {
+  std::mt19937 g(41);
+  const int n = 21;  // core + extrinsics
+  const Eigen::MatrixXd P0 = random_spd(n, g);
+  const auto Fs = transitions(13, g);
+  // J_x on p, θ and the extrinsics' p, θ (the first sight's columns), dense here and compact for the owner.
+  const int cols[4] = {kP, kTheta, kCore, kCore + 3};
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(6, n);
+  CompactJacobian6 Jx;
+  for (int c : cols) {
+    const Mat63 blk = random_matrix(6, 3, g);
+    J.middleCols<3>(c) = blk;
+    Jx.append3(c, blk);
+  }
+  CHECK(Jx.dense(n) == J);
+  const Mat6 Q = random_spd(6, g);
+
+  FilterCovariance cov;
+  cov.reset(P0);
+  for (const auto& F : Fs) cov.propagate(F, noise(), F.dt);  // cross terms pending
+  cov.augment(Jx, Q);
+  REQUIRE(cov.dim() == n + 6);
+  const Eigen::MatrixXd P = propagate_dense(P0, Fs);
+  Eigen::MatrixXd P_aug(n + 6, n + 6);
+  P_aug << P, P * J.transpose(), J * P, J * P * J.transpose() + Q;
+  CHECK(rel_diff(cov.full(), P_aug) < 1e-12);
+  CHECK(cov.full() == cov.full().transpose());
+
+  // A change of variables that keeps 2 of the 6 new components (the anchor's position_yaw gauge's shape).
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n + 2, n + 6);
+  M.topLeftCorner(n, n).setIdentity();
+  M.topRightCorner(n, 6) = random_matrix(n, 6, g);
+  M(n, n + 3) = M(n + 1, n + 4) = 1.0;
+  cov.change_variables(M);
+  REQUIRE(cov.dim() == n + 2);
+  CHECK(rel_diff(cov.full(), M * P_aug * M.transpose()) < 1e-12);
+  CHECK(cov.full() == cov.full().transpose());
+  CHECK(!cov.check(true));
+  // A change of variables or an augmentation that does not fit the state is refused, P untouched.
+  const Eigen::MatrixXd kept = cov.full();
+  CHECK_THROWS_AS(cov.change_variables(M), roe::InternalError);  // M is (n + 2) x (n + 6)
+  CompactJacobian6 outside;
+  outside.append3(n + 2, random_matrix(6, 3, g));
+  CHECK_THROWS_AS(cov.augment(outside, Q), roe::InternalError);
+  CHECK(cov.full() == kept);
+
+  // Propagation after the change: the new rows are constants (only the core block and its cross terms move).
+  const auto Fs2 = transitions(7, g);
+  const Eigen::MatrixXd P1 = cov.full();
+  for (const auto& F : Fs2) cov.propagate(F, noise(), F.dt);
+  CHECK(rel_diff(cov.full(), propagate_dense(P1, Fs2)) < 1e-12);
+}
+
+TEST_CASE("FilterCovariance: the stacked update acts on the up-to-date P", "[ekf][covariance][update]") {
+  std::mt19937 g(7);
+  const int n = 27, m = 12;
+  const Eigen::MatrixXd P0 = random_spd(n, g);
+  const auto Fs = transitions(9, g);
+  FilterCovariance cov;
+  cov.reset(P0);
+  for (const auto& F : Fs) cov.propagate(F, noise(), F.dt);
+  const Eigen::MatrixXd P = propagate_dense(P0, Fs);
+  const Eigen::MatrixXd H = random_matrix(m, n, g), R = random_spd(m, g);
+  const Eigen::VectorXd r = random_matrix(m, 1, g);
+  // Y and S from the reference P: the door must bring its own P up to date before it applies the update.
+  const Eigen::MatrixXd Y = P * H.transpose();
+  Eigen::MatrixXd S = H * P * H.transpose() + R;
+  S = (0.5 * (S + S.transpose())).eval();
+  Eigen::MatrixXd L, W;
+  Eigen::VectorXd u, dx, dx_dense;
+  REQUIRE(cov.update(Y, S, r, dx, {L, W, u}));
+  const Eigen::MatrixXd K = Y * S.inverse();
+  const Eigen::MatrixXd IKH = Eigen::MatrixXd::Identity(n, n) - K * H;
+  const Eigen::MatrixXd joseph = IKH * P * IKH.transpose() + K * R * K.transpose();
+  CHECK(rel_diff(cov.full(), joseph) < 1e-9);
+  CHECK((dx - K * r).cwiseAbs().maxCoeff() < 1e-9 * (1.0 + (K * r).cwiseAbs().maxCoeff()));
+
+  FilterCovariance ref;
+  ref.reset(P0);
+  for (const auto& F : Fs) ref.propagate_dense(F, noise(), F.dt);
+  REQUIRE(ref.update_dense(H, R, r, dx_dense));
+  CHECK(rel_diff(ref.full(), joseph) < 1e-9);
+  CHECK(ref.full() == ref.full().transpose());
+  CHECK((dx_dense - K * r).cwiseAbs().maxCoeff() < 1e-9 * (1.0 + (K * r).cwiseAbs().maxCoeff()));
+
+  // A non-positive-definite S leaves P and δx untouched.
+  const Eigen::MatrixXd before = cov.full();
+  dx.setConstant(3.0);
+  CHECK_FALSE(cov.update(Y, -S, r, dx, {L, W, u}));
+  CHECK(cov.full() == before);
+  CHECK((dx.array() == 3.0).all());
+}
+
+TEST_CASE("FilterCovariance: the recording's segments are Phi = F_k...F_1 and the core block at their end",
+          "[ekf][covariance][smoother]") {
+  std::mt19937 g(3);
+  const int n = 21;
+  const Eigen::MatrixXd P0 = random_spd(n, g);
+  const auto Fs = transitions(11, g);
+  FilterCovariance cov;
+  cov.set_recording(true);
+  cov.reset(P0);
+  Mat15 Phi_ref = Mat15::Identity();
+  for (int k = 0; k < 6; ++k) {
+    cov.propagate(Fs[k], noise(), Fs[k].dt);
+    Phi_ref = (Fs[k].dense() * Phi_ref).eval();
+  }
+  Mat15 Phi, P_cc;
+  cov.take_segment(Phi, P_cc);
+  const std::vector<CoreTransition> first(Fs.begin(), Fs.begin() + 6);
+  CHECK(rel_diff(Phi, Phi_ref) < 1e-13);
+  CHECK(rel_diff(P_cc, propagate_dense(P0, first).topLeftCorner<kCore, kCore>()) < 1e-12);
+  // The next segment starts at the identity.
+  Phi_ref.setIdentity();
+  for (int k = 6; k < 11; ++k) {
+    cov.propagate(Fs[k], noise(), Fs[k].dt);
+    Phi_ref = (Fs[k].dense() * Phi_ref).eval();
+  }
+  cov.take_segment(Phi, P_cc);
+  CHECK(rel_diff(Phi, Phi_ref) < 1e-13);
+  CHECK(rel_diff(P_cc, propagate_dense(P0, Fs).topLeftCorner<kCore, kCore>()) < 1e-12);
+  // The dense reference propagation records the same segment.
+  FilterCovariance dense;
+  dense.set_recording(true);
+  dense.reset(P0);
+  for (int k = 6; k < 11; ++k) dense.propagate_dense(Fs[k], noise(), Fs[k].dt);
+  Mat15 Phi_dense, P_cc_dense;
+  dense.take_segment(Phi_dense, P_cc_dense);
+  CHECK(rel_diff(Phi_dense, Phi_ref) < 1e-13);
+  // Not recording: no segment transition accumulates.
+  cov.set_recording(false);
+  cov.propagate(Fs[0], noise(), Fs[0].dt);
+  cov.take_segment(Phi, P_cc);
+  CHECK(Phi == Mat15::Identity());
+}
+
+TEST_CASE("FilterCovariance: the checks name what failed", "[ekf][covariance]") {
+  std::mt19937 g(5);
+  const int n = 21;
+  const Eigen::MatrixXd P0 = random_spd(n, g);
+  FilterCovariance cov;
+  cov.reset(P0);
+  CHECK(!cov.check(true));
+
+  Eigen::MatrixXd bad = P0;
+  bad(kBg + 1, kBg + 1) = -1e-3;
+  cov.reset(bad);
+  CHECK(cov.check(false).value_or("(nothing)") == "covariance diagonal of b_g[1] is not positive ");
+
+  bad = P0;
+  bad(17, 17) = std::numeric_limits<double>::quiet_NaN();
+  cov.reset(bad);
+  CHECK(cov.check(false).value_or("(nothing)") == "covariance diagonal of error-state index 17 is not finite ");
+
+  // Positive diagonal, off-diagonal problems: only the full check sees them.
+  bad = P0;
+  bad(3, 19) = bad(19, 3) = std::numeric_limits<double>::infinity();
+  cov.reset(bad);
+  CHECK(!cov.check(false));
+  CHECK(cov.check(true).value_or("(nothing)") == "covariance is not finite");
+
+  bad = Eigen::MatrixXd::Identity(n, n);
+  bad(0, 1) = bad(1, 0) = 2.0;  // [[1, 2], [2, 1]] has eigenvalue −1
+  cov.reset(bad);
+  CHECK(!cov.check(false));
+  CHECK(cov.check(true).value_or("(nothing)") == "covariance is not positive definite");
+
+  // The diagonal check sees the core block propagated since the last sync (pending, not yet in P).
+  cov.reset(P0);
+  CoreTransition F = transitions(1, g)[0];
+  ImuNoiseParams q = noise();
+  q.accel_noise_density = std::numeric_limits<double>::quiet_NaN();
+  cov.propagate(F, q, F.dt);
+  CHECK(cov.check(false).value_or("(nothing)") == "covariance diagonal of p_W_I[0] is not finite ");
+}
