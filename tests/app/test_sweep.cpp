@@ -83,7 +83,7 @@ TEST_CASE("sweep spec: expansion, content-derived ids, a new seed adds jobs only
   CHECK(keep_indices(c, b_order).size() == 8);
 }
 
-TEST_CASE("sweep spec: output.level is an override like any run config key; full is the default job",
+TEST_CASE("sweep spec: output.level is an override like any run config key, full is the default job",
           "[app][sweep]") {
   const json base = {{"datasets", {{{"preset", "paper-seq4"}, {"duration_s", 5}}}}};
   json axes = base;
