@@ -96,8 +96,10 @@ struct SmootherOptions {
   unsigned threads = 0;
   /// The times (increasing) at which the smoothed covariance (sigma, pose_cov) is wanted; nullptr = at
   /// every IMU step. The mean is smoothed at every step either way; the initial state always has its
-  /// covariance. A segment none of whose steps is listed costs O(15²) per step instead of O(15²·30)
-  /// (roe run with `"output": {"rate": "images"}` lists its rows' times).
+  /// covariance. A segment none of whose steps is listed costs O(15²) per step instead of O(15²·30), one
+  /// whose only listed step is its last skips M, and P(t) is re-propagated only up to a segment's last listed
+  /// step (roe run lists its rows' times with `"output": {"rate": "images"}`, and the first step after each
+  /// image with `"output": {"level": "standard"}`).
   const std::vector<Timestamp>* covariance_at = nullptr;
 };
 
