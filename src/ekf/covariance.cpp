@@ -69,7 +69,6 @@ void FilterCovariance::propagate_dense(const CoreTransition& F, const ImuNoisePa
   auto Pcc = P_.topLeftCorner<kCore, kCore>();
   add_process_noise(noise, dt, Pcc);
   symmetrise();
-  if (recording_) accumulate_transition(F, rec_PhiT_);
 }
 
 void FilterCovariance::propagate(const CoreTransition& F, const ImuNoiseParams& noise, double dt) {
@@ -81,7 +80,6 @@ void FilterCovariance::propagate(const CoreTransition& F, const ImuNoiseParams& 
   // blocks are symmetrised and the upper blocks mirrored. 675 + 297 multiply-adds instead of 2 x 675.
   // The core block is propagated in the fixed-size Pcc_ (no strided copies per sample); P_'s top-left block
   // takes it back on the next sync_core().
-  if (recording_) accumulate_transition(F, rec_PhiT_);
   if (!cc_pending_) {
     Pcc_ = P_.topLeftCorner<15, 15>();
     cc_pending_ = true;
@@ -163,6 +161,8 @@ void FilterCovariance::inflate_core(int first, double var) {
   sync_core();
   P_.block<3, 3>(first, first).diagonal().array() += var;
 }
+
+void FilterCovariance::record_step(const CoreTransition& F) { accumulate_transition(F, rec_PhiT_); }
 
 void FilterCovariance::take_segment(Mat15& Phi, Mat15& P_cc) {
   Phi = rec_PhiT_.transpose();

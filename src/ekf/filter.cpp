@@ -215,7 +215,10 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
   s_.t_ns = t;
   gyro_ = gyro;
   accel_ = accel;
-  if (rec_) rec_->steps.push_back({t, s_.x, F});
+  if (rec_) {
+    rec_->steps.push_back({t, s_.x, F});
+    cov_.record_step(F);
+  }
   if (reference_)
     cov_.propagate_dense(F, noise_, dt);
   else

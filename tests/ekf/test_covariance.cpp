@@ -164,11 +164,11 @@ TEST_CASE("FilterCovariance: the recording's segments are Phi = F_k...F_1 and th
   const Eigen::MatrixXd P0 = random_spd(n, g);
   const auto Fs = transitions(11, g);
   FilterCovariance cov;
-  cov.set_recording(true);
   cov.reset(P0);
   Mat15 Phi_ref = Mat15::Identity();
   for (int k = 0; k < 6; ++k) {
     cov.propagate(Fs[k], noise(), Fs[k].dt);
+    cov.record_step(Fs[k]);
     Phi_ref = (Fs[k].dense() * Phi_ref).eval();
   }
   Mat15 Phi, P_cc;
@@ -180,24 +180,21 @@ TEST_CASE("FilterCovariance: the recording's segments are Phi = F_k...F_1 and th
   Phi_ref.setIdentity();
   for (int k = 6; k < 11; ++k) {
     cov.propagate(Fs[k], noise(), Fs[k].dt);
+    cov.record_step(Fs[k]);
     Phi_ref = (Fs[k].dense() * Phi_ref).eval();
   }
   cov.take_segment(Phi, P_cc);
   CHECK(rel_diff(Phi, Phi_ref) < 1e-13);
   CHECK(rel_diff(P_cc, propagate_dense(P0, Fs).topLeftCorner<kCore, kCore>()) < 1e-12);
-  // The dense reference propagation records the same segment.
-  FilterCovariance dense;
-  dense.set_recording(true);
-  dense.reset(P0);
-  for (int k = 6; k < 11; ++k) dense.propagate_dense(Fs[k], noise(), Fs[k].dt);
-  Mat15 Phi_dense, P_cc_dense;
-  dense.take_segment(Phi_dense, P_cc_dense);
-  CHECK(rel_diff(Phi_dense, Phi_ref) < 1e-13);
-  // Not recording: no segment transition accumulates.
-  cov.set_recording(false);
+  // A propagation without record_step leaves the segment's Φ alone; reset() starts a new segment.
   cov.propagate(Fs[0], noise(), Fs[0].dt);
   cov.take_segment(Phi, P_cc);
   CHECK(Phi == Mat15::Identity());
+  cov.record_step(Fs[1]);
+  cov.reset(P0);
+  cov.take_segment(Phi, P_cc);
+  CHECK(Phi == Mat15::Identity());
+  CHECK(P_cc == P0.topLeftCorner<kCore, kCore>());
 }
 
 TEST_CASE("FilterCovariance: the checks name what failed", "[ekf][covariance]") {

@@ -47,8 +47,7 @@ class FilterCovariance {
   void reset(Eigen::MatrixXd P0);
   int dim() const { return static_cast<int>(P_.rows()); }
 
-  /// One IMU step: P_cc ← F P_cc Fᵀ + Q on the fixed-size core block, Φ accumulated for the cross terms (and
-  /// for the recording's segment while recording).
+  /// One IMU step: P_cc ← F P_cc Fᵀ + Q on the fixed-size core block, Φ accumulated for the cross terms.
   void propagate(const CoreTransition& F, const ImuNoiseParams& noise, double dt);
   /// The same step on the whole matrix, P ← F P Fᵀ + Q with the dense F (the test-only reference arithmetic,
   /// Filter::set_reference_arithmetic).
@@ -96,9 +95,9 @@ class FilterCovariance {
   /// the recording's snapshot of P.
   const Eigen::MatrixXd& full();
 
-  /// Recording (the smoother's, smoother.hpp): while on, propagate() also accumulates the transition Φ of the
-  /// open propagation segment (from reset() or the last take_segment() on).
-  void set_recording(bool on) { recording_ = on; }
+  /// Recording (the smoother's, smoother.hpp): one IMU step's F into the transition Φ of the open propagation
+  /// segment (from reset() or the last take_segment() on), called with each propagation while recording.
+  void record_step(const CoreTransition& F);
   /// Closes the open segment: its Φ = F_k⋯F_1 and the core block P_cc at its end; the next segment starts.
   void take_segment(Mat15& Phi, Mat15& P_cc);
 
@@ -114,7 +113,6 @@ class FilterCovariance {
   Mat15 PhiT_ = Mat15::Identity();  // Φᵀ, Φ = F_k⋯F_1 since the last cross-covariance sync
   bool phi_pending_ = false;
   Eigen::MatrixXd tmp_cross_;
-  bool recording_ = false;
   Mat15 rec_PhiT_ = Mat15::Identity();  // Φᵀ of the recording's open propagation segment
 };
 

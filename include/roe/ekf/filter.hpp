@@ -160,10 +160,7 @@ class Filter {
 
   /// From now on, records into `rec` what the RTS smoother needs (smoother.hpp): call before
   /// initialize(), and finish_recording() after the last propagate(). nullptr stops recording.
-  void set_recording(FilterRecording* rec) {
-    rec_ = rec;
-    cov_.set_recording(rec != nullptr);
-  }
+  void set_recording(FilterRecording* rec) { rec_ = rec; }
   /// Closes the recording's last propagation segment.
   void finish_recording();
   /// The nominal state with its error-state layout.
