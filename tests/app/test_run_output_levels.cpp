@@ -1,7 +1,5 @@
 // roe run's output levels (issue 41, docs/filter.md §9): full, standard, minimal, and what the readers of a
 // run folder (eval, calib-check, refine) say about each.
-#include <unistd.h>
-
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
@@ -18,17 +16,12 @@
 #include "roe/io/csv.hpp"
 #include "roe/io/json.hpp"
 #include "roe/store/dataset.hpp"
+#include "support/test_util.hpp"
 
 namespace fs = std::filesystem;
 using namespace roe;
 
 namespace {
-
-fs::path temp_dir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("roe_test_levels_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(p);
-  return p;
-}
 
 std::set<std::string> files_in(const fs::path& dir) {
   std::set<std::string> out;
@@ -61,23 +54,17 @@ std::string slurp(const fs::path& p) {
 
 /// One simulated dataset and its three runs, made once for the test cases below.
 struct Runs {
-  fs::path ds, full, standard, minimal;
+  test::TempDir tmp{"roe_test_levels"};
+  fs::path ds = tmp / "ds", full = tmp / "full", standard = tmp / "standard", minimal = tmp / "minimal";
   app::RunResult r_full, r_standard, r_minimal;
   Runs() {
-    ds = temp_dir("ds");
     store::write_dataset(test::simulate_preset("matched", 5, 10.0), ds, true);
-    full = temp_dir("full");
-    standard = temp_dir("standard");
-    minimal = temp_dir("minimal");
     app::RunOptions o;
     r_full = app::run(ds, full, o);  // the default level
     o.output_level = "standard";
     r_standard = app::run(ds, standard, o);
     o.output_level = "minimal";
     r_minimal = app::run(ds, minimal, o);
-  }
-  ~Runs() {
-    for (const auto& p : {ds, full, standard, minimal}) fs::remove_all(p);
   }
 };
 
@@ -218,7 +205,8 @@ TEST_CASE("output level minimal: calib-check cannot judge, refine refuses with t
   const app::CalibCheckResult standard = app::calib_check(r.standard, {});
   CHECK(standard.to_json().at("checks") == full.to_json().at("checks"));
 
-  const fs::path out = temp_dir("refine");
+  const test::TempDir tmp("roe_test_levels_refine");
+  const fs::path out = tmp / "refine";
   try {
     app::refine_run(r.minimal, out, {});
     FAIL("no error");
@@ -259,12 +247,11 @@ TEST_CASE("output level: the config key, --output over it, and bad values", "[ap
 
   // --output wins over the config's level.
   Runs& r = runs();
-  const fs::path cfg = temp_dir("cfg.json"), out = temp_dir("override");
-  std::ofstream(cfg) << R"({"output": {"level": "full"}})";
+  const test::TempDir tmp("roe_test_levels_override");
+  const fs::path cfg = tmp.write("cfg.json", R"({"output": {"level": "full"}})"), out = tmp / "override";
   app::RunOptions o;
   o.config_file = cfg.string();
   o.output_level = "minimal";
   app::run(r.ds, out, o);
   CHECK(files_in(out) == std::set<std::string>{"run.json", "trajectory.csv", "trajectory.tum"});
-  for (const auto& p : {cfg, out}) fs::remove_all(p);
 }
