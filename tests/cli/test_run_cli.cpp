@@ -184,3 +184,28 @@ TEST_CASE("roe run names the producer of its detection set from meta.json, and r
   fs::remove(meta);
   CHECK(roe_run("run " + q(ds) + " --out " + q(tmp / "run3")).code == 0);
 }
+
+TEST_CASE("roe run --output: minimal writes the trajectory and run.json, a bad level exits 2 writing nothing",
+          "[cli][run][levels]") {
+  roe::test::TempDir tmp("roe_cli_run_levels");
+  const fs::path ds = tmp / "ds";
+  REQUIRE(roe_run("-q simulate --preset paper-seq4 --seed 3 --duration 6 --out " + q(ds)).code == 0);
+  const fs::path minimal = tmp / "minimal";
+  REQUIRE(roe_run("-q run " + q(ds) + " --output minimal --out " + q(minimal)).code == 0);
+  std::size_t n = 0;
+  for (const auto& e : fs::directory_iterator(minimal)) {
+    const std::string name = e.path().filename().string();
+    CHECK((name == "trajectory.csv" || name == "trajectory.tum" || name == "run.json"));
+    ++n;
+  }
+  CHECK(n == 3);
+  // roe eval on it: exit 0, the reasons for what it could not compute in its warnings.
+  const auto ev = roe_run("--json eval " + q(minimal) + " --gt " + q(ds), false);
+  REQUIRE(ev.code == 0);
+  CHECK(ev.out.find("NEES not computed: the run was written with output level minimal") != std::string::npos);
+  const fs::path bad = tmp / "bad";
+  const auto r = roe_run("run " + q(ds) + " --output most --out " + q(bad));
+  CHECK(r.code == 2);
+  CHECK(r.out.find("--output") != std::string::npos);
+  CHECK(empty_or_absent(bad));
+}
