@@ -3,6 +3,12 @@
 BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release
+# ccache when the machine has it (a rebuild of an unchanged object is a cache hit; several checkouts on one
+# machine share the cache where ccache's base_dir covers them). ROE_CCACHE= (empty) turns it off.
+ROE_CCACHE ?= $(shell command -v ccache 2>/dev/null)
+ifneq ($(ROE_CCACHE),)
+CMAKE_FLAGS += -DCMAKE_CXX_COMPILER_LAUNCHER=$(ROE_CCACHE)
+endif
 ROE := $(BUILD)/roe
 
 .PHONY: all deps configure build test demo sample bench format clean install
