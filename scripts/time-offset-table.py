@@ -13,30 +13,22 @@ extrinsics error/NEES (calib-check's truth.extrinsics) and calib-check's verdict
 Standard library only. Datasets and runs are kept under --work and reused when present.
 """
 import argparse
+import importlib.util
 import json
 import math
 import os
 import shutil
 import statistics
-import subprocess
-import sys
-
-CHI2_6_99 = 16.811893829770927
 
 
-def sh(cmd):
-    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    if p.returncode not in (0, 1):
-        sys.exit(f"{' '.join(cmd)} failed ({p.returncode}): {p.stderr.strip()[-2000:]}")
-    return p
 
-
-def seeds_of(text):
-    out = []
-    for part in text.split(","):
-        a, _, b = part.partition("-")
-        out += list(range(int(a), int(b or a) + 1))
-    return out
+# sh() and seeds_of() are calib-truth-table.py's (one definition).
+_spec = importlib.util.spec_from_file_location("calib_truth_table",
+                                               os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                                            "calib-truth-table.py"))
+_ctt = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_ctt)
+sh, seeds_of = _ctt.sh, _ctt.seeds_of
 
 
 def check(cc, name):
@@ -118,7 +110,7 @@ def summarise(rows):
                       "mean_worst_euler_deg": statistics.fmean(r["worst_euler_deg"] for r in rs),
                       "ext_median_mm": statistics.median(r["ext_err_mm"] for r in rs),
                       "ext_median_deg": statistics.median(r["ext_err_deg"] for r in rs),
-                      "ext_nees_ok": sum(r["ext_nees"] <= CHI2_6_99 for r in rs) / len(rs)}
+                      "ext_nees_ok": sum(r["ext_nees"] <= _ctt.CHI2_6_99 for r in rs) / len(rs)}
     est = [(r["true_offset_s"], r["estimated"]) for r in rows if "estimated" in r and "failed" not in r["estimated"]]
     if est:
         errs = [abs(e["td_s"] - t) for t, e in est]

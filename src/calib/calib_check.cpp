@@ -322,6 +322,16 @@ CheckResult truth_objects(const CalibInput& in, const CalibThresholds& th) {
   return r;
 }
 
+/// The one-sided z of `confidence`, and camera.time_offset's rule for a difference d ± σ from the declared
+/// offset: fail when |d| − zσ is beyond the limit, pass when |d| + zσ is within it; in between the estimate is
+/// too uncertain (both the online state and the detection–gyro correlation are judged by it).
+double time_offset_z(const CalibThresholds& th) { return std::sqrt(math::chi2_quantile(2.0 * th.confidence - 1.0, 1.0)); }
+CheckStatus time_offset_status(double d, double sigma, double z, double lim) {
+  if (std::abs(d) - z * sigma > lim) return CheckStatus::kFail;
+  if (std::abs(d) + z * sigma <= lim) return CheckStatus::kPass;
+  return CheckStatus::kInconclusive;
+}
+
 /// camera.time_offset from the run's online state t̂_d ± σ (CalibInput::online_time_offset): the same rule as the
 /// correlation's estimate below (pass / fail only with `confidence`), and the correlation, where it has an
 /// estimate, as the independent check: the two disagreeing beyond their joint σ and the limit fails.
@@ -329,12 +339,8 @@ CheckResult online_time_offset_check(const CalibInput& in, const CalibThresholds
   const CalibInput::OnlineTimeOffset& o = *in.online_time_offset;
   CheckResult r{"camera.time_offset", CheckStatus::kInconclusive, "", {}};
   const double d = o.value_s - in.declared_time_offset_s;
-  const double lim = th.max_time_offset_s;
-  const double z = std::sqrt(math::chi2_quantile(2.0 * th.confidence - 1.0, 1.0));
-  if (std::abs(d) - z * o.sigma_s > lim)
-    r.status = CheckStatus::kFail;
-  else if (std::abs(d) + z * o.sigma_s <= lim)
-    r.status = CheckStatus::kPass;
+  const double lim = th.max_time_offset_s, z = time_offset_z(th);
+  r.status = time_offset_status(d, o.sigma_s, z, lim);
   r.message = fmt::format("the run estimated {:+.2f} ± {:.2f} ms online (dataset declares {:+.1f} ms): difference "
                           "{:+.2f} ± {:.2f} ms ({:.2f} σ for confidence {}), limit {:.1f} ms",
                           o.value_s * 1e3, o.sigma_s * 1e3, in.declared_time_offset_s * 1e3, d * 1e3,
@@ -394,14 +400,8 @@ CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) 
     return r;
   }
   const double d = e.offset_s - in.declared_time_offset_s;
-  const double lim = th.max_time_offset_s;
-  // Decided only with `confidence` (one-sided): fail when |d| − zσ is beyond the limit, pass when
-  // |d| + zσ is within it; in between the estimate is too uncertain.
-  const double z = std::sqrt(math::chi2_quantile(2.0 * th.confidence - 1.0, 1.0));
-  if (std::abs(d) - z * e.sigma_s > lim)
-    r.status = CheckStatus::kFail;
-  else if (std::abs(d) + z * e.sigma_s <= lim)
-    r.status = CheckStatus::kPass;
+  const double lim = th.max_time_offset_s, z = time_offset_z(th);
+  r.status = time_offset_status(d, e.sigma_s, z, lim);  // decided only with `confidence` (one-sided)
   r.message = fmt::format("estimated {:+.1f} ± {:.1f} ms from {} detections{} (dataset declares {:+.1f} ms): "
                           "difference {:+.1f} ± {:.1f} ms ({:.2f} σ for confidence {}), limit {:.1f} ms",
                           e.offset_s * 1e3, e.sigma_s * 1e3, e.detections, left_out, in.declared_time_offset_s * 1e3,

@@ -259,6 +259,32 @@ std::vector<TruthObject> place_objects(const ObjectsConfig& o) {
 
 Dataset simulate(const SimConfig& config, std::uint64_t seed) { return simulate_run(config, seed).dataset; }
 
+namespace {
+
+// roe.json of a preset run: the declared camera (prior T_I_C, declared time offset) and the truth.
+void set_manifest(const SimConfig& config, const std::vector<TruthObject>& objects_M, const Pose& T_W_M,
+                  DatasetManifest& m) {
+  m.name = config.name;
+  m.imu = ImuInfo{config.imu.rate_hz, ImuNoise{config.imu.gyro_noise_density, config.imu.gyro_random_walk,
+                                               config.imu.accel_noise_density, config.imu.accel_random_walk}};
+  m.camera = camera_info(config.camera.intrinsics, config.camera.T_I_C * config.camera.prior_error,
+                         config.camera.declared_time_offset_s);
+  if (config.mocap.enabled) m.mocap = MocapInfo{config.mocap.body, config.mocap.T_B_I, 0.0};
+  const auto syms = symmetry_map(ids_of(objects_M), config.objects.symmetric_ids);
+  Truth truth;
+  truth.T_I_C = config.camera.T_I_C;
+  truth.camera_time_offset_s = config.camera.time_offset_s;
+  for (const auto& o : objects_M) {
+    m.objects.push_back({o.id, ycbv_name(o.id), syms.count(o.id) > 0, "", -1, {}});
+    truth.objects.push_back({o.id, T_W_M * o.T_W_O});
+  }
+  truth.imu_noise = m.imu->noise;
+  truth.detection_noise = noise_map(config.detection, config.visibility);
+  m.truth = truth;
+}
+
+}  // namespace
+
 SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
   validate(config);
   const InspectionTrajectory traj(vary_trajectory(config.trajectory, config.variation, seed));
@@ -363,25 +389,7 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
     }
   }
 
-  // Manifest.
-  DatasetManifest& m = ds.manifest;
-  m.name = config.name;
-  m.imu = ImuInfo{config.imu.rate_hz, ImuNoise{config.imu.gyro_noise_density, config.imu.gyro_random_walk,
-                                               config.imu.accel_noise_density, config.imu.accel_random_walk}};
-  m.camera = camera_info(config.camera.intrinsics, config.camera.T_I_C * config.camera.prior_error,
-                         config.camera.declared_time_offset_s);
-  if (config.mocap.enabled) m.mocap = MocapInfo{config.mocap.body, config.mocap.T_B_I, 0.0};
-  const auto syms = symmetry_map(ids_of(objects_M), config.objects.symmetric_ids);
-  Truth truth;
-  truth.T_I_C = config.camera.T_I_C;
-  truth.camera_time_offset_s = config.camera.time_offset_s;
-  for (const auto& o : objects_M) {
-    m.objects.push_back({o.id, ycbv_name(o.id), syms.count(o.id) > 0, "", -1, {}});
-    truth.objects.push_back({o.id, T_W_M * o.T_W_O});
-  }
-  truth.imu_noise = m.imu->noise;
-  truth.detection_noise = noise_map(config.detection, config.visibility);
-  m.truth = truth;
+  set_manifest(config, objects_M, T_W_M, ds.manifest);
   return run;
 }
 
