@@ -18,6 +18,8 @@ roe from the dataset's models_info), and writes into DIR, each as PNG and as PDF
                 previous value), its angles unwrapped in time
   extrinsics    T_I_C over time as the causal filter estimated it (states_filter.csv when the smoother ran,
                 else states.csv), +-sigma, the smoothed final value, prior and truth
+  time_offset   the camera-IMU time offset t_d over time as the causal filter estimated it, +-sigma, the
+                smoothed final value, the declared prior and the truth (only when the run estimated it)
   consistency   NEES of the IMU position and orientation (after the alignment) and NIS per detection,
                 with their chi-square bounds
   trajectory    the trajectory in a plane or in 3-D, optionally coloured by the position error
@@ -874,6 +876,49 @@ def extrinsics(F, causal, smoothed, prior, truth, t0):
                                                                   "dtheta_y_deg", "dtheta_z_deg"], span))})
 
 
+def time_offset_fig(F, causal, smoothed, run_json, truth, t0):
+    """The camera–IMU time offset t_d as the causal filter estimated it (issue 49), ±1σ, the smoother's final
+    value, the declared prior and the truth (a simulation's truth.camera_time_offset_s), in ms."""
+    final = (run_json.get("final") or {}).get("time_offset") or {}
+    if "time_offset_s" not in causal or "sigma_time_offset_s" not in causal:
+        F.skip("time_offset", "states.csv has no time_offset_s column (a run written before issue 49)")
+        return
+    if not final.get("estimated", False):
+        F.skip("time_offset", "the run did not estimate the camera–IMU time offset (filter.estimate_time_offset "
+               "false): it held the declared value")
+        return
+    t, y, s = causal["timestamp_ns"] * 1e-9 - t0, causal["time_offset_s"] * 1e3, causal["sigma_time_offset_s"] * 1e3
+    ok = np.isfinite(y) & np.isfinite(s)
+    t, y, s = t[ok], y[ok], s[ok]
+    declared = float(final.get("declared_s", 0.0)) * 1e3
+    tv = truth.get("camera_time_offset_s")
+    fig, ax = F.new(1, 1, "double", 3.0)
+    F.adjust(fig, left=0.07)
+    i = decimate(t, [y, y - s, y + s], pixel_columns(ax))
+    ax.fill_between(t[i], (y - s)[i], (y + s)[i], color=C_EST, alpha=0.2, lw=0, label=r"$\pm1\sigma$")
+    ax.plot(t[i], y[i], color=C_EST, lw=1.1, label="filter (causal)")
+    layers, skipped = ["filter (causal)", "±1σ", "declared (prior)"], []
+    if smoothed is not None and smoothed["_n"] > 0 and "time_offset_s" in smoothed:
+        ax.axhline(float(smoothed["time_offset_s"][-1]) * 1e3, color=C_SMOOTH, ls="-.", lw=1.0, label="smoothed (final)")
+        layers.append("smoothed (final)")
+    else:
+        skipped.append(("smoothed (final)", "the run has no smoother (states.csv is the filter's)"))
+    ax.axhline(declared, color=C_PRIOR, ls=":", lw=1.4, label="declared (prior)")
+    if tv is not None:
+        ax.axhline(float(tv) * 1e3, color=C_GT, ls="--", lw=1.0, label="truth")
+        layers.append("truth")
+    ax.set_ylabel("$t_d$ [ms]")
+    ax.set_xlabel("time [s]")
+    h, l = ax.get_legend_handles_labels()
+    F.legend(fig, h, l, ncol=5)
+    cap = ("Camera–IMU time offset t_{d} (t_{imu} = t_{cam} + t_{d}) as the causal filter estimated it over time "
+           f"({os.path.basename(causal['_path'])}), ±1σ, the declared prior (roe.json camera.time_offset_s)"
+           + (" and the truth." if tv is not None else "."))
+    F.save(fig, "time_offset", "Camera–IMU time offset t_{d}", cap, layers, skipped,
+           {"final_ms": float(y[-1]) if len(y) else None, "final_sigma_ms": float(s[-1]) if len(s) else None,
+            "declared_ms": declared})
+
+
 def nis_panel(ax, reps, colors, gate, t0):
     """NIS per detection: the NIS of the residual the filter used (reprojection.csv `nis`) for detections
     used whole; a detection of which only the position or the rotation part was used (split gate,
@@ -1255,6 +1300,7 @@ def make_tasks(F, a, x, chosen, colors, label_of):
         tt = truth.get("T_I_C")
         tasks.append((2.0, lambda: extrinsics(F, causal, smoothed, prior, pose_q(tt["p"], tt["q"]) if tt else None,
                                               t0)))
+        tasks.append((0.8, lambda: time_offset_fig(F, causal, smoothed, run_json, truth, t0)))
     else:
         tasks.append((0.1, lambda: F.skip("extrinsics", a.run_absent or
                                           "no states.csv with the extrinsics (not a run folder)")))

@@ -238,6 +238,12 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
   res.strict = opt.strict;
   const store::RunRecord run = store::read_run_json(run_dir / "run.json");
   calib::CalibInput in;
+  if (run.final_time_offset) {
+    in.declared_time_offset_s = run.final_time_offset->declared_s;
+    if (run.final_time_offset->estimated)
+      in.online_time_offset = calib::CalibInput::OnlineTimeOffset{run.final_time_offset->value_s,
+                                                                  run.final_time_offset->sigma_s};
+  }
   const ekf::FilterOptions& filter = run.config.filter;
   in.extrinsics_estimated = filter.estimate_extrinsics;
   in.anchor_id = run.anchor_id;

@@ -100,6 +100,8 @@ store::RunRecord run_record(const RunOutput& r, const Dataset& dataset, const Ru
   rec.imu_noise = r.imu_noise;
   rec.imu_noise_from = r.imu_noise_from;
   rec.final_T_I_C = s.final_T_I_C;
+  rec.final_time_offset = store::FinalTimeOffset{config.filter.estimate_time_offset, s.prior_time_offset_s,
+                                                 s.final_time_offset_s, s.final_sigma_time_offset_s};
   for (const auto& [id, T_O_W] : s.final_T_O_W) rec.final_objects.push_back({id, id == s.anchor.id, T_O_W});
   rec.warnings = r.warnings;
   return rec;

@@ -10,6 +10,7 @@
 #include "roe/core/error.hpp"
 #include "roe/store/dataset.hpp"
 #include "roe/io/input.hpp"
+#include "roe/io/csv.hpp"
 #include "roe/io/json.hpp"
 #include "roe/io/kalibr.hpp"
 #include "roe/io/models_info.hpp"
@@ -207,6 +208,8 @@ void apply(const json& j, const std::string& source, sim::SimConfig& c, int dept
     read_intrinsics(k, "intrinsics", c.camera.intrinsics);
     read_pose(k, "T_I_C", c.camera.T_I_C);
     read_pose(k, "prior_error", c.camera.prior_error);
+    k.get("time_offset_s", c.camera.time_offset_s);
+    k.get("declared_time_offset_s", c.camera.declared_time_offset_s);
     k.finish();
   }
   read_visibility(r, "visibility", c.visibility);
@@ -301,7 +304,9 @@ json sim_config_to_json(const sim::SimConfig& c) {
        {{"rate_hz", c.camera.rate_hz},
         {"intrinsics", intrinsics_json(c.camera.intrinsics)},
         {"T_I_C", io::pose_to_json(c.camera.T_I_C)},
-        {"prior_error", io::pose_to_json(c.camera.prior_error)}}},
+        {"prior_error", io::pose_to_json(c.camera.prior_error)},
+        {"time_offset_s", c.camera.time_offset_s},
+        {"declared_time_offset_s", c.camera.declared_time_offset_s}}},
       {"visibility", visibility_json(c.visibility)},
       {"detection", detection_json(c.detection)},
       {"mocap",
@@ -402,10 +407,13 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
                      {"roe simulate"});
   if (opt.duration_s && !(std::isfinite(*opt.duration_s) && *opt.duration_s > 0.0))
     throw InputError("must be a positive number of seconds", {"--duration"});
+  if (opt.time_offset_s && !(std::abs(*opt.time_offset_s) <= 1.0))
+    throw InputError("must be a number of seconds within [-1, 1]", {"--time-offset"});
 
   SourceRecord src;
   src.kind = "simulate";
   src.options["seed"] = std::to_string(opt.seed);
+  if (opt.time_offset_s) src.options["time_offset_s"] = io::format_double(*opt.time_offset_s);
   sim::SimRun run;
   if (gt_mode) {
     const GroundTruthInput in = read_groundtruth_input(opt.from_groundtruth);
@@ -415,6 +423,7 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
     if (opt.objects) cfg.num_objects = *opt.objects;
     if (in.imu_noise) cfg.imu_noise = *in.imu_noise;
     if (opt.duration_s) throw InputError("--duration does not apply to --from-groundtruth", {"--duration"});
+    if (opt.time_offset_s) cfg.time_offset_s = *opt.time_offset_s;
     try {
       run = sim::simulate_from_groundtruth(imu, gt, cfg, opt.seed);
     } catch (const ConfigError& e) {
@@ -459,6 +468,7 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
       src.sha256 = io::sha256_file(opt.config_file);
     }
     if (opt.duration_s) cfg.duration_s = *opt.duration_s;
+    if (opt.time_offset_s) cfg.camera.time_offset_s = *opt.time_offset_s;
     try {
       run = sim::simulate_run(cfg, opt.seed);
     } catch (const ConfigError& e) {

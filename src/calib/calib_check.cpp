@@ -322,8 +322,55 @@ CheckResult truth_objects(const CalibInput& in, const CalibThresholds& th) {
   return r;
 }
 
+/// The one-sided z of `confidence`, and camera.time_offset's rule for a difference d ± σ from the declared
+/// offset: fail when |d| − zσ is beyond the limit, pass when |d| + zσ is within it; in between the estimate is
+/// too uncertain (both the online state and the detection–gyro correlation are judged by it).
+double time_offset_z(const CalibThresholds& th) { return std::sqrt(math::chi2_quantile(2.0 * th.confidence - 1.0, 1.0)); }
+CheckStatus time_offset_status(double d, double sigma, double z, double lim) {
+  if (std::abs(d) - z * sigma > lim) return CheckStatus::kFail;
+  if (std::abs(d) + z * sigma <= lim) return CheckStatus::kPass;
+  return CheckStatus::kInconclusive;
+}
+
+/// camera.time_offset from the run's online state t̂_d ± σ (CalibInput::online_time_offset): the same rule as the
+/// correlation's estimate below (pass / fail only with `confidence`), and the correlation, where it has an
+/// estimate, as the independent check: the two disagreeing beyond their joint σ and the limit fails.
+CheckResult online_time_offset_check(const CalibInput& in, const CalibThresholds& th) {
+  const CalibInput::OnlineTimeOffset& o = *in.online_time_offset;
+  CheckResult r{"camera.time_offset", CheckStatus::kInconclusive, "", {}};
+  const double d = o.value_s - in.declared_time_offset_s;
+  const double lim = th.max_time_offset_s, z = time_offset_z(th);
+  r.status = time_offset_status(d, o.sigma_s, z, lim);
+  r.message = fmt::format("the run estimated {:+.2f} ± {:.2f} ms online (dataset declares {:+.1f} ms): difference "
+                          "{:+.2f} ± {:.2f} ms ({:.2f} σ for confidence {}), limit {:.1f} ms",
+                          o.value_s * 1e3, o.sigma_s * 1e3, in.declared_time_offset_s * 1e3, d * 1e3,
+                          z * o.sigma_s * 1e3, z, th.confidence, lim * 1e3);
+  if (r.status == CheckStatus::kFail)
+    r.message += fmt::format(" (roe run compensated it; set camera.time_offset_s to {:.4f} s?)", o.value_s);
+  else if (r.status == CheckStatus::kInconclusive)
+    r.message += ": too uncertain to decide";
+  r.values = {{"online_estimate_s", o.value_s}, {"online_sigma_s", o.sigma_s}, {"declared_s", in.declared_time_offset_s},
+              {"difference_s", d}, {"limit_s", lim}, {"z", z}};
+  if (in.time_offset && in.time_offset->valid) {
+    const TimeOffsetEstimate& e = *in.time_offset;
+    const double c = e.offset_s - o.value_s, sc = std::hypot(e.sigma_s, o.sigma_s);
+    const bool disagree = std::abs(c) - z * sc > lim;
+    r.message += fmt::format("; independent check, detection-gyro correlation: {:+.1f} ± {:.1f} ms, {} ({:+.1f} ± "
+                             "{:.1f} ms from the online estimate)",
+                             e.offset_s * 1e3, e.sigma_s * 1e3, disagree ? "DISAGREES" : "consistent", c * 1e3,
+                             z * sc * 1e3);
+    if (disagree) r.status = CheckStatus::kFail;
+    r.values.insert(r.values.end(), {{"estimate_s", e.offset_s}, {"sigma_s", e.sigma_s}, {"online_minus_correlation_s", -c}});
+  } else {
+    r.message += in.time_offset ? "; the detection-gyro correlation has no estimate (" + in.time_offset->reason + ")"
+                                : "; the detection-gyro correlation was not run";
+  }
+  return r;
+}
+
 CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) {
   const std::string name = "camera.time_offset";
+  if (in.online_time_offset) return online_time_offset_check(in, th);
   if (!in.time_offset)
     return skipped(name, in.time_offset_absent_reason.empty() ? "not estimated" : in.time_offset_absent_reason);
   const TimeOffsetEstimate& e = *in.time_offset;
@@ -353,14 +400,8 @@ CheckResult camera_time_offset(const CalibInput& in, const CalibThresholds& th) 
     return r;
   }
   const double d = e.offset_s - in.declared_time_offset_s;
-  const double lim = th.max_time_offset_s;
-  // Decided only with `confidence` (one-sided): fail when |d| − zσ is beyond the limit, pass when
-  // |d| + zσ is within it; in between the estimate is too uncertain.
-  const double z = std::sqrt(math::chi2_quantile(2.0 * th.confidence - 1.0, 1.0));
-  if (std::abs(d) - z * e.sigma_s > lim)
-    r.status = CheckStatus::kFail;
-  else if (std::abs(d) + z * e.sigma_s <= lim)
-    r.status = CheckStatus::kPass;
+  const double lim = th.max_time_offset_s, z = time_offset_z(th);
+  r.status = time_offset_status(d, e.sigma_s, z, lim);  // decided only with `confidence` (one-sided)
   r.message = fmt::format("estimated {:+.1f} ± {:.1f} ms from {} detections{} (dataset declares {:+.1f} ms): "
                           "difference {:+.1f} ± {:.1f} ms ({:.2f} σ for confidence {}), limit {:.1f} ms",
                           e.offset_s * 1e3, e.sigma_s * 1e3, e.detections, left_out, in.declared_time_offset_s * 1e3,

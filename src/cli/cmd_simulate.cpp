@@ -18,6 +18,8 @@ struct Args {
   app::SimulateOptions opt;
   std::string out;
   double duration = 0.0;
+  double time_offset = 0.0;
+  CLI::Option* time_offset_opt = nullptr;
   int objects = 0;
   std::int64_t seed = 1;
   bool list = false;
@@ -45,6 +47,10 @@ RunFn setup(CLI::App& sub) {
                  "EuRoC mav0 folder: keep its IMU and ground truth, synthesise detections");
   a->objects_opt =
       sub.add_option("--objects", a->objects, "Number of objects for --from-groundtruth (default 3)");
+  a->time_offset_opt = sub.add_option(
+      "--time-offset", a->time_offset,
+      "True camera-IMU time offset in seconds, t_imu = t_cam + S (overrides camera.time_offset_s of the config; "
+      "roe.json keeps the declared offset)");
   sub.add_option("--out", a->out, "Output dataset folder (must not exist or be empty, unless --force)");
   sub.add_flag("--models-info", a->opt.models_info,
                "Write the symmetric objects' symmetries (the ones the flips use) to models_info.json and point "
@@ -63,6 +69,7 @@ RunFn setup(CLI::App& sub) {
     }
     if (a->out.empty()) throw InputError("--out DATASET is required", {"roe simulate"});
     if (*a->duration_opt) a->opt.duration_s = a->duration;
+    if (*a->time_offset_opt) a->opt.time_offset_s = a->time_offset;
     if (*a->objects_opt) a->opt.objects = a->objects;
     a->opt.force = globals().force;
     a->opt.seed = static_cast<std::uint64_t>(a->seed);

@@ -37,11 +37,17 @@ void accumulate_transition(const CoreTransition& F, Mat15& PhiT) {
 }
 
 void CompactJacobian6::append3(int offset, const Mat63& block) {
-  ROE_CHECK(nc + 3 <= 12 && offset >= 0, "CompactJacobian6: more than 12 columns or a negative offset");
+  ROE_CHECK(nc + 3 <= kMaxCols && offset >= 0, "CompactJacobian6: more than 13 columns or a negative offset");
   for (int j = 0; j < 3; ++j) {
     J.col(nc) = block.col(j);
     idx[nc++] = offset + j;
   }
+}
+
+void CompactJacobian6::append1(int offset, const Vec6& column) {
+  ROE_CHECK(nc + 1 <= kMaxCols && offset >= 0, "CompactJacobian6: more than 13 columns or a negative offset");
+  J.col(nc) = column;
+  idx[nc++] = offset;
 }
 
 Eigen::MatrixXd CompactJacobian6::dense(int n) const {

@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "roe/core/error.hpp"
 
@@ -105,6 +107,11 @@ Vector6d extrinsics_sigma(const Filter& f) {
   return s;
 }
 
+// σ of the time offset (0 when it is held at the declared value).
+double time_offset_sigma(const Filter& f) {
+  return f.time_offset_offset() >= 0 ? std::sqrt(f.variance(f.time_offset_offset())) : 0.0;
+}
+
 void tally(const FrameResult& r, int anchor_id, FilterRunSummary& s) {
   bool anchor_pending = false;
   std::size_t no_main = 0;
@@ -128,7 +135,8 @@ void tally(const FrameResult& r, int anchor_id, FilterRunSummary& s) {
 FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,
                             const FilterOptions& options, const ImuNoiseParams& noise,
                             const Pose& T_I_C_prior, FilterObserver& observer,
-                            FilterRecording* recording, const std::map<int, ObjectSymmetry>& symmetries) {
+                            FilterRecording* recording, const std::map<int, ObjectSymmetry>& symmetries,
+                            double time_offset_prior_s) {
   if (imu.size() < 2) throw DataError(fmt::format("need at least 2 IMU samples, got {}", imu.size()));
   for (std::size_t k = 1; k < imu.size(); ++k)
     if (imu[k].t_ns <= imu[k - 1].t_ns)
@@ -154,7 +162,7 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
   FilterOptions opt = options;
   opt.anchor_id = summary.anchor.id;  // −1 only when no image has a usable detection
 
-  Filter filter(opt, noise, T_I_C_prior);
+  Filter filter(opt, noise, T_I_C_prior, time_offset_prior_s);
   filter.set_symmetries(symmetries);
   filter.set_recording(recording);
   observer.on_start(filter);
@@ -167,11 +175,21 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
   filter.initialize(t0, imu.front().gyro, imu.front().accel, summary.init.mean_accel, &summary.init_gyro_bias);
   summary.prior_T_I_C = filter.T_I_C();
   summary.prior_sigma_I_C = extrinsics_sigma(filter);
+  summary.prior_time_offset_s = filter.time_offset_s();
+  summary.prior_sigma_time_offset_s = time_offset_sigma(filter);
   observer.on_imu(filter);
   std::size_t j = 0;
+  // An image's time in the IMU clock: its stamp (shifted by the declared offset, images.hpp) plus t̂_d − the
+  // declared offset (0 unless the filter estimates t_d): OpenVINS's rule, the image is processed where the
+  // current estimate of the offset puts it.
+  // Kept in time order (reprojection.csv, objects.csv): an update can move t̂_d back, never an image before the last.
+  Timestamp last_image_t = std::numeric_limits<Timestamp>::min();
+  const auto image_time = [&](const ImageDetections& im) {
+    return std::max(im.t_ns + filter.time_offset_shift_ns(), last_image_t);
+  };
   const auto reject_no_imu = [&](const ImageDetections& im) {
     FrameResult r;
-    r.t_ns = im.t_ns;
+    r.t_ns = image_time(im);  // in time order with the processed images
     for (const auto& d : im.detections) {
       DetectionOutcome o;
       o.object_id = d.object_id;
@@ -180,38 +198,41 @@ FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector
     }
     tally(r, summary.anchor.id, summary);
     observer.on_image(filter, r);
+    last_image_t = r.t_ns;
   };
-  const auto update = [&](const ImageDetections& im) {
-    const FrameResult r = filter.update(im.detections);
+  const auto update = [&](const ImageDetections& im, double dt_image_s) {
+    const FrameResult r = filter.update(im.detections, dt_image_s);
+    last_image_t = r.t_ns;
     tally(r, summary.anchor.id, summary);
     observer.on_image(filter, r);
     ++summary.images;
   };
-  while (j < images.size() && images[j].t_ns < t0) reject_no_imu(images[j++]);
-  while (j < images.size() && images[j].t_ns == t0) {
-    update(images[j++]);
-  }
+  while (j < images.size() && image_time(images[j]) < t0) reject_no_imu(images[j++]);
+  while (j < images.size() && image_time(images[j]) == t0) update(images[j++], 0.0);
   for (std::size_t k = 1; k < imu.size(); ++k) {
     const ImuSample& a = imu[k - 1];
     const ImuSample& b = imu[k];
-    while (j < images.size() && images[j].t_ns < b.t_ns) {
-      const double alpha =
-          static_cast<double>(images[j].t_ns - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
-      filter.propagate(images[j].t_ns, a.gyro + alpha * (b.gyro - a.gyro),
-                       a.accel + alpha * (b.accel - a.accel));
-      update(images[j++]);
+    for (Timestamp te; j < images.size() && (te = image_time(images[j])) < b.t_ns;) {
+      if (te < filter.time()) {  // t̂_d moved the image before the filter's time: predicted shifted back
+        update(images[j++], dt_seconds(filter.time(), te));
+        continue;
+      }
+      const double alpha = static_cast<double>(te - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
+      filter.propagate(te, a.gyro + alpha * (b.gyro - a.gyro), a.accel + alpha * (b.accel - a.accel));
+      update(images[j++], 0.0);
     }
     filter.propagate(b.t_ns, b.gyro, b.accel);
     observer.on_imu(filter);
-    while (j < images.size() && images[j].t_ns == b.t_ns) {
-      update(images[j++]);
-    }
+    for (Timestamp te; j < images.size() && (te = image_time(images[j])) <= b.t_ns;)
+      update(images[j++], dt_seconds(filter.time(), te));
   }
   while (j < images.size()) reject_no_imu(images[j++]);
   filter.finish_recording();
   summary.updates = filter.n_updates();
   summary.final_T_I_C = filter.T_I_C();
   summary.final_sigma_I_C = extrinsics_sigma(filter);
+  summary.final_time_offset_s = filter.time_offset_s();
+  summary.final_sigma_time_offset_s = time_offset_sigma(filter);
   summary.detection_sigma_scale = filter.detection_sigma_scale();
   for (const auto& im : images)
     for (const auto& d : im.detections) summary.detection_sigmas_present |= d.sigma.has_value();

@@ -92,9 +92,11 @@ std::string to_string(DetectionStatus s) {
   return "unknown";
 }
 
-Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const Pose& T_I_C_prior)
+Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const Pose& T_I_C_prior,
+               double time_offset_prior_s)
     : opt_(options),
       noise_(noise),
+      td_prior_s_(time_offset_prior_s),
       lost_position_(options.relock_after_s, options.relock_min_detections, options.init_gate_p_m) {
   ROE_CHECK(opt_.chi2_confidence > 0.0 && opt_.chi2_confidence < 1.0, "chi2_confidence must be in (0, 1)");
   gate_ = math::chi2_quantile(opt_.chi2_confidence, 6.0);
@@ -107,6 +109,12 @@ Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const 
   if (opt_.estimate_extrinsics) {
     s_.extr_offset = kCore;
     s_.dim = kCore + 6;
+  }
+  s_.t_d = time_offset_prior_s;
+  if (opt_.estimate_time_offset) {
+    ROE_CHECK(opt_.time_offset_sigma_s > 0.0, "time_offset_sigma_s must be positive");
+    s_.td_offset = s_.dim;  // right after the extrinsics: a column every detection's H shares
+    s_.dim += 1;
   }
   cov_.reset(Eigen::MatrixXd::Zero(s_.dim, s_.dim));
   blocks_.reserve(16);
@@ -158,6 +166,7 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
       P(s_.extr_offset + 3 + i, s_.extr_offset + 3 + i) = sq(opt_.extrinsics_sigma_rot_deg * d2r);
     }
   }
+  if (s_.td_offset >= 0) P(s_.td_offset, s_.td_offset) = sq(opt_.time_offset_sigma_s);
   cov_.reset(std::move(P));
   initialized_ = true;
   check_covariance(true, "initialisation");
@@ -169,6 +178,10 @@ void Filter::initialize(Timestamp t0, const Vec3& gyro0, const Vec3& accel0, con
 }
 
 StateEstimate Filter::snapshot() const { return s_; }
+
+Timestamp Filter::time_offset_shift_ns() const {
+  return s_.td_offset < 0 ? 0 : static_cast<Timestamp>(std::llround((s_.t_d - td_prior_s_) * 1e9));
+}
 
 RecordedNode& Filter::push_node(RecordedNode::Kind kind) {
   RecordedNode& nd = rec_->nodes.emplace_back();
@@ -332,7 +345,8 @@ const ObjectSymmetry* Filter::symmetry(int object_id) const {
 }
 
 void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock& b) const {
-  const ObjectPrediction pr = predict_object(s_.x, s_.T_I_C, o.T_O_W);
+  const CoreState x_img = image_core();
+  const ObjectPrediction pr = predict_object(x_img, s_.T_I_C, o.T_O_W);
   const ObjectSymmetry* sym = symmetry(o.id);
   const Pose z = sym ? nearest_equivalent(pr.T_O_C_hat, z_detected, *sym) : z_detected;
   b.r = object_residual(pr.T_O_C_hat, z);
@@ -340,7 +354,7 @@ void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock
   b.nruns = 0;
   // A run of contiguous state columns; a run directly continuing the previous one (p and θ of the
   // extrinsics or of an object) extends it to 6 columns.
-  auto put = [&](int off, const Mat63& blk, int len) {
+  auto put = [&](int off, const auto& blk, int len) {
     const int k = b.nruns;
     if (k > 0 && b.run_len[k - 1] == 3 && len == 3 && b.run_off[k - 1] + 3 == off &&
         b.run_col[k - 1] + 3 == c) {
@@ -362,6 +376,8 @@ void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock
     put(s_.extr_offset, pr.H_p_IC, 3);
     put(s_.extr_offset + 3, pr.H_theta_IC, 3);
   }
+  if (s_.td_offset >= 0)  // ∂ẑ/∂t_d = H_p v + H_θ ω (measurement.hpp)
+    put(s_.td_offset, time_offset_column(pr.H_p_WI, pr.H_theta_WI, x_img.v_W_I, gyro_ - x_img.b_g), 1);
   if (o.dim == 6) {
     put(o.offset, pr.H_p_OW, 3);
     put(o.offset + 3, pr.H_theta_OW, 3);
@@ -378,7 +394,7 @@ void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock
     // left error q ⊗ q̂⁻¹ (quat_residual(a, b) forms a⁻¹ ⊗ b)
     b.r.tail<3>() = math::quat_residual(zc.q.conjugate(), zc_hat.q.conjugate());
     const Mat3 R_C_O = zc_hat.R();
-    Eigen::Matrix<double, 6, 18> Hc;
+    Eigen::Matrix<double, 6, kMaxCols> Hc;
     Hc.topRows<3>().noalias() = -R_C_O * b.H.topRows<3>() + skew(zc_hat.p) * b.H.bottomRows<3>();
     Hc.bottomRows<3>() = -b.H.bottomRows<3>();
     b.H = Hc;
@@ -395,7 +411,7 @@ void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock
     b.A.row(5).setZero();
     b.r.head<5>() = (A * b.r).eval();
     b.r(5) = 0.0;
-    const Eigen::Matrix<double, 5, 18> H5 = A * b.H;
+    const Eigen::Matrix<double, 5, kMaxCols> H5 = A * b.H;
     b.H.topRows<5>() = H5;
     b.H.row(5).setZero();
   }
@@ -423,7 +439,7 @@ void Filter::select_rows(ResidualPart part, MeasBlock& b, Eigen::MatrixXd& PHt, 
   int rows[6];
   const int m = residual_rows(part, rows, b.m);
   Vec6 r = Vec6::Zero();
-  Eigen::Matrix<double, 6, 18> H = Eigen::Matrix<double, 6, 18>::Zero();
+  Eigen::Matrix<double, 6, kMaxCols> H = Eigen::Matrix<double, 6, kMaxCols>::Zero();
   Mat6 R = Mat6::Zero(), S = Mat6::Identity();
   for (int i = 0; i < m; ++i) {
     r(i) = b.r(rows[i]);
@@ -555,7 +571,8 @@ int anchor_gauge_map(AnchorGauge gauge, const Mat3& R_O_W, Mat6& Gamma) {
 
 void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor) {
   close_segment();
-  const ObjectInit in = init_object(s_.x, s_.T_I_C, z);
+  const CoreState x_img = image_core();
+  const ObjectInit in = init_object(x_img, s_.T_I_C, z);
   // J_x over the columns it touches; the covariance grows by P J_xᵀ and J_x P J_xᵀ + J_z R J_zᵀ.
   CompactJacobian6 Jx;
   Jx.append3(kP, in.J_p_WI);
@@ -564,6 +581,8 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
     Jx.append3(s_.extr_offset, in.J_p_IC);
     Jx.append3(s_.extr_offset + 3, in.J_theta_IC);
   }
+  if (s_.td_offset >= 0)
+    Jx.append1(s_.td_offset, time_offset_column(in.J_p_WI, in.J_theta_WI, x_img.v_W_I, gyro_ - x_img.b_g));
   const Mat6 Q = in.J_z * R * in.J_z.transpose();
   cov_.augment(Jx, Q);
 
@@ -626,9 +645,10 @@ void Filter::stacked_pht(int nb) {
     }
     return;
   }
-  // H_k's compact columns: p, θ [, the extrinsics' p, θ] (shared by every block), then the object's (one run
-  // of o.dim contiguous state columns; build_block).
-  const int ns = s_.extr_offset >= 0 ? 12 : 6;
+  // H_k's compact columns: p, θ [, the extrinsics' p, θ] [, t_d] (shared by every block), then the object's
+  // (one run of o.dim contiguous state columns; build_block).
+  const int ne = s_.extr_offset >= 0 ? 6 : 0, nt = s_.td_offset >= 0 ? 1 : 0;
+  const int ns = 6 + ne + nt;
   Eigen::MatrixXd& PHt = ws_PHt_;
   if (ws_W_.rows() != s_.dim || ws_W_.cols() < ns) {
     const Eigen::Index cols = std::max<Eigen::Index>(ns, ws_W_.rows() == s_.dim ? ws_W_.cols() : 0);
@@ -636,7 +656,8 @@ void Filter::stacked_pht(int nb) {
   }
   ws_W_.leftCols<3>() = P.middleCols<3>(kP);
   ws_W_.middleCols<3>(3) = P.middleCols<3>(kTheta);
-  if (ns == 12) ws_W_.middleCols<6>(6) = P.middleCols<6>(s_.extr_offset);
+  if (ne > 0) ws_W_.middleCols<6>(6) = P.middleCols<6>(s_.extr_offset);
+  if (nt > 0) ws_W_.col(6 + ne) = P.col(s_.td_offset);
   if (ws_Hs_.cols() != ns || ws_Hs_.rows() < 6 * nb)
     ws_Hs_.resize(std::max<Eigen::Index>(6 * nb, ws_Hs_.cols() == ns ? ws_Hs_.rows() : 0), ns);
   for (int k = 0; k < nb; ++k) ws_Hs_.middleRows<6>(6 * k) = blocks_[k].H.leftCols(ns);
@@ -654,10 +675,21 @@ void Filter::stacked_pht(int nb) {
   }
 }
 
-FrameResult Filter::update(const std::vector<Detection>& dets) {
+FrameResult Filter::update(const std::vector<Detection>& dets, double dt_image_s) {
   ROE_CHECK(initialized_, "update before initialize");
+  dt_img_s_ = dt_image_s;
+  FrameResult res = update_image(dets);
+  dt_img_s_ = 0.0;
+  return res;
+}
+
+CoreState Filter::image_core() const {
+  return dt_img_s_ == 0.0 ? s_.x : shift_in_time(s_.x, gyro_ - s_.x.b_g, dt_img_s_);
+}
+
+FrameResult Filter::update_image(const std::vector<Detection>& dets) {
   FrameResult res;
-  res.t_ns = s_.t_ns;
+  res.t_ns = s_.t_ns + static_cast<Timestamp>(std::llround(dt_img_s_ * 1e9));
   res.detections.resize(dets.size());
   const int anchor_det = screen_detections(dets, res);
   std::vector<char>& usable = ws_usable_;
@@ -976,7 +1008,7 @@ void Filter::observe_lockout(const std::vector<Detection>& dets, FrameResult& re
 
 bool Filter::confirm_first_sight(int id, const Pose& z) {
   if (opt_.init_min_detections <= 1) return true;
-  const Pose cand = init_object(s_.x, s_.T_I_C, z).T_O_W;
+  const Pose cand = init_object(image_core(), s_.T_I_C, z).T_O_W;
   auto it = std::find_if(pending_.begin(), pending_.end(), [id](const auto& p) { return p.first == id; });
   if (it == pending_.end()) {
     pending_.push_back({id, Pending{cand, 1}});
@@ -1020,6 +1052,9 @@ void Filter::check_state(const char* where, bool core_only) const {
   // changed (update, initialisation).
   if (core_only) return;
   if (!s_.T_I_C.p.allFinite() || !s_.T_I_C.q.coeffs().allFinite()) fail("non-finite extrinsics");
+  if (!(std::abs(s_.t_d - td_prior_s_) <= opt_.max_time_offset_s))
+    fail(fmt::format("the time offset {:.4g} s is more than max_time_offset_s = {:.4g} s from the declared {:.4g} s",
+                     s_.t_d, opt_.max_time_offset_s, td_prior_s_));
   for (const auto& o : s_.objects)
     if (!o.T_O_W.p.allFinite() || !o.T_O_W.q.coeffs().allFinite() || o.T_O_W.p.norm() > opt_.max_position_m)
       fail(fmt::format("object-world of object {} is non-finite or out of bounds", o.id));

@@ -10,6 +10,17 @@ namespace roe::ekf {
 
 using math::skew;
 
+CoreState shift_in_time(const CoreState& x, const Vec3& omega_I, double tau_s) {
+  CoreState y = x;
+  y.p_W_I += tau_s * x.v_W_I;
+  y.q_W_I = (x.q_W_I * math::exp_quat(tau_s * omega_I)).normalized();
+  return y;
+}
+
+Vec6 time_offset_column(const Mat63& d_p_WI, const Mat63& d_theta_WI, const Vec3& v_W_I, const Vec3& omega_I) {
+  return d_p_WI * v_W_I + d_theta_WI * omega_I;
+}
+
 ObjectPrediction predict_object(const CoreState& x, const Pose& T_I_C, const Pose& T_O_W) {
   const Mat3 R_W_I = x.q_W_I.toRotationMatrix();
   const Mat3 R_O_W = T_O_W.R();

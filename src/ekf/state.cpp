@@ -25,6 +25,7 @@ void boxplus(StateEstimate& s, const Eigen::VectorXd& dx) {
     s.T_I_C.p += dx.segment<3>(s.extr_offset);
     s.T_I_C.q = (s.T_I_C.q * exp_quat(dx.segment<3>(s.extr_offset + 3))).normalized();
   }
+  if (s.td_offset >= 0) s.t_d += dx(s.td_offset);
   for (auto& o : s.objects) {
     if (o.dim == 6) {
       o.T_O_W.p += dx.segment<3>(o.offset);
@@ -38,7 +39,8 @@ void boxplus(StateEstimate& s, const Eigen::VectorXd& dx) {
 }
 
 Eigen::VectorXd boxminus(const StateEstimate& a, const StateEstimate& b) {
-  ROE_CHECK(a.dim == b.dim && a.extr_offset == b.extr_offset && a.objects.size() == b.objects.size(),
+  ROE_CHECK(a.dim == b.dim && a.extr_offset == b.extr_offset && a.td_offset == b.td_offset &&
+                a.objects.size() == b.objects.size(),
             "boxminus: states of different layouts");
   VecX d(b.dim);
   d.segment<3>(kP) = a.x.p_W_I - b.x.p_W_I;
@@ -50,6 +52,7 @@ Eigen::VectorXd boxminus(const StateEstimate& a, const StateEstimate& b) {
     d.segment<3>(b.extr_offset) = a.T_I_C.p - b.T_I_C.p;
     d.segment<3>(b.extr_offset + 3) = log_quat(b.T_I_C.q.conjugate() * a.T_I_C.q);
   }
+  if (b.td_offset >= 0) d(b.td_offset) = a.t_d - b.t_d;
   for (std::size_t i = 0; i < b.objects.size(); ++i) {
     const auto& oa = a.objects[i];
     const auto& ob = b.objects[i];

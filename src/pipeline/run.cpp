@@ -67,7 +67,9 @@ class Recorder : public ekf::FilterObserver {
     s.t_ns = f.time();
     s.x = f.core();
     s.T_I_C = f.T_I_C();
+    s.time_offset_s = f.time_offset_s();
     if (!with_sigma) {
+      s.sigma_time_offset_s = std::numeric_limits<double>::quiet_NaN();
       s.sigma.setConstant(std::numeric_limits<double>::quiet_NaN());
       s.pose_cov.setConstant(std::numeric_limits<double>::quiet_NaN());
       out_.states.push_back(s);
@@ -76,6 +78,8 @@ class Recorder : public ekf::FilterObserver {
     for (int i = 0; i < 15; ++i) s.sigma(i) = std::sqrt(f.variance(i));
     const int e = f.extrinsics_offset();
     for (int i = 0; i < 6; ++i) s.sigma(15 + i) = e >= 0 ? std::sqrt(f.variance(e + i)) : 0.0;
+    const int td = f.time_offset_offset();
+    s.sigma_time_offset_s = td >= 0 ? std::sqrt(f.variance(td)) : 0.0;
     // Pose covariance [δp; δθ]: the core block of P is always current (no sync needed).
     for (int a = 0; a < 2; ++a)
       for (int b = 0; b < 2; ++b)
@@ -222,7 +226,8 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   for (const auto& o : dataset.manifest.objects)
     if (!o.symmetry.empty() || o.symmetric) symmetries[o.id] = o.symmetry;  // empty: symmetric, group unknown
   out.summary =
-      ekf::run_filter(dataset.imu, images, opt, noise, T_I_C, rec, smooth ? &recording : nullptr, symmetries);
+      ekf::run_filter(dataset.imu, images, opt, noise, T_I_C, rec, smooth ? &recording : nullptr, symmetries,
+                      to_seconds(offset_ns));
   out.filter_wall_s = seconds_since(t0);
   if (smooth) {
     // Every state row is at the filter's initial time or at the end of a propagation step.
@@ -246,6 +251,10 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
       row.T_I_C = it->T_I_C;
       row.sigma = it->sigma;
       row.pose_cov = it->pose_cov;
+      // A constant state without process noise: its smoothed estimate and σ are the final filtered ones at
+      // every time (ekf/smoother.hpp), as the extrinsics' are.
+      row.time_offset_s = out.summary.final_time_offset_s;
+      row.sigma_time_offset_s = std::isnan(row.sigma(0)) ? row.sigma(0) : out.summary.final_sigma_time_offset_s;
     }
     out.smoothed = true;
     out.smoother_wall_s = seconds_since(t1);

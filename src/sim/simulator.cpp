@@ -94,7 +94,7 @@ std::map<std::string, double> noise_map(const DetectionNoiseConfig& d, const Vis
   return m;
 }
 
-CameraInfo camera_info(const PinholeCamera& k, const Pose& T_I_C_prior) {
+CameraInfo camera_info(const PinholeCamera& k, const Pose& T_I_C_prior, double declared_time_offset_s) {
   CameraInfo c;
   c.width = k.width;
   c.height = k.height;
@@ -104,7 +104,7 @@ CameraInfo camera_info(const PinholeCamera& k, const Pose& T_I_C_prior) {
   c.cy = k.cy;
   c.distortion_model = "none";
   c.T_I_C = T_I_C_prior;
-  c.time_offset_s = 0.0;
+  c.time_offset_s = declared_time_offset_s;
   return c;
 }
 
@@ -181,6 +181,9 @@ void validate(const SimConfig& c) {
   require_nonneg(imu.accel_bias_sigma, "imu.accel_bias_sigma");
   require_positive(c.camera.rate_hz, "camera.rate_hz");
   if (c.camera.rate_hz > imu.rate_hz) bad("camera.rate_hz", "must not exceed imu.rate_hz");
+  if (!(std::abs(c.camera.time_offset_s) <= 1.0)) bad("camera.time_offset_s", "must be within [-1, 1] s");
+  if (!(std::abs(c.camera.declared_time_offset_s) <= 1.0))
+    bad("camera.declared_time_offset_s", "must be within [-1, 1] s");
   validate_detection(c.detection, c.visibility, c.camera.intrinsics, "detection", "visibility", "camera.intrinsics");
   require_positive(c.mocap.rate_hz, "mocap.rate_hz");
   if (c.mocap.rate_hz > 10000.0) bad("mocap.rate_hz", "must be at most 10000");
@@ -256,6 +259,32 @@ std::vector<TruthObject> place_objects(const ObjectsConfig& o) {
 
 Dataset simulate(const SimConfig& config, std::uint64_t seed) { return simulate_run(config, seed).dataset; }
 
+namespace {
+
+// roe.json of a preset run: the declared camera (prior T_I_C, declared time offset) and the truth.
+void set_manifest(const SimConfig& config, const std::vector<TruthObject>& objects_M, const Pose& T_W_M,
+                  DatasetManifest& m) {
+  m.name = config.name;
+  m.imu = ImuInfo{config.imu.rate_hz, ImuNoise{config.imu.gyro_noise_density, config.imu.gyro_random_walk,
+                                               config.imu.accel_noise_density, config.imu.accel_random_walk}};
+  m.camera = camera_info(config.camera.intrinsics, config.camera.T_I_C * config.camera.prior_error,
+                         config.camera.declared_time_offset_s);
+  if (config.mocap.enabled) m.mocap = MocapInfo{config.mocap.body, config.mocap.T_B_I, 0.0};
+  const auto syms = symmetry_map(ids_of(objects_M), config.objects.symmetric_ids);
+  Truth truth;
+  truth.T_I_C = config.camera.T_I_C;
+  truth.camera_time_offset_s = config.camera.time_offset_s;
+  for (const auto& o : objects_M) {
+    m.objects.push_back({o.id, ycbv_name(o.id), syms.count(o.id) > 0, "", -1, {}});
+    truth.objects.push_back({o.id, T_W_M * o.T_W_O});
+  }
+  truth.imu_noise = m.imu->noise;
+  truth.detection_noise = noise_map(config.detection, config.visibility);
+  m.truth = truth;
+}
+
+}  // namespace
+
 SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
   validate(config);
   const InspectionTrajectory traj(vary_trajectory(config.trajectory, config.variation, seed));
@@ -323,8 +352,11 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
     Rng rng_det = Rng::stream(seed, config.name + "/detections");
     auto& dets = ds.detections["sim"];
     st.min_distance_m = std::numeric_limits<double>::infinity();
+    // A frame that sees the rig at IMU time t is stamped t − offset (t_imu = t_cam + offset).
+    const Timestamp offset_ns = from_seconds(config.camera.time_offset_s);
     for (Timestamp t : stamps(t0, t_end, config.camera.rate_hz)) {
-      ds.frames.push_back({t, std::to_string(t) + ".png"});
+      const Timestamp t_cam = t - offset_ns;
+      ds.frames.push_back({t_cam, std::to_string(t_cam) + ".png"});
       const Kinematics kc = traj.camera(rel(t));
       const double dist = (kc.T_M_X.p - config.trajectory.center).norm();
       st.min_distance_m = std::min(st.min_distance_m, dist);
@@ -336,7 +368,7 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
       bool any = false;
       for (const auto& o : objects_M) {
         const Pose T_C_O = T_C_M * o.T_W_O;  // T_W_O holds T_M_O here
-        any |= observe_object(t, o.id, T_C_O, config.camera.intrinsics, config.visibility, frame, model,
+        any |= observe_object(t_cam, o.id, T_C_O, config.camera.intrinsics, config.visibility, frame, model,
                               rng_vis, rng_det, dets, run);
       }
       if (any) ++st.frames_with_detections;
@@ -357,23 +389,7 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
     }
   }
 
-  // Manifest.
-  DatasetManifest& m = ds.manifest;
-  m.name = config.name;
-  m.imu = ImuInfo{config.imu.rate_hz, ImuNoise{config.imu.gyro_noise_density, config.imu.gyro_random_walk,
-                                               config.imu.accel_noise_density, config.imu.accel_random_walk}};
-  m.camera = camera_info(config.camera.intrinsics, config.camera.T_I_C * config.camera.prior_error);
-  if (config.mocap.enabled) m.mocap = MocapInfo{config.mocap.body, config.mocap.T_B_I, 0.0};
-  const auto syms = symmetry_map(ids_of(objects_M), config.objects.symmetric_ids);
-  Truth truth;
-  truth.T_I_C = config.camera.T_I_C;
-  for (const auto& o : objects_M) {
-    m.objects.push_back({o.id, ycbv_name(o.id), syms.count(o.id) > 0, "", -1, {}});
-    truth.objects.push_back({o.id, T_W_M * o.T_W_O});
-  }
-  truth.imu_noise = m.imu->noise;
-  truth.detection_noise = noise_map(config.detection, config.visibility);
-  m.truth = truth;
+  set_manifest(config, objects_M, T_W_M, ds.manifest);
   return run;
 }
 
@@ -560,6 +576,7 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
   if (static_cast<std::size_t>(config.num_objects) > config.object_ids.size())
     bad("objects", "at most " + std::to_string(config.object_ids.size()) + " objects are available");
   require_positive(config.camera_rate_hz, cfg + ".camera_rate_hz");
+  if (!(std::abs(config.time_offset_s) <= 1.0)) bad(cfg + ".time_offset_s", "must be within [-1, 1] s");
   validate_detection(config.detection, config.visibility, config.intrinsics, cfg + ".detection",
                      cfg + ".visibility", cfg + ".intrinsics");
   const std::vector<int> ids(config.object_ids.begin(), config.object_ids.begin() + config.num_objects);
@@ -609,6 +626,11 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
   Rng rng_burst = Rng::stream(seed, "from-groundtruth/bursts");
   Rng rng_det = Rng::stream(seed, "from-groundtruth/detections");
   auto& dets = ds.detections["sim"];
+  const Timestamp offset_ns = from_seconds(config.time_offset_s);  // stamped t − offset (t_imu = t_cam + offset)
+  for (auto& f : ds.frames) {
+    f.t_ns -= offset_ns;
+    f.filename = std::to_string(f.t_ns) + ".png";
+  }
   for (std::size_t k = 0; k < ts.size(); ++k) {
     const FrameCondition frame = model.frame_condition(rate_at(imu, ts[k]), rng_blur, rng_burst);
     if (frame.blurred) ++st.blurred_frames;
@@ -616,7 +638,7 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
     bool any = false;
     for (const auto& o : objects_W) {
       const Pose T_C_O = T_C_W[k] * o.T_W_O;
-      any |= observe_object(ts[k], o.id, T_C_O, K, config.visibility, frame, model, rng_vis, rng_det, dets,
+      any |= observe_object(ts[k] - offset_ns, o.id, T_C_O, K, config.visibility, frame, model, rng_vis, rng_det, dets,
                             run);
     }
     if (any) ++st.frames_with_detections;
@@ -635,10 +657,11 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
   // Rate from the median sample interval of the real IMU.
   const double rate = median_rate_hz(imu, [](const ImuSample& s) { return s.t_ns; });
   m.imu = ImuInfo{rate, config.imu_noise};
-  m.camera = camera_info(K, config.T_I_C);
+  m.camera = camera_info(K, config.T_I_C, config.declared_time_offset_s);
   m.mocap = MocapInfo{"groundtruth", Pose(), 0.0};
   Truth truth;
   truth.T_I_C = config.T_I_C;
+  truth.camera_time_offset_s = config.time_offset_s;
   for (const auto& o : objects_W) {
     m.objects.push_back({o.id, ycbv_name(o.id), syms.count(o.id) > 0, "", -1, {}});
     truth.objects.push_back(o);

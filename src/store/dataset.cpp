@@ -339,6 +339,8 @@ json manifest_to_json(const DatasetManifest& m) {
   if (m.truth) {
     const auto& t = *m.truth;
     json tj = {{"T_I_C", pose_to_json(t.T_I_C)}, {"objects", json::array()}};
+    // Only when there is one: datasets without a time offset keep the bytes (and readers) they had before.
+    if (t.camera_time_offset_s != 0.0) tj["camera_time_offset_s"] = t.camera_time_offset_s;
     for (const auto& o : t.objects) tj["objects"].push_back({{"id", o.id}, {"T_W_O", pose_to_json(o.T_W_O)}});
     if (t.imu_noise) tj["imu_noise"] = imu_noise_to_json(*t.imu_noise);
     tj["detection_noise"] = json::object();
@@ -460,6 +462,9 @@ ObjectInfo read_object(const json& e, const std::string& source, const std::stri
 Truth read_truth(JsonObject& o) {
   Truth t;
   t.T_I_C = required_pose(o, "T_I_C");
+  o.get("camera_time_offset_s", t.camera_time_offset_s);
+  if (!std::isfinite(t.camera_time_offset_s))
+    throw ConfigError("must be a finite number of seconds", {o.source(), 0, 0, o.key_path("camera_time_offset_s")});
   std::set<int> tids;
   for_each_element(o, "objects", [&](const json& e, const std::string& path) {
     JsonObject to(e, o.source(), path);

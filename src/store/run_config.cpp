@@ -122,6 +122,8 @@ const std::vector<Field<ekf::FilterOptions>>& filter_fields() {
       field<O, bool>("estimate_extrinsics", &O::estimate_extrinsics),
       field("extrinsics_sigma_p_m", &O::extrinsics_sigma_p_m, &positive),
       field("extrinsics_sigma_rot_deg", &O::extrinsics_sigma_rot_deg, &positive),
+      field<O, bool>("estimate_time_offset", &O::estimate_time_offset),
+      field("time_offset_sigma_s", &O::time_offset_sigma_s, &positive),
       field("gyro_noise_density", &O::gyro_noise_density, &any_finite),
       field("gyro_random_walk", &O::gyro_random_walk, &any_finite),
       field("accel_noise_density", &O::accel_noise_density, &any_finite),
@@ -143,6 +145,7 @@ const std::vector<Field<ekf::FilterOptions>>& filter_fields() {
       field("max_velocity_mps", &O::max_velocity_mps, &positive),
       field("max_gyro_bias", &O::max_gyro_bias, &positive),
       field("max_accel_bias", &O::max_accel_bias, &positive),
+      field("max_time_offset_s", &O::max_time_offset_s, &positive),
       field<O, int>("pd_check_every", &O::pd_check_every,
                     [](const int& v) -> const char* {
                       return v >= 0 ? nullptr : "must be >= 0 (0 = only after initialisations)";

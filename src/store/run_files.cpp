@@ -129,6 +129,20 @@ const Table<RecordedState>& states_table() {
     axes(t, "sigma_b_a", "xyz", ROE_ROW_SIGMA(sigma, 12));
     axes(t, "sigma_p_I_C", "xyz", ROE_ROW_SIGMA(sigma, 15));
     axes(t, "sigma_theta_I_C", "xyz", ROE_ROW_SIGMA(sigma, 18));
+    // The time offset (issue 49): optional, files written before it lack both columns (nan).
+    t.push_back({"time_offset_s", [](CsvWriter& w, const RecordedState& r, int) { w.add(r.time_offset_s); },
+                 [](const Field& f, RecordedState& r, int) { r.time_offset_s = f.number_or_nan(); }, 0, true});
+    t.push_back({"sigma_time_offset_s",
+                 [](CsvWriter& w, const RecordedState& r, int) {
+                   if (std::isnan(r.sigma_time_offset_s))
+                     w.add_empty();
+                   else
+                     w.add(r.sigma_time_offset_s);
+                 },
+                 [](const Field& f, RecordedState& r, int) {
+                   r.sigma_time_offset_s = f.col == std::string::npos ? kNaN : f.sigma_or_nan();
+                 },
+                 0, true});
     return t;
   }();
   return t;

@@ -316,6 +316,16 @@ void read_final(JsonObject o, RunRecord& r) {
     ob.finish();
     r.final_objects.push_back(f);
   }
+  if (o.has("time_offset")) {
+    JsonObject t = o.child("time_offset");
+    FinalTimeOffset f;
+    req(t, "estimated", f.estimated);
+    num(t, "declared_s", f.declared_s);
+    num(t, "value_s", f.value_s);
+    num(t, "sigma_s", f.sigma_s);
+    t.finish();
+    r.final_time_offset = f;
+  }
   o.finish();
 }
 
@@ -382,6 +392,10 @@ json run_record_to_json(const RunRecord& r) {
   json objs = json::array();
   for (const auto& o : r.final_objects)
     objs.push_back({{"id", o.id}, {"anchor", o.anchor}, {"T_O_W", io::pose_to_json(o.T_O_W)}});
+  json final_json = {{"T_I_C", io::pose_to_json(r.final_T_I_C)}, {"objects", objs}};
+  if (const auto& t = r.final_time_offset)
+    final_json["time_offset"] = {
+        {"estimated", t->estimated}, {"declared_s", t->declared_s}, {"value_s", t->value_s}, {"sigma_s", t->sigma_s}};
   json j = {{"roe_version", r.roe_version},
             {"command", r.command},
             {"config", run_config_to_json(r.config)},
@@ -397,7 +411,7 @@ json run_record_to_json(const RunRecord& r) {
               {"final_scale", r.detection_sigmas.final_scale}}},
             {"init", init_json(r.init)},
             {"imu_noise", imu_noise_json(r.imu_noise, r.imu_noise_from)},
-            {"final", {{"T_I_C", io::pose_to_json(r.final_T_I_C)}, {"objects", objs}}},
+            {"final", final_json},
             {"warnings", r.warnings},
             {"timing_s", r.timing_s}};
   if (r.refine) j["refine"] = refine_json(*r.refine);

@@ -69,10 +69,10 @@ TEST_CASE("roe run writes the files of DESIGN §4", "[app][run]") {
   while (std::getline(tr, row)) ++rows;
   const Dataset d = store::read_dataset(ds);
   CHECK(rows == d.imu.size());
-  // states.csv: 24 state columns + 21 sigmas.
+  // states.csv: 24 state columns + 21 sigmas, then the time offset and its σ (issue 49).
   std::ifstream st(out / "states.csv");
   std::getline(st, header);
-  CHECK(std::count(header.begin(), header.end(), ',') + 1 == 1 + 23 + 21);
+  CHECK(std::count(header.begin(), header.end(), ',') + 1 == 1 + 23 + 21 + 2);
   // objects.csv: the state T_O_W with its σ, then the σ of T_W_O and of T_A_O (0 on the anchor's rows).
   std::ifstream ob(out / "objects.csv");
   std::getline(ob, header);
@@ -357,7 +357,7 @@ TEST_CASE("run config: strict keys, shipped configs load, defaults round-trip", 
   CHECK(ev.health.max_dead_reckoning_s == 4.5);
   CHECK(ev.health.min_supported_fraction == 0.8);
   CHECK(app::run_config_to_json(ev) == every);
-  CHECK(every.at("filter").size() == 47);  // every FilterOptions field (configs/default.json lists them all)
+  CHECK(every.at("filter").size() == 50);  // every FilterOptions field (configs/default.json lists them all)
   CHECK(every.at("health").size() == 4);
   // The health limits are strict too, and their errors name the key path.
   for (const char* bad : {R"({"health": {"min_supported_fraction": 1.5}})", R"({"health": {"max_nis_median_ratio": -1}})",

@@ -112,7 +112,9 @@ TEST_CASE("output level standard: the full level's rows, σ at the first row and
     REQUIRE(a[0] == b[0]);
     const std::size_t first_sigma =
         static_cast<std::size_t>(std::find(a[0].begin(), a[0].end(), "sigma_p_W_I_x") - a[0].begin());
-    REQUIRE(first_sigma + 21 == a[0].size());
+    // 21 σ, then time_offset_s (a value on every row) and sigma_time_offset_s (a σ like the others).
+    REQUIRE(first_sigma + 23 == a[0].size());
+    const std::size_t td_col = first_sigma + 21;
     std::size_t next_image = 0, with_sigma = 0, means_differ = 0, sigma_differ = 0, misplaced = 0;
     for (std::size_t i = 1; i < a.size(); ++i) {
       REQUIRE(b[i].size() == a[i].size());
@@ -123,10 +125,12 @@ TEST_CASE("output level standard: the full level's rows, σ at the first row and
         ++next_image;
       }
       for (std::size_t c = 0; c < first_sigma; ++c) means_differ += a[i][c] != b[i][c];
+      means_differ += a[i][td_col] != b[i][td_col];
       const bool has = !b[i][first_sigma].empty();
       misplaced += has != due;
       for (std::size_t c = first_sigma; c < a[i].size(); ++c) {
-        CHECK(b[i][c].empty() == !has);  // all 21 cells or none
+        if (c == td_col) continue;
+        CHECK(b[i][c].empty() == !has);  // all 22 σ cells or none
         if (has) sigma_differ += a[i][c] != b[i][c];
       }
       with_sigma += has;

@@ -10,10 +10,10 @@
 // A second line per rate ("default") times the filter with roe run's built-in defaults (configs/default.json:
 // camera-frame residual, split gate, detection sigmas with the learned scale, relock, IMU noise x 4), causal,
 // with an observer that records nothing: what users run, without roe run's per-sample output rows.
-// usage: bench_filter [repetitions=15] [--each] [--filter-only] [--rate HZ]
+// usage: bench_filter [repetitions=15] [--each] [--filter-only] [--rate HZ] [--time-offset]
 //   --each: also print every repetition's filter wall time; --filter-only: only the filter lines (no
 //   run_dataset, no smoother; for profiling the filter with perf); --rate HZ: only that IMU rate (200 or 400;
-//   default both).
+//   default both); --time-offset: both filters with the online camera-IMU time offset state (issue 49).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -76,12 +76,13 @@ double min_of(const std::vector<double>& v) { return *std::min_element(v.begin()
 
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::atoi(argv[1]) : 15;
-  bool each = false, filter_only = false;
+  bool each = false, filter_only = false, time_offset = false;
   std::vector<double> rates = {200.0, 400.0};
   for (int a = 2; a < argc; ++a) {
     each |= std::string(argv[a]) == "--each";
     filter_only |= std::string(argv[a]) == "--filter-only";
     if (std::string(argv[a]) == "--rate" && a + 1 < argc) rates = {std::atof(argv[++a])};
+    time_offset |= std::string(argv[a]) == "--time-offset";
   }
   fmt::print("bench_filter: paper-seq4, 60 s, seed 1, FilterOptions' plain defaults; {} repetitions, median (min) [ms]\n",
              reps);
@@ -102,10 +103,12 @@ int main(int argc, char** argv) {
         d.manifest.imu->noise.gyro_noise_density, d.manifest.imu->noise.gyro_random_walk,
         d.manifest.imu->noise.accel_noise_density, d.manifest.imu->noise.accel_random_walk};
     // run_filter picks the anchor as roe run does (ekf::choose_anchor).
-    const ekf::FilterOptions opt = cfg.filter;
+    ekf::FilterOptions opt = cfg.filter;
+    opt.estimate_time_offset = time_offset;
     // roe run's built-in defaults (app::RunConfig's filter, = configs/default.json), causal; the IMU noise
     // scaled as roe run scales it.
-    const ekf::FilterOptions dopt = app::RunConfig{}.filter;
+    ekf::FilterOptions dopt = app::RunConfig{}.filter;
+    dopt.estimate_time_offset = time_offset;
     ekf::ImuNoiseParams dnoise = noise;
     for (double* v : {&dnoise.gyro_noise_density, &dnoise.gyro_random_walk, &dnoise.accel_noise_density,
                       &dnoise.accel_random_walk})

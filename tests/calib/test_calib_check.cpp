@@ -484,3 +484,43 @@ TEST_CASE("calib-check: thresholds must be positive and the trace must not be em
   in.extrinsics.clear();
   CHECK_THROWS_AS(calib::check_calibration(in), InputError);
 }
+
+TEST_CASE("calib-check: camera.time_offset from the run's online state, the correlation as the independent check",
+          "[calib][time_offset]") {
+  auto in = good_input();  // the correlation: 2 ± 1 ms
+  const auto check = [&](double online, double sigma, double declared) {
+    in.online_time_offset = calib::CalibInput::OnlineTimeOffset{online, sigma};
+    in.declared_time_offset_s = declared;
+    return get(calib::check_calibration(in), "camera.time_offset");
+  };
+  // The verdict is the online estimate's, under the same rule (limit 10 ms, z = 2.326).
+  CHECK(check(0.003, 0.0005, 0.0).status == CheckStatus::kPass);
+  CHECK(value(check(0.003, 0.0005, 0.0), "online_estimate_s") == 0.003);
+  CHECK(value(check(0.003, 0.0005, 0.0), "estimate_s") == 0.002);  // the correlation's, beside it
+  CHECK(check(0.009, 0.0005, 0.0).status == CheckStatus::kInconclusive);  // 9 + 1.2 > 10
+  // A declared offset 30 ms off that the run found: fail, naming the estimate (the correlation agrees).
+  in.time_offset->offset_s = 0.031;
+  const auto far = check(0.030, 0.0005, 0.0);
+  CHECK(far.status == CheckStatus::kFail);
+  CHECK_THAT(far.message, Catch::Contains("0.0300") && Catch::Contains("consistent"));
+  CHECK(check(0.030, 0.0005, 0.030).status == CheckStatus::kPass);  // relative to the declared offset
+  // The two estimators disagree beyond their σ and the limit: fail, whatever the online verdict alone says.
+  in.time_offset->offset_s = 0.050;
+  const auto bad = check(0.030, 0.0005, 0.030);
+  CHECK(bad.status == CheckStatus::kFail);
+  CHECK_THAT(bad.message, Catch::Contains("DISAGREES"));
+  // No correlation estimate: the online verdict alone, saying why the independent check is missing.
+  in.time_offset->valid = false;
+  in.time_offset->reason = "the camera hardly turns";
+  const auto alone = check(0.030, 0.0005, 0.030);
+  CHECK(alone.status == CheckStatus::kPass);
+  CHECK_THAT(alone.message, Catch::Contains("hardly turns"));
+  // A run without the state: the correlation decides, as before.
+  in.online_time_offset.reset();
+  in.time_offset->valid = true;
+  in.time_offset->offset_s = 0.002;
+  in.declared_time_offset_s = 0.0;
+  const calib::CalibReport report = calib::check_calibration(in);
+  CHECK(get(report, "camera.time_offset").status == CheckStatus::kPass);
+  for (const auto& [k, v] : get(report, "camera.time_offset").values) CHECK(k != "online_estimate_s");
+}

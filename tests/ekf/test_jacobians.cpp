@@ -187,6 +187,37 @@ TEST_CASE("first-sight initialisation Jacobians equal finite differences", "[ekf
   }
 }
 
+TEST_CASE("the time-offset column is the derivative of the prediction along the IMU motion", "[ekf][jacobian][time_offset]") {
+  // ẑ at IMU time t + τ, the rig moved by the IMU integrator (imu.hpp) with a constant ω_m, a_m: its derivative
+  // at τ = 0 is H_p v + H_θ ω (measurement.hpp, Li & Mourikis 2014). Central differences over ±ε around x.
+  for (int trial = 0; trial < 10; ++trial) {
+    const CoreState xm = random_core();
+    const Vec3 w = U3(2.0), a = U3(3.0) + Vec3(0, 0, 9.81);
+    const double eps = 1e-5;
+    const CoreState x = integrate(xm, w, a, w, a, eps);
+    const CoreState xp = integrate(x, w, a, w, a, eps);
+    const Pose T_I_C = Upose(0.1), T_O_W = Upose(2.0);
+    const ObjectPrediction pr = predict_object(x, T_I_C, T_O_W);
+    const Vec6 col = time_offset_column(pr.H_p_WI, pr.H_theta_WI, x.v_W_I, w - x.b_g);
+    const Vec6 num = (pose_minus(predict_object(xp, T_I_C, T_O_W).T_O_C_hat, pr.T_O_C_hat) -
+                      pose_minus(predict_object(xm, T_I_C, T_O_W).T_O_C_hat, pr.T_O_C_hat)) /
+                     (2.0 * eps);
+    INFO("analytic " << col.transpose() << "\nnumeric  " << num.transpose());
+    CHECK((col - num).cwiseAbs().maxCoeff() < 1e-6 * std::max(1.0, col.cwiseAbs().maxCoeff()));
+    // shift_in_time is that motion to first order, and the column its derivative (to rounding).
+    check_jacobian(col, [&](const Eigen::VectorXd& t) -> Eigen::VectorXd {
+      return pose_minus(predict_object(shift_in_time(x, w - x.b_g, t(0)), T_I_C, T_O_W).T_O_C_hat, pr.T_O_C_hat);
+    });
+    // The first-sight object-world moves with the time offset as J_p v + J_θ ω.
+    const Pose z = Upose(1.5);
+    const ObjectInit in = init_object(x, T_I_C, z);
+    check_jacobian(time_offset_column(in.J_p_WI, in.J_theta_WI, x.v_W_I, w - x.b_g),
+                   [&](const Eigen::VectorXd& t) -> Eigen::VectorXd {
+                     return pose_minus(init_object(shift_in_time(x, w - x.b_g, t(0)), T_I_C, z).T_O_W, in.T_O_W);
+                   });
+  }
+}
+
 TEST_CASE("per-detection sigmas are mapped through the T_C_O inversion", "[ekf][jacobian]") {
   const Pose T_C_O = Upose(1.0);
   const Vec6 sigma = (Vec6() << 0.01, 0.02, 0.05, 0.03, 0.04, 0.05).finished();
@@ -238,15 +269,17 @@ TEST_CASE("relative_pose_jacobian equals finite differences of (T_A_W, T_O_W) ->
 namespace {
 
 // A filter with objects 1 (anchor), 2 and 3 initialised and a non-trivial state.
-Filter make_filter(AnchorGauge gauge, bool extrinsics, ResidualFrame frame = ResidualFrame::kObject) {
+Filter make_filter(AnchorGauge gauge, bool extrinsics, ResidualFrame frame = ResidualFrame::kObject,
+                   bool time_offset = false) {
   FilterOptions opt;
+  opt.estimate_time_offset = time_offset;
   opt.residual_frame = frame;
   opt.init_min_detections = 1;  // initialise every object on its first detection
   opt.anchor_id = 1;
   opt.anchor_gauge = gauge;
   opt.estimate_extrinsics = extrinsics;
   ImuNoiseParams noise{1e-3, 1e-4, 1e-2, 1e-3};
-  Filter f(opt, noise, Pose(exp_quat(Vec3(0.1, -0.2, 0.05)), Vec3(0.02, 0.01, -0.03)));
+  Filter f(opt, noise, Pose(exp_quat(Vec3(0.1, -0.2, 0.05)), Vec3(0.02, 0.01, -0.03)), 0.012);
   f.initialize(0, Vec3::Zero(), Vec3(0, 0, 9.81), Vec3(0.3, -0.2, 9.8));
   f.propagate(10'000'000, Vec3(0.1, 0.2, -0.1), Vec3(0.2, 0.1, 9.7));
   std::vector<Detection> dets;
@@ -280,13 +313,15 @@ Vec6 prediction_error(ResidualFrame frame, const Pose& a, const Pose& b) {
 
 TEST_CASE("full H of the filter equals finite differences, incl. zero and anchor blocks", "[ekf][jacobian]") {
   for (AnchorGauge gauge : {AnchorGauge::kPose, AnchorGauge::kPosition, AnchorGauge::kPositionYaw}) {
-    for (bool extr : {true, false}) {
+    for (int variant = 0; variant < 3; ++variant) {  // extrinsics and t_d, extrinsics, neither
+      const bool extr = variant < 2, td = variant == 0;
       for (ResidualFrame frame : {ResidualFrame::kObject, ResidualFrame::kCamera}) {
-        Filter f = make_filter(gauge, extr, frame);
+        Filter f = make_filter(gauge, extr, frame, td);
         const auto diff = [frame](const Pose& a, const Pose& b) { return prediction_error(frame, a, b); };
         REQUIRE(f.objects().size() == 3);
+        CHECK((f.time_offset_offset() >= 0) == td);
         const int anchor_dim = gauge == AnchorGauge::kPose ? 0 : gauge == AnchorGauge::kPosition ? 3 : 2;
-        const int expect_dim = 15 + (extr ? 6 : 0) + anchor_dim + 12;
+        const int expect_dim = 15 + (extr ? 6 : 0) + (td ? 1 : 0) + anchor_dim + 12;
         REQUIRE(f.dim() == expect_dim);
         const ObjectEntry* anchor = f.object(1);
         REQUIRE(anchor != nullptr);
@@ -298,13 +333,17 @@ TEST_CASE("full H of the filter equals finite differences, incl. zero and anchor
           Eigen::MatrixXd H;
           f.measurement_jacobian(id, z, r, H);
           const Pose zh0 = f.predict(id);
-          INFO("gauge " << to_string(gauge) << " extrinsics " << extr << " frame " << to_string(frame)
-                        << " object " << id);
+          INFO("gauge " << to_string(gauge) << " extrinsics " << extr << " time offset " << td << " frame "
+                        << to_string(frame) << " object " << id);
           const Eigen::MatrixXd Hn = check_jacobian(H, [&](const Eigen::VectorXd& d) -> Eigen::VectorXd {
             Filter g = f;
             g.boxplus(d);
-            return diff(g.predict(id), zh0);
+            // A change δt_d of the time offset: the detection saw the rig δt_d later (measurement.hpp).
+            const double tau = g.time_offset_s() - f.time_offset_s();
+            const CoreState x = shift_in_time(g.core(), f.body_rate(), tau);
+            return diff(predict_object(x, g.T_I_C(), g.object(id)->T_O_W).T_O_C_hat, zh0);
           });
+          if (td) CHECK(H.col(f.time_offset_offset()).cwiseAbs().maxCoeff() > 1e-3);
           // Structural zeros: v, biases, every other object's block (incl. the anchor's two tilt
           // columns for a non-anchor detection), and for the anchor its fixed components.
           CHECK(H.middleCols(kV, 3).cwiseAbs().maxCoeff() == 0.0);

@@ -49,7 +49,7 @@ TEST_CASE("run files: the headers are the columns of DESIGN §4", "[io][run_file
         "sigma_p_W_I_y,sigma_p_W_I_z,sigma_v_W_I_x,sigma_v_W_I_y,sigma_v_W_I_z,sigma_theta_W_I_x,"
         "sigma_theta_W_I_y,sigma_theta_W_I_z,sigma_b_g_x,sigma_b_g_y,sigma_b_g_z,sigma_b_a_x,sigma_b_a_y,"
         "sigma_b_a_z,sigma_p_I_C_x,sigma_p_I_C_y,sigma_p_I_C_z,sigma_theta_I_C_x,sigma_theta_I_C_y,"
-        "sigma_theta_I_C_z");
+        "sigma_theta_I_C_z,time_offset_s,sigma_time_offset_s");
   CHECK(join(objects_csv_columns()) ==
         "timestamp_ns,object_id,anchor,p_O_W_x,p_O_W_y,p_O_W_z,q_O_W_x,q_O_W_y,q_O_W_z,q_O_W_w,sigma_p_x,sigma_p_y,"
         "sigma_p_z,sigma_theta_x,sigma_theta_y,sigma_theta_z,sigma_p_W_O_x,sigma_p_W_O_y,sigma_p_W_O_z,"
@@ -89,6 +89,8 @@ TEST_CASE("run files: write then read gives the rows back", "[io][run_files]") {
       s.x.b_a = random_vec(g) * 1e-3;
       s.T_I_C = Pose(random_unit(g), random_vec(g));
       for (int k = 0; k < 21; ++k) s.sigma(k) = k % 7 == 0 ? 0.0 : u(g);
+      s.time_offset_s = (u(g) - 1.0) * 0.03;
+      s.sigma_time_offset_s = i % 5 == 0 ? 0.0 : u(g) * 1e-3;
     }
     write_states_csv(tmp / "states.csv", rows);
     const std::vector<RecordedState> back = read_states_csv(tmp / "states.csv");
@@ -101,6 +103,8 @@ TEST_CASE("run files: write then read gives the rows back", "[io][run_files]") {
       CHECK(back[i].x.b_a == rows[i].x.b_a);
       CHECK(back[i].T_I_C.p == rows[i].T_I_C.p);
       CHECK(back[i].sigma == rows[i].sigma);
+      CHECK(back[i].time_offset_s == rows[i].time_offset_s);
+      CHECK(back[i].sigma_time_offset_s == rows[i].sigma_time_offset_s);
       check_same_rotation(rows[i].x.q_W_I, back[i].x.q_W_I);
       check_same_rotation(rows[i].T_I_C.q, back[i].T_I_C.q);
     }
@@ -115,6 +119,21 @@ TEST_CASE("run files: write then read gives the rows back", "[io][run_files]") {
     CHECK(part[5].sigma(7) == rows[5].sigma(7));
     CHECK(part[5].sigma(6) == 0.0);
     CHECK(part[5].x.p_W_I.isZero());
+    // A file written before issue 49, without the time-offset columns: they read as nan.
+    std::string text = format_states_csv(rows);
+    std::string old;
+    for (std::size_t at = 0; at < text.size();) {
+      const std::size_t end = text.find('\n', at);
+      const std::string line = text.substr(at, end - at);
+      const std::size_t cut = line.rfind(',', line.rfind(',') - 1);  // drop the last two cells
+      old += line.substr(0, cut) + "\n";
+      at = end + 1;
+    }
+    const auto back_old = read_states_csv(tmp.write("old.csv", old));
+    REQUIRE(back_old.size() == rows.size());
+    CHECK(std::isnan(back_old[3].time_offset_s));
+    CHECK(std::isnan(back_old[3].sigma_time_offset_s));
+    CHECK(back_old[3].sigma == rows[3].sigma);
   }
   SECTION("objects.csv") {
     std::vector<ObjectRow> rows(30);
@@ -226,10 +245,10 @@ TEST_CASE("run files: readers name the file, line and column of what is wrong", 
     eval.allow_nonfinite = true;
     const auto rows = read_states_csv(f, eval);
     REQUIRE(rows.size() == 2);
-    CHECK(std::isnan(rows[1].sigma(20)));
+    CHECK(std::isnan(rows[1].sigma_time_offset_s));  // the last σ column (issue 49)
     const InputError e = test::expect_input_error([&] { read_states_csv(f); });
     CHECK(e.context().line == 3);
-    CHECK(e.context().column == 45);
+    CHECK(e.context().column == 47);
   }
   SECTION("a missing objects.csv column") {
     std::string text = objects;
@@ -307,16 +326,20 @@ TEST_CASE("run files: a states row without σ (output level standard) is empty c
   without.t_ns = 200;
   without.x.p_W_I = {1.5, -2.0, 3.0};
   without.sigma.setConstant(std::nan(""));
+  without.time_offset_s = 0.012;
+  without.sigma_time_offset_s = std::nan("");
   const std::string text = format_states_csv({with, without});
-  // The second row: its 23 values, then 21 empty σ cells.
+  // The second row: its 23 values, then 21 empty σ cells, the time offset and its empty σ.
   const std::string last = text.substr(text.find('\n', text.find('\n') + 1) + 1);
-  CHECK(last.substr(last.size() - 22) == std::string(21, ',') + "\n");
+  CHECK(last.substr(last.size() - 29) == std::string(21, ',') + ",0.012,\n");
   CHECK(last.find("nan") == std::string::npos);
   const auto f = tmp.write("states.csv", text);
   const auto rows = read_states_csv(f);  // the strict reader takes them
   REQUIRE(rows.size() == 2);
   CHECK(rows[0].sigma == with.sigma);
   CHECK(rows[1].sigma.array().isNaN().all());
+  CHECK(std::isnan(rows[1].sigma_time_offset_s));
+  CHECK(rows[1].time_offset_s == 0.012);
   CHECK(rows[1].x.p_W_I == without.x.p_W_I);
   CHECK(format_states_csv(rows) == text);
   // A "nan" written out is still refused by the strict reader (roe never writes one); a negative σ too.

@@ -49,6 +49,7 @@ RunRecord full_record() {
   r.imu_noise_from = {"dataset", "config", "dataset", "dataset"};
   r.final_T_I_C = r.init.T_I_C;
   r.final_objects = {{3, true, Pose()}, {12, false, r.init.T_I_C}};
+  r.final_time_offset = FinalTimeOffset{true, 0.002, 0.0173, 0.0004};
   r.warnings = {"w1", "w2"};
   r.timing_s = {{"read", 0.125}, {"total", 0.5}};
   return r;
@@ -91,6 +92,16 @@ TEST_CASE("run.json: write, read and write again give the same text, every field
   CHECK(back.health.problems == std::vector<std::string>{"a problem"});
   CHECK(back.config.filter.min_score == 0.25);
   CHECK(back.config.smoother == "none");
+  // final.time_offset (issue 49) round-trips; a run.json written before it has none.
+  const RunRecord full = run_record_from_json(io::json::parse(format_run_json(full_record())), "x");
+  REQUIRE(full.final_time_offset.has_value());
+  CHECK(full.final_time_offset->estimated);
+  CHECK(full.final_time_offset->value_s == 0.0173);
+  CHECK(full.final_time_offset->sigma_s == 0.0004);
+  CHECK(full.final_time_offset->declared_s == 0.002);
+  io::json old = run_record_to_json(full_record());
+  old["final"].erase("time_offset");
+  CHECK(!run_record_from_json(old, "x").final_time_offset.has_value());
   // Without --config the two config keys are absent, and read back empty.
   RunRecord plain = full_record();
   plain.inputs.config.clear();

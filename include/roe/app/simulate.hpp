@@ -26,6 +26,9 @@ struct SimulateOptions {
   std::optional<double> duration_s;  ///< --duration (overrides the config)
   std::string from_groundtruth;      ///< --from-groundtruth EUROC_MAV0_DIR
   std::optional<int> objects;        ///< --objects N (with --from-groundtruth)
+  /// --time-offset S: the true camera–IMU offset (t_imu = t_cam + S; overrides the config's
+  /// camera.time_offset_s). roe.json's declared camera.time_offset_s stays the config's (0 for --from-groundtruth).
+  std::optional<double> time_offset_s;
   bool force = false;                ///< --force: replace a non-empty output folder
   /// --models-info: describe the symmetric objects' symmetries, the ones the flips use
   /// (sim::simulated_symmetry), in the dataset's models_info.json and point roe.json's objects at it,

@@ -87,6 +87,14 @@ struct CalibInput {
   std::vector<int> symmetric_ids;
   /// The offset estimated from the raw camera stamps (estimate_camera_time_offset); absent = not run.
   std::optional<TimeOffsetEstimate> time_offset;
+  /// The run's own estimate of the offset, when its filter had the time-offset state (run.json
+  /// final.time_offset, FilterOptions::estimate_time_offset): camera.time_offset's verdict then comes from it,
+  /// and the detection–gyro correlation above is the independent check of that estimate.
+  struct OnlineTimeOffset {
+    double value_s = 0.0;
+    double sigma_s = 0.0;
+  };
+  std::optional<OnlineTimeOffset> online_time_offset;
   std::string time_offset_absent_reason;     ///< why it was not run (shown when absent)
   /// Empty when the dataset was read; else why not, for the truth checks ("--no-dataset", …).
   std::string dataset_absent_reason;

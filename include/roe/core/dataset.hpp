@@ -78,6 +78,9 @@ struct TruthObject {
 /// Simulation truth (absent for real recordings).
 struct Truth {
   Pose T_I_C;
+  /// The true camera–IMU time offset (s; t_imu = t_cam + offset): a detection stamped t_cam saw the rig at
+  /// t_cam + offset. roe.json's camera.time_offset_s is the declared prior, which may differ.
+  double camera_time_offset_s = 0.0;
   std::vector<TruthObject> objects;
   std::optional<ImuNoise> imu_noise;
   /// The detection-error model's parameters, by name (booleans as 0/1), as simulated.

@@ -29,14 +29,18 @@ namespace roe::ekf {
 /// and the smoother recording's segment transition), on Φ's non-trivial columns only (filter/covariance.cpp).
 void accumulate_transition(const CoreTransition& F, Mat15& PhiT);
 
-/// A Jacobian of 6 rows that acts on at most 12 error-state columns, kept compact: its column j is the
-/// derivative with respect to error-state column idx[j] (the first-sight initialisation's J_x).
+/// A Jacobian of 6 rows that acts on at most 13 error-state columns, kept compact: its column j is the
+/// derivative with respect to error-state column idx[j] (the first-sight initialisation's J_x: the IMU's p
+/// and θ, the extrinsics, the time offset).
 struct CompactJacobian6 {
-  Eigen::Matrix<double, 6, 12> J;
-  int idx[12];
+  static constexpr int kMaxCols = 13;
+  Eigen::Matrix<double, 6, kMaxCols> J;
+  int idx[kMaxCols];
   int nc = 0;
   /// Appends three columns acting on the error-state columns offset … offset + 2.
   void append3(int offset, const Mat63& block);
+  /// Appends one column acting on the error-state column `offset`.
+  void append1(int offset, const Vec6& column);
   /// The same Jacobian on all n error-state columns (6 x n, zero elsewhere).
   Eigen::MatrixXd dense(int n) const;
 };

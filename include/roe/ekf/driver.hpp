@@ -84,6 +84,10 @@ struct FilterRunSummary {
   Pose prior_T_I_C;                       ///< the extrinsics it started from
   /// σ of the extrinsics at the start and at the end [p (m), θ (rad)] (0 when held fixed).
   Vector6d prior_sigma_I_C = Vector6d::Zero(), final_sigma_I_C = Vector6d::Zero();
+  /// The camera–IMU time offset t_d (s) at the start (the declared value) and at the end, and its σ (0 when it
+  /// is not estimated: FilterOptions::estimate_time_offset).
+  double prior_time_offset_s = 0.0, final_time_offset_s = 0.0;
+  double prior_sigma_time_offset_s = 0.0, final_sigma_time_offset_s = 0.0;
   /// Per object, the rotation residual angle (deg) of its gated 6-row detections in time order
   /// (DetectionOutcome::rot_residual_deg): an object-world that keeps a large one is suspect (health.hpp).
   std::map<int, std::vector<double>> rot_residual_deg;
@@ -99,10 +103,13 @@ struct FilterRunSummary {
 /// `recording`, the filter records what smooth() (smoother.hpp) needs. `symmetries`: the objects'
 /// symmetries (Filter::set_symmetries), e.g. from the dataset's models_info files; an empty entry marks an
 /// object symmetric with its group unknown (the anchor rule avoids it; the filter ignores it).
+/// `time_offset_prior_s`: the declared camera–IMU offset the images' stamps hold (group_images); with
+/// FilterOptions::estimate_time_offset each image is processed at its stamp + t̂_d − this (docs/filter.md §16).
 FilterRunSummary run_filter(const std::vector<ImuSample>& imu, const std::vector<ImageDetections>& images,
                             const FilterOptions& options, const ImuNoiseParams& noise,
                             const Pose& T_I_C_prior, FilterObserver& observer,
                             FilterRecording* recording = nullptr,
-                            const std::map<int, ObjectSymmetry>& symmetries = {});
+                            const std::map<int, ObjectSymmetry>& symmetries = {},
+                            double time_offset_prior_s = 0.0);
 
 }  // namespace roe::ekf

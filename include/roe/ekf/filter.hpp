@@ -104,7 +104,10 @@ struct FrameResult {
 
 class Filter {
  public:
-  Filter(const FilterOptions& options, const ImuNoiseParams& noise, const Pose& T_I_C_prior);
+  /// `time_offset_prior_s`: the declared camera–IMU offset (roe.json camera.time_offset_s) the images' stamps
+  /// were already shifted by (images.hpp); the prior of t_d with FilterOptions::estimate_time_offset.
+  Filter(const FilterOptions& options, const ImuNoiseParams& noise, const Pose& T_I_C_prior,
+         double time_offset_prior_s = 0.0);
 
   /// Starts the filter at t0 with the IMU at the origin of W, v = 0, yaw 0 and roll/pitch from
   /// `mean_accel` (the accelerometer mean over the init window, minus the configured bias); gyro0 and
@@ -117,11 +120,16 @@ class Filter {
 
   /// Propagates to t (> time()) with the IMU measurement at t (midpoint integrator, imu.hpp).
   void propagate(Timestamp t, const Vec3& gyro, const Vec3& accel);
-  /// One image at time(): gate, stacked update, first-sight initialisations.
-  FrameResult update(const std::vector<Detection>& detections);
+  /// One image at time() + dt_image_s: gate, stacked update, first-sight initialisations. The image is normally
+  /// processed at its own time (dt_image_s = 0: run_filter propagates to t_cam + t̂_d); an image whose time
+  /// lies a little before time() (t̂_d moved back by more than the gap to the last IMU sample) is predicted
+  /// with the state shifted by dt_image_s (shift_in_time, measurement.hpp).
+  FrameResult update(const std::vector<Detection>& detections, double dt_image_s = 0.0);
 
   Timestamp time() const { return s_.t_ns; }
   const CoreState& core() const { return s_.x; }
+  /// The IMU's angular rate at time(), ω = ω_m − b̂_g (body axes): with v_W_I, what moves a prediction in time.
+  Vec3 body_rate() const { return gyro_ - s_.x.b_g; }
   const Pose& T_I_C() const { return s_.T_I_C; }
   const std::vector<ObjectEntry>& objects() const { return s_.objects; }
   /// nullptr when the object has no object-world yet.
@@ -129,6 +137,12 @@ class Filter {
   int anchor_id() const { return anchor_id_; }
   int dim() const { return s_.dim; }
   int extrinsics_offset() const { return s_.extr_offset; }
+  /// The camera–IMU time offset t̂_d (s; the declared prior when it is not estimated) and its error-state
+  /// column (−1: not estimated).
+  double time_offset_s() const { return s_.t_d; }
+  int time_offset_offset() const { return s_.td_offset; }
+  /// t̂_d − the declared prior, in ns: what run_filter adds to the images' (prior-shifted) stamps.
+  Timestamp time_offset_shift_ns() const;
   /// Diagonal entry of P (always current, also between updates).
   double variance(int i) const { return cov_.variance(i); }
   /// Entry (i, j) of the core 15x15 block of P (always current).
@@ -194,6 +208,8 @@ class Filter {
   void set_reference_arithmetic(bool on) { reference_ = on; }
 
  private:
+  // A detection's H acts on at most 19 error-state columns: the IMU's p and θ, the extrinsics, t_d, its object.
+  static constexpr int kMaxCols = 19;
   struct MeasBlock {
     int det = 0;  // index into the detection vector
     int obj = 0;  // index into s_.objects (objects())
@@ -206,8 +222,8 @@ class Filter {
     Mat6 R;
     Mat6 S;                          // H P Hᵀ + R of this block (the χ² gate; the stacked S's diagonal)
     double k = 1.0;                  // variance inflation of R for the constant states (correlated errors)
-    Eigen::Matrix<double, 6, 18> H;  // compact columns
-    int idx[18];
+    Eigen::Matrix<double, 6, kMaxCols> H;  // compact columns
+    int idx[kMaxCols];
     int nc = 0;
     // H's compact columns as runs of contiguous error-state columns: run k covers the state columns
     // run_off[k] … run_off[k]+run_len[k]−1 and the compact columns run_col[k] …
@@ -265,6 +281,12 @@ class Filter {
   // The nominal state with its error-state layout (time, core, extrinsics, object-worlds, offsets, dim): the
   // one state struct with ⊞/⊟ (state.hpp), held here and changed in place.
   StateEstimate s_;
+  double td_prior_s_ = 0.0;  // the declared time offset (the images' stamps hold it already)
+  // update()'s dt_image_s while it runs (0 otherwise): image_core() is the core state at the image, s_.x shifted
+  // by it (after the update's ⊞ too: the first sights use the posterior).
+  double dt_img_s_ = 0.0;
+  CoreState image_core() const;
+  FrameResult update_image(const std::vector<Detection>& detections);
   Vec3 gyro_ = Vec3::Zero(), accel_ = Vec3::Zero();
   int anchor_id_ = -1;
   FilterCovariance cov_;  // P behind its door (covariance.hpp): every change to P goes through it

@@ -42,6 +42,17 @@ struct ObjectPrediction {
 /// ẑ = T_O_W T_W_I T_I_C and the H blocks above.
 ObjectPrediction predict_object(const CoreState& x, const Pose& T_I_C, const Pose& T_O_W);
 
+/// The camera–IMU time offset t_d (t_imu = t_cam + t_d; Li & Mourikis 2014, OpenVINS): a detection stamped
+/// t_cam sees the rig at t_cam + t_d. Shifted in time by τ, the IMU pose moves to first order as
+///   p_W_I(t + τ) = p_W_I + v_W_I τ,   R_W_I(t + τ) = R_W_I Exp(ω τ)   (ω = ω_m − b_g, the body rate),
+/// (shift_in_time; v, the biases unchanged). So the prediction's derivative with respect to t_d at the time the
+/// filter evaluates it is
+///   ∂ẑ/∂t_d = H_p_WI v_W_I + H_θ_WI ω   (6x1, rows [position; orientation], the object residual frame),
+/// and that of the first-sight object-world J_td = J_p_WI v_W_I + J_θ_WI ω (time_offset_column on the
+/// ObjectInit blocks).
+CoreState shift_in_time(const CoreState& x, const Vec3& omega_I, double tau_s);
+Vec6 time_offset_column(const Mat63& d_p_WI, const Mat63& d_theta_WI, const Vec3& v_W_I, const Vec3& omega_I);
+
 /// Paper residual r = [z_p − ẑ_p ; 2 δq_v/δq_w] of a measurement z = T_O_C.
 Vec6 object_residual(const Pose& T_O_C_hat, const Pose& T_O_C_meas);
 

@@ -134,6 +134,13 @@ struct FilterOptions {
   double extrinsics_sigma_p_m = 0.02;     ///< prior σ of p_I_C per axis
   double extrinsics_sigma_rot_deg = 2.0;  ///< prior σ of δθ_I_C per axis
 
+  // --- Camera–IMU time offset t_d (t_imu = t_cam + t_d; Li & Mourikis 2014, docs/filter.md §16) ---
+  /// true: t_d is an error state (prior = the dataset's camera.time_offset_s, σ time_offset_sigma_s); each
+  /// image is processed at t_cam + t̂_d and its detections predicted with the Jacobian ∂ẑ/∂t_d = H_p v + H_θ ω.
+  /// false (the paper): the declared offset is taken as exact.
+  bool estimate_time_offset = false;
+  double time_offset_sigma_s = 0.02;  ///< prior σ of t_d (s): tens of ms (a D435i colour stream, a network's stamps)
+
   // --- IMU noise (continuous time). Negative = take the dataset's roe.json imu values ---
   double gyro_noise_density = -1.0;   ///< rad/s/√Hz
   double gyro_random_walk = -1.0;     ///< rad/s²/√Hz
@@ -165,6 +172,7 @@ struct FilterOptions {
   double max_velocity_mps = 50.0;
   double max_gyro_bias = 1.0;   ///< rad/s
   double max_accel_bias = 5.0;  ///< m/s²
+  double max_time_offset_s = 0.5;  ///< |t̂_d − declared| (s)
   int pd_check_every = 30;      ///< full Cholesky test of P every N updates (and after init/augment)
 };
 

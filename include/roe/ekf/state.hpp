@@ -18,6 +18,10 @@ struct StateEstimate {
   CoreState x;
   Pose T_I_C;
   int extr_offset = -1;  ///< first column of the extrinsics (−1: held fixed)
+  /// Camera–IMU time offset t_d (s; t_imu = t_cam + t_d) and its error-state column (−1: held at the
+  /// declared value, not in the state). Additive: t_d ← t_d + δt_d.
+  double t_d = 0.0;
+  int td_offset = -1;
   int dim = kCore;       ///< error-state dimension
   /// One object-world.
   struct Object {

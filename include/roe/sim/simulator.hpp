@@ -55,6 +55,11 @@ struct CameraConfig {
   /// Error of the prior T_I_C written to roe.json camera.T_I_C (identity: prior = truth):
   /// prior = T_I_C * prior_error.
   Pose prior_error;
+  /// The true camera–IMU time offset (s; Kalibr/OpenVINS convention t_imu = t_cam + offset): a frame that saw
+  /// the rig at IMU time t is stamped t − offset (roe.json truth.camera_time_offset_s).
+  double time_offset_s = 0.0;
+  /// What roe.json's camera.time_offset_s declares (the user's prior; may differ from the truth).
+  double declared_time_offset_s = 0.0;
 };
 
 /// One object of the scene.
@@ -189,6 +194,9 @@ struct FromGroundtruthConfig {
   ImuNoise imu_noise{1.6968e-4, 1.9393e-5, 2.0e-3, 3.0e-3};  ///< EuRoC ADIS16448 (sensor.yaml)
   VisibilityConfig visibility;
   DetectionNoiseConfig detection;
+  /// The true camera–IMU time offset and the declared one, as CameraConfig's (roe simulate --time-offset).
+  double time_offset_s = 0.0;
+  double declared_time_offset_s = 0.0;
 
   static Pose euroc_T_I_C();
 };

@@ -4,7 +4,7 @@
 /// writer and its reader use:
 ///   states.csv        timestamp_ns, p_W_I, v_W_I, q_W_I (x y z w), b_g, b_a, p_I_C, q_I_C, then one σ
 ///                     per error-state component [δp δv δθ δb_g δb_a δp_I_C δθ_I_C] (sigma_*; rad for
-///                     angles); states_filter.csv the same (the filter's estimate beside a smoothed one)
+///                     angles), then time_offset_s and sigma_time_offset_s (optional when read); states_filter.csv the same (the filter's estimate beside a smoothed one)
 ///   objects.csv       timestamp_ns, object_id, anchor (0/1), T_O_W (p, q x y z w), its six σ, the six σ
 ///                     of T_W_O (sigma_*_W_O_*) and of T_A_O relative to the anchor (sigma_*_A_O_*)
 ///   reprojection.csv  timestamp_ns, object_id, T_W_I implied by the raw detection (tx..qw; nan when the
@@ -49,6 +49,10 @@ struct RecordedState {
   Pose T_I_C;
   /// σ of [δp, δv, δθ, δb_g, δb_a, δp_I_C, δθ_I_C] (0 for the extrinsics when they are held fixed).
   Eigen::Matrix<double, 21, 1> sigma = Eigen::Matrix<double, 21, 1>::Zero();
+  /// The camera–IMU time offset t_d (s; t_imu = t_cam + t_d) and its σ (0: held at the declared value; nan:
+  /// not recorded at this row). Files written before issue 49 lack both columns: they read as nan.
+  double time_offset_s = 0.0;
+  double sigma_time_offset_s = 0.0;
   /// Covariance of the IMU pose error [δp_W_I; δθ_W_I] (consistency tests, eval's NEES). Not in the file.
   Eigen::Matrix<double, 6, 6> pose_cov = Eigen::Matrix<double, 6, 6>::Zero();
 };

@@ -94,6 +94,15 @@ struct FinalObject {
   Pose T_O_W;
 };
 
+/// run.json "final.time_offset": the camera–IMU time offset t_d (t_imu = t_cam + t_d) at the end of the run.
+/// `estimated` false: the filter held the declared value (σ 0). Absent from files written before issue 49.
+struct FinalTimeOffset {
+  bool estimated = false;
+  double declared_s = 0.0;  ///< roe.json camera.time_offset_s (the prior)
+  double value_s = 0.0;
+  double sigma_s = 0.0;
+};
+
 /// run.json "refine" (only in the run.json of roe refine): the solve's options and report.
 struct RefineRecord {
   std::string loss, linear_solver;
@@ -136,6 +145,7 @@ struct RunRecord {
   std::array<std::string, 4> imu_noise_from = {"dataset", "dataset", "dataset", "dataset"};
   Pose final_T_I_C;                       ///< "final.T_I_C"
   std::vector<FinalObject> final_objects;  ///< "final.objects", by id
+  std::optional<FinalTimeOffset> final_time_offset;  ///< "final.time_offset" (optional when read)
   std::vector<std::string> warnings;
   std::map<std::string, double> timing_s;  ///< wall seconds per stage (read, filter, …, total)
   std::optional<RefineRecord> refine;      ///< present iff command is "refine"
