@@ -11,7 +11,8 @@
 #                                    exit 77 when clang or libFuzzer is missing (by hand: not a CTest test)
 #   scripts/fuzz.sh replay T [EXE]   replay target T's seed corpus (the files `run` starts from) through
 #                                    the normal build's fuzz_replay (EXE, default build/fuzz_replay): CTest's
-#                                    `fuzz/replay/T` (cmake/extra-fuzz.cmake); exit 1 on a finding
+#                                    `fuzz/replay/T` (cmake/extra-fuzz.cmake); exit 1 on a finding. With
+#                                    EXE = build-fuzz/T, the clang build's libFuzzer binary (ASan, UBSan)
 #   scripts/fuzz.sh seeds T          list target T's seed files
 # Environment: FUZZ_BUILD (default build-fuzz), JOBS (build jobs, default nproc), FUZZ_TIMEOUT (seconds one
 # input may take before it counts as a hang, default 30: generous, for a loaded machine).
@@ -122,6 +123,10 @@ case "${1:-}" in
     exe=${3:-$ROOT/build/fuzz_replay}
     [ -f "tests/fuzz/$t.cpp" ] || { echo "fuzz replay: no target $t (tests/fuzz/$t.cpp)"; exit 2; }
     mapfile -t files < <(seeds "$t")
+    # A libFuzzer binary of the clang build (build-fuzz/T, ASan + UBSan) runs the files it is given once.
+    if [ "$(basename "$exe")" = "$t" ]; then
+      exec "$exe" -timeout="${FUZZ_TIMEOUT:-30}" -rss_limit_mb=2048 "${files[@]}"
+    fi
     # Each input's hang limit as in `run` (FUZZ_TIMEOUT); an input's memory as libFuzzer's -rss_limit_mb.
     exec "$exe" "$t" --timeout "${FUZZ_TIMEOUT:-30}" --memory-mb 2048 "${files[@]}"
     ;;
@@ -135,5 +140,5 @@ case "${1:-}" in
     build >"${TMPDIR:-/tmp}/roe-fuzz-build.log" 2>&1 || { cat "${TMPDIR:-/tmp}/roe-fuzz-build.log"; exit 1; }
     LOG_PREFIX=smoke- run_all "${ROE_FUZZ_SMOKE_S:-10}"
     ;;
-  *) sed -n '2,14p' "$0"; exit 2 ;;
+  *) sed -n '2,15p' "$0"; exit 2 ;;
 esac
