@@ -53,7 +53,7 @@ PREFIX ?= /usr/local
 install:
 	scripts/install-deps.sh infer
 	$(MAKE) configure CONFIGURE_FLAGS="$(WITH_ALL)"
-	cmake --build $(BUILD) -j $(JOBS) --target roe roe-image roe-infer
+	cmake --build $(BUILD) -j $(JOBS) --target roe roe-refine roe-image roe-infer
 	cmake --install $(BUILD) --prefix $(PREFIX)
 
 # The benchmarks link the image helpers' libraries: OpenCV is required (scripts/install-deps.sh infer).
@@ -62,7 +62,8 @@ bench:
 	scripts/bench.sh $(BUILD)
 
 # The libFuzzer targets (tests/fuzz/fuzz_*.cpp) in build-fuzz/ with clang, ASan and UBSan; run them with
-# `scripts/fuzz.sh run SECONDS` (docs/TESTING.md, "Fuzzing").
+# `scripts/fuzz.sh run SECONDS` (docs/TESTING.md, "Fuzzing"). Not part of `make test`, which replays the
+# targets' seed corpora through the normal build (CTest fuzz/replay/*). Needs scripts/install-deps.sh --dev.
 .PHONY: fuzz
 fuzz:
 	JOBS=$(JOBS) scripts/fuzz.sh build

@@ -49,7 +49,7 @@ if(NOT _rc EQUAL 0)
   message(FATAL_ERROR "cannot list the targets of ${_dir}")
 endif()
 roe_expect("${_targets}" "... roe\n")
-foreach(_t roe-image roe-infer roe_image roe_infer roe_refine roe_app_all test_cli bench_filter)
+foreach(_t roe-image roe-infer roe-refine roe_image roe_infer roe_refine roe_app_refine roe_app_all test_cli bench_filter fuzz_replay)
   roe_expect_not("${_targets}" "... ${_t}\n")
 endforeach()
 

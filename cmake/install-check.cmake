@@ -19,16 +19,19 @@ endfunction()
 function(roe_install_report)
   set(_code "set(_missing \"\")\n")
   set(_args ${ARGN})
+  set(_targets)
   while(_args)
     list(POP_FRONT _args _helper _command)
+    list(APPEND _targets ${_helper})
     string(APPEND _code "if(NOT EXISTS \"$<TARGET_FILE:${_helper}>\")\n"
                         "  string(APPEND _missing \"\\n  ${_helper} (${_command})\")\n"
                         "endif()\n")
   endwhile()
+  string(JOIN " " _targets ${_targets})
   string(APPEND _code "if(_missing)\n"
     "  message(WARNING \"roe install: installed roe, its configs and scripts into \${CMAKE_INSTALL_PREFIX}; \"\n"
     "    \"these helpers are not built, so their commands are not available there:\${_missing}\\n\"\n"
-    "    \"Add them with: cmake --build ${CMAKE_BINARY_DIR} --target roe-image roe-infer && \"\n"
+    "    \"Add them with: cmake --build ${CMAKE_BINARY_DIR} --target ${_targets} && \"\n"
     "    \"cmake --install ${CMAKE_BINARY_DIR} --prefix \${CMAKE_INSTALL_PREFIX} (or make install PREFIX=...)\")\n"
     "endif()\n")
   install(CODE "${_code}")

@@ -8,7 +8,12 @@
 #                                    instead of wall time: on a shared machine a niced target gets a
 #                                    fraction of a core, and the CPU time is what was fuzzed
 #   scripts/fuzz.sh smoke            build, then run every target ROE_FUZZ_SMOKE_S seconds (default 10);
-#                                    exit 77 (CTest: skipped) when clang or libFuzzer is missing
+#                                    exit 77 when clang or libFuzzer is missing (by hand: not a CTest test)
+#   scripts/fuzz.sh replay T [EXE]   replay target T's seed corpus (the files `run` starts from) through
+#                                    the normal build's fuzz_replay (EXE, default build/fuzz_replay): CTest's
+#                                    `fuzz/replay/T` (cmake/extra-fuzz.cmake); exit 1 on a finding. With
+#                                    EXE = build-fuzz/T, the clang build's libFuzzer binary (ASan, UBSan)
+#   scripts/fuzz.sh seeds T          list target T's seed files
 # Environment: FUZZ_BUILD (default build-fuzz), JOBS (build jobs, default nproc), FUZZ_TIMEOUT (seconds one
 # input may take before it counts as a hang, default 30: generous, for a loaded machine).
 set -euo pipefail
@@ -112,6 +117,19 @@ run_all() {  # seconds [target]
 
 case "${1:-}" in
   build) build ;;
+  seeds) seeds "${2:?target}" ;;
+  replay)
+    t=${2:?target}
+    exe=${3:-$ROOT/build/fuzz_replay}
+    [ -f "tests/fuzz/$t.cpp" ] || { echo "fuzz replay: no target $t (tests/fuzz/$t.cpp)"; exit 2; }
+    mapfile -t files < <(seeds "$t")
+    # A libFuzzer binary of the clang build (build-fuzz/T, ASan + UBSan) runs the files it is given once.
+    if [ "$(basename "$exe")" = "$t" ]; then
+      exec "$exe" -timeout="${FUZZ_TIMEOUT:-30}" -rss_limit_mb=2048 "${files[@]}"
+    fi
+    # Each input's hang limit as in `run` (FUZZ_TIMEOUT); an input's memory as libFuzzer's -rss_limit_mb.
+    exec "$exe" "$t" --timeout "${FUZZ_TIMEOUT:-30}" --memory-mb 2048 "${files[@]}"
+    ;;
   run) run_all "${2:?seconds}" "${3:-}" ;;
   run-cpu) CPU_BUDGET=1 run_all "${2:?CPU seconds}" "${3:-}" ;;
   smoke)
@@ -122,5 +140,5 @@ case "${1:-}" in
     build >"${TMPDIR:-/tmp}/roe-fuzz-build.log" 2>&1 || { cat "${TMPDIR:-/tmp}/roe-fuzz-build.log"; exit 1; }
     LOG_PREFIX=smoke- run_all "${ROE_FUZZ_SMOKE_S:-10}"
     ;;
-  *) sed -n '2,9p' "$0"; exit 2 ;;
+  *) sed -n '2,15p' "$0"; exit 2 ;;
 esac

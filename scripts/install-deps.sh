@@ -9,9 +9,10 @@
 #   infer   every command, installed (make install): demo + OpenCV (the image helpers), Ceres (roe
 #           refine), LibTorch (the PoET pose head of roe infer)
 #   test    build everything and run the whole test suite (make test): infer + Catch2, GNU parallel,
-#           Slurm, chromium (roe report's browser test), clang + libFuzzer (the fuzz smoke test), scipy
+#           Slurm, chromium (roe report's browser test), scipy
 #   all     every profile
-#   --dev   also the developer tools (formatter, fixture and reference generators)
+#   --dev   also the developer tools (formatter, fixture and reference generators, clang + libFuzzer for
+#           make fuzz)
 #   --list  print the packages of the chosen profiles, one per line, and install nothing
 # docs/install.md lists what each profile pulls onto a fresh bookworm machine.
 set -euo pipefail
@@ -36,11 +37,11 @@ test_only=(
   catch2                                                            # the test framework (Catch2 v2)
   parallel slurm-wlm munge                                          # roe sweep: the real-engine tests (GNU parallel, single-node Slurm)
   chromium                                                          # roe report's browser test (tests/cli/test_report_cli.cpp)
-  clang libclang-rt-14-dev                                          # fuzz/smoke test: libFuzzer, ASan, UBSan
   python3-scipy                                                     # eval tests: Euler angles against scipy's Rotation
 )
 dev=(
   clang-format python3-torch
+  clang libclang-rt-14-dev    # make fuzz (scripts/fuzz.sh): libFuzzer, ASan, UBSan; the tests replay the corpora with gcc
   # python3-scipy (in test) also regenerates tests/eval/data/stats_reference.json
 )
 
@@ -52,7 +53,7 @@ for arg in "$@"; do
     demo | test | infer | all) profiles+=("$arg") ;;
     --dev) with_dev=1 ;;
     --list) list=1 ;;
-    -h | --help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h | --help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "install-deps: unknown profile or option '$arg' (profiles: demo, test, infer, all; options: --dev, --list)" >&2
        exit 2 ;;
   esac

@@ -1,10 +1,11 @@
 // roe refine RUN_DIR --out RUN_DIR2 [--dataset DATASET] [--loss huber|cauchy|none] [--loss-scale K] ...
+// Linked into the helper roe-refine only (it needs Ceres; `roe` forwards the command, forward.cpp), which
+// exists only in a build with Ceres.
 #include <memory>
 
 #include "command.hpp"
 #include "roe/app/refine.hpp"
 #include "roe/core/error.hpp"
-#include "roe/features.hpp"
 
 namespace roe::cli {
 namespace {
@@ -36,10 +37,6 @@ RunFn setup(CLI::App& sub) {
                "docs/refine.md §2b)");
   sub.add_flag("--no-covariance", a->no_covariance, "Skip the marginal covariances (σ columns written as 0)");
   return [a]() -> int {
-#if !ROE_HAVE_CERES  // cmake/features.cmake: refine/ and app::refine_run are not built
-    (void)a;
-    throw InputError(not_built_message(kCeresFeature, "refine"));
-#else
     if (a->run.empty()) throw InputError("RUN_DIR is required", {"roe refine"});
     if (a->out.empty()) throw InputError("--out RUN_DIR2 is required", {"roe refine"});
     a->opt.refine.loss = refine::parse_loss(a->loss);
@@ -49,11 +46,10 @@ RunFn setup(CLI::App& sub) {
     const auto r = app::refine_run(a->run, a->out, a->opt);
     emit(r.to_json(), r.to_text());
     return 0;
-#endif
   };
 }
 
-const Registrar reg("", "refine", "Refine a run offline: batch robust MAP over the whole recording (Ceres)", 45,
+const Registrar reg(kRefineCommand.parent, kRefineCommand.name, kRefineCommand.description, kRefineCommand.order,
                     &setup);
 
 }  // namespace

@@ -37,23 +37,42 @@ struct Registrar {
   Registrar(const char* parent, const char* name, const char* description, int order, SetupFn setup);
 };
 
-/// A command that runs in a helper executable beside `roe` (it needs OpenCV or LibTorch, which `roe`
-/// itself never loads): `roe` lists it in its help and replaces itself with the helper when it is asked
-/// for (forward.cpp). The command's own file registers it with the same name, description and order.
+/// A command that runs in a helper executable beside `roe` because it needs a library that `roe` itself
+/// never loads (OpenCV, LibTorch, Ceres: issues 24 and 53, docs/install.md): `roe` lists it in its help and
+/// replaces itself with the helper when it is asked for (forward.cpp). Every executable lists and forwards
+/// these commands unless it registers the command itself (the helper that runs it: its cmd_*.cpp file,
+/// with the same name, description and order).
 struct ForwardedCommand {
   const char* parent;
   const char* name;
   const char* description;
   int order;
-  const char* helper;  ///< executable name, found beside roe or in ../libexec/roe
+  const char* helper;       ///< executable name, found beside roe or in ../libexec/roe
+  const char* synopsis;     ///< DESIGN §1's usage line (the full option list is the helper's own --help)
+  const char* feature_key;  ///< the BuildFeature it needs (roe/features.hpp): without it there is no helper
 };
 inline constexpr ForwardedCommand kImportRealsenseCommand{
     "import", "realsense", "Import a RealSense recording (.bag): colour frames, IMU, intrinsics", 10,
-    "roe-image"};
+    "roe-image", "roe import realsense BAG --out DATASET [OPTIONS]", "opencv"};
+inline constexpr ForwardedCommand kRefineCommand{
+    "", "refine", "Refine a run offline: batch robust MAP over the whole recording (Ceres)", 45, "roe-refine",
+    "roe refine RUN_DIR --out RUN_DIR2 [--dataset DATASET] [--loss huber|cauchy|none] [OPTIONS]", "ceres"};
 inline constexpr ForwardedCommand kInferCommand{
     "", "infer", "Run a PoET model bundle on a dataset's images (LibTorch + OpenCV), cached per frame", 50,
-    "roe-infer"};
-inline constexpr ForwardedCommand kForwardedCommands[] = {kImportRealsenseCommand, kInferCommand};
+    "roe-infer", "roe infer DATASET --model BUNDLE_DIR [--name NAME] [OPTIONS]", "opencv"};
+inline constexpr ForwardedCommand kForwardedCommands[] = {kImportRealsenseCommand, kRefineCommand, kInferCommand};
+
+/// Whether this executable registers `parent name` itself (a cmd_*.cpp file linked into it), rather than
+/// forwarding it. A command that finds only late that it needs a helper's library (issue 48's batch
+/// estimator in `roe run`) asks runs_here("", "refine") and, when false, calls exec_helper(kRefineCommand, ...)
+/// so that the helper runs the same command line.
+bool runs_here(const char* parent, const char* name);
+
+/// Replaces this process with `c`'s helper, with the same arguments (argv as main received it). Returns
+/// only when it could not: false with `error` saying why and `exit_code` set (2: this build lacks the
+/// helper's library; 3: the helper is not installed), or true when argv asks for --help, which was then
+/// answered here on stdout (exit 0).
+bool exec_helper(const ForwardedCommand& c, int argc, char** argv, std::string& error, int& exit_code);
 
 /// `roe --version`: the version, then each optional library (cmake/features.cmake) with yes/no, the
 /// commands that need it and, when missing, its Debian package and CMake option.
@@ -64,13 +83,15 @@ nlohmann::json features_json();
 /// the CMake option to rebuild with.
 std::string not_built_message(const roe::BuildFeature& feature, const std::string& command);
 
-/// In `roe`: when argv names a forwarded command, execs its helper with the same arguments and does not
-/// return. Returns nullptr when argv names no forwarded command; else the command it could not hand over,
-/// with `error` saying why and `exit_code` set (the helper is not installed: 3; this roe was built without
-/// OpenCV, so there are no helpers: 2), or with `error` empty when argv asks
-/// for the command's --help, which roe then answered itself on stdout (exit 0). Global flags take no values, so the
-/// command is the first word not starting with '-'.
+/// Called first by main: when argv names a forwarded command that this executable does not run itself
+/// (runs_here), execs its helper with the same arguments and does not return. Returns nullptr when argv
+/// names no such command; else the command it could not hand over, with `error` saying why and `exit_code`
+/// set (the helper is not installed: 3; this roe was built without the helper's library: 2), or with
+/// `error` empty when argv asks for the command's --help, which roe then answered itself on stdout (exit 0).
+/// Global flags take no values, so the command is the first word not starting with '-'.
 const ForwardedCommand* forward_to_helper(int argc, char** argv, std::string& error, int& exit_code);
+/// What main registers for a forwarded command that is not run here: listed in the help, never run.
+RunFn setup_forwarded(CLI::App& sub);
 
 /// Option validators whose messages read well ("--every: must be an integer >= 1, got '0'");
 /// CLI11's PositiveNumber prints its range up to DBL_MAX in full. `kind` of number_in():

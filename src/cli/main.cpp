@@ -44,6 +44,12 @@ Registrar::Registrar(const char* parent, const char* name, const char* descripti
   registry().push_back({parent, name, description, order, setup});
 }
 
+bool runs_here(const char* parent, const char* name) {
+  for (const Entry& e : registry())
+    if (e.parent == parent && e.name == name) return true;
+  return false;
+}
+
 namespace {
 /// With --json every failure is one JSON document on stdout as well (the message still goes to stderr):
 /// `command`, `error` (message, and file/line/column/key when known), `exit_code`.
@@ -92,7 +98,10 @@ using namespace roe::cli;
 /// The command tree from the self-registered commands (sorted by their order, then name), with each
 /// leaf's run function.
 std::map<CLI::App*, RunFn> register_commands(CLI::App& app) {
-  auto& entries = registry();
+  std::vector<Entry> entries = registry();
+  // The forwarded commands this executable does not run itself: listed, handed to their helper (forward.cpp).
+  for (const ForwardedCommand& c : kForwardedCommands)
+    if (!runs_here(c.parent, c.name)) entries.push_back({c.parent, c.name, c.description, c.order, &setup_forwarded});
   std::stable_sort(entries.begin(), entries.end(),
                    [](const Entry& a, const Entry& b) {  // ties by name: independent of the link order
                      return a.order != b.order ? a.order < b.order : a.name < b.name;
@@ -240,16 +249,14 @@ int run_command(CLI::App& app, const std::map<CLI::App*, RunFn>& runs) {
 int main(int argc, char** argv) {
   using namespace roe::cli;
   for (int i = 1; i < argc && std::string(argv[i]) != "--"; ++i) g_json_errors |= std::string(argv[i]) == "--json";
-#ifdef ROE_CLI_FORWARDS
   // Before anything else (signal handlers included: exec keeps only ignored signals ignored).
   std::string forward_error;
   int forward_code = 3;
   if (const ForwardedCommand* c = forward_to_helper(argc, argv, forward_error, forward_code)) {
-    if (forward_error.empty()) return 0;  // its --help, answered by roe itself (the helper is not installed)
+    if (forward_error.empty()) return 0;  // its --help, answered by roe itself (no helper to ask)
     return fail(forward_code, std::string(c->parent[0] ? std::string(c->parent) + " " : "") + c->name, "error: ",
                 forward_error);
   }
-#endif
   roe::io::remove_temporaries_on_signals();
   CLI::App app{"roe: AI-based, object-relative visual-inertial state estimation (offline toolkit)",
                "roe"};

@@ -161,7 +161,7 @@ TEST_CASE("sweep shards: round-robin, 0-based, every job exactly once", "[app][s
 }
 
 TEST_CASE("sweep aggregate: groups, CIs and paired Wilcoxon against scipy", "[app][sweep]") {
-  std::ifstream in(ROE_SOURCE_DIR "/tests/eval/data/stats_reference.json");
+  std::ifstream in(std::string(ROE_SOURCE_DIR) + "/tests/eval/data/stats_reference.json");
   const json ref = json::parse(in);
   const json& w = ref["wilcoxon"][0];  // "exact, no ties": 10 seeds, two configs
   REQUIRE(w["name"] == "exact, no ties");

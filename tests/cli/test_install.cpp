@@ -42,6 +42,7 @@ TEST_CASE("an installed roe runs the main path from an empty folder with only it
   REQUIRE(r.code == 0);
   CHECK(fs::exists(prefix / "bin/roe"));
   CHECK(fs::exists(prefix / "libexec/roe/roe-infer"));
+  CHECK(fs::exists(prefix / "libexec/roe/roe-refine"));
   CHECK(fs::exists(prefix / "share/roe/configs/paper.json"));
 
   // Relocated, as a user moving the folder would: nothing may refer to the build tree or the old prefix.
@@ -62,6 +63,11 @@ TEST_CASE("an installed roe runs the main path from an empty folder with only it
   r = sh(env + "roe -q eval run-paper --gt seq --out eval");
   CHECK(r.code == 0);
   CHECK(fs::exists(d / "work/eval/report.json"));
+  // refine runs in the helper roe-refine, found in the moved prefix's libexec.
+  r = sh(env + "roe -q refine run-paper --out run-refined --no-covariance");
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK(fs::exists(d / "work/run-refined/states.csv"));
   r = sh(env + "roe run --list-configs");
   CHECK(r.code == 0);
   CHECK(r.out.find("euroc-flight") != std::string::npos);
@@ -132,7 +138,7 @@ TEST_CASE("a roe without its share and libexec folders has its configs and answe
   CHECK(slurp(d / "work/run/run.json").find((d / "p/share/roe/configs/paper.json").lexically_normal().string()) !=
         std::string::npos);
   // The forwarded commands: --help answered by roe itself (exit 0), a real call says how to add the helper.
-  for (const std::string cmd : {"infer", "import realsense"}) {
+  for (const std::string cmd : {"infer", "import realsense", "refine"}) {
     INFO(cmd);
     r = sh(roe + cmd + " --help");
     CHECK(r.code == 0);

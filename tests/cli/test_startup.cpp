@@ -1,5 +1,6 @@
-// Start-up cost (issue 24): `roe` itself maps neither OpenCV nor LibTorch; the two commands that need them
-// run in helper executables that `roe` replaces itself with, transparently for the caller.
+// Start-up cost (issues 24 and 53): `roe` itself maps neither OpenCV, LibTorch nor Ceres (with SuiteSparse,
+// BLAS, LAPACK and glog); the commands that need them run in helper executables that `roe` replaces itself
+// with, transparently for the caller.
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <string>
@@ -25,9 +26,14 @@ const fs::path kRoe = ROE_BINARY;
 
 }  // namespace
 
-TEST_CASE("roe maps neither OpenCV nor LibTorch, and cannot load them later", "[cli][startup]") {
+TEST_CASE("roe maps neither OpenCV, LibTorch nor Ceres, and cannot load them later", "[cli][startup]") {
   const std::string libs = loaded_libraries(kRoe);
   INFO(libs);
+  CHECK(libs.find("libceres") == std::string::npos);
+  CHECK(libs.find("libcholmod") == std::string::npos);
+  CHECK(libs.find("libglog") == std::string::npos);
+  CHECK(libs.find("libblas") == std::string::npos);
+  CHECK(libs.find("liblapack") == std::string::npos);
   CHECK(libs.find("libopencv") == std::string::npos);
   CHECK(libs.find("libtorch") == std::string::npos);
   CHECK(libs.find("libc10") == std::string::npos);
@@ -46,6 +52,16 @@ TEST_CASE("the image helper maps OpenCV but not LibTorch", "[cli][startup]") {
   CHECK(libs.find("libtorch") == std::string::npos);
 }
 
+TEST_CASE("the refine helper maps Ceres but neither OpenCV nor LibTorch", "[cli][startup]") {
+  const std::string libs = loaded_libraries(kRoe.parent_path() / "roe-refine");
+  INFO(libs);
+  // Debian's Ceres config links libceres.a: what ldd shows are its shared dependencies.
+  CHECK(libs.find("libcholmod") != std::string::npos);
+  CHECK(libs.find("libglog") != std::string::npos);
+  CHECK(libs.find("libopencv") == std::string::npos);
+  CHECK(libs.find("libtorch") == std::string::npos);
+}
+
 TEST_CASE("roe lists the helpers' commands and hands them over with their arguments and exit codes",
           "[cli][startup]") {
   auto r = run_roe("--help");
@@ -59,6 +75,12 @@ TEST_CASE("roe lists the helpers' commands and hands them over with their argume
   r = run_roe("-q import realsense --help");
   CHECK(r.code == 0);
   CHECK(r.out.find("--png-compression") != std::string::npos);
+  r = run_roe("refine --help");
+  CHECK(r.code == 0);
+  CHECK(r.out.find("--linear-solver") != std::string::npos);
+  r = run_roe("--json refine no-such-run");
+  CHECK(r.code == 2);
+  CHECK(r.out.find("--out RUN_DIR2 is required") != std::string::npos);
   r = run_roe("infer no-such-dataset");
   CHECK(r.code == 2);
   CHECK(r.out.find("(see roe infer --help)") != std::string::npos);
@@ -83,6 +105,10 @@ TEST_CASE("a missing helper is an internal error that says what to do", "[cli][s
   const std::string js = shell("'" + lone.string() + "' --json infer x --model y 2>/dev/null");
   CHECK(js.find("\"exit_code\": 3") != std::string::npos);
   CHECK(js.find("\"command\": \"infer\"") != std::string::npos);
+  const std::string rf = shell("'" + lone.string() + "' refine run --out run2; echo \"exit=$?\"");
+  CHECK(rf.find("helper roe-refine, which is not installed") != std::string::npos);
+  CHECK(rf.find("cmake --build BUILD --target roe-refine") != std::string::npos);
+  CHECK(rf.find("exit=3") != std::string::npos);
   // Every other command works without the helpers.
   CHECK(shell("'" + lone.string() + "' --version").find("roe 0.") != std::string::npos);
 }

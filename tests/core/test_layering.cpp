@@ -220,3 +220,22 @@ TEST_CASE("only the image commands' app files reach OpenCV or LibTorch (roe star
   for (const auto& s : out) UNSCOPED_INFO(s);
   CHECK(out.empty());
 }
+
+TEST_CASE("only refine's app files and the refine command reach Ceres (roe starts without it)", "[layering]") {
+  // CMakeLists.txt links src/app/refine*.cpp (roe_app_refine) and src/cli/cmd_refine.cpp into the helper
+  // roe-refine only (issue 53); every other app and cli file is in `roe`, which must not map Ceres.
+  std::vector<std::string> out;
+  const std::regex inc(R"(^\s*#\s*include\s*[<"](roe/refine/|roe/app/refine|ceres/|glog/)[^>"]*[>"])");
+  for (const char* dir : {"src/app", "src/cli", "include/roe/app"}) {
+    for (const auto& e : fs::directory_iterator(fs::path(ROE_SOURCE_DIR) / dir)) {
+      const std::string name = e.path().filename().string();
+      if (name.rfind("refine", 0) == 0 || name == "cmd_refine.cpp") continue;
+      std::ifstream in(e.path());
+      std::string line;
+      for (int n = 1; std::getline(in, line); ++n)
+        if (std::regex_search(line, inc)) out.push_back(e.path().string() + ":" + std::to_string(n));
+    }
+  }
+  for (const auto& s : out) UNSCOPED_INFO(s);
+  CHECK(out.empty());
+}

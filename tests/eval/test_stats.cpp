@@ -15,7 +15,7 @@ using roe::math::student_t_quantile;
 
 namespace {
 nlohmann::json reference() {
-  std::ifstream in(ROE_SOURCE_DIR "/tests/eval/data/stats_reference.json");
+  std::ifstream in(std::string(ROE_SOURCE_DIR) + "/tests/eval/data/stats_reference.json");
   REQUIRE(in.good());
   return nlohmann::json::parse(in);
 }

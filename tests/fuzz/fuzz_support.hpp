@@ -40,19 +40,29 @@ void expect_clean(Fn&& fn) {
   }
 }
 
-/// A file holding the input, for the readers that take a path (one per process, in /dev/shm when
-/// there is one: a regular file on tmpfs).
-inline const std::filesystem::path& input_file(const std::uint8_t* data, std::size_t size, const char* name) {
-  static const std::filesystem::path dir = [] {
+/// The folder of input_file(), removed with everything in it when the process exits normally (a replay
+/// under CTest, a libFuzzer run that ends; a crash leaves it for the finding's analysis).
+struct InputFolder {
+  std::filesystem::path path;
+  InputFolder() {
     std::error_code ec;
     const std::filesystem::path base =
         std::filesystem::is_directory("/dev/shm", ec) ? "/dev/shm" : std::filesystem::temp_directory_path();
-    const auto d = base / ("roe-fuzz-" + std::to_string(::getpid()));
-    std::filesystem::create_directories(d);
-    return d;
-  }();
+    path = base / ("roe-fuzz-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(path);
+  }
+  ~InputFolder() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+};
+
+/// A file holding the input, for the readers that take a path (one per process, in /dev/shm when
+/// there is one: a regular file on tmpfs).
+inline const std::filesystem::path& input_file(const std::uint8_t* data, std::size_t size, const char* name) {
+  static const InputFolder dir;
   static std::filesystem::path file;
-  file = dir / name;
+  file = dir.path / name;
   std::FILE* f = std::fopen(file.c_str(), "wb");
   if (f) {
     if (size) std::fwrite(data, 1, size, f);

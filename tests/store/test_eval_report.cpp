@@ -17,7 +17,7 @@ using nlohmann::json;
 
 namespace {
 
-const std::string kData = ROE_SOURCE_DIR "/tests/store/data/";
+const std::string kData = std::string(ROE_SOURCE_DIR) + "/tests/store/data/";
 
 std::string slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
