@@ -386,3 +386,30 @@ TEST_CASE("AtomicFile: the final path appears only at commit, an abandoned one l
   CHECK_THROWS_AS(AtomicFile(tmp / "a.csv" / "under_a_file"), InputError);
   CHECK(entries() == std::vector<std::string>{"a.csv"});
 }
+
+TEST_CASE("reprojection.csv against the run's detections: every detection has its row, every row its detection",
+          "[store][run_files][hostile]") {
+  const auto det = [](int id) {
+    Detection d;
+    d.object_id = id;
+    return d;
+  };
+  const std::vector<ekf::ImageDetections> images = {{100, {det(1), det(2)}}, {200, {det(1)}}};
+  const auto row = [](Timestamp t, int id) {
+    eval::DetectionPose p;
+    p.t_ns = t;
+    p.object_id = id;
+    return p;
+  };
+  const std::vector<eval::DetectionPose> all = {row(100, 1), row(100, 2), row(200, 1)};
+  CHECK_NOTHROW(store::check_reprojection_rows(all, images, "r.csv"));
+  CHECK_THROWS_WITH(store::check_reprojection_rows({}, images, "r.csv"),
+                    Catch::Contains("r.csv") && Catch::Contains("no row for 3 of the run's 3 detections"));
+  CHECK_THROWS_WITH(store::check_reprojection_rows({row(100, 1), row(200, 1)}, images, "r.csv"),
+                    Catch::Contains("no row for 1 of") && Catch::Contains("object 2 at 100 ns"));
+  CHECK_THROWS_WITH(store::check_reprojection_rows({row(101, 1), row(100, 2), row(200, 1)}, images, "r.csv"),
+                    Catch::Contains("object 1 at 100 ns"));  // shifted by 1 ns
+  CHECK_THROWS_WITH(store::check_reprojection_rows({row(100, 1), row(100, 2), row(200, 1), row(300, 7)}, images,
+                                                   "r.csv"),
+                    Catch::Contains("1 rows name no detection") && Catch::Contains("object 7 at 300 ns"));
+}
