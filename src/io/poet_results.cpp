@@ -105,7 +105,7 @@ class LenientParser {
     if (depth > 64) fail("JSON nested too deeply");
     if (values_left_-- == 0)
       fail(fmt::format("more than {} JSON values in one image's entry (roe's per-image limit for a PoET "
-                       "results.json, docs/import.md)",
+                       "results.json, docs/infer.md)",
                        kMaxPoetValuesPerImage));
     Node n;
     n.line = line_;
@@ -181,7 +181,7 @@ class LenientParser {
       } else {
         if (depth == 1 && n.members.size() == kMaxPoetDetectionsPerImage)
           throw InputError(fmt::format("more than {} detections in one image (roe's per-image limit for a PoET "
-                                       "results.json, docs/import.md; PoET itself writes at most one per query)",
+                                       "results.json, docs/infer.md; PoET itself writes at most one per query)",
                                        kMaxPoetDetectionsPerImage),
                            {source_, kl, kc, key});
         n.members.emplace_back(std::move(key), value(depth + 1));

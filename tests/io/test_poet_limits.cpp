@@ -1,6 +1,6 @@
 // PoET results.json per-image limits (issue 51): the file is read one image's entry at a time, so memory is
 // bounded by the largest entry; an entry beyond kMaxPoetDetectionsPerImage detections or kMaxPoetValuesPerImage
-// JSON values is refused at its line and column, naming the limit (docs/import.md, "PoET results").
+// JSON values is refused at its line and column, naming the limit (docs/infer.md, "Per-image limits").
 #include <catch2/catch.hpp>
 #include <string>
 

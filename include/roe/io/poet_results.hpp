@@ -69,10 +69,10 @@ struct PoetResults {
   std::vector<PoetImageResult> images;  ///< in file order
 };
 
-/// Per-image limits of a results.json (docs/import.md, "PoET results"): the file is read one image's entry at a
-/// time, so memory is bounded by the largest entry; an entry with more detections, or more JSON values in all
-/// (a detection with a 6x6 covariance is about 80), is refused with its line and column. PoET writes at most one
-/// detection per query of its transformer (tens), far below these.
+/// Per-image limits of a results.json (docs/infer.md, "Per-image limits"): the file is read one image's entry
+/// at a time, so memory is bounded by the largest entry; an entry with more detections, or more JSON values in
+/// all (a detection with a 6x6 covariance is about 80), is refused with its line and column. PoET writes at
+/// most one detection per query of its transformer (tens), far below these.
 constexpr std::size_t kMaxPoetDetectionsPerImage = 10'000;
 constexpr std::size_t kMaxPoetValuesPerImage = 1'000'000;
 
