@@ -427,9 +427,9 @@ void StagedFiles::commit() {
   for (const auto& [tmp, fin] : files_) {
     try {
       refuse_special_output(fin, OutputKind::file);  // made since stage(): refused, nothing renamed over it
-    } catch (...) {
+    } catch (const InputError& e) {
       undo();
-      throw;
+      throw InputError(e.bare_message() + " (nothing was changed)", {fin.string()});
     }
     Done d{fin, {}};
     if (fs::is_regular_file(fs::symlink_status(fin, ec))) {
