@@ -236,7 +236,7 @@ void check_file_output(const fs::path& out, bool force, const std::vector<fs::pa
   refuse_special_output(out, OutputKind::file, what);
   refuse_overwriting_inputs(out, inputs, what);
   std::error_code ec;
-  if (!force && fs::exists(out, ec)) throw InputError(what + " exists (use --force to replace it)", {out.string()});
+  if (!force && fs::exists(out, ec)) throw InputError(what + " already exists (use --force to replace it)", {out.string()});
 }
 
 void OutputDir::check(const fs::path& final_dir, bool force, const std::vector<fs::path>& inputs) {
