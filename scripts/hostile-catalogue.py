@@ -20,10 +20,13 @@ import random
 import resource
 import shutil
 import signal
+import socket
+import stat
 import struct
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -211,14 +214,19 @@ def lying_bag_length(b, offset_field):
 
 class Case:
     """`check(d)`, when given, is a post-condition on the case folder after the run (None when it holds, else
-    what is wrong); `max_rss_mb` bounds the peak resident memory (measured with /usr/bin/time)."""
+    what is wrong); `max_rss_mb` bounds the peak resident memory (measured with /usr/bin/time); `expect`, a
+    text the error message (stderr's last line) must contain, so that a case refused for another reason
+    does not pass; `max_stderr` bounds the bytes written to stderr (a message naming 200 000 frames)."""
 
-    def __init__(self, name, setup, argv, allowed, check=None, max_rss_mb=None, time_limit_s=TIME_LIMIT_S):
+    def __init__(self, name, setup, argv, allowed, check=None, max_rss_mb=None, time_limit_s=TIME_LIMIT_S,
+                 expect=None, max_stderr=None):
         self.name, self.setup, self.argv, self.allowed = name, setup, argv, allowed
         self.check, self.max_rss_mb, self.time_limit_s = check, max_rss_mb, time_limit_s
+        self.expect, self.max_stderr = expect, max_stderr
 
 
 ROE = None  # the binary under test, for setups that need roe itself (a planned sweep, a run folder)
+WORKDIR = None  # the folder of the case folders (and of the folders cases share, _cache/)
 
 
 def roe_setup(d, *args):
@@ -352,6 +360,7 @@ def cases():
                     "zero-quaternion", "utf8-bom"],
                    run, ds_needed=True, rel="ds/detections/sim/detections.csv")
     out += third_round_cases()
+    out += fourth_round_cases()
     return out
 
 
@@ -549,6 +558,356 @@ def third_round_cases():
 
 
 # ----------------------------------------------------------------------------------------------------------
+# Fourth round (issue 51): outputs that are not files, labels that are not plain text, tf trees of 200 000
+# edges, one image of 400 000 detections, and roe refine reading as strictly as roe run.
+# ----------------------------------------------------------------------------------------------------------
+
+_CACHE_LOCK = threading.Lock()
+_CACHE = {}
+
+
+def cached(name, make):
+    """A folder made once per catalogue run (under the work folder) and shared by the cases that copy it."""
+    with _CACHE_LOCK:
+        if name not in _CACHE:
+            d = os.path.join(WORKDIR, "_cache", name)
+            os.makedirs(os.path.join(d, "tmp"), exist_ok=True)
+            make(d)
+            _CACHE[name] = d
+        return _CACHE[name]
+
+
+def make_run(d):
+    dataset_copy(os.path.join(d, "ds"))
+    roe_setup(d, "run", "ds", "--out", "run")
+
+
+def run_copy(d):
+    """A finished run of the sample (its dataset stays in the cache, as run.json names it), hard-linked."""
+    c = cached("run", make_run)
+    shutil.copytree(os.path.join(c, "run"), os.path.join(d, "run"), copy_function=os.link)
+
+
+SPECIAL_OUTPUTS = ["fifo", "socket"] + (["device", "symlink-to-device"] if os.geteuid() == 0 else [])
+NULL_DEV = (1, 3)  # /dev/null's numbers, for a private node made in the case folder (never the machine's own)
+
+
+def make_special_output(path, kind):
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "socket":
+        s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        s.bind(path)  # closing the socket leaves its file
+        s.close()
+    elif kind == "device":
+        os.mknod(path, 0o666 | stat.S_IFCHR, os.makedev(*NULL_DEV))
+    elif kind == "symlink-to-device":
+        node = os.path.join(os.path.dirname(path), ".node")
+        os.mknod(node, 0o666 | stat.S_IFCHR, os.makedev(*NULL_DEV))
+        os.symlink(".node", path)
+    with open(path + ".ident" if kind != "socket" else os.path.join(os.path.dirname(path), ".sock.ident"), "w") as f:
+        st = os.stat(path) if kind != "socket" else os.lstat(path)
+        f.write(f"{st.st_ino} {st.st_mode} {st.st_rdev}")
+
+
+def special_untouched(rel, kind):
+    def check(d):
+        path = os.path.join(d, rel)
+        ident = path + ".ident" if kind != "socket" else os.path.join(os.path.dirname(path), ".sock.ident")
+        if kind == "symlink-to-device" and not os.path.islink(path):
+            return rel + ": the symlink was replaced"
+        try:
+            st = os.stat(path) if kind != "socket" else os.lstat(path)
+        except OSError:
+            return rel + " was removed"
+        if read(ident).decode() != f"{st.st_ino} {st.st_mode} {st.st_rdev}":
+            return rel + " was replaced or changed"
+        left = [n for n in os.listdir(os.path.dirname(path)) if ".tmp-" in n]
+        return ("temporaries left: " + ", ".join(left)) if left else None
+    return check
+
+
+def writing_commands():
+    """(name, setup, argv with OUT, OUT relative to the case folder): every command that writes, each output."""
+    est = os.path.join(SAMPLE, "mav0/mocap0/data.csv")
+    gt = os.path.join(SAMPLE, "mav0/state_groundtruth_estimate0/data.csv")
+    ev = ["eval", est, "--gt", gt, "--est-format", "euroc", "--gt-format", "euroc"]
+
+    def summary_setup(d):
+        roe_setup(d, *ev, "--out", "e")
+
+    def mocap_setup(d):
+        put(os.path.join(d, "m.csv"), read(est))
+
+    def kalibr_setup(d):
+        put(os.path.join(d, "camchain.yaml"), CAMCHAIN)
+
+    def poet_setup(d):
+        dataset_copy(os.path.join(d, "ds"))
+        put(os.path.join(d, "r.json"), poet_results())
+
+    def spec_setup(d):
+        put(os.path.join(d, "spec.json"), SWEEP_SPEC.encode())
+
+    return [
+        ("eval-save_results", None, ev + ["--no-out", "--save_results", "OUT"], "o.zip"),
+        ("eval-out", None, ev + ["--out", "OUT"], "o"),
+        ("eval-summary-out", summary_setup, ["eval", "--summary", "e/report.json", "--out", "OUT"], "s.csv"),
+        ("report-out", run_copy, ["report", "run", "--out", "OUT"], "r.html"),
+        ("report-figures", run_copy, ["report", "run", "--out", "r.html", "--figures", "OUT"], "figs"),
+        ("run-out", lambda d: dataset_copy(os.path.join(d, "ds")), ["run", "ds", "--out", "OUT"], "o"),
+        ("refine-out", run_copy, ["refine", "run", "--out", "OUT"], "o"),
+        ("simulate-out", None, ["simulate", "--preset", "paper-seq1", "--duration", "2", "--out", "OUT"], "o"),
+        ("sweep-plan-out", spec_setup, ["sweep", "plan", "spec.json", "--out", "OUT"], "sw2"),
+        ("sweep-emit-out", plan_sweep, ["sweep", "emit", "slurm", "sw", "--out", "OUT"], "job.sbatch"),
+        ("sweep-aggregate-out", plan_sweep, ["sweep", "aggregate", "sw", "--out", "OUT"], "agg"),
+        ("import-poet-set", poet_setup, ["import", "poet", "r.json", "--into", "ds", "--name", "new"],
+         "ds/detections/new"),
+        ("import-mocap-into", mocap_setup, ["import", "mocap", "m.csv", "--format", "euroc", "--into", "OUT"], "nd"),
+        ("import-mocap-file", lambda d: (dataset_copy(os.path.join(d, "ds")), mocap_setup(d)),
+         ["import", "mocap", "m.csv", "--format", "euroc", "--into", "ds", "--name", "mocap7"],
+         "ds/mav0/mocap7/data.csv"),
+        ("import-kalibr-into", kalibr_setup, ["import", "kalibr", "camchain.yaml", "imu.yaml", "--into", "OUT"], "nd"),
+        ("import-kalibr-file", lambda d: (kalibr_setup(d), dataset_copy(os.path.join(d, "ds"))),
+         ["import", "kalibr", "camchain.yaml", "imu.yaml", "--into", "ds"], "ds/calib/camchain-imucam.yaml"),
+    ]
+
+
+def output_rule_cases():
+    out = []
+    for name, setup, argv, rel in writing_commands():
+        for kind in SPECIAL_OUTPUTS:
+            for force in (False, True):
+                def full_setup(d, setup=setup, rel=rel, kind=kind):
+                    if setup:
+                        setup(d)
+                    make_special_output(os.path.join(d, rel), kind)
+                args = [rel if a == "OUT" else a for a in argv] + (["--force"] if force else [])
+                out.append(Case(f"output-rule/{name}/{kind}{'-force' if force else ''}", full_setup, args, {2},
+                                special_untouched(rel, kind), expect="never this"))
+    return out
+
+
+HOSTILE_LABELS = {"dollar": "a $ b", "frac": "$\\frac{", "two-dollars": "$x$ and $\\frac{$", "comment-script":
+                  "<!--<script>x</script>&amp;"}
+
+
+def html_json_readable(label):
+    def check(d):
+        html = read(os.path.join(d, "r.html")).decode()
+        start = html.find('<script type="application/json" id="roe-eval-report">')
+        if start < 0:
+            return "no embedded JSON block"
+        body = html[html.index(">", start) + 1:]
+        end = body.find("</script>")
+        if "<" in body[:end]:  # "<!--" then "<script" puts a browser in the double-escaped state: no end tag
+            return "a raw '<' in the embedded JSON block (HTML's script-data rules can swallow its end tag)"
+        try:
+            data = json.loads(body[:end])
+        except ValueError as e:
+            return f"the embedded JSON block does not parse: {e}"
+        got = data.get("info", {}).get("label")
+        return None if got == label else f"info.label read back as {got!r}"
+    return check
+
+
+def label_cases():
+    out = []
+    est = os.path.join(SAMPLE, "mav0/mocap0/data.csv")
+    gt = os.path.join(SAMPLE, "mav0/state_groundtruth_estimate0/data.csv")
+    for name, label in HOSTILE_LABELS.items():
+        out.append(Case(f"label/report/{name}", run_copy, ["report", "run", "--out", "r.html", "--label", label],
+                        {0}, html_json_readable(label), time_limit_s=120))
+        out.append(Case(f"label/eval-plot/{name}", lambda d: None,
+                        ["eval", est, "--gt", gt, "--est-format", "euroc", "--gt-format", "euroc", "--plot",
+                         "--label", label, "--out", "e"], {0}, exists_check("e/report.json"), time_limit_s=120))
+
+    def named_object(d):
+        dataset_copy(os.path.join(d, "ds"))
+        m = json.loads(read(os.path.join(SAMPLE, "roe.json")))
+        for k, o in enumerate(m.get("objects", [])):
+            o["name"] = ["$\\frac{$", "x_{\\frac}$", "<!--<script>"][k % 3]
+        put(os.path.join(d, "ds/roe.json"), json.dumps(m, indent=1).encode())
+        roe_setup(d, "run", "ds", "--out", "run")
+    out.append(Case("label/report/object-names", named_object, ["report", "run", "--out", "r.html"], {0},
+                    exists_check("r.html"), time_limit_s=120))
+    return out
+
+
+def cdr_tf_message(transforms):
+    """tf2_msgs/msg/TFMessage in CDR (little endian): [(parent, child, sec, t xyz, q xyzw)]."""
+    b = bytearray()
+
+    def align(n):
+        b.extend(b"\0" * (-len(b) % n))
+
+    def u32(v):
+        align(4)
+        b.extend(struct.pack("<I", v))
+
+    def text(s):
+        e = s.encode()
+        u32(len(e) + 1)
+        b.extend(e + b"\0")
+
+    u32(len(transforms))
+    for parent, child, sec, t, q in transforms:
+        u32(sec)
+        u32(0)
+        text(parent)
+        text(child)
+        align(8)
+        b.extend(struct.pack("<7d", *t, *q))
+    return b"\x00\x01\x00\x00" + bytes(b)
+
+
+def tf_mcap(static, dynamic):
+    """An MCAP file (ROS 2, no chunks) with one /tf_static message of `static` transforms and one /tf message
+    per entry of `dynamic` (each a list of transforms)."""
+    def rec(op, body):
+        return bytes([op]) + struct.pack("<Q", len(body)) + body
+
+    def s(t):
+        return struct.pack("<I", len(t)) + t
+
+    out = [b"\x89MCAP0\r\n", rec(0x01, s(b"ros2") + s(b"roe-hostile")),
+           rec(0x03, struct.pack("<H", 1) + s(b"tf2_msgs/msg/TFMessage") + s(b"ros2msg") + struct.pack("<I", 0))]
+    for cid, topic in ((1, b"/tf_static"), (2, b"/tf")):
+        out.append(rec(0x04, struct.pack("<HH", cid, 1) + s(topic) + s(b"cdr") + struct.pack("<I", 0)))
+    seq = 0
+    for cid, msgs in ((1, [static] if static else []), (2, dynamic)):
+        for m in msgs:
+            seq += 1
+            t = (m[0][2] if m else 1) * 10**9
+            out.append(rec(0x05, struct.pack("<HIQQ", cid, seq, t, t) + cdr_tf_message(m)))
+    out.append(rec(0x02, struct.pack("<QQI", 0, 0, 0)))
+    out.append(b"\x89MCAP0\r\n")
+    return b"".join(out)
+
+
+def tf_cases():
+    n = 200000
+    ident = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    step = ((1.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    world = [[("world", "f0", 1 + k, *ident)] for k in range(50)]
+    chain = [(f"f{k}", f"f{k + 1}", 1, *step) for k in range(n)]
+    star = [("f0", f"c{k}", 1, *step) for k in range(n)]
+    imp = ["import", "mocap", "b.mcap", "--into", "newds", "--topic", "/tf", "--parent", "world", "--child"]
+    out = []
+    for name, static, child, allowed, expect in [
+        ("deep-chain-200k", chain, f"f{n}", {0}, None),
+        ("star-200k", star, f"c{n - 1}", {0}, None),
+        ("unknown-frame-200k", chain, "nope", {2}, "frames in all"),
+    ]:
+        out.append(Case(f"tf/{name}", lambda d, static=static: put(os.path.join(d, "b.mcap"), tf_mcap(static, world)),
+                        imp + [child], allowed, max_rss_mb=200, time_limit_s=60, expect=expect, max_stderr=8000))
+    cycle = [("a", "b", 1, *ident), ("b", "c", 1, *ident), ("c", "a", 1, *ident), ("f0", "x", 1, *ident)]
+    cyc = [[("a", "q", 1 + k, *ident)] for k in range(5)]
+    out.append(Case("tf/cycle-3", lambda d: put(os.path.join(d, "b.mcap"), tf_mcap(cycle, cyc)),
+                    ["import", "mocap", "b.mcap", "--into", "newds", "--topic", "/tf", "--parent", "b", "--child", "q"],
+                    {2}, expect="cycle"))
+    empty = [[("world", "", 1 + k, *ident)] for k in range(5)]
+    out.append(Case("tf/empty-frame-id", lambda d: put(os.path.join(d, "b.mcap"), tf_mcap([], empty)),
+                    imp + ["x"], {2}, expect="empty frame id"))
+    return out
+
+
+def edit_run_json(d, edit):
+    p = os.path.join(d, "run", "run.json")
+    j = json.loads(read(p))
+    edit(j)
+    put(p, json.dumps(j, indent=1).encode())
+
+
+def edit_csv(d, name, edit):
+    p = os.path.join(d, "run", name)
+    ls = read(p).decode().splitlines()
+    put(p, ("\n".join(edit(ls)) + "\n").encode())
+
+
+def shift_first_column(ls, by_ns):
+    return [ls[0]] + [str(int(l.split(",")[0]) + by_ns) + l[l.index(","):] for l in ls[1:] if l]
+
+
+def refine_cases():
+    def damaged(edit):
+        return lambda d: (run_copy(d), edit(d))
+
+    def set_key(path, value):
+        def e(j):
+            o = j
+            for k in path[:-1]:
+                o = o[k]
+            if value is KeyError:
+                del o[path[-1]]
+            else:
+                o[path[-1]] = value
+        return lambda d: edit_run_json(d, e)
+
+    def no_anchor_rows(d):
+        anchor = json.loads(read(os.path.join(d, "run", "run.json")))["anchor_id"]
+        edit_csv(d, "objects.csv", lambda ls: [ls[0]] + [l for l in ls[1:] if l.split(",")[1] != str(anchor)])
+
+    def big_position(ls):
+        cells = ls[len(ls) // 2].split(",")
+        cells[1] = "1e308"
+        return ls[:len(ls) // 2] + [",".join(cells)] + ls[len(ls) // 2 + 1:]
+
+    def nan_sigma(ls):
+        head = ls[0].split(",")
+        k = head.index("sigma_p_W_I_x")
+        cells = ls[2].split(",")
+        cells[k] = "nan"
+        return ls[:2] + [",".join(cells)] + ls[3:]
+
+    cases = [
+        ("reprojection-header-only", lambda d: edit_csv(d, "reprojection.csv", lambda ls: ls[:1]), "reprojection.csv"),
+        ("reprojection-half-dropped", lambda d: edit_csv(d, "reprojection.csv", lambda ls: ls[: len(ls) // 2]),
+         "reprojection.csv"),
+        ("reprojection-shifted", lambda d: edit_csv(d, "reprojection.csv", lambda ls: shift_first_column(ls, 10**6)),
+         "reprojection.csv"),
+        ("objects-without-anchor", no_anchor_rows, "objects.csv"),
+        ("states-shifted", lambda d: edit_csv(d, "states.csv", lambda ls: shift_first_column(ls, 10**12)), "states.csv"),
+        ("states-position-1e308", lambda d: edit_csv(d, "states.csv", big_position), "states.csv"),
+        ("states-nan-sigma", lambda d: edit_csv(d, "states.csv", nan_sigma), "states.csv"),
+        ("anchor-unknown", set_key(["anchor_id"], 99), "anchor_id"),
+        ("config-filter-missing", set_key(["config", "filter"], KeyError), "config.filter"),
+        ("final-scale-0", set_key(["detection_sigmas", "final_scale"], 0), "final_scale"),
+        ("final-scale-negative", set_key(["detection_sigmas", "final_scale"], -1), "final_scale"),
+        ("final-scale-null", set_key(["detection_sigmas", "final_scale"], None), "final_scale"),
+        ("final-scale-1e308", set_key(["detection_sigmas", "final_scale"], 1e308), "final_scale"),
+    ]
+    out = [Case(f"refine/{name}", damaged(edit), ["refine", "run", "--out", "o"], {2},
+                exists_check(absent=("o",)), expect=expect) for name, edit, expect in cases]
+    out.append(Case("eval/states-nan-sigma", damaged(lambda d: edit_csv(d, "states.csv", nan_sigma)),
+                    ["eval", "run", "--out", "e"], {2}, expect="states.csv"))
+    for opt, allowed in (("--linear-solver", "sparse_schur"), ("--loss", "cauchy")):
+        out.append(Case(f"refine/{opt[2:]}-bogus", run_copy, ["refine", "run", "--out", "o", opt, "bogus"], {2},
+                        exists_check(absent=("o",)), expect=allowed))
+    return out
+
+
+def fourth_round_cases():
+    out = output_rule_cases() + label_cases() + tf_cases() + refine_cases()
+    # One image of 400 000 detections: refused at roe's per-image limit, in bounded memory.
+    out.append(Case("import-poet/400k-detections-one-image",
+                    lambda d: (dataset_copy(os.path.join(d, "ds")), put(os.path.join(d, "r.json"), poet_many(1, 400000))),
+                    ["import", "poet", "r.json", "--into", "ds", "--name", "many"], {2}, max_rss_mb=300,
+                    time_limit_s=60, expect="per-image limit"))
+    # A sweep at its own limit of 100 000 jobs.
+    spec = {"format": "roe-sweep-spec/1", "axes": {"datasets": ["paper-seq1"], "overrides": {
+        "filter.chi2_confidence": [0.9 + i * 1e-4 for i in range(100)],
+        "filter.meas_sigma_p_m": [0.05 + i * 1e-4 for i in range(1000)]}}}
+    out.append(Case("sweep-plan/100k-jobs", lambda d: put(os.path.join(d, "spec.json"), json.dumps(spec).encode()),
+                    ["sweep", "plan", "spec.json", "--out", "sw"], {0}, max_rss_mb=300, time_limit_s=300))
+    # An empty zip where eval --summary reads an evo result.
+    out.append(Case("eval-summary/empty-zip", lambda d: put(os.path.join(d, "e.zip"), b"PK\x05\x06" + b"\0" * 18),
+                    ["eval", "--summary", "e.zip"], {2}, expect="not an evo result"))
+    return out
+
+
+# ----------------------------------------------------------------------------------------------------------
 # Running.
 # ----------------------------------------------------------------------------------------------------------
 
@@ -580,11 +939,18 @@ def run_case(roe, case, workdir):
         _, err = p.communicate()
         code = "timeout"
     dt = time.monotonic() - t0
+    n_stderr = len(err)
     err = err.decode("utf-8", "replace").strip().splitlines()
     rss = [int(l.split("=")[1]) for l in err if l.startswith("ROE_MAXRSS_KB=")]
     err = [l for l in err if not l.startswith("ROE_MAXRSS_KB=") and not l.startswith("Command ")]
     message = err[-1] if err else ""
     ok = code in case.allowed
+    if ok and case.expect and not any(case.expect in l for l in err):
+        ok, message = False, f"message lacks {case.expect!r} ({message})"
+    if ok and any(l.startswith("Traceback") for l in err):
+        ok, message = False, f"a Python traceback on stderr ({message})"
+    if ok and case.max_stderr and n_stderr > case.max_stderr:
+        ok, message = False, f"{n_stderr} bytes on stderr > {case.max_stderr} ({message[:100]})"
     if ok and case.check:
         why = case.check(d)
         if why:
@@ -616,6 +982,8 @@ def main():
     ROE = roe
     workdir = a.keep or tempfile.mkdtemp(prefix="roe-hostile-")
     os.makedirs(workdir, exist_ok=True)
+    global WORKDIR
+    WORKDIR = workdir
     t0 = time.monotonic()
     failed = []
     counts = {}

@@ -54,6 +54,12 @@ except ImportError as e:  # pragma: no cover
     sys.stderr.write(f"plot_run.py: {e} (Debian: apt install python3-matplotlib python3-numpy)\n")
     sys.exit(3)
 
+
+def plain(s):
+    """Text from a user (a --label, an object's name, a path) as matplotlib draws it: literally. Every $ is
+    escaped, since matplotlib reads text with two unescaped $ as mathtext and a bad formula ends the script."""
+    return str(s).replace("$", r"\$")
+
 # ---------------------------------------------------------------------------------------------- style
 BASE_RC = {
     "axes.grid": True, "grid.alpha": 0.3, "figure.dpi": 100,
@@ -396,9 +402,11 @@ def scatter_clipped(ax, t, y, used, color, lim, label):
 
 
 def mathtext(s):
-    """A title/label written with X_{sub} / X^{sup} marks (figures.json's form) as matplotlib mathtext."""
-    return re.sub(r"([A-Za-zδθσ]+)((?:[_^]\{[^}]*\})+)", lambda m: "$" + m.group(1).replace("δ", r"\delta ")
-                  .replace("θ", r"\theta ").replace("σ", r"\sigma ") + m.group(2) + "$", s)
+    """A title/label written with X_{sub} / X^{sup} marks (figures.json's form) as matplotlib mathtext; the
+    rest (an object's name in it) as plain text."""
+    return re.sub(r"([A-Za-zδθσ]+)((?:[_^]\{[A-Za-z0-9,.+\-−⊤ ]*\})+)",
+                  lambda m: "$" + m.group(1).replace("δ", r"\delta ").replace("θ", r"\theta ")
+                  .replace("σ", r"\sigma ") + m.group(2) + "$", plain(s))
 
 
 def empty(fig):
@@ -1272,7 +1280,7 @@ def choose_objects(spec, reps, anchor):
 def footer_of(report):
     info, al, pa = report.get("info", {}), report.get("alignment", {}), report.get("per_axis", {})
     pr, rr = pa.get("pos_rmse_m", {}), pa.get("rpy_rmse_deg", {})
-    return (f"{info.get('label', '')}  ·  alignment {al.get('type', '?')} on {al.get('n_aligned', '?')} poses"
+    return (f"{plain(info.get('label', ''))}  ·  alignment {al.get('type', '?')} on {al.get('n_aligned', '?')} poses"
             f" (scale {al.get('scale', 1.0):.4f})  ·  RMSE x/y/z {pr.get('x', math.nan):.3f}/{pr.get('y', math.nan):.3f}/"
             f"{pr.get('z', math.nan):.3f} m, roll/pitch/yaw {rr.get('roll', math.nan):.2f}/{rr.get('pitch', math.nan):.2f}/"
             f"{rr.get('yaw', math.nan):.2f}°  ·  ATE {report.get('ape_trans_m', {}).get('rmse', math.nan):.3f} m"

@@ -16,6 +16,11 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+# Variant names come from the user's spec (config files, overrides): drawn as plain text, never as
+# mathtext (a `$` in a name would otherwise end the script; issue 51). None of this script's labels uses it.
+if "text.parse_math" in matplotlib.rcParams:
+    matplotlib.rcParams["text.parse_math"] = False
+
 # jobs.csv column -> (title, unit): the columns of `roe eval --summary` (app/eval_summary.cpp).
 TITLES = {
     "rmse_x_m": ("Position RMSE along x", "m"),

@@ -324,9 +324,7 @@ EvalResult run_eval(const EvalOptions& options) {
   // evo's result file: checked before anything is written, written after the folder (nothing half-written).
   std::optional<io::EvoResult> evo;
   if (!o.save_results.empty()) {
-    io::refuse_overwriting_inputs(o.save_results, {o.est, o.gt}, "--save_results file");
-    if (!o.force && io::path_exists(o.save_results))
-      throw InputError("the results file exists; pass --force to replace it", {o.save_results});
+    io::check_file_output(o.save_results, o.force, {o.est, o.gt}, "--save_results file");
     evo = io::evo_ape_result(rep, ctx.gt_path, ctx.est_path);
     report.evo_results = o.save_results;
   }

@@ -391,8 +391,7 @@ std::vector<fs::path> write_summary(const std::string& out_str, bool force, cons
   std::vector<fs::path> inputs;
   for (const auto& r : t.rows) inputs.push_back(r.file);
   for (const auto& p : {csv, js_path, md_path}) {
-    io::refuse_overwriting_inputs(p, inputs, "summary output " + p.string());
-    if (io::path_exists(p) && !force) throw InputError("output file exists (use --force to replace it)", {p.string()});
+    io::check_file_output(p, force, inputs, "summary output " + p.string());
   }
   if (base.has_parent_path()) {
     std::error_code ec;

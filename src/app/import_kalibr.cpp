@@ -54,6 +54,8 @@ ImportKalibrSummary import_kalibr(const fs::path& camchain, const std::optional<
   if (imu_yaml) imu = read_kalibr_imu(*imu_yaml);
   const fs::path calib_dir = dataset / "calib";
   const fs::path cam_out = calib_dir / "camchain-imucam.yaml", imu_out = calib_dir / "imu.yaml";
+  io::refuse_special_output(cam_out, io::OutputKind::file);
+  if (imu_yaml) io::refuse_special_output(imu_out, io::OutputKind::file);
   if (!opt.force && (io::path_exists(cam_out) || (imu_yaml && io::path_exists(imu_out))))
     throw InputError("the dataset already has a Kalibr calibration (use --force to replace it)",
                      {io::path_exists(cam_out) ? cam_out.string() : imu_out.string()});

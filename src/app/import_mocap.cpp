@@ -59,8 +59,7 @@ std::string source_kind(const std::string& format) {
 }  // namespace
 
 void begin_dataset_change(io::StagedFiles& staged, const fs::path& dataset) {
-  if (io::path_exists(dataset) && !io::is_folder(dataset))
-    throw InputError("dataset path exists and is not a folder", {dataset.string()});
+  io::refuse_special_output(dataset, io::OutputKind::folder, "dataset folder");
   staged.ensure_folder(dataset);
   staged.lock(dataset);
 }
@@ -196,6 +195,7 @@ void check_import(const fs::path& file, const fs::path& dataset, const ImportMoc
   // A regular file, or a rosbag2 folder (metadata.yaml + its storage files).
   if (!io::is_folder(file) || io::detect_bag_kind(file) != "rosbag2-folder")
     (void)io::require_regular_file(file, "mocap file");
+  io::refuse_special_output(csv, io::OutputKind::file);
   if (io::path_exists(csv) && !opt.force)
     throw InputError("the dataset already has mocap data (use --force to replace it)", {csv.string()});
   if (opt.estimate_offset && !io::path_exists(store::imu_csv_path(dataset)))  // before reading the take

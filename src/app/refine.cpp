@@ -43,7 +43,8 @@ store::RunRecord read_run(const fs::path& run_dir) {
   return r;
 }
 
-/// The dataset the run read, checked against the run's hashes of the IMU and the detections.
+/// The dataset the run read, checked against the run's hashes of the IMU and the detections, and the run's
+/// anchor against its objects.
 Dataset read_run_dataset(const store::RunRecord& run, const fs::path& dataset, const fs::path& run_json) {
   const std::string& set = run.inputs.detections;
   const std::vector<std::pair<std::string, fs::path>> files = {
@@ -59,7 +60,17 @@ Dataset read_run_dataset(const store::RunRecord& run, const fs::path& dataset, c
   store::DatasetParts parts;
   parts.frames = parts.mocap = parts.groundtruth = false;
   parts.detection_names = {set};
-  return store::read_dataset(dataset, parts);
+  Dataset ds = store::read_dataset(dataset, parts);
+  // The objects: roe.json's, or, where it lists none, the detections' ids (as roe run takes them).
+  std::set<int> ids;
+  for (const auto& o : ds.manifest.objects) ids.insert(o.id);
+  if (ids.empty())
+    for (const auto& d : ds.detections.at(set)) ids.insert(d.object_id);
+  if (ids.count(run.anchor_id)) return ds;
+  const std::string listed = ids.empty() ? std::string("none") : fmt::format("{}", fmt::join(ids, ", "));
+  throw InputError(fmt::format("the anchor object {} is not an object of the dataset {} (its objects: {})",
+                               run.anchor_id, dataset.string(), listed),
+                   {run_json.string(), 0, 0, "anchor_id"});
 }
 
 ekf::DetectionStatus parse_status(const std::string& s, const fs::path& file) {
@@ -83,14 +94,62 @@ struct RunTables {
   std::map<std::pair<Timestamp, int>, ekf::DetectionStatus> status;
 };
 
-RunTables read_tables(const fs::path& run_dir) {
+/// states.csv within the run's own guard rails (config.filter.max_*: the filter stops beyond them, so a row
+/// beyond is not the run's) and within the IMU stream it is refined against: named, before Ceres sees it.
+void check_states(const std::vector<store::RecordedState>& states, const store::RunRecord& run,
+                  const std::vector<ImuSample>& imu, const fs::path& file) {
+  if (states.size() < 2) throw InputError("fewer than 2 state rows", {file.string()});
+  const ekf::FilterOptions& f = run.config.filter;
+  for (std::size_t i = 0; i < states.size(); ++i) {
+    const store::RecordedState& s = states[i];
+    const auto beyond = [&](const char* what, double v, double limit, const char* key) {
+      if (!(v <= limit))
+        throw InputError(fmt::format("state row {} (t = {} ns): |{}| = {:.4g} beyond the run's config.filter.{} = "
+                                     "{:.4g}: not a state the run's filter could have written",
+                                     i + 1, s.t_ns, what, v, key, limit),
+                         {file.string()});
+    };
+    beyond("p_W_I", s.x.p_W_I.norm(), f.max_position_m, "max_position_m");
+    beyond("v_W_I", s.x.v_W_I.norm(), f.max_velocity_mps, "max_velocity_mps");
+    beyond("b_g", s.x.b_g.norm(), f.max_gyro_bias, "max_gyro_bias");
+    beyond("b_a", s.x.b_a.norm(), f.max_accel_bias, "max_accel_bias");
+    beyond("p_I_C", s.T_I_C.p.norm(), f.max_position_m, "max_position_m");
+  }
+  if (imu.empty() || states.front().t_ns < imu.front().t_ns || states.back().t_ns > imu.back().t_ns)
+    throw InputError(fmt::format("the states span {:.6f} .. {:.6f} s, outside the IMU stream of the dataset ({}): "
+                                 "not the states of this run and dataset (shifted, or another run's)",
+                                 to_seconds(states.front().t_ns), to_seconds(states.back().t_ns),
+                                 imu.empty() ? std::string("empty")
+                                             : fmt::format("{:.6f} .. {:.6f} s", to_seconds(imu.front().t_ns),
+                                                           to_seconds(imu.back().t_ns))),
+                     {file.string()});
+}
+
+/// The run's tables, every one checked against run.json and the dataset before anything is solved (issue 51:
+/// refine reads as strictly as run): each error names its file.
+RunTables read_tables(const fs::path& run_dir, const store::RunRecord& run, const Dataset& ds,
+                      const std::vector<ekf::ImageDetections>& images) {
   RunTables t;
-  t.states = store::read_states_csv(run_dir / "states.csv");
-  for (const auto& row : store::read_objects_csv(run_dir / "objects.csv")) t.T_O_W[row.object_id] = row.T_O_W;
-  t.reprojection = store::read_reprojection_csv(run_dir / "reprojection.csv");
-  for (const auto& p : t.reprojection)
-    t.status[{p.t_ns, p.object_id}] = parse_status(p.status, run_dir / "reprojection.csv");
-  if (t.states.size() < 2) throw InputError("fewer than 2 state rows", {(run_dir / "states.csv").string()});
+  const fs::path states_csv = run_dir / "states.csv", objects_csv = run_dir / "objects.csv",
+                 reprojection_csv = run_dir / "reprojection.csv";
+  t.states = store::read_states_csv(states_csv);
+  check_states(t.states, run, ds.imu, states_csv);
+  for (const auto& row : store::read_objects_csv(objects_csv)) {
+    if (row.T_O_W.p.norm() > run.config.filter.max_position_m)
+      throw InputError(fmt::format("object {} at t = {} ns: |p_O_W| = {:.4g} beyond the run's "
+                                   "config.filter.max_position_m = {:.4g}",
+                                   row.object_id, row.t_ns, row.T_O_W.p.norm(), run.config.filter.max_position_m),
+                       {objects_csv.string()});
+    t.T_O_W[row.object_id] = row.T_O_W;
+  }
+  if (!t.T_O_W.count(run.anchor_id))
+    throw InputError(fmt::format("no row of the anchor object {} (run.json anchor_id): the run initialised it, so "
+                                 "its objects.csv has its rows",
+                                 run.anchor_id),
+                     {objects_csv.string()});
+  t.reprojection = store::read_reprojection_csv(reprojection_csv);
+  store::check_reprojection_rows(t.reprojection, images, reprojection_csv);
+  for (const auto& p : t.reprojection) t.status[{p.t_ns, p.object_id}] = parse_status(p.status, reprojection_csv);
   return t;
 }
 
@@ -236,9 +295,9 @@ RefineCommandResult refine_run(const fs::path& run_dir_in, const fs::path& out_d
   }
   io::OutputDir dir(out_dir, opt.force, {run_dir, dataset});
   const Dataset ds = read_run_dataset(run, dataset, run_dir / "run.json");
-  const RunTables tables = read_tables(run_dir);
   const Timestamp offset_ns = ds.manifest.camera ? from_seconds(ds.manifest.camera->time_offset_s) : 0;
   const std::vector<ekf::ImageDetections> images = ekf::group_images(ds.detections.at(run.inputs.detections), offset_ns);
+  const RunTables tables = read_tables(run_dir, run, ds, images);
   const double read_s = seconds_since(t_start);
 
   RefineCommandResult res;

@@ -34,9 +34,7 @@ void check_outputs(const ReportOptions& o) {
   if (!fs::is_directory(parent, ec))
     throw InputError("the folder of --out does not exist (roe report creates the file, not its folder)",
                      {parent.string()});
-  if (fs::exists(out, ec) && !o.force)
-    throw InputError("the report already exists (pass --force to replace it)", {o.out});
-  io::refuse_overwriting_inputs(out, {o.run_dir, o.gt}, "report");
+  io::check_file_output(out, o.force, {o.run_dir, o.gt}, "report");
   // An existing file inside an input may be one the report reads (run.json, trajectory.csv, roe.json): only an
   // earlier HTML report is replaced there.
   for (const std::string& in : {o.run_dir, o.gt})

@@ -320,9 +320,20 @@ std::string report_html(const store::EvalReportFile& ev, const json& run, const 
   if (warnings.empty()) h += "<p class=\"na\">none</p>\n";
   for (const json& w : warnings) h += "<p>" + esc(w.get<std::string>()) + "</p>\n";
   h += "</section>\n";
-  // The evaluation report itself, for scripts (a data block: browsers do not execute it).
-  std::string data = io::dump_json(store::to_json(ev));
-  for (std::size_t p = 0; (p = data.find("</", p)) != std::string::npos;) data.replace(p, 2, "<\\/");
+  // The evaluation report itself, for scripts (a data block: browsers do not execute it). <, > and & only
+  // occur inside JSON strings, where \u003c, \u003e and \u0026 mean the same: no label can close the block
+  // (`</script>`) or open a comment (`<!--`) that swallows the closing tag, and JSON.parse reads it back.
+  std::string data;
+  for (const char c : io::dump_json(store::to_json(ev))) {
+    if (c == '<')
+      data += "\\u003c";
+    else if (c == '>')
+      data += "\\u003e";
+    else if (c == '&')
+      data += "\\u0026";
+    else
+      data += c;
+  }
   h += "<script type=\"application/json\" id=\"roe-eval-report\">" + data + "</script>\n";
   h += "</body></html>\n";
   return h;

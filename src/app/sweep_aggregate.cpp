@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "roe/app/eval.hpp"
 #include "roe/app/figures.hpp"
@@ -380,12 +381,19 @@ SweepAggregateResult sweep_aggregate(const SweepAggregateOptions& o) {
     JobResult r{j.id, j.axes, {}};
     if (fs::exists(f)) {
       const json res = io::parse_json_file(f);
-      status = res.value("status", "failed");
+      if (!res.is_object() || !res.contains("status") || !res["status"].is_string())
+        throw InputError("not a job result of roe sweep run (an object with a \"status\" string)",
+                         {f.string(), 0, 0, "status"});
+      status = res["status"].get<std::string>();
       if (status == "done") {
-        try {
-          for (const auto& m : sweep_metric_names()) r.metrics[m] = res.at("metrics").at(m).get<double>();
-        } catch (const json::exception& e) {
-          throw InputError(std::string("malformed job result: ") + e.what(), {f.string()});
+        // Each metric a number, or null where the evaluation had no such figure (written for NaN).
+        const json* metrics = res.contains("metrics") && res["metrics"].is_object() ? &res["metrics"] : nullptr;
+        if (!metrics) throw InputError("a finished job's result has no \"metrics\" object", {f.string(), 0, 0, "metrics"});
+        for (const auto& m : sweep_metric_names()) {
+          const json* v = metrics->contains(m) ? &(*metrics)[m] : nullptr;
+          if (!v || !(v->is_number() || v->is_null()))
+            throw InputError(v ? "expected a number or null" : "missing key", {f.string(), 0, 0, "metrics." + m});
+          r.metrics[m] = v->is_null() ? std::numeric_limits<double>::quiet_NaN() : v->get<double>();
         }
       }
     }

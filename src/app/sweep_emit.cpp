@@ -107,6 +107,7 @@ SweepEmitResult sweep_emit(const SweepEmitOptions& o_in, const std::string& out,
     const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
     o.roe = ec ? "roe" : self.string();
   }
+  if (!out.empty()) io::check_file_output(out, force, {}, "--out script");  // before anything is made
   const std::filesystem::path abs = io::provenance_path(s.dir);
   SweepEmitResult r;
   r.script = emit_script(o, s.jobs.size(), abs);

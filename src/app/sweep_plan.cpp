@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <limits>
 #include <set>
+#include <unordered_map>
+#include <unordered_set>
 
 #include "roe/app/eval.hpp"
 #include "roe/app/run.hpp"
@@ -167,119 +169,99 @@ void apply_override(const Where& w, json& config, const std::string& dotted, con
   *target = value;
 }
 
-struct Variant {
-  json axes = json::object();  ///< override key -> value
-  json config;
+/// The configs × override values of one block, and its datasets and detection sets: what a job of the block is
+/// made from. A variant is an index: config (v / n_combos), then one value per override key, mixed-radix with
+/// the last key varying fastest (the cross product in key order).
+struct Block {
+  std::string bpath;
+  std::vector<std::pair<std::string, json>> configs;  ///< label, JSON as read
+  std::vector<std::string> keys;                      ///< override keys, in the spec's order
+  json overrides = json::object();                    ///< key -> values
+  std::size_t n_combos = 1;
+  std::vector<DatasetEntry> datasets;
+  std::vector<std::string> detections = {""};
+  std::size_t n_variants() const { return configs.size() * n_combos; }
+  /// The value index of each override key in combination `combo`.
+  std::vector<std::size_t> picks(std::size_t combo) const {
+    std::vector<std::size_t> pick(keys.size());
+    for (std::size_t k = keys.size(); k-- > 0;) {
+      pick[k] = combo % overrides[keys[k]].size();
+      combo /= overrides[keys[k]].size();
+    }
+    return pick;
+  }
+  /// The override key -> value of combination `combo`.
+  json combo_axes(std::size_t combo) const {
+    json axes = json::object();
+    const auto pick = picks(combo);
+    for (std::size_t k = 0; k < keys.size(); ++k) axes[keys[k]] = overrides[keys[k]][pick[k]];
+    return axes;
+  }
+  /// Variant `v`'s run config, validated by the run config loader and written with every key.
+  json variant_config(const Where& w, std::size_t v) const {
+    const std::size_t c = v / n_combos, combo = v % n_combos;
+    json config = configs[c].second;
+    const auto pick = picks(combo);
+    for (std::size_t k = 0; k < keys.size(); ++k)
+      apply_override(w, config, keys[k], overrides[keys[k]][pick[k]],
+                     fmt::format("{}.overrides.{}[{}]", bpath, keys[k], pick[k]));
+    try {
+      return run_config_to_json(run_config_from_json(config, configs[c].first));
+    } catch (const ConfigError& e) {
+      std::string at = fmt::format("{}.configs[{}]", bpath, c);
+      if (!keys.empty()) at = fmt::format("{}.overrides ({})", bpath, io::dump_json(combo_axes(combo)));
+      throw ConfigError(e.what(), {w.source, 0, 0, at});
+    }
+  }
 };
 
-/// The configs × override values of one block, each validated by the run config loader.
-std::vector<std::pair<std::string, Variant>> read_variants(const Where& w, const json& block,
-                                                           const std::string& bpath, const fs::path& spec_dir,
-                                                           std::vector<std::string>& override_keys) {
-  std::vector<std::pair<std::string, json>> configs;
+void read_variants(const Where& w, const json& block, const fs::path& spec_dir, std::vector<std::string>& override_keys,
+                   Block& b) {
   if (block.contains("configs")) {
-    const json& c = nonempty_array(w, block["configs"], bpath + ".configs");
+    const json& c = nonempty_array(w, block["configs"], b.bpath + ".configs");
     for (std::size_t i = 0; i < c.size(); ++i)
-      configs.push_back(read_config(w, c[i], fmt::format("{}.configs[{}]", bpath, i), spec_dir));
+      b.configs.push_back(read_config(w, c[i], fmt::format("{}.configs[{}]", b.bpath, i), spec_dir));
   } else {
-    configs.push_back(read_config(w, "default", bpath + ".configs", spec_dir));
+    b.configs.push_back(read_config(w, "default", b.bpath + ".configs", spec_dir));
   }
-  // Cross product of the override values, in key order.
-  std::vector<Variant> combos(1);
-  if (block.contains("overrides")) {
-    const json& o = block["overrides"];
-    if (!o.is_object()) w.fail(bpath + ".overrides", "expected an object {\"filter.KEY\": [values]}");
-    for (const auto& [key, values] : o.items()) {
-      const std::string opath = fmt::format("{}.overrides.{}", bpath, key);
-      nonempty_array(w, values, opath);
-      if (std::find(override_keys.begin(), override_keys.end(), key) == override_keys.end())
-        override_keys.push_back(key);
-      std::vector<Variant> next;
-      for (const Variant& v : combos)
-        for (std::size_t i = 0; i < values.size(); ++i) {
-          Variant n = v;
-          n.axes[key] = values[i];
-          next.push_back(n);
-        }
-      combos = std::move(next);
-    }
+  if (!block.contains("overrides")) return;
+  const json& o = block["overrides"];
+  if (!o.is_object()) w.fail(b.bpath + ".overrides", "expected an object {\"filter.KEY\": [values]}");
+  for (const auto& [key, values] : o.items()) {
+    nonempty_array(w, values, fmt::format("{}.overrides.{}", b.bpath, key));
+    if (std::find(override_keys.begin(), override_keys.end(), key) == override_keys.end())
+      override_keys.push_back(key);
+    b.keys.push_back(key);
+    b.overrides[key] = values;
+    b.n_combos *= values.size();  // bounded: check_job_count refused a spec of more jobs first
   }
-  std::vector<std::pair<std::string, Variant>> out;
-  for (std::size_t c = 0; c < configs.size(); ++c)
-    for (const Variant& v : combos) {
-      Variant n = v;
-      n.config = configs[c].second;
-      for (const auto& [key, value] : v.axes.items()) {
-        std::size_t i = 0;
-        const json& values = block["overrides"][key];
-        while (i < values.size() && values[i] != value) ++i;
-        apply_override(w, n.config, key, value, fmt::format("{}.overrides.{}[{}]", bpath, key, i));
-      }
-      try {
-        n.config = run_config_to_json(run_config_from_json(n.config, configs[c].first));
-      } catch (const ConfigError& e) {
-        std::string at = fmt::format("{}.configs[{}]", bpath, c);
-        if (!v.axes.empty()) at = fmt::format("{}.overrides ({})", bpath, io::dump_json(v.axes));
-        throw ConfigError(e.what(), {w.source, 0, 0, at});
-      }
-      out.push_back({configs[c].first, n});
-    }
-  return out;
 }
 
 void read_block(const Where& w, const json& block, const std::string& bpath, const fs::path& spec_dir,
-                const json& eval, SweepPlan& plan, std::vector<std::string>& override_keys, bool& has_detections,
-                std::set<std::string>& seen) {
+                std::vector<std::string>& override_keys, bool& has_detections, Block& b) {
   if (!block.is_object()) w.fail(bpath, "expected an object with datasets, seeds, configs, overrides, detections");
   static const std::set<std::string> known = {"datasets", "seeds", "configs", "overrides", "detections"};
   for (const auto& [key, value] : block.items())
     if (!known.count(key))
       w.fail(bpath + "." + key, "unknown key (axes are datasets, seeds, configs, overrides, detections)");
   if (!block.contains("datasets")) w.fail(bpath + ".datasets", "missing required key");
+  b.bpath = bpath;
   std::vector<std::int64_t> seeds = {1};
   if (block.contains("seeds")) seeds = read_seeds(w, block["seeds"], bpath + ".seeds");
-  std::vector<DatasetEntry> datasets;
   const json& ds = nonempty_array(w, block["datasets"], bpath + ".datasets");
   for (std::size_t i = 0; i < ds.size(); ++i)
-    datasets.push_back(read_dataset(w, ds[i], fmt::format("{}.datasets[{}]", bpath, i), spec_dir, seeds));
-  const auto variants = read_variants(w, block, bpath, spec_dir, override_keys);
-  std::vector<std::string> detections = {""};
+    b.datasets.push_back(read_dataset(w, ds[i], fmt::format("{}.datasets[{}]", bpath, i), spec_dir, seeds));
+  read_variants(w, block, spec_dir, override_keys, b);
   if (block.contains("detections")) {
     has_detections = true;
     const json& d = nonempty_array(w, block["detections"], bpath + ".detections");
-    detections.clear();
+    b.detections.clear();
     for (std::size_t i = 0; i < d.size(); ++i) {
       if (!d[i].is_string() || !io::is_plain_name(d[i].get<std::string>()))
         w.fail(fmt::format("{}.detections[{}]", bpath, i),
                "a detection set name (detections/NAME: one folder name, no '/' or '..')");
-      detections.push_back(d[i].get<std::string>());
+      b.detections.push_back(d[i].get<std::string>());
     }
-  }
-  for (const DatasetEntry& d : datasets) {
-    const std::vector<std::optional<std::int64_t>> seed_list = [&] {
-      std::vector<std::optional<std::int64_t>> s;
-      if (d.seeds.empty()) s.push_back(std::nullopt);
-      for (auto v : d.seeds) s.push_back(v);
-      return s;
-    }();
-    for (const auto& seed : seed_list)
-      for (const auto& [config_name, variant] : variants)
-        for (const std::string& det : detections) {
-          SweepJob job;
-          json dataset = d.content;
-          if (seed) dataset["seed"] = *seed;
-          job.content = {{"dataset", dataset},
-                         {"config", config_name},
-                         {"run_config", variant.config},
-                         {"detections", det},
-                         {"eval", eval}};
-          job.id = io::sha256_hex(io::dump_json(job.content)).substr(0, 16);
-          if (!seen.insert(job.id).second) continue;  // the same job from another block
-          job.axes = {{"dataset", d.label}, {"seed", seed ? json(*seed) : json(nullptr)}, {"config", config_name}};
-          for (const auto& [k, v] : variant.axes.items()) job.axes[k] = v;
-          job.axes["detections"] = det;
-          plan.jobs.push_back(std::move(job));
-        }
   }
 }
 
@@ -328,6 +310,65 @@ void check_job_count(const Where& w, const json& axes, std::size_t max_jobs) {
 
 }  // namespace
 
+struct SweepPlan::Expansion {
+  std::string source;
+  std::vector<Block> blocks;
+  json eval;
+  std::vector<std::string> override_keys;
+  bool has_detections = false;
+
+  /// The job of recipe `r`, whose variant's run config is `config` (variant_config of its block).
+  SweepJob make(const Recipe& r, const json& config) const {
+    const Block& b = blocks[r.block];
+    const DatasetEntry& d = b.datasets[r.dataset];
+    const std::string& det = b.detections[r.detections];
+    const std::string& config_name = b.configs[r.variant / b.n_combos].first;
+    SweepJob job;
+    json dataset = d.content;
+    if (r.has_seed) dataset["seed"] = r.seed;
+    job.content = {{"dataset", dataset}, {"config", config_name}, {"run_config", config}, {"detections", det},
+                   {"eval", eval}};
+    job.id = io::sha256_hex(io::dump_json(job.content)).substr(0, 16);
+    job.axes = {{"dataset", d.label}, {"seed", r.has_seed ? json(r.seed) : json(nullptr)}, {"config", config_name}};
+    const json combo = b.combo_axes(r.variant % b.n_combos);
+    for (const auto& [k, v] : combo.items()) job.axes[k] = v;
+    // A block without an override another block has: the config's own value, shown as such.
+    for (const auto& k : override_keys)
+      if (!job.axes.contains(k)) job.axes[k] = nullptr;
+    if (has_detections) job.axes["detections"] = det;
+    return job;
+  }
+
+  /// The recipes of block `bi` in job order (datasets, seeds, variants, detection sets) with their ids. Each
+  /// variant's run config is made (and validated) once here and dropped after its jobs' ids.
+  void expand(std::uint32_t bi, std::vector<Recipe>& recipes, std::vector<std::string>& ids) const {
+    const Where w{source};
+    const Block& b = blocks[bi];
+    std::vector<Recipe> rs;
+    for (std::uint32_t di = 0; di < b.datasets.size(); ++di) {
+      const auto& seeds = b.datasets[di].seeds;
+      for (std::size_t si = 0; si < std::max<std::size_t>(1, seeds.size()); ++si)
+        for (std::uint32_t v = 0; v < b.n_variants(); ++v)
+          for (std::uint32_t k = 0; k < b.detections.size(); ++k)
+            rs.push_back({bi, di, v, k, seeds.empty() ? 0 : seeds[si], !seeds.empty()});
+    }
+    std::vector<std::string> rs_ids(rs.size());
+    const std::size_t per_variant = b.detections.size(), stride = b.n_variants() * per_variant;
+    for (std::uint32_t v = 0; v < b.n_variants(); ++v) {
+      const json config = b.variant_config(w, v);
+      for (std::size_t base = v * per_variant; base < rs.size(); base += stride)
+        for (std::size_t k = 0; k < per_variant; ++k) rs_ids[base + k] = make(rs[base + k], config).id;
+    }
+    recipes.insert(recipes.end(), rs.begin(), rs.end());
+    ids.insert(ids.end(), rs_ids.begin(), rs_ids.end());
+  }
+};
+
+SweepJob SweepPlan::job(std::size_t i) const {
+  const Recipe& r = recipes.at(i);
+  return expansion->make(r, expansion->blocks[r.block].variant_config(Where{expansion->source}, r.variant));
+}
+
 SweepPlan plan_sweep(const json& spec, const fs::path& spec_dir, const std::string& source, std::size_t max_jobs) {
   const Where w{source};
   if (!spec.is_object()) w.fail("", "a sweep spec is a JSON object");
@@ -343,48 +384,58 @@ SweepPlan plan_sweep(const json& spec, const fs::path& spec_dir, const std::stri
   if (spec.contains("description") && !spec["description"].is_string()) w.fail("description", "expected a string");
   if (!spec.contains("axes")) w.fail("axes", "missing required key");
   check_job_count(w, spec["axes"], max_jobs);
-  const json eval = read_eval(w, spec.contains("eval") ? &spec["eval"] : nullptr);
+  auto ex = std::make_shared<SweepPlan::Expansion>();
+  ex->source = source;
+  ex->eval = read_eval(w, spec.contains("eval") ? &spec["eval"] : nullptr);
+  const json& axes = spec["axes"];
+  if (axes.is_array() && axes.empty()) w.fail("axes", "expected at least one block of axes");
+  const std::size_t n_blocks = axes.is_array() ? axes.size() : 1;
+  for (std::size_t b = 0; b < n_blocks; ++b) {
+    ex->blocks.emplace_back();
+    read_block(w, axes.is_array() ? axes[b] : axes, axes.is_array() ? fmt::format("axes[{}]", b) : "axes", spec_dir,
+               ex->override_keys, ex->has_detections, ex->blocks.back());
+  }
   SweepPlan plan;
   plan.spec = spec;
-  std::vector<std::string> override_keys;
-  bool has_detections = false;
-  std::set<std::string> seen;
-  const json& axes = spec["axes"];
-  if (axes.is_array()) {
-    if (axes.empty()) w.fail("axes", "expected at least one block of axes");
-    for (std::size_t b = 0; b < axes.size(); ++b)
-      read_block(w, axes[b], fmt::format("axes[{}]", b), spec_dir, eval, plan, override_keys, has_detections, seen);
-  } else {
-    read_block(w, axes, "axes", spec_dir, eval, plan, override_keys, has_detections, seen);
+  std::vector<SweepPlan::Recipe> recipes;
+  std::vector<std::string> ids;
+  for (std::uint32_t b = 0; b < ex->blocks.size(); ++b) ex->expand(b, recipes, ids);
+  std::unordered_set<std::string> seen;  // the same job from another block (or twice in one) is planned once
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    if (!seen.insert(ids[k]).second) continue;
+    plan.ids.push_back(std::move(ids[k]));
+    plan.recipes.push_back(recipes[k]);
   }
   plan.axis_names = {"dataset", "seed", "config"};
-  for (const auto& k : override_keys) plan.axis_names.push_back(k);
-  if (has_detections) plan.axis_names.push_back("detections");
-  for (SweepJob& j : plan.jobs) {
-    // A block without an override another block has: the config's own value, shown as such.
-    for (const auto& k : override_keys)
-      if (!j.axes.contains(k)) j.axes[k] = nullptr;
-    if (!has_detections) j.axes.erase("detections");
-  }
+  for (const auto& k : ex->override_keys) plan.axis_names.push_back(k);
+  if (ex->has_detections) plan.axis_names.push_back("detections");
+  plan.expansion = std::move(ex);
   return plan;
 }
 
 std::vector<std::string> keep_indices(SweepPlan& plan, const std::vector<std::string>& existing_ids) {
-  std::vector<SweepJob> ordered;
-  std::vector<std::string> dropped;
-  std::vector<bool> used(plan.jobs.size(), false);
+  std::unordered_map<std::string, std::size_t> at;
+  for (std::size_t i = 0; i < plan.ids.size(); ++i) at.emplace(plan.ids[i], i);
+  std::vector<std::string> ids, dropped;
+  std::vector<SweepPlan::Recipe> recipes;
+  std::vector<bool> used(plan.ids.size(), false);
   for (const std::string& id : existing_ids) {
-    auto it = std::find_if(plan.jobs.begin(), plan.jobs.end(), [&](const SweepJob& j) { return j.id == id; });
-    if (it == plan.jobs.end()) {
+    const auto it = at.find(id);
+    if (it == at.end()) {
       dropped.push_back(id);
       continue;
     }
-    used[static_cast<std::size_t>(it - plan.jobs.begin())] = true;
-    ordered.push_back(*it);
+    used[it->second] = true;
+    ids.push_back(id);
+    recipes.push_back(plan.recipes[it->second]);
   }
-  for (std::size_t i = 0; i < plan.jobs.size(); ++i)
-    if (!used[i]) ordered.push_back(plan.jobs[i]);
-  plan.jobs = std::move(ordered);
+  for (std::size_t i = 0; i < plan.ids.size(); ++i)
+    if (!used[i]) {
+      ids.push_back(plan.ids[i]);
+      recipes.push_back(plan.recipes[i]);
+    }
+  plan.ids = std::move(ids);
+  plan.recipes = std::move(recipes);
   return dropped;
 }
 

@@ -236,6 +236,7 @@ SweepPlanResult sweep_plan(const SweepPlanOptions& o) {
     return plan_sweep(spec, spec_path.parent_path(), spec_path.string(), o.max_jobs);
   });
   const fs::path out = io::without_trailing_separator(o.out);
+  io::refuse_special_output(out, io::OutputKind::folder, "sweep folder");
   SweepPlanResult res;
   res.out = out;
   std::size_t n_before = 0;
@@ -257,21 +258,29 @@ SweepPlanResult sweep_plan(const SweepPlanOptions& o) {
   }
   io::refuse_overwriting_inputs(out, {spec_path}, "sweep folder");
   make_dirs(out);
+  // Job by job into the temporary jobs.jsonl: a job's line is a few KB, 100 000 of them are never in memory.
+  io::AtomicFile jobs(jobs_file(out));
   std::string lines;
-  for (std::size_t i = 0; i < plan.jobs.size(); ++i) lines += io::dump_json(job_line(plan.jobs[i], i)) + "\n";
+  for (std::size_t i = 0; i < plan.size(); ++i) {
+    lines += io::dump_json(job_line(plan.job(i), i)) + "\n";
+    if (lines.size() >= (1u << 20) || i + 1 == plan.size()) {
+      jobs.append(lines);
+      lines.clear();
+    }
+  }
   const json manifest = {{"format", kSweepFormat},
                          {"roe_version", kVersion},
                          {"spec_file", io::provenance_path(spec_path)},
                          {"spec", spec},
                          {"axes", plan.axis_names},
-                         {"n_jobs", plan.jobs.size()}};
+                         {"n_jobs", plan.size()}};
   {
     io::DeferSignals defer;  // the job list and the manifest that counts it change together
-    io::write_file_atomic(jobs_file(out), lines);
+    jobs.commit();
     io::write_file_atomic(manifest_file(out), io::dump_json(manifest, 2) + "\n");
   }
-  res.n_jobs = plan.jobs.size();
-  res.n_new = plan.jobs.size() - (n_before - res.n_dropped);
+  res.n_jobs = plan.size();
+  res.n_new = plan.size() - (n_before - res.n_dropped);
   res.axis_names = plan.axis_names;
   return res;
 }
@@ -337,7 +346,9 @@ SweepFolder read_sweep(const fs::path& dir_in) {
                                    s.manifest["n_jobs"].get<std::size_t>()),
                        {jobs_file(s.dir).string()});
   } catch (const json::exception& e) {
-    throw InputError(std::string("malformed sweep manifest: ") + e.what(), {s.dir.string()});
+    throw InputError("malformed sweep folder (sweep.json or jobs.jsonl; plan the sweep again instead of editing "
+                     "them): " + io::json_error_text(e),
+                     {s.dir.string()});
   }
   return s;
 }

@@ -24,14 +24,16 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("RUN_DIR", a->run, "Run folder written by roe run");
   sub.add_option("--out", a->out, "Output run folder (must not exist or be empty, unless --force)");
   sub.add_option("--dataset", a->opt.dataset, "The run's dataset (default: the one run.json names)");
-  sub.add_option("--loss", a->loss, "Robust loss of the detection residuals: cauchy (default), huber or none");
+  sub.add_option("--loss", a->loss, "Robust loss of the detection residuals: cauchy (default), huber or none")
+      ->check(CLI::IsMember({"cauchy", "huber", "none"}));
   sub.add_option("--loss-scale", a->opt.refine.loss_scale,
                  "Where the loss leaves the quadratic, in σ of the whitened 6-dof residual (default 3.55 = √χ²₆(0.95))")
       ->check(number_in("positive"));
   sub.add_option("--max-iterations", a->opt.refine.max_iterations, "Ceres iterations (default 50)")
       ->check(number_in("integer>=1"));
   sub.add_option("--linear-solver", a->opt.refine.linear_solver,
-                 "sparse_normal_cholesky (default) or sparse_schur");
+                 "sparse_normal_cholesky (default) or sparse_schur")
+      ->check(CLI::IsMember({"sparse_normal_cholesky", "sparse_schur"}));
   sub.add_flag("--white-errors", a->white_errors,
                "Marginals for white detection errors (default: inflated by the correlation fitted to the residuals, "
                "docs/refine.md §2b)");

@@ -31,7 +31,11 @@ const NpyArray* EvoResult::array(const std::string& name) const {
   return nullptr;
 }
 
-bool looks_like_zip(const fs::path& file) { return read_file_head(file, 4) == std::string("PK\x03\x04", 4); }
+bool looks_like_zip(const fs::path& file) {
+  // A local file header, or the end-of-central-directory record that alone makes an empty archive.
+  const std::string head = read_file_head(file, 4);
+  return head == std::string("PK\x03\x04", 4) || head == std::string("PK\x05\x06", 4);
+}
 
 EvoResult read_evo_result(const fs::path& zip) {
   const std::string source = zip.string();
@@ -120,8 +124,16 @@ EvoResult evo_ape_result(const eval::Report& rep, const std::string& ref_name, c
       return StampedPose{est ? rep.t_est(k) : rep.t_gt(k), est ? rep.est_aligned(k) : rep.gt(k)};
     }, TrajectoryFormat::kTum);
   };
-  r.trajectories.emplace_back(ref_name + ".tum", tum(false));
-  r.trajectories.emplace_back(est_name + ".tum", tum(true));
+  // evo names the members after the paths as given (info.json keeps them so); a ZIP member name is relative
+  // and stays inside the archive (APPNOTE 4.4.17), so an absolute path or one with ".." gives its file name.
+  const auto member = [](const std::string& path) {
+    const fs::path p(path);
+    bool dotdot = false;
+    for (const auto& part : p) dotdot = dotdot || part == "..";
+    return (p.is_absolute() || dotdot ? p.filename().string() : path) + ".tum";
+  };
+  r.trajectories.emplace_back(member(ref_name), tum(false));
+  r.trajectories.emplace_back(member(est_name), tum(true));
   return r;
 }
 

@@ -254,6 +254,13 @@ json parse_json_unlocated(const std::string& text, const std::string& source) {
 
 }  // namespace
 
+std::string json_error_text(const std::exception& e) {
+  const std::string m = e.what();
+  if (m.rfind("[json.exception.", 0) != 0) return m;
+  const auto end = m.find("] ");
+  return end == std::string::npos ? m : m.substr(end + 2);
+}
+
 json parse_json_text(const std::string& text, const std::string& source) {
   try {
     return parse_json_unlocated(text, source);

@@ -201,6 +201,44 @@ void refuse_overwriting_inputs(const fs::path& out, const std::vector<fs::path>&
   }
 }
 
+namespace {
+// What `t` is, in words, for the refusal of an output of the wrong kind.
+const char* file_type_name(fs::file_type t) {
+  switch (t) {
+    case fs::file_type::regular: return "a regular file";
+    case fs::file_type::directory: return "a folder";
+    case fs::file_type::character: return "a character device";
+    case fs::file_type::block: return "a block device";
+    case fs::file_type::fifo: return "a FIFO (named pipe)";
+    case fs::file_type::socket: return "a socket";
+    default: return "not a regular file or folder";
+  }
+}
+}  // namespace
+
+void refuse_special_output(const fs::path& out, OutputKind kind, const std::string& what) {
+  std::error_code ec;
+  const fs::file_status st = fs::status(out, ec);  // follows symlinks; never opens the path
+  if (ec && st.type() != fs::file_type::not_found)
+    throw InputError(what + " cannot be examined (" + ec.message() + "): not replacing it", {out.string()});
+  const fs::file_type t = st.type();
+  if (t == fs::file_type::not_found || t == fs::file_type::none) return;
+  const fs::file_type want = kind == OutputKind::file ? fs::file_type::regular : fs::file_type::directory;
+  if (t == want) return;
+  throw InputError(what + " exists and is " + file_type_name(t) + ": roe replaces only " +
+                       (kind == OutputKind::file ? "a regular file" : "a folder") +
+                       " there, never this (not even with --force); name another path",
+                   {out.string()});
+}
+
+void check_file_output(const fs::path& out, bool force, const std::vector<fs::path>& inputs, const std::string& what) {
+  if (out.empty()) throw InputError("empty " + what + " name", {out.string()});
+  refuse_special_output(out, OutputKind::file, what);
+  refuse_overwriting_inputs(out, inputs, what);
+  std::error_code ec;
+  if (!force && fs::exists(out, ec)) throw InputError(what + " already exists (use --force to replace it)", {out.string()});
+}
+
 void OutputDir::check(const fs::path& final_dir, bool force, const std::vector<fs::path>& inputs) {
   const fs::path out = without_trailing_separator(final_dir.lexically_normal());  // "a/../b/x/." → "b/x"
   std::error_code ec;
@@ -208,8 +246,8 @@ void OutputDir::check(const fs::path& final_dir, bool force, const std::vector<f
   if (is_same_or_ancestor(resolved(out), resolved(fs::current_path(ec))))
     throw InputError("output folder is the current folder or contains it: name a folder below it", {out.string()});
   refuse_overwriting_inputs(out, inputs);
+  refuse_special_output(out, OutputKind::folder, "output folder");
   if (fs::exists(out, ec)) {
-    if (!fs::is_directory(out, ec)) throw InputError("output exists and is not a folder", {out.string()});
     if (!fs::is_empty(out, ec) && !force)
       throw InputError("output folder exists and is not empty (use --force to replace it)", {out.string()});
   }
@@ -358,6 +396,7 @@ void StagedFiles::ensure_folder(const fs::path& dir) {
 }
 
 fs::path StagedFiles::stage(const fs::path& final_path) {
+  refuse_special_output(final_path, OutputKind::file);
   if (final_path.has_parent_path()) ensure_folder(final_path.parent_path());
   (void)remove_stale_temporaries(final_path);
   fs::path tmp = final_path.parent_path() / ("." + final_path.filename().string() + unique_suffix());
@@ -386,6 +425,12 @@ void StagedFiles::commit() {
   };
   std::error_code ec;
   for (const auto& [tmp, fin] : files_) {
+    try {
+      refuse_special_output(fin, OutputKind::file);  // made since stage(): refused, nothing renamed over it
+    } catch (const InputError& e) {
+      undo();
+      throw InputError(e.bare_message() + " (nothing was changed)", {fin.string()});
+    }
     Done d{fin, {}};
     if (fs::is_regular_file(fs::symlink_status(fin, ec))) {
       d.backup = fin.parent_path() / ("." + fin.filename().string() + unique_suffix() + ".bak");
@@ -455,6 +500,7 @@ fs::path OutputDir::file(const fs::path& rel) const {
 void OutputDir::commit() {
   if (committed_) return;
   const DeferSignals defer;  // not between moving the old output aside and the new one in
+  refuse_special_output(final_, OutputKind::folder, "output folder");  // made meanwhile: still not replaced
   std::error_code ec;
   fs::path old;
   if (fs::exists(final_, ec)) {
@@ -476,6 +522,7 @@ void OutputDir::commit() {
 }
 
 AtomicFile::AtomicFile(fs::path path, bool overwrite) : path_(std::move(path)) {
+  refuse_special_output(path_, OutputKind::file);
   std::error_code ec;
   if (!overwrite && fs::exists(path_, ec)) throw InputError("file exists (use --force to replace it)", {path_.string()});
   if (path_.has_parent_path()) fs::create_directories(path_.parent_path(), ec);
@@ -525,6 +572,12 @@ void AtomicFile::commit() {
   }
   fd_ = -1;
   std::error_code ec;
+  try {
+    refuse_special_output(path_, OutputKind::file);  // made since the constructor: still not replaced
+  } catch (...) {
+    fs::remove(tmp_, ec);
+    throw;
+  }
   fs::rename(tmp_, path_, ec);
   if (ec) {
     fs::remove(tmp_, ec);

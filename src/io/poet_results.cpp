@@ -64,6 +64,7 @@ class LenientParser {
     n.line = line_;
     n.col = col_;
     object(n, 0, &sink);
+    values_left_ = kUnlimited;
     skip_ws();
     if (pos_ != s_.size()) fail("unexpected text after the JSON document");
     return n;
@@ -71,6 +72,9 @@ class LenientParser {
 
  private:
   [[noreturn]] void fail(const std::string& msg) const { throw InputError(msg, {source_, line_, col_}); }
+
+  static constexpr std::size_t kUnlimited = std::numeric_limits<std::size_t>::max();
+  std::size_t values_left_ = kUnlimited;  ///< JSON values the current image's entry may still hold
 
   char peek() const { return pos_ < s_.size() ? s_[pos_] : '\0'; }
   void advance() {
@@ -99,6 +103,10 @@ class LenientParser {
 
   Node value(int depth) {
     if (depth > 64) fail("JSON nested too deeply");
+    if (values_left_-- == 0)
+      fail(fmt::format("more than {} JSON values in one image's entry (roe's per-image limit for a PoET "
+                       "results.json, docs/infer.md)",
+                       kMaxPoetValuesPerImage));
     Node n;
     n.line = line_;
     n.col = col_;
@@ -168,8 +176,14 @@ class LenientParser {
       advance();
       skip_ws();
       if (sink) {
+        values_left_ = kMaxPoetValuesPerImage;  // one image's tree at a time is in memory: bounded
         (*sink)(std::move(key), kl, kc, value(depth + 1));
       } else {
+        if (depth == 1 && n.members.size() == kMaxPoetDetectionsPerImage)
+          throw InputError(fmt::format("more than {} detections in one image (roe's per-image limit for a PoET "
+                                       "results.json, docs/infer.md; PoET itself writes at most one per query)",
+                                       kMaxPoetDetectionsPerImage),
+                           {source_, kl, kc, key});
         n.members.emplace_back(std::move(key), value(depth + 1));
         n.member_lines.push_back(kl);
         n.member_cols.push_back(kc);

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <optional>
 
 #include "roe/io/csv.hpp"
@@ -41,7 +42,14 @@ struct Field {
     return v;
   }
   /// A σ the writer may leave empty (states.csv at output level "standard": not recorded at that row): nan.
-  double sigma_or_nan() const { return r.is_empty(col) ? kNaN : sigma(); }
+  /// Only the empty cell means that: a written nan is refused, by every reader of the file alike (issue 51).
+  double sigma_or_nan() const {
+    if (r.is_empty(col)) return kNaN;
+    const double v = sigma();
+    if (std::isnan(v))
+      throw r.error(col, "a written nan standard deviation (roe leaves a σ it did not record empty, never nan)");
+    return v;
+  }
   std::int64_t int64() const { return r.get_int64(col); }
   int integer() const { return r.get_int(col); }
   std::string text() const { return r.get_string(col); }
@@ -342,6 +350,35 @@ std::vector<eval::DetectionPose> read_reprojection_csv(const fs::path& file) {
   RunFileRead read;
   read.allow_nonfinite = true;
   return read_all(reprojection_table(), file, read);
+}
+
+void check_reprojection_rows(const std::vector<eval::DetectionPose>& rows,
+                             const std::vector<ekf::ImageDetections>& images, const fs::path& file) {
+  std::map<std::pair<Timestamp, int>, long> balance;  // detections minus rows, per (time, object)
+  std::size_t n_detections = 0;
+  for (const auto& im : images)
+    for (const auto& d : im.detections) {
+      ++balance[{im.t_ns, d.object_id}];
+      ++n_detections;
+    }
+  for (const auto& r : rows) --balance[{r.t_ns, r.object_id}];
+  std::optional<std::pair<Timestamp, int>> no_row, no_det;
+  std::size_t n_no_row = 0, n_no_det = 0;
+  for (const auto& [k, n] : balance) {
+    if (n > 0 && n_no_row++ == 0) no_row = k;
+    if (n < 0 && n_no_det++ == 0) no_det = k;
+  }
+  if (no_row)
+    throw InputError(fmt::format("no row for {} of the run's {} detections (first: object {} at {} ns, {:.6f} s): "
+                                 "not the reprojection.csv of this run and dataset (shifted, truncated, header only "
+                                 "or another run's)",
+                                 n_no_row, n_detections, no_row->second, no_row->first, to_seconds(no_row->first)),
+                     {file.string()});
+  if (no_det)
+    throw InputError(fmt::format("{} rows name no detection of the run (first: object {} at {} ns, {:.6f} s): not "
+                                 "the reprojection.csv of this run and dataset",
+                                 n_no_det, no_det->second, no_det->first, to_seconds(no_det->first)),
+                     {file.string()});
 }
 
 }  // namespace roe::store

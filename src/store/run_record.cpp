@@ -418,6 +418,23 @@ json run_record_to_json(const RunRecord& r) {
   return j;
 }
 
+/// run.json records the whole configuration a run ran with (run_config_to_json writes every key): a key of
+/// `whole` (the defaults, written the same way) missing from `written` is refused, naming its path, instead of
+/// being filled with a default the run may not have used. Object values are compared key by key.
+namespace {
+void require_whole_config(const json& written, const json& whole, const std::string& source, const std::string& path) {
+  if (!written.is_object() || !whole.is_object()) return;  // the strict reader says what is wrong with the value
+  for (const auto& [key, value] : whole.items()) {
+    const std::string at = path + "." + key;
+    if (!written.contains(key))
+      throw ConfigError("missing key: run.json records the whole configuration the run used (a run.json of another "
+                        "version of roe, or edited?)",
+                        {source, 0, 0, at});
+    require_whole_config(written[key], value, source, at);
+  }
+}
+}  // namespace
+
 RunRecord run_record_from_json(const json& j, const std::string& source) {
   RunRecord r;
   if (!j.is_object()) throw ConfigError("expected a JSON object (a run.json of roe run)", {source});
@@ -427,6 +444,7 @@ RunRecord run_record_from_json(const json& j, const std::string& source) {
   if (r.command != "run" && r.command != "refine")
     fail(o, "command", fmt::format("a run.json of roe run or roe refine, not of roe {}", r.command));
   if (!o.has("config")) fail(o, "config", "missing key (is this a run.json written by this version of roe?)");
+  require_whole_config(*o.raw("config"), run_config_to_json(RunConfig{}), source, "config");
   try {  // its own strict reader; its key paths are under "config."
     r.config = run_config_from_json(*o.raw("config"), source);
   } catch (const ConfigError& e) {
@@ -453,7 +471,13 @@ RunRecord run_record_from_json(const json& j, const std::string& source) {
     JsonObject d = req_child(o, "detection_sigmas");
     req(d, "present", r.detection_sigmas.present);
     req(d, "used", r.detection_sigmas.used);
-    num(d, "final_scale", r.detection_sigmas.final_scale);
+    req(d, "final_scale", r.detection_sigmas.final_scale);
+    const double k = r.detection_sigmas.final_scale;
+    if (!(k >= kMinDetectionSigmaScale && k <= kMaxDetectionSigmaScale))
+      fail(d, "final_scale",
+           fmt::format("{:g} is not a scale the filter writes (it keeps the detections' σ scale within [{:g}, "
+                       "{:g}])",
+                       k, kMinDetectionSigmaScale, kMaxDetectionSigmaScale));
     d.finish();
   }
   read_init(req_child(o, "init"), r.init);

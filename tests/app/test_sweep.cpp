@@ -12,6 +12,8 @@
 
 #include "roe/app/sweep.hpp"
 #include "roe/core/error.hpp"
+#include "roe/io/json.hpp"
+#include "roe/io/output.hpp"
 #include "support/test_util.hpp"
 
 using nlohmann::json;
@@ -34,7 +36,7 @@ std::string config_error(const json& spec, const std::filesystem::path& dir = ".
 
 std::set<std::string> ids(const SweepPlan& p) {
   std::set<std::string> s;
-  for (const auto& j : p.jobs) s.insert(j.id);
+  for (const auto& id : p.ids) s.insert(id);
   return s;
 }
 
@@ -46,40 +48,46 @@ TEST_CASE("sweep spec: expansion, content-derived ids, a new seed adds jobs only
                      {"configs", {"default", "paper"}},
                      {"overrides", {{"filter.chi2_confidence", {0.9, 0.99}}}}};
   const SweepPlan a = plan_sweep(spec_with(axes), ".", "spec.json");
-  REQUIRE(a.jobs.size() == 2 * 2 * 2 * 2);
+  REQUIRE(a.size() == 2 * 2 * 2 * 2);
   CHECK(a.axis_names == std::vector<std::string>{"dataset", "seed", "config", "filter.chi2_confidence"});
-  CHECK(ids(a).size() == a.jobs.size());
+  CHECK(ids(a).size() == a.size());
   // The override is in the effective config each job carries.
-  CHECK(a.jobs[0].content["run_config"]["filter"]["chi2_confidence"] == 0.9);
-  CHECK(a.jobs[1].content["run_config"]["filter"]["chi2_confidence"] == 0.99);
-  CHECK(a.jobs[0].axes["filter.chi2_confidence"] == 0.9);
-  CHECK(a.jobs[0].id.size() == 16);
+  CHECK(a.job(0).content["run_config"]["filter"]["chi2_confidence"] == 0.9);
+  CHECK(a.job(1).content["run_config"]["filter"]["chi2_confidence"] == 0.99);
+  CHECK(a.job(0).axes["filter.chi2_confidence"] == 0.9);
+  CHECK(a.ids[0].size() == 16);
+  // A job made on demand is the one its id names: the id is the hash of the content job(i) carries.
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const SweepJob j = a.job(i);
+    CHECK(j.id == a.ids[i]);
+    CHECK(io::sha256_hex(io::dump_json(j.content)).substr(0, 16) == a.ids[i]);
+  }
   // Re-planning gives the same ids in the same order.
   const SweepPlan again = plan_sweep(spec_with(axes), ".", "spec.json");
-  for (std::size_t i = 0; i < a.jobs.size(); ++i) CHECK(again.jobs[i].id == a.jobs[i].id);
+  for (std::size_t i = 0; i < a.size(); ++i) CHECK(again.ids[i] == a.ids[i]);
   // Writing a default explicitly changes nothing; a different eval option changes every id.
   json with_eval = spec_with(axes);
   with_eval["eval"] = {{"align", "se3"}};
   CHECK(ids(plan_sweep(with_eval, ".", "spec.json")) == ids(a));
   with_eval["eval"] = {{"align", "posyaw"}};
-  for (const auto& j : plan_sweep(with_eval, ".", "spec.json").jobs) CHECK(ids(a).count(j.id) == 0);
+  for (const auto& id : plan_sweep(with_eval, ".", "spec.json").ids) CHECK(ids(a).count(id) == 0);
   // One more seed: every old job keeps its id, 8 new ones; keep_indices keeps the old order first.
   json more = axes;
   more["seeds"] = {1, 2, 3};
   SweepPlan b = plan_sweep(spec_with(more), ".", "spec.json");
-  REQUIRE(b.jobs.size() == 24);
+  REQUIRE(b.size() == 24);
   const auto old_ids = ids(a);
   std::size_t shared = 0;
-  for (const auto& j : b.jobs) shared += old_ids.count(j.id);
-  CHECK(shared == a.jobs.size());
+  for (const auto& id : b.ids) shared += old_ids.count(id);
+  CHECK(shared == a.size());
   std::vector<std::string> order;
-  for (const auto& j : a.jobs) order.push_back(j.id);
+  for (const auto& id : a.ids) order.push_back(id);
   CHECK(keep_indices(b, order).empty());
-  for (std::size_t i = 0; i < order.size(); ++i) CHECK(b.jobs[i].id == order[i]);
+  for (std::size_t i = 0; i < order.size(); ++i) CHECK(b.ids[i] == order[i]);
   // A seed removed: the folder's job is reported as dropped.
   SweepPlan c = plan_sweep(spec_with(axes), ".", "spec.json");
   std::vector<std::string> b_order;
-  for (const auto& j : b.jobs) b_order.push_back(j.id);
+  for (const auto& id : b.ids) b_order.push_back(id);
   CHECK(keep_indices(c, b_order).size() == 8);
 }
 
@@ -89,11 +97,11 @@ TEST_CASE("sweep spec: output.level is an override like any run config key, full
   json axes = base;
   axes["overrides"] = {{"output.level", {"full", "minimal"}}};
   const SweepPlan p = plan_sweep(spec_with(axes), ".", "spec.json");
-  REQUIRE(p.jobs.size() == 2);
+  REQUIRE(p.size() == 2);
   // "full" is the default: its job is the one without the override (same content, same id).
-  CHECK(p.jobs[0].id == plan_sweep(spec_with(base), ".", "spec.json").jobs[0].id);
-  CHECK_FALSE(p.jobs[0].content["run_config"]["output"].contains("level"));
-  CHECK(p.jobs[1].content["run_config"]["output"]["level"] == "minimal");
+  CHECK(p.ids[0] == plan_sweep(spec_with(base), ".", "spec.json").ids[0]);
+  CHECK_FALSE(p.job(0).content["run_config"]["output"].contains("level"));
+  CHECK(p.job(1).content["run_config"]["output"]["level"] == "minimal");
   axes["overrides"] = {{"output.level", {"most"}}};
   CHECK_THAT(config_error(spec_with(axes)), Catch::Contains("axes.overrides") && Catch::Contains("output.level"));
 }
@@ -104,7 +112,7 @@ TEST_CASE("sweep spec: blocks share jobs, per-dataset seeds", "[app][sweep]") {
                                  {{"datasets", {{{"preset", "paper-seq4"}, {"seeds", {1, 2, 3}}}}},
                                   {"configs", {"paper"}}}});
   const SweepPlan p = plan_sweep(spec_with(axes), ".", "spec.json");
-  CHECK(p.jobs.size() == 4);
+  CHECK(p.size() == 4);
   CHECK(p.axis_names == std::vector<std::string>{"dataset", "seed", "config"});
 }
 
@@ -281,7 +289,7 @@ TEST_CASE("sweep spec: the job count is checked from the axes' sizes before anyt
   const json blocks = json::array({{{"datasets", {{{"preset", "paper-seq1"}, {"seeds", {1, 2, 3}}}, "paper-seq4"}},
                                     {"seeds", {1, 2}}, {"configs", {"default", "paper"}}},
                                    {{"datasets", {"paper-seq1"}}, {"detections", {"a", "b"}}}});
-  CHECK(plan_sweep(spec_with(blocks), ".", "spec.json", 12).jobs.size() == 12);  // (3 + 2) × 2 + 2
+  CHECK(plan_sweep(spec_with(blocks), ".", "spec.json", 12).size() == 12);  // (3 + 2) × 2 + 2
   CHECK_THROWS_AS(plan_sweep(spec_with(blocks), ".", "spec.json", 11), ConfigError);
   // Detection set names are one folder name; a duration the simulator refuses fails at plan time.
   CHECK_THAT(config_error(spec_with({{"datasets", {"paper-seq1"}}, {"detections", {"../x"}}})),
@@ -291,8 +299,8 @@ TEST_CASE("sweep spec: the job count is checked from the axes' sizes before anyt
 }
 
 TEST_CASE("sweep ids: only what plan_sweep makes is a job id", "[app][sweep][hostile]") {
-  for (const auto& j : plan_sweep(spec_with({{"datasets", {"paper-seq1"}}, {"seeds", {1, 2}}}), ".", "s").jobs)
-    CHECK(is_job_id(j.id));
+  for (const auto& id : plan_sweep(spec_with({{"datasets", {"paper-seq1"}}, {"seeds", {1, 2}}}), ".", "s").ids)
+    CHECK(is_job_id(id));
   for (const char* bad : {"", "../../victim", "/tmp/x", "0123456789ABCDEF", "0123456789abcde", "0123456789abcdef0",
                           "0123456789abcdeg"})
     CHECK_FALSE(is_job_id(bad));

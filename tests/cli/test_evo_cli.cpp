@@ -130,8 +130,12 @@ TEST_CASE("evo result files: --save_results writes one, --summary reads it besid
   const std::vector<std::string> arrays = {"error_array", "seconds_from_start", "timestamps", "distances_from_start",
                                            "distances", "alignment_transformation_sim3"};
   for (std::size_t k = 0; k < arrays.size(); ++k) CHECK(j["names"][2 + k] == arrays[k] + ".npy");
-  CHECK(j["names"][8] == gt.string() + ".tum");
-  CHECK(j["names"][9] == est.string() + ".tum");
+  // Absolute inputs: the members are named after the files (a ZIP member name is relative, APPNOTE 4.4.17),
+  // info.json keeps the paths as given (issue 51).
+  CHECK(j["names"][8] == gt.filename().string() + ".tum");
+  CHECK(j["names"][9] == est.filename().string() + ".tum");
+  CHECK(j["info"]["ref_name"] == gt.string());
+  CHECK(j["info"]["est_name"] == est.string());
   CHECK(j["info"]["title"] == "APE w.r.t. translation part (m)\n(with SE(3) Umeyama alignment)");
   CHECK(j["info"]["label"] == "APE (m)");
   CHECK(j["stats"]["rmse"].get<double>() == rep["ape_trans_m"]["rmse"].get<double>());

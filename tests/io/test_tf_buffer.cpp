@@ -94,6 +94,79 @@ TEST_CASE("tf buffer: errors list the frames and edges found", "[io][tf][bad]") 
   CHECK_THROWS_AS(b.add(edge("a", "a", 0, Pose()), false, "x"), InputError);
 }
 
+TEST_CASE("tf buffer: 200 000 edges as a deep chain, a star and unknown frames are resolved or refused, "
+          "listing a few", "[io][tf][hostile]") {
+  constexpr int kN = 200'000;
+  const auto f = [](const char* tag, int k) { return std::string(tag) + std::to_string(k); };
+  SECTION("a deep static chain f0 -> f1 -> ... composes every edge") {
+    io::TfBuffer b("deep.bag");
+    for (int k = 0; k < kN; ++k) b.add(edge(f("f", k), f("f", k + 1), 5, yaw(0.0, {1, 0, 0})), true, "s");
+    const auto traj = b.trajectory("f0", f("f", kN));
+    REQUIRE(traj.size() == 1);
+    CHECK(std::abs(traj[0].T.p.x() - kN) < 1e-6);
+    CHECK(std::abs(b.lookup(f("f", kN), "f0", 0)->p.x() + kN) < 1e-6);  // upwards: the inverse
+    CHECK(std::abs(b.lookup(f("f", 1000), f("f", 1500), 0)->p.x() - 500) < 1e-9);  // a common ancestor inside
+  }
+  SECTION("a deep dynamic chain, its stamps added out of order") {
+    io::TfBuffer b("deep.bag");
+    for (int k = kN - 1; k >= 0; --k) b.add(edge(f("f", k), f("f", k + 1), 7, yaw(0.0, {0, 1, 0})), false, "m");
+    const auto traj = b.trajectory("f0", f("f", kN));
+    REQUIRE(traj.size() == 1);
+    CHECK(traj[0].t_ns == 7);
+    CHECK(std::abs(traj[0].T.p.y() - kN) < 1e-6);
+  }
+  SECTION("a star of 200 000 children, two of them related through the root") {
+    io::TfBuffer b("star.bag");
+    for (int k = 0; k < kN; ++k) b.add(edge("root", f("c", k), 0, yaw(0.0, {double(k), 0, 0})), true, "s");
+    CHECK(std::abs(b.lookup("c3", f("c", kN - 1), 0)->p.x() - (kN - 1 - 3)) < 1e-9);
+    // An unknown frame: refused with the first frames named and the rest counted, not 200 000 names.
+    try {
+      (void)b.trajectory("root", "nope");
+      FAIL("an unknown frame was accepted");
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      CHECK(m.find("no frame \"nope\"") != std::string::npos);
+      CHECK(m.find("(200001 frames in all)") != std::string::npos);
+      CHECK(m.find("and 199980 more edges") != std::string::npos);
+      CHECK(m.size() < 4000);
+    }
+  }
+  SECTION("200 000 frames in pairs that are not connected") {
+    io::TfBuffer b("pairs.bag");
+    for (int k = 0; k < kN; k += 2) b.add(edge(f("p", k), f("p", k + 1), 0, Pose()), true, "s");
+    CHECK_THROWS_WITH(b.trajectory("p0", "p3"), Catch::Contains("not connected") && Catch::Contains("frames in all"));
+  }
+}
+
+TEST_CASE("tf buffer: a cycle is refused naming its frames, an empty frame id naming the field",
+          "[io][tf][bad][hostile]") {
+  io::TfBuffer b("cycle.bag");
+  b.add(edge("a", "b", 0, Pose()), true, "msg 1");
+  b.add(edge("b", "c", 0, Pose()), true, "msg 2");
+  b.add(edge("c", "a", 0, Pose()), true, "msg 3");
+  b.add(edge("world", "x", 0, Pose()), true, "msg 4");
+  CHECK_THROWS_WITH(b.trajectory("a", "b"), Catch::Contains("cycle: b -> c -> a -> b") && Catch::Contains("msg 1"));
+  CHECK_THROWS_WITH(b.lookup("x", "c", 0), Catch::Contains("cycle: a -> b -> c -> a"));
+  CHECK(b.lookup("world", "x", 0));  // a chain that does not touch the cycle is answered
+  ros::StampedTransform empty_child = edge("world", "", 0, Pose());
+  CHECK_THROWS_WITH(b.add(empty_child, false, "msg 9"), Catch::Contains("msg 9") && Catch::Contains("child_frame_id"));
+  CHECK_THROWS_WITH(b.add(edge("", "x", 0, Pose()), false, "msg 10"), Catch::Contains("header.frame_id"));
+}
+
+TEST_CASE("tf buffer: stamps added out of order are sorted, a repeated stamp keeps the first transform",
+          "[io][tf]") {
+  io::TfBuffer b("order.bag");
+  b.add(edge("map", "odom", 2'000'000'000, yaw(0.0, {2, 0, 0})), false, "m1");
+  b.add(edge("map", "odom", 0, yaw(0.0, {0, 0, 0})), false, "m2");
+  b.add(edge("map", "odom", 2'000'000'000, yaw(0.0, {9, 9, 9})), false, "m3");  // repeated: ignored
+  b.add(edge("map", "odom", 1'000'000'000, yaw(0.0, {1, 0, 0})), false, "m4");
+  const auto traj = b.trajectory("map", "odom");
+  REQUIRE(traj.size() == 3);
+  CHECK(traj[0].t_ns == 0);
+  CHECK(traj[2].T.p.x() == 2.0);
+  CHECK(std::abs(b.lookup("map", "odom", 1'500'000'000)->p.x() - 1.5) < 1e-12);
+}
+
 TEST_CASE("tf buffer: the real Nav2 bag's map -> base_link and map -> imu_link equal the chains composed by hand",
           "[io][tf][ros2][real]") {
   const fs::path bag = fs::path(ROE_SHARED_DATA_DIR) / "rosbag2/nav2_turtlebot.mcap";

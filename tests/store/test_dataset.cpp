@@ -804,13 +804,16 @@ TEST_CASE("output: StagedFiles puts files in place only at commit, and cleans up
   // A rename that fails part-way (the last final path is a non-empty folder): the earlier renames are
   // undone, the replaced file is back, the added file gone, and no temporary or backup is left.
   {
-    io::write_file_atomic(ds / "blocked/inside.txt", "x");
-    const auto before_fail = listing(ds);
+    std::vector<std::string> before_fail;
     {
       io::StagedFiles st;
       io::write_file_atomic(st.stage(ds / "mav0/mocap0/data.csv"), "poses 2");
       io::write_file_atomic(st.stage(ds / "mav0/mocap0/extra.csv"), "extra");
       io::write_file_atomic(st.stage(ds / "blocked"), "a file where a folder is");
+      // The folder appears after stage() (which refuses one at once: the output rule, issue 51).
+      io::write_file_atomic(ds / "blocked/inside.txt", "x");
+      for (const auto& n : listing(ds))
+        if (n.find(".tmp-") == std::string::npos) before_fail.push_back(n);  // the staged temporaries go
       const auto e = expect_input_error([&] { st.commit(); });
       CHECK_THAT(e.what(), Catch::Contains("nothing was changed"));
       CHECK_THAT(e.what(), Catch::Contains("blocked"));

@@ -159,3 +159,30 @@ TEST_CASE("run.json: the dataset a run read is inputs.dataset_abs, else inputs.d
   fs::remove(rel / "roe.json");
   CHECK(!find_run_dataset(r));
 }
+
+TEST_CASE("run.json: a config without one of its sections or keys, and a detection σ scale the filter never writes, "
+          "are refused naming the key", "[store][run_json][hostile]") {
+  const test::TempDir tmp("roe_run_record");
+  const fs::path file = tmp.path / "run.json";
+  const auto refused = [&](const std::function<void(io::json&)>& edit) {
+    io::json j = run_record_to_json(full_record());
+    edit(j);
+    std::ofstream(file) << io::dump_json(j, 2);
+    return test::expect_input_error([&] { read_run_json(file); });
+  };
+  CHECK(refused([](io::json& j) { j["config"].erase("filter"); }).context().key == "config.filter");
+  CHECK(refused([](io::json& j) { j["config"]["filter"].erase("min_score"); }).context().key ==
+        "config.filter.min_score");
+  CHECK(refused([](io::json& j) { j["config"].erase("health"); }).context().key == "config.health");
+  for (const io::json bad : {io::json(0.0), io::json(-1.0), io::json(nullptr), io::json(1e308), io::json(8.5),
+                             io::json(0.1)}) {
+    const auto e = refused([&](io::json& j) { j["detection_sigmas"]["final_scale"] = bad; });
+    CHECK(e.context().key == "detection_sigmas.final_scale");
+  }
+  // The filter's own bounds are read: σ scale 1/8 and 8 (variance 1/64 and 64).
+  for (const double ok : {0.125, 8.0, 1.0}) {
+    io::json j = run_record_to_json(full_record());
+    j["detection_sigmas"]["final_scale"] = ok;
+    CHECK(run_record_from_json(j, "run.json").detection_sigmas.final_scale == ok);
+  }
+}

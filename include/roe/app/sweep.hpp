@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -43,10 +44,26 @@ struct SweepJob {
 /// hand-edited jobs.jsonl can never make a job folder path leave the sweep.
 bool is_job_id(const std::string& id);
 
+/// A spec expanded into jobs: their ids in order, each job made from the spec on demand by job(i). A job holds
+/// its whole run config (a few KB of JSON), so 100 000 jobs (the default limit) are never all in memory: roe
+/// sweep plan streams them into jobs.jsonl (issue 51: its own limit within 300 MB).
 struct SweepPlan {
-  nlohmann::json spec;                 ///< the spec as read
+  nlohmann::json spec;                  ///< the spec as read
   std::vector<std::string> axis_names;  ///< in table order
-  std::vector<SweepJob> jobs;          ///< in spec order, duplicates (same id) removed
+  std::vector<std::string> ids;         ///< the jobs' ids: in spec order, duplicates (same id) removed
+  std::size_t size() const { return ids.size(); }
+  /// Job `i` (its id is ids[i]).
+  SweepJob job(std::size_t i) const;
+
+  struct Expansion;  ///< what the jobs are made from (plan_sweep's source file)
+  /// Job k is made from block `block`: dataset, seed (when `has_seed`), config variant and detection set.
+  struct Recipe {
+    std::uint32_t block = 0, dataset = 0, variant = 0, detections = 0;
+    std::int64_t seed = 0;
+    bool has_seed = false;
+  };
+  std::shared_ptr<const Expansion> expansion;
+  std::vector<Recipe> recipes;  ///< parallel to ids
 };
 
 /// Expands a spec (JSON as parsed) into jobs. `spec_dir` resolves relative dataset and config paths;

@@ -39,7 +39,7 @@ void write_evo_result(const std::filesystem::path& zip, const EvoResult& r);
 /// (when aligned) and both matched trajectories as TUM text named after `ref_name` / `est_name`.
 EvoResult evo_ape_result(const eval::Report& rep, const std::string& ref_name, const std::string& est_name);
 
-/// True when the file starts like a ZIP archive (a local file header).
+/// True when the file starts like a ZIP archive (a local file header, or the end record of an empty one).
 bool looks_like_zip(const std::filesystem::path& file);
 
 }  // namespace roe::io

@@ -34,6 +34,10 @@ using json = nlohmann::json;
 json parse_json_file(const std::filesystem::path& path);
 /// Parses JSON text; `source` names it in errors.
 json parse_json_text(const std::string& text, const std::string& source);
+
+/// The text of an nlohmann::json exception without its "[json.exception.type_error.302] " tag, for a message a
+/// user reads ("type must be number, but is null").
+std::string json_error_text(const std::exception& e);
 /// Where the value at `key_path` ("camera.fx", "objects[2].T_W_O.q") is in the JSON `text`: the 1-based
 /// line and column of its key (object members) or of the element itself (array elements); {0, 0}
 /// when the path is not in the text. With `last_occurrence`, a key given twice in its object is found at

@@ -20,6 +20,25 @@ namespace roe::io {
 
 namespace fs = std::filesystem;
 
+/// What an output path is written as: one file (replaced by a rename) or one folder (renamed into place).
+enum class OutputKind { file, folder };
+
+/// The one rule for an output path that already exists, for every command that writes: a file output
+/// replaces only a regular file, a folder output only a folder. Anything else there (a device node, a FIFO,
+/// a socket, a folder where a file is written, a file where a folder is) is refused with roe::InputError
+/// (exit 2) whatever --force says, and left untouched: `--out /dev/null --force` never replaces the
+/// machine's /dev/null with a regular file. Symlinks are followed (a link to a device is a device; a dangling
+/// link is not an existing output). Nothing is opened, so a FIFO never blocks. `what` names the output in
+/// the message ("--save_results file"). AtomicFile, OutputDir and StagedFiles apply it when they start and
+/// again just before their rename; commands call check_file_output / OutputDir::check before any work.
+void refuse_special_output(const fs::path& out, OutputKind kind, const std::string& what = "output");
+
+/// The refusals of a file output, creating nothing, for a command that checks its output before its work:
+/// refuse_special_output, then an existing file without `force`, then an output that is one of `inputs`
+/// or contains one (refuse_overwriting_inputs).
+void check_file_output(const fs::path& out, bool force, const std::vector<fs::path>& inputs = {},
+                       const std::string& what = "output file");
+
 class OutputDir {
  public:
   /// Throws roe::InputError if `final_dir` exists, is non-empty and force is false, or exists and is

@@ -19,6 +19,7 @@
 /// full 6x6 covariance `cov` (= `covariance`) of (t, v) in m², m·rad, rad².
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <limits>
@@ -67,6 +68,13 @@ struct PoetImageResult {
 struct PoetResults {
   std::vector<PoetImageResult> images;  ///< in file order
 };
+
+/// Per-image limits of a results.json (docs/infer.md, "Per-image limits"): the file is read one image's entry
+/// at a time, so memory is bounded by the largest entry; an entry with more detections, or more JSON values in
+/// all (a detection with a 6x6 covariance is about 80), is refused with its line and column. PoET writes at
+/// most one detection per query of its transformer (tens), far below these.
+constexpr std::size_t kMaxPoetDetectionsPerImage = 10'000;
+constexpr std::size_t kMaxPoetValuesPerImage = 1'000'000;
 
 /// Parses the text of a results.json. `source` names it in errors (roe::InputError with line and
 /// column): syntax errors, wrong shapes, non-integer indices or classes, class < 1, duplicate keys

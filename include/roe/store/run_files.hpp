@@ -32,6 +32,7 @@
 
 #include "roe/core/types.hpp"
 #include "roe/ekf/filter.hpp"
+#include "roe/ekf/images.hpp"
 #include "roe/ekf/imu.hpp"
 #include "roe/eval/evaluate.hpp"
 
@@ -116,5 +117,12 @@ std::vector<ObjectRow> read_objects_csv(const fs::path& file);
 /// detection had no object-world: T_W_I.p is then nan), otherwise the quaternion must be unit within
 /// 0.05; nis may be empty, nan, or its column absent (nan). Stamps must not decrease.
 std::vector<eval::DetectionPose> read_reprojection_csv(const fs::path& file);
+
+/// The rows of a run's reprojection.csv against the detections the run read (grouped per image in the IMU
+/// clock, ekf::group_images): roe run writes exactly one row per detection, so a detection without its row or
+/// a row without its detection means the file is not this run's (shifted, truncated, header only, another
+/// run's). roe::InputError naming `file`, the first such (time, object) and how many there are.
+void check_reprojection_rows(const std::vector<eval::DetectionPose>& rows,
+                             const std::vector<ekf::ImageDetections>& images, const fs::path& file);
 
 }  // namespace roe::store

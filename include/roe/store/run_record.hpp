@@ -81,11 +81,14 @@ struct RunInit {
   std::string gyro_bias_rest_refused;     ///< why not from rest (key absent when empty)
 };
 
-/// run.json "detection_sigmas".
+/// run.json "detection_sigmas". final_scale is the factor on the detections' σ the filter ended with: the
+/// square root of its variance scale, which it keeps within [1/64, 64] (ekf::Filter::learn_sigma_scale), so
+/// the reader refuses anything outside [1/8, 8] (0, negative, null, 1e308) before a command uses it.
 struct DetectionSigmasRecord {
   bool present = false, used = false;
   double final_scale = 1.0;
 };
+inline constexpr double kMinDetectionSigmaScale = 1.0 / 8.0, kMaxDetectionSigmaScale = 8.0;
 
 /// One object of run.json "final.objects".
 struct FinalObject {

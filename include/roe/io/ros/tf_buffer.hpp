@@ -12,10 +12,20 @@
 ///
 /// Decisions (tf2 keeps the last parent a frame was given; a recording that re-parents a frame is
 /// ambiguous): a frame with two parents, or with a static and a dynamic edge, is refused when a chain
-/// needs it, naming both edges. Repeated stamps of one edge keep the first transform (as every roe
-/// reader keeps the first pose of a repeated stamp).
+/// needs it, naming both edges; so is a cycle (a -> b -> c -> a), naming its frames in order. Repeated
+/// stamps of one edge keep the first transform (as every roe reader keeps the first pose of a repeated
+/// stamp).
+///
+/// Cost (issue 51): adding is O(log n) per transform and a lookup walks each frame of the chain once
+/// (hash maps from frame to its edges), so any number of frames and edges costs n log n; the listings
+/// in errors name the first kListed frames and edges, then a count. A run of static edges is composed once;
+/// a trajectory interpolates every dynamic edge of the chain at every output stamp: more than
+/// kMaxCompositions of those is refused, naming both numbers.
 
+#include <cstddef>
 #include <optional>
+#include <unordered_map>
+#include <unordered_set>
 #include <utility>
 #include <string>
 #include <vector>
@@ -50,23 +60,46 @@ class TfBuffer {
   /// time, with their time ranges).
   std::vector<StampedPose> trajectory(const std::string& parent, const std::string& child) const;
 
+ public:
+  /// Frames and edges listed by name in an error message; the rest are counted.
+  static constexpr std::size_t kListed = 20;
+  /// Output stamps × dynamic edges of the chain a trajectory may compose.
+  static constexpr std::size_t kMaxCompositions = 50'000'000;
+
  private:
   struct Edge {
     std::string parent, child;
     bool is_static = false;
-    std::vector<StampedPose> samples;  ///< T_parent_child, sorted by stamp (one for a static edge)
+    std::vector<StampedPose> samples;  ///< T_parent_child (one for a static edge); sorted by settle()
+    bool sorted = true;                ///< samples are sorted by stamp with no repeated stamp
     std::string where;                 ///< where the edge was first seen (a message)
   };
+  using Step = std::pair<const Edge*, bool>;
+  /// Sorts the samples of every edge added to out of order (a repeated stamp keeps the first transform).
+  void settle() const;
   /// The edges that end at `child` (one, unless the recording re-parents it).
-  std::vector<const Edge*> edges_to(const std::string& child) const;
+  const std::vector<std::size_t>& edges_to(const std::string& child) const;
+  /// The edges from `frame` up to its root; InputError on a second parent or a cycle on the way.
+  std::vector<const Edge*> up(const std::string& frame, const std::string& parent, const std::string& child) const;
   /// The chain PARENT → CHILD: the edges walked down from the common ancestor (true) or up (false).
-  std::vector<std::pair<const Edge*, bool>> chain(const std::string& parent, const std::string& child) const;
+  std::vector<Step> chain(const std::string& parent, const std::string& child) const;
   std::string found_listing() const;
-  /// T_parent_child along `steps` at `t_ns`; nullopt where a dynamic edge does not cover it.
-  static std::optional<Pose> compose(const std::vector<std::pair<const Edge*, bool>>& steps, Timestamp t_ns);
+  /// A step of a chain to compose: a dynamic edge (inverted unless `forward`), or, with `dynamic` null, a run
+  /// of static edges composed once into `fixed`.
+  struct Link {
+    const Edge* dynamic = nullptr;
+    bool forward = true;
+    Pose fixed;
+  };
+  static std::vector<Link> fold(const std::vector<Step>& steps);
+  /// T_parent_child along `links` at `t_ns`; nullopt where a dynamic edge does not cover it.
+  static std::optional<Pose> compose(const std::vector<Link>& links, Timestamp t_ns);
 
   std::string source_;
-  std::vector<Edge> edges_;  ///< in the order first seen
+  mutable std::vector<Edge> edges_;  ///< in the order first seen (mutable: settle() sorts samples)
+  std::unordered_map<std::string, std::size_t> index_;             ///< "parent\0child\0static" → edge
+  std::unordered_map<std::string, std::vector<std::size_t>> to_;   ///< child → its edges
+  std::unordered_set<std::string> frames_;                         ///< every frame seen
 };
 
 }  // namespace roe::io
