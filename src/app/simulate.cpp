@@ -361,6 +361,7 @@ struct GroundTruthInput {
   std::string layout;
   bool pose_only = false;
   std::optional<ImuNoise> imu_noise;  ///< from imu0/sensor.yaml (EuRoC's keys = Kalibr's imu.yaml keys)
+  std::filesystem::path imu_yaml;     ///< where imu_noise came from
 };
 
 /// The names of a stream file's header line (the first line, '#' and blanks trimmed, units kept).
@@ -404,6 +405,21 @@ std::pair<std::filesystem::path, std::filesystem::path> loose_streams(const std:
                    {dir.string()});
 }
 
+/// A download's IMU noise: the one YAML file beside its streams that reads as a Kalibr IMU file (TUM-VI's
+/// imu_config.yaml, a Kalibr imu.yaml); empty when there is none or more than one.
+std::filesystem::path download_imu_yaml(const std::filesystem::path& dir) {
+  std::vector<std::filesystem::path> found;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    if (!e.is_regular_file() || e.path().extension() != ".yaml") continue;
+    try {
+      (void)io::read_kalibr_imu(e.path());
+      found.push_back(e.path());
+    } catch (const std::exception&) {  // not an IMU file: another YAML of the download
+    }
+  }
+  return found.size() == 1 ? found.front() : std::filesystem::path();
+}
+
 GroundTruthInput read_groundtruth_input(const std::filesystem::path& dir) {
   GroundTruthInput in;
   in.mav0 = io::is_folder(dir / "mav0") ? dir / "mav0" : dir;
@@ -427,8 +443,9 @@ GroundTruthInput read_groundtruth_input(const std::filesystem::path& dir) {
                                  candidates[0].string(), candidates[1].string()),
                      {in.mav0.string()});
   in.imu = store::read_imu_csv(in.imu_file);
-  if (const auto yaml = in.mav0 / "imu0" / "sensor.yaml"; io::path_exists(yaml))
-    in.imu_noise = io::read_kalibr_imu(yaml).noise;
+  in.imu_yaml = in.mav0 / "imu0" / "sensor.yaml";
+  if (!download.empty()) in.imu_yaml = download_imu_yaml(dir);
+  if (!in.imu_yaml.empty() && io::path_exists(in.imu_yaml)) in.imu_noise = io::read_kalibr_imu(in.imu_yaml).noise;
   store::GroundTruthFile gt = store::read_groundtruth_file(in.gt_file);
   in.layout = gt.layout + download;
   in.pose_only = gt.pose_only();
@@ -481,7 +498,7 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
     src.options["groundtruth"] = io::provenance_path(in.gt_file);
     src.options["groundtruth_sha256"] = io::sha256_file(in.gt_file);
     src.options["groundtruth_layout"] = in.layout;
-    src.options["imu_noise"] = in.imu_noise ? io::provenance_path(in.mav0 / "imu0" / "sensor.yaml")
+    src.options["imu_noise"] = in.imu_noise ? io::provenance_path(in.imu_yaml)
                                             : std::string("EuRoC ADIS16448 sensor.yaml values (no imu0/sensor.yaml)");
     if (in.pose_only) {
       src.options["groundtruth_velocity"] = fmt::format(

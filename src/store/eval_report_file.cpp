@@ -169,8 +169,9 @@ void fields(A& a, ReportTimeOffset& o) {
   a.fixed("definition",
           "t_gt = t_est + offset_s (added to the estimate stamps, evo's --t_offset); coarse: peak of the normalised "
           "cross-correlation of the two trajectories' angular-rate magnitudes; refined: Gauss-Newton minimum of the "
-          "aligned position residuals with the ground truth interpolated at t_est + offset, the alignment re-fitted "
-          "at each step; sigma_s from the curvature of that cost, corrected for the residuals' autocorrelation");
+          "aligned position and orientation residuals (each block weighted by its effective samples over its "
+          "variance) with the ground truth interpolated at t_est + offset, the alignment re-fitted at each step; "
+          "sigma_s from the curvature of that cost");
 }
 
 template <class A>

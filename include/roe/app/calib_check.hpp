@@ -41,7 +41,8 @@ struct CalibCheckResult {
 
   /// 0 pass, 1 a failed check (or, strict, an inconclusive one, or no check that could judge).
   int exit_code() const;
-  /// Some check passed, failed or was within its σ: the run was judged. False when every check was skipped,
+  /// Some calibration check (not dataset.identity, which checks the files) passed, failed or was within its σ:
+  /// the run was judged. False when every check was skipped,
   /// inconclusive or unobservable (a `roe run --output minimal` folder has nothing to check): the verdict is
   /// then "NOT JUDGED", never "PASS".
   bool judged() const;

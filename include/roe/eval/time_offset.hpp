@@ -18,7 +18,7 @@ namespace roe::eval {
 /// The estimate–ground-truth clock offset (`roe eval --t-offset auto`).
 struct TrajectoryOffset {
   double offset_s = 0.0;  ///< t_gt = t_est + offset_s (evo's --t_offset: added to the estimate stamps)
-  /// 1σ of offset_s from the APE refinement's curvature, with the residuals' autocorrelation
+  /// 1σ of offset_s from the refinement's curvature, with the residuals' autocorrelation
   /// (effective_sample_fraction) taken into account; nan when the refinement did not run.
   double sigma_s = 0.0;
   math::RateCorrelation coarse;       ///< the angular-rate correlation
@@ -29,10 +29,12 @@ struct TrajectoryOffset {
   double ape_rmse_m = 0.0;  ///< APE translation RMSE at offset_s (interpolated ground truth, refinement's alignment)
 };
 
-/// Coarse offset by correlate_rates (the denser track binned, the other interpolated), refined by
-/// Gauss–Newton on the aligned position residuals with the ground truth interpolated at t_est + offset
-/// (d r / d offset = −v_gt), the alignment (`align`, se3 / sim3 / posyaw; others use se3) re-fitted at
-/// each step. DataError when the tracks do not overlap or carry no rotation.
+/// Coarse offset by math::correlate_rates (the denser track binned, the other interpolated), refined by
+/// Gauss–Newton on two blocks of residuals with the ground truth interpolated at t_est + offset: the aligned
+/// positions (d r / d offset = −v_gt) and the orientations with the two bodies' mean rotation removed
+/// (d r / d offset = −ω_gt, the body rate), each block weighted by its effective samples over its residual
+/// variance; the alignment (`align`: se3, sim3 or posyaw; others use se3) re-fitted at each step. σ from the
+/// curvature of that weighted cost. DataError when the tracks do not overlap or carry no rotation.
 TrajectoryOffset estimate_trajectory_offset(const std::vector<Timestamp>& est_t, const std::vector<Pose>& est,
                                             const std::vector<Timestamp>& gt_t, const std::vector<Pose>& gt,
                                             AlignType align, double max_offset_s = 1.0);
