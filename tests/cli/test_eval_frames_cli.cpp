@@ -80,7 +80,7 @@ bool python_numpy() { return roe::test::run_shell("/usr/bin/python3 -c 'import n
 
 }  // namespace
 
-TEST_CASE("--kitti equals a devkit-style computation on KITTI 00 S-PTAM", "[cli][eval][kitti][real]") {
+TEST_CASE("roe eval --kitti equals a devkit-style computation on KITTI 00 S-PTAM", "[cli][eval][kitti][real]") {
   const fs::path gt = kData / "evo_results/KITTI_00_gt.txt", est = kData / "evo_results/KITTI_00_SPTAM.txt";
   if (!fs::exists(gt)) {
     WARN("skipped: " << gt << " is absent");
@@ -97,7 +97,7 @@ TEST_CASE("--kitti equals a devkit-style computation on KITTI 00 S-PTAM", "[cli]
   CHECK(none["kitti"]["t_rel_pct"].get<double>() == Approx(rep["kitti"]["t_rel_pct"].get<double>()).epsilon(1e-9));
 }
 
-TEST_CASE("--save_results with --rpe-delta writes evo's RPE zip, equal to evo's own", "[cli][eval][evo][real]") {
+TEST_CASE("roe eval --save_results with --rpe-delta writes evo's RPE zip, equal to evo's own", "[cli][eval][evo][real]") {
   const fs::path gt = kData / "evo_results/KITTI_00_gt.txt", est = kData / "evo_results/KITTI_00_SPTAM.txt";
   const fs::path evo_zip = kData / "evo_results/sptam_rpe.zip";
   if (!fs::exists(evo_zip) || !python_numpy()) {
@@ -220,7 +220,7 @@ TEST_CASE("a TUM-VI download (IMU and mocap files side by side) is read by simul
   CHECK_THAT(bad.out, Catch::Contains("found 2 IMU and 0 ground-truth files"));
 }
 
-TEST_CASE("--summary reads evo's own APE and RPE zips: one row per estimator, evo_res's statistics", "[cli][eval][evo][real]") {
+TEST_CASE("roe eval --summary reads evo's own APE and RPE zips: one row per estimator, evo_res's statistics", "[cli][eval][evo][real]") {
   const fs::path ape = kData / "evo_results/sptam_ape.zip", rpe = kData / "evo_results/sptam_rpe.zip";
   if (!fs::exists(ape)) {
     WARN("skipped: " << ape << " is absent");
