@@ -327,11 +327,11 @@ json common_settings(const std::vector<Row>& rows, const std::vector<std::string
         same = same && rows[i].settings[st.key] == *first;
         list += fmt::format("{}run {} {}", list.empty() ? "" : ", ", i + 1, setting_text(rows[i].settings[st.key]));
       }
-      if (!same) differ += fmt::format("{}{} ({})", differ.empty() ? "" : "; ", st.name, list);
+      if (!same) differ += fmt::format("{}different {} ({})", differ.empty() ? "" : "; ", st.name, list);
     }
     if (!differ.empty())
-      warnings.push_back(fmt::format("the reports{} were made with different settings: {}: the mean and std mix "
-                                     "results that are not comparable",
+      warnings.push_back(fmt::format("the reports{} were made with {}: the mean and std mix results that are not "
+                                     "comparable",
                                      groups.size() > 1 ? " of " + g : std::string(), differ));
   }
   return common;
@@ -540,7 +540,7 @@ std::string summary_csv(const Table& t) {
   }
   for (const GroupStats& g : t.groups)
     for (const auto& [name, vals] : {std::pair{"mean", &g.mean}, std::pair{"std", &g.sd}}) {
-      w.add(name).add(g.group).add_empty().add_empty().add_empty();
+      w.add(name).add(t.groups.size() > 1 ? g.group : std::string()).add_empty().add_empty().add_empty();
       for (double v : *vals) std::isnan(v) ? w.add_empty() : w.add(v);
       for (std::size_t k = 0; k < std::size(kSettings); ++k) w.add_empty();
       w.end_row();
