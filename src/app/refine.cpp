@@ -247,8 +247,8 @@ std::vector<store::ReprojectionRow> refined_reprojection(const refine::RefineRes
   return rows;
 }
 
-/// The solve as run.json records it (its "refine" block; the correlated-error model of docs/refine.md §2b
-/// with the autocovariance it was fitted to).
+/// The solve as run.json records it (its "refine" block; the detection-error model of docs/refine.md §2
+/// the last solve whitened with).
 store::RefineRecord refine_record(const refine::RefineResult& r, const refine::RefineOptions& o) {
   const refine::SolveReport& s = r.report;
   store::RefineRecord rec;
@@ -257,10 +257,13 @@ store::RefineRecord refine_record(const refine::RefineResult& r, const refine::R
   rec.max_iterations = o.max_iterations;
   rec.linear_solver = o.linear_solver;
   rec.covariance = o.covariance;
-  rec.correlated_errors = o.correlated_errors;
+  rec.tau_s_option = o.tau_s;
+  rec.fit_rounds = o.fit_rounds;
+  rec.gross_chi2 = o.gross_chi2;
+  rec.imu_noise_scale = o.imu_noise_scale;
   const refine::DetectionErrorModel& m = s.error_model;
-  rec.error_model = {m.correlated, m.tau_s, m.sigma_bias, m.sigma_white, {}};
-  for (const auto& b : m.autocovariance) rec.error_model.autocovariance.push_back({b.lag_s, b.cov, b.pairs});
+  rec.error_model = {m.tau_s, m.scale_translation, m.scale_rotation, m.whitened_lag1, m.used, m.gross, m.fitted_tau};
+  rec.solves = s.solves;
   rec.nodes = s.nodes;
   rec.imu_factors = s.imu_factors;
   rec.detection_factors = s.detection_factors;

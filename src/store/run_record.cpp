@@ -109,21 +109,25 @@ json imu_noise_json(const ekf::ImuNoiseParams& n, const std::array<std::string, 
 
 json refine_json(const RefineRecord& r) {
   const RefineRecord::ErrorModel& m = r.error_model;
-  json ac = json::array();
-  for (const auto& b : m.autocovariance) ac.push_back({{"lag_s", b.lag_s}, {"cov", b.cov}, {"pairs", b.pairs}});
   return {{"options",
            {{"loss", r.loss},
             {"loss_scale", r.loss_scale},
             {"max_iterations", r.max_iterations},
             {"linear_solver", r.linear_solver},
             {"covariance", r.covariance},
-            {"correlated_errors", r.correlated_errors}}},
+            {"tau_s", r.tau_s_option},
+            {"fit_rounds", r.fit_rounds},
+            {"gross_chi2", r.gross_chi2},
+            {"imu_noise_scale", r.imu_noise_scale}}},
           {"detection_error_model",
-           {{"correlated", m.correlated},
-            {"tau_s", m.tau_s},
-            {"sigma_bias", m.sigma_bias},
-            {"sigma_white", m.sigma_white},
-            {"autocovariance", ac}}},
+           {{"tau_s", m.tau_s},
+            {"fitted_tau", m.fitted_tau},
+            {"scale_translation", m.scale_translation},
+            {"scale_rotation", m.scale_rotation},
+            {"whitened_lag1", m.whitened_lag1},
+            {"used", m.used},
+            {"gross", m.gross}}},
+          {"solves", r.solves},
           {"nodes", r.nodes},
           {"imu_factors", r.imu_factors},
           {"detection_factors", r.detection_factors},
@@ -337,30 +341,25 @@ void read_refine(JsonObject o, RefineRecord& r) {
     req(p, "max_iterations", r.max_iterations);
     req(p, "linear_solver", r.linear_solver);
     req(p, "covariance", r.covariance);
-    req(p, "correlated_errors", r.correlated_errors);
+    num(p, "tau_s", r.tau_s_option);
+    req(p, "fit_rounds", r.fit_rounds);
+    num(p, "gross_chi2", r.gross_chi2);
+    num(p, "imu_noise_scale", r.imu_noise_scale);
     p.finish();
   }
   {
     JsonObject m = req_child(o, "detection_error_model");
     RefineRecord::ErrorModel& e = r.error_model;
-    req(m, "correlated", e.correlated);
     num(m, "tau_s", e.tau_s);
-    num(m, "sigma_bias", e.sigma_bias);
-    num(m, "sigma_white", e.sigma_white);
-    if (!m.has("autocovariance")) fail(m, "autocovariance", "missing key");
-    const json& a = *m.raw("autocovariance");
-    if (!a.is_array()) fail(m, "autocovariance", "expected an array");
-    for (std::size_t i = 0; i < a.size(); ++i) {
-      JsonObject b(a[i], o.source(), fmt::format("refine.detection_error_model.autocovariance[{}]", i));
-      RefineRecord::ErrorModel::Bin bin;
-      num(b, "lag_s", bin.lag_s);
-      num(b, "cov", bin.cov);
-      req(b, "pairs", bin.pairs);
-      b.finish();
-      e.autocovariance.push_back(bin);
-    }
+    req(m, "fitted_tau", e.fitted_tau);
+    num(m, "scale_translation", e.scale_translation);
+    num(m, "scale_rotation", e.scale_rotation);
+    num(m, "whitened_lag1", e.whitened_lag1);
+    req(m, "used", e.used);
+    req(m, "gross", e.gross);
     m.finish();
   }
+  req(o, "solves", r.solves);
   for (const auto& [key, field] : {std::pair{"nodes", &RefineRecord::nodes}, std::pair{"imu_factors", &RefineRecord::imu_factors},
                                    std::pair{"detection_factors", &RefineRecord::detection_factors},
                                    std::pair{"detections_weight_below_half", &RefineRecord::detections_weight_below_half},

@@ -63,9 +63,11 @@ RunRecord refine_record() {
   r.refine->linear_solver = "sparse_normal_cholesky";
   r.refine->loss_scale = 3.5;
   r.refine->max_iterations = 50;
-  r.refine->error_model.correlated = true;
+  r.refine->fit_rounds = 2;
+  r.refine->error_model.fitted_tau = true;
   r.refine->error_model.tau_s = std::numeric_limits<double>::quiet_NaN();  // written as null, read as NaN
-  r.refine->error_model.autocovariance = {{0.0, 1.0, 100}, {0.5, 0.4, 80}};
+  r.refine->error_model.scale_rotation = 0.3;
+  r.refine->error_model.gross = 80;
   r.refine->nodes = 61;
   r.refine->termination = "CONVERGENCE";
   r.refine->input_run = "run";
@@ -85,7 +87,8 @@ TEST_CASE("run.json: write, read and write again give the same text, every field
   }
   const RunRecord back = run_record_from_json(io::json::parse(format_run_json(refine_record())), "x");
   CHECK(std::isnan(back.refine->error_model.tau_s));
-  CHECK(back.refine->error_model.autocovariance.at(1).pairs == 80);
+  CHECK(back.refine->error_model.gross == 80);
+  CHECK(back.refine->error_model.scale_rotation == 0.3);
   CHECK(back.counts.per_object.at(12).rejected_chi2 == 2);
   CHECK(back.relocks.at(0).drift_per_s.z() == -0.03);
   CHECK(back.inputs.config_abs == "/abs/c.json");

@@ -111,19 +111,17 @@ struct RefineRecord {
   std::string loss, linear_solver;
   double loss_scale = 0.0;
   int max_iterations = 0;
-  bool covariance = false, correlated_errors = false;
-  struct ErrorModel {
-    bool correlated = false;
-    double tau_s = 0.0, sigma_bias = 0.0, sigma_white = 1.0;
-    struct Bin {
-      double lag_s = 0.0, cov = 0.0;
-      std::size_t pairs = 0;
-    };
-    std::vector<Bin> autocovariance;
+  bool covariance = false;
+  double tau_s_option = -1.0, gross_chi2 = 0.0, imu_noise_scale = 1.0;  ///< options.tau_s (−1: fitted), …
+  int fit_rounds = 0;
+  struct ErrorModel {  ///< refine::DetectionErrorModel (docs/refine.md §2)
+    double tau_s = 0.0, scale_translation = 1.0, scale_rotation = 1.0, whitened_lag1 = 0.0;
+    std::size_t used = 0, gross = 0;
+    bool fitted_tau = false;
   } error_model;  ///< "detection_error_model"
   std::size_t nodes = 0, imu_factors = 0, detection_factors = 0, detections_weight_below_half = 0,
               parameters = 0, residuals = 0;
-  int iterations = 0;
+  int iterations = 0, solves = 0;
   double initial_cost = 0.0, final_cost = 0.0;
   std::string termination;
   bool covariance_ok = false;
