@@ -126,6 +126,9 @@ struct RefineRecord {
   std::string termination;
   bool covariance_ok = false;
   std::string input_run, input_run_abs, dataset;
+  /// Read from the refine block of a roe before issue 48 (white factors, inflated marginals): its options and
+  /// error model have no counterpart here (the model's numbers are nan); written back in today's layout.
+  bool earlier_layout = false;
 };
 
 struct RunRecord {
