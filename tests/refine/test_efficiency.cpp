@@ -124,7 +124,7 @@ TEST_CASE("refine/efficiency: refine is within 1.3x the Cramer-Rao bound and con
       if (o.anchor) anchor = id;
     REQUIRE(anchor == 15);
     if (seed == 1) {  // the trajectory and objects are the same in every draw: one bound
-      const test::RunResult py = test::run_shell("/usr/bin/python3 " ROE_SOURCE_DIR "/scripts/crlb.py " + ds.string() +
+      const test::RunResult py = test::run_shell(std::string("/usr/bin/python3 ") + ROE_SOURCE_DIR + "/scripts/crlb.py " + ds.string() +
                                                  " --anchor " + std::to_string(anchor) + " --config " + run_cfg.string());
       INFO(py.out);
       REQUIRE(py.code == 0);
