@@ -33,6 +33,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 _spec = importlib.util.spec_from_file_location("refine_table", os.path.join(HERE, "refine-table.py"))
 rt = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(rt)  # truth_figures, summary_row, median: one definition
+_spec2 = importlib.util.spec_from_file_location("calib_truth_table", os.path.join(HERE, "calib-truth-table.py"))
+ctt = importlib.util.module_from_spec(_spec2)
+_spec2.loader.exec_module(ctt)  # qmul: one definition of the quaternion product
 
 
 def timed(args):
@@ -45,13 +48,6 @@ def timed(args):
     if code not in (0, 1):
         raise RuntimeError("%s: exit %d\n%s" % (" ".join(args), code, err[-2000:]))
     return code, ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024.0
-
-
-def quat_mul(a, b):
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    return [aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz]
 
 
 def exp_quat(w):
@@ -70,7 +66,7 @@ def draw_prior(ds, key, sigma_p=0.02, sigma_rot_deg=2.0):
     rng = random.Random(key)
     dp = [rng.gauss(0.0, sigma_p) for _ in range(3)]
     dth = [rng.gauss(0.0, math.radians(sigma_rot_deg)) for _ in range(3)]
-    m["camera"]["T_I_C"] = {"p": [t["p"][i] + dp[i] for i in range(3)], "q": quat_mul(t["q"], exp_quat(dth))}
+    m["camera"]["T_I_C"] = {"p": [t["p"][i] + dp[i] for i in range(3)], "q": ctt.qmul(t["q"], exp_quat(dth))}
     with open(path, "w") as f:
         json.dump(m, f, indent=2)
     return {"dp_mm": [1e3 * x for x in dp], "dtheta_deg": [math.degrees(x) for x in dth]}

@@ -63,7 +63,7 @@ RunFn setup(CLI::App& sub) {
       const std::string asked = a->opt.estimator.empty() ? "run with \"estimator\": \"batch\" (" + a->opt.config_file + ")"
                                                          : std::string("run --estimator batch");
       if (exec_helper(kRefineCommand, globals().argc, globals().argv, error, code, asked)) return 0;
-      if (code == 2) throw InputError(error, {"roe run"});
+      if (code == 2) throw InputError(error);
       std::cerr << "roe: error: " << error << "\n";  // 3: the helper is not installed (main's forwarding says the same)
       if (globals().json)
         std::cout << io::dump_json({{"command", "run"}, {"error", {{"message", error}}}, {"exit_code", code}}, 2)

@@ -71,14 +71,14 @@ Vec6 shifted_detection_error_jacobians(const Quaterniond& q_meas, const Vector3d
                                            J ? &J->extr : nullptr, J ? &J->obj : nullptr);
   if (!J) return e;
   // The shifted pose under the blocks' perturbations (right perturbations, docs/refine.md §2b):
-  //   pose: δp' = δp, δθ' = Exp(φ)ᵀ δθ;  v: δp' = δ δv;  b_g: δθ' = −δ J_r(φ) δb_g;  δ: [v ; J_r(φ) ω].
+  //   pose: δp' = δp, δθ' = Exp(φ)ᵀ δθ;  v: δp' = δ δv;  b_g: δθ' = −δ J_r(φ) δb_g;  δ: [v ; J_r(φ) ω] = [v ; ω].
   const Matrix3d Jr = math::right_jacobian(phi);
   J->pose = J_s;
   J->pose.rightCols<3>() = J_s.rightCols<3>() * math::exp_so3(phi).transpose();
   J->vel = J_s.leftCols<3>() * delta;
   J->bias.setZero();
   J->bias.leftCols<3>() = -J_s.rightCols<3>() * Jr * delta;
-  J->delta = J_s.leftCols<3>() * v + J_s.rightCols<3>() * (Jr * w);
+  J->delta = J_s.leftCols<3>() * v + J_s.rightCols<3>() * w;  // J_r(φ) ω = ω: φ = ω δ is parallel to ω
   return e;
 }
 
