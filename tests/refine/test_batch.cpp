@@ -137,6 +137,14 @@ TEST_CASE("refine/batch: the batch estimates the camera-IMU time offset when the
   const auto states = store::read_states_csv(tmp / "batch" / "states.csv");
   CHECK(states.back().time_offset_s == Approx(td.value_s).margin(1e-9));
   CHECK(states.back().sigma_time_offset_s == Approx(td.sigma_s).margin(1e-9));
+  // roe refine of the same run: its reprojection.csv rows are stamped where the filter processed each image
+  // (t + t_d), and are paired back with the images in order; the same estimate as the batch's.
+  app::RunOptions smoother = o;
+  smoother.estimator = "smoother";
+  app::run(tmp / "ds", tmp / "run", smoother);
+  const auto ref = app::refine_run(tmp / "run", tmp / "refined", {});
+  CHECK(ref.result.time_offset_estimated);
+  CHECK(ref.result.time_offset_s == Approx(td.value_s).margin(2e-4));
   // Without the state the batch holds the declared offset: σ 0 and "estimated" false.
   app::RunOptions held;
   held.estimator = "batch";
