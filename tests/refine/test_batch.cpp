@@ -40,15 +40,21 @@ std::pair<double, double> max_difference(const std::vector<store::RecordedState>
   return {dp, dr};
 }
 
+/// A preset's dataset in tmp/ds.
+fs::path simulated(const test::TempDir& tmp, const char* preset, std::uint64_t seed, double duration_s) {
+  app::SimulateOptions so;
+  so.preset = preset;
+  so.seed = seed;
+  so.duration_s = duration_s;
+  app::simulate(so, tmp / "ds");
+  return tmp / "ds";
+}
+
 }  // namespace
 
 TEST_CASE("refine/batch: roe run with the batch estimator is roe run then roe refine, in one folder") {
   test::TempDir tmp("roe_batch");
-  app::SimulateOptions so;
-  so.preset = "paper-real-seq4";
-  so.seed = 2;
-  so.duration_s = 20.0;
-  app::simulate(so, tmp / "ds");
+  simulated(tmp, "paper-real-seq4", 2, 20.0);
 
   app::RunOptions smoother;
   app::run(tmp / "ds", tmp / "run", smoother);
@@ -114,11 +120,7 @@ TEST_CASE("refine/batch: the estimator option over the config, and bad values") 
 // t_d a parameter, the detections predicted at t + t_d. matched-calib-offset30 (true +30 ms, declared 0).
 TEST_CASE("refine/batch: the batch estimates the camera-IMU time offset when the run does") {
   test::TempDir tmp("roe_batch_td");
-  app::SimulateOptions so;
-  so.preset = "matched-calib-offset30";
-  so.seed = 3;
-  so.duration_s = 20.0;
-  app::simulate(so, tmp / "ds");
+  simulated(tmp, "matched-calib-offset30", 3, 20.0);
   const double truth = store::read_manifest(tmp / "ds").truth->camera_time_offset_s;
   REQUIRE(truth == Approx(0.030));
   app::set_batch_estimator(&app::batch_estimate);
