@@ -277,14 +277,17 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
   const double min_score = filter.min_score;
   res.detections = run.inputs.detections;
 
-  // The filter's own (causal) history: with "smoother": "rts" states.csv holds the smoothed estimate, whose
+  // The filter's own (causal) history: with the smoother states.csv holds the smoothed estimate, whose
   // constant states carry their final value and σ at every time, and the filter's is in states_filter.csv.
+  // A batch estimate (roe refine, roe run's batch) is judged itself, with its marginals: states.csv.
   // A run written with output level minimal has neither: every check says it cannot judge.
   const fs::path filter_states = run_dir / "states_filter.csv";
   in.estimate_absent_reason = store::run_file_absent_reason(run.config, "states.csv");
+  if (run.refine) in.batch_termination = run.refine->termination;
   StatesTrace states;
   if (in.estimate_absent_reason.empty()) {
-    states = read_states(fs::is_regular_file(filter_states, ec) ? filter_states : run_dir / "states.csv");
+    const bool filter_trace = !run.refine && fs::is_regular_file(filter_states, ec);
+    states = read_states(filter_trace ? filter_states : run_dir / "states.csv");
     in.extrinsics = std::move(states.extrinsics);
     auto objects = read_objects(run_dir / "objects.csv");
     add_detection_counts(run, in, objects);

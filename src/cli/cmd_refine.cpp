@@ -5,6 +5,7 @@
 
 #include "command.hpp"
 #include "roe/app/refine.hpp"
+#include "roe/app/run.hpp"
 #include "roe/core/error.hpp"
 
 namespace roe::cli {
@@ -56,6 +57,9 @@ RunFn setup(CLI::App& sub) {
     return 0;
   };
 }
+
+// roe run's batch estimator runs here: roe-refine is the executable that links it (app/run.hpp).
+const bool batch_registered = (app::set_batch_estimator(&app::batch_estimate), true);
 
 const Registrar reg(kRefineCommand.parent, kRefineCommand.name, kRefineCommand.description, kRefineCommand.order,
                     &setup);

@@ -4,6 +4,7 @@
 #include "roe/refine/factors.hpp"
 
 #include <Eigen/Geometry>
+#include <array>
 
 #include "roe/math/so3.hpp"
 
@@ -53,6 +54,31 @@ Vec6 detection_error_jacobians(const Quaterniond& q_meas, const Vector3d& t_meas
     J_OW->topRightCorner<3, 3>() = R_CW * math::skew(R_OW.transpose() * p_OW);
     J_OW->bottomRightCorner<3, 3>() = Jinv * RmT * R_CW;
   }
+  return e;
+}
+
+Vec6 shifted_detection_error_jacobians(const Quaterniond& q_meas, const Vector3d& t_meas, const double* pose_WI,
+                                       const double* v_WI, const double* bias, const Vector3d& gyro, double delta,
+                                       const double* pose_IC, const double* pose_OW, TimeShiftJacobians* J) {
+  const Eigen::Map<const Vector3d> v(v_WI), b_g(bias);
+  const Vector3d w = gyro - b_g, phi = w * delta;
+  const Quaterniond q_shift = Eigen::Map<const Quaterniond>(pose_WI + 3) * Quaterniond(math::exp_so3(phi));
+  std::array<double, 7> shifted{};
+  Eigen::Map<Vector3d>(shifted.data()) = Eigen::Map<const Vector3d>(pose_WI) + v * delta;
+  Eigen::Map<Quaterniond>(shifted.data() + 3) = q_shift.normalized();
+  Mat6 J_s;  // in the tangent of the shifted pose
+  const Vec6 e = detection_error_jacobians(q_meas, t_meas, shifted.data(), pose_IC, pose_OW, J ? &J_s : nullptr,
+                                           J ? &J->extr : nullptr, J ? &J->obj : nullptr);
+  if (!J) return e;
+  // The shifted pose under the blocks' perturbations (right perturbations, docs/refine.md §2b):
+  //   pose: δp' = δp, δθ' = Exp(φ)ᵀ δθ;  v: δp' = δ δv;  b_g: δθ' = −δ J_r(φ) δb_g;  δ: [v ; J_r(φ) ω] = [v ; ω].
+  const Matrix3d Jr = math::right_jacobian(phi);
+  J->pose = J_s;
+  J->pose.rightCols<3>() = J_s.rightCols<3>() * math::exp_so3(phi).transpose();
+  J->vel = J_s.leftCols<3>() * delta;
+  J->bias.setZero();
+  J->bias.leftCols<3>() = -J_s.rightCols<3>() * Jr * delta;
+  J->delta = J_s.leftCols<3>() * v + J_s.rightCols<3>() * w;  // J_r(φ) ω = ω: φ = ω δ is parallel to ω
   return e;
 }
 

@@ -89,6 +89,10 @@ struct Problem {
   std::vector<Block6> bias;
   Block7 extr{};
   std::map<int, Block7> obj;
+  /// δ = t_d − the declared offset (docs/refine.md §2b), a parameter block when the offset is estimated.
+  std::array<double, 1> td{};
+  bool estimate_td = false;
+  std::vector<Eigen::Vector3d> gyro;  ///< per node: the gyro measured at its time (the time shift's ω + b_g)
   std::unique_ptr<ceres::Manifold> pose_manifold = std::make_unique<ceres::AutoDiffManifold<PosePlus, 7, 6>>();
   std::unique_ptr<ceres::Manifold> tilt_manifold = std::make_unique<ceres::AutoDiffManifold<AnchorTiltPlus, 7, 2>>();
   std::unique_ptr<ceres::LossFunction> loss;
@@ -157,6 +161,62 @@ class DetectionCost : public ceres::CostFunction {
   Eigen::Vector3d t_;
   Eigen::Quaterniond q0_ = Eigen::Quaterniond::Identity();
   Eigen::Vector3d t0_ = Eigen::Vector3d::Zero();
+  Mat6 A_, B_ = Mat6::Zero();
+  bool chained_ = false;
+};
+
+/// A detection factor with the camera–IMU time offset estimated (docs/refine.md §2b): r = A e_k − B e_{k−1}, each
+/// error at its node's pose carried by δ (shifted_detection_error_jacobians). Blocks: T_W_I, v, bias of k, T_I_C,
+/// T_O_W [, T_W_I, v, bias of k−1], δ.
+class TimeShiftedDetectionCost : public ceres::CostFunction {
+ public:
+  struct Side {
+    Pose meas;
+    Eigen::Vector3d gyro;
+  };
+  TimeShiftedDetectionCost(const Side& k, const Mat6& A) : k_(k), A_(A) {
+    set_num_residuals(6);
+    *mutable_parameter_block_sizes() = {7, 3, 6, 7, 7, 1};
+  }
+  TimeShiftedDetectionCost(const Side& k, const Side& prev, const Mat6& A, const Mat6& B)
+      : k_(k), prev_(prev), A_(A), B_(B), chained_(true) {
+    set_num_residuals(6);
+    *mutable_parameter_block_sizes() = {7, 3, 6, 7, 7, 7, 3, 6, 1};
+  }
+  bool Evaluate(double const* const* x, double* residuals, double** jac) const override {
+    using RM63 = Eigen::Matrix<double, 6, 3, Eigen::RowMajor>;
+    const double delta = x[chained_ ? 8 : 5][0];
+    TimeShiftJacobians J, J0;
+    const bool want = jac != nullptr;
+    Eigen::Map<Vector6d> r(residuals);
+    r = A_ * shifted_detection_error_jacobians(k_.meas.q, k_.meas.p, x[0], x[1], x[2], k_.gyro, delta, x[3], x[4],
+                                               want ? &J : nullptr);
+    if (chained_)
+      r -= B_ * shifted_detection_error_jacobians(prev_.meas.q, prev_.meas.p, x[5], x[6], x[7], prev_.gyro, delta,
+                                                  x[3], x[4], want ? &J0 : nullptr);
+    if (!want) return true;
+    const auto pose = [&](int b, const Mat6& T_) {
+      if (!jac[b]) return;
+      const RowMat6 T = T_;
+      pose_ambient_jacobian(x[b], T.data(), 6, jac[b]);
+    };
+    pose(0, A_ * J.pose);
+    if (jac[1]) Eigen::Map<RM63>{jac[1]} = A_ * J.vel;
+    if (jac[2]) Eigen::Map<RowMat6>{jac[2]} = A_ * J.bias;
+    pose(3, chained_ ? Mat6(A_ * J.extr - B_ * J0.extr) : Mat6(A_ * J.extr));
+    pose(4, chained_ ? Mat6(A_ * J.obj - B_ * J0.obj) : Mat6(A_ * J.obj));
+    if (chained_) {
+      pose(5, -B_ * J0.pose);
+      if (jac[6]) Eigen::Map<RM63>{jac[6]} = -B_ * J0.vel;
+      if (jac[7]) Eigen::Map<RowMat6>{jac[7]} = -B_ * J0.bias;
+    }
+    if (double* jd = jac[chained_ ? 8 : 5]) Eigen::Map<Vector6d>{jd} = chained_ ? Vector6d(A_ * J.delta - B_ * J0.delta)
+                                                                                 : Vector6d(A_ * J.delta);
+    return true;
+  }
+
+ private:
+  Side k_, prev_{};
   Mat6 A_, B_ = Mat6::Zero();
   bool chained_ = false;
 };
@@ -302,6 +362,17 @@ void collect_detections(const RefineInput& in, Problem& P) {
     throw DataError(fmt::format("refine: no used detection of the anchor object {}", in.anchor_id));
 }
 
+/// The pose of node n when its images saw the rig: carried by δ = t_d − the declared offset when the offset is
+/// estimated (docs/refine.md §2b, shifted_detection_error_jacobians), the node's own otherwise.
+Block7 viewing_pose(const Problem& P, std::size_t n) {
+  if (!P.estimate_td) return P.pose[n];
+  const double delta = P.td[0];
+  const Eigen::Vector3d w = P.gyro[n] - Eigen::Vector3d(P.bias[n][0], P.bias[n][1], P.bias[n][2]);
+  const Pose T = to_pose(P.pose[n]);
+  return to_block(Pose((T.q * Eigen::Quaterniond(math::exp_so3(w * delta))).normalized(),
+                       T.p + Eigen::Vector3d(P.vel[n][0], P.vel[n][1], P.vel[n][2]) * delta));
+}
+
 /// At the current estimate: each detection's prediction, its measurement (a symmetric object's nearest
 /// equivalent), its standardising matrix S (the ray frame of the prediction, as roe simulate draws the
 /// error; a continuous symmetry's direction projected out) and y = S e.
@@ -309,7 +380,8 @@ void update_standardisation(Problem& P) {
   const Pose T_I_C = to_pose(P.extr);
   for (Problem::Det& d : P.dets) {
     const Pose T_O_W = to_pose(P.obj.at(d.object_id));
-    const Pose T_C_O_hat = (T_O_W * to_pose(P.pose[d.node]) * T_I_C).inverse();
+    const Block7 pose = viewing_pose(P, d.node);
+    const Pose T_C_O_hat = (T_O_W * to_pose(pose) * T_I_C).inverse();
     if (d.sym) d.meas = ekf::nearest_equivalent(T_C_O_hat.inverse(), d.T_C_O.inverse(), *d.sym).inverse();
     sigma_model_of(P, T_C_O_hat, d);
     Eigen::Vector3d u1, u2, r;
@@ -328,8 +400,7 @@ void update_standardisation(Problem& P) {
       S = (Mat6::Identity() - dy * dy.transpose()) * S;
     }
     d.S = S;
-    d.y = S * detection_error<double>(d.meas.q, d.meas.p, P.pose[d.node].data(), P.extr.data(),
-                                      P.obj.at(d.object_id).data());
+    d.y = S * detection_error<double>(d.meas.q, d.meas.p, pose.data(), P.extr.data(), P.obj.at(d.object_id).data());
   }
 }
 
@@ -403,6 +474,27 @@ DetectionErrorModel fit_round(const RefineOptions& opt, Problem& P) {
   return m;
 }
 
+/// A detection factor with the time offset estimated (TimeShiftedDetectionCost): first or whitened against `prev`.
+void add_time_shifted_factor(Problem::Det& d, const Problem::Det* prev, double rho, const Mat6& D, double* obj,
+                             Problem& P) {
+  using Side = TimeShiftedDetectionCost::Side;
+  const std::size_t n = d.node;
+  if (rho < 1e-12) {
+    d.id = P.cp->AddResidualBlock(new TimeShiftedDetectionCost(Side{d.meas, P.gyro[n]}, D * d.S), P.loss.get(),
+                                  std::vector<double*>{P.pose[n].data(), P.vel[n].data(), P.bias[n].data(),
+                                                       P.extr.data(), obj, P.td.data()});
+    return;
+  }
+  const double c = 1.0 / std::sqrt(1.0 - rho * rho);
+  const std::size_t m = prev->node;
+  d.id = P.cp->AddResidualBlock(
+      new TimeShiftedDetectionCost(Side{d.meas, P.gyro[n]}, Side{prev->meas, P.gyro[m]}, c * D * d.S,
+                                   c * rho * D * prev->S),
+      P.loss.get(),
+      std::vector<double*>{P.pose[n].data(), P.vel[n].data(), P.bias[n].data(), P.extr.data(), obj,
+                           P.pose[m].data(), P.vel[m].data(), P.bias[m].data(), P.td.data()});
+}
+
 /// The detection factors of the model (docs/refine.md §2), replacing the previous ones: per object, its
 /// first non-gross detection standardised, each next one whitened against the previous non-gross one.
 void install_detection_factors(const DetectionErrorModel& m, Problem& P) {
@@ -418,7 +510,9 @@ void install_detection_factors(const DetectionErrorModel& m, Problem& P) {
       Problem::Det& d = P.dets[i];
       if (d.gross) continue;
       const double rho = prev ? m.rho(to_seconds(d.t_ns - prev->t_ns)) : 0.0;
-      if (rho < 1e-12) {
+      if (P.estimate_td) {
+        add_time_shifted_factor(d, prev, rho, D, obj, P);
+      } else if (rho < 1e-12) {
         d.id = P.cp->AddResidualBlock(new DetectionCost(d.meas, D * d.S), P.loss.get(), P.pose[d.node].data(),
                                       P.extr.data(), obj);
       } else {
@@ -457,12 +551,31 @@ void add_priors_and_gauge(const RefineInput& in, Problem& P) {
       P.cp->AddParameterBlock(b.data(), 7, P.tilt_manifold.get());
     }
   }
+  if (P.estimate_td) {  // δ's prior: the declared offset (δ = 0) with the filter's σ
+    P.cp->AddParameterBlock(P.td.data(), 1);
+    auto* prior = new ceres::AutoDiffCostFunction<ScalarPriorResidual, 1, 1>(
+        new ScalarPriorResidual{0.0, 1.0 / in.filter.time_offset_sigma_s});
+    P.cp->AddResidualBlock(prior, nullptr, P.td.data());
+  }
   Vector6d s;
   s << Eigen::Vector3d::Constant(in.filter.init_sigma_gyro_bias), Eigen::Vector3d::Constant(in.filter.init_sigma_accel_bias);
   Vector6d b0;
   b0 << in.prior_b_g, in.prior_b_a;
   auto* f = new BiasPriorResidual{b0, Mat6(s.cwiseInverse().asDiagonal())};
   P.cp->AddResidualBlock(new ceres::AutoDiffCostFunction<BiasPriorResidual, 6, 6>(f), nullptr, P.bias[0].data());
+}
+
+/// The gyro measured at each time (sorted, within the stream): linear between the samples around it.
+std::vector<Eigen::Vector3d> gyro_at(const std::vector<ImuSample>& imu, const std::vector<Timestamp>& t) {
+  std::vector<Eigen::Vector3d> out;
+  std::size_t k = 0;
+  for (const Timestamp ti : t) {
+    while (k + 2 < imu.size() && imu[k + 1].t_ns <= ti) ++k;
+    const ImuSample &a = imu[k], &b = imu[k + 1];
+    const double u = std::clamp(static_cast<double>(ti - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns), 0.0, 1.0);
+    out.push_back(a.gyro + u * (b.gyro - a.gyro));
+  }
+  return out;
 }
 
 void validate(const RefineInput& in) {
@@ -473,6 +586,8 @@ void validate(const RefineInput& in) {
   if (in.initial_T_O_W.empty()) throw InputError("refine: no object-world to start from (the run initialised none)");
   if (!in.initial_T_O_W.count(in.anchor_id))
     throw InputError(fmt::format("refine: the anchor object {} has no object-world in the run", in.anchor_id));
+  if (in.estimate_time_offset && !(in.filter.time_offset_sigma_s > 0.0))
+    throw InputError("refine: the time offset's prior σ (filter.time_offset_sigma_s) must be positive");
 }
 
 /// The problem built at the initial estimate.
@@ -488,6 +603,11 @@ Problem build(const RefineInput& in, const RefineOptions& opt) {
   }
   P.extr = to_block(in.initial_T_I_C);
   for (const auto& [id, T] : in.initial_T_O_W) P.obj[id] = to_block(T);
+  P.estimate_td = in.estimate_time_offset;
+  if (P.estimate_td) {
+    P.td[0] = in.initial_time_offset_s - in.declared_time_offset_s;
+    P.gyro = gyro_at(in.imu, P.t);
+  }
   ceres::Problem::Options po;
   po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -517,6 +637,7 @@ void solve(const RefineOptions& opt, Problem& P, SolveReport& r) {
     for (std::size_t i = 0; i < P.t.size(); ++i)
       for (double* b : {P.pose[i].data(), P.vel[i].data(), P.bias[i].data()}) ordering->AddElementToGroup(b, 0);
     ordering->AddElementToGroup(P.extr.data(), 1);
+    if (P.estimate_td) ordering->AddElementToGroup(P.td.data(), 1);
     for (auto& [id, b] : P.obj) ordering->AddElementToGroup(b.data(), 1);
     so.linear_solver_ordering = ordering;
   }
@@ -711,7 +832,13 @@ bool marginals(const RefineInput& in, const RefineOptions& opt, Problem& P, Refi
     blocks.emplace_back(b.data(), b.data());
     if (anchor_free) blocks.emplace_back(anchor, b.data());
   }
+  if (P.estimate_td) blocks.emplace_back(P.td.data(), P.td.data());
   if (!cov.Compute(blocks, P.cp.get())) return false;
+  if (P.estimate_td) {
+    double c = 0.0;
+    cov.GetCovarianceBlock(P.td.data(), P.td.data(), &c);
+    out.sigma_time_offset_s = std::sqrt(std::max(c, 0.0));
+  }
   if (extr_free) {
     RowMat6 C;
     cov.GetCovarianceBlockInTangentSpace(extr, extr, C.data());
@@ -761,6 +888,8 @@ void collect(const RefineInput& in, Problem& P, RefineResult& out) {
   }
   out.T_I_C = to_pose(P.extr);
   out.extrinsics_estimated = in.filter.estimate_extrinsics;
+  out.time_offset_estimated = P.estimate_td;
+  out.time_offset_s = in.declared_time_offset_s + (P.estimate_td ? P.td[0] : 0.0);
   for (const auto& [id, b] : P.obj) {
     RefinedObject& o = out.objects[id];
     o.T_O_W = to_pose(b);

@@ -473,6 +473,8 @@ void require_whole_config(const json& written, const json& whole, const std::str
   for (const auto& [key, value] : whole.items()) {
     const std::string at = path + "." + key;
     if (!written.contains(key) && keys_added_later().count(at)) continue;
+    // "estimator" replaced "smoother" (issue 48): a run.json written before has the old key, read as its value.
+    if (at == "config.estimator" && written.contains("smoother")) continue;
     if (!written.contains(key))
       throw ConfigError("missing key: run.json records the whole configuration the run used (a run.json of another "
                         "version of roe, or edited?)",
@@ -532,7 +534,7 @@ RunRecord run_record_from_json(const json& j, const std::string& source) {
   read_final(req_child(o, "final"), r);
   req(o, "warnings", r.warnings);
   req(o, "timing_s", r.timing_s);
-  if (r.command == "refine") {
+  if (r.command == "refine" || r.config.estimator == "batch") {  // roe refine, or roe run's batch estimator
     r.refine.emplace();
     read_refine(req_child(o, "refine"), *r.refine);
   }

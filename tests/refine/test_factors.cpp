@@ -7,6 +7,7 @@
 #include <catch2/catch.hpp>
 #include <array>
 #include <random>
+#include <tuple>
 
 #include "roe/core/error.hpp"
 #include "roe/ekf/measurement.hpp"
@@ -276,5 +277,68 @@ TEST_CASE("refine/factors: the analytic IMU Jacobians equal central differences"
       INFO("trial " << trial << " block " << k << "\nanalytic\n" << Ja[k] << "\nnumeric\n" << Jn);
       CHECK((Ja[k] - Jn).norm() < 1e-6 * std::max(1.0, Jn.norm()));
     }
+  }
+}
+
+// The detection error at a node's pose carried by the time offset δ (docs/refine.md §2b): the value is the
+// templated detection_error at [p + v δ ; q Exp((ω − b_g) δ)] (composed here with Pose and exp_quat), and every
+// Jacobian (pose, v, bias, T_I_C, T_O_W, δ) equals central differences of that composition in the block's tangent.
+TEST_CASE("refine/factors: the time-shifted detection error and its Jacobians equal central differences") {
+  std::mt19937 rng(33);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Scene s = random_scene(rng);
+    const Pose meas(s.T_C_O().q * math::exp_quat(0.05 * Vector3d(n(rng), n(rng), n(rng))), s.T_C_O().p);
+    std::array<double, 7> pose = block(s.T_W_I), extr = block(s.T_I_C), obj = block(s.T_O_W);
+    std::array<double, 3> v = {n(rng), n(rng), n(rng)};
+    std::array<double, 6> bias = {0.01 * n(rng), 0.01 * n(rng), 0.01 * n(rng), 0.1 * n(rng), 0.1 * n(rng), 0.1 * n(rng)};
+    const Vector3d gyro(2.0 * n(rng), 2.0 * n(rng), 2.0 * n(rng));  // up to a few rad/s: φ is not tiny
+    double delta = 0.03 * n(rng);
+    // The reference: the shifted pose composed with the library's Pose and exp, then the templated error.
+    const auto reference = [&]() {
+      const Vector3d w = gyro - Vector3d(bias[0], bias[1], bias[2]);
+      const Pose T(Eigen::Quaterniond(pose[6], pose[3], pose[4], pose[5]) * math::exp_quat(w * delta),
+                   Vector3d(pose[0], pose[1], pose[2]) + Vector3d(v[0], v[1], v[2]) * delta);
+      const Block b = block(T);
+      return refine::detection_error<double>(meas.q, meas.p, b.data(), extr.data(), obj.data());
+    };
+    refine::TimeShiftJacobians J;
+    const auto e = refine::shifted_detection_error_jacobians(meas.q, meas.p, pose.data(), v.data(), bias.data(), gyro,
+                                                             delta, extr.data(), obj.data(), &J);
+    INFO("trial " << trial);
+    REQUIRE((e - reference()).norm() < 1e-12);
+    const double h = 1e-6;
+    const auto central = [&](auto&& perturb) {
+      perturb(h);
+      const auto rp = reference();
+      perturb(-2.0 * h);
+      const auto rm = reference();
+      perturb(h);
+      return Eigen::Matrix<double, 6, 1>((rp - rm) / (2.0 * h));
+    };
+    const auto check = [&](const Eigen::Matrix<double, 6, 1>& analytic, const Eigen::Matrix<double, 6, 1>& numeric,
+                           const char* what, int col) {
+      INFO(what << " column " << col);
+      CHECK((analytic - numeric).norm() < 1e-6 * std::max(1.0, numeric.norm()));
+    };
+    // Pose blocks: tangent steps through PosePlus (the solve's manifold), undone by the exact inverse step.
+    for (auto [blk, Jb, name] : {std::tuple{&pose, &J.pose, "pose"}, std::tuple{&extr, &J.extr, "T_I_C"},
+                                 std::tuple{&obj, &J.obj, "T_O_W"}}) {
+      for (int j = 0; j < 6; ++j) {
+        const std::array<double, 7> base = *blk;
+        double step[6] = {0, 0, 0, 0, 0, 0};
+        Eigen::Matrix<double, 6, 1> rp = Eigen::Matrix<double, 6, 1>::Zero(), rm = rp;
+        for (const int sign : {1, -1}) {
+          step[j] = sign * h;
+          REQUIRE(refine::PosePlus{}.Plus(base.data(), step, blk->data()));
+          (sign > 0 ? rp : rm) = reference();
+        }
+        *blk = base;
+        check(Jb->col(j), (rp - rm) / (2.0 * h), name, j);
+      }
+    }
+    for (int j = 0; j < 3; ++j) check(J.vel.col(j), central([&](double d) { v[j] += d; }), "v", j);
+    for (int j = 0; j < 6; ++j) check(J.bias.col(j), central([&](double d) { bias[j] += d; }), "bias", j);
+    check(J.delta, central([&](double d) { delta += d; }), "delta", 0);
   }
 }

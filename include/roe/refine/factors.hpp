@@ -215,6 +215,18 @@ struct PosePriorResidual {
   }
 };
 
+/// A Gaussian prior on a scalar block (the time offset's δ): r = (x − x̄) / σ.
+struct ScalarPriorResidual {
+  double prior = 0.0;
+  double inv_sigma = 1.0;
+
+  template <typename T>
+  bool operator()(const T* x, T* r) const {
+    r[0] = (x[0] - T(prior)) * T(inv_sigma);
+    return true;
+  }
+};
+
 /// A Gaussian prior on a bias block: r = W [b_g − b̄_g ; b_a − b̄_a].
 struct BiasPriorResidual {
   Eigen::Matrix<double, 6, 1> b_prior;
@@ -238,6 +250,21 @@ using Vec6 = Eigen::Matrix<double, 6, 1>;
 /// detection_error on doubles with its Jacobians in the tangents of T_W_I, T_I_C and T_O_W (any may be null).
 Vec6 detection_error_jacobians(const Eigen::Quaterniond& q_meas, const Eigen::Vector3d& t_meas, const double* pose_WI,
                                const double* pose_IC, const double* pose_OW, Mat6* J_WI, Mat6* J_IC, Mat6* J_OW);
+
+/// The camera–IMU time offset in the batch (docs/refine.md §2b): a detection stamped t (the IMU clock with the
+/// declared offset) saw the rig at t + δ, δ = t_d − the declared offset, and the node's pose is carried there with
+/// its velocity and the bias-corrected gyro ω measured at t: T_W_I(t + δ) ≈ [p + v δ ; q ⊗ Exp((ω − b_g) δ)].
+/// The detection error at that pose, with its Jacobians in the tangents of the node's pose (6x6), v (6x3), its
+/// bias block [b_g, b_a] (6x6), T_I_C, T_O_W (6x6 each) and δ (6x1) (any may be null).
+struct TimeShiftJacobians {
+  Mat6 pose, bias, extr, obj;
+  Eigen::Matrix<double, 6, 3> vel;
+  Vec6 delta;
+};
+Vec6 shifted_detection_error_jacobians(const Eigen::Quaterniond& q_meas, const Eigen::Vector3d& t_meas,
+                                       const double* pose_WI, const double* v_WI, const double* bias,
+                                       const Eigen::Vector3d& gyro, double delta, const double* pose_IC,
+                                       const double* pose_OW, TimeShiftJacobians* J);
 
 /// ImuResidual's unwhitened error e (9) on doubles with its Jacobians in the tangents of pose_i (9x6), v_i
 /// (9x3), b_i (9x6), pose_j (9x6), v_j (9x3) (any may be null).

@@ -121,6 +121,13 @@ struct RefineInput {
   int anchor_id = -1;
   Eigen::Vector3d prior_b_g = Eigen::Vector3d::Zero();  ///< the filter's initial biases (the first node's prior)
   Eigen::Vector3d prior_b_a = Eigen::Vector3d::Zero();
+  /// The camera–IMU time offset t_d (t_imu = t_cam + t_d; docs/refine.md §2b). `images` are in the IMU clock
+  /// with the declared offset (roe.json camera.time_offset_s). With estimate_time_offset the batch estimates
+  /// t_d, starting from initial_time_offset_s (the run's estimate), with the prior N(declared,
+  /// filter.time_offset_sigma_s²) — the filter's own prior, so the detections are not counted twice.
+  double declared_time_offset_s = 0.0;
+  bool estimate_time_offset = false;
+  double initial_time_offset_s = 0.0;
 };
 
 struct RefinedObject {
@@ -159,6 +166,9 @@ struct RefineResult {
   bool extrinsics_estimated = true;
   std::map<int, RefinedObject> objects;
   std::vector<DetectionFit> detections;  ///< in the order of RefineInput::images
+  /// t_d (s) and its marginal σ (0: held at the declared offset, RefineInput::estimate_time_offset false).
+  bool time_offset_estimated = false;
+  double time_offset_s = 0.0, sigma_time_offset_s = 0.0;
   SolveReport report;
 };
 

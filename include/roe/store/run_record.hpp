@@ -8,7 +8,7 @@
 /// The file (docs/dataset-format.md, "run.json"): one JSON object, two-space indented, keys sorted;
 ///   roe_version, command ("run" | "refine"), config (store/run_config.hpp), inputs, anchor_id, counts,
 ///   nis, health, relocks, detection_sigmas, init, imu_noise, final, warnings, timing_s, and with
-///   command "refine" the block refine.
+///   command "refine" (or config.estimator "batch") the block refine.
 /// Reading is strict: a missing key, a value of the wrong type or an unknown key is a ConfigError (an
 /// InputError: exit 2) naming the file, the key path and its line and column. A number the writer could
 /// not write (NaN) is null in the file and reads as NaN; optional keys are named below.
@@ -106,7 +106,8 @@ struct FinalTimeOffset {
   double sigma_s = 0.0;
 };
 
-/// run.json "refine" (only in the run.json of roe refine): the solve's options and report.
+/// run.json "refine" (in the run.json of roe refine, and of roe run with "estimator": "batch"): the solve's
+/// options and report.
 struct RefineRecord {
   std::string loss, linear_solver;
   double loss_scale = 0.0;
@@ -152,7 +153,7 @@ struct RunRecord {
   std::optional<FinalTimeOffset> final_time_offset;  ///< "final.time_offset" (optional when read)
   std::vector<std::string> warnings;
   std::map<std::string, double> timing_s;  ///< wall seconds per stage (read, filter, …, total)
-  std::optional<RefineRecord> refine;      ///< present iff command is "refine"
+  std::optional<RefineRecord> refine;      ///< present iff command is "refine" or config.estimator "batch"
 };
 
 /// The one mapping both ways (the reader is strict, see the file comment; `source` names the file).
