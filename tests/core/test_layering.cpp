@@ -63,8 +63,8 @@ void expect_refused(const std::vector<Probe>& probes) {
     std::string file;
     const auto v = probe(real_tree(), p.room, {0, p.header, p.quoted}, file);
     for (const auto& s : v) UNSCOPED_INFO(s);
-    REQUIRE(v.size() == 1);
-    CHECK(v[0].rfind(file + "#include \"" + p.header + "\": ", 0) == 0);
+    CHECK(v.size() == 1);  // every probe is tried, so a mutation shows each one it lets through
+    if (v.size() == 1) CHECK(v[0].rfind(file + "#include \"" + p.header + "\": ", 0) == 0);
   }
 }
 
