@@ -26,10 +26,11 @@ struct Room {
 /// The table (tests/core/floors.cpp).
 const std::vector<Room>& table();
 
-/// A group of third-party or system headers: every header that starts with one of `prefixes`.
+/// A group of third-party or system headers: each of `headers` is one header ("fstream") or, ending in '/',
+/// every header of a folder ("torch/").
 struct HeaderGroup {
-  std::string name;  ///< "LibTorch"
-  std::vector<std::string> prefixes;  ///< "torch", "ATen/", "c10/"
+  std::string name;                  ///< "LibTorch"
+  std::vector<std::string> headers;  ///< "torch/", "ATen/", "c10/"
 };
 const std::vector<HeaderGroup>& groups();
 

@@ -1,8 +1,8 @@
 // The layering of DESIGN §5 and docs/architecture.md, checked on the sources: one table of floors
 // (tests/core/floors.cpp: each room, its files, what it may include and which third-party headers it never
-// includes), the checker over every include of src/ and include/roe/, the probes that show the checker refuses
-// what the table forbids (issue 52), and the check that docs/architecture.md shows that table and names the
-// test behind each rule it calls checked.
+// includes), the checker over every include of src/ and include/roe/, the probes that show the checker
+// refuses what the table forbids (issue 52), and the check that docs/architecture.md shows that table and
+// names the test behind each rule it calls checked.
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <filesystem>
@@ -38,8 +38,8 @@ const std::vector<SourceFile>& real_tree() {
 
 /// A copy of `tree` in which the first file of `room` also includes `header` (after its last line); the
 /// checker's findings on the copy, and that file's path in `file`.
-std::vector<std::string> probe(const std::vector<SourceFile>& tree, const std::string& room, const Include& header,
-                               std::string& file) {
+std::vector<std::string> probe(const std::vector<SourceFile>& tree, const std::string& room,
+                               const Include& header, std::string& file) {
   std::vector<SourceFile> copy = tree;
   for (auto& f : copy) {
     if (room_of(table(), f.path) != room) continue;
@@ -93,6 +93,8 @@ TEST_CASE("the floors table reads from the ground up, and each row matches files
   for (const auto& r : table()) {
     INFO("room " << r.name);
     CHECK(seen.count(r.name) == 1);
+    for (const auto& f : r.floors)  // a floor that is one header names a header of the tree
+      if (f.rfind("roe/", 0) == 0) CHECK(fs::exists(fs::path(ROE_SOURCE_DIR) / "include" / f));
   }
 }
 
@@ -151,7 +153,8 @@ TEST_CASE("the floors: the eight probes of issue 52 and one per room are refused
                   {"app/refine", "ATen/Tensor.h", false}});
 }
 
-TEST_CASE("the floors: what the table allows passes, an include by path or of no room is refused", "[layering]") {
+TEST_CASE("the floors: what the table allows passes, an include by path or of no room is refused",
+          "[layering]") {
   REQUIRE(check(table(), real_tree()).empty());
   // Controls: includes the table allows add no finding.
   for (const auto& [room, header, quoted] :
@@ -173,10 +176,11 @@ TEST_CASE("the floors: what the table allows passes, an include by path or of no
     for (const auto& s : v) UNSCOPED_INFO(s);
     CHECK(v.empty());
   }
-  expect_refused({{"cli", "../ekf/state.hpp"},       // a path around the table
-                  {"app", "roe/nowhere/thing.hpp"},  // a room the table does not know
-                  {"app", "roe/features.hpp"},       // only the command table's two files read the build's features
-                  {"math", "roe/version.hpp"}});
+  expect_refused(
+      {{"cli", "../ekf/state.hpp"},       // a path around the table
+       {"app", "roe/nowhere/thing.hpp"},  // a room the table does not know
+       {"app", "roe/features.hpp"},       // only the command table's two files read the build's features
+       {"math", "roe/version.hpp"}});
   auto tree = real_tree();
   tree.push_back({"src/newroom/thing.cpp", {}});
   const auto v = check(table(), tree);
@@ -203,7 +207,8 @@ TEST_CASE("the floors: the scanner reads each include line of the files on disk"
   const auto v = check(table(), tree);
   for (const auto& s : v) UNSCOPED_INFO(s);
   REQUIRE(v.size() == 2);
-  CHECK(v[0].rfind("src/ekf/probe.cpp:2: #include \"roe/io/json.hpp\": room io, not on the floors of ekf", 0) == 0);
+  CHECK(v[0].rfind("src/ekf/probe.cpp:2: #include \"roe/io/json.hpp\": room io, not on the floors of ekf",
+                   0) == 0);
   CHECK(v[1].rfind("src/ekf/probe.cpp:4: #include \"fstream\": a header of streams", 0) == 0);
 }
 
@@ -245,14 +250,16 @@ std::vector<std::string> test_names() {
     if (f.path().extension() == ".cmake") cmake_files.push_back(f.path());
   for (const auto& f : cmake_files) {
     const std::string text = read_text(f);
-    for (std::sregex_iterator it(text.begin(), text.end(), at), end; it != end; ++it) out.push_back((*it)[1].str());
+    for (std::sregex_iterator it(text.begin(), text.end(), at), end; it != end; ++it)
+      out.push_back((*it)[1].str());
   }
   return out;
 }
 /// Whether `ref` (a name, or its beginning followed by "…") is the name of one of `names`.
 bool names_a_test(const std::string& ref, const std::vector<std::string>& names) {
   const std::string ellipsis = "\u2026";
-  const bool prefix = ref.size() > ellipsis.size() && ref.compare(ref.size() - ellipsis.size(), ellipsis.size(), ellipsis) == 0;
+  const bool prefix = ref.size() > ellipsis.size() &&
+                      ref.compare(ref.size() - ellipsis.size(), ellipsis.size(), ellipsis) == 0;
   std::string stem = prefix ? ref.substr(0, ref.size() - ellipsis.size()) : ref;
   while (!stem.empty() && stem.back() == ' ') stem.pop_back();
   for (const auto& n : names)
@@ -263,7 +270,8 @@ bool names_a_test(const std::string& ref, const std::vector<std::string>& names)
 
 TEST_CASE("docs/architecture.md shows the floors table and names the test behind each rule", "[layering]") {
   const std::string doc = read_text(fs::path(ROE_SOURCE_DIR) / "docs/architecture.md");
-  const std::string begin = "<!-- the floors: tests/core/floors.cpp -->\n", end = "<!-- end of the floors -->";
+  const std::string begin = "<!-- the floors: tests/core/floors.cpp -->\n",
+                    end = "<!-- end of the floors -->";
   const auto b = doc.find(begin), e = doc.find(end);
   REQUIRE(b != std::string::npos);
   REQUIRE(e != std::string::npos);
@@ -276,9 +284,11 @@ TEST_CASE("docs/architecture.md shows the floors table and names the test behind
   // name so given is a test of this checkout (a trailing … stands for the rest of a long name).
   const auto names = test_names();
   REQUIRE(names.size() > 100);
-  const std::regex checked(R"(\b[Cc]hecked\b)"), ctest(R"(ctest ((?:`[^`]+`(?:,? (?:and )?)?)+))"), tick("`([^`]+)`");
+  const std::regex checked(R"(\b[Cc]hecked\b)"), ctest(R"(ctest ((?:`[^`]+`(?:,? (?:and )?)?)+))"),
+      tick("`([^`]+)`");
   std::vector<size_t> at;
-  for (std::sregex_iterator it(doc.begin(), doc.end(), checked), stop; it != stop; ++it) at.push_back(it->position());
+  for (std::sregex_iterator it(doc.begin(), doc.end(), checked), stop; it != stop; ++it)
+    at.push_back(it->position());
   REQUIRE(at.size() >= 5);
   for (size_t k = 0; k < at.size(); ++k) {
     size_t until = std::min(k + 1 < at.size() ? at[k + 1] : doc.size(), doc.find("\n\n", at[k]));
