@@ -277,8 +277,10 @@ TEST_CASE("docs/architecture.md shows the floors table and names the test behind
   REQUIRE(e != std::string::npos);
   REQUIRE(b < e);
   const std::string shown = doc.substr(b + begin.size(), e - b - begin.size());
-  INFO("the table docs/architecture.md must show:\n" << markdown(table()));
-  CHECK(shown == markdown(table()));
+  {
+    INFO("the table docs/architecture.md must show:\n" << markdown(table()));
+    CHECK(shown == markdown(table()));
+  }
 
   // Each "checked" is followed, before the next one and within its paragraph, by ctest `NAME`; every
   // name so given is a test of this checkout (a trailing … stands for the rest of a long name).
