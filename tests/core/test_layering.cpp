@@ -286,7 +286,7 @@ TEST_CASE("docs/architecture.md shows the floors table and names the test behind
   // name so given is a test of this checkout (a trailing … stands for the rest of a long name).
   const auto names = test_names();
   REQUIRE(names.size() > 100);
-  const std::regex checked(R"(\b[Cc]hecked\b)"), ctest(R"(ctest ((?:`[^`]+`(?:,? (?:and )?)?)+))"),
+  const std::regex checked(R"(\b[Cc]hecked\b)"), ctest(R"(ctest\s+((?:`[^`]+`(?:,?\s+(?:and\s+)?)?)+))"),
       tick("`([^`]+)`");
   std::vector<size_t> at;
   for (std::sregex_iterator it(doc.begin(), doc.end(), checked), stop; it != stop; ++it)
