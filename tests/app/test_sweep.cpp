@@ -111,7 +111,7 @@ TEST_CASE("sweep spec: eval.t_offset_s is seconds or auto, and a number keeps th
   CHECK(!o.t_offset_auto);
   CHECK(o.t_offset_s == 0.25);
   CHECK(sweep_t_offset_json(o) == 0.25);
-  for (const json bad : {json("Auto"), json("0.1"), json(true), json::array()}) {
+  for (const json& bad : {json("Auto"), json("0.1"), json(true), json::array()}) {
     spec["eval"] = {{"t_offset_s", bad}};
     const std::string msg = config_error(spec);
     CHECK_THAT(msg, Catch::Contains("eval.t_offset_s") && Catch::Contains("auto"));
