@@ -328,7 +328,7 @@ void read_sweep_t_offset(const json& value, EvalOptions& o) {
   o.t_offset_s = 0.0;
   if (o.t_offset_auto) return;
   if (!value.is_number() || !std::isfinite(value.get<double>()))
-    throw InputError("expected seconds (a finite number) or \"auto\" (--t-offset auto), got " + value.dump(),
+    throw InputError("expected seconds (a finite number) or \"auto\" (--t-offset auto), got " + io::dump_json(value),
                      {"", 0, 0, "t_offset_s"});
   o.t_offset_s = value.get<double>();
 }
