@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <optional>
 #include <set>
 
 #include "roe/core/error.hpp"
@@ -75,14 +76,9 @@ store::RunRecord run_record(const RunOutput& r, const Dataset& dataset, const Ru
   store::RunCounts& c = rec.counts;
   c.imu_samples = dataset.imu.size();
   c.camera_frames = dataset.frames.size();
-  Timestamp last = std::numeric_limits<Timestamp>::min();
-  for (const auto& p : r.reprojection)
-    if (p.t_ns != last) {
-      ++c.images_with_detections;
-      last = p.t_ns;
-    }
+  c.images_with_detections = r.images_with_detections;
   c.updates = r.summary.updates;
-  c.trajectory_rows = r.states.size();
+  c.trajectory_rows = r.state_rows;
   c.per_object = r.summary.counts;  // every status per object, so that the totals add up to the detections
   for (const auto& [id, n] : r.summary.counts) c.detections += n;
   rec.nis = r.health.nis;
@@ -125,10 +121,10 @@ ErrorContext located(const ErrorContext& c, const std::filesystem::path& dataset
 }
 
 RunOutput run_dataset_located(const Dataset& dataset, const std::filesystem::path& dataset_dir,
-                              const RunOptions& options, const RunConfig& config) {
+                              const RunOptions& options, const RunConfig& config, store::RunRowSink* rows) {
   const auto at = [&](const Error& e) { return located(e.context(), dataset_dir, options.config_file); };
   try {
-    return run_dataset(dataset, options.detections, config);
+    return run_dataset(dataset, options.detections, config, rows);
   } catch (const ConfigError& e) {
     throw ConfigError(e.bare_message(), at(e));
   } catch (const InputError& e) {
@@ -187,7 +183,11 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
 
   RunResult res;
   res.out = out_dir;
-  res.output = run_dataset_located(dataset, dataset_dir, options, config);
+  // The filter alone: its rows are final when produced, and go straight into the run folder's files.
+  std::optional<store::RunFolderWriter> stream;
+  if (pipeline::streams_rows(config))
+    stream.emplace(config, [&dir](const std::string& file) { return dir.file(file); });
+  res.output = run_dataset_located(dataset, dataset_dir, options, config, stream ? &*stream : nullptr);
   const RunOutput& r = res.output;
   for (const auto& w : r.warnings) log::warn("{}", w);
   log::info("filter: {} updates, anchor object {}, {:.3f} s; IMU noise gyro {:g} ({}), accel {:g} ({})",
@@ -205,7 +205,10 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
                                   "so the files hold the smoother's estimate");
     log::warn("{}", res.output.warnings.back());
   }
-  write_outputs(r, config, dir, !batch);
+  if (stream)
+    stream->commit();
+  else
+    write_outputs(r, config, dir, !batch);
   // Who produced the set (its meta.json, when it has one): in the log, and a malformed one is an input error.
   res.detections_meta = store::read_detection_set_meta(dataset_dir, set);
   if (res.detections_meta)
@@ -237,7 +240,7 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
   rec.timing_s["total"] = seconds_since(t_start);
   store::write_run_json(dir.file("run.json"), rec);
   dir.commit();
-  log::info("wrote {} ({} trajectory rows)", out_dir.string(), r.states.size());
+  log::info("wrote {} ({} trajectory rows)", out_dir.string(), r.state_rows);
   return res;
 }
 json RunResult::to_json() const {

@@ -463,25 +463,13 @@ void apply_kitti_times(Trajectory& tr, const fs::path& times_file) {
 
 namespace {
 
-/// The text of a trajectory file of n poses, at(i) the i-th; with a `sink`, streamed into it in pieces as it
-/// grows (the writer returned then holds nothing).
-CsvWriter fill_trajectory(std::size_t n, const std::function<StampedPose(std::size_t)>& at, TrajectoryFormat format,
-                          AtomicFile* sink) {
-  if (format == TrajectoryFormat::kAuto) format = TrajectoryFormat::kCsv;
+/// The delimiter and header line of a trajectory file in `format` (not kAuto); KITTI has no header.
+CsvWriter trajectory_writer(TrajectoryFormat format) {
   const char delim = format == TrajectoryFormat::kTum || format == TrajectoryFormat::kKitti ? ' ' : ',';
   CsvWriter w(delim);
-  if (format == TrajectoryFormat::kKitti) {  // no header, no stamps
-    for (std::size_t i = 0; i < n; ++i) {
-      const Pose T = at(i).T;
-      const Eigen::Matrix3d R = T.R();
-      for (int i = 0; i < 3; ++i) w.add(R(i, 0)).add(R(i, 1)).add(R(i, 2)).add(T.p(i));
-      w.end_row();
-      if (sink != nullptr) w.flush_to(*sink, CsvWriter::kFlushBytes);
-    }
-    if (sink != nullptr) w.flush_to(*sink);
-    return w;
-  }
   switch (format) {
+    case TrajectoryFormat::kKitti:  // no header, no stamps
+      break;
     case TrajectoryFormat::kTum:
       w.header({"timestamp", "tx", "ty", "tz", "qx", "qy", "qz", "qw"}, "# ");
       break;
@@ -497,9 +485,16 @@ CsvWriter fill_trajectory(std::size_t n, const std::function<StampedPose(std::si
       w.header({"t", "tx", "ty", "tz", "qx", "qy", "qz", "qw"});
       break;
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    const StampedPose sp = at(i);
-    const Pose& T = sp.T;
+  return w;
+}
+
+/// One pose's row of a trajectory file in `format` (not kAuto).
+void trajectory_row(CsvWriter& w, const StampedPose& sp, TrajectoryFormat format) {
+  const Pose& T = sp.T;
+  if (format == TrajectoryFormat::kKitti) {
+    const Eigen::Matrix3d R = T.R();
+    for (int i = 0; i < 3; ++i) w.add(R(i, 0)).add(R(i, 1)).add(R(i, 2)).add(T.p(i));
+  } else {
     if (format == TrajectoryFormat::kEuroc || format == TrajectoryFormat::kCsvNs) {
       w.add(static_cast<std::int64_t>(sp.t_ns));
     } else {
@@ -511,7 +506,18 @@ CsvWriter fill_trajectory(std::size_t n, const std::function<StampedPose(std::si
     } else {
       w.add(T.q.x()).add(T.q.y()).add(T.q.z()).add(T.q.w());
     }
-    w.end_row();
+  }
+  w.end_row();
+}
+
+/// The text of a trajectory file of n poses, at(i) the i-th; with a `sink`, streamed into it in pieces as it
+/// grows (the writer returned then holds nothing).
+CsvWriter fill_trajectory(std::size_t n, const std::function<StampedPose(std::size_t)>& at, TrajectoryFormat format,
+                          AtomicFile* sink) {
+  if (format == TrajectoryFormat::kAuto) format = TrajectoryFormat::kCsv;
+  CsvWriter w = trajectory_writer(format);
+  for (std::size_t i = 0; i < n; ++i) {
+    trajectory_row(w, at(i), format);
     if (sink != nullptr) w.flush_to(*sink, CsvWriter::kFlushBytes);
   }
   if (sink != nullptr) w.flush_to(*sink);
@@ -557,6 +563,27 @@ void write_trajectory(const fs::path& file, const std::vector<StampedPose>& pose
     p.push_back(sp.T);
   }
   write_trajectory(file, t, p, format);
+}
+
+struct TrajectoryWriter::Impl {
+  Impl(const fs::path& file, TrajectoryFormat f) : format(f), file(file), w(trajectory_writer(f)) {}
+  TrajectoryFormat format;
+  AtomicFile file;
+  CsvWriter w;
+};
+
+TrajectoryWriter::TrajectoryWriter(const fs::path& file, TrajectoryFormat format)
+    : impl_(std::make_unique<Impl>(file, format == TrajectoryFormat::kAuto ? TrajectoryFormat::kCsv : format)) {}
+TrajectoryWriter::~TrajectoryWriter() = default;
+
+void TrajectoryWriter::add(const StampedPose& pose) {
+  trajectory_row(impl_->w, pose, impl_->format);
+  impl_->w.flush_to(impl_->file, CsvWriter::kFlushBytes);
+}
+
+void TrajectoryWriter::commit() {
+  impl_->w.flush_to(impl_->file);
+  impl_->file.commit();
 }
 
 }  // namespace roe::io

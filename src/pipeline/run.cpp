@@ -29,11 +29,25 @@ SigmaRows sigma_rows(const store::RunConfig& c) {
   return store::sigma_at_every_row(c) ? SigmaRows::kEvery : SigmaRows::kAfterImages;
 }
 
-// Collects the filter's output rows in memory (the counts and the final state are run_filter's summary).
-// A row without σ has nan in sigma and pose_cov (written as empty cells, store/run_files.hpp).
+// The rows in memory: RunOutput's vectors (the smoother and the batch revise them; tests read them).
+class MemorySink : public store::RunRowSink {
+ public:
+  explicit MemorySink(RunOutput& out) : out_(out) {}
+  void state(const RecordedState& row) override { out_.states.push_back(row); }
+  void object(const ObjectRow& row) override { out_.objects.push_back(row); }
+  void reprojection(const store::ReprojectionRow& row) override { out_.reprojection.push_back(row); }
+
+ private:
+  RunOutput& out_;
+};
+
+// Hands the filter's output rows to a sink as they are produced, counting them in `out` (the counts and the
+// final state are run_filter's summary). A row without σ has nan in sigma and pose_cov (written as empty
+// cells, store/run_files.hpp).
 class Recorder : public ekf::FilterObserver {
  public:
-  Recorder(RunOutput& out, bool imu_rate, SigmaRows sigma) : out_(out), imu_rate_(imu_rate), sigma_(sigma) {}
+  Recorder(RunOutput& out, store::RunRowSink& sink, bool imu_rate, SigmaRows sigma)
+      : out_(out), sink_(sink), imu_rate_(imu_rate), sigma_(sigma) {}
 
   void on_imu(const ekf::Filter& f) override {
     if (!imu_rate_) return;
@@ -46,7 +60,11 @@ class Recorder : public ekf::FilterObserver {
       sigma_due_ = true;
     else
       record_state(f, sigma_ != SigmaRows::kNone);
-    for (const auto& d : r.detections) out_.reprojection.push_back({r.t_ns, d.object_id, d});
+    for (const auto& d : r.detections) sink_.reprojection({r.t_ns, d.object_id, d});
+    if (!r.detections.empty() && (out_.images_with_detections == 0 || r.t_ns != last_image_ns_)) {
+      ++out_.images_with_detections;
+      last_image_ns_ = r.t_ns;
+    }
     if (r.detections.empty() || r.detections.front().status == ekf::DetectionStatus::kRejectedNoImu) return;
     for (const auto& o : f.objects()) {
       ObjectRow row;
@@ -57,7 +75,7 @@ class Recorder : public ekf::FilterObserver {
       row.sigma = f.object_covariance(o).diagonal().cwiseSqrt();
       row.sigma_W_O = f.object_covariance_in_world(o).diagonal().cwiseMax(0.0).cwiseSqrt();
       if (!o.anchor) row.sigma_A_O = f.object_covariance_relative_to_anchor(o).diagonal().cwiseMax(0.0).cwiseSqrt();
-      out_.objects.push_back(row);
+      sink_.object(row);
     }
   }
 
@@ -72,7 +90,7 @@ class Recorder : public ekf::FilterObserver {
       s.sigma_time_offset_s = std::numeric_limits<double>::quiet_NaN();
       s.sigma.setConstant(std::numeric_limits<double>::quiet_NaN());
       s.pose_cov.setConstant(std::numeric_limits<double>::quiet_NaN());
-      out_.states.push_back(s);
+      put(s);
       return;
     }
     for (int i = 0; i < 15; ++i) s.sigma(i) = std::sqrt(f.variance(i));
@@ -87,16 +105,25 @@ class Recorder : public ekf::FilterObserver {
           for (int j = 0; j < 3; ++j)
             s.pose_cov(3 * a + i, 3 * b + j) = f.core_covariance(a == 0 ? ekf::kP + i : ekf::kTheta + i,
                                                                  b == 0 ? ekf::kP + j : ekf::kTheta + j);
-    out_.states.push_back(s);
+    put(s);
+  }
+
+  void put(const RecordedState& s) {
+    sink_.state(s);
+    ++out_.state_rows;
   }
 
   RunOutput& out_;
+  store::RunRowSink& sink_;
+  Timestamp last_image_ns_ = 0;
   bool imu_rate_;
   SigmaRows sigma_;
   bool sigma_due_ = true;  // the first row has σ (the prior), then the first after each image
 };
 
 }  // namespace
+
+bool streams_rows(const store::RunConfig& config) { return !config.smoothed(); }
 
 std::string choose_detections(const Dataset& d, const std::string& name) {
   std::vector<std::string> names;
@@ -152,7 +179,10 @@ ekf::ImuNoiseParams imu_noise(const Dataset& d, const ekf::FilterOptions& o, std
 
 }  // namespace
 
-RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name, const store::RunConfig& config) {
+RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name, const store::RunConfig& config,
+                      store::RunRowSink* rows) {
+  ROE_CHECK(rows == nullptr || !config.smoothed(),
+            "run_dataset: rows stream to a sink only with the filter alone (the smoother revises them)");
   RunOutput out;
   const ekf::FilterOptions& opt = config.filter;
   if (dataset.imu.size() < 2)
@@ -216,9 +246,12 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
         "only a noise-free simulation justifies",
         noise.gyro_noise_density, noise.accel_noise_density,
         out.imu_noise_from[0] == out.imu_noise_from[2] ? out.imu_noise_from[0] : "dataset and config"));
-  out.states.reserve(config.output_rate == "imu" ? dataset.imu.size() : images.size());
-  out.reprojection.reserve(dets.size());
-  Recorder rec(out, config.output_rate == "imu", sigma_rows(config));
+  MemorySink memory(out);
+  if (rows == nullptr) {
+    out.states.reserve(config.output_rate == "imu" ? dataset.imu.size() : images.size());
+    out.reprojection.reserve(dets.size());
+  }
+  Recorder rec(out, rows != nullptr ? *rows : memory, config.output_rate == "imu", sigma_rows(config));
   const auto t0 = Clock::now();
   const bool smooth = config.smoothed();
   ekf::FilterRecording recording;

@@ -11,6 +11,7 @@
 
 #include "roe/io/csv.hpp"
 #include "roe/io/output.hpp"
+#include "roe/io/trajectory_io.hpp"
 #include "roe/math/so3.hpp"
 
 namespace roe::store {
@@ -222,6 +223,11 @@ const Table<ReprojectionRow, eval::DetectionPose>& reprojection_table() {
   return t;
 }
 
+// The table a row type is written with (RunFileWriter).
+const Table<RecordedState>& table_of(const RecordedState*) { return states_table(); }
+const Table<ObjectRow>& table_of(const ObjectRow*) { return objects_table(); }
+const Table<ReprojectionRow, eval::DetectionPose>& table_of(const ReprojectionRow*) { return reprojection_table(); }
+
 #undef ROE_VEC
 #undef ROE_SIGMA
 #undef ROE_ROW_SIGMA
@@ -235,17 +241,19 @@ std::vector<std::string> names(const Table<W, R>& t) {
   return n;
 }
 
-/// The table's text; with a `sink`, streamed into it as it grows (the writer returned holds nothing then).
+/// One row of table `t` into `w`.
 template <class W, class R>
-CsvWriter fill_table(const Table<W, R>& t, const std::vector<W>& rows, AtomicFile* sink = nullptr) {
+void add_row(const Table<W, R>& t, CsvWriter& w, const W& row) {
+  for (const auto& c : t) c.write(w, row, c.k);
+  w.end_row();
+}
+
+/// The table's text: header and rows.
+template <class W, class R>
+CsvWriter fill_table(const Table<W, R>& t, const std::vector<W>& rows) {
   CsvWriter w;
   w.header(names(t));
-  for (const W& row : rows) {
-    for (const auto& c : t) c.write(w, row, c.k);
-    w.end_row();
-    if (sink != nullptr) w.flush_to(*sink, CsvWriter::kFlushBytes);
-  }
-  if (sink != nullptr) w.flush_to(*sink);
+  for (const W& row : rows) add_row(t, w, row);
   return w;
 }
 
@@ -317,22 +325,70 @@ std::string format_objects_csv(const std::vector<ObjectRow>& rows) { return fill
 std::string format_reprojection_csv(const std::vector<ReprojectionRow>& rows) {
   return fill_table(reprojection_table(), rows).str();
 }
-// The writers stream the table into the file in pieces of CsvWriter::kFlushBytes (the same bytes as
-// format_*: fill_table with a sink).
-void write_states_csv(const fs::path& file, const std::vector<RecordedState>& rows) {
-  AtomicFile f(file);
-  fill_table(states_table(), rows, &f);
-  f.commit();
+template <class Row>
+struct RunFileWriter<Row>::Impl {
+  explicit Impl(const fs::path& file) : f(file) { w.header(names(table_of(static_cast<const Row*>(nullptr)))); }
+  AtomicFile f;
+  CsvWriter w;
+};
+
+template <class Row>
+RunFileWriter<Row>::RunFileWriter(const fs::path& file) : impl_(std::make_unique<Impl>(file)) {}
+template <class Row>
+RunFileWriter<Row>::~RunFileWriter() = default;
+template <class Row>
+void RunFileWriter<Row>::add(const Row& row) {
+  add_row(table_of(static_cast<const Row*>(nullptr)), impl_->w, row);
+  impl_->w.flush_to(impl_->f, CsvWriter::kFlushBytes);
 }
-void write_objects_csv(const fs::path& file, const std::vector<ObjectRow>& rows) {
-  AtomicFile f(file);
-  fill_table(objects_table(), rows, &f);
-  f.commit();
+template <class Row>
+void RunFileWriter<Row>::commit() {
+  impl_->w.flush_to(impl_->f);
+  impl_->f.commit();
 }
-void write_reprojection_csv(const fs::path& file, const std::vector<ReprojectionRow>& rows) {
-  AtomicFile f(file);
-  fill_table(reprojection_table(), rows, &f);
-  f.commit();
+template class RunFileWriter<RecordedState>;
+template class RunFileWriter<ObjectRow>;
+template class RunFileWriter<ReprojectionRow>;
+
+namespace {
+template <class Row>
+void write_rows(const fs::path& file, const std::vector<Row>& rows) {
+  RunFileWriter<Row> w(file);
+  for (const Row& row : rows) w.add(row);
+  w.commit();
+}
+}  // namespace
+
+void write_states_csv(const fs::path& file, const std::vector<RecordedState>& rows) { write_rows(file, rows); }
+void write_objects_csv(const fs::path& file, const std::vector<ObjectRow>& rows) { write_rows(file, rows); }
+void write_reprojection_csv(const fs::path& file, const std::vector<ReprojectionRow>& rows) { write_rows(file, rows); }
+
+RunFolderWriter::RunFolderWriter(const RunConfig& config, const std::function<fs::path(const std::string&)>& path_of) {
+  const auto has = [&](const char* file) { return run_folder_has(config, file); };
+  if (has("states.csv")) states_.emplace(path_of("states.csv"));
+  if (has("objects.csv")) objects_.emplace(path_of("objects.csv"));
+  if (has("reprojection.csv")) reprojection_.emplace(path_of("reprojection.csv"));
+  for (const auto& [file, format] : {std::pair{"trajectory.csv", io::TrajectoryFormat::kCsv},
+                                     std::pair{"trajectory.tum", io::TrajectoryFormat::kTum}})
+    if (has(file)) trajectories_.push_back(std::make_unique<io::TrajectoryWriter>(path_of(file), format));
+}
+RunFolderWriter::~RunFolderWriter() = default;
+
+void RunFolderWriter::state(const RecordedState& row) {
+  if (states_) states_->add(row);
+  for (const auto& t : trajectories_) t->add(StampedPose{row.t_ns, Pose(row.x.q_W_I, row.x.p_W_I)});
+}
+void RunFolderWriter::object(const ObjectRow& row) {
+  if (objects_) objects_->add(row);
+}
+void RunFolderWriter::reprojection(const ReprojectionRow& row) {
+  if (reprojection_) reprojection_->add(row);
+}
+void RunFolderWriter::commit() {
+  if (states_) states_->commit();
+  if (objects_) objects_->commit();
+  if (reprojection_) reprojection_->commit();
+  for (const auto& t : trajectories_) t->commit();
 }
 
 std::vector<RecordedState> read_states_csv(const fs::path& file, const RunFileRead& read) {

@@ -2,7 +2,9 @@
 // round trips, and located errors (a missing column, a bad value, decreasing stamps).
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <map>
 #include <random>
+#include <set>
 
 #include "roe/core/error.hpp"
 #include "roe/io/csv.hpp"
@@ -381,6 +383,99 @@ TEST_CASE("run files: tables streamed into the file in pieces have the bytes of 
   for (const auto format : {TrajectoryFormat::kTum, TrajectoryFormat::kCsv, TrajectoryFormat::kKitti}) {
     write_trajectory(tmp / "traj.txt", t, poses, format);
     CHECK(read_file(tmp / "traj.txt") == format_trajectory(t, poses, format));
+  }
+}
+
+TEST_CASE("run files: a run folder written row by row has the bytes of the in-memory tables, and nothing until commit",
+          "[io][run_files]") {
+  test::TempDir tmp("roe_run_folder_writer");
+  std::mt19937 g(12);
+  // 8000 state rows (3.2 MB: several 1 MiB pieces), σ recorded at every 7th row only (empty cells elsewhere).
+  std::vector<RecordedState> states(8000);
+  std::vector<ObjectRow> objects;
+  std::vector<ReprojectionRow> reprojection;
+  for (std::size_t i = 0; i < states.size(); ++i) {
+    RecordedState& s = states[i];
+    s.t_ns = 1700000000000000000LL + static_cast<Timestamp>(i) * 2500000;
+    s.x.p_W_I = random_vec(g);
+    s.x.q_W_I = random_unit(g);
+    s.T_I_C = Pose(random_unit(g), random_vec(g));
+    s.time_offset_s = random_vec(g).x() * 1e-3;
+    for (int k = 0; k < 21; ++k) s.sigma(k) = i % 7 == 0 ? std::abs(random_vec(g).x()) : std::nan("");
+    s.sigma_time_offset_s = i % 7 == 0 ? 1e-4 : std::nan("");
+    if (i % 13 != 0) continue;
+    ObjectRow o;
+    o.t_ns = s.t_ns;
+    o.object_id = static_cast<int>(i % 3);
+    o.anchor = o.object_id == 0;
+    o.T_O_W = Pose(random_unit(g), random_vec(g));
+    o.sigma = random_vec(g).cwiseAbs().replicate(2, 1);
+    objects.push_back(o);
+    ReprojectionRow r;
+    r.t_ns = s.t_ns;
+    r.object_id = o.object_id;
+    r.outcome.status = i % 2 == 0 ? ekf::DetectionStatus::kAccepted : ekf::DetectionStatus::kRejectedChi2;
+    r.outcome.has_T_W_I = i % 5 != 0;
+    r.outcome.T_W_I = Pose(random_unit(g), random_vec(g));
+    r.outcome.nis = std::abs(random_vec(g).y());
+    reprojection.push_back(r);
+  }
+  std::vector<Timestamp> t;
+  std::vector<Pose> poses;
+  for (const auto& s : states) {
+    t.push_back(s.t_ns);
+    poses.push_back(Pose(s.x.q_W_I, s.x.p_W_I));
+  }
+  const std::map<std::string, std::string> all = {
+      {"states.csv", format_states_csv(states)},
+      {"objects.csv", format_objects_csv(objects)},
+      {"reprojection.csv", format_reprojection_csv(reprojection)},
+      {"trajectory.csv", format_trajectory(t, poses, TrajectoryFormat::kCsv)},
+      {"trajectory.tum", format_trajectory(t, poses, TrajectoryFormat::kTum)}};
+  REQUIRE(all.at("states.csv").size() > 2 * CsvWriter::kFlushBytes);
+  const auto entries = [](const fs::path& dir) {
+    std::set<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir)) names.insert(e.path().filename().string());
+    return names;
+  };
+  // Rows in the order the filter gives them: a state, then the image's objects and detections.
+  const auto feed = [&](RunFolderWriter& w) {
+    std::size_t o = 0;
+    for (const auto& s : states) {
+      w.state(s);
+      for (; o < objects.size() && objects[o].t_ns == s.t_ns; ++o) {
+        w.object(objects[o]);
+        w.reprojection(reprojection[o]);
+      }
+    }
+  };
+  for (const char* level : {"full", "minimal"}) {
+    INFO(level);
+    RunConfig config;
+    config.estimator = "filter";
+    config.output_level = level;
+    const fs::path dir = tmp / level;
+    fs::create_directories(dir);
+    {  // abandoned (an exception in the filter): nothing left, not even a temporary
+      RunFolderWriter w(config, [&](const std::string& f) { return dir / f; });
+      feed(w);
+      CHECK_FALSE(entries(dir).empty());  // the temporaries, written as the rows came
+      for (const auto& name : entries(dir)) CHECK(name.front() == '.');
+    }
+    CHECK(entries(dir).empty());
+    RunFolderWriter w(config, [&](const std::string& f) { return dir / f; });
+    feed(w);
+    w.commit();
+    std::set<std::string> want;
+    for (const auto& [file, text] : all)
+      if (run_folder_has(config, file)) {
+        want.insert(file);
+        INFO(file);
+        const bool same = read_file(dir / file) == text;
+        CHECK(same);
+      }
+    CHECK(entries(dir) == want);
+    CHECK(want.size() == (std::string(level) == "full" ? 5u : 2u));
   }
 }
 

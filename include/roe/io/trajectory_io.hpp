@@ -27,6 +27,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -94,5 +95,22 @@ void write_trajectory(const fs::path& file, const std::vector<Timestamp>& t_ns,
 void write_trajectory(const fs::path& file, std::size_t n, const std::function<StampedPose(std::size_t)>& at,
                       TrajectoryFormat format);
 void write_trajectory(const fs::path& file, const std::vector<StampedPose>& poses, TrajectoryFormat format);
+
+/// write_trajectory one pose at a time, for a trajectory produced as it is written (roe run's filter): the
+/// same bytes, through the same io::AtomicFile (nothing at `file` until commit(); the temporary is removed
+/// when the writer is destroyed uncommitted, and on signals), in pieces of CsvWriter::kFlushBytes.
+class TrajectoryWriter {
+ public:
+  TrajectoryWriter(const fs::path& file, TrajectoryFormat format);
+  ~TrajectoryWriter();
+  TrajectoryWriter(const TrajectoryWriter&) = delete;
+  TrajectoryWriter& operator=(const TrajectoryWriter&) = delete;
+  void add(const StampedPose& pose);
+  void commit();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace roe::io

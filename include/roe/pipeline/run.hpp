@@ -18,7 +18,8 @@
 
 namespace roe::pipeline {
 
-/// The result of a run in memory (what the files hold).
+/// The result of a run in memory (what the files hold). With a row sink (run_dataset), `states`, `objects`
+/// and `reprojection` stay empty: the rows went to the sink, and only their counts are kept.
 struct RunOutput {
   std::vector<store::RecordedState> states;  ///< the estimate (smoothed with store::RunConfig::smoother "rts")
   /// With the smoother: the filter's estimate at the same times as `states`; empty otherwise.
@@ -27,6 +28,8 @@ struct RunOutput {
   double smoother_wall_s = 0.0;
   std::vector<store::ObjectRow> objects;
   std::vector<store::ReprojectionRow> reprojection;
+  std::size_t state_rows = 0;              ///< the state rows produced (the size of `states` without a sink)
+  std::size_t images_with_detections = 0;  ///< images with at least one detection (one reprojection row each)
   /// The anchor, per-object counts, NIS values, update times and the final state (ekf/driver.hpp).
   ekf::FilterRunSummary summary;
   ekf::RunHealth health;  ///< against store::RunConfig::health
@@ -43,7 +46,16 @@ struct RunOutput {
 /// Runs the filter on a dataset in memory with the detection set `detections_name` (empty: the only
 /// one). Validates the inputs (InputError: no IMU, unknown object ids, bad options; DataError: no
 /// detections, configured anchor never detected) and throws NumericError when the filter diverges.
-RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name, const store::RunConfig& config);
+/// With `rows` (only for "estimator": "filter", whose rows are final when produced: a programming error
+/// otherwise), every state, object and reprojection row goes to `rows` as the filter produces it and none is
+/// kept (RunOutput's row vectors stay empty), so memory does not grow with the recording beyond the dataset;
+/// without, the rows are collected in RunOutput (the smoother's and the batch's path).
+RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name, const store::RunConfig& config,
+                      store::RunRowSink* rows = nullptr);
+
+/// Whether `roe run` streams the run's rows into its files (run_dataset with a sink): with the filter alone,
+/// whose rows are final when produced; the smoother and the batch revise the whole history first.
+bool streams_rows(const store::RunConfig& config);
 
 /// The detection set a run fuses: `name` when given (InputError naming the available sets when the dataset
 /// has no such set), else the dataset's only one (InputError when it has none or several).

@@ -27,6 +27,8 @@
 #include <Eigen/Core>
 #include <filesystem>
 #include <functional>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +37,11 @@
 #include "roe/ekf/images.hpp"
 #include "roe/ekf/imu.hpp"
 #include "roe/eval/evaluate.hpp"
+#include "roe/store/run_config.hpp"
+
+namespace roe::io {
+class TrajectoryWriter;  // io/trajectory_io.hpp
+}  // namespace roe::io
 
 namespace roe::store {
 
@@ -91,6 +98,56 @@ std::string format_reprojection_csv(const std::vector<ReprojectionRow>& rows);
 void write_states_csv(const fs::path& file, const std::vector<RecordedState>& rows);
 void write_objects_csv(const fs::path& file, const std::vector<ObjectRow>& rows);
 void write_reprojection_csv(const fs::path& file, const std::vector<ReprojectionRow>& rows);
+
+/// One run file written a row at a time, as the rows are produced, through the file's column table: the same
+/// bytes as write_*_csv of the same rows (which are this writer over a vector). The header is written at
+/// construction; the text goes into an io::AtomicFile in pieces of CsvWriter::kFlushBytes, so memory does not
+/// grow with the rows; nothing is at `file` until commit(), and a writer destroyed uncommitted (an exception)
+/// or a signal removes the temporary. Instantiated for RecordedState, ObjectRow and ReprojectionRow.
+template <class Row>
+class RunFileWriter {
+ public:
+  explicit RunFileWriter(const fs::path& file);
+  ~RunFileWriter();
+  RunFileWriter(const RunFileWriter&) = delete;
+  RunFileWriter& operator=(const RunFileWriter&) = delete;
+  void add(const Row& row);
+  void commit();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Where the filter's rows go as they are produced (pipeline::run_dataset): into vectors in memory, or
+/// straight into the run folder's files (RunFolderWriter).
+class RunRowSink {
+ public:
+  virtual ~RunRowSink() = default;
+  virtual void state(const RecordedState& row) = 0;
+  virtual void object(const ObjectRow& row) = 0;
+  virtual void reprojection(const ReprojectionRow& row) = 0;
+};
+
+/// The row files of a run folder written as the rows come (roe run with "estimator": "filter", whose rows are
+/// final when produced): states.csv, objects.csv, reprojection.csv and trajectory.csv/.tum (of the state rows),
+/// each only where run_folder_has(config, it). `path_of(name)` is where file `name` is written (the run's
+/// io::OutputDir::file). commit() commits every file; destroyed without it, nothing is left.
+class RunFolderWriter : public RunRowSink {
+ public:
+  RunFolderWriter(const RunConfig& config, const std::function<fs::path(const std::string&)>& path_of);
+  ~RunFolderWriter() override;
+  void state(const RecordedState& row) override;
+  void object(const ObjectRow& row) override;
+  void reprojection(const ReprojectionRow& row) override;
+  void commit();
+
+ private:
+  std::optional<RunFileWriter<RecordedState>> states_;
+  std::optional<RunFileWriter<ObjectRow>> objects_;
+  std::optional<RunFileWriter<ReprojectionRow>> reprojection_;
+  std::vector<std::unique_ptr<io::TrajectoryWriter>> trajectories_;
+};
 
 /// Which columns a reader reads.
 struct RunFileRead {
