@@ -369,6 +369,40 @@ def onto(t, y, t_ref, y_ref):
     return r + wrap180(y - r)
 
 
+def equal_limits(fig, ax, lim_a, lim_b):
+    """The two limits widened (never narrowed) so that one metre is as long on both axes of `ax`'s box: the
+    whole trajectory stays inside at equal scale (matplotlib's adjustable='datalim' may trim an axis when
+    both limits are set)."""
+    fw, fh = fig.get_size_inches()
+    box = ax.get_position()
+    w, h = max(box.width * fw, 1e-6), max(box.height * fh, 1e-6)
+    ra, rb = lim_a[1] - lim_a[0], lim_b[1] - lim_b[0]
+    if ra / w > rb / h:
+        c, half = 0.5 * (lim_b[0] + lim_b[1]), 0.5 * ra * h / w
+        return lim_a, (c - half, c + half)
+    c, half = 0.5 * (lim_a[0] + lim_a[1]), 0.5 * rb * w / h
+    return (c - half, c + half), lim_b
+
+
+def correspondence_edges(ax, est, gt, keys, max_edges=500):
+    """--correspondences: a thin line from each matched estimate pose to its ground-truth pose (every k-th,
+    at most `max_edges`). Returns the number drawn."""
+    n = min(len(est["t"]), len(gt["t"]))
+    idx = np.arange(0, n, max(1, -(-n // max_edges)))
+    if len(idx) == 0:
+        return 0
+    if len(keys) == 2:
+        seg = np.stack([np.stack([est[keys[0]][idx], est[keys[1]][idx]], 1),
+                        np.stack([gt[keys[0]][idx], gt[keys[1]][idx]], 1)], 1)
+        ax.add_collection(LineCollection(seg, colors="#d62728", linewidths=0.5, alpha=0.6, zorder=2))
+    else:
+        from mpl_toolkits.mplot3d.art3d import Line3DCollection
+        seg = np.stack([np.stack([est[k][idx] for k in keys], 1), np.stack([gt[k][idx] for k in keys], 1)], 1)
+        ax.add_collection(Line3DCollection(seg, colors="#d62728", linewidths=0.5, alpha=0.6))
+    ax.plot([], [], color="#d62728", lw=0.5, label="correspondences")
+    return len(idx)
+
+
 def robust_limits(series, floor):
     """Axis limits covering the estimate and the truth (not the raw detections) with a margin."""
     v = np.concatenate([s[np.isfinite(s)] for s in series if len(s)] or [np.zeros(1)])
@@ -1010,7 +1044,7 @@ def consistency(F, err, reps, colors, gate, t0):
     F.save(fig, "consistency", "Consistency: NEES and NIS", cap, layers, skipped, {"nis_part_used": n_part})
 
 
-def trajectory_3d(F, fig, est, gt, reps, chosen, colors, err, by_error):
+def trajectory_3d(F, fig, est, gt, reps, chosen, colors, err, by_error, edges=False):
     """The 3-D trajectory: truth, estimate (coloured by the error when asked), used reprojections of the
     chosen objects (at most 4000 per object, evenly over time), the start. Returns (layers, skipped)."""
     from mpl_toolkits.mplot3d.art3d import Line3DCollection
@@ -1052,6 +1086,8 @@ def trajectory_3d(F, fig, est, gt, reps, chosen, colors, err, by_error):
         ie = decimate(est["t"], [est["x"], est["y"], est["z"]], bins)
         ax.plot(est["x"][ie], est["y"][ie], est["z"][ie], color=C_EST, lw=1.0, label="estimate")
         layers.append("estimate")
+    if edges and correspondence_edges(ax, est, gt, ("x", "y", "z")):
+        layers.append("correspondences")
     ax.plot(gt["x"][:1], gt["y"][:1], gt["z"][:1], "o", color=C_GT, ms=5, label="start")
     layers.append("start")
     for (lo, hi), setter in zip(lims, (ax.set_xlim, ax.set_ylim, ax.set_zlim)):
@@ -1059,19 +1095,17 @@ def trajectory_3d(F, fig, est, gt, reps, chosen, colors, err, by_error):
     ax.set_xlabel("$x$ [m]"); ax.set_ylabel("$y$ [m]"); ax.set_zlabel("$z$ [m]")
     ax.set_box_aspect([hi - lo for lo, hi in lims])
     ax.legend(loc="upper left", markerscale=2)
-    return layers, skipped
+    return layers, skipped, {a: [float(lo), float(hi)] for a, (lo, hi) in zip("xyz", lims)}
 
 
-def trajectory_2d(F, fig, est, gt, reps, chosen, colors, err, mode, by_error):
+def trajectory_2d(F, fig, est, gt, reps, chosen, colors, err, mode, by_error, edges=False):
     """The trajectory in the plane `mode`: as trajectory_3d. Returns (layers, skipped)."""
     ka, kb = mode[0], mode[1]
     ax = fig.add_subplot(111)
     layers, skipped = [], []
-    lim_a = robust_limits([gt[ka], est[ka]], 0.1)
-    lim_b = robust_limits([gt[kb], est[kb]], 0.1)
-    ax.set_aspect("equal", adjustable="datalim")
+    lim_a, lim_b = equal_limits(fig, ax, robust_limits([gt[ka], est[ka]], 0.1), robust_limits([gt[kb], est[kb]], 0.1))
     ax.set_xlim(*lim_a); ax.set_ylim(*lim_b)
-    ax.apply_aspect()  # the final limits before the scatter is thinned to pixels
+    ax.set_aspect("equal", adjustable="box")  # the limits hold every pose: never trimmed to fit the box
     for oid in chosen:
         r = reps.get(oid)
         if r is None:
@@ -1106,28 +1140,32 @@ def trajectory_2d(F, fig, est, gt, reps, chosen, colors, err, mode, by_error):
         ie = decimate(est["t"], [est[ka], est[kb]], bins)
         ax.plot(est[ka][ie], est[kb][ie], color=C_EST, lw=1.0, label="estimate")
         layers.append("estimate")
+    if edges and correspondence_edges(ax, est, gt, (ka, kb)):
+        layers.append("correspondences")
     ax.plot(gt[ka][:1], gt[kb][:1], "o", color=C_GT, ms=5, label="start")
     layers.append("start")
     ax.set_xlabel(f"${ka}$ [m]"); ax.set_ylabel(f"${kb}$ [m]")
     ax.legend(loc="best", markerscale=2)
-    return layers, skipped
+    return layers, skipped, {ka: [float(v) for v in ax.get_xlim()], kb: [float(v) for v in ax.get_ylim()]}
 
 
-def trajectory(F, est, gt, reps, chosen, colors, err, mode, by_error):
+def trajectory(F, est, gt, reps, chosen, colors, err, mode, by_error, edges=False):
     fig = plt.figure(figsize=F.new_size("single", 6.5))
     if mode == "xyz":
         F.adjust(fig, legend_rows=0, left=0.0, right=0.92 if by_error else 0.97)
-        layers, skipped = trajectory_3d(F, fig, est, gt, reps, chosen, colors, err, by_error)
+        layers, skipped, limits = trajectory_3d(F, fig, est, gt, reps, chosen, colors, err, by_error, edges)
     else:
         F.adjust(fig, legend_rows=0, left=0.13, right=0.97 if not by_error else 0.9)
-        layers, skipped = trajectory_2d(F, fig, est, gt, reps, chosen, colors, err, mode, by_error)
+        layers, skipped, limits = trajectory_2d(F, fig, est, gt, reps, chosen, colors, err, mode, by_error, edges)
     drawn = [o for o in chosen if o in reps]
     cap = (f"Trajectory ({'3-D' if mode == 'xyz' else 'plane ' + mode}) of the aligned estimate and the ground "
            "truth, the start marked (dot)" + (", coloured by the position error" if "estimate coloured by the position "
                                              "error" in layers else "") +
            (f", with the used reprojected detections of object(s) {', '.join(map(str, drawn))}" if drawn else "") +
            (" (3-D: at most 4000 per object, evenly over time)" if drawn and mode == "xyz" else "") + ".")
-    F.save(fig, "trajectory", f"Trajectory ({mode})", cap, layers, skipped)
+    cap += " Correspondences: a line from each matched estimate pose to its ground truth." if "correspondences" in layers else ""
+    # The axes' limits (m) as drawn: every estimate and ground-truth pose lies inside them.
+    F.save(fig, "trajectory", f"Trajectory ({mode})", cap, layers, skipped, {"axes_limits_m": limits})
 
 
 def errors(F, err, t0):
@@ -1314,7 +1352,8 @@ def make_tasks(F, a, x, chosen, colors, label_of):
                                           "no states.csv with the extrinsics (not a run folder)")))
     gate = (run_json.get("nis") or {}).get("gate")
     tasks.append((3.0, lambda: consistency(F, err, reps, colors, gate, t0)))
-    tasks.append((1.2, lambda: trajectory(F, est, gt, reps, chosen, colors, err, a.plot_mode, a.color_by_error)))
+    tasks.append((1.2, lambda: trajectory(F, est, gt, reps, chosen, colors, err, a.plot_mode, a.color_by_error,
+                                          a.correspondences)))
     tasks.append((1.5, lambda: errors(F, err, t0)))
     if x["rpe"] is not None:
         tasks.append((1.2, lambda: rpe_fig(F, x["rpe"], t0)))
@@ -1351,6 +1390,7 @@ def main():
     ap.add_argument("--objects", default="anchor")
     ap.add_argument("--plot-mode", default="xy", choices=["xy", "xz", "yz", "xyz"])
     ap.add_argument("--color-by-error", action="store_true")
+    ap.add_argument("--correspondences", action="store_true")
     ap.add_argument("--vector", default="pdf", choices=["pdf", "svg", "none"])
     ap.add_argument("--style", default="default", choices=sorted(STYLES))
     ap.add_argument("--dpi", type=int, default=0, help="PNG resolution (0: the style's, 130 or 300)")
@@ -1382,7 +1422,7 @@ def main():
     run_tasks(F, make_tasks(F, a, x, chosen, colors, label_of), a.jobs if a.jobs > 0 else min(2, os.cpu_count() or 1))
     manifest = {"figures": F.items, "skipped": F.skipped, "objects": {str(k): v for k, v in colors.items()},
                 "chosen_objects": chosen, "anchor_id": anchor, "vector": a.vector, "style": a.style,
-                "plot_mode": a.plot_mode, "color_by_error": a.color_by_error}
+                "plot_mode": a.plot_mode, "color_by_error": a.color_by_error, "correspondences": a.correspondences}
     with open(os.path.join(a.out, "figures.json"), "w") as f:
         json.dump(manifest, f, indent=1)
     print(f"wrote {a.out}: {', '.join(i['name'] for i in F.items)}")

@@ -96,9 +96,28 @@ calib::CheckResult dataset_identity(const store::RunRecord& run, const fs::path&
 
 int CalibCheckResult::exit_code() const {
   if (report.failed()) return 1;
-  if (strict && (report.undecided() || report.within_sigma() || report.unobservable())) return 1;
+  if (strict && (report.undecided() || report.within_sigma() || report.unobservable() || !judged())) return 1;
   return 0;
 }
+
+bool CalibCheckResult::judged() const {
+  for (const auto& c : report.checks) {
+    if (c.name == "dataset.identity") continue;  // the files the run read, not its calibration
+    const std::string st = calib::to_string(c.status);
+    if (st == "pass" || st == "fail" || st == "within-sigma") return true;
+  }
+  return false;
+}
+
+namespace {
+
+/// The verdict's word: FAIL, NOT JUDGED (nothing could be checked), or PASS.
+std::string verdict_word(const CalibCheckResult& r) {
+  if (r.exit_code() != 0) return "FAIL";
+  return r.judged() ? "PASS" : "NOT JUDGED";
+}
+
+}  // namespace
 
 json CalibCheckResult::to_json() const {
   json checks = json::array();
@@ -118,7 +137,8 @@ json CalibCheckResult::to_json() const {
           {"dataset_from", dataset_from.empty() ? json(nullptr) : json(dataset_from)},
           {"detections", detections},
           {"strict", strict},
-          {"passed", exit_code() == 0},
+          {"passed", exit_code() == 0 && judged()},
+          {"verdict", verdict_word(*this)},
           {"counts", counts},
           {"checks", checks},
           {"warnings", warnings}};
@@ -139,9 +159,12 @@ std::string CalibCheckResult::to_text() const {
   }
   s += fmt::format("{}: {} passed, {} within σ (beyond the limit, explained by the filter's σ), {} unobservable "
                    "(not calibrated by these data, not contradicted), {} failed, {} inconclusive, {} skipped{}\n",
-                   exit_code() == 0 ? "PASS" : "FAIL", counts["pass"], counts["within-sigma"], counts["unobservable"],
+                   verdict_word(*this), counts["pass"], counts["within-sigma"], counts["unobservable"],
                    counts["fail"], counts["inconclusive"], counts["skipped"],
                    strict ? " (--strict: within-sigma, unobservable and inconclusive checks count as failures)" : "");
+  if (!judged())
+    s += "  no check could judge this run (every one was skipped, inconclusive or unobservable): it is neither "
+         "passed nor failed; a run written with --output minimal has no states.csv or reprojection.csv to check\n";
   return s;
 }
 
@@ -254,14 +277,17 @@ CalibCheckResult calib_check(const fs::path& run_dir_in, const CalibCheckOptions
   const double min_score = filter.min_score;
   res.detections = run.inputs.detections;
 
-  // The filter's own (causal) history: with "smoother": "rts" states.csv holds the smoothed estimate, whose
+  // The filter's own (causal) history: with the smoother states.csv holds the smoothed estimate, whose
   // constant states carry their final value and σ at every time, and the filter's is in states_filter.csv.
+  // A batch estimate (roe refine, roe run's batch) is judged itself, with its marginals: states.csv.
   // A run written with output level minimal has neither: every check says it cannot judge.
   const fs::path filter_states = run_dir / "states_filter.csv";
   in.estimate_absent_reason = store::run_file_absent_reason(run.config, "states.csv");
+  if (run.refine) in.batch_termination = run.refine->termination;
   StatesTrace states;
   if (in.estimate_absent_reason.empty()) {
-    states = read_states(fs::is_regular_file(filter_states, ec) ? filter_states : run_dir / "states.csv");
+    const bool filter_trace = !run.refine && fs::is_regular_file(filter_states, ec);
+    states = read_states(filter_trace ? filter_states : run_dir / "states.csv");
     in.extrinsics = std::move(states.extrinsics);
     auto objects = read_objects(run_dir / "objects.csv");
     add_detection_counts(run, in, objects);

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <map>
 
@@ -14,6 +15,7 @@
 #include "roe/store/eval_report.hpp"
 #include "roe/store/run_record.hpp"
 #include "roe/io/evo_result.hpp"
+#include "roe/io/csv.hpp"
 #include "roe/io/input.hpp"
 #include "roe/io/output.hpp"
 
@@ -171,6 +173,68 @@ void check_kitti_pairing(const EvalInput& est, const std::string& est_times, con
                    {(est_index ? est.path : gt.path).string()});
 }
 
+/// Seconds as decimal text (the trajectory readers' rule) into ns; InputError naming `key`.
+Timestamp parse_time_option(const std::string& text, const char* key) {
+  if (const auto t = io::parse_seconds_ns(text)) return *t;
+  throw InputError(fmt::format("--{} '{}' is not a time in seconds", key, text), {"", 0, 0, key});
+}
+
+/// --gt-body-pose's value: the 7 numbers, or a file whose first line that is not a comment holds them
+/// (commas or blanks between them).
+Pose read_body_pose_option(const std::string& v) {
+  if (v.find(',') != std::string::npos && !io::path_exists(v)) return eval::parse_pose_text(v, "gt-body-pose");
+  if (!io::path_exists(v))
+    throw InputError("--gt-body-pose: neither x,y,z,qx,qy,qz,qw nor an existing file", {v, 0, 0, "gt-body-pose"});
+  const std::string text = io::read_file(v);
+  std::int64_t line_no = 0;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t end = std::min(text.find('\n', start), text.size());
+    std::string line = text.substr(start, end - start);
+    ++line_no;
+    start = end + 1;
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::replace(line.begin(), line.end(), '\t', ' ');
+    std::string joined;  // blanks or commas between the numbers
+    bool sep = false;
+    for (char c : line.substr(first)) {
+      if (c == ' ' || c == ',' || c == '\r') {
+        sep = !joined.empty();
+        continue;
+      }
+      if (sep) joined += ',';
+      sep = false;
+      joined += c;
+    }
+    try {
+      return eval::parse_pose_text(joined, "gt-body-pose");
+    } catch (const InputError& e) {
+      throw InputError(e.bare_message(), {v, line_no, 0, "gt-body-pose"});
+    }
+  }
+  throw InputError("--gt-body-pose: the file holds no pose line (x,y,z,qx,qy,qz,qw)", {v, 0, 0, "gt-body-pose"});
+}
+
+/// --t-offset auto, the body pose and the windows as evaluation parameters.
+void apply_frame_options(const EvalOptions& o, eval::EvalParams& p) {
+  p.auto_offset = o.t_offset_auto;
+  p.auto_offset_max_s = o.t_offset_max_s;
+  if (!o.gt_body_pose.empty()) p.gt_body_pose = read_body_pose_option(o.gt_body_pose);
+  p.fit_body_pose = o.fit_body_pose;
+  p.kitti = o.kitti;
+  if (!o.t_start.empty()) p.t_start_ns = parse_time_option(o.t_start, "t-start");
+  if (!o.t_end.empty()) p.t_end_ns = parse_time_option(o.t_end, "t-end");
+  if (!o.align_window.empty()) {
+    const auto colon = o.align_window.find(':');
+    if (colon == std::string::npos)
+      throw InputError(fmt::format("--align-window '{}': expected T0:T1 (seconds)", o.align_window),
+                       {"", 0, 0, "align-window"});
+    p.align_window_ns = {parse_time_option(o.align_window.substr(0, colon), "align-window"),
+                         parse_time_option(o.align_window.substr(colon + 1), "align-window")};
+  }
+}
+
 /// The evaluation parameters from the options, and the warnings they alone imply. Every option value is
 /// checked, even where it does not apply to the inputs given, before any file is read.
 eval::EvalParams eval_params(const EvalOptions& o, std::vector<std::string>& warnings) {
@@ -182,6 +246,7 @@ eval::EvalParams eval_params(const EvalOptions& o, std::vector<std::string>& war
   p.assoc.policy = eval::parse_assoc_policy(o.assoc);
   p.euler = eval::parse_euler_metric(o.euler);
   p.fit_body_rotation = o.fit_body_rotation;
+  apply_frame_options(o, p);
   (void)eval::check_params(p);  // --max-dt and --n-align before the other options
   if (o.no_out && !o.out.empty())
     throw InputError(fmt::format("--no-out and --out {} contradict each other: pass one of them", o.out),
@@ -212,11 +277,24 @@ nlohmann::json options_json(const EvalOptions& o) {
   json j = {{"est_format", o.est_format},         {"gt_format", o.gt_format},
             {"rpe_all_pairs", o.rpe_all_pairs}, {"rpe_pairs_from", o.rpe_pairs_from},
             {"rpe_tol", o.rpe_tol},             {"detections", o.detections},
-            {"euler", o.euler},                 {"fit_body_rotation", o.fit_body_rotation}};
+            {"euler", o.euler},                 {"fit_body_rotation", o.fit_body_rotation},
+            {"t_offset_auto", o.t_offset_auto}, {"fit_body_pose", o.fit_body_pose},
+            {"kitti", o.kitti}};
+  for (const auto& [key, v] : {std::pair{"gt_body_pose", &o.gt_body_pose}, std::pair{"t_start", &o.t_start},
+                               std::pair{"t_end", &o.t_end}, std::pair{"align_window", &o.align_window}})
+    if (!v->empty()) j[key] = *v;
   for_each_sweep_eval_setting(o, [&j](const char* key, const auto& value) { j[key] = value; });
   if (!o.est_times.empty()) j["est_times"] = o.est_times;
   if (!o.gt_times.empty()) j["gt_times"] = o.gt_times;
   return j;
+}
+
+/// --plot without --out for a file estimate: ./eval_LABEL, the label's characters outside [A-Za-z0-9._-] as '_'.
+fs::path default_plot_folder(const std::string& label) {
+  std::string name = "eval_" + label;
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '_' && c != '-') c = '_';
+  return fs::path(name);
 }
 
 /// The output folder: --out, else RUN_DIR/eval for a run folder; empty for none.
@@ -325,14 +403,26 @@ EvalResult run_eval(const EvalOptions& options) {
   std::optional<io::EvoResult> evo;
   if (!o.save_results.empty()) {
     io::check_file_output(o.save_results, o.force, {o.est, o.gt}, "--save_results file");
-    evo = io::evo_ape_result(rep, ctx.gt_path, ctx.est_path);
+    // evo_rpe's file with --rpe-delta (one delta per file, as evo writes it), else evo_ape's.
+    if (o.rpe_delta.size() > 1)
+      throw InputError(fmt::format("--save_results writes one result file and --rpe-delta names {} deltas: evo_rpe "
+                                   "saves one delta per file, so run one evaluation per delta",
+                                   o.rpe_delta.size()),
+                       {"", 0, 0, "save_results"});
+    const bool by_index = est.in.traj.format == io::TrajectoryFormat::kKitti && o.est_times.empty();
+    evo = o.rpe_delta.empty() ? io::evo_ape_result(rep, ctx.gt_path, ctx.est_path)
+                              : io::evo_rpe_result(rep, 0, !by_index, ctx.gt_path, ctx.est_path);
     report.evo_results = o.save_results;
   }
-  const fs::path out = output_folder(o, est);
+  fs::path out = output_folder(o, est);
   if (o.plot && out.empty()) {
-    throw InputError(
-        "--plot needs an output folder: pass --out DIR (plots are rendered from the output files)",
-        {"", 0, 0, "plot"});
+    if (o.no_out)
+      throw InputError("--plot draws into an output folder and --no-out writes none: pass one of them",
+                       {"", 0, 0, "plot"});
+    out = default_plot_folder(ctx.label);  // evo shows a window; roe draws files: into ./eval_LABEL
+    report.warnings.push_back(fmt::format("--plot without --out: the figures and files go to {} (pass --out DIR to "
+                                          "choose)",
+                                          out.string()));
   }
   if (!out.empty()) {
     io::OutputDir dir(out, o.force, {o.est, o.gt});
@@ -490,6 +580,50 @@ std::string rpe_text(const std::vector<store::ReportRpe>& rpe) {
   return s;
 }
 
+/// --kitti: the devkit's figures over all lengths, then per length.
+std::string kitti_text(const eval::KittiDrift& k) {
+  std::string s = fmt::format("\n  KITTI (devkit rule, {} segments): t_rel {:.4f} %, r_rel {:.4f} deg/100 m\n", k.n_segments,
+                              k.t_rel_pct, k.r_rel_deg_per_100m);
+  s += "    length [m]  segments   t_rel [%]   r_rel [deg/100 m]\n";
+  for (const eval::KittiLength& l : k.per_length)
+    s += fmt::format("    {:10.0f}  {:8}   {:9.4f}   {:9.4f}\n", l.length_m, l.n_segments, l.t_rel_pct,
+                     l.r_rel_deg_per_100m);
+  return s;
+}
+
+/// The time offset, the body pose and the windows, where asked for.
+std::string frames_text(const store::EvalReportFile& r) {
+  std::string s;
+  if (r.time_offset) {
+    const store::ReportTimeOffset& o = *r.time_offset;
+    s += fmt::format("  time offset (--t-offset auto) {:+.4f} s ± {:.4f} s (t_gt = t_est + offset; angular-rate "
+                     "correlation {:+.4f} s, peak {:.2f}{}){}\n",
+                     o.offset_s, o.sigma_s, o.coarse_offset_s, o.correlation,
+                     o.peak_at_edge ? ", at the edge of the search" : "", o.refined ? "" : "; APE refinement failed");
+  }
+  if (r.body_pose) {
+    const store::ReportBodyPose& b = *r.body_pose;
+    s += fmt::format("  body pose T_B_I ({}) p {:.4f} {:.4f} {:.4f} m, rotation {:.3f} deg (roll/pitch/yaw {:.3f} {:.3f} "
+                     "{:.3f})\n",
+                     b.source, b.p[0], b.p[1], b.p[2], b.angle_deg, b.rpy_deg.x(), b.rpy_deg.y(), b.rpy_deg.z());
+    if (b.fit)
+      s += fmt::format("    sigma p {:.4f} {:.4f} {:.4f} m, rotation {:.3f} deg; rotation spread {:.1f}..{:.1f} deg; "
+                       "lever arm {}\n",
+                       b.fit->sigma_p_m[0], b.fit->sigma_p_m[1], b.fit->sigma_p_m[2], b.fit->sigma_rot_deg,
+                       b.fit->rotation_spread_min_deg, b.fit->rotation_spread_max_deg, b.fit->verdict);
+  }
+  if (r.window) {
+    const store::ReportWindow& w = *r.window;
+    const auto t = [](const std::optional<double>& v) { return v ? fmt::format("{:.3f}", *v) : std::string("-"); };
+    if (w.t_start_s || w.t_end_s)
+      s += fmt::format("  window {} .. {} s (ground-truth clock): {} matched pairs left out\n", t(w.t_start_s),
+                       t(w.t_end_s), w.n_cropped);
+    if (w.align_window_s)
+      s += fmt::format("  alignment window {:.3f} .. {:.3f} s\n", (*w.align_window_s)[0], (*w.align_window_s)[1]);
+  }
+  return s;
+}
+
 }  // namespace
 
 nlohmann::json EvalResult::report_json() const { return store::to_json(report); }
@@ -504,7 +638,9 @@ std::string EvalResult::to_text() const {
   s += fmt::format("  ground truth {}\n", r.gt.description);
   s += fmt::format("  matched {} of {} estimate / {} ground-truth poses (max dt {} s, offset {} s, {})\n", as.n_matched,
                    as.n_est, as.n_gt, as.max_dt_s, as.offset_s, as.policy);
-  s += fmt::format("  alignment {} on {} pairs, scale {:.6f}\n", al.type, al.n_aligned, al.scale);
+  s += fmt::format("  alignment {} on {} pairs, scale {:.6f}{}\n", al.type, al.n_aligned, al.scale,
+                   al.tilt_deg ? fmt::format(", tilt of z {:.2f} deg", *al.tilt_deg) : std::string());
+  s += frames_text(r);
   s += per_axis_text(r.per_axis);
   if (r.body_rotation) s += body_rotation_text(*r.body_rotation);
   s += "\n  APE            rmse      mean    median       std       min       max\n";
@@ -512,6 +648,7 @@ std::string EvalResult::to_text() const {
     s += fmt::format("  {:<10} {:9.4f} {:9.4f} {:9.4f} {:9.4f} {:9.4f} {:9.4f}\n", name, st->rmse, st->mean, st->median,
                      st->std, st->min, st->max);
   if (!r.rpe.empty()) s += rpe_text(r.rpe);
+  if (r.kitti) s += kitti_text(*r.kitti);
   if (r.consistency.available) s += consistency_text(r.consistency);
   if (!r.per_object.empty()) s += per_object_text(r.per_object, r.euler_metric);
   if (r.detection_calibration) s += detection_calibration_text(*r.detection_calibration);

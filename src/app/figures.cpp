@@ -340,6 +340,7 @@ FigureSet render_figures(const fs::path& eval_dir, const fs::path& run_dir, cons
     }
   }
   if (o.color_by_error) args.push_back("--color-by-error");
+  if (o.correspondences) args.push_back("--correspondences");
   // Larger tables first: the two threads share them about evenly.
   std::vector<fs::path> tables = {eval_dir / "errors.csv", eval_dir / "est_matched_aligned.csv",
                                   eval_dir / "gt_matched.csv", eval_dir / "reprojection_aligned.csv"};

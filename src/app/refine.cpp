@@ -38,6 +38,9 @@ store::RunRecord read_run(const fs::path& run_dir) {
   const std::string src = (run_dir / "run.json").string();
   if (r.command != "run")
     throw InputError(fmt::format("refines the output of roe run, not of roe {}", r.command), {src, 0, 0, "command"});
+  if (r.refine)
+    throw InputError("the run's estimate is already the batch's (\"estimator\": \"batch\"): refine a run once",
+                     {src, 0, 0, "config.estimator"});
   if (r.anchor_id < 0)
     throw InputError("the run has no anchor (anchor_id -1): nothing to refine against", {src, 0, 0, "anchor_id"});
   return r;
@@ -87,11 +90,18 @@ bool used_by_refine(ekf::DetectionStatus s) {
          s == ekf::DetectionStatus::kRejectedChi2;
 }
 
+/// What refine starts from besides run.json: the run's states, each object's final T_O_W and every detection's
+/// row of reprojection.csv (in the file's order) with the status the run gave it. Read from RUN_DIR by roe
+/// refine, taken from the run in memory by roe run's batch estimator.
 struct RunTables {
+  struct Row {
+    Timestamp t_ns = 0;
+    int object_id = 0;
+    ekf::DetectionStatus status = ekf::DetectionStatus::kAccepted;
+  };
   std::vector<store::RecordedState> states;
   std::map<int, Pose> T_O_W;  ///< each object's last row
-  std::vector<eval::DetectionPose> reprojection;
-  std::map<std::pair<Timestamp, int>, ekf::DetectionStatus> status;
+  std::vector<Row> rows;
 };
 
 /// states.csv within the run's own guard rails (config.filter.max_*: the filter stops beyond them, so a row
@@ -125,6 +135,23 @@ void check_states(const std::vector<store::RecordedState>& states, const store::
                      {file.string()});
 }
 
+/// A run whose filter estimated the time offset stamps each detection's row with the time its image was
+/// processed, t + (t_d − declared) (ekf/driver.cpp), not the image's. The rows are in image order, each image's in
+/// its detections' order: they are put back on the images' stamps in that order. Rows that do not pair with the
+/// detections one to one are left as they are (the strict check that follows names the first difference).
+template <typename Row>
+void restamp_rows(std::vector<Row>& rows, const std::vector<ekf::ImageDetections>& images) {
+  std::vector<Timestamp> t(rows.size());
+  std::size_t k = 0;
+  for (const auto& im : images)
+    for (const auto& d : im.detections) {
+      if (k == rows.size() || rows[k].object_id != d.object_id) return;
+      t[k++] = im.t_ns;
+    }
+  if (k != rows.size()) return;
+  for (k = 0; k < rows.size(); ++k) rows[k].t_ns = t[k];
+}
+
 /// The run's tables, every one checked against run.json and the dataset before anything is solved (issue 51:
 /// refine reads as strictly as run): each error names its file.
 RunTables read_tables(const fs::path& run_dir, const store::RunRecord& run, const Dataset& ds,
@@ -147,9 +174,10 @@ RunTables read_tables(const fs::path& run_dir, const store::RunRecord& run, cons
                                  "its objects.csv has its rows",
                                  run.anchor_id),
                      {objects_csv.string()});
-  t.reprojection = store::read_reprojection_csv(reprojection_csv);
-  store::check_reprojection_rows(t.reprojection, images, reprojection_csv);
-  for (const auto& p : t.reprojection) t.status[{p.t_ns, p.object_id}] = parse_status(p.status, reprojection_csv);
+  std::vector<eval::DetectionPose> rows = store::read_reprojection_csv(reprojection_csv);
+  if (run.final_time_offset && run.final_time_offset->estimated) restamp_rows(rows, images);
+  store::check_reprojection_rows(rows, images, reprojection_csv);
+  for (const auto& p : rows) t.rows.push_back({p.t_ns, p.object_id, parse_status(p.status, reprojection_csv)});
   return t;
 }
 
@@ -162,11 +190,13 @@ refine::RefineInput make_input(const store::RunRecord& run, const Dataset& ds, c
   in.detection_sigma_scale = run.detection_sigmas.final_scale;
   for (const auto& o : ds.manifest.objects)
     if (!o.symmetry.empty()) in.symmetries[o.id] = o.symmetry;
+  std::map<std::pair<Timestamp, int>, ekf::DetectionStatus> status;
+  for (const auto& row : t.rows) status[{row.t_ns, row.object_id}] = row.status;
   for (const auto& im : images) {
     ekf::ImageDetections used{im.t_ns, {}};
     for (const auto& d : im.detections) {
-      const auto s = t.status.find({im.t_ns, d.object_id});
-      if (s != t.status.end() && used_by_refine(s->second)) used.detections.push_back(d);
+      const auto s = status.find({im.t_ns, d.object_id});
+      if (s != status.end() && used_by_refine(s->second)) used.detections.push_back(d);
     }
     if (!used.detections.empty()) in.images.push_back(std::move(used));
   }
@@ -177,13 +207,19 @@ refine::RefineInput make_input(const store::RunRecord& run, const Dataset& ds, c
   in.anchor_id = run.anchor_id;
   in.prior_b_g = run.init.gyro_bias;
   in.prior_b_a = run.config.filter.init_accel_bias;
+  // The time offset: estimated when the run's filter estimated it (filter.estimate_time_offset), from its
+  // estimate, with the filter's prior about the declared offset (docs/refine.md §2b).
+  in.declared_time_offset_s = ds.manifest.camera ? ds.manifest.camera->time_offset_s : 0.0;
+  in.estimate_time_offset = run.config.filter.estimate_time_offset;
+  in.initial_time_offset_s = run.final_time_offset && run.final_time_offset->estimated ? run.final_time_offset->value_s
+                                                                                       : in.declared_time_offset_s;
   return in;
 }
 
 Vector6d sigma_of(const refine::Mat6& C) { return C.diagonal().cwiseMax(0.0).cwiseSqrt(); }
 
 std::vector<store::RecordedState> refined_states(const refine::RefineResult& r, const RunTables& t,
-                                         const std::vector<ImuSample>& imu) {
+                                                 const std::vector<ImuSample>& imu) {
   std::vector<Timestamp> times;
   times.reserve(t.states.size());
   for (const auto& s : t.states) times.push_back(s.t_ns);
@@ -195,7 +231,11 @@ std::vector<store::RecordedState> refined_states(const refine::RefineResult& r, 
     rows[i].x = x[i].x;
     rows[i].T_I_C = r.T_I_C;
     rows[i].sigma.head<15>() = t.states[i].sigma.head<15>();  // the run's: refine marginalises the calibration only
-    rows[i].sigma.tail<6>() = s_extr;
+    // A row without σ in the run (output level standard) stays without.
+    rows[i].sigma.tail<6>() = std::isnan(t.states[i].sigma(0)) ? t.states[i].sigma.tail<6>() : s_extr;
+    // The batch's t_d (the declared offset, σ 0, when it held it).
+    rows[i].time_offset_s = r.time_offset_s;
+    rows[i].sigma_time_offset_s = std::isnan(t.states[i].sigma(0)) ? t.states[i].sigma(0) : r.sigma_time_offset_s;
   }
   return rows;
 }
@@ -220,21 +260,20 @@ std::vector<store::ObjectRow> refined_objects(const refine::RefineResult& r) {
 
 /// The run's reprojection rows with the refined calibration: T_W_I = T_O_W⁻¹ · T_C_O⁻¹ · T_I_C⁻¹.
 std::vector<store::ReprojectionRow> refined_reprojection(const refine::RefineResult& r, const RunTables& t,
-                                                      const std::vector<ekf::ImageDetections>& images,
-                                                      const fs::path& file) {
+                                                      const std::vector<ekf::ImageDetections>& images) {
   std::map<std::pair<Timestamp, int>, const Detection*> det;
   for (const auto& im : images)
     for (const auto& d : im.detections) det[{im.t_ns, d.object_id}] = &d;
   std::map<std::pair<Timestamp, int>, double> chi2;
   for (const auto& f : r.detections) chi2[{f.t_ns, f.object_id}] = f.chi2;
   std::vector<store::ReprojectionRow> rows;
-  rows.reserve(t.reprojection.size());
-  for (const auto& p : t.reprojection) {
+  rows.reserve(t.rows.size());
+  for (const auto& p : t.rows) {
     store::ReprojectionRow row;
     row.t_ns = p.t_ns;
     row.object_id = p.object_id;
     row.outcome.object_id = p.object_id;
-    row.outcome.status = parse_status(p.status, file);
+    row.outcome.status = p.status;
     if (const auto c = chi2.find({p.t_ns, p.object_id}); c != chi2.end()) row.outcome.nis = c->second;
     const auto d = det.find({p.t_ns, p.object_id});
     const auto o = r.objects.find(p.object_id);
@@ -247,8 +286,8 @@ std::vector<store::ReprojectionRow> refined_reprojection(const refine::RefineRes
   return rows;
 }
 
-/// The solve as run.json records it (its "refine" block; the correlated-error model of docs/refine.md §2b
-/// with the autocovariance it was fitted to).
+/// The solve as run.json records it (its "refine" block; the detection-error model of docs/refine.md §2
+/// the last solve whitened with).
 store::RefineRecord refine_record(const refine::RefineResult& r, const refine::RefineOptions& o) {
   const refine::SolveReport& s = r.report;
   store::RefineRecord rec;
@@ -257,10 +296,13 @@ store::RefineRecord refine_record(const refine::RefineResult& r, const refine::R
   rec.max_iterations = o.max_iterations;
   rec.linear_solver = o.linear_solver;
   rec.covariance = o.covariance;
-  rec.correlated_errors = o.correlated_errors;
+  rec.tau_s_option = o.tau_s;
+  rec.fit_rounds = o.fit_rounds;
+  rec.gross_chi2 = o.gross_chi2;
+  rec.imu_noise_scale = o.imu_noise_scale;
   const refine::DetectionErrorModel& m = s.error_model;
-  rec.error_model = {m.correlated, m.tau_s, m.sigma_bias, m.sigma_white, {}};
-  for (const auto& b : m.autocovariance) rec.error_model.autocovariance.push_back({b.lag_s, b.cov, b.pairs});
+  rec.error_model = {m.tau_s, m.scale_translation, m.scale_rotation, m.whitened_lag1, m.used, m.gross, m.fitted_tau};
+  rec.solves = s.solves;
   rec.nodes = s.nodes;
   rec.imu_factors = s.imu_factors;
   rec.detection_factors = s.detection_factors;
@@ -275,7 +317,66 @@ store::RefineRecord refine_record(const refine::RefineResult& r, const refine::R
   return rec;
 }
 
+/// The solve and the files of the refined estimate (states.csv, objects.csv, reprojection.csv, trajectory.csv/.tum,
+/// each where the run's output level keeps it), and run.json's record of it: `rec` (the run's) gets the refined
+/// final, the refine block, the solve's timings and warnings. Shared by roe refine (into RUN_DIR2) and roe run's
+/// batch estimator (into RUN_DIR).
+refine::RefineResult refine_and_write(const store::RunRecord& run, const Dataset& ds, const RunTables& tables,
+                                      const std::vector<ekf::ImageDetections>& images, const refine::RefineOptions& opt,
+                                      const io::OutputDir& dir, store::RunRecord& rec) {
+  const refine::RefineInput in = make_input(run, ds, tables, images);
+  log::info("refine: {} images with used detections, {} objects, anchor {}", in.images.size(), in.initial_T_O_W.size(),
+            in.anchor_id);
+  refine::RefineResult r = refine::refine(in, opt);
+  log::info("refine: {} iterations, cost {:.6g} → {:.6g}, {:.3f} s (+ covariance {:.3f} s)", r.report.iterations,
+            r.report.initial_cost, r.report.final_cost, r.report.solve_s, r.report.covariance_s);
+  if (opt.covariance && !r.report.covariance_ok)
+    rec.warnings.push_back("the marginal covariances could not be computed (rank-deficient problem): σ written as 0");
+
+  const auto t_write = Clock::now();
+  const auto has = [&](const char* file) { return store::run_folder_has(run.config, file); };
+  const std::vector<store::RecordedState> states = refined_states(r, tables, ds.imu);
+  if (has("states.csv")) store::write_states_csv(dir.file("states.csv"), states);
+  if (has("objects.csv")) store::write_objects_csv(dir.file("objects.csv"), refined_objects(r));
+  if (has("reprojection.csv"))
+    store::write_reprojection_csv(dir.file("reprojection.csv"), refined_reprojection(r, tables, images));
+  for (const auto format : {io::TrajectoryFormat::kCsv, io::TrajectoryFormat::kTum})
+    io::write_trajectory(dir.file(format == io::TrajectoryFormat::kCsv ? "trajectory.csv" : "trajectory.tum"),
+                         states.size(),
+                         [&states](std::size_t i) { return StampedPose{states[i].t_ns, Pose(states[i].x.q_W_I, states[i].x.p_W_I)}; },
+                         format);
+
+  rec.roe_version = kVersion;
+  rec.final_T_I_C = r.T_I_C;
+  rec.final_objects.clear();
+  for (const auto& [id, o] : r.objects) rec.final_objects.push_back({id, o.anchor, o.T_O_W});
+  rec.final_time_offset = store::FinalTimeOffset{r.time_offset_estimated, in.declared_time_offset_s, r.time_offset_s,
+                                                 r.sigma_time_offset_s};
+  rec.refine = refine_record(r, opt);
+  rec.refine->dataset = run.inputs.dataset;
+  rec.timing_s["solve"] = r.report.solve_s;
+  rec.timing_s["solve_residuals"] = r.report.residual_s;
+  rec.timing_s["solve_jacobians"] = r.report.jacobian_s;
+  rec.timing_s["solve_linear"] = r.report.linear_solver_s;
+  rec.timing_s["covariance"] = r.report.covariance_s;
+  rec.timing_s["write_refined"] = seconds_since(t_write);
+  return r;
+}
+
 }  // namespace
+
+void batch_estimate(const Dataset& ds, const std::string& set, const pipeline::RunOutput& run,
+                    const io::OutputDir& dir, store::RunRecord& rec) {
+  const Timestamp offset_ns = ds.manifest.camera ? from_seconds(ds.manifest.camera->time_offset_s) : 0;
+  const std::vector<ekf::ImageDetections> images = ekf::group_images(ds.detections.at(set), offset_ns);
+  RunTables tables;  // what roe refine reads from RUN_DIR, from the run in memory
+  tables.states = run.states;
+  for (const auto& [id, T_O_W] : run.summary.final_T_O_W) tables.T_O_W[id] = T_O_W;
+  for (const auto& row : run.reprojection) tables.rows.push_back({row.t_ns, row.object_id, row.outcome.status});
+  restamp_rows(tables.rows, images);  // on the images' stamps where the filter processed them at t + t_d
+  const store::RunRecord as_run = rec;
+  (void)refine_and_write(as_run, ds, tables, images, refine::RefineOptions{}, dir, rec);
+}
 
 RefineCommandResult refine_run(const fs::path& run_dir_in, const fs::path& out_dir, const RefineCommandOptions& opt) {
   const auto t_start = Clock::now();
@@ -302,48 +403,19 @@ RefineCommandResult refine_run(const fs::path& run_dir_in, const fs::path& out_d
 
   RefineCommandResult res;
   res.out = out_dir;
-  const refine::RefineInput in = make_input(run, ds, tables, images);
-  log::info("refine: {} images with used detections, {} objects, anchor {}", in.images.size(), in.initial_T_O_W.size(),
-            in.anchor_id);
-  res.result = refine::refine(in, opt.refine);
-  const refine::RefineResult& r = res.result;
-  log::info("refine: {} iterations, cost {:.6g} → {:.6g}, {:.3f} s (+ covariance {:.3f} s)", r.report.iterations,
-            r.report.initial_cost, r.report.final_cost, r.report.solve_s, r.report.covariance_s);
-  if (opt.refine.covariance && !r.report.covariance_ok)
-    res.warnings.push_back("the marginal covariances could not be computed (rank-deficient problem): σ written as 0");
-
-  const auto t_write = Clock::now();
-  const std::vector<store::RecordedState> states = refined_states(r, tables, ds.imu);
-  store::write_states_csv(dir.file("states.csv"), states);
-  store::write_objects_csv(dir.file("objects.csv"), refined_objects(r));
-  store::write_reprojection_csv(dir.file("reprojection.csv"),
-                             refined_reprojection(r, tables, images, run_dir / "reprojection.csv"));
-  for (const auto format : {io::TrajectoryFormat::kCsv, io::TrajectoryFormat::kTum})
-    io::write_trajectory(dir.file(format == io::TrajectoryFormat::kCsv ? "trajectory.csv" : "trajectory.tum"),
-                         states.size(),
-                         [&states](std::size_t i) { return StampedPose{states[i].t_ns, Pose(states[i].x.q_W_I, states[i].x.p_W_I)}; },
-                         format);
-
   store::RunRecord& rec = res.record;
   rec = run;
-  rec.roe_version = kVersion;
   rec.command = "refine";
-  rec.final_T_I_C = r.T_I_C;
-  rec.final_objects.clear();
-  for (const auto& [id, o] : r.objects) rec.final_objects.push_back({id, o.anchor, o.T_O_W});
-  rec.refine = refine_record(r, opt.refine);
+  rec.warnings.clear();
+  rec.timing_s = {{"read", read_s}};
+  res.result = refine_and_write(run, ds, tables, images, opt.refine, dir, rec);
   rec.refine->input_run = run_dir.string();
   rec.refine->input_run_abs = io::provenance_path(run_dir);
   rec.refine->dataset = dataset.string();
-  rec.warnings = res.warnings;
-  rec.timing_s = {{"read", read_s},
-                  {"solve", r.report.solve_s},
-                  {"solve_residuals", r.report.residual_s},
-                  {"solve_jacobians", r.report.jacobian_s},
-                  {"solve_linear", r.report.linear_solver_s},
-                  {"covariance", r.report.covariance_s},
-                  {"write", seconds_since(t_write)},
-                  {"total", seconds_since(t_start)}};
+  res.warnings = rec.warnings;
+  rec.timing_s["write"] = rec.timing_s.at("write_refined");
+  rec.timing_s.erase("write_refined");
+  rec.timing_s["total"] = seconds_since(t_start);
   store::write_run_json(dir.file("run.json"), rec);
   dir.commit();
   return res;

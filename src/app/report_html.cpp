@@ -132,10 +132,16 @@ std::string section_summary(const store::EvalReportFile& ev) {
   }
   s += "</table>\n";
   if (ev.consistency.available) {
-    s += "<table class=\"num\" id=\"nees\"><caption>Average NEES after the alignment (3 expected)</caption>"
-         "<tr><th>position</th><th>orientation</th></tr><tr>";
-    for (const store::ReportCell& c : store::nees_cells(ev)) s += num_cell(c.path, c.value, 3);
-    s += "</tr></table>\n";
+    // Each value with its frame: the estimator's gauge (the consistency figure's) and after the alignment, whose
+    // orientation NEES the alignment's rotation error inflates.
+    s += "<table class=\"num\" id=\"nees\"><caption>Average NEES per 3-dof block (3 expected), in each frame"
+         "</caption><tr><th>frame</th><th>position</th><th>orientation</th></tr>\n";
+    for (const store::NeesFrame& f : store::nees_frames(ev)) {
+      s += fmt::format("<tr><th>{}{}</th>", esc(f.frame), f.headline ? " (headline)" : "");
+      for (const store::ReportCell& c : f.cells) s += num_cell(c.path, c.value, 3);
+      s += "</tr>\n";
+    }
+    s += "</table>\n";
   }
   if (!ev.rpe.empty()) {
     s += "<table class=\"num\" id=\"rpe\"><caption>Relative pose error</caption><tr><th>Δ</th><th>pairs</th>"

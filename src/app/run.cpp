@@ -45,19 +45,25 @@ void add_trajectory_writers(const std::vector<RecordedState>& rows, const io::Ou
 
 // The run's files, independent of each other, written by as many threads as the process may use, the
 // largest (the states tables) first: the same bytes as one after the other.
-void write_outputs(const RunOutput& r, const RunConfig& config, const io::OutputDir& dir) {
+// `main_files` false: the batch estimator writes the main files (states.csv, objects.csv, reprojection.csv,
+// trajectory.csv/.tum), only the filter's _filter files are written here.
+void write_outputs(const RunOutput& r, const RunConfig& config, const io::OutputDir& dir, bool main_files) {
   std::vector<std::function<void()>> writers;
   const auto has = [&](const char* file) { return store::run_folder_has(config, file); };
-  if (has("states.csv")) writers.push_back([&] { store::write_states_csv(dir.file("states.csv"), r.states); });
+  if (main_files && has("states.csv"))
+    writers.push_back([&] { store::write_states_csv(dir.file("states.csv"), r.states); });
   if (r.smoothed && has("states_filter.csv"))
     writers.push_back([&] { store::write_states_csv(dir.file("states_filter.csv"), r.filter_states); });
-  if (has("objects.csv")) writers.push_back([&] { store::write_objects_csv(dir.file("objects.csv"), r.objects); });
-  add_trajectory_writers(r.states, dir, "", writers);
+  if (main_files && has("objects.csv"))
+    writers.push_back([&] { store::write_objects_csv(dir.file("objects.csv"), r.objects); });
+  if (main_files) add_trajectory_writers(r.states, dir, "", writers);
   if (r.smoothed && has("trajectory_filter.csv")) add_trajectory_writers(r.filter_states, dir, "_filter", writers);
-  if (has("reprojection.csv"))
+  if (main_files && has("reprojection.csv"))
     writers.push_back([&] { store::write_reprojection_csv(dir.file("reprojection.csv"), r.reprojection); });
   run_all(writers, available_cpus());
 }
+
+BatchEstimator g_batch_estimator = nullptr;
 
 // What run.json records of a run (store/run_record.hpp); the inputs and the timings are the caller's.
 store::RunRecord run_record(const RunOutput& r, const Dataset& dataset, const RunConfig& config) {
@@ -136,12 +142,31 @@ RunOutput run_dataset_located(const Dataset& dataset, const std::filesystem::pat
 
 }  // namespace
 
-RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::path& out_dir,
-              const RunOptions& options) {
-  const auto t_start = Clock::now();
+void set_batch_estimator(BatchEstimator f) { g_batch_estimator = f; }
+bool has_batch_estimator() { return g_batch_estimator != nullptr; }
+
+RunConfig effective_run_config(const RunOptions& options) {
   RunConfig config;
   if (!options.config_file.empty()) config = run_config_from_file(options.config_file);
   if (!options.output_level.empty()) config.output_level = options.output_level;  // --output over the config
+  if (!options.estimator.empty()) {  // --estimator over the config
+    const auto& names = store::estimators();
+    if (std::find(names.begin(), names.end(), options.estimator) == names.end())
+      throw InputError(fmt::format("--estimator must be filter, smoother or batch, got '{}'", options.estimator),
+                       {"roe run"});
+    config.estimator = options.estimator;
+  }
+  return config;
+}
+
+RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::path& out_dir,
+              const RunOptions& options) {
+  const auto t_start = Clock::now();
+  RunConfig config = effective_run_config(options);
+  if (config.estimator == "batch" && !has_batch_estimator())
+    throw InputError("the batch estimator (\"estimator\": \"batch\") runs in the helper roe-refine (Ceres), and "
+                     "this executable has none: `roe run` hands such a run to roe-refine itself (docs/refine.md §8)",
+                     {options.config_file.empty() ? std::string("--estimator") : options.config_file, 0, 0, "estimator"});
   // Refuses a non-empty RUN_DIR, and one that is or contains the dataset or the config, before any work.
   io::OutputDir dir(out_dir, options.force, {dataset_dir, options.config_file});
 
@@ -170,8 +195,17 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
             r.imu_noise.accel_noise_density, r.imu_noise_from[2]);
 
   const auto t_write = Clock::now();
-  write_outputs(r, config, dir);
   const std::string set = pipeline::choose_detections(dataset, options.detections);
+  // The batch starts from the smoother's estimate and the run's anchor; without an anchor there is nothing to
+  // refine against, and the smoother's estimate is the run's (said in run.json's config and warnings).
+  const bool batch = config.estimator == "batch" && r.summary.anchor.id >= 0;
+  if (config.estimator == "batch" && !batch) {
+    config.estimator = "smoother";
+    res.output.warnings.push_back("the batch estimator was not run: the run has no anchor (no usable detection), "
+                                  "so the files hold the smoother's estimate");
+    log::warn("{}", res.output.warnings.back());
+  }
+  write_outputs(r, config, dir, !batch);
   // Who produced the set (its meta.json, when it has one): in the log, and a malformed one is an input error.
   res.detections_meta = store::read_detection_set_meta(dataset_dir, set);
   if (res.detections_meta)
@@ -192,11 +226,15 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
     rec.inputs.config = options.config_file;
     rec.inputs.config_abs = io::provenance_path(options.config_file);
   }
-  rec.timing_s = {{"read", read_s},
-                  {"filter", r.filter_wall_s},
-                  {"smoother", r.smoother_wall_s},
-                  {"write", seconds_since(t_write)},
-                  {"total", seconds_since(t_start)}};
+  rec.timing_s = {{"read", read_s}, {"filter", r.filter_wall_s}, {"smoother", r.smoother_wall_s}};
+  if (batch) {
+    const auto t_batch = Clock::now();
+    g_batch_estimator(dataset, set, r, dir, rec);  // the main files, rec's final, refine block and warnings
+    rec.timing_s["batch"] = seconds_since(t_batch);
+    res.output.warnings = rec.warnings;
+  }
+  rec.timing_s["write"] = seconds_since(t_write) - (batch ? rec.timing_s.at("batch") : 0.0);
+  rec.timing_s["total"] = seconds_since(t_start);
   store::write_run_json(dir.file("run.json"), rec);
   dir.commit();
   log::info("wrote {} ({} trajectory rows)", out_dir.string(), r.states.size());
@@ -226,9 +264,13 @@ std::string RunResult::to_text() const {
   s += "\n";
   const ekf::NisStats& n = record.nis;
   if (n.count > 0)
+    // The 6-dof NIS against the one 6-dof gate is a diagnostic: the filter gates the position and the rotation
+    // parts apart, so the share it rejected is said beside it, not implied by it.
     s += fmt::format("  NIS (6 dof): median {:.2f} (quartiles {:.2f}, {:.2f}; χ²₆ median 5.35), p95 {:.2f}, "
-                     "{:.1f} % above the gate {:.2f}\n",
-                     n.median, n.p25, n.p75, n.p95, 100.0 * n.fraction_above_gate, n.gate);
+                     "{:.1f} % above the 6-dof gate {:.2f}; rejected by the filter's χ² gates (position and rotation "
+                     "apart): {:.1f} % of the detections\n",
+                     n.median, n.p25, n.p75, n.p95, 100.0 * n.fraction_above_gate, n.gate,
+                     d.detections ? 100.0 * static_cast<double>(d.rejected_chi2) / static_cast<double>(d.detections) : 0.0);
   const store::RunHealthRecord& h = record.health;
   s += fmt::format("  health: {} — {:.1f} % of the {:.1f} s within {:g} s after an accepted update, longest "
                    "dead reckoning {:.2f} s\n",

@@ -3,6 +3,7 @@
 #include "roe/app/simulate.hpp"
 
 #include <fmt/format.h>
+#include <tuple>
 
 #include <algorithm>
 #include <cmath>
@@ -365,13 +366,75 @@ struct GroundTruthInput {
   std::string layout;
   bool pose_only = false;
   std::optional<ImuNoise> imu_noise;  ///< from imu0/sensor.yaml (EuRoC's keys = Kalibr's imu.yaml keys)
+  std::filesystem::path imu_yaml;     ///< where imu_noise came from
 };
+
+/// The names of a stream file's header line (the first line, '#' and blanks trimmed, units kept).
+std::vector<std::string> header_names(const std::filesystem::path& file) {
+  const std::string head = io::read_file_head(file, 4096);
+  std::string line = head.substr(0, head.find('\n'));
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  if (line.empty() || line[0] != '#') return {};
+  std::vector<std::string> names;
+  std::size_t start = 1;
+  while (start <= line.size()) {
+    const std::size_t end = std::min(line.find(',', start), line.size());
+    const std::string cell = line.substr(start, end - start);
+    const auto a = cell.find_first_not_of(' '), b = cell.find_last_not_of(' ');
+    names.push_back(a == std::string::npos ? std::string() : cell.substr(a, b - a + 1));
+    start = end + 1;
+  }
+  return names;
+}
+
+/// A download without a mav0 folder (TUM-VI's and OpenVINS's files as distributed: an IMU file beside a
+/// mocap/ground-truth file, e.g. dataset-room1_512_imu.txt and dataset-room1_512_16_gt.csv): the one
+/// IMU file (EuRoC imu0 columns) and the one ground-truth file (EuRoC or OpenVINS pose columns, 8 or 17)
+/// of `dir`, told apart by their headers. InputError naming what was found otherwise.
+std::pair<std::filesystem::path, std::filesystem::path> loose_streams(const std::filesystem::path& dir) {
+  std::vector<std::filesystem::path> imu, gt;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    if (!e.is_regular_file()) continue;
+    const std::vector<std::string> h = header_names(e.path());
+    if (h.size() == 7 && h[1].rfind("w_RS_S_x", 0) == 0 && h[4].rfind("a_RS_S_x", 0) == 0) imu.push_back(e.path());
+    if ((h.size() == 8 || h.size() == 17) &&
+        ((h[1].rfind("p_RS_R_x", 0) == 0 && h[4].rfind("q_RS_w", 0) == 0) || (h[1] == "px" && h[4] == "qw")))
+      gt.push_back(e.path());
+  }
+  if (imu.size() == 1 && gt.size() == 1) return {imu.front(), gt.front()};
+  throw InputError(fmt::format("not a EuRoC mav0 folder (no mav0/imu0/data.csv) nor a download with one IMU file "
+                               "(#timestamp [ns],w_RS_S_x [rad s^-1],...) and one ground-truth file "
+                               "(#timestamp [ns],p_RS_R_x [m],...,q_RS_w [],... or #time(ns),px,...,qw,...) beside "
+                               "it: found {} IMU and {} ground-truth files",
+                               imu.size(), gt.size()),
+                   {dir.string()});
+}
+
+/// A download's IMU noise: the one YAML file beside its streams that reads as a Kalibr IMU file (TUM-VI's
+/// imu_config.yaml, a Kalibr imu.yaml); empty when there is none or more than one.
+std::filesystem::path download_imu_yaml(const std::filesystem::path& dir) {
+  std::vector<std::filesystem::path> found;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    if (!e.is_regular_file() || e.path().extension() != ".yaml") continue;
+    try {
+      (void)io::read_kalibr_imu(e.path());
+      found.push_back(e.path());
+    } catch (const std::exception&) {  // not an IMU file: another YAML of the download
+    }
+  }
+  return found.size() == 1 ? found.front() : std::filesystem::path();
+}
 
 GroundTruthInput read_groundtruth_input(const std::filesystem::path& dir) {
   GroundTruthInput in;
   in.mav0 = io::is_folder(dir / "mav0") ? dir / "mav0" : dir;
   if (!io::is_folder(in.mav0)) throw InputError("not a directory (expected a EuRoC mav0 folder)", {dir.string()});
   in.imu_file = in.mav0 / "imu0" / "data.csv";
+  std::string download;
+  if (!io::is_folder(in.mav0 / "imu0") && !io::is_folder(dir / "mav0")) {
+    std::tie(in.imu_file, in.gt_file) = loose_streams(dir);
+    download = " (download: " + in.imu_file.filename().string() + " + " + in.gt_file.filename().string() + ")";
+  }
   if (!io::path_exists(in.imu_file)) throw InputError("missing EuRoC stream", {in.imu_file.string()});
   // The IMU's ground truth: EuRoC's state (17 columns) or a pose-only file in its place; else TUM-VI's
   // mocap0, which is the IMU pose there. (EuRoC's vicon0 is the marker body, not the IMU: not taken.)
@@ -385,10 +448,11 @@ GroundTruthInput read_groundtruth_input(const std::filesystem::path& dir) {
                                  candidates[0].string(), candidates[1].string()),
                      {in.mav0.string()});
   in.imu = store::read_imu_csv(in.imu_file);
-  if (const auto yaml = in.mav0 / "imu0" / "sensor.yaml"; io::path_exists(yaml))
-    in.imu_noise = io::read_kalibr_imu(yaml).noise;
+  in.imu_yaml = in.mav0 / "imu0" / "sensor.yaml";
+  if (!download.empty()) in.imu_yaml = download_imu_yaml(dir);
+  if (!in.imu_yaml.empty() && io::path_exists(in.imu_yaml)) in.imu_noise = io::read_kalibr_imu(in.imu_yaml).noise;
   store::GroundTruthFile gt = store::read_groundtruth_file(in.gt_file);
-  in.layout = gt.layout;
+  in.layout = gt.layout + download;
   in.pose_only = gt.pose_only();
   in.states = in.pose_only ? sim::states_from_poses(gt.poses) : std::move(gt.states);
   return in;
@@ -443,7 +507,7 @@ sim::SimRun simulate_dataset(const SimulateOptions& opt, json* effective) {
     src.options["groundtruth"] = io::provenance_path(in.gt_file);
     src.options["groundtruth_sha256"] = io::sha256_file(in.gt_file);
     src.options["groundtruth_layout"] = in.layout;
-    src.options["imu_noise"] = in.imu_noise ? io::provenance_path(in.mav0 / "imu0" / "sensor.yaml")
+    src.options["imu_noise"] = in.imu_noise ? io::provenance_path(in.imu_yaml)
                                             : std::string("EuRoC ADIS16448 sensor.yaml values (no imu0/sensor.yaml)");
     if (in.pose_only) {
       src.options["groundtruth_velocity"] = fmt::format(

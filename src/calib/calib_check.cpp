@@ -57,6 +57,13 @@ CheckResult inconclusive(std::string name, std::string why) {
 CheckResult extrinsics_settled(const CalibInput& in, const CalibThresholds& th) {
   const std::string name = "extrinsics.settled";
   if (!in.extrinsics_estimated) return skipped(name, "extrinsics held fixed (estimate_extrinsics: false)");
+  if (in.batch_termination) {  // one solution of the whole recording: settled = the solve converged
+    const bool converged = in.batch_termination->rfind("CONVERGENCE", 0) == 0;
+    return {name, converged ? CheckStatus::kPass : CheckStatus::kInconclusive,
+            (converged ? "the batch solve converged (" : "the batch solve stopped without converging (") +
+                *in.batch_termination + "): a batch estimate has no history to drift in",
+            {}};
+  }
   const auto& tr = in.extrinsics;
   const double duration = dt_seconds(tr.front().t_ns, tr.back().t_ns);
   // The run must leave a settle window of at least --settle-min before its last --settle-min (a larger

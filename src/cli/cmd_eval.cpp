@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fmt/format.h>
 
+#include <cmath>
 #include <functional>
 #include <memory>
 
@@ -23,6 +24,7 @@ struct Args {
   std::vector<std::string> words;   // positional: EST, or evo's FORMAT REF EST / bag BAG REF EST
   std::string evo_ref;              // evo_traj's --ref
   std::string evo_pose_relation;    // evo's -r/--pose_relation
+  std::string t_offset = "0";       // --t-offset S|auto
   bool evo_pairs_from_reference = false;
   std::vector<std::string> summary;
   std::vector<CLI::Option*> eval_only;  // options of an evaluation, meaningless with --summary
@@ -89,10 +91,34 @@ CLI::Option* add_input_options(CLI::App& sub, Args& a) {
       sub.add_option("--max-dt,--t_max_diff", a.opt.max_dt_s, "Max |dt| in seconds for a match (evo --t_max_diff)")
           ->capture_default_str());
   a.eval_only.push_back(
-      sub.add_option("--t-offset,--t_offset", a.opt.t_offset_s, "Seconds added to the estimate stamps (evo --t_offset)")
+      sub.add_option("--t-offset,--t_offset", a.t_offset,
+                     "Seconds added to the estimate stamps (evo --t_offset), or auto: estimated from the angular "
+                     "rates and refined by minimising the APE, reported with its sigma")
           ->capture_default_str());
+  a.eval_only.push_back(sub.add_option("--t-offset-max", a.opt.t_offset_max_s,
+                                        "With --t-offset auto: search the offset within +-S seconds")
+                             ->capture_default_str()
+                             ->check(number_in("positive")));
+  a.eval_only.push_back(sub.add_option("--t-start,--t_start", a.opt.t_start,
+                                        "Only pairs from this time on (seconds, the ground truth's clock; evo --t_start)"));
+  a.eval_only.push_back(sub.add_option("--t-end,--t_end", a.opt.t_end,
+                                        "Only pairs up to this time (seconds, the ground truth's clock; evo --t_end)"));
+  a.eval_only.push_back(sub.add_option("--align-window", a.opt.align_window,
+                                        "Fit the alignment on the pairs between T0:T1 only (seconds, the ground "
+                                        "truth's clock); the metrics cover every pair"));
+  a.eval_only.push_back(sub.add_option("--gt-body-pose", a.opt.gt_body_pose,
+                                        "The estimate's body in the ground truth's body, T_B_I, as x,y,z,qx,qy,qz,qw "
+                                        "(m, quaternion x first) or a file holding that line: T_W_I = T_W_B*T_B_I"));
+  a.eval_only.push_back(sub.add_flag("--kitti", a.opt.kitti,
+                                      "Also the KITTI odometry devkit's drift: t_rel [%] and r_rel [deg/100 m] over "
+                                      "segments of 100..800 m from every 10th pose"));
+  a.eval_only.push_back(sub.add_flag("--fit-body-pose", a.opt.fit_body_pose,
+                                      "Fit T_B_I (rotation and lever arm, hand-eye with the alignment) and evaluate "
+                                      "with it; reported with its sigma, the lever arm 'unobservable' where the "
+                                      "body turns too little"));
   a.eval_only.push_back(
-      sub.add_option("--assoc", a.opt.assoc, "Association: nearest (evo) or unique (one-to-one, cnspy-like)")
+      sub.add_option("--assoc", a.opt.assoc, "Association: nearest (evo), unique (one-to-one, cnspy-like) or interpolate (the ground truth "
+                     "interpolated at each estimate stamp)")
           ->capture_default_str());
   a.eval_only.push_back(sub.add_option("--est-format", a.opt.est_format,
                                         "Estimate file format: auto, tum, euroc, csv (cnspy), csv-ns (roe), kitti")
@@ -206,6 +232,24 @@ std::function<void()> add_evo_spellings(CLI::App& sub, Args& a, std::vector<CLI:
   return evo_refusals;
 }
 
+/// --t-offset S|auto.
+void apply_t_offset(Args& a) {
+  if (a.t_offset == "auto") {
+    a.opt.t_offset_auto = true;
+    return;
+  }
+  std::size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(a.t_offset, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != a.t_offset.size() || !std::isfinite(v))
+    throw InputError(fmt::format("--t-offset '{}': expected seconds or auto", a.t_offset), {"", 0, 0, "t-offset"});
+  a.opt.t_offset_s = v;
+}
+
 /// Options that depend on others: RPE settings need --rpe-delta, figure options need --plot.
 void check_option_dependencies(const Args& a, const RpeOptions& rpe) {
   if (rpe.delta->count() == 0) {
@@ -268,6 +312,7 @@ RunFn setup(CLI::App& sub) {
     apply_eval_words(*a);
     apply_evo_alignment(*a, align->count() > 0);
     check_option_dependencies(*a, rpe);
+    apply_t_offset(*a);
     if (!a->summary.empty()) return run_summary(*a);
     if (a->opt.est.empty())
       throw InputError("an estimate is required: roe eval RUN_DIR|EST_FILE --gt DATASET|GT_FILE",

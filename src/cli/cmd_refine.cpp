@@ -5,6 +5,7 @@
 
 #include "command.hpp"
 #include "roe/app/refine.hpp"
+#include "roe/app/run.hpp"
 #include "roe/core/error.hpp"
 
 namespace roe::cli {
@@ -16,7 +17,6 @@ struct Args {
   std::string loss = "cauchy";
   app::RefineCommandOptions opt;
   bool no_covariance = false;
-  bool white_errors = false;
 };
 
 RunFn setup(CLI::App& sub) {
@@ -34,22 +34,32 @@ RunFn setup(CLI::App& sub) {
   sub.add_option("--linear-solver", a->opt.refine.linear_solver,
                  "sparse_normal_cholesky (default) or sparse_schur")
       ->check(CLI::IsMember({"sparse_normal_cholesky", "sparse_schur"}));
-  sub.add_flag("--white-errors", a->white_errors,
-               "Marginals for white detection errors (default: inflated by the correlation fitted to the residuals, "
-               "docs/refine.md §2b)");
+  sub.add_option("--tau", a->opt.refine.tau_s,
+                 "Time constant (s) of the detections' Gauss-Markov error the solve whitens with: fitted to the "
+                 "residuals when absent; 0 = white (independent detections) (docs/refine.md §2)")
+      ->check(number_in("non-negative"));
+  sub.add_option("--imu-noise-scale", a->opt.refine.imu_noise_scale,
+                 "IMU noise of the batch as a multiple of the nominal (the run's with its imu_noise_scale undone; "
+                 "default 1)")
+      ->check(number_in("positive"));
+  sub.add_option("--fit-rounds", a->opt.refine.fit_rounds,
+                 "Error-model fits, each followed by a solve (default 2: at the start, then at the first solution)")
+      ->check(number_in("integer>=1"));
   sub.add_flag("--no-covariance", a->no_covariance, "Skip the marginal covariances (σ columns written as 0)");
   return [a]() -> int {
     if (a->run.empty()) throw InputError("RUN_DIR is required", {"roe refine"});
     if (a->out.empty()) throw InputError("--out RUN_DIR2 is required", {"roe refine"});
     a->opt.refine.loss = refine::parse_loss(a->loss);
     a->opt.refine.covariance = !a->no_covariance;
-    a->opt.refine.correlated_errors = !a->white_errors;
     a->opt.force = globals().force;
     const auto r = app::refine_run(a->run, a->out, a->opt);
     emit(r.to_json(), r.to_text());
     return 0;
   };
 }
+
+// roe run's batch estimator runs here: roe-refine is the executable that links it (app/run.hpp).
+const bool batch_registered = (app::set_batch_estimator(&app::batch_estimate), true);
 
 const Registrar reg(kRefineCommand.parent, kRefineCommand.name, kRefineCommand.description, kRefineCommand.order,
                     &setup);

@@ -9,6 +9,7 @@
 #include "roe/app/run.hpp"
 #include "roe/app/shipped_configs.hpp"
 #include "roe/core/error.hpp"
+#include "roe/io/json.hpp"
 
 namespace roe::cli {
 namespace {
@@ -33,6 +34,11 @@ RunFn setup(CLI::App& sub) {
                  "image: faster, smaller), minimal (trajectory.csv/.tum and run.json only); overrides the "
                  "config's \"output\": {\"level\"}")
       ->check(CLI::IsMember(store::output_levels()));
+  sub.add_option("--estimator", a->opt.estimator,
+                 "What writes the main files: filter (causal), smoother (the filter + RTS smoother; roe's default) or "
+                 "batch (the smoother's estimate refined by roe refine's batch MAP in the same run; needs Ceres); "
+                 "overrides the config's \"estimator\" (docs/refine.md §8)")
+      ->check(CLI::IsMember(store::estimators()));
   sub.add_option("--out", a->out, "Output run folder (must not exist or be empty, unless --force)");
   return [a]() {
     if (a->list) {
@@ -49,6 +55,21 @@ RunFn setup(CLI::App& sub) {
     if (a->out.empty()) throw InputError("--out RUN_DIR is required", {"roe run"});
     if (!a->opt.config_file.empty()) a->opt.config_file = app::resolve_run_config(a->opt.config_file).string();
     a->opt.force = globals().force;
+    // The batch estimator needs Ceres, which only the helper roe-refine links: hand it the whole command line
+    // before anything is read or written (docs/architecture.md, "Executables").
+    if (app::effective_run_config(a->opt).estimator == "batch" && !runs_here("", "refine")) {
+      std::string error;
+      int code = 3;
+      const std::string asked = a->opt.estimator.empty() ? "run with \"estimator\": \"batch\" (" + a->opt.config_file + ")"
+                                                         : std::string("run --estimator batch");
+      if (exec_helper(kRefineCommand, globals().argc, globals().argv, error, code, asked)) return 0;
+      if (code == 2) throw InputError(error);
+      std::cerr << "roe: error: " << error << "\n";  // 3: the helper is not installed (main's forwarding says the same)
+      if (globals().json)
+        std::cout << io::dump_json({{"command", "run"}, {"error", {{"message", error}}}, {"exit_code", code}}, 2)
+                  << std::endl;
+      return code;
+    }
     const auto r = app::run(a->dataset, a->out, a->opt);
     emit(r.to_json(), r.to_text());
     // An unsupported estimate must not look like a result: RUN_DIR is written (to look into), the exit

@@ -22,6 +22,9 @@ struct GlobalOptions {
   bool json = false;    ///< --json: one JSON document on stdout, nothing else on stdout
   bool force = false;   ///< --force: allow replacing existing outputs
   std::string command;  ///< the command path, e.g. "import mocap" (set by main after parsing)
+  /// The command line as main received it, for a command that hands it to a helper (exec_helper).
+  int argc = 0;
+  char** argv = nullptr;
 };
 const GlobalOptions& globals();
 
@@ -72,7 +75,10 @@ bool runs_here(const char* parent, const char* name);
 /// only when it could not: false with `error` saying why and `exit_code` set (2: this build lacks the
 /// helper's library; 3: the helper is not installed), or true when argv asks for --help, which was then
 /// answered here on stdout (exit 0).
-bool exec_helper(const ForwardedCommand& c, int argc, char** argv, std::string& error, int& exit_code);
+/// `asked_for`: what the user asked for, as the refusals name it (default: c's command path, e.g. "refine";
+/// cmd_run.cpp gives "run --estimator batch").
+bool exec_helper(const ForwardedCommand& c, int argc, char** argv, std::string& error, int& exit_code,
+                 const std::string& asked_for = "");
 
 /// `roe --version`: the version, then each optional library (cmake/features.cmake) with yes/no, the
 /// commands that need it and, when missing, its Debian package and CMake option.

@@ -20,6 +20,9 @@ inline std::vector<CLI::Option*> add_figure_options(CLI::App& sub, app::FigureOp
           ->group("Figures"),
       sub.add_flag("--color-by-error", o.color_by_error, "Colour the trajectory by the position error")
           ->group("Figures"),
+      sub.add_flag("--correspondences", o.correspondences,
+                   "Trajectory figure: a line from each matched estimate pose to its ground truth (at most 500)")
+          ->group("Figures"),
       sub.add_option("--vector", o.vector, "Vector format written beside every PNG: pdf, svg or none")
           ->capture_default_str()
           ->check(CLI::IsMember({"pdf", "svg", "none"}))

@@ -67,15 +67,17 @@ std::string how_to_add(const ForwardedCommand& c) {
 
 }  // namespace
 
-bool exec_helper(const ForwardedCommand& c, int argc, char** argv, std::string& error, int& exit_code) {
+bool exec_helper(const ForwardedCommand& c, int argc, char** argv, std::string& error, int& exit_code,
+                 const std::string& asked_for) {
   const BuildFeature& feature = feature_of(c);
+  const std::string what = asked_for.empty() ? command_path(c) : asked_for;
   if (!feature.built) {  // no such helper in this build (cmake/features.cmake)
     if (asks_for_help(argc, argv)) {
       std::cout << c.description << "\nUsage: " << c.synopsis << "\n\n"
-                << not_built_message(feature, command_path(c)) << "\n";
+                << not_built_message(feature, what) << "\n";
       return true;
     }
-    error = not_built_message(feature, command_path(c));
+    error = not_built_message(feature, what);
     exit_code = 2;
     return false;
   }
@@ -101,7 +103,7 @@ bool exec_helper(const ForwardedCommand& c, int argc, char** argv, std::string& 
     return true;
   }
   exit_code = 3;
-  error = "the command '" + command_path(c) + "' runs in the helper " + c.helper +
+  error = "the command '" + what + "' runs in the helper " + c.helper +
           ", which is not installed with this roe (looked for " + tried + "); " + how_to_add(c);
   return false;
 }

@@ -257,6 +257,8 @@ int main(int argc, char** argv) {
     return fail(forward_code, std::string(c->parent[0] ? std::string(c->parent) + " " : "") + c->name, "error: ",
                 forward_error);
   }
+  g_globals.argc = argc;
+  g_globals.argv = argv;
   roe::io::remove_temporaries_on_signals();
   CLI::App app{"roe: AI-based, object-relative visual-inertial state estimation (offline toolkit)",
                "roe"};

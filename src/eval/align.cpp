@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
 
 #include "roe/core/parallel.hpp"
@@ -248,6 +249,11 @@ Alignment compute_alignment(AlignType type, const std::vector<Pose>& est, const 
                             unsigned threads) {
   check_sizes(static_cast<Eigen::Index>(est_index.size()), static_cast<Eigen::Index>(gt_index.size()));
   return alignment_of(type, est_index.size(), Side{est, &est_index}, Side{gt, &gt_index}, n_align, threads);
+}
+
+double alignment_tilt_deg(const Alignment& a) {
+  // atan2 of |R e_z × e_z| and R e_z · e_z: exact near 0, where acos of R(2,2) loses half the digits.
+  return std::atan2(std::hypot(a.R(0, 2), a.R(1, 2)), a.R(2, 2)) * 180.0 / M_PI;
 }
 
 }  // namespace roe::eval

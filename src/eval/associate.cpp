@@ -12,12 +12,15 @@
 
 namespace roe::eval {
 
-std::string to_string(AssocPolicy p) { return p == AssocPolicy::kUnique ? "unique" : "nearest"; }
+std::string to_string(AssocPolicy p) {
+  return p == AssocPolicy::kUnique ? "unique" : p == AssocPolicy::kInterpolate ? "interpolate" : "nearest";
+}
 
 AssocPolicy parse_assoc_policy(const std::string& name) {
   if (name == "nearest") return AssocPolicy::kNearest;
   if (name == "unique") return AssocPolicy::kUnique;
-  throw InputError(fmt::format("unknown association policy '{}' (expected nearest or unique)", name),
+  if (name == "interpolate") return AssocPolicy::kInterpolate;
+  throw InputError(fmt::format("unknown association policy '{}' (expected nearest, unique or interpolate)", name),
                    {"", 0, 0, "assoc"});
 }
 

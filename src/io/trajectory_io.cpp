@@ -92,13 +92,19 @@ bool looks_numeric(std::string_view f) {
   return (c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.';
 }
 
+/// EuRoC's names, or OpenVINS's spelling of the same columns (vicon2gt / ov_eval ground truth:
+/// `#time(ns),px,py,pz,qw,qx,qy,qz[,vx,...]`).
 bool is_euroc_header(const std::vector<std::string>& names) {
-  static const std::array<const char*, 8> want = {"timestamp", "p_RS_R_x", "p_RS_R_y", "p_RS_R_z",
-                                                  "q_RS_w",    "q_RS_x",   "q_RS_y",   "q_RS_z"};
+  static const std::array<const char*, 8> euroc = {"timestamp", "p_RS_R_x", "p_RS_R_y", "p_RS_R_z",
+                                                   "q_RS_w",    "q_RS_x",   "q_RS_y",   "q_RS_z"};
+  static const std::array<const char*, 8> openvins = {"time(ns)", "px", "py", "pz", "qw", "qx", "qy", "qz"};
   if (names.size() < 8) return false;
-  for (std::size_t k = 0; k < 8; ++k)
-    if (base_name(names[k]) != want[k]) return false;
-  return true;
+  for (const auto* want : {&euroc, &openvins}) {
+    bool all = true;
+    for (std::size_t k = 0; k < 8; ++k) all = all && base_name(names[k]) == (*want)[k];
+    if (all) return true;
+  }
+  return false;
 }
 
 const std::vector<std::string> kPoseCols = {"tx", "ty", "tz", "qx", "qy", "qz", "qw"};
@@ -258,7 +264,7 @@ void read_euroc(CsvReader& r, Trajectory& tr) {
   if (!is_euroc_header(r.header())) {
     throw InputError(
         "not an EuRoC trajectory header: expected #timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],"
-        "p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z [](,...)",
+        "p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z [](,...) or OpenVINS's #time(ns),px,py,pz,qw,qx,qy,qz(,...)",
         {r.source(), r.header_line(), 1});
   }
   while (r.next()) {

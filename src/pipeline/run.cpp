@@ -220,7 +220,7 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
   out.reprojection.reserve(dets.size());
   Recorder rec(out, config.output_rate == "imu", sigma_rows(config));
   const auto t0 = Clock::now();
-  const bool smooth = config.smoother == "rts";
+  const bool smooth = config.smoothed();
   ekf::FilterRecording recording;
   std::map<int, ObjectSymmetry> symmetries;
   for (const auto& o : dataset.manifest.objects)

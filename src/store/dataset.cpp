@@ -182,6 +182,17 @@ const std::vector<std::string>& detections_header(bool with_sigma) {
   return with_sigma ? full : base;
 }
 
+// The ground-truth header as read: EuRoC's names, or OpenVINS's (vicon2gt / ov_eval:
+// `#time(ns),px,py,pz,qw,qx,qy,qz,vx,vy,vz,bwx,bwy,bwz,bax,bay,baz`, the same columns in the same order).
+std::vector<std::string> groundtruth_header_read() {
+  static const char* const ov[] = {"time(ns)", "px", "py", "pz", "qw", "qx", "qy", "qz", "vx",
+                                   "vy",       "vz", "bwx", "bwy", "bwz", "bax", "bay", "baz"};
+  std::vector<std::string> h = groundtruth_header();
+  h[0] = std::string("timestamp [ns]|") + h[0];
+  for (std::size_t i = 0; i < h.size(); ++i) h[i] += std::string("|") + ov[i];
+  return h;
+}
+
 // Header with the first column's accepted spellings.
 std::vector<std::string> with_stamp_alternatives(std::vector<std::string> h) {
   h[0] = kStampNs;
@@ -628,7 +639,7 @@ void write_mocap_csv(const fs::path& file, const std::vector<StampedPose>& poses
 }
 
 std::vector<ImuState> read_groundtruth_csv(const fs::path& file) {
-  CsvReader r(file, stream_options(with_stamp_alternatives(groundtruth_header())));
+  CsvReader r(file, stream_options(groundtruth_header_read()));
   std::vector<ImuState> out;
   while (r.next()) {
     ImuState s;

@@ -8,6 +8,8 @@
 
 #include "roe/core/error.hpp"
 #include "roe/io/json.hpp"
+#include "roe/math/euler.hpp"
+#include "roe/math/so3.hpp"
 #include "roe/store/eval_report.hpp"
 #include "roe/version.hpp"
 
@@ -156,6 +158,63 @@ void fields(A& a, ReportAlignment& al) {
   a("type", al.type), a("n_aligned", al.n_aligned), a("n_align_requested", al.n_align_requested);
   a("scale", al.scale), a("R", al.R), a("t", al.t), a("q_xyzw", al.q_xyzw);
   a.fixed("applied", "p' = s*R*p + t, R'_est = R*R_est");
+  a.omittable("tilt_deg", al.tilt_deg), a.omittable("posyaw_rot_rmse_deg", al.posyaw_rot_rmse_deg);
+}
+
+template <class A>
+void fields(A& a, ReportTimeOffset& o) {
+  a("offset_s", o.offset_s), a("sigma_s", o.sigma_s), a("search_s", o.search_s);
+  a("coarse_offset_s", o.coarse_offset_s), a("correlation", o.correlation), a("peak_ratio", o.peak_ratio);
+  a("peak_at_edge", o.peak_at_edge), a("refined", o.refined), a("n_pairs", o.n_pairs), a("ape_rmse_m", o.ape_rmse_m);
+  a.fixed("definition",
+          "t_gt = t_est + offset_s (added to the estimate stamps, evo's --t_offset); coarse: peak of the normalised "
+          "cross-correlation of the two trajectories' angular-rate magnitudes; refined: Gauss-Newton minimum of the "
+          "aligned position and orientation residuals (each block weighted by its effective samples over its "
+          "variance) with the ground truth interpolated at t_est + offset, the alignment re-fitted at each step; "
+          "sigma_s from the curvature of that cost");
+}
+
+template <class A>
+void fields(A& a, ReportOffsetCheck& c) {
+  a("shift_s", c.shift_s), a("sigma_s", c.sigma_s);
+  a.fixed("definition", "the APE minimum lies at the offset used + shift_s (Gauss-Newton from the offset used)");
+}
+
+template <class A>
+void fields(A& a, ReportBodyPoseFit& f) {
+  a("sigma_p_m", f.sigma_p_m), a("sigma_rot_deg", f.sigma_rot_deg);
+  a("rotation_spread_min_deg", f.rotation_spread_min_deg), a("rotation_spread_max_deg", f.rotation_spread_max_deg);
+  a("lever_arm_rank", f.lever_arm_rank), a("verdict", f.verdict), a("n_pairs", f.n_pairs);
+}
+
+template <class A>
+void fields(A& a, ReportBodyPose& b) {
+  a("source", b.source), a("p", b.p), a("q_xyzw", b.q_xyzw), a("angle_deg", b.angle_deg);
+  a.axes("rpy_deg", b.rpy_deg, kRpy), a("fit", b.fit);
+  a.fixed("definition", "T_B_I: the estimate's body I in the ground truth's body B, T_W_I = T_W_B * T_B_I, applied to "
+                        "every ground-truth pose before the evaluation");
+}
+
+template <class A>
+void fields(A& a, eval::KittiLength& l) {
+  a("length_m", l.length_m), a("n_segments", l.n_segments), a("t_rel_pct", l.t_rel_pct);
+  a("r_rel_deg_per_100m", l.r_rel_deg_per_100m);
+}
+
+template <class A>
+void fields(A& a, eval::KittiDrift& d) {
+  a("t_rel_pct", d.t_rel_pct), a("r_rel_deg_per_100m", d.r_rel_deg_per_100m), a("n_segments", d.n_segments);
+  a("per_length", d.per_length);
+  a.fixed("definition", "KITTI odometry devkit: every 10th pose as a start, lengths 100..800 m of ground-truth path, "
+                        "E = (P_i^-1 P_j)^-1 (Q_i^-1 Q_j); t_rel = 100 * mean(|trans E| / L) %, r_rel = mean(angle E / "
+                        "L) in deg per 100 m, over every segment of every length");
+}
+
+template <class A>
+void fields(A& a, ReportWindow& w) {
+  a("t_start_s", w.t_start_s), a("t_end_s", w.t_end_s), a("n_cropped", w.n_cropped);
+  a("align_window_s", w.align_window_s);
+  a.fixed("clock", "the ground truth's stamps of the pairs");
 }
 
 template <class A>
@@ -313,6 +372,8 @@ void fields(A& a, EvalReportFile& f) {
   a("association", f.association), a("alignment", f.alignment), a("ape_trans_m", f.ape_trans_m);
   a("ape_rot_deg", f.ape_rot_deg), a("euler_metric", f.euler_metric), a("per_axis", f.per_axis);
   a("cnspy", f.cnspy), a("consistency", f.consistency), a("body_rotation", f.body_rotation), a("rpe", f.rpe);
+  a.omittable("time_offset", f.time_offset), a.omittable("time_offset_check", f.time_offset_check);
+  a.omittable("body_pose", f.body_pose), a.omittable("window", f.window), a.omittable("kitti", f.kitti);
   a.fixed("rpe_definition",
           "E_ij = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j), Q ground truth, P aligned estimate (evo RPE); trans_m = |trans(E)|, "
           "rot_deg = angle of rot(E), drift_pct = 100 trans_m / ground-truth path length from i to j");
@@ -465,11 +526,51 @@ ReportFit fit_of(const eval::ObjectFit& f) {
 ReportAlignment alignment_of(const eval::Report& r) {
   const eval::Alignment& al = r.alignment;
   const Eigen::Quaterniond qa = al.q();
-  ReportAlignment out{eval::to_string(r.align_type()), al.n_used, r.params.n_align, al.s, {}, {}, {}};
+  ReportAlignment out{eval::to_string(r.align_type()), al.n_used, r.params.n_align, al.s, {}, {}, {}, {}, {}};
   for (int i = 0; i < 3; ++i) out.R[static_cast<std::size_t>(i)] = {al.R(i, 0), al.R(i, 1), al.R(i, 2)};
   out.t = {al.t.x(), al.t.y(), al.t.z()};
   out.q_xyzw = {qa.x(), qa.y(), qa.z(), qa.w()};
+  out.tilt_deg = r.tilt_deg;
+  out.posyaw_rot_rmse_deg = r.posyaw_rot_rmse_deg;
   return out;
+}
+
+ReportBodyPose body_pose_of(const Pose& T, const eval::BodyPoseFit* fit) {
+  ReportBodyPose b;
+  b.source = fit ? "fitted" : "given";
+  b.p = {T.p.x(), T.p.y(), T.p.z()};
+  b.q_xyzw = {T.q.x(), T.q.y(), T.q.z(), T.q.w()};
+  b.angle_deg = math::log_quat(T.q).norm() * math::kDegPerRad;
+  b.rpy_deg = math::euler_zyx(T.R()) * math::kDegPerRad;
+  if (fit)
+    b.fit = ReportBodyPoseFit{{fit->sigma_p_m.x(), fit->sigma_p_m.y(), fit->sigma_p_m.z()},
+                              fit->sigma_rot_deg, fit->rotation_spread_min_deg, fit->rotation_spread_max_deg,
+                              fit->lever_arm_rank, fit->verdict, fit->n_pairs};
+  return b;
+}
+
+/// The time offset, the body pose and the windows of an evaluation (absent where not asked for).
+void frames_of(const eval::Report& r, EvalReportFile& f) {
+  if (r.time_offset) {
+    const eval::TrajectoryOffset& o = *r.time_offset;
+    f.time_offset = ReportTimeOffset{o.offset_s,         o.sigma_s,     r.params.auto_offset_max_s,
+                                     o.coarse_offset_s,  o.coarse.correlation, o.coarse.peak_ratio,
+                                     o.coarse.peak_at_edge, o.refined, o.n_pairs, o.ape_rmse_m};
+  }
+  if (r.offset_check && r.offset_check->valid)
+    f.time_offset_check = ReportOffsetCheck{r.offset_check->shift_s, r.offset_check->sigma_s};
+  if (r.params.gt_body_pose) f.body_pose = body_pose_of(*r.params.gt_body_pose, nullptr);
+  f.kitti = r.kitti;
+  if (r.body_pose) f.body_pose = body_pose_of(r.body_pose->T_B_I, &*r.body_pose);
+  const eval::EvalParams& p = r.params;
+  if (p.t_start_ns || p.t_end_ns || p.align_window_ns) {
+    ReportWindow w;
+    if (p.t_start_ns) w.t_start_s = to_seconds(*p.t_start_ns);
+    if (p.t_end_ns) w.t_end_s = to_seconds(*p.t_end_ns);
+    w.n_cropped = r.n_cropped;
+    if (p.align_window_ns) w.align_window_s = std::array<double, 2>{to_seconds(p.align_window_ns->first), to_seconds(p.align_window_ns->second)};
+    f.window = w;
+  }
 }
 
 }  // namespace
@@ -508,6 +609,7 @@ EvalReportFile make_eval_report_file(const eval::Report& r, const EvalReportCont
     f.body_rotation = ReportBodyRotation{{b.q_off.x(), b.q_off.y(), b.q_off.z(), b.q_off.w()}, b.angle_deg,
                                          b.rpy_deg, body_metrics_of(r.ape), body_metrics_of(b.ape)};
   }
+  frames_of(r, f);
   f.rpe = rpe_of(r);
   for (const eval::ObjectReport& o : r.objects)
     f.per_object.push_back({o.object_id, o.n_detections, o.counts, o.n_valid_pose, o.n_matched, fit_of(o.all),
@@ -558,8 +660,15 @@ std::vector<ReportCell> ape_cells(const EvalReportFile& f, bool rotation) {
   return out;
 }
 
-std::vector<ReportCell> nees_cells(const EvalReportFile& f) {
-  return {{"consistency.anees_p", f.consistency.anees_p}, {"consistency.anees_r", f.consistency.anees_r}};
+std::vector<NeesFrame> nees_frames(const EvalReportFile& f) {
+  const ReportConsistency& c = f.consistency;
+  std::vector<NeesFrame> out;
+  if (c.gauge.available)
+    out.push_back({"estimator gauge", c.frame == "estimator gauge",
+                   {{"consistency.gauge.anees_p", c.gauge.anees_p}, {"consistency.gauge.anees_r", c.gauge.anees_r}}});
+  out.push_back({"after the alignment", c.frame == "alignment",
+                 {{"consistency.aligned.anees_p", c.aligned_anees_p}, {"consistency.aligned.anees_r", c.aligned_anees_r}}});
+  return out;
 }
 
 const std::vector<std::string>& headline_metric_names() {

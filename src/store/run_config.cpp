@@ -195,6 +195,27 @@ json echo(const S& s, const std::vector<Field<S>>& fields) {
   return j;
 }
 
+/// "estimator", or the key it replaced, "smoother": "none" | "rts" (configs and run.json files written before
+/// issue 48), read as "filter" and "smoother"; both given must agree.
+void read_estimator(JsonObject& root, RunConfig& c) {
+  const auto& names = estimators();
+  if (root.has("estimator")) {
+    root.get("estimator", c.estimator);
+    if (std::find(names.begin(), names.end(), c.estimator) == names.end())
+      fail(root, "estimator", "must be \"filter\", \"smoother\" or \"batch\"");
+  }
+  if (!root.has("smoother")) return;
+  std::string legacy;
+  root.get("smoother", legacy);
+  if (legacy != "none" && legacy != "rts")
+    fail(root, "smoother", "must be \"none\" or \"rts\" (the key is now \"estimator\": \"filter\", \"smoother\" or \"batch\")");
+  const std::string as = legacy == "rts" ? "smoother" : "filter";
+  if (root.has("estimator") && !(c.estimator == as || (legacy == "rts" && c.estimator == "batch")))
+    fail(root, "smoother", fmt::format("\"smoother\": \"{}\" contradicts \"estimator\": \"{}\" (give \"estimator\" only)",
+                                       legacy, c.estimator));
+  if (!root.has("estimator")) c.estimator = as;
+}
+
 }  // namespace
 
 ekf::FilterOptions recommended_filter_options() {
@@ -238,8 +259,7 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
     load(h, c.health, health_fields());
     h.finish();
   }
-  root.get("smoother", c.smoother);
-  if (c.smoother != "none" && c.smoother != "rts") fail(root, "smoother", "must be \"none\" or \"rts\"");
+  read_estimator(root, c);
   root.get("description", c.description);
   root.finish();
   return c;
@@ -248,11 +268,16 @@ RunConfig run_config_from_json(const json& j, const std::string& source) {
 json run_config_to_json(const RunConfig& c, bool every_key) {
   json j = {{"filter", echo(c.filter, filter_fields())},
             {"output", {{"rate", c.output_rate}}},
-            {"smoother", c.smoother},
+            {"estimator", c.estimator},
             {"health", echo(c.health, health_fields())}};
   if (every_key || c.output_level != "full") j["output"]["level"] = c.output_level;
   if (!c.description.empty()) j["description"] = c.description;
   return j;
+}
+
+const std::vector<std::string>& estimators() {
+  static const std::vector<std::string> names = {"filter", "smoother", "batch"};
+  return names;
 }
 
 const std::vector<std::string>& output_levels() {
@@ -263,7 +288,7 @@ const std::vector<std::string>& output_levels() {
 bool run_folder_has(const RunConfig& c, const std::string& file) {
   if (file == "run.json" || file == "trajectory.csv" || file == "trajectory.tum") return true;
   if (c.output_level == "minimal") return false;
-  if (file.find("_filter.") != std::string::npos) return c.smoother == "rts";
+  if (file.find("_filter.") != std::string::npos) return c.smoothed();
   return true;
 }
 
@@ -272,7 +297,7 @@ std::string run_file_absent_reason(const RunConfig& c, const std::string& file) 
   if (c.output_level == "minimal")
     return "the run was written with output level minimal: trajectory.csv/.tum and run.json only (`roe run "
            "--output standard` or full writes the other files)";
-  return fmt::format("the run has no smoother (\"smoother\": \"{}\"), so no {}", c.smoother, file);
+  return fmt::format("the run's estimate is the filter's own (\"estimator\": \"{}\"), so no {}", c.estimator, file);
 }
 
 bool sigma_at_every_row(const RunConfig& c) { return c.output_level == "full" || c.output_rate == "images"; }

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <limits>
+#include <set>
 
 #include "roe/core/dataset.hpp"
 #include "roe/core/error.hpp"
@@ -109,21 +110,25 @@ json imu_noise_json(const ekf::ImuNoiseParams& n, const std::array<std::string, 
 
 json refine_json(const RefineRecord& r) {
   const RefineRecord::ErrorModel& m = r.error_model;
-  json ac = json::array();
-  for (const auto& b : m.autocovariance) ac.push_back({{"lag_s", b.lag_s}, {"cov", b.cov}, {"pairs", b.pairs}});
   return {{"options",
            {{"loss", r.loss},
             {"loss_scale", r.loss_scale},
             {"max_iterations", r.max_iterations},
             {"linear_solver", r.linear_solver},
             {"covariance", r.covariance},
-            {"correlated_errors", r.correlated_errors}}},
+            {"tau_s", r.tau_s_option},
+            {"fit_rounds", r.fit_rounds},
+            {"gross_chi2", r.gross_chi2},
+            {"imu_noise_scale", r.imu_noise_scale}}},
           {"detection_error_model",
-           {{"correlated", m.correlated},
-            {"tau_s", m.tau_s},
-            {"sigma_bias", m.sigma_bias},
-            {"sigma_white", m.sigma_white},
-            {"autocovariance", ac}}},
+           {{"tau_s", m.tau_s},
+            {"fitted_tau", m.fitted_tau},
+            {"scale_translation", m.scale_translation},
+            {"scale_rotation", m.scale_rotation},
+            {"whitened_lag1", m.whitened_lag1},
+            {"used", m.used},
+            {"gross", m.gross}}},
+          {"solves", r.solves},
           {"nodes", r.nodes},
           {"imu_factors", r.imu_factors},
           {"detection_factors", r.detection_factors},
@@ -329,7 +334,8 @@ void read_final(JsonObject o, RunRecord& r) {
   o.finish();
 }
 
-void read_refine(JsonObject o, RefineRecord& r) {
+/// The options and the detection-error model of today's refine block (docs/refine.md §2).
+void read_refine_options(JsonObject& o, RefineRecord& r) {
   {
     JsonObject p = req_child(o, "options");
     req(p, "loss", r.loss);
@@ -337,29 +343,56 @@ void read_refine(JsonObject o, RefineRecord& r) {
     req(p, "max_iterations", r.max_iterations);
     req(p, "linear_solver", r.linear_solver);
     req(p, "covariance", r.covariance);
-    req(p, "correlated_errors", r.correlated_errors);
+    num(p, "tau_s", r.tau_s_option);
+    req(p, "fit_rounds", r.fit_rounds);
+    num(p, "gross_chi2", r.gross_chi2);
+    num(p, "imu_noise_scale", r.imu_noise_scale);
     p.finish();
   }
   {
     JsonObject m = req_child(o, "detection_error_model");
     RefineRecord::ErrorModel& e = r.error_model;
-    req(m, "correlated", e.correlated);
     num(m, "tau_s", e.tau_s);
-    num(m, "sigma_bias", e.sigma_bias);
-    num(m, "sigma_white", e.sigma_white);
-    if (!m.has("autocovariance")) fail(m, "autocovariance", "missing key");
-    const json& a = *m.raw("autocovariance");
-    if (!a.is_array()) fail(m, "autocovariance", "expected an array");
-    for (std::size_t i = 0; i < a.size(); ++i) {
-      JsonObject b(a[i], o.source(), fmt::format("refine.detection_error_model.autocovariance[{}]", i));
-      RefineRecord::ErrorModel::Bin bin;
-      num(b, "lag_s", bin.lag_s);
-      num(b, "cov", bin.cov);
-      req(b, "pairs", bin.pairs);
-      b.finish();
-      e.autocovariance.push_back(bin);
-    }
+    req(m, "fitted_tau", e.fitted_tau);
+    num(m, "scale_translation", e.scale_translation);
+    num(m, "scale_rotation", e.scale_rotation);
+    num(m, "whitened_lag1", e.whitened_lag1);
+    req(m, "used", e.used);
+    req(m, "gross", e.gross);
     m.finish();
+  }
+  req(o, "solves", r.solves);
+}
+
+/// The refine block of a roe refine before issue 48 (2026-12-07): white detection factors whose marginals were
+/// inflated by a fitted correlation ("options.correlated_errors", "detection_error_model.autocovariance"). Its
+/// options are read as far as today's record has them; its error model has no counterpart and is checked to be
+/// an object and left out (RefineRecord::earlier_layout says so, the model's numbers read as nan).
+void read_refine_options_before_whitening(JsonObject& o, RefineRecord& r) {
+  JsonObject p = req_child(o, "options");
+  req(p, "loss", r.loss);
+  num(p, "loss_scale", r.loss_scale);
+  req(p, "max_iterations", r.max_iterations);
+  req(p, "linear_solver", r.linear_solver);
+  req(p, "covariance", r.covariance);
+  bool correlated = false;
+  req(p, "correlated_errors", correlated);
+  p.finish();
+  const json* m = o.raw("detection_error_model");
+  if (!m || !m->is_object()) fail(o, "detection_error_model", "expected an object");
+  r.earlier_layout = true;
+  r.solves = 1;
+  r.fit_rounds = 1;
+  RefineRecord::ErrorModel& e = r.error_model;
+  e.tau_s = e.scale_translation = e.scale_rotation = e.whitened_lag1 = std::numeric_limits<double>::quiet_NaN();
+}
+
+void read_refine(JsonObject o, RefineRecord& r) {
+  const json* options = o.has("options") ? o.raw("options") : nullptr;
+  if (options && options->is_object() && options->contains("correlated_errors")) {
+    read_refine_options_before_whitening(o, r);
+  } else {
+    read_refine_options(o, r);
   }
   for (const auto& [key, field] : {std::pair{"nodes", &RefineRecord::nodes}, std::pair{"imu_factors", &RefineRecord::imu_factors},
                                    std::pair{"detection_factors", &RefineRecord::detection_factors},
@@ -421,11 +454,27 @@ json run_record_to_json(const RunRecord& r) {
 /// run.json records the whole configuration a run ran with (run_config_to_json writes every key): a key of
 /// `whole` (the defaults, written the same way) missing from `written` is refused, naming its path, instead of
 /// being filled with a default the run may not have used. Object values are compared key by key.
+///
+/// The one exception is a key added to the configuration after run.json files were already written (an older
+/// roe wrote none): each is listed here with what its default means, and that default must be exactly what
+/// the older roe did, so an absent key reads as the configuration the run really used (docs/filter.md §9).
 namespace {
+const std::set<std::string>& keys_added_later() {
+  static const std::set<std::string> keys = {
+      "config.filter.estimate_time_offset",  // issue 49, 2026-12-07: false = no t_d state (the older filter)
+      "config.filter.time_offset_sigma_s",   // its prior σ: unused while estimate_time_offset is false
+      "config.filter.max_time_offset_s",      // its guard rail: unused while estimate_time_offset is false
+  };
+  return keys;
+}
+
 void require_whole_config(const json& written, const json& whole, const std::string& source, const std::string& path) {
   if (!written.is_object() || !whole.is_object()) return;  // the strict reader says what is wrong with the value
   for (const auto& [key, value] : whole.items()) {
     const std::string at = path + "." + key;
+    if (!written.contains(key) && keys_added_later().count(at)) continue;
+    // "estimator" replaced "smoother" (issue 48): a run.json written before has the old key, read as its value.
+    if (at == "config.estimator" && written.contains("smoother")) continue;
     if (!written.contains(key))
       throw ConfigError("missing key: run.json records the whole configuration the run used (a run.json of another "
                         "version of roe, or edited?)",
@@ -485,7 +534,7 @@ RunRecord run_record_from_json(const json& j, const std::string& source) {
   read_final(req_child(o, "final"), r);
   req(o, "warnings", r.warnings);
   req(o, "timing_s", r.timing_s);
-  if (r.command == "refine") {
+  if (r.command == "refine" || r.config.estimator == "batch") {  // roe refine, or roe run's batch estimator
     r.refine.emplace();
     read_refine(req_child(o, "refine"), *r.refine);
   }

@@ -292,7 +292,7 @@ TEST_CASE("roe eval: alignment variants and options", "[app][eval]") {
   o.assoc = "unique";
   CHECK(app::run_eval(o).report_json()["association"]["policy"] == "unique");
   o.assoc = "nearest";
-  o.plot = true;  // --plot without an output folder
+  o.plot = true;  // --plot with --no-out: they contradict
   CHECK_THROWS_AS(app::run_eval(o), InputError);
 }
 

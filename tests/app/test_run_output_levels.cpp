@@ -241,7 +241,7 @@ TEST_CASE("output level: the config key, --output over it, and bad values", "[ap
   CHECK_FALSE(store::run_folder_has(m, "objects.csv"));
   CHECK(store::run_file_absent_reason(m, "states.csv").find("output level minimal") != std::string::npos);
   store::RunConfig none;
-  none.smoother = "none";
+  none.estimator = "filter";
   CHECK_FALSE(store::run_folder_has(none, "states_filter.csv"));
   CHECK(store::run_folder_has(none, "states.csv"));
   CHECK(store::run_file_absent_reason(none, "states.csv").empty());

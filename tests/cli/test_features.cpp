@@ -80,6 +80,27 @@ TEST_CASE("a roe without Ceres offers roe refine and refuses it with exit 2, nam
   CHECK(has(doc["error"]["message"].get<std::string>(), "libceres-dev"));
 }
 
+TEST_CASE("a roe without Ceres refuses roe run's batch estimator with exit 2 and runs its default", "[cli][features]") {
+  roe::test::TempDir d;
+  // Refused from the effective config, before the dataset is read or the run folder made.
+  auto r = without("run '" + (d / "no-such-ds").string() + "' --estimator batch --out '" + (d / "out").string() + "'");
+  CHECK(r.code == 2);
+  CHECK(has(r.out, "roe: error: roe run --estimator batch needs Ceres Solver, and this roe was built without it."));
+  CHECK(has(r.out, "Install libceres-dev"));
+  CHECK(!std::filesystem::exists(d / "out"));
+  const std::string cfg = d.write("batch.json", R"({"estimator": "batch"})").string();
+  r = without("run '" + (d / "no-such-ds").string() + "' --config '" + cfg + "' --out '" + (d / "out").string() + "'");
+  CHECK(r.code == 2);
+  CHECK(has(r.out, "(" + cfg + ") needs Ceres Solver"));
+  // --estimator over the config: the smoother needs nothing optional, and roe's default is the smoother.
+  REQUIRE(without("-q simulate --preset matched --seed 1 --duration 3 --out '" + (d / "ds").string() + "'").code == 0);
+  r = without("-q run '" + (d / "ds").string() + "' --config '" + cfg + "' --estimator smoother --out '" +
+              (d / "run").string() + "'");
+  CHECK(r.code == 0);
+  CHECK(std::filesystem::exists(d / "run" / "states_filter.csv"));
+  CHECK(without("-q run '" + (d / "ds").string() + "' --out '" + (d / "run2").string() + "'").code == 0);
+}
+
 TEST_CASE("a roe without OpenCV refuses import realsense and infer with exit 2, naming libopencv-dev",
           "[cli][features]") {
   roe::test::TempDir d;

@@ -173,7 +173,7 @@ TEST_CASE("roe report: the HTML in headless Chromium", "[cli][report][browser]")
   }
   for (const char* p : {"per_axis.pos_rmse_m.x", "per_axis.pos_rmse_m.y", "per_axis.pos_rmse_m.z",
                         "per_axis.rpy_rmse_deg.roll", "per_axis.rpy_rmse_deg.pitch", "per_axis.rpy_rmse_deg.yaw",
-                        "ape_trans_m.rmse", "ape_trans_m.max", "ape_rot_deg.rmse", "consistency.anees_p"})
+                        "ape_trans_m.rmse", "ape_trans_m.max", "ape_rot_deg.rmse", "consistency.aligned.anees_p"})
     CHECK(paths.count(p) == 1);
 
   // The new parts: captions without TeX and with rendered subscripts, the objects table's "accepted" row

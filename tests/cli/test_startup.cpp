@@ -88,6 +88,13 @@ TEST_CASE("roe lists the helpers' commands and hands them over with their argume
   r = run_roe("import realsense /no/such.bag --out " + (d / "ds").string());
   CHECK(r.code == 2);
   CHECK(r.out.find("/no/such.bag: no such bag file or folder") != std::string::npos);
+  // roe run with the batch estimator is handed to roe-refine, which runs it (docs/refine.md §8).
+  REQUIRE(run_roe("-q simulate --preset matched --seed 1 --duration 4 --out " + (d / "sim").string()).code == 0);
+  r = run_roe("-q run " + (d / "sim").string() + " --estimator batch --out " + (d / "batch").string());
+  CHECK(r.code == 0);
+  const std::string run_json = shell("cat '" + (d / "batch" / "run.json").string() + "'");
+  CHECK(run_json.find("\"estimator\": \"batch\"") != std::string::npos);
+  CHECK(run_json.find("\"detection_error_model\"") != std::string::npos);
   // A command's argument that happens to be a helper's command name is not forwarded.
   r = run_roe("run infer --out " + (d / "run").string());
   CHECK(r.code == 2);
@@ -109,6 +116,14 @@ TEST_CASE("a missing helper is an internal error that says what to do", "[cli][s
   CHECK(rf.find("helper roe-refine, which is not installed") != std::string::npos);
   CHECK(rf.find("cmake --build BUILD --target roe-refine") != std::string::npos);
   CHECK(rf.find("exit=3") != std::string::npos);
+  // roe run's batch estimator needs roe-refine too: said before anything is read (no such dataset here).
+  const std::string rb = shell("'" + lone.string() + "' run no-such-ds --estimator batch --out " + (d / "r").string() +
+                               "; echo \"exit=$?\"");
+  CHECK(rb.find("'run --estimator batch' runs in the helper roe-refine, which is not installed") != std::string::npos);
+  CHECK(rb.find("exit=3") != std::string::npos);
+  CHECK(!fs::exists(d / "r"));
+  const std::string rbj = shell("'" + lone.string() + "' --json run no-such-ds --estimator batch --out x 2>/dev/null");
+  CHECK(rbj.find("\"exit_code\": 3") != std::string::npos);
   // Every other command works without the helpers.
   CHECK(shell("'" + lone.string() + "' --version").find("roe 0.") != std::string::npos);
 }

@@ -273,7 +273,7 @@ const char* kTwoJobSpec =
 TEST_CASE("roe sweep run: a job id from jobs.jsonl never names a folder outside the sweep", "[cli][sweep][hostile]") {
   roe::test::TempDir tmp("roe_sweep_escape");
   const fs::path spec = tmp.write("spec.json", kTwoJobSpec);
-  for (const std::string bad : {std::string("../../victim"), (tmp / "victim").string(), std::string("a/b"),
+  for (const std::string& bad : {std::string("../../victim"), (tmp / "victim").string(), std::string("a/b"),
                                 std::string(""), std::string("0123456789ABCDEF"), std::string("..")}) {
     CAPTURE(bad);
     fs::remove_all(tmp / "sw");
@@ -315,7 +315,7 @@ TEST_CASE("roe sweep aggregate: --out inside the sweep's own folders is refused,
   const std::string id = json::parse(slurp(sw / "jobs.jsonl").substr(0, slurp(sw / "jobs.jsonl").find('\n')))["id"];
   fs::create_directories(sw / "jobs" / id);
   std::ofstream(sw / "jobs" / id / "result.json") << "{}";
-  for (const fs::path out : {sw / "jobs", sw / "jobs" / id, sw / "work", sw / "locks" / "x", sw, tmp.path})
+  for (const fs::path& out : {sw / "jobs", sw / "jobs" / id, sw / "work", sw / "locks" / "x", sw, tmp.path})
     CHECK(roe::test::run_roe("sweep aggregate " + q(sw) + " --out " + q(out) + " --force").code == 2);
   CHECK(fs::exists(sw / "jobs" / id / "result.json"));
   CHECK(fs::exists(sw / "jobs.jsonl"));

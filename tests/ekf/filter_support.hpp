@@ -127,7 +127,7 @@ struct MonteCarlo {
 
 /// N runs of `preset` (seeds 100..100+N−1) with the per-detection σ the simulator wrote (configured
 /// noise = simulated noise); NEES of the IMU pose in the filter's gauge, after skip_s. `smoother` is
-/// RunConfig::smoother ("rts": the smoothed estimate and its covariance).
+/// "rts" (RunConfig::estimator "smoother": the smoothed estimate and its covariance) or "none".
 /// `edit_config` and `edit_data` (optional) change the run config and each simulated dataset.
 inline MonteCarlo monte_carlo(const std::string& preset, int N, double duration, double skip_s,
                               const std::string& smoother = "none",
@@ -136,7 +136,7 @@ inline MonteCarlo monte_carlo(const std::string& preset, int N, double duration,
   app::RunConfig cfg = test::plain_config();
   cfg.filter.use_detection_sigmas = true;
   cfg.filter.init_sigma_v_mps = 1.0;
-  cfg.smoother = smoother;
+  cfg.estimator = smoother == "rts" ? "smoother" : "filter";  // RunConfig::estimator (issue 48)
   if (edit_config) edit_config(cfg);
   std::vector<double> nees_sum;  // per time step, summed over runs
   std::size_t rejected = 0, rows = 0;

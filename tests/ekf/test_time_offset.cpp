@@ -89,7 +89,7 @@ TEST_CASE("time offset: matched-calib offsets -20, 0, +5, +30 ms from a declared
   CHECK(anees < hi);
 }
 
-TEST_CASE("time offset: with no offset the state costs the pose nothing; a 30 ms offset untold costs it",
+TEST_CASE("time offset: with no offset the state costs the pose nothing, a 30 ms offset untold costs it",
           "[ekf][time_offset][sim]") {
   // Position RMSE (norm of the per-axis RMSE after an SE(3) alignment) from 3 s on.
   const auto rmse = [](const Dataset& d, bool estimate) {

@@ -22,7 +22,7 @@ RunRecord full_record() {
   RunRecord r;
   r.roe_version = "9.9.9";
   r.config.filter.min_score = 0.25;
-  r.config.smoother = "none";
+  r.config.estimator = "filter";
   r.inputs = {"ds", "/abs/ds", "poet", {{"roe.json", "ab"}, {"mav0/imu0/data.csv", "cd"}}, "c.json", "/abs/c.json"};
   r.anchor_id = 3;
   r.counts.imu_samples = 24000;
@@ -63,9 +63,11 @@ RunRecord refine_record() {
   r.refine->linear_solver = "sparse_normal_cholesky";
   r.refine->loss_scale = 3.5;
   r.refine->max_iterations = 50;
-  r.refine->error_model.correlated = true;
+  r.refine->fit_rounds = 2;
+  r.refine->error_model.fitted_tau = true;
   r.refine->error_model.tau_s = std::numeric_limits<double>::quiet_NaN();  // written as null, read as NaN
-  r.refine->error_model.autocovariance = {{0.0, 1.0, 100}, {0.5, 0.4, 80}};
+  r.refine->error_model.scale_rotation = 0.3;
+  r.refine->error_model.gross = 80;
   r.refine->nodes = 61;
   r.refine->termination = "CONVERGENCE";
   r.refine->input_run = "run";
@@ -85,13 +87,14 @@ TEST_CASE("run.json: write, read and write again give the same text, every field
   }
   const RunRecord back = run_record_from_json(io::json::parse(format_run_json(refine_record())), "x");
   CHECK(std::isnan(back.refine->error_model.tau_s));
-  CHECK(back.refine->error_model.autocovariance.at(1).pairs == 80);
+  CHECK(back.refine->error_model.gross == 80);
+  CHECK(back.refine->error_model.scale_rotation == 0.3);
   CHECK(back.counts.per_object.at(12).rejected_chi2 == 2);
   CHECK(back.relocks.at(0).drift_per_s.z() == -0.03);
   CHECK(back.inputs.config_abs == "/abs/c.json");
   CHECK(back.health.problems == std::vector<std::string>{"a problem"});
   CHECK(back.config.filter.min_score == 0.25);
-  CHECK(back.config.smoother == "none");
+  CHECK(back.config.estimator == "filter");
   // final.time_offset (issue 49) round-trips; a run.json written before it has none.
   const RunRecord full = run_record_from_json(io::json::parse(format_run_json(full_record())), "x");
   REQUIRE(full.final_time_offset.has_value());
@@ -174,7 +177,7 @@ TEST_CASE("run.json: a config without one of its sections or keys, and a detecti
   CHECK(refused([](io::json& j) { j["config"]["filter"].erase("min_score"); }).context().key ==
         "config.filter.min_score");
   CHECK(refused([](io::json& j) { j["config"].erase("health"); }).context().key == "config.health");
-  for (const io::json bad : {io::json(0.0), io::json(-1.0), io::json(nullptr), io::json(1e308), io::json(8.5),
+  for (const io::json& bad : {io::json(0.0), io::json(-1.0), io::json(nullptr), io::json(1e308), io::json(8.5),
                              io::json(0.1)}) {
     const auto e = refused([&](io::json& j) { j["detection_sigmas"]["final_scale"] = bad; });
     CHECK(e.context().key == "detection_sigmas.final_scale");
@@ -185,4 +188,36 @@ TEST_CASE("run.json: a config without one of its sections or keys, and a detecti
     j["detection_sigmas"]["final_scale"] = ok;
     CHECK(run_record_from_json(j, "run.json").detection_sigmas.final_scale == ok);
   }
+}
+
+// Run folders written before 2026-12-07 (roe at fc12dc3: `roe run` and `roe refine` on datasets/sample, the files
+// kept in tests/store/data) still read: the configuration keys added since (the time offset, issue 49) are
+// absent there and read as the default that roe ran with, and the refine block of the white-factor refine
+// (issue 48 replaced it) reads with its error model marked as of that layout. Any other missing key is refused.
+TEST_CASE("run.json: run and refine folders written before issues 48 and 49 still read", "[store][run_json]") {
+  const std::string data = std::string(ROE_SOURCE_DIR) + "/tests/store/data/";
+  const RunRecord run = read_run_json(data + "run_fc12dc3.json");
+  CHECK(run.command == "run");
+  CHECK_FALSE(run.config.filter.estimate_time_offset);
+  CHECK_FALSE(run.final_time_offset.has_value());
+  CHECK_FALSE(run.refine.has_value());
+  const RunRecord ref = read_run_json(data + "refine_fc12dc3.json");
+  REQUIRE(ref.refine.has_value());
+  CHECK(ref.refine->earlier_layout);
+  CHECK(ref.refine->loss == "cauchy");
+  CHECK(ref.refine->detection_factors == 2456);
+  CHECK(std::isnan(ref.refine->error_model.tau_s));
+  // Today's writer writes today's layout; what it writes reads back as today's record.
+  const RunRecord again = run_record_from_json(run_record_to_json(ref), "again");
+  CHECK_FALSE(again.refine->earlier_layout);
+  CHECK(again.refine->detection_factors == 2456);
+  // Only the keys added later may be absent: a key the older roe wrote is still required.
+  io::json j = io::json::parse(std::ifstream(data + "run_fc12dc3.json"));
+  j["config"]["filter"].erase("min_score");
+  const InputError e = test::expect_input_error([&] { run_record_from_json(j, "run.json"); });
+  CHECK(e.context().key == "config.filter.min_score");
+  // The earlier refine layout is recognised by its own keys, not by a missing one.
+  io::json r = io::json::parse(std::ifstream(data + "refine_fc12dc3.json"));
+  r["refine"]["options"].erase("correlated_errors");
+  test::expect_input_error([&] { run_record_from_json(r, "run.json"); });
 }

@@ -39,8 +39,13 @@ struct CalibCheckResult {
   bool strict = false;
   std::vector<std::string> warnings;
 
-  /// 0 pass, 1 a failed check (or, strict, an inconclusive one).
+  /// 0 pass, 1 a failed check (or, strict, an inconclusive one, or no check that could judge).
   int exit_code() const;
+  /// Some calibration check (not dataset.identity, which checks the files) passed, failed or was within its σ:
+  /// the run was judged. False when every check was skipped,
+  /// inconclusive or unobservable (a `roe run --output minimal` folder has nothing to check): the verdict is
+  /// then "NOT JUDGED", never "PASS".
+  bool judged() const;
   nlohmann::json to_json() const;
   std::string to_text() const;
 };

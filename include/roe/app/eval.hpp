@@ -47,6 +47,13 @@ struct EvalOptions {
   int n_align = -1;                 ///< --n-align: first N pairs (-1 = all)
   double max_dt_s = 0.01;           ///< --max-dt
   double t_offset_s = 0.0;          ///< --t-offset (added to estimate stamps)
+  bool t_offset_auto = false;       ///< --t-offset auto: estimate it (eval/time_offset.hpp)
+  double t_offset_max_s = 1.0;      ///< --t-offset-max: ± searched by --t-offset auto
+  std::string gt_body_pose;         ///< --gt-body-pose x,y,z,qx,qy,qz,qw or a file holding that line: T_B_I
+  bool fit_body_pose = false;       ///< --fit-body-pose: fit T_B_I (eval/body_pose.hpp)
+  std::string t_start, t_end;       ///< --t-start / --t-end (seconds, the ground truth's clock); empty: none
+  std::string align_window;         ///< --align-window T0:T1 (seconds); empty: every pair
+  bool kitti = false;               ///< --kitti: the KITTI devkit's t_rel [%] and r_rel [deg/100 m]
   std::string assoc = "nearest";    ///< --assoc nearest | unique
   std::string out;                  ///< --out DIR; default RUN_DIR/eval for a run folder, none for a file
   bool no_out = false;              ///< --no-out: write nothing (even for a run folder)

@@ -19,6 +19,7 @@ struct FigureOptions {
   std::string objects = "anchor";  ///< --objects: anchor | all | ID[,ID...] (reprojected detections drawn)
   std::string plot_mode = "xy";    ///< --plot-mode: xy | xz | yz | xyz
   bool color_by_error = false;     ///< --color-by-error: the trajectory coloured by the position error
+  bool correspondences = false;    ///< --correspondences: lines from matched estimate poses to their truth
   std::string vector = "pdf";      ///< --vector: pdf | svg | none (beside every PNG)
   /// --style: default (titles, footer, screen sizes) | paper (no titles or footers, 3.5 in / 7.16 in wide,
   /// embedded TrueType fonts, dense scatters rasterised inside the vector file).

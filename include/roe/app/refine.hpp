@@ -18,6 +18,9 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "roe/core/dataset.hpp"
+#include "roe/io/output.hpp"
+#include "roe/pipeline/run.hpp"
 #include "roe/refine/refine.hpp"
 #include "roe/store/run_record.hpp"
 
@@ -37,6 +40,11 @@ struct RefineCommandResult {
   nlohmann::json to_json() const;
   std::string to_text() const;
 };
+
+/// roe run's batch estimator (app::BatchEstimator, app/run.hpp): the same solve and files as refine_run, on the
+/// run in memory, into RUN_DIR.
+void batch_estimate(const Dataset& dataset, const std::string& detection_set, const pipeline::RunOutput& run,
+                    const io::OutputDir& dir, store::RunRecord& rec);
 
 RefineCommandResult refine_run(const std::filesystem::path& run_dir, const std::filesystem::path& out,
                                const RefineCommandOptions& options);

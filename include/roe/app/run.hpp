@@ -31,6 +31,7 @@
 #include "roe/ekf/driver.hpp"
 #include "roe/ekf/health.hpp"
 #include "roe/ekf/options.hpp"
+#include "roe/io/output.hpp"
 #include "roe/pipeline/run.hpp"
 #include "roe/store/dataset.hpp"
 #include "roe/store/run_config.hpp"
@@ -62,8 +63,27 @@ struct RunOptions {
   /// --output full|standard|minimal: the config's "output": {"level"} (store::RunConfig::output_level);
   /// empty: the config's.
   std::string output_level;
+  /// --estimator filter|smoother|batch: the config's "estimator" (store::RunConfig::estimator); empty: the config's.
+  std::string estimator;
   bool force = false;
 };
+
+/// The configuration a run with `options` uses: the config file's (roe's defaults without one), with
+/// --output and --estimator over it. cli/cmd_run.cpp reads it before anything is written, to hand a batch
+/// run to roe-refine.
+RunConfig effective_run_config(const RunOptions& options);
+
+/// roe run's batch estimator ("estimator": "batch", docs/refine.md §8): given the run in memory (the filter's
+/// estimate and the smoother's, `rec` its run.json record so far), refines it with the batch MAP of roe refine,
+/// writes RUN_DIR's main files (trajectory.csv/.tum, states.csv, objects.csv, reprojection.csv, as the
+/// config's output level keeps them) and completes `rec` (final, refine block, timings, warnings). Ceres: it
+/// is app::batch_estimate (src/app/refine.cpp), which only roe-refine links and registers here
+/// (cli/cmd_refine.cpp); `roe` has none and hands a batch run to roe-refine before it writes anything.
+using BatchEstimator = void (*)(const Dataset& dataset, const std::string& detection_set, const RunOutput& run,
+                                const io::OutputDir& dir, store::RunRecord& rec);
+void set_batch_estimator(BatchEstimator f);
+/// Whether this executable has the batch estimator (roe-refine, or a test that registered it).
+bool has_batch_estimator();
 
 struct RunResult {
   std::filesystem::path out;
@@ -76,7 +96,8 @@ struct RunResult {
 };
 
 /// `roe run`: reads DATASET, runs, writes RUN_DIR atomically (OutputDir), the health verdict included
-/// (RunResult::output.health; the CLI exits 1 when it is unhealthy).
+/// (RunResult::output.health; the CLI exits 1 when it is unhealthy). With the batch estimator and none
+/// registered (has_batch_estimator), an InputError before anything is read or written.
 RunResult run(const std::filesystem::path& dataset, const std::filesystem::path& out,
               const RunOptions& options);
 

@@ -103,6 +103,11 @@ struct CalibInput {
   /// has none (a run written with output level minimal): every check is then inconclusive, with this reason,
   /// and `extrinsics` may be empty.
   std::string estimate_absent_reason;
+  /// Set when the estimate is a batch solution of the whole recording (`roe refine`, `roe run` with the batch
+  /// estimator): Ceres' termination (run.json refine.termination). Its extrinsics have no history to settle
+  /// and its σ are the batch's marginals: extrinsics.settled then asks whether the solve converged
+  /// (docs/calib-check.md §5).
+  std::optional<std::string> batch_termination;
 };
 
 /// Limits (defaults and their reasons: docs/calib-check.md §2).

@@ -8,19 +8,13 @@
 #include <vector>
 
 #include "roe/core/types.hpp"
+#include "roe/math/rate_correlation.hpp"
 
 namespace roe::calib {
 
-/// The mocap clock against the IMU clock (`roe import mocap --estimate-offset`).
-struct MocapOffsetEstimate {
-  double offset_s = 0.0;      ///< t_imu = t_mocap + offset_s
-  double correlation = 0.0;   ///< normalised cross-correlation at the peak (quality, 1 = perfect)
-  double peak_ratio = 0.0;    ///< peak / best value outside ±0.25 s of the peak (>1: distinct)
-  std::size_t samples = 0;    ///< overlapping grid samples used at the peak
-  double grid_dt_s = 0.0;
-  /// The peak is the first or last lag searched: the true offset may lie beyond ±max_offset_s.
-  bool peak_at_edge = false;
-};
+/// The mocap clock against the IMU clock (`roe import mocap --estimate-offset`): the correlation peak of math/rate_correlation.hpp,
+/// offset_s with t_imu = t_mocap + offset_s.
+using MocapOffsetEstimate = math::RateCorrelation;
 
 /// Estimates the clock offset between an IMU and a mocap track by correlating the gyro's
 /// angular-rate magnitude with the magnitude of the mocap's body angular rate

@@ -65,6 +65,9 @@ struct Alignment {
 /// The pose T aligned by `a` as apply_alignment does it: position s R p + t, orientation qa · q
 /// re-normalised, with qa = a.q().
 Pose aligned_pose(const Alignment& a, const Eigen::Quaterniond& qa, const Pose& T);
+/// The alignment's tilt: the angle between the world z axis and R·z (deg), 0 for a rotation about z alone.
+double alignment_tilt_deg(const Alignment& a);
+
 /// Applies an alignment to every pose (in place).
 void apply_alignment(const Alignment& a, std::vector<Pose>& poses);
 void apply_alignment(const Alignment& a, std::vector<StampedPose>& poses);

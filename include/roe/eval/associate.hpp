@@ -28,8 +28,11 @@
 
 namespace roe::eval {
 
-enum class AssocPolicy { kNearest, kUnique };
-/// "nearest", "unique".
+/// kInterpolate (evo #439): evaluate() resamples the ground truth at every estimate stamp (+ offset) by
+/// interpolation (eval/interpolate.hpp; not across ground-truth gaps over 3 median periods) and pairs each
+/// estimate pose with its own resampled truth; associate() itself treats it as kNearest.
+enum class AssocPolicy { kNearest, kUnique, kInterpolate };
+/// "nearest", "unique", "interpolate".
 std::string to_string(AssocPolicy p);
 /// InputError for an unknown name.
 AssocPolicy parse_assoc_policy(const std::string& name);

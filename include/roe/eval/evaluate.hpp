@@ -12,12 +12,17 @@
 #include <vector>
 
 #include "roe/core/types.hpp"
+#include <memory>
+
 #include "roe/eval/align.hpp"
 #include "roe/eval/associate.hpp"
+#include "roe/eval/body_pose.hpp"
 #include "roe/eval/detection_calibration.hpp"
 #include "roe/eval/gauge.hpp"
+#include "roe/eval/kitti.hpp"
 #include "roe/eval/metrics.hpp"
 #include "roe/eval/rpe.hpp"
+#include "roe/eval/time_offset.hpp"
 
 namespace roe::eval {
 
@@ -31,12 +36,34 @@ struct EvalParams {
   /// Also fit a constant body-frame rotation after the alignment and report the metrics with it
   /// (a diagnostic: the headline figures never include it).
   bool fit_body_rotation = false;
+  /// --t-offset auto: estimate the estimate–ground-truth offset (time_offset.hpp) within ±auto_offset_max_s
+  /// and associate with it instead of assoc.offset_s.
+  bool auto_offset = false;
+  double auto_offset_max_s = 1.0;
+  /// Without auto_offset: check whether the pairs look time-shifted (check_trajectory_offset) and warn.
+  bool check_offset = true;
+  /// --gt-body-pose: T_B_I, the estimate's body in the ground truth's (T_W_I = T_W_B·T_B_I), applied to
+  /// every ground-truth pose.
+  std::optional<Pose> gt_body_pose;
+  /// --fit-body-pose: fit T_B_I (body_pose.hpp) on the pairs and evaluate with it.
+  bool fit_body_pose = false;
+  /// --t-start / --t-end: only pairs whose ground-truth stamp lies in [t_start, t_end] (ns).
+  std::optional<Timestamp> t_start_ns, t_end_ns;
+  /// --align-window T0:T1: the alignment from the pairs whose ground-truth stamp lies in [T0, T1] only.
+  std::optional<std::pair<Timestamp, Timestamp>> align_window_ns;
+  /// --kitti: the KITTI odometry drift figures (kitti.hpp) of the aligned pairs.
+  bool kitti = false;
   /// Threads for the per-pair work (0: every CPU the process may use). The report does not depend on it.
   unsigned threads = 0;
 };
 
+/// Above this tilt of the alignment (the angle between the ground truth's z and the aligned estimate's
+/// z), an SE(3)/Sim(3) alignment gets a warning naming --align posyaw.
+inline constexpr double kTiltWarningDeg = 1.0;
+
 /// InputError (key path = the option's CLI name) for a bad max_dt, n_align, RPE block or a delta
-/// listed twice. Returns the warnings the parameters alone imply (n_align ignored by origin/none).
+/// listed twice, a crop or alignment window that is empty, --fit-body-pose with --gt-body-pose or with
+/// an alignment it cannot fit. Returns the warnings the parameters alone imply (n_align ignored by origin/none).
 std::vector<std::string> check_params(const EvalParams& p);
 
 /// The IMU pose T_W_I one raw detection implies (a run folder's reprojection.csv). A detection
@@ -155,6 +182,19 @@ struct Report {
   std::optional<DetectionCalibration> detection_calibration;
   std::optional<GaugeConsistency> gauge;       ///< EstimateInput::gauge given and covariances present
   std::optional<BodyRotationFit> body_rotation;  ///< EvalParams::fit_body_rotation
+  std::optional<TrajectoryOffset> time_offset;   ///< EvalParams::auto_offset (params.assoc.offset_s holds its value)
+  std::optional<OffsetCheck> offset_check;       ///< the check without auto_offset (when it could run)
+  std::optional<BodyPoseFit> body_pose;          ///< EvalParams::fit_body_pose
+  /// The alignment's tilt: the angle between the ground truth's z axis and the aligned estimate's (deg).
+  double tilt_deg = 0.0;
+  /// The tilt-free alternative when the tilt warning fired: rotation RMSE with --align posyaw (deg).
+  std::optional<double> posyaw_rot_rmse_deg;
+  std::size_t n_cropped = 0;  ///< pairs left out by t_start / t_end
+  std::optional<KittiDrift> kitti;  ///< EvalParams::kitti
+  /// The ground truth the pairs index when evaluate() made it (body pose applied, or resampled at the
+  /// estimate's stamps with --assoc interpolate); gt_t_ns / gt_poses point into these then.
+  std::shared_ptr<const std::vector<Timestamp>> owned_gt_t_ns;
+  std::shared_ptr<const std::vector<Pose>> owned_gt_poses;
   std::vector<std::string> warnings;  ///< what the data implies (duplicates, few matches, ...)
 
   /// The matched pairs, in association order: pair k is the estimate's pose association.est_index[k]

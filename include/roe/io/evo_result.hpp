@@ -39,6 +39,15 @@ void write_evo_result(const std::filesystem::path& zip, const EvoResult& r);
 /// (when aligned) and both matched trajectories as TUM text named after `ref_name` / `est_name`.
 EvoResult evo_ape_result(const eval::Report& rep, const std::string& ref_name, const std::string& est_name);
 
+/// What evo_rpe --pose_relation trans_part --save_results writes (evo's default settings: no trajectories in the
+/// zip) for the report's RPE block `block`: the title (evo's RPE metric name, the delta, consecutive or all
+/// pairs, then the alignment), stats and error_array of |trans(E_ij)| per pair, and for stamped trajectories
+/// (`stamped`: not KITTI files associated by index, which evo reads as unstamped paths) seconds_from_start,
+/// timestamps, distances_from_start and distances at each pair's second pose j; alignment_transformation_sim3
+/// when aligned.
+EvoResult evo_rpe_result(const eval::Report& rep, std::size_t block, bool stamped, const std::string& ref_name,
+                         const std::string& est_name);
+
 /// True when the file starts like a ZIP archive (a local file header, or the end record of an empty one).
 bool looks_like_zip(const std::filesystem::path& file);
 

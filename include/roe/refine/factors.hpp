@@ -91,39 +91,58 @@ struct AnchorTiltPlus {
   }
 };
 
-/// One detection of an object (T_C_O measured) against the node's T_W_I, the extrinsics T_I_C and the
-/// object-world T_O_W; prediction T̂_C_O = (T_O_W T_W_I T_I_C)⁻¹ (ekf/measurement.hpp).
-/// Unwhitened residual e, in the filter's residual frame:
-///   camera: e = [t − t̂ ; Log(R R̂ᵀ)]        (detected T_C_O = (R, t); left rotation error)
-///   object: e = [z_p − ẑ_p ; Log(R̂_O_Cᵀ R_O_C)]   (z = T_O_C = T_C_O⁻¹; right rotation error)
-/// The filter forms the rotation part as 2 q_v/q_w; the batch uses Log (equal to first order, bounded
-/// for a detection near 180° that the robust loss then down-weights). Residual r = W e, W = the square
-/// root information of the detection's covariance in that frame (rows of zeros past a symmetry's rank).
-struct DetectionResidual {
-  Eigen::Quaterniond q_meas;  ///< R_C_O (camera) or R_O_C (object)
-  Eigen::Vector3d p_meas;     ///< t_C_O (camera) or p_O_C (object)
-  bool camera_frame = true;
-  Eigen::Matrix<double, 6, 6> W = Eigen::Matrix<double, 6, 6>::Identity();
+/// The error of one detection of an object (T_C_O measured) against the node's T_W_I, the extrinsics T_I_C
+/// and the object-world T_O_W, in the frames where a pose detector's error arises (docs/refine.md §2):
+///   e = [t − t̂ ; Log(R̂ᵀ R)]     (detected T_C_O = (R, t), predicted T̂_C_O = (T_O_W T_W_I T_I_C)⁻¹)
+/// the translation in the camera frame (the σ model then projects it on the viewing ray and across it),
+/// the rotation on the right, in the object frame. A detection R Exp(δθ), t + δt has e = (δt, δθ) exactly
+/// at the truth, as roe simulate draws it (docs/simulator.md §6).
+template <typename T>
+Eigen::Matrix<T, 6, 1> detection_error(const Eigen::Quaterniond& q_meas, const Eigen::Vector3d& t_meas,
+                                       const T* pose_WI, const T* pose_IC, const T* pose_OW) {
+  const Eigen::Map<const V3<T>> p_WI(pose_WI), p_IC(pose_IC), p_OW(pose_OW);
+  const Eigen::Map<const Q<T>> q_WI(pose_WI + 3), q_IC(pose_IC + 3), q_OW(pose_OW + 3);
+  // T_O_C = T_O_W T_W_I T_I_C; T̂_C_O = T_O_C⁻¹, so R̂ᵀ R = R_O_C R.
+  const Q<T> q_OC = q_OW * q_WI * q_IC;
+  const V3<T> p_OC = p_OW + q_OW * (p_WI + q_WI * p_IC);
+  const V3<T> t_CO = -(q_OC.conjugate() * p_OC);
+  Eigen::Matrix<T, 6, 1> e;
+  e.template head<3>() = t_meas.cast<T>() - t_CO;
+  e.template tail<3>() = log_q<T>(q_OC * q_meas.cast<T>());
+  return e;
+}
+
+/// An object's first used detection (no predecessor in its chain): r = A e, A = the standardising matrix
+/// S (docs/refine.md §2: the ray frame and σ, the fitted scales, a continuous symmetry projected out).
+struct FirstDetectionResidual {
+  Eigen::Quaterniond q_meas;  ///< detected R_C_O (a symmetric object's nearest equivalent)
+  Eigen::Vector3d t_meas;     ///< detected t_C_O
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Identity();
 
   template <typename T>
   bool operator()(const T* pose_WI, const T* pose_IC, const T* pose_OW, T* r) const {
-    const Eigen::Map<const V3<T>> p_WI(pose_WI), p_IC(pose_IC), p_OW(pose_OW);
-    const Eigen::Map<const Q<T>> q_WI(pose_WI + 3), q_IC(pose_IC + 3), q_OW(pose_OW + 3);
-    // T_O_C = T_O_W T_W_I T_I_C
-    const Q<T> q_OC = q_OW * q_WI * q_IC;
-    const V3<T> p_OC = p_OW + q_OW * (p_WI + q_WI * p_IC);
-    Eigen::Matrix<T, 6, 1> e;
-    if (camera_frame) {
-      const Q<T> q_CO = q_OC.conjugate();
-      const V3<T> t_CO = -(q_CO * p_OC);
-      e.template head<3>() = p_meas.cast<T>() - t_CO;
-      e.template tail<3>() = log_q<T>(q_meas.cast<T>() * q_CO.conjugate());
-    } else {
-      e.template head<3>() = p_meas.cast<T>() - p_OC;
-      e.template tail<3>() = log_q<T>(q_OC.conjugate() * q_meas.cast<T>());
-    }
     Eigen::Map<Eigen::Matrix<T, 6, 1>> out(r);
-    out = W.cast<T>() * e;
+    out = A.cast<T>() * detection_error<T>(q_meas, t_meas, pose_WI, pose_IC, pose_OW);
+    return true;
+  }
+};
+
+/// The pre-whitened factor of an object's detection k after its previous used detection k−1 (Bryson and
+/// Henrikson's differencing of a first-order Gauss-Markov error; docs/refine.md §2):
+///   r = (y_k − ρ y_{k−1}) / √(1 − ρ²),  y = S e,  ρ = exp(−Δt/τ)
+/// stored as A = S_k / √(1 − ρ²) and B = ρ S_{k−1} / √(1 − ρ²): r = A e_k − B e_{k−1}. Blocks: the node of
+/// k, T_I_C, T_O_W, the node of k−1.
+struct WhitenedDetectionResidual {
+  Eigen::Quaterniond q_meas, q_prev;
+  Eigen::Vector3d t_meas, t_prev;
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Identity();
+  Eigen::Matrix<double, 6, 6> B = Eigen::Matrix<double, 6, 6>::Zero();
+
+  template <typename T>
+  bool operator()(const T* pose_WI, const T* pose_IC, const T* pose_OW, const T* pose_WI_prev, T* r) const {
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> out(r);
+    out = A.cast<T>() * detection_error<T>(q_meas, t_meas, pose_WI, pose_IC, pose_OW) -
+          B.cast<T>() * detection_error<T>(q_prev, t_prev, pose_WI_prev, pose_IC, pose_OW);
     return true;
   }
 };
@@ -196,6 +215,18 @@ struct PosePriorResidual {
   }
 };
 
+/// A Gaussian prior on a scalar block (the time offset's δ): r = (x − x̄) / σ.
+struct ScalarPriorResidual {
+  double prior = 0.0;
+  double inv_sigma = 1.0;
+
+  template <typename T>
+  bool operator()(const T* x, T* r) const {
+    r[0] = (x[0] - T(prior)) * T(inv_sigma);
+    return true;
+  }
+};
+
 /// A Gaussian prior on a bias block: r = W [b_g − b̄_g ; b_a − b̄_a].
 struct BiasPriorResidual {
   Eigen::Matrix<double, 6, 1> b_prior;
@@ -210,6 +241,43 @@ struct BiasPriorResidual {
     return true;
   }
 };
+
+/// Analytic Jacobians (docs/refine.md §7; tests/refine/test_factors.cpp checks each against central
+/// differences). Tangent Jacobians are in the blocks' [δp; δθ] (or the vector's) coordinates.
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+
+/// detection_error on doubles with its Jacobians in the tangents of T_W_I, T_I_C and T_O_W (any may be null).
+Vec6 detection_error_jacobians(const Eigen::Quaterniond& q_meas, const Eigen::Vector3d& t_meas, const double* pose_WI,
+                               const double* pose_IC, const double* pose_OW, Mat6* J_WI, Mat6* J_IC, Mat6* J_OW);
+
+/// The camera–IMU time offset in the batch (docs/refine.md §2b): a detection stamped t (the IMU clock with the
+/// declared offset) saw the rig at t + δ, δ = t_d − the declared offset, and the node's pose is carried there with
+/// its velocity and the bias-corrected gyro ω measured at t: T_W_I(t + δ) ≈ [p + v δ ; q ⊗ Exp((ω − b_g) δ)].
+/// The detection error at that pose, with its Jacobians in the tangents of the node's pose (6x6), v (6x3), its
+/// bias block [b_g, b_a] (6x6), T_I_C, T_O_W (6x6 each) and δ (6x1) (any may be null).
+struct TimeShiftJacobians {
+  Mat6 pose, bias, extr, obj;
+  Eigen::Matrix<double, 6, 3> vel;
+  Vec6 delta;
+};
+Vec6 shifted_detection_error_jacobians(const Eigen::Quaterniond& q_meas, const Eigen::Vector3d& t_meas,
+                                       const double* pose_WI, const double* v_WI, const double* bias,
+                                       const Eigen::Vector3d& gyro, double delta, const double* pose_IC,
+                                       const double* pose_OW, TimeShiftJacobians* J);
+
+/// ImuResidual's unwhitened error e (9) on doubles with its Jacobians in the tangents of pose_i (9x6), v_i
+/// (9x3), b_i (9x6), pose_j (9x6), v_j (9x3) (any may be null).
+Eigen::Matrix<double, 9, 1> imu_error_jacobians(const ImuResidual& f, const double* pose_i, const double* v_i,
+                                                const double* b_i, const double* pose_j, const double* v_j,
+                                                Eigen::Matrix<double, 9, 6>* J_pose_i, Eigen::Matrix<double, 9, 3>* J_v_i,
+                                                Eigen::Matrix<double, 9, 6>* J_b_i, Eigen::Matrix<double, 9, 6>* J_pose_j,
+                                                Eigen::Matrix<double, 9, 3>* J_v_j);
+
+/// The ambient (7-column) Jacobian of a pose block whose tangent Jacobian is J (k x 6), for the pose
+/// manifold (PosePlus): J_amb · PlusJacobian = J. The quaternion's 4 columns are 4 J_θ Mᵀ with
+/// M = ∂(q ⊗ Exp(δθ))/∂δθ at 0 = ½ [w I + [q_v]×; −q_vᵀ] (MᵀM = I/4).
+void pose_ambient_jacobian(const double* pose, const double* J_tangent, int rows, double* J_ambient);
 
 /// The square root information W (Wᵀ W = Σ⁻¹, lower triangular) of a covariance: W = L⁻¹ with Σ = L Lᵀ.
 /// roe::NumericError when Σ is not positive definite.

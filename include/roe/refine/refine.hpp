@@ -39,48 +39,64 @@ struct RefineOptions {
   int max_iterations = 50;
   /// "sparse_normal_cholesky" or "sparse_schur" (Ceres' linear solvers).
   std::string linear_solver = "sparse_normal_cholesky";
-  /// The marginals account for the objects' correlated detection errors (docs/refine.md §2b): the error
-  /// model is fitted to the solution's residuals (fit_error_model) and each detection's information is
-  /// divided by DetectionErrorModel::variance_factor when the covariance is computed. False: the
-  /// marginals of white errors with the filter's σ (the solve itself is the same either way).
-  bool correlated_errors = true;
+  /// The time constant τ of the detections' Gauss-Markov error (docs/refine.md §2): < 0 fitted to the
+  /// residuals (default), 0 white (independent detections: every factor is the standardised error), > 0 held.
+  double tau_s = -1.0;
+  /// How many times the error model (τ, the σ scales, the gross detections) is fitted before a solve: at
+  /// the initial estimate, then at each solution (solve → fit → solve). At least 1.
+  int fit_rounds = 2;
+  /// The IMU noise of the IMU and bias factors, as a multiple of the nominal noise (the run's
+  /// RefineInput::noise divided by the run's filter.imu_noise_scale: that scale keeps the causal filter's
+  /// χ² gate from refusing correct detections after fast motion, a single-linearisation problem the
+  /// iterated batch does not have; docs/refine.md §2).
+  double imu_noise_scale = 1.0;
+  /// A detection is gross (dropped, its object's chain bridged over it) when its standardised squared
+  /// error ‖y‖² (6 dof, the fitted scales) exceeds this: χ²₆(0.9999) by default.
+  double gross_chi2 = 27.86;
   /// Marginal covariances of the extrinsics and the object-worlds (ceres::Covariance).
   bool covariance = true;
   int threads = 1;
 };
 
-/// The model of an object's correlated detection error in the whitened residual u = W e of its detections
-/// (docs/refine.md §2b): u(t) = β(t) + w, β a first-order Gauss-Markov process per object (stationary σ
-/// s_b per component, time constant τ), w white with σ s_w. All σ in units of the detection's σ (the
-/// filter's model times its learned scale), so s_b² + s_w² = 1 when that σ is right.
+/// The model of the detections' errors the solve whitens with (docs/refine.md §2): per object, the
+/// standardised error y = S e (e = detection_error: translation in the camera frame, rotation in the
+/// object frame; S: the translation on the viewing ray and across it, each component over the σ model's
+/// σ times the block's scale) is a first-order Gauss-Markov process with unit variance per component and
+/// time constant τ: y_k = ρ y_{k−1} + √(1 − ρ²) w_k, ρ = exp(−Δt/τ), Δt since the object's previous
+/// used detection.
 struct DetectionErrorModel {
-  bool correlated = false;   ///< false: white errors (s_b = 0)
-  double tau_s = 0.0;
-  double sigma_bias = 0.0;   ///< s_b
-  double sigma_white = 1.0;  ///< s_w
-  /// The variance of a long mean of detections dt_s apart relative to as many independent detections of
-  /// unit variance: s_w² + s_b² (1 + φ)/(1 − φ), φ = exp(−dt/τ) (s_w² for a first detection, dt < 0).
-  double variance_factor(double dt_s) const;
-  /// The fit's data: per lag bin, the mean lag (s), the autocovariance C(lag) and the number of pairs;
-  /// lag 0 first (C(0), the variance).
-  struct Bin {
-    double lag_s = 0.0, cov = 0.0;
-    std::size_t pairs = 0;
-  };
-  std::vector<Bin> autocovariance;
+  double tau_s = 0.0;          ///< 0: white
+  double scale_translation = 1.0;  ///< the σ model's translation σ are multiplied by this
+  double scale_rotation = 1.0;     ///< the σ model's rotation σ are multiplied by this
+  /// Diagnostics of the fit: the lag-1 correlation of the whitened residuals pooled over objects and
+  /// components (near 0 when the model fits; clearly negative when a white remainder is there).
+  double whitened_lag1 = 0.0;
+  std::size_t used = 0, gross = 0;  ///< detections in the chains, detections dropped as gross
+  bool fitted_tau = false;          ///< τ was fitted (RefineOptions::tau_s < 0)
+  /// ρ of two detections dt_s apart (0 when white).
+  double rho(double dt_s) const;
 };
 
-/// One object's whitened residuals u_k (6 components) at times t_k (s, increasing): fit_error_model's input.
-struct ResidualSeries {
+/// One object's standardised errors y_k = S_k e_k (unit scales) at times t_k (s, increasing), with the
+/// number of rotation components that carry information (3, or 2 for a continuous symmetry).
+struct ErrorSeries {
   std::vector<double> t_s;
-  std::vector<Vector6d> u;
+  std::vector<Vector6d> y;
+  int rotation_dof = 3;
 };
 
-/// Fits DetectionErrorModel to residual series: the autocovariance per component, pooled over objects, in
-/// lag bins up to 4.8 s; correlated when C(0.3–0.6 s) exceeds 0.1 C(0); then ln C(lag) = ln s_b² − lag/τ
-/// by least squares (weighted by pairs) over the bins from 0.1 s on with C > 0.02 C(0), τ clamped to
-/// [0.1, 60] s, s_b² ≤ 0.98 C(0), s_w² = C(0) − s_b² (at least 0.02 C(0)). White: s_w² = C(0).
-DetectionErrorModel fit_error_model(const std::vector<ResidualSeries>& series);
+/// Maximum likelihood fit of DetectionErrorModel to error series: for a given τ the scales have the
+/// closed form s² = mean of the whitened squared residuals of their block, and τ minimises the profile
+/// negative log-likelihood ½ [N_t ln s_t² + N_r ln s_r² + Σ_k dof_k ln(1 − ρ_k²)] over 0 and a log grid
+/// of [0.01, 100] s refined by golden section. tau_fixed ≥ 0: τ held there, only the scales fitted.
+DetectionErrorModel fit_error_model(const std::vector<ErrorSeries>& series, double tau_fixed = -1.0);
+
+/// Leave-one-out outliers of a series under the model: d_k² = the squared standardised distance of y_k
+/// (over the scales) from its conditional mean given its neighbours y_{k−1}, y_{k+1}, in units of the
+/// conditional σ (√((1 − ρ₁²)(1 − ρ₂²)/(1 − ρ₁²ρ₂²)) of the unit AR(1)); flagged where d_k² > chi2 and
+/// d_k² is at least its neighbours' (an outlier also disturbs its neighbours' d, less). Much sharper than
+/// ‖y‖² when ρ is near 1: an outlier is far from where its neighbours say the slow error is.
+std::vector<bool> isolated_outliers(const ErrorSeries& s, const DetectionErrorModel& m, double chi2);
 
 /// An IMU state with its time (a node, or the run's estimate that initialises one).
 struct StateSample {
@@ -105,6 +121,13 @@ struct RefineInput {
   int anchor_id = -1;
   Eigen::Vector3d prior_b_g = Eigen::Vector3d::Zero();  ///< the filter's initial biases (the first node's prior)
   Eigen::Vector3d prior_b_a = Eigen::Vector3d::Zero();
+  /// The camera–IMU time offset t_d (t_imu = t_cam + t_d; docs/refine.md §2b). `images` are in the IMU clock
+  /// with the declared offset (roe.json camera.time_offset_s). With estimate_time_offset the batch estimates
+  /// t_d, starting from initial_time_offset_s (the run's estimate), with the prior N(declared,
+  /// filter.time_offset_sigma_s²) — the filter's own prior, so the detections are not counted twice.
+  double declared_time_offset_s = 0.0;
+  bool estimate_time_offset = false;
+  double initial_time_offset_s = 0.0;
 };
 
 struct RefinedObject {
@@ -118,8 +141,8 @@ struct RefinedObject {
 struct DetectionFit {
   Timestamp t_ns = 0;
   int object_id = 0;
-  double chi2 = 0.0;    ///< whitened squared residual (6 dof; 5 for a continuous symmetry)
-  double weight = 1.0;  ///< the robust loss's weight ρ'(s) at the solution
+  double chi2 = 0.0;    ///< squared whitened residual ‖r‖² of its factor (a gross one: its ‖y‖²)
+  double weight = 1.0;  ///< the robust loss's weight ρ'(s) at the solution (0: dropped as gross)
 };
 
 struct SolveReport {
@@ -132,7 +155,8 @@ struct SolveReport {
   double residual_s = 0.0, jacobian_s = 0.0, linear_solver_s = 0.0;
   bool covariance_ok = false;
   std::size_t nodes = 0, imu_factors = 0, detection_factors = 0, parameters = 0, residuals = 0;
-  DetectionErrorModel error_model;  ///< fitted to the solution (RefineOptions::correlated_errors)
+  DetectionErrorModel error_model;  ///< the last fit, the one the final solve whitened with
+  int solves = 0;                   ///< Ceres solves (one per fit round)
 };
 
 struct RefineResult {
@@ -142,6 +166,9 @@ struct RefineResult {
   bool extrinsics_estimated = true;
   std::map<int, RefinedObject> objects;
   std::vector<DetectionFit> detections;  ///< in the order of RefineInput::images
+  /// t_d (s) and its marginal σ (0: held at the declared offset, RefineInput::estimate_time_offset false).
+  bool time_offset_estimated = false;
+  double time_offset_s = 0.0, sigma_time_offset_s = 0.0;
   SolveReport report;
 };
 

@@ -53,6 +53,51 @@ struct ReportAlignment {
   std::array<std::array<double, 3>, 3> R{};  ///< rows
   std::array<double, 3> t{};
   std::array<double, 4> q_xyzw{};
+  /// The angle between the ground truth's z and the aligned estimate's (deg); absent in older reports.
+  std::optional<double> tilt_deg;
+  /// With the tilt warning: the rotation RMSE with --align posyaw (deg).
+  std::optional<double> posyaw_rot_rmse_deg;
+};
+
+/// report.json `time_offset` (--t-offset auto): the estimate–ground-truth offset, eval/time_offset.hpp.
+struct ReportTimeOffset {
+  double offset_s = 0.0, sigma_s = 0.0;  ///< t_gt = t_est + offset_s; sigma_s null when not refined
+  double search_s = 0.0;                 ///< ± searched around the overlap
+  double coarse_offset_s = 0.0, correlation = 0.0, peak_ratio = 0.0;
+  bool peak_at_edge = false, refined = false;
+  std::size_t n_pairs = 0;
+  double ape_rmse_m = 0.0;  ///< the refinement's APE (interpolated ground truth)
+};
+
+/// report.json `time_offset_check`: without --t-offset, where the APE minimum lies from the offset used.
+struct ReportOffsetCheck {
+  double shift_s = 0.0, sigma_s = 0.0;
+};
+
+/// report.json `body_pose.fit` (--fit-body-pose): eval::BodyPoseFit.
+struct ReportBodyPoseFit {
+  std::array<double, 3> sigma_p_m{};
+  double sigma_rot_deg = 0.0, rotation_spread_min_deg = 0.0, rotation_spread_max_deg = 0.0;
+  int lever_arm_rank = 0;
+  std::string verdict;
+  std::size_t n_pairs = 0;
+};
+
+/// report.json `body_pose`: T_B_I applied to the ground truth (T_W_I = T_W_B·T_B_I), given or fitted.
+struct ReportBodyPose {
+  std::string source;  ///< "given" (--gt-body-pose) or "fitted" (--fit-body-pose)
+  std::array<double, 3> p{};
+  std::array<double, 4> q_xyzw{};
+  double angle_deg = 0.0;
+  Eigen::Vector3d rpy_deg = Eigen::Vector3d::Zero();
+  std::optional<ReportBodyPoseFit> fit;  ///< null when given
+};
+
+/// report.json `window` (--t-start / --t-end / --align-window): seconds on the ground truth's clock.
+struct ReportWindow {
+  std::optional<double> t_start_s, t_end_s;
+  std::size_t n_cropped = 0;
+  std::optional<std::array<double, 2>> align_window_s;
 };
 
 /// report.json `per_axis`: the paper's per-axis RMSE and the Euler figures under their metric; for a
@@ -181,6 +226,11 @@ struct EvalReportFile {
   ReportCnspy cnspy;
   ReportConsistency consistency;
   std::optional<ReportBodyRotation> body_rotation;  ///< null without --fit-body-rotation
+  std::optional<ReportTimeOffset> time_offset;      ///< absent without --t-offset auto
+  std::optional<ReportOffsetCheck> time_offset_check;  ///< absent where the check did not run
+  std::optional<ReportBodyPose> body_pose;          ///< absent without --gt-body-pose / --fit-body-pose
+  std::optional<ReportWindow> window;               ///< absent without a crop or alignment window
+  std::optional<eval::KittiDrift> kitti;            ///< absent without --kitti
   std::vector<ReportRpe> rpe;
   std::vector<ReportObject> per_object;
   std::optional<ReportDetectionCalibration> detection_calibration;  ///< null without one
@@ -228,8 +278,14 @@ struct ReportCell {
 std::vector<ReportCell> per_axis_rmse_cells(const EvalReportFile& f);
 /// ape_trans_m's (or with `rotation` ape_rot_deg's) rmse, mean, median, std, min, max.
 std::vector<ReportCell> ape_cells(const EvalReportFile& f, bool rotation);
-/// The headline NEES: consistency.anees_p, consistency.anees_r.
-std::vector<ReportCell> nees_cells(const EvalReportFile& f);
+/// The NEES in each frame the report has, labelled: "estimator gauge" (consistency.gauge.anees_p/_r, when
+/// available) and "after the alignment" (consistency.aligned.anees_p/_r); `headline` marks consistency.frame.
+struct NeesFrame {
+  std::string frame;
+  bool headline = false;
+  std::vector<ReportCell> cells;  ///< position, orientation
+};
+std::vector<NeesFrame> nees_frames(const EvalReportFile& f);
 
 /// Writes the matched trajectories (CSV and TUM), errors.csv, err_matched_aligned.csv, summary.csv,
 /// with RPE rpe.csv and rpe_summary.csv, with detections reprojection_aligned.csv and per_object.csv,

@@ -3,7 +3,8 @@
 /// The run configuration of `roe run` (configs/*.json, run.json's "config"): the struct, roe's defaults and
 /// its one JSON mapping both ways. {"filter": {FilterOptions keys}, "output": {"rate": "imu" | "images",
 /// "level": "full" | "standard" | "minimal"},
-/// "smoother": "none" | "rts", "health": {HealthLimits keys}, "description": text}; every key optional,
+/// "estimator": "filter" | "smoother" | "batch", "health": {HealthLimits keys}, "description": text}; every
+/// key optional,
 /// unknown keys are errors (ConfigError naming the source and the key path). Reading a config *file*
 /// (shipped configs resolved to the bytes compiled into roe) is app::run_config_from_file.
 
@@ -34,11 +35,16 @@ struct RunConfig {
   /// their σ cells are empty elsewhere), "minimal" (trajectory.csv/.tum and run.json only). Echoed in
   /// run.json only when not "full", so that the config of a default run (and a sweep job's id) is unchanged.
   std::string output_level = "full";
-  /// "none": the outputs are the filter's (causal) estimate; "rts": trajectory.csv/.tum and states.csv
-  /// hold the fixed-interval RTS smoothed estimate (ekf/smoother.hpp) and the filter's estimate goes to
-  /// trajectory_filter.csv/.tum and states_filter.csv. The default is "rts": `roe run` is an offline tool;
-  /// configs/paper.json sets "none" (the paper's causal filter).
-  std::string smoother = "rts";
+  /// What produces the run folder's main files (trajectory.csv/.tum, states.csv, objects.csv; docs/filter.md
+  /// §10, docs/refine.md §8): "filter" the causal filter alone (configs/paper.json: the paper's filter);
+  /// "smoother" (the default) the fixed-interval RTS smoothed estimate (ekf/smoother.hpp), the filter's own
+  /// in trajectory_filter.csv/.tum and states_filter.csv; "batch" the smoother's estimate refined by the
+  /// pre-whitened batch MAP of `roe refine` in the same process (Ceres: the helper roe-refine runs it), the
+  /// filter's own again in the _filter files. The key replaces "smoother" ("none" | "rts"), which is still
+  /// read (configs and run.json files written before, as "filter" and "smoother").
+  std::string estimator = "smoother";
+  /// Whether the filter's recording is kept for the RTS smoother (estimator "smoother" or "batch").
+  bool smoothed() const { return estimator != "filter"; }
   std::string description;  ///< free text (configs/*.json say what they are for)
   /// When a run is judged unhealthy (`roe run` exits 1): "health": {...} in the config.
   ekf::HealthLimits health;
@@ -54,12 +60,14 @@ nlohmann::json run_config_to_json(const RunConfig& c, bool every_key = false);
 /// The output levels, in order of what they keep: full, standard, minimal.
 const std::vector<std::string>& output_levels();
 /// Whether a run written with `c` holds `file` (a run folder's file name: "states.csv", "objects.csv",
-/// "reprojection.csv", "states_filter.csv", "trajectory_filter.csv", ...; the _filter files also need the
-/// smoother). trajectory.csv/.tum and run.json are in every run folder.
+/// "reprojection.csv", "states_filter.csv", "trajectory_filter.csv", ...; the _filter files also need an
+/// estimator beyond the filter). trajectory.csv/.tum and run.json are in every run folder.
 bool run_folder_has(const RunConfig& c, const std::string& file);
 /// Why a run written with `c` has no `file`, as a reader says it ("the run was written with output level
 /// minimal (trajectory and run.json only)"); empty when the level writes the file (its absence is then damage).
 std::string run_file_absent_reason(const RunConfig& c, const std::string& file);
+/// The estimators, in order: filter, smoother, batch.
+const std::vector<std::string>& estimators();
 /// Whether a run written with `c` records σ at every row of states.csv (level "full", or rate "images").
 bool sigma_at_every_row(const RunConfig& c);
 

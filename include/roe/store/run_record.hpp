@@ -8,7 +8,7 @@
 /// The file (docs/dataset-format.md, "run.json"): one JSON object, two-space indented, keys sorted;
 ///   roe_version, command ("run" | "refine"), config (store/run_config.hpp), inputs, anchor_id, counts,
 ///   nis, health, relocks, detection_sigmas, init, imu_noise, final, warnings, timing_s, and with
-///   command "refine" the block refine.
+///   command "refine" (or config.estimator "batch") the block refine.
 /// Reading is strict: a missing key, a value of the wrong type or an unknown key is a ConfigError (an
 /// InputError: exit 2) naming the file, the key path and its line and column. A number the writer could
 /// not write (NaN) is null in the file and reads as NaN; optional keys are named below.
@@ -106,28 +106,30 @@ struct FinalTimeOffset {
   double sigma_s = 0.0;
 };
 
-/// run.json "refine" (only in the run.json of roe refine): the solve's options and report.
+/// run.json "refine" (in the run.json of roe refine, and of roe run with "estimator": "batch"): the solve's
+/// options and report.
 struct RefineRecord {
   std::string loss, linear_solver;
   double loss_scale = 0.0;
   int max_iterations = 0;
-  bool covariance = false, correlated_errors = false;
-  struct ErrorModel {
-    bool correlated = false;
-    double tau_s = 0.0, sigma_bias = 0.0, sigma_white = 1.0;
-    struct Bin {
-      double lag_s = 0.0, cov = 0.0;
-      std::size_t pairs = 0;
-    };
-    std::vector<Bin> autocovariance;
+  bool covariance = false;
+  double tau_s_option = -1.0, gross_chi2 = 0.0, imu_noise_scale = 1.0;  ///< options.tau_s (−1: fitted), …
+  int fit_rounds = 0;
+  struct ErrorModel {  ///< refine::DetectionErrorModel (docs/refine.md §2)
+    double tau_s = 0.0, scale_translation = 1.0, scale_rotation = 1.0, whitened_lag1 = 0.0;
+    std::size_t used = 0, gross = 0;
+    bool fitted_tau = false;
   } error_model;  ///< "detection_error_model"
   std::size_t nodes = 0, imu_factors = 0, detection_factors = 0, detections_weight_below_half = 0,
               parameters = 0, residuals = 0;
-  int iterations = 0;
+  int iterations = 0, solves = 0;
   double initial_cost = 0.0, final_cost = 0.0;
   std::string termination;
   bool covariance_ok = false;
   std::string input_run, input_run_abs, dataset;
+  /// Read from the refine block of a roe before issue 48 (white factors, inflated marginals): its options and
+  /// error model have no counterpart here (the model's numbers are nan); written back in today's layout.
+  bool earlier_layout = false;
 };
 
 struct RunRecord {
@@ -151,7 +153,7 @@ struct RunRecord {
   std::optional<FinalTimeOffset> final_time_offset;  ///< "final.time_offset" (optional when read)
   std::vector<std::string> warnings;
   std::map<std::string, double> timing_s;  ///< wall seconds per stage (read, filter, …, total)
-  std::optional<RefineRecord> refine;      ///< present iff command is "refine"
+  std::optional<RefineRecord> refine;      ///< present iff command is "refine" or config.estimator "batch"
 };
 
 /// The one mapping both ways (the reader is strict, see the file comment; `source` names the file).
