@@ -904,7 +904,10 @@ void Filter::gate_blocks(const std::vector<Detection>& dets, FrameResult& res) {
                       when(), dets[b.det].object_id));
     double nis = 0.0;
     const ResidualPart used = gate(b, ldlt, nis);
-    if (opt_.adapt_detection_sigma_scale && opt_.use_detection_sigmas && dets[b.det].sigma && std::isfinite(nis))
+    // Not with the error states: their NIS runs below χ² even with the right σ (docs/filter.md §17), and a scale
+    // learned from it shrinks every σ and G with it (0.6 on a clean paper-real replica: object NEES 80–280).
+    if (opt_.adapt_detection_sigma_scale && !opt_.detection_error_states && opt_.use_detection_sigmas &&
+        dets[b.det].sigma && std::isfinite(nis))
       ws_scale_.push_back(nis * sigma_var_scale_ / (b.m == 6 ? chi2_median6_ : chi2_median5_));
     if (b.r.allFinite() && !std::isfinite(nis))
       throw NumericError(
