@@ -732,6 +732,19 @@ def label_cases():
         roe_setup(d, "run", "ds", "--out", "run")
     out.append(Case("label/report/object-names", named_object, ["report", "run", "--out", "r.html"], {0},
                     exists_check("r.html"), time_limit_s=120))
+
+    # A sweep variant is named after its config file: the name reaches plot_sweep.py's box labels.
+    def swept_named_config(d):
+        name = HOSTILE_LABELS["two-dollars"].replace("/", "_") + ".json"
+        put(os.path.join(d, name), b"{}")
+        spec = {"format": "roe-sweep-spec/1", "axes": {"datasets": [{"preset": "paper-seq1", "duration_s": 2}],
+                                                       "seeds": [1], "configs": ["default", name]}}
+        put(os.path.join(d, "spec.json"), json.dumps(spec).encode())
+        roe_setup(d, "sweep", "plan", "spec.json", "--out", "sw")
+        roe_setup(d, "sweep", "run", "sw")
+    out.append(Case("label/sweep-aggregate-plot/config-name", swept_named_config,
+                    ["sweep", "aggregate", "sw", "--out", "agg", "--plot"], {0},
+                    exists_check("agg/plots/plots.json", "agg/plots/box_ate_rmse_m.png"), time_limit_s=120))
     return out
 
 

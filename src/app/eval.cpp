@@ -323,6 +323,18 @@ void check_sweep_eval_setting(const EvalOptions& o, const std::string& key) {
   (void)eval::check_params(p);
 }
 
+void read_sweep_t_offset(const json& value, EvalOptions& o) {
+  o.t_offset_auto = value.is_string() && value.get<std::string>() == "auto";
+  o.t_offset_s = 0.0;
+  if (o.t_offset_auto) return;
+  if (!value.is_number() || !std::isfinite(value.get<double>()))
+    throw InputError("expected seconds (a finite number) or \"auto\" (--t-offset auto), got " + io::dump_json(value),
+                     {"", 0, 0, "t_offset_s"});
+  o.t_offset_s = value.get<double>();
+}
+
+json sweep_t_offset_json(const EvalOptions& o) { return o.t_offset_auto ? json("auto") : json(o.t_offset_s); }
+
 std::string label_of(const EvalInput& in, bool is_dir) {
   if (in.kind != "bag" || in.topic.empty()) return label_from_path(in.path, is_dir);
   const std::string topic = in.topic[0] == '/' ? in.topic.substr(1) : in.topic;

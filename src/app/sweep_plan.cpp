@@ -45,7 +45,16 @@ json read_eval(const Where& w, const json* j) {
   EvalOptions o;
   if (j) {
     io::JsonObject r(*j, w.source, "eval");
-    for_each_sweep_eval_setting(o, [&r](const char* key, auto& value) { r.get(key, value); });
+    for_each_sweep_eval_setting(o, [&](const char* key, auto& value) {
+      if (std::string(key) != "t_offset_s") return r.get(key, value);
+      const json* v = r.raw(key);
+      if (!v || v->is_null()) return;
+      try {  // seconds or "auto": its own rule (read_sweep_t_offset)
+        read_sweep_t_offset(*v, o);
+      } catch (const InputError& err) {
+        w.fail(std::string("eval.") + key, err.bare_message());
+      }
+    });
     r.finish();
   }
   json e = json::object();
@@ -57,6 +66,7 @@ json read_eval(const Where& w, const json* j) {
     }
     e[key] = value;
   });
+  e["t_offset_s"] = sweep_t_offset_json(o);
   return e;
 }
 

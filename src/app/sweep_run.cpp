@@ -110,8 +110,9 @@ void execute(const SweepJob& job, const fs::path& work, json& out) {
   eo.out = (work / "run" / "eval").string();
   eo.label = job.id;
   for_each_sweep_eval_setting(eo, [&e](const char* key, auto& value) {
-    value = e.at(key).get<std::decay_t<decltype(value)>>();
+    if (std::string(key) != "t_offset_s") value = e.at(key).get<std::decay_t<decltype(value)>>();
   });
+  read_sweep_t_offset(e.at("t_offset_s"), eo);
   t0 = Clock::now();
   const EvalResult er = run_eval(eo);
   timing["eval"] = seconds_since(t0);

@@ -3,7 +3,6 @@
 
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/autodiff_manifold.h>
-#include <ceres/covariance.h>
 #include <ceres/loss_function.h>
 #include <ceres/ordered_groups.h>
 #include <ceres/problem.h>
@@ -22,6 +21,7 @@
 #include "roe/ekf/symmetry.hpp"
 #include "roe/math/se3.hpp"
 #include "roe/refine/factors.hpp"
+#include "roe/refine/marginals.hpp"
 #include "roe/refine/preintegration.hpp"
 
 namespace roe::refine {
@@ -630,6 +630,11 @@ void solve(const RefineOptions& opt, Problem& P, SolveReport& r) {
   else if (opt.linear_solver == "sparse_schur") so.linear_solver_type = ceres::SPARSE_SCHUR;
   else throw ConfigError(fmt::format("unknown linear solver '{}' (sparse_normal_cholesky, sparse_schur)", opt.linear_solver),
                          {"", 0, 0, "linear_solver"});
+  // Eigen's simplicial Cholesky rather than CHOLMOD's supernodal one: on these banded node chains with a few
+  // dense calibration columns the supernodes are tiny, and CHOLMOD's OpenMP and BLAS threads spent more
+  // CPU waking each other than factorising (a third of the batch's CPU, much of it system time, on
+  // paper-seq4; docs/refine.md §7). Single-threaded, and available in every Ceres build.
+  so.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
   if (so.linear_solver_type == ceres::SPARSE_NORMAL_CHOLESKY) {
     // The many node blocks first, the calibration last: the fill-reducing ordering (constrained AMD) then
     // keeps the dense calibration columns out of the chain's elimination (docs/refine.md §7).
@@ -813,57 +818,34 @@ Eigen::Matrix<double, 6, 2> anchor_embedding() {
   return E;
 }
 
-/// Marginal covariances of the extrinsics and the object-worlds at the solution (ceres::Covariance, with
-/// the robust loss applied as in the solve). False when Ceres cannot compute them (rank deficiency).
+/// Marginal covariances of the extrinsics and the object-worlds at the solution: the Schur complement onto
+/// the calibration blocks, the nodes eliminated (marginals.hpp; the robust loss applied as in the solve).
+/// False when the information is singular.
 bool marginals(const RefineInput& in, const RefineOptions& opt, Problem& P, RefineResult& out) {
-  ceres::Covariance::Options co;
-  co.num_threads = opt.threads;
-  ceres::Covariance cov(co);
+  std::vector<double*> nodes, calib;
+  for (std::size_t i = 0; i < P.t.size(); ++i)
+    for (double* b : {P.pose[i].data(), P.vel[i].data(), P.bias[i].data()}) nodes.push_back(b);
   const double* extr = P.extr.data();
   const bool extr_free = !P.cp->IsParameterBlockConstant(const_cast<double*>(extr));
   const auto a_it = P.obj.find(in.anchor_id);
   const double* anchor = a_it->second.data();
   const bool anchor_free = !P.cp->IsParameterBlockConstant(const_cast<double*>(anchor));
-  std::vector<std::pair<const double*, const double*>> blocks;
-  if (extr_free) blocks.emplace_back(extr, extr);
-  if (anchor_free) blocks.emplace_back(anchor, anchor);
-  for (const auto& [id, b] : P.obj) {
-    if (id == in.anchor_id) continue;
-    blocks.emplace_back(b.data(), b.data());
-    if (anchor_free) blocks.emplace_back(anchor, b.data());
-  }
-  if (P.estimate_td) blocks.emplace_back(P.td.data(), P.td.data());
-  if (!cov.Compute(blocks, P.cp.get())) return false;
-  if (P.estimate_td) {
-    double c = 0.0;
-    cov.GetCovarianceBlock(P.td.data(), P.td.data(), &c);
-    out.sigma_time_offset_s = std::sqrt(std::max(c, 0.0));
-  }
-  if (extr_free) {
-    RowMat6 C;
-    cov.GetCovarianceBlockInTangentSpace(extr, extr, C.data());
-    out.cov_T_I_C = C;
-  }
+  calib.push_back(P.extr.data());
+  for (auto& [id, b] : P.obj) calib.push_back(b.data());
+  if (P.estimate_td) calib.push_back(P.td.data());
+  const auto cov = marginal_covariance(*P.cp, nodes, calib, opt.threads);
+  if (!cov) return false;
+  if (P.estimate_td) out.sigma_time_offset_s = std::sqrt(std::max(cov->block(P.td.data(), P.td.data())(0, 0), 0.0));
+  if (extr_free) out.cov_T_I_C = cov->block(extr, extr);
   const Eigen::Matrix<double, 6, 2> E = anchor_embedding();
-  Mat6 C_AA = Mat6::Zero();
-  if (anchor_free) {
-    Eigen::Matrix<double, 2, 2, Eigen::RowMajor> c;
-    cov.GetCovarianceBlockInTangentSpace(anchor, anchor, c.data());
-    C_AA = E * c * E.transpose();
-  }
+  const Mat6 C_AA = anchor_free ? Mat6(E * cov->block(anchor, anchor) * E.transpose()) : Mat6::Zero();
   out.objects[in.anchor_id].cov = C_AA;
   for (const auto& [id, b] : P.obj) {
     if (id == in.anchor_id) continue;
-    RowMat6 C_OO;
-    cov.GetCovarianceBlockInTangentSpace(b.data(), b.data(), C_OO.data());
-    Mat6 C_AO = Mat6::Zero();
-    if (anchor_free) {
-      Eigen::Matrix<double, 2, 6, Eigen::RowMajor> c;
-      cov.GetCovarianceBlockInTangentSpace(anchor, b.data(), c.data());
-      C_AO = E * c;
-    }
+    const Mat6 C_OO = cov->block(b.data(), b.data());
+    const Mat6 C_AO = anchor_free ? Mat6(E * cov->block(anchor, b.data())) : Mat6::Zero();
     Eigen::Matrix<double, 12, 12> C;
-    C << C_AA, C_AO, C_AO.transpose(), Mat6(C_OO);
+    C << C_AA, C_AO, C_AO.transpose(), C_OO;
     RefinedObject& o = out.objects[id];
     o.cov = C_OO;
     const Eigen::Matrix<double, 6, 12> J = ekf::relative_pose_jacobian(out.objects[in.anchor_id].T_O_W, o.T_O_W);

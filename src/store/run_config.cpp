@@ -199,14 +199,14 @@ json echo(const S& s, const std::vector<Field<S>>& fields) {
 /// issue 48), read as "filter" and "smoother"; both given must agree.
 void read_estimator(JsonObject& root, RunConfig& c) {
   const auto& names = estimators();
-  if (root.has("estimator")) {
-    root.get("estimator", c.estimator);
-    if (std::find(names.begin(), names.end(), c.estimator) == names.end())
-      fail(root, "estimator", "must be \"filter\", \"smoother\" or \"batch\"");
-  }
-  if (!root.has("smoother")) return;
+  // Both keys are read (marked) even when absent, so that one misplaced under "filter" is answered with
+  // "did you mean the top-level ...".
+  root.get("estimator", c.estimator);
+  if (root.has("estimator") && std::find(names.begin(), names.end(), c.estimator) == names.end())
+    fail(root, "estimator", "must be \"filter\", \"smoother\" or \"batch\"");
   std::string legacy;
   root.get("smoother", legacy);
+  if (!root.has("smoother")) return;
   if (legacy != "none" && legacy != "rts")
     fail(root, "smoother", "must be \"none\" or \"rts\" (the key is now \"estimator\": \"filter\", \"smoother\" or \"batch\")");
   const std::string as = legacy == "rts" ? "smoother" : "filter";

@@ -26,11 +26,22 @@ struct TmpDir {
 };
 
 // A dataset with frames (file names given) and objects; no images are needed for the import.
+/// roe.json's object entry as these tests give it: id, name, symmetric (no BOP models_info).
+struct ObjectEntry {
+  int id;
+  std::string name;
+  bool symmetric;
+};
+
 fs::path make_dataset(const fs::path& root, const std::vector<std::pair<Timestamp, std::string>>& frames,
-                      const std::vector<ObjectInfo>& objects, bool with_cam = true) {
+                      const std::vector<ObjectEntry>& objects, bool with_cam = true) {
   Dataset d;
   d.manifest.name = "t";
-  d.manifest.objects = objects;
+  for (const auto& e : objects) {
+    ObjectInfo o;
+    o.id = e.id, o.name = e.name, o.symmetric = e.symmetric;
+    d.manifest.objects.push_back(o);
+  }
   if (with_cam)
     for (const auto& [t, f] : frames) d.frames.push_back({t, f});
   const fs::path ds = root / "ds";

@@ -10,6 +10,7 @@
 
 #include <fmt/format.h>
 
+#include "roe/app/eval.hpp"
 #include "roe/app/sweep.hpp"
 #include "roe/core/error.hpp"
 #include "roe/io/json.hpp"
@@ -89,6 +90,32 @@ TEST_CASE("sweep spec: expansion, content-derived ids, a new seed adds jobs only
   std::vector<std::string> b_order;
   for (const auto& id : b.ids) b_order.push_back(id);
   CHECK(keep_indices(c, b_order).size() == 8);
+}
+
+TEST_CASE("sweep spec: eval.t_offset_s is seconds or auto, and a number keeps the ids of before", "[app][sweep]") {
+  const json axes = {{"datasets", {"paper-seq1"}}, {"seeds", {1, 2}}};
+  const SweepPlan plain = plan_sweep(spec_with(axes), ".", "spec.json");
+  json spec = spec_with(axes);
+  spec["eval"] = {{"t_offset_s", 0}};
+  CHECK(ids(plan_sweep(spec, ".", "spec.json")) == ids(plain));
+  CHECK(plain.job(0).content["eval"]["t_offset_s"] == 0.0);  // the canonical form of before: a number
+  spec["eval"] = {{"t_offset_s", "auto"}};
+  const SweepPlan automatic = plan_sweep(spec, ".", "spec.json");
+  CHECK(automatic.job(0).content["eval"]["t_offset_s"] == "auto");
+  for (const auto& id : automatic.ids) CHECK(ids(plain).count(id) == 0);
+  // What a job applies: the one rule both the plan and the job use.
+  EvalOptions o;
+  read_sweep_t_offset(automatic.job(0).content["eval"]["t_offset_s"], o);
+  CHECK(o.t_offset_auto);
+  read_sweep_t_offset(json(0.25), o);
+  CHECK(!o.t_offset_auto);
+  CHECK(o.t_offset_s == 0.25);
+  CHECK(sweep_t_offset_json(o) == 0.25);
+  for (const json& bad : {json("Auto"), json("0.1"), json(true), json::array()}) {
+    spec["eval"] = {{"t_offset_s", bad}};
+    const std::string msg = config_error(spec);
+    CHECK_THAT(msg, Catch::Contains("eval.t_offset_s") && Catch::Contains("auto"));
+  }
 }
 
 TEST_CASE("sweep spec: output.level is an override like any run config key, full is the default job",

@@ -32,7 +32,11 @@ calib::CalibInput calib_input(const app::RunOutput& r, const Dataset& d) {
   in.extrinsics.push_back({r.states.back().t_ns, r.summary.final_T_I_C, r.summary.final_sigma_I_C});
   for (const auto& row : r.objects) {
     auto it = std::find_if(in.objects.begin(), in.objects.end(), [&](const auto& o) { return o.id == row.object_id; });
-    if (it == in.objects.end()) it = in.objects.insert(in.objects.end(), calib::ObjectEstimate{row.object_id});
+    if (it == in.objects.end()) {
+      calib::ObjectEstimate o;
+      o.id = row.object_id;
+      it = in.objects.insert(in.objects.end(), o);
+    }
     it->anchor = row.anchor;
     it->T_O_W = row.T_O_W;
     it->sigma_A_O = row.sigma_A_O;

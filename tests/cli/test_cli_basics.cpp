@@ -259,6 +259,12 @@ TEST_CASE("roe --json: every failure is one JSON document on stdout, and --versi
   CHECK(j["command"] == "run");
   CHECK(j["error"]["key"] == "filter.smoother");
   CHECK(j["error"]["message"] == "unknown key (did you mean the top-level \"smoother\"?)");
+  const fs::path cfg2 = tmp.write("c2.json", R"({"filter": {"estimator": "batch"}})");
+  r = run_roe("--json run nowhere --config " + cfg2.string() + " --out " + (tmp / "o").string(), false);
+  CHECK(r.code == 2);
+  j = nlohmann::json::parse(r.out);
+  CHECK(j["error"]["key"] == "filter.estimator");
+  CHECK(j["error"]["message"] == "unknown key (did you mean the top-level \"estimator\"?)");
   // Bad usage (before any command runs) and an unknown command.
   for (const char* args : {"--json eval --align", "--json bogus", "--json eval --no-such-option"}) {
     r = run_roe(args, false);

@@ -226,6 +226,20 @@ TEST_CASE("roe sweep: a held job lock, another format version, bad usage", "[cli
   CHECK(!fs::exists(tmp / "x"));
 }
 
+TEST_CASE("roe sweep: a job of a spec with eval.t_offset_s auto evaluates with --t-offset auto", "[cli][sweep]") {
+  roe::test::TempDir tmp("roe_sweep_toffset");
+  const fs::path spec = tmp.write("spec.json", R"({"axes": {"datasets": [{"preset": "paper-seq1", "duration_s": 3}]},
+                                                   "eval": {"t_offset_s": "auto"}})");
+  const fs::path s = tmp / "s";
+  REQUIRE(roe::test::run_roe("sweep plan " + q(spec) + " --out " + q(s) + " -q").code == 0);
+  const std::string id = json::parse(slurp(s / "jobs.jsonl"))["id"];
+  REQUIRE(roe::test::run_roe("sweep run " + q(s) + " --index 0 -q").code == 0);
+  const json report = json::parse(slurp(s / "jobs" / id / "run" / "eval" / "report.json"));
+  CHECK(report["options"]["t_offset_auto"] == true);
+  REQUIRE(report.contains("time_offset"));  // the estimated offset with its sigma, as `roe eval --t-offset auto` writes it
+  CHECK(std::abs(report["time_offset"]["offset_s"].get<double>()) < 0.05);  // the estimate's own stamps: no shift
+}
+
 TEST_CASE("roe sweep: GNU parallel runs the emitted script", "[cli][sweep][parallel]") {
   if (!have("parallel")) {
     WARN("skipped: GNU parallel is not installed (Debian: apt-get install parallel; scripts/install-deps.sh)");

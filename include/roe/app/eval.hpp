@@ -100,6 +100,13 @@ void for_each_sweep_eval_setting(Options& o, Visit&& visit) {
 /// Checks the setting `key` of for_each_sweep_eval_setting with run_eval's own rule; throws InputError.
 void check_sweep_eval_setting(const EvalOptions& o, const std::string& key);
 
+/// A sweep's "t_offset_s": seconds, or "auto" for --t-offset auto. The only setting of the table whose JSON
+/// is not its member's: read_sweep_t_offset sets t_offset_s or t_offset_auto from it (InputError for anything
+/// else), sweep_t_offset_json writes it back. A number stays a number, so the job ids of specs written before
+/// "auto" existed do not change.
+void read_sweep_t_offset(const nlohmann::json& value, EvalOptions& o);
+nlohmann::json sweep_t_offset_json(const EvalOptions& o);
+
 /// One row of a run folder's reprojection.csv: the IMU pose T_W_I implied by one raw detection.
 using ReprojectionCsvRow = eval::DetectionPose;
 

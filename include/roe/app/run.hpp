@@ -48,7 +48,7 @@ using store::run_config_from_json;
 using store::run_config_to_json;
 RunConfig run_config_from_file(const std::filesystem::path& file);
 
-/// The rows of states.csv, objects.csv and reprojection.csv (their columns: io/run_files.hpp).
+/// The rows of states.csv, objects.csv and reprojection.csv (their columns: store/run_files.hpp).
 using RecordedState = store::RecordedState;
 using ObjectRow = store::ObjectRow;
 using ReprojectionRow = store::ReprojectionRow;

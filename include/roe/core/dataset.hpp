@@ -1,7 +1,8 @@
 #pragma once
 /// @file
 /// In-memory form of the dataset folder of DESIGN §3 (`roe.json` + the EuRoC-style streams).
-/// io/dataset.hpp reads and writes it; sim produces it; ekf/eval consume it. No I/O here.
+/// store/dataset.hpp reads and writes it; sim produces it; the run pipeline (pipeline/run.hpp) consumes it;
+/// io/kalibr.hpp reads a Kalibr calibration into its camera and IMU records. No I/O here.
 
 #include <map>
 #include <optional>
