@@ -37,7 +37,7 @@ void accumulate_transition(const CoreTransition& F, Mat15& PhiT) {
 }
 
 void CompactJacobian6::append3(int offset, const Mat63& block) {
-  ROE_CHECK(nc + 3 <= kMaxCols && offset >= 0, "CompactJacobian6: more than 13 columns or a negative offset");
+  ROE_CHECK(nc + 3 <= kMaxCols && offset >= 0, "CompactJacobian6: more than 19 columns or a negative offset");
   for (int j = 0; j < 3; ++j) {
     J.col(nc) = block.col(j);
     idx[nc++] = offset + j;
@@ -45,7 +45,7 @@ void CompactJacobian6::append3(int offset, const Mat63& block) {
 }
 
 void CompactJacobian6::append1(int offset, const Vec6& column) {
-  ROE_CHECK(nc + 1 <= kMaxCols && offset >= 0, "CompactJacobian6: more than 13 columns or a negative offset");
+  ROE_CHECK(nc + 1 <= kMaxCols && offset >= 0, "CompactJacobian6: more than 19 columns or a negative offset");
   J.col(nc) = column;
   idx[nc++] = offset;
 }
@@ -192,6 +192,21 @@ void FilterCovariance::augment(const CompactJacobian6& Jx, const Mat6& Q) {
   P_new.bottomLeftCorner(6, n) = P_xa.transpose();
   P_new.bottomRightCorner<6, 6>() = P_aa;
   P_.swap(P_new);
+}
+
+void FilterCovariance::decay(const Eigen::VectorXd& b) {
+  ROE_CHECK(b.size() == dim(), "FilterCovariance::decay: b's size is not the state's");
+  ROE_CHECK((b.head<kCore>().array() == 1.0).all() && (b.array() >= 0.0).all() && (b.array() <= 1.0).all(),
+            "FilterCovariance::decay: b must be in [0, 1], 1 on the core");
+  // Only the decayed rows/columns change, none of them a core one: the pending core propagation (P_cc and the
+  // lazy cross terms) is unaffected, but the cross terms are brought up to date first so that P_ is one matrix.
+  full();
+  for (Eigen::Index i = kCore; i < b.size(); ++i) {
+    if (b(i) == 1.0) continue;
+    P_.row(i) *= b(i);
+    P_.col(i) *= b(i);
+    P_(i, i) += 1.0 - b(i) * b(i);
+  }
 }
 
 void FilterCovariance::change_variables(const Eigen::MatrixXd& M) {

@@ -116,6 +116,12 @@ Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const 
     s_.td_offset = s_.dim;  // right after the extrinsics: a column every detection's H shares
     s_.dim += 1;
   }
+  if (opt_.detection_error_states) {
+    ROE_CHECK(opt_.detection_error_correlation_s > 0.0,
+              "detection_error_states needs detection_error_correlation_s > 0 (the correlation time)");
+    ROE_CHECK(opt_.detection_error_correlated_share > 0.0 && opt_.detection_error_correlated_share < 1.0,
+              "detection_error_correlated_share must be in (0, 1)");
+  }
   cov_.reset(Eigen::MatrixXd::Zero(s_.dim, s_.dim));
   blocks_.reserve(16);
 }
@@ -344,7 +350,17 @@ const ObjectSymmetry* Filter::symmetry(int object_id) const {
   return it == symmetries_.end() || it->second.empty() ? nullptr : &it->second;
 }
 
-void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock& b) const {
+Mat6 Filter::error_state_jacobian(const Detection& d, bool object_frame) const {
+  const double share = opt_.detection_error_correlated_share;
+  const bool camera_cov = (opt_.use_detection_sigmas && d.sigma.has_value()) || opt_.meas_sigma_in_camera ||
+                          opt_.residual_frame == ResidualFrame::kCamera;
+  // The paper's fixed σ on the residual's own axes (T_O_C): the factors are on those axes.
+  if (!camera_cov) return std::sqrt(share) * symmetric_sqrt(measurement_covariance(d, true));
+  const Mat6 G_C = gauss_markov_error_jacobian(measurement_covariance(d, false), d.T_C_O.R(), share);
+  return object_frame ? Mat6(detection_error_to_residual_frame(d.T_C_O) * G_C) : G_C;
+}
+
+void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock& b, const Detection* det) const {
   const CoreState x_img = image_core();
   const ObjectPrediction pr = predict_object(x_img, s_.T_I_C, o.T_O_W);
   const ObjectSymmetry* sym = symmetry(o.id);
@@ -378,6 +394,8 @@ void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock
   }
   if (s_.td_offset >= 0)  // ∂ẑ/∂t_d = H_p v + H_θ ω (measurement.hpp)
     put(s_.td_offset, time_offset_column(pr.H_p_WI, pr.H_theta_WI, x_img.v_W_I, gyro_ - x_img.b_g), 1);
+  const int c_err = c;  // the error state's columns: set below, in the residual frame (no J_inv)
+  if (o.err_offset >= 0) put(o.err_offset, Mat6::Zero(), 6);
   if (o.dim == 6) {
     put(o.offset, pr.H_p_OW, 3);
     put(o.offset + 3, pr.H_theta_OW, 3);
@@ -398,6 +416,16 @@ void Filter::build_block(const ObjectEntry& o, const Pose& z_detected, MeasBlock
     Hc.topRows<3>().noalias() = -R_C_O * b.H.topRows<3>() + skew(zc_hat.p) * b.H.bottomRows<3>();
     Hc.bottomRows<3>() = -b.H.bottomRows<3>();
     b.H = Hc;
+  }
+  if (o.err_offset >= 0) {
+    // The object's Gauss–Markov detection error enters like the detection's own error: r = z ⊟ ẑ(x) − G ê,
+    // with G at the detection (its σ, the equivalent z's T_C_O).
+    Detection dz = det ? *det : Detection{};
+    dz.object_id = o.id;
+    dz.T_C_O = z.inverse();
+    const Mat6 G = error_state_jacobian(dz, opt_.residual_frame == ResidualFrame::kObject);
+    b.H.middleCols<6>(c_err) = G;
+    b.r -= G * o.err;
   }
   b.m = 6;
   b.A.setIdentity();
@@ -569,10 +597,22 @@ int anchor_gauge_map(AnchorGauge gauge, const Mat3& R_O_W, Mat6& Gamma) {
 
 }  // namespace
 
-void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor) {
+void Filter::initialize_object(const Detection& d, const Pose& z, bool anchor) {
   close_segment();
+  const int id = d.object_id;
   const CoreState x_img = image_core();
   const ObjectInit in = init_object(x_img, s_.T_I_C, z);
+  Mat6 R = measurement_covariance(d, true);
+  // The Gauss–Markov detection-error state enters first, from its stationary distribution N(0, I); the first
+  // detection's error is G x + the white rest, so the object-world depends on x through −J_z G.
+  const int n_u = s_.dim, err_offset = opt_.detection_error_states ? s_.dim : -1;
+  Mat6 G_err = Mat6::Zero();
+  if (err_offset >= 0) {
+    cov_.augment(CompactJacobian6{}, Mat6::Identity());
+    s_.dim += 6;
+    G_err = error_state_jacobian(d, /*object_frame=*/true);
+    R *= 1.0 - opt_.detection_error_correlated_share;
+  }
   // J_x over the columns it touches; the covariance grows by P J_xᵀ and J_x P J_xᵀ + J_z R J_zᵀ.
   CompactJacobian6 Jx;
   Jx.append3(kP, in.J_p_WI);
@@ -583,6 +623,12 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   }
   if (s_.td_offset >= 0)
     Jx.append1(s_.td_offset, time_offset_column(in.J_p_WI, in.J_theta_WI, x_img.v_W_I, gyro_ - x_img.b_g));
+  if (err_offset >= 0) {
+    // z = z_true ⊞ (G x + n): the object-world from the measured z errs by J_x δx − J_z (G x + n).
+    const Mat6 JG = -in.J_z * G_err;
+    Jx.append3(err_offset, JG.leftCols<3>());
+    Jx.append3(err_offset + 3, JG.rightCols<3>());
+  }
   const Mat6 Q = in.J_z * R * in.J_z.transpose();
   cov_.augment(Jx, Q);
 
@@ -591,6 +637,8 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   o.T_O_W = in.T_O_W;
   o.anchor = anchor;
   o.t_init_ns = s_.t_ns;
+  o.err_offset = err_offset;
+  o.t_err_ns = s_.t_ns;
 
   if (!anchor) {
     // Plain augmentation.
@@ -627,10 +675,12 @@ void Filter::initialize_object(int id, const Pose& z, const Mat6& R, bool anchor
   check_covariance(true, "anchor initialisation");
   if (rec_) {
     // The link for the smoother: δy = M [δu; J_x δu + J_z n] = B δu + noise.
+    // (With an error state, u is the state before it: the error state and the anchor's δa are both appended,
+    // δa = J_x δu + J_z G x + J_z n, so B's columns are those of u and x is part of the noise.)
     RecordedNode& nd = push_node(RecordedNode::Kind::kAugment);
     nd.append_only = false;
     nd.anchor = true;
-    nd.B = M.leftCols(n_old) + M.rightCols(6) * Jx.dense(n_old);
+    nd.B = M.leftCols(n_u) + M.rightCols(6) * Jx.dense(n_old).leftCols(n_u);
   }
 }
 
@@ -668,10 +718,12 @@ void Filter::stacked_pht(int nb) {
   for (int k = 0; k < nb; ++k) {
     const MeasBlock& b = blocks_[k];
     const ObjectEntry& o = s_.objects[b.obj];
-    ROE_CHECK(b.nc == ns + o.dim, "stacked_pht: unexpected measurement Jacobian layout");
-    if (o.dim > 0)
-      add_abt(&PHt(0, 6 * k), PHt.outerStride(), &P(0, o.offset), P.outerStride(), b.H.col(ns).data(), 6, s_.dim, 6,
-              o.dim, 1.0, /*lower=*/false);
+    // The object's own columns: its error state (6, right before the object-world) and its object-world.
+    const int own = o.dim + (o.err_offset >= 0 ? 6 : 0), first = o.err_offset >= 0 ? o.err_offset : o.offset;
+    ROE_CHECK(b.nc == ns + own, "stacked_pht: unexpected measurement Jacobian layout");
+    if (own > 0)
+      add_abt(&PHt(0, 6 * k), PHt.outerStride(), &P(0, first), P.outerStride(), b.H.col(ns).data(), 6, s_.dim, 6,
+              own, 1.0, /*lower=*/false);
   }
 }
 
@@ -705,7 +757,7 @@ FrameResult Filter::update_image(const std::vector<Detection>& dets) {
   if (anchor_det >= 0 && object(anchor_id_) == nullptr) {
     const Detection& d = dets[anchor_det];
     if (confirm_first_sight(d.object_id, ws_z_[anchor_det])) {
-      initialize_object(d.object_id, ws_z_[anchor_det], measurement_covariance(d, true), true);
+      initialize_object(d, ws_z_[anchor_det], true);
       res.detections[anchor_det].status = DetectionStatus::kInitialized;
       res.detections[anchor_det].used = ResidualPart::kBoth;
     } else {
@@ -717,6 +769,7 @@ FrameResult Filter::update_image(const std::vector<Detection>& dets) {
 
   relock_lost_position(res);
   ws_scale_.clear();
+  decay_error_states(dets);
   cov_.full();
   build_blocks(dets);
   if (!blocks_.empty()) {
@@ -730,14 +783,45 @@ FrameResult Filter::update_image(const std::vector<Detection>& dets) {
       res.detections[i].status = DetectionStatus::kPendingInit;
       continue;
     }
-    initialize_object(d.object_id, ws_z_[i], measurement_covariance(d, true), false);
+    initialize_object(d, ws_z_[i], false);
     res.detections[i].status = DetectionStatus::kInitialized;
     res.detections[i].used = ResidualPart::kBoth;
   }
   set_implied_poses(dets, res);
   observe_lockout(dets, res);
   learn_sigma_scale(ws_scale_);
+  // A decay node's covariance is not stored: the next node must store one (the smoother's rule, smoother.hpp).
+  if (rec_ && rec_->nodes.back().kind == RecordedNode::Kind::kDecay) push_node(RecordedNode::Kind::kUpdate);
   return res;
+}
+
+void Filter::decay_error_states(const std::vector<Detection>& dets) {
+  if (!opt_.detection_error_states) return;
+  Eigen::VectorXd& b = ws_decay_;
+  b.setOnes(s_.dim);
+  bool any = false;
+  for (std::size_t i = 0; i < dets.size(); ++i) {
+    if (!ws_usable_[i]) continue;
+    auto it = std::find_if(s_.objects.begin(), s_.objects.end(), [&](const auto& o) { return o.id == dets[i].object_id; });
+    if (it == s_.objects.end() || it->err_offset < 0 || s_.t_ns <= it->t_err_ns) continue;
+    // x ← ρ x + √(1 − ρ²) w over the time since the last decay (a composition of decays is one decay).
+    const double rho = std::exp(-to_seconds(s_.t_ns - it->t_err_ns) / opt_.detection_error_correlation_s);
+    b.segment<6>(it->err_offset).setConstant(rho);
+    it->err *= rho;
+    it->t_err_ns = s_.t_ns;
+    any = true;
+  }
+  if (!any) return;
+  close_segment();
+  cov_.decay(b);
+  if (rec_) {
+    RecordedNode& nd = rec_->nodes.emplace_back();
+    nd.kind = RecordedNode::Kind::kDecay;
+    nd.x = snapshot();
+    nd.steps = rec_->steps.size();
+    nd.first_step = nd.steps;
+    nd.decay = b;
+  }
 }
 
 int Filter::screen_detections(const std::vector<Detection>& dets, FrameResult& res) {
@@ -790,8 +874,9 @@ void Filter::build_blocks(const std::vector<Detection>& dets) {
     MeasBlock b;
     b.det = static_cast<int>(i);
     b.obj = static_cast<int>(o - s_.objects.data());
-    build_block(*o, ws_z_[i], b);
+    build_block(*o, ws_z_[i], b, &dets[i]);
     b.R = measurement_covariance(dets[i], opt_.residual_frame == ResidualFrame::kObject);
+    if (o->err_offset >= 0) b.R *= 1.0 - opt_.detection_error_correlated_share;  // the white rest
     b.k = error_inflation(dets[i].object_id);
     reduce_covariance(b);
     blocks_.push_back(b);
@@ -819,7 +904,10 @@ void Filter::gate_blocks(const std::vector<Detection>& dets, FrameResult& res) {
                       when(), dets[b.det].object_id));
     double nis = 0.0;
     const ResidualPart used = gate(b, ldlt, nis);
-    if (opt_.adapt_detection_sigma_scale && opt_.use_detection_sigmas && dets[b.det].sigma && std::isfinite(nis))
+    // Not with the error states: their NIS runs below χ² even with the right σ (docs/filter.md §17), and a scale
+    // learned from it shrinks every σ and G with it (0.6 on a clean paper-real replica: object NEES 80–280).
+    if (opt_.adapt_detection_sigma_scale && !opt_.detection_error_states && opt_.use_detection_sigmas &&
+        dets[b.det].sigma && std::isfinite(nis))
       ws_scale_.push_back(nis * sigma_var_scale_ / (b.m == 6 ? chi2_median6_ : chi2_median5_));
     if (b.r.allFinite() && !std::isfinite(nis))
       throw NumericError(
@@ -895,7 +983,7 @@ void Filter::update_with_inliers(FrameResult& res) {
 
 double Filter::error_inflation(int object_id) {
   const double tau = opt_.detection_error_correlation_s;
-  if (!(tau > 0.0)) return 1.0;
+  if (!(tau > 0.0) || opt_.detection_error_states) return 1.0;  // the error states carry the correlation
   auto it = last_detection_ns_.find(object_id);
   if (it == last_detection_ns_.end()) {
     last_detection_ns_[object_id] = s_.t_ns;

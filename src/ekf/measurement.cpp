@@ -1,6 +1,7 @@
 #include "roe/ekf/measurement.hpp"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <limits>
 
@@ -117,13 +118,30 @@ ObjectInit init_object(const CoreState& x, const Pose& T_I_C, const Pose& z) {
   return out;
 }
 
-Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Mat6& cov_C) {
+Mat6 detection_error_to_residual_frame(const Pose& T_C_O) {
   const Mat3 R_O_C = T_C_O.R().transpose();
   Mat6 J = Mat6::Zero();
   J.block<3, 3>(0, 0) = -R_O_C;
   J.block<3, 3>(0, 3) = -R_O_C * skew(T_C_O.p);
   J.block<3, 3>(3, 3) = -Mat3::Identity();
+  return J;
+}
+
+Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Mat6& cov_C) {
+  const Mat6 J = detection_error_to_residual_frame(T_C_O);
   return J * cov_C * J.transpose();
+}
+
+Mat6 symmetric_sqrt(const Mat6& A) {
+  const Eigen::SelfAdjointEigenSolver<Mat6> es(0.5 * (A + A.transpose()));
+  const Vec6 s = es.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  return es.eigenvectors() * s.asDiagonal() * es.eigenvectors().transpose();
+}
+
+Mat6 gauss_markov_error_jacobian(const Mat6& cov_C, const Mat3& R_C_O, double share) {
+  Mat6 G = std::sqrt(share) * symmetric_sqrt(cov_C);
+  G.rightCols<3>() = (G.rightCols<3>() * R_C_O).eval();
+  return G;
 }
 
 Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Vec6& sigma_C) {

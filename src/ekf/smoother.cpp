@@ -342,6 +342,24 @@ class StepsWorker {
   std::exception_ptr error_;
 };
 
+/// P_y = diag(b) P_u diag(b) + diag(1 − b²): the covariance after a decay link (kDecay).
+MatX decayed_covariance(const MatX& Pu, const VecX& b) {
+  ROE_CHECK(b.size() == Pu.rows(), "smooth: a decay node of another dimension than the node before it");
+  MatX Py = b.asDiagonal() * Pu * b.asDiagonal();
+  Py.diagonal().array() += 1.0 - b.array().square();
+  return Py;
+}
+
+/// The RTS step over a linear link y = B u + w (augmentation, decay): C = P_u Bᵀ P_y⁻¹, computed as
+/// Cᵀ = P_y⁻¹ (B P_u); δ_u = C δ_y and P_s,u = P_u + C (P_s,y − P_y) Cᵀ.
+void linear_link(const MatX& BPu, const MatX& Py, const MatX& Pu, const VecX& dy, const MatX& Psy, Timestamp t_ns,
+                 VecX& du, MatX& Psu) {
+  const auto llt = factor(Py, t_ns, "linked");
+  const MatX CT = llt.solve(BPu);
+  du = CT.transpose() * dy;
+  Psu = Pu + CT.transpose() * (Psy - Py) * CT;
+}
+
 /// want[i]: the covariance after step i is asked for (SmootherOptions::covariance_at; all when nullptr).
 std::vector<char> wanted_steps(const FilterRecording& rec, const std::vector<Timestamp>* times) {
   std::vector<char> want(rec.steps.size(), times == nullptr ? 1 : 0);
@@ -362,11 +380,18 @@ SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, c
   ROE_CHECK(!nodes.empty() && nodes.front().kind == RecordedNode::Kind::kInit,
             "smooth: the recording does not start with the filter's initialisation");
   ROE_CHECK(nodes.back().steps == rec.steps.size(), "smooth: the recording was not finished");
-  const auto full_P = [&](std::size_t j) -> MatX {
+  const auto stored_P = [&](std::size_t j) -> MatX {
     if (nodes[j].kind != RecordedNode::Kind::kPropagate) return nodes[j].P;
-    ROE_CHECK(j > 0 && nodes[j - 1].kind != RecordedNode::Kind::kPropagate,
-              "smooth: two propagation nodes in a row");
+    ROE_CHECK(j > 0 && nodes[j - 1].kind != RecordedNode::Kind::kPropagate &&
+                  nodes[j - 1].kind != RecordedNode::Kind::kDecay,
+              "smooth: a propagation node after a node without a covariance");
     return predicted_covariance(nodes[j], nodes[j - 1].P);
+  };
+  // A decay node's covariance follows from the node before it (which stores one, or is a propagation node).
+  const auto full_P = [&](std::size_t j) -> MatX {
+    if (nodes[j].kind != RecordedNode::Kind::kDecay) return stored_P(j);
+    ROE_CHECK(j > 0 && nodes[j - 1].kind != RecordedNode::Kind::kDecay, "smooth: two decay nodes in a row");
+    return decayed_covariance(stored_P(j - 1), nodes[j].decay);
   };
 
   SmootherResult res;
@@ -387,6 +412,18 @@ SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, c
       case RecordedNode::Kind::kUpdate:
         // The same variables before and after an update: the smoothed estimate passes unchanged.
         break;
+      case RecordedNode::Kind::kDecay: {
+        const MatX Pu = full_P(j - 1);
+        const MatX BPu = nd.decay.asDiagonal() * Pu;
+        VecX du;
+        MatX Psu;
+        linear_link(BPu, decayed_covariance(Pu, nd.decay), Pu, boxminus(xs, nd.x), Ps, nd.x.t_ns, du, Psu);
+        StateEstimate xu = nodes[j - 1].x;
+        boxplus(xu, du);
+        xs = std::move(xu);
+        Ps = symmetric(Psu);
+        break;
+      }
       case RecordedNode::Kind::kAugment: {
         const VecX d = boxminus(xs, nd.x);
         const MatX Pu = full_P(j - 1);
@@ -397,11 +434,7 @@ SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, c
           du = d.head(n);
           Psu = Ps.topLeftCorner(n, n);
         } else {
-          // C = P_u Bᵀ P_y⁻¹, as Cᵀ = P_y⁻¹ (B P_u).
-          const auto llt = factor(nd.P, nd.x.t_ns, "augmented");
-          const MatX CT = llt.solve(nd.B * Pu);
-          du = CT.transpose() * d;
-          Psu = Pu + CT.transpose() * (Ps - nd.P) * CT;
+          linear_link(nd.B * Pu, nd.P, Pu, d, Ps, nd.x.t_ns, du, Psu);
         }
         StateEstimate xu = nodes[j - 1].x;
         boxplus(xu, du);

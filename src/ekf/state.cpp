@@ -27,6 +27,7 @@ void boxplus(StateEstimate& s, const Eigen::VectorXd& dx) {
   }
   if (s.td_offset >= 0) s.t_d += dx(s.td_offset);
   for (auto& o : s.objects) {
+    if (o.err_offset >= 0) o.err += dx.segment<6>(o.err_offset);
     if (o.dim == 6) {
       o.T_O_W.p += dx.segment<3>(o.offset);
       o.T_O_W.q = (o.T_O_W.q * exp_quat(dx.segment<3>(o.offset + 3))).normalized();
@@ -56,7 +57,9 @@ Eigen::VectorXd boxminus(const StateEstimate& a, const StateEstimate& b) {
   for (std::size_t i = 0; i < b.objects.size(); ++i) {
     const auto& oa = a.objects[i];
     const auto& ob = b.objects[i];
-    ROE_CHECK(oa.id == ob.id && oa.dim == ob.dim && oa.offset == ob.offset, "boxminus: objects differ");
+    ROE_CHECK(oa.id == ob.id && oa.dim == ob.dim && oa.offset == ob.offset && oa.err_offset == ob.err_offset,
+              "boxminus: objects differ");
+    if (ob.err_offset >= 0) d.segment<6>(ob.err_offset) = oa.err - ob.err;
     if (ob.dim == 0) continue;
     const Vec3 dth = log_quat(ob.T_O_W.q.conjugate() * oa.T_O_W.q);
     if (ob.dim == 6) {

@@ -95,6 +95,11 @@ const std::vector<Field<ekf::FilterOptions>>& filter_fields() {
       field<O, bool>("use_detection_sigmas", &O::use_detection_sigmas),
       field<O, bool>("adapt_detection_sigma_scale", &O::adapt_detection_sigma_scale),
       field("detection_error_correlation_s", &O::detection_error_correlation_s, &non_negative),
+      field<O, bool>("detection_error_states", &O::detection_error_states),
+      field<O, double>("detection_error_correlated_share", &O::detection_error_correlated_share,
+                       [](const double& v) -> const char* {
+                         return v > 0.0 && v < 1.0 ? nullptr : "must be in (0, 1), e.g. 0.9";
+                       }),
       field("min_score", &O::min_score, &non_negative),
       field<O, bool>("chi2_gate", &O::chi2_gate),
       field<O, double>("chi2_confidence", &O::chi2_confidence,

@@ -464,6 +464,8 @@ const std::set<std::string>& keys_added_later() {
       "config.filter.estimate_time_offset",  // issue 49, 2026-12-07: false = no t_d state (the older filter)
       "config.filter.time_offset_sigma_s",   // its prior σ: unused while estimate_time_offset is false
       "config.filter.max_time_offset_s",      // its guard rail: unused while estimate_time_offset is false
+      "config.filter.detection_error_states",  // issue 49 item 1, 2026-12-07: false = no Gauss–Markov error states
+      "config.filter.detection_error_correlated_share",  // their share of the variance: unused while they are off
   };
   return keys;
 }

@@ -236,3 +236,32 @@ TEST_CASE("FilterCovariance: the checks name what failed", "[ekf][covariance]") 
   cov.propagate(F, q, F.dt);
   CHECK(cov.check(false).value_or("(nothing)") == "covariance diagonal of p_W_I[0] is not finite ");
 }
+
+// The decay of Gauss–Markov detection-error states (docs/filter.md §17): the linear link y = B u + w with
+// B = diag(b), w ~ N(0, diag(1 − b²)), applied after IMU steps whose cross terms are pending.
+TEST_CASE("FilterCovariance: decay equals the dense B P B^T + diag(1 - b^2)", "[ekf][covariance][gauss_markov]") {
+  std::mt19937 g(49);
+  const int n = kCore + 6 + 18;  // core, extrinsics, an object's error state and object-world, another error state
+  const Eigen::MatrixXd P0 = random_spd(n, g);
+  const auto Fs = transitions(9, g);
+  FilterCovariance cov;
+  cov.reset(P0);
+  for (const auto& F : Fs) cov.propagate(F, noise(), F.dt);
+  Eigen::VectorXd b = Eigen::VectorXd::Ones(n);
+  b.segment<6>(kCore + 6).setConstant(0.93);  // ρ = exp(−Δt/τ)
+  b.segment<6>(kCore + 18).setConstant(0.0);  // a long gap: the state forgets everything
+  cov.decay(b);
+  const Eigen::MatrixXd P = propagate_dense(P0, Fs);
+  Eigen::MatrixXd expected = b.asDiagonal() * P * b.asDiagonal();
+  expected.diagonal().array() += 1.0 - b.array().square();
+  CHECK(rel_diff(cov.full(), expected) < 1e-12);
+  CHECK(cov.full() == cov.full().transpose());
+  CHECK(!cov.check(true));
+  // The core may not decay, and no b outside [0, 1].
+  Eigen::VectorXd bad = b;
+  bad(kP) = 0.5;
+  CHECK_THROWS_AS(cov.decay(bad), roe::InternalError);
+  bad = b;
+  bad(kCore + 6) = 1.5;
+  CHECK_THROWS_AS(cov.decay(bad), roe::InternalError);
+}

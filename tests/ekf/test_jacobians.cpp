@@ -270,9 +270,18 @@ namespace {
 
 // A filter with objects 1 (anchor), 2 and 3 initialised and a non-trivial state.
 Filter make_filter(AnchorGauge gauge, bool extrinsics, ResidualFrame frame = ResidualFrame::kObject,
-                   bool time_offset = false) {
+                   bool time_offset = false, bool error_states = false) {
   FilterOptions opt;
   opt.estimate_time_offset = time_offset;
+  if (error_states) {  // Gauss–Markov detection-error states with a ray-aligned, depth-dependent σ
+    opt.detection_error_states = true;
+    opt.detection_error_correlation_s = 3.0;
+    opt.detection_error_correlated_share = 0.8;
+    opt.meas_sigma_p_m = 0.02;
+    opt.meas_sigma_p_per_depth = 0.02;
+    opt.meas_sigma_ray_m = 0.06;
+    opt.meas_sigma_ray_per_depth = 0.1;
+  }
   opt.residual_frame = frame;
   opt.init_min_detections = 1;  // initialise every object on its first detection
   opt.anchor_id = 1;
@@ -433,6 +442,57 @@ TEST_CASE("the rows a split-gate update uses equal finite differences of their r
             return prediction_error(frame, g.predict(id), zh0).segment(first, m);
           });
         }
+      }
+    }
+  }
+}
+
+// The Gauss–Markov detection-error states (docs/filter.md §17): r = z ⊟ ẑ(x) − G ê with G at the detection, so
+// the filter's H (every column, the error states' included) is −∂r/∂δx; checked by central differences of the
+// residual itself over the whole error state, for every gauge and both residual frames.
+TEST_CASE("Gauss-Markov error states: the full H equals finite differences of the residual", "[ekf][jacobian][gauss_markov]") {
+  for (AnchorGauge gauge : {AnchorGauge::kPose, AnchorGauge::kPosition, AnchorGauge::kPositionYaw}) {
+    for (ResidualFrame frame : {ResidualFrame::kObject, ResidualFrame::kCamera}) {
+      // (Without t_d: its column is the derivative along the IMU motion, checked above, not of this residual.)
+      Filter f = make_filter(gauge, true, frame, false, /*error_states=*/true);
+      const int anchor_dim = gauge == AnchorGauge::kPose ? 0 : gauge == AnchorGauge::kPosition ? 3 : 2;
+      REQUIRE(f.dim() == 15 + 6 + anchor_dim + 12 + 18);
+      for (const auto& o : f.objects()) {
+        REQUIRE(o.err_offset >= 0);
+        CHECK(o.err.norm() > 0.1);  // make_filter's random ⊞ moved it: the residual must subtract G ê
+        if (o.dim > 0) CHECK(o.offset == o.err_offset + 6);
+      }
+      for (int id : {1, 2, 3}) {
+        // z = ẑ(x̂): z ⊟ ẑ(x̂ ⊞ δ) is then −H δ to first order in either residual frame.
+        const Pose z = f.predict(id);
+        Vec6 r;
+        Eigen::MatrixXd H;
+        f.measurement_jacobian(id, z, r, H);
+        INFO("gauge " << to_string(gauge) << " frame " << to_string(frame) << " object " << id);
+        const Eigen::MatrixXd Hn = check_jacobian(H, [&](const Eigen::VectorXd& d) -> Eigen::VectorXd {
+          Filter g = f;
+          g.boxplus(d);
+          Vec6 rg;
+          Eigen::MatrixXd Hg;
+          g.measurement_jacobian(id, z, rg, Hg);
+          (void)Hg;
+          return -rg;
+        });
+        (void)Hn;
+        // The error state's columns: G of the detection, non-zero, and zero for the other objects' error states.
+        const ObjectEntry* o = f.object(id);
+        CHECK(H.middleCols(o->err_offset, 6).cwiseAbs().maxCoeff() > 1e-3);
+        for (const auto& other : f.objects())
+          if (other.id != id) CHECK(H.middleCols(other.err_offset, 6).cwiseAbs().maxCoeff() == 0.0);
+        // The residual subtracts G ê: with ê = 0 it is the plain residual.
+        Filter g = f;
+        Eigen::VectorXd zero_err = Eigen::VectorXd::Zero(f.dim());
+        zero_err.segment<6>(o->err_offset) = -o->err;
+        g.boxplus(zero_err);
+        Vec6 r0;
+        Eigen::MatrixXd H0;
+        g.measurement_jacobian(id, z, r0, H0);
+        CHECK((r0 - H.middleCols(o->err_offset, 6) * o->err - r).norm() < 1e-12);
       }
     }
   }

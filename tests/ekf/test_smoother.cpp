@@ -222,14 +222,37 @@ std::vector<ekf::SmoothedState> dense_rts(const ekf::FilterRecording& rec, const
       seg_P[j].push_back(P);
     }
   }
+  // A decay node (Gauss–Markov detection-error states): P_y = B P_u Bᵀ + diag(1 − b²), B = diag(b).
+  std::vector<MatX> dec_P(nodes.size());
+  const auto P_at = [&](std::size_t j) -> MatX {
+    if (nodes[j].kind == ekf::RecordedNode::Kind::kPropagate) return seg_P[j].back();
+    if (nodes[j].kind == ekf::RecordedNode::Kind::kDecay) return dec_P[j];
+    return nodes[j].P;
+  };
+  for (std::size_t j = 1; j < nodes.size(); ++j) {
+    if (nodes[j].kind != ekf::RecordedNode::Kind::kDecay) continue;
+    const MatX B = nodes[j].decay.asDiagonal();
+    dec_P[j] = B * P_at(j - 1) * B.transpose();
+    dec_P[j].diagonal().array() += 1.0 - nodes[j].decay.array().square();
+  }
   ekf::StateEstimate xs = nodes.back().x;
-  MatX Ps = nodes.back().kind == ekf::RecordedNode::Kind::kPropagate ? seg_P.back().back() : nodes.back().P;
+  MatX Ps = P_at(nodes.size() - 1);
   Pose shift;
   std::size_t anchor_steps = 0;
   for (std::size_t j = nodes.size() - 1; j >= 1; --j) {
     const auto& nd = nodes[j];
-    if (nd.kind == ekf::RecordedNode::Kind::kAugment) {
-      const MatX Pu = nodes[j - 1].kind == ekf::RecordedNode::Kind::kPropagate ? seg_P[j - 1].back() : nodes[j - 1].P;
+    if (nd.kind == ekf::RecordedNode::Kind::kDecay) {
+      // The linear link y = B u + w: C = P_u Bᵀ P_y⁻¹ (full matrices, an explicit solve).
+      const MatX Pu = P_at(j - 1), Py = dec_P[j];
+      const MatX B = nd.decay.asDiagonal();
+      const MatX C = Py.llt().solve(B * Pu).transpose();
+      ekf::StateEstimate xu = nodes[j - 1].x;
+      ekf::boxplus(xu, C * ekf::boxminus(xs, nd.x));
+      const MatX Psu = Pu + C * (Ps - Py) * C.transpose();
+      xs = xu;
+      Ps = 0.5 * (Psu + Psu.transpose());
+    } else if (nd.kind == ekf::RecordedNode::Kind::kAugment) {
+      const MatX Pu = P_at(j - 1);
       const Eigen::Index n = Pu.rows();
       const VecX d = ekf::boxminus(xs, nd.x);
       MatX B = nd.append_only ? MatX::Identity(nd.P.rows(), n) : nd.B;
@@ -353,7 +376,7 @@ Recorded record(const Dataset& d, const ekf::FilterOptions& opt) {
 
 /// ekf::smooth's IMU-rate means (from the segment's two ends, issue 41) against the textbook RTS, and the
 /// covariance asked for only at the image times against the covariance at every step.
-void check_means_and_sparse_covariance(const Recorded& r) {
+void check_means_and_sparse_covariance(const Recorded& r, double max_dcov_sparse_rel = 5e-8) {
   const ekf::SmootherResult full = ekf::smooth(r.rec, r.noise, {1});
   const ekf::SmootherResult sparse = ekf::smooth(r.rec, r.noise, {2, &r.image_times});
   const std::vector<ekf::SmoothedState> ref = dense_rts(r.rec, r.noise);
@@ -400,7 +423,7 @@ void check_means_and_sparse_covariance(const Recorded& r) {
   // round-off is what differs. Measured (2026-12-03): paper-seq4 8 s σ 1.5e-9, pose covariance 1.2e-9
   // relative; EuRoC snippet σ 1.7e-7 (gyro bias; 2.9e-8 in p, v, θ), pose covariance 7.5e-9 relative.
   CHECK(max_dsig_sparse < 1e-6);
-  CHECK(max_dcov_sparse < 5e-8);
+  CHECK(max_dcov_sparse < max_dcov_sparse_rel);
   CHECK(with_cov > r.image_times.size() / 2);
   CHECK(with_cov < ref.size() / 4);
   CHECK(max_dp < 1e-9);
@@ -439,4 +462,31 @@ TEST_CASE("smoother: IMU-rate means from the segment ends equal the textbook RTS
   const Recorded r = record(d, opt);
   REQUIRE(r.rec.steps.size() > 5000);
   check_means_and_sparse_covariance(r);
+}
+
+// The Gauss–Markov detection-error states (docs/filter.md §17) decay between an object's detections: the
+// recording holds each decay as a link y = diag(b) u + w without its covariance, and ekf::smooth must equal the
+// textbook RTS of the augmented model (full matrices, an explicit solve per link) on a preset whose errors are
+// correlated in time.
+TEST_CASE("smoother: with Gauss-Markov detection-error states equals the textbook RTS over the decay links",
+          "[ekf][smoother][gauss_markov]") {
+  const Dataset d = test::simulate_preset("paper-real-seq1", 2, 6.0);
+  ekf::FilterOptions opt = app::RunConfig{}.filter;
+  opt.relock_after_s = 0.0;  // its inflation is not modelled by the textbook pass (see the EuRoC case)
+  opt.detection_error_states = true;
+  opt.detection_error_correlation_s = 3.0;
+  const Recorded r = record(d, opt);
+  std::size_t decays = 0;
+  for (const auto& nd : r.rec.nodes) {
+    if (nd.kind != ekf::RecordedNode::Kind::kDecay) continue;
+    ++decays;
+    CHECK(nd.P.size() == 0);
+    CHECK((nd.decay.array() < 1.0).count() % 6 == 0);
+  }
+  INFO(decays << " decay links");
+  CHECK(decays > 100);
+  for (const auto& o : r.rec.nodes.back().x.objects) CHECK(o.err_offset >= 0);
+  // The sparse pass re-forms nothing through the decay links (both passes take them alike); its pose covariance
+  // differs from the all-steps pass's by the round-off of the larger state (measured 1.0e-7 relative, 2026-12-07).
+  check_means_and_sparse_covariance(r, 5e-7);
 }

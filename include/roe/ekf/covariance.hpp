@@ -29,11 +29,11 @@ namespace roe::ekf {
 /// and the smoother recording's segment transition), on Φ's non-trivial columns only (filter/covariance.cpp).
 void accumulate_transition(const CoreTransition& F, Mat15& PhiT);
 
-/// A Jacobian of 6 rows that acts on at most 13 error-state columns, kept compact: its column j is the
+/// A Jacobian of 6 rows that acts on at most 19 error-state columns, kept compact: its column j is the
 /// derivative with respect to error-state column idx[j] (the first-sight initialisation's J_x: the IMU's p
-/// and θ, the extrinsics, the time offset).
+/// and θ, the extrinsics, the time offset, the object's Gauss–Markov detection-error state).
 struct CompactJacobian6 {
-  static constexpr int kMaxCols = 13;
+  static constexpr int kMaxCols = 19;
   Eigen::Matrix<double, 6, kMaxCols> J;
   int idx[kMaxCols];
   int nc = 0;
@@ -64,6 +64,11 @@ class FilterCovariance {
   /// the current error state and Q = J_z R J_zᵀ its measurement noise, P grows to
   /// [P, P J_xᵀ; J_x P, J_x P J_xᵀ + Q] (the new diagonal block symmetrised), n → n + 6.
   void augment(const CompactJacobian6& Jx, const Mat6& Q);
+  /// The decay of Gauss–Markov states between detections (docs/filter.md §17): the linear link
+  /// y = B u + w with B = diag(b) (b_i = ρ on a decayed state's columns, 1 elsewhere) and w ~ N(0, diag(1 − b²)),
+  /// i.e. P ← B P B + diag(1 − b²): the decayed rows and columns scaled by ρ, their diagonal block by ρ² plus
+  /// (1 − ρ²) I. `b` has dim() entries in [0, 1]; the core rows must not decay.
+  void decay(const Eigen::VectorXd& b);
   /// A linear change of variables of the error state, δx' = M δx (m x n; the anchor's gauge fix, docs/filter.md
   /// §4): P ← M P Mᵀ, symmetrised; n → m.
   void change_variables(const Eigen::MatrixXd& M);

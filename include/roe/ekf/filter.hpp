@@ -208,8 +208,9 @@ class Filter {
   void set_reference_arithmetic(bool on) { reference_ = on; }
 
  private:
-  // A detection's H acts on at most 19 error-state columns: the IMU's p and θ, the extrinsics, t_d, its object.
-  static constexpr int kMaxCols = 19;
+  // A detection's H acts on at most 25 error-state columns: the IMU's p and θ, the extrinsics, t_d, its object's
+  // Gauss–Markov detection-error state and its object-world.
+  static constexpr int kMaxCols = 25;
   struct MeasBlock {
     int det = 0;  // index into the detection vector
     int obj = 0;  // index into s_.objects (objects())
@@ -243,8 +244,16 @@ class Filter {
   void close_segment();
   /// Recording: a node of the given kind with the current state and (synchronised) covariance.
   RecordedNode& push_node(RecordedNode::Kind kind);
-  /// r, H (symmetry-aware: nearest equivalent measurement, continuous reduction) of one detection.
-  void build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b) const;
+  /// r, H (symmetry-aware: nearest equivalent measurement, continuous reduction) of one detection (`det`: its
+  /// σ for the Gauss–Markov error state's columns; nullptr: the configured σ at z).
+  void build_block(const ObjectEntry& o, const Pose& z, MeasBlock& b, const Detection* det = nullptr) const;
+  /// The Gauss–Markov error state's Jacobian G (detection_error_states) of a detection, at its detected T_C_O
+  /// (the symmetry-equivalent one nearest the prediction), in the update's residual frame or (object_frame)
+  /// the T_O_C frame of the first sight: G_C (gauss_markov_error_jacobian) or J G_C. It depends on the
+  /// detection only, so the residual r = z ⊟ ẑ(x) − G ê is linear in the error state.
+  Mat6 error_state_jacobian(const Detection& d, bool object_frame) const;
+  /// Decays the error states of the objects detected in this image to the image's time (a kDecay link).
+  void decay_error_states(const std::vector<Detection>& dets);
   /// b.R ← A R Aᵀ on the first b.m rows, identity-padded (a no-op for a 6-row block).
   static void reduce_covariance(MeasBlock& b);
   /// Keeps the rows of `part` in b (r, H, R, S moved up to its first m rows) and in its P Hᵀ columns.
@@ -264,7 +273,7 @@ class Filter {
   void update_with_inliers(FrameResult& res);
   /// Each detection's implied T_W_I (DetectionOutcome::T_W_I) for the objects with an object-world.
   void set_implied_poses(const std::vector<Detection>& dets, FrameResult& res) const;
-  void initialize_object(int id, const Pose& z, const Mat6& R, bool anchor);
+  void initialize_object(const Detection& d, const Pose& z, bool anchor);
   /// Records a first-sight candidate; true when init_min_detections consecutive candidates agree.
   bool confirm_first_sight(int id, const Pose& z);
   /// Lock-out: inflates the position and velocity covariance when the monitor declares the position lost
@@ -328,6 +337,7 @@ class Filter {
   std::map<int, Timestamp> last_detection_ns_;
   double error_inflation(int object_id);
   std::vector<Eigen::Index> ws_const_rows_;
+  Eigen::VectorXd ws_decay_;  // decay_error_states' diag(B)
   // The stacked update, applied by the covariance owner: FilterCovariance::update, or update_constant_gain when a
   // block's k > 1.
   bool apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, const Eigen::Ref<const Eigen::MatrixXd>& S,

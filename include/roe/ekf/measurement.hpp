@@ -100,6 +100,19 @@ ObjectInit init_object(const CoreState& x, const Pose& T_I_C, const Pose& T_O_C_
 Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Vec6& sigma_C);
 /// The same for a full camera-frame covariance Σ_C of (n_t, n_r): J Σ_C Jᵀ.
 Mat6 detection_covariance_in_residual_frame(const Pose& T_C_O, const Mat6& cov_C);
+/// That J: the T_O_C residual-frame error of a detection whose camera-frame error is (n_t, n_r).
+Mat6 detection_error_to_residual_frame(const Pose& T_C_O);
+
+/// The Gauss–Markov detection-error state of an object (FilterOptions::detection_error_states; docs/filter.md
+/// §17): x = [x_t; x_θ], normalised (stationary covariance I), the translation factors on the camera axes and
+/// the rotation factors on the object's axes (a network's rotation error follows the object's appearance;
+/// the simulator's R_C_O Exp(δθ)). A detection of T_C_O with camera-frame covariance Σ_C = L Lᵀ (L the
+/// symmetric square root) has the camera-frame error
+///   (n_t, n_r) = √s L diag(I, R_C_O) x + white,  white ~ N(0, (1 − s) Σ_C),
+/// whose stationary covariance is Σ_C whatever R_C_O. Returns G_C = √s L diag(I, R_C_O) (6x6, columns x).
+Mat6 gauss_markov_error_jacobian(const Mat6& cov_C, const Mat3& R_C_O, double share);
+/// Symmetric square root of a symmetric positive semi-definite 6x6 matrix (negative eigenvalues clipped to 0).
+Mat6 symmetric_sqrt(const Mat6& A);
 
 /// Jacobian of the inversion T_W_O = T_O_W⁻¹ in the error-state convention (additive position, right
 /// rotation error): [δp_W_O; δθ_W_O] = J [δp_O_W; δθ_O_W] to first order, with

@@ -86,7 +86,8 @@ struct FilterOptions {
   /// detections that carried σ of NIS · k / χ²_m median (k the variance scale they were gated with) is
   /// the variance scale that makes them consistent. Networks' predicted σ are often right in shape and
   /// off in scale; an overconfident σ makes the filter overconfident, and its gate then refuses the
-  /// correct detections. The median ignores the gross failures (up to half of them).
+  /// correct detections. The median ignores the gross failures (up to half of them). Ignored (the scale stays
+  /// 1) with detection_error_states: their NIS is not the χ² the scale assumes (docs/filter.md §17).
   bool adapt_detection_sigma_scale = false;
   /// Correlation time τ (s) of the detection errors, modelled per object as first-order Gauss-Markov
   /// (docs/filter.md §15). 0 (the paper): white errors. Otherwise the constant states (extrinsics,
@@ -95,6 +96,16 @@ struct FilterOptions {
   /// that what a constant state learns from a run is the number of independent detections in it, not the
   /// number of images. The core (pose, velocity, biases) keeps the gain of R (stacked_update_constant_gain).
   double detection_error_correlation_s = 0.0;
+  /// Gauss–Markov detection-error states (docs/filter.md §17; issue 49): instead of the inflated gain above,
+  /// every object carries a 6-dof error state x (normalised, unit stationary variance) that its detections
+  /// share: a detection's camera-frame error is n = √s L (x_t; R_C_O x_θ) + the white rest, L L = Σ_C the
+  /// detection covariance (meas_sigma_*, or the detection's σ, unscaled), s =
+  /// detection_error_correlated_share; x decays between that object's detections as x ← ρ x + √(1−ρ²) w,
+  /// ρ = exp(−Δt/τ), τ = detection_error_correlation_s (> 0 required). The RTS smoother takes each decay as a
+  /// linear link (smoother.hpp), so it is consistent with the augmented model.
+  bool detection_error_states = false;
+  /// Share s of the detection-error variance that is correlated (in (0, 1)); the white rest (1 − s) Σ.
+  double detection_error_correlated_share = 0.9;
   /// Detections with a finite score below this are ignored (status rejected_score). 0 keeps all.
   double min_score = 0.0;
 

@@ -27,6 +27,8 @@
 ///   exact RTS estimate, not an interpolation.
 /// - augmentation y = B u + w (a new object's error is J_x u + J_z n): C = P_u Bᵀ P_y⁻¹. A plain
 ///   augmentation appends the object, C = [I 0]: the old variables' smoothed estimate is the leading block.
+/// - decay of the Gauss–Markov detection-error states y = diag(b) u + w (kDecay): the same link with
+///   B = diag(b) and P_y = B P_u B + diag(1 − b²), so the smoother is the RTS smoother of the augmented model.
 /// - the anchor's first sight also re-defines W (the gauge, docs/filter.md §4): y holds the old
 ///   variables in the new W, so the states before it come out of the recursion in the old W. They are
 ///   moved into the new W by the rigid change of frame T_Wnew_Wold that maps the IMU pose smoothed in the
@@ -54,7 +56,7 @@ struct RecordedStep {
 };
 
 struct RecordedNode {
-  enum class Kind { kInit, kPropagate, kUpdate, kAugment };
+  enum class Kind { kInit, kPropagate, kUpdate, kAugment, kDecay };
   Kind kind = Kind::kInit;
   StateEstimate x;        ///< nominal after the link that made this node
   Eigen::MatrixXd P;      ///< full covariance after the link (empty for kPropagate)
@@ -69,6 +71,10 @@ struct RecordedNode {
   bool append_only = true;
   bool anchor = false;
   Eigen::MatrixXd B;
+  // kDecay: the decay of Gauss–Markov detection-error states (docs/filter.md §17), the linear link
+  // y = diag(b) u + w, w ~ N(0, diag(1 − b²)); P is not stored (it is diag(b) P_u diag(b) + diag(1 − b²) of the
+  // node before), and the filter always follows a decay with a node that stores P (an update or augmentation).
+  Eigen::VectorXd decay;
 };
 
 /// Filled by the filter while it runs (Filter::set_recording). Memory: one dense covariance per update

@@ -10,6 +10,7 @@
 
 #include "roe/core/types.hpp"
 #include "roe/ekf/imu.hpp"
+#include "roe/ekf/measurement.hpp"  // Vec6
 
 namespace roe::ekf {
 
@@ -31,6 +32,12 @@ struct StateEstimate {
     int offset = -1;  ///< first error-state column (−1 when dim == 0)
     int dim = 0;      ///< 6; anchor: 0 (kPose), 3 (kPosition: δθ) or 2 (kPositionYaw: δθ_x, δθ_y)
     Timestamp t_init_ns = 0;  ///< when it entered the state
+    /// Gauss–Markov detection-error state (FilterOptions::detection_error_states; docs/filter.md §17): its
+    /// first error-state column (6 columns [x_t; x_θ], right before `offset`'s; −1: none), its mean (additive
+    /// ⊞) and the time it was last decayed to (x ← ρ x between the object's detections).
+    int err_offset = -1;
+    Vec6 err = Vec6::Zero();
+    Timestamp t_err_ns = 0;
   };
   std::vector<Object> objects;
 };
