@@ -88,6 +88,12 @@ TEST_CASE("tf buffer: errors list the frames and edges found", "[io][tf][bad]") 
   CHECK_THROWS_WITH(b.trajectory("map", "map"), Catch::Contains("same frame"));
   b.add(edge("world", "base", 0, Pose()), true, "s2");  // base re-parented
   CHECK_THROWS_WITH(b.trajectory("map", "base"), Catch::Contains("more than one parent") && Catch::Contains("s2"));
+  // One pair on /tf_static and on /tf: two edges into one child, refused by name, not merged into one.
+  io::TfBuffer both("both.mcap");
+  both.add(edge("map", "odom", 0, Pose()), true, "s9");
+  both.add(edge("map", "odom", 10, Pose()), false, "m9");
+  CHECK_THROWS_WITH(both.trajectory("map", "odom"), Catch::Contains("more than one parent") &&
+                                                        Catch::Contains("map static and map") && Catch::Contains("m9"));
   ros::StampedTransform bad = edge("a", "b", 0, Pose());
   bad.transform.q.coeffs() *= 1.1;
   CHECK_THROWS_WITH(b.add(bad, false, "msg 7"), Catch::Contains("msg 7") && Catch::Contains("unit norm"));

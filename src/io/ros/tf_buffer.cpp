@@ -46,7 +46,8 @@ void TfBuffer::add(const ros::StampedTransform& tf, bool is_static, const std::s
   std::string key = parent;
   key += '\0';
   key += child;
-  key += is_static ? "\0s" : "\0d";
+  key += '\0';
+  key += is_static ? 's' : 'd';  // a static and a dynamic edge of one pair are two edges (a char, not "\0s": that is "")
   const auto [at, inserted] = index_.try_emplace(std::move(key), edges_.size());
   if (inserted) {
     edges_.push_back({parent, child, is_static, {}, true, where});
