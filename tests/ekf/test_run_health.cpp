@@ -10,6 +10,12 @@
 #include "roe/ekf/health.hpp"
 #include "roe/ekf/images.hpp"
 
+// GCC 12 warns that copying a disengaged std::optional<Eigen::Matrix> (Detection::sigma) out of an
+// initializer list reads its payload; it does not (the optional's engaged flag guards it): a false positive.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+
 using namespace roe;
 using namespace roe::ekf;
 
