@@ -117,10 +117,10 @@ cp "$run/root/demo.log" "$work/demo.log"
     "$(echo "${user:-0} + ${sys:-0}" | bc -l)" "${user:-0}" "${sys:-0}"
   echo "each recipe line of make demo (a \$(MAKE) line includes its sub-make):"
   printf '  %-8s %8s %9s %8s  %s\n' "end" "wall s" "user s" "sys s" "line"
-  # The recipe lines' level (make's own $(shell nproc) runs one level up).
-  top=$(awk -F'\t' '$6 != "nproc" {print $1}' "$run/root/steps.tsv" | sort -n | head -1)
+  # The recipe lines' level (the Makefile's own $(shell nproc) and $(shell command -v ccache) run one level up).
+  top=$(awk -F'\t' '$6 != "nproc" && $6 !~ /^command -v / {print $1}' "$run/root/steps.tsv" | sort -n | head -1)
   while IFS=$'\t' read -r level t w u s line; do
-    [[ $level == "$top" && $line != nproc ]] || continue
+    [[ $level == "$top" && $line != nproc && $line != "command -v "* ]] || continue
     printf '  %-8s %8s %9.1f %8.1f  %s\n' "$t" "$w" "$u" "$s" "${line:0:90}"
   done <"$run/root/steps.tsv"
 } | tee "$report"
