@@ -145,6 +145,28 @@ def verdict_table(rows):
     print("truth-free pass (sigma and prior) with the extrinsics beyond 3 sigma of the truth: %s" % (", ".join(bad) or "none"))
 
 
+def collect_rows(a, one, describe):
+    """The rows of `one(a, source, seed)` over a.sources x a.seeds (or read back from a.summary), each printed
+    with `describe(row)` as it comes and the whole list saved to a.json after each; a failed run is said and
+    skipped. Shared with gm-table.py."""
+    if a.summary:
+        return json.load(open(a.summary))
+    os.makedirs(a.work, exist_ok=True)
+    rows = []
+    for s in a.sources:
+        for seed in a.seeds:
+            try:
+                rows.append(one(a, s, seed))
+            except RuntimeError as e:
+                print("%s seed %d failed: %s" % (s, seed, str(e).splitlines()[0]))
+                continue
+            print("%s %d: %s" % (s, seed, describe(rows[-1])))
+            sys.stdout.flush()
+            if a.json:
+                json.dump(rows, open(a.json, "w"), indent=1)
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--roe", default=os.path.join(os.path.dirname(HERE), "build", "roe"))
@@ -155,28 +177,14 @@ def main():
     ap.add_argument("--json", default=None)
     ap.add_argument("--summary", default=None)
     a = ap.parse_args()
-    if a.summary:
-        rows = json.load(open(a.summary))
-    else:
-        os.makedirs(a.work, exist_ok=True)
-        rows = []
-        for s in a.sources:
-            for seed in a.seeds:
-                try:
-                    rows.append(one(a, s, seed))
-                except RuntimeError as e:
-                    print("%s seed %d failed: %s" % (s, seed, str(e).splitlines()[0]))
-                    continue
-                r = rows[-1]
-                f, b = r["filter"], r["variants"]["batch"]
-                print("%s %d: extrinsics %s → %s; objects %s → %s; worst axis %.3f → %.3f m; CPU %.2f → %.2f s "
-                      "(peak %.0f → %.0f MB)" % (r["preset"], seed, rt.fmt_extr(f), rt.fmt_extr(b),
-                                                 rt.fmt_objs(f["objects"]), rt.fmt_objs(b["objects"]),
-                                                 f["worst_axis_m"] or float("nan"), b["worst_axis_m"] or float("nan"),
-                                                 f["cpu_s"], b["cpu_s"], f["maxrss_mb"], b["maxrss_mb"]))
-                sys.stdout.flush()
-                if a.json:
-                    json.dump(rows, open(a.json, "w"), indent=1)
+
+    def describe(r):
+        f, b = r["filter"], r["variants"]["batch"]
+        return ("extrinsics %s → %s; objects %s → %s; worst axis %.3f → %.3f m; CPU %.2f → %.2f s (peak %.0f → %.0f MB)"
+                % (rt.fmt_extr(f), rt.fmt_extr(b), rt.fmt_objs(f["objects"]), rt.fmt_objs(b["objects"]),
+                   f["worst_axis_m"] or float("nan"), b["worst_axis_m"] or float("nan"),
+                   f["cpu_s"], b["cpu_s"], f["maxrss_mb"], b["maxrss_mb"]))
+    rows = collect_rows(a, one, describe)
     print()
     rt.print_summary(rows)
     print()

@@ -99,24 +99,8 @@ def main():
     ap.add_argument("--json", default=None)
     ap.add_argument("--summary", default=None)
     a = ap.parse_args()
-    if a.summary:
-        rows = json.load(open(a.summary))
-    else:
-        os.makedirs(a.work, exist_ok=True)
-        rows = []
-        for s in a.sources:
-            for seed in a.seeds:
-                try:
-                    rows.append(one(a, s, seed))
-                except RuntimeError as e:
-                    print("%s seed %d failed: %s" % (s, seed, str(e).splitlines()[0]))
-                    continue
-                r = rows[-1]
-                print("%s %d: %s" % (s, seed, "; ".join(
-                    "%s %s %.3f m" % (k, rt.fmt_extr(f), f["worst_axis_m"] or float("nan")) for k, f in r["runs"].items())))
-                sys.stdout.flush()
-                if a.json:
-                    json.dump(rows, open(a.json, "w"), indent=1)
+    rows = bt.collect_rows(a, one, lambda r: "; ".join(
+        "%s %s %.3f m" % (k, rt.fmt_extr(f), f["worst_axis_m"] or float("nan")) for k, f in r["runs"].items()))
     table(rows)
 
 
