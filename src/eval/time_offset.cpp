@@ -27,13 +27,17 @@ double effective_sample_fraction(const std::vector<Eigen::Vector3d>& r) {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (const auto& x : r) mean += x;
   mean /= static_cast<double>(n);
+  std::vector<Eigen::Vector3d> d(n);  // centred once: the lags below read each twice per lag
   double c0 = 0.0;
-  for (const auto& x : r) c0 += (x - mean).squaredNorm();
+  for (std::size_t k = 0; k < n; ++k) {
+    d[k] = r[k] - mean;
+    c0 += d[k].squaredNorm();
+  }
   if (!(c0 > 0)) return 1.0;
   double sum = 0.0;
   for (std::size_t lag = 1; lag < n / 2; ++lag) {
     double c = 0.0;
-    for (std::size_t k = 0; k + lag < n; ++k) c += (r[k] - mean).dot(r[k + lag] - mean);
+    for (std::size_t k = 0; k + lag < n; ++k) c += d[k].dot(d[k + lag]);
     const double rho = c / c0;
     if (rho < 0.05) break;
     sum += rho;
@@ -70,6 +74,7 @@ struct OffsetProblem {
     const double two_h = 2e-9 * static_cast<double>(h);
     std::vector<Pose> e, g;
     OffsetResiduals out;
+    e.reserve(est_t.size()), g.reserve(est_t.size()), out.v.reserve(est_t.size()), out.w.reserve(est_t.size());
     for (std::size_t k = 0; k < est_t.size(); ++k) {
       const Timestamp t = est_t[k] + off;
       const auto p = interpolate_pose_at(gt, t, max_gap_ns);
@@ -84,6 +89,7 @@ struct OffsetProblem {
     const Eigen::Quaterniond qa = al.q();
     const Eigen::Quaterniond q_off =
         mean_rotation(e.size(), [&](std::size_t k) { return (g[k].q.conjugate() * qa * e[k].q).normalized(); });
+    out.r.reserve(e.size()), out.rr.reserve(e.size());
     for (std::size_t k = 0; k < e.size(); ++k) {
       out.r.push_back(al.apply(e[k].p) - g[k].p);
       out.sse += out.r.back().squaredNorm();
@@ -110,6 +116,7 @@ OffsetProblem make_problem(const std::vector<Timestamp>& est_t, const std::vecto
   if (align != AlignType::kSim3 && align != AlignType::kPosYaw) align = AlignType::kSe3;
   const double rate = median_rate_hz(gt_t);
   OffsetProblem pb{est_t, est, {}, from_seconds(rate > 0 ? 3.0 / rate : 1e-3), align};
+  pb.gt.reserve(gt_t.size());
   for (std::size_t i = 0; i < gt_t.size(); ++i)
     if (pb.gt.empty() || gt_t[i] > pb.gt.back().t_ns) pb.gt.push_back({gt_t[i], gt[i]});
   return pb;
