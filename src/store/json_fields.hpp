@@ -19,19 +19,23 @@
 //
 // The walkers' verbs, as a mapping uses them (`a` is a Writer<D> or a Reader<D>; A::kReading tells which):
 //   a(key, v)              required: always written; missing when read is Problem::kMissing
+//   a(key, v, rule)        the same, and when read rule(v) (a std::string: empty, or what is wrong: Problem::kInvalid
+//                          at key); the rule may look at fields read before this one
 //   a.opt(key, v)          defaulted: always written; absent (or null, kNullIsAbsent) keeps v's default
 //   a.opt(key, v, written) the same, written only where `written` (a key left out at its default)
+//   a.opt(key, v, written, rule)  the same, and rule(v) as above when the key is read
 //   a.omittable(key, o)    std::optional: written only when set; absent reads as unset
 //   a.omittable(key, o, present)  the same, but the reader requires the key when `present` and refuses it
 //                          (reads nothing: a strict dialect's unknown key) when not
 //   a.fixed(key, value)    a fixed text or a derived value: written, never read (a strict reader knows the key)
 //   a.nested(key, f)       an object whose fields are f(a') (an inline block without a struct of its own)
+//   a.nested_opt(key, f)   the same, optional: absent (or null) reads as an empty object (f's defaults and rules)
 //   a.axes(key, v, names)  an Eigen::Vector3d as {names[0]: x, names[1]: y, names[2]: z}
 //   a.check(key, ok, what) reading only: Problem::kInvalid at key unless ok (a value's own rule)
 //   a.custom(key, w, r)    a value with its own JSON form: w() returns it; r(const json* x, file, path) reads it
 //                          (x null when absent)
 //   a.merge(w, r)          keys of this object owned by another mapping (io's IMU noise): w(json& object) adds
-//                          them, r(io::JsonObject& object) reads them
+//                          them, r(io::JsonObject& object) or r(io::JsonObject& object, path) reads them
 //   a.rest(details)        the object's other keys, kept as they are (after every other field; not with merge):
 //                          written under the mapped keys, read as every key no field read
 //   a.peek(key)            reading: the raw value of key (nullptr when absent), not marked as read; writing:
@@ -76,44 +80,51 @@ enum class Problem {
   kInvalid,      ///< a value against its own rule; detail: the rule's message
 };
 
+/// Each problem in two styles: report.json's reader's, after the key path ("is not a number"), and
+/// io::JsonObject's, the configs' and manifests' readers' ("expected a number"); "{}" is the detail.
+struct ProblemWords {
+  const char* phrase;
+  const char* config;
+};
+inline const ProblemWords& words_of(Problem p) {
+  static const ProblemWords words[] = {
+      {"is missing", "missing required key"},
+      {"is not an object", "expected a JSON object"},
+      {"is not true or false", "expected true or false"},
+      {"is not a number", "expected a number"},
+      {"is not an integer", "expected an integer"},
+      {"is not a count (an integer >= 0)", "expected an integer >= 0"},
+      {"is out of range {}", "integer out of range {}"},
+      {"is not a string", "expected a string"},
+      {"is not an array", "expected an array"},
+      {"is not an array of the expected length ({})", "expected {} numbers"},
+      {"is not an object id", "expected an object id"},
+      {"{}", "{}"},
+  };
+  return words[static_cast<int>(p)];
+}
+
 /// The problem as report.json's reader words it after the key path: "is missing", "is not a number", ...
 inline std::string phrase(Problem p, const std::string& detail) {
-  switch (p) {
-    case Problem::kMissing: return "is missing";
-    case Problem::kNotObject: return "is not an object";
-    case Problem::kNotBool: return "is not true or false";
-    case Problem::kNotNumber: return "is not a number";
-    case Problem::kNotInteger: return "is not an integer";
-    case Problem::kNotCount: return "is not a count (an integer >= 0)";
-    case Problem::kOutOfRange: return "is out of range " + detail;
-    case Problem::kNotString: return "is not a string";
-    case Problem::kNotArray: return "is not an array";
-    case Problem::kWrongLength: return "is not an array of the expected length (" + detail + ")";
-    case Problem::kBadKey: return "is not an object id";
-    case Problem::kInvalid: return detail;
-  }
-  return detail;
+  return fmt::format(fmt::runtime(words_of(p).phrase), detail);
 }
 
 /// The problem in io::JsonObject's words (the configs' and manifests' readers): "expected a number", ...
 /// `missing`: the words for Problem::kMissing.
 inline std::string config_words(Problem p, const std::string& detail, const char* missing = "missing required key") {
-  switch (p) {
-    case Problem::kMissing: return missing;
-    case Problem::kNotObject: return "expected a JSON object";
-    case Problem::kNotBool: return "expected true or false";
-    case Problem::kNotNumber: return "expected a number";
-    case Problem::kNotInteger: return "expected an integer";
-    case Problem::kNotCount: return "expected an integer >= 0";
-    case Problem::kOutOfRange: return "integer out of range " + detail;
-    case Problem::kNotString: return "expected a string";
-    case Problem::kNotArray: return "expected an array";
-    case Problem::kWrongLength: return "expected " + detail + " numbers";
-    case Problem::kBadKey: return "expected an object id";
-    case Problem::kInvalid: return detail;
-  }
-  return detail;
+  return p == Problem::kMissing ? std::string(missing) : fmt::format(fmt::runtime(words_of(p).config), detail);
 }
+
+/// The dialect of a strict file in io::JsonObject's words (run.json, roe.json, the configs): an unknown key is an
+/// error, an optional key given as null is absent, an error is a ConfigError (exit 2) naming the file and the key
+/// path. A dialect derives from it and adds its leaves (or its own fail).
+struct StrictDialect {
+  static constexpr bool kStrictKeys = true;
+  static constexpr bool kNullIsAbsent = true;
+  [[noreturn]] static void fail(const std::string& file, const std::string& path, Problem p, const std::string& detail) {
+    throw ConfigError(config_words(p, detail), {file, 0, 0, path});
+  }
+};
 
 // ---- type traits -------------------------------------------------------------------------------------
 
@@ -194,8 +205,16 @@ struct Writer {
   void operator()(const char* key, const T& v) {
     j[key] = value(v);
   }
+  template <class T, class Rule>
+  void operator()(const char* key, const T& v, Rule&&) {
+    j[key] = value(v);
+  }
   template <class T>
   void opt(const char* key, const T& v, bool written = true) {
+    if (written) j[key] = value(v);
+  }
+  template <class T, class Rule>
+  void opt(const char* key, const T& v, bool written, Rule&&) {
     if (written) j[key] = value(v);
   }
   template <class T>
@@ -210,6 +229,10 @@ struct Writer {
     Writer w{sub};
     fields(w);
     j[key] = std::move(sub);
+  }
+  template <class F>
+  void nested_opt(const char* key, F&& fields) {
+    nested(key, std::forward<F>(fields));
   }
   void axes(const char* key, const Eigen::Vector3d& v, const char* const (&names)[3]) {
     j[key] = {{names[0], v.x()}, {names[1], v.y()}, {names[2], v.z()}};
@@ -241,6 +264,7 @@ struct Reader {
   static constexpr bool kReading = true;
   io::JsonObject& o;  ///< marks the keys read
   const json& j;      ///< the same object
+  std::string path;   ///< its key path ("" for the document)
   std::vector<std::string> seen{};  ///< the keys read so far (for rest())
 
   const std::string& file() const { return o.source(); }
@@ -300,7 +324,7 @@ struct Reader {
     } else {
       need(x.is_object(), Problem::kNotObject);
       io::JsonObject sub(x, file, path);
-      Reader r{sub, x};
+      Reader r{sub, x, path};
       fields(r, v);
       if constexpr (D::kStrictKeys) sub.finish();
     }
@@ -312,11 +336,21 @@ struct Reader {
     if (!x) fail(key, Problem::kMissing);
     member(key, *x, v);
   }
+  template <class T, class Rule>
+  void operator()(const char* key, T& v, Rule&& rule) {
+    (*this)(key, v);
+    apply(key, v, rule);
+  }
   template <class T>
   void opt(const char* key, T& v, bool = true) {
     const json* x = raw(key);
     if (!x || (D::kNullIsAbsent && x->is_null())) return;
     member(key, *x, v);
+  }
+  template <class T, class Rule>
+  void opt(const char* key, T& v, bool written, Rule&& rule) {
+    opt(key, v, written);
+    apply(key, v, rule);
   }
   template <class T>
   void omittable(const char* key, std::optional<T>& v) {
@@ -347,9 +381,19 @@ struct Reader {
     if (!x) fail(key, Problem::kMissing);
     if (!x->is_object()) fail(key, Problem::kNotObject);
     io::JsonObject sub = o.child(key);
-    Reader r{sub, *x};
+    Reader r{sub, *x, at(key)};
     fields(r);
     sub.finish();  // a child's unknown key is reported by its root's finish()
+  }
+  template <class F>
+  void nested_opt(const char* key, F&& fields) {
+    static const json empty = json::object();
+    const json* x = raw(key);
+    if (x && !x->is_null() && !x->is_object()) fail(key, Problem::kNotObject);
+    io::JsonObject sub = o.child(key);  // absent or null: an empty object
+    Reader r{sub, x && x->is_object() ? *x : empty, at(key)};
+    fields(r);
+    sub.finish();
   }
   void axes(const char* key, Eigen::Vector3d& v, const char* const (&names)[3]) {
     nested(key, [&](Reader& r) {
@@ -365,7 +409,10 @@ struct Reader {
   }
   template <class W, class R>
   void merge(W&&, R&& read) {
-    read(o);
+    if constexpr (std::is_invocable_v<R, io::JsonObject&>)
+      read(o);
+    else
+      read(o, path);
   }
 
  /// The keys of this object that no field read so far, as they are (meta.json's producer record).
@@ -376,6 +423,12 @@ struct Reader {
   }
 
  private:
+  template <class T, class Rule>
+  void apply(const char* key, const T& v, Rule& rule) const {
+    const std::string what = rule(v);
+    if (!what.empty()) fail(key, Problem::kInvalid, what);
+  }
+
   const json* raw(const char* key) {
     if (std::find(seen.begin(), seen.end(), key) == seen.end()) seen.emplace_back(key);
     return o.raw(key);
@@ -388,7 +441,7 @@ struct Reader {
     if constexpr (kIsMapped<D, T>) {
       if (!x.is_object()) fail(key, Problem::kNotObject);
       io::JsonObject sub = o.child(key);
-      Reader r{sub, x};
+      Reader r{sub, x, at(key)};
       fields(r, v);
       sub.finish();
     } else {
@@ -446,7 +499,7 @@ template <class D, class T>
 void read(const json& j, T& v, const std::string& file) {
   if (!j.is_object()) D::fail(file, "", Problem::kNotObject, {});
   io::JsonObject root(j, file);
-  Reader<D> r{root, j};
+  Reader<D> r{root, j, ""};
   fields(r, v);
   if constexpr (D::kStrictKeys) root.finish();
 }
