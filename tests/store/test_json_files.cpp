@@ -215,21 +215,24 @@ TEST_CASE("store json: the run settings are parsed once into enums and written b
   CHECK(k4 == "filter.estimator");
   CHECK_THAT(w4, Catch::Contains("did you mean the top-level \"estimator\""));
   // Every value: its name is read as itself and written back as that name (the enum's order is the names').
-  for (std::size_t i = 0; i < estimators().size(); ++i) {
-    const RunConfig c = run_config_from_json(io::json{{"estimator", estimators()[i]}}, "c.json");
-    CHECK(static_cast<std::size_t>(c.estimator) == i);
-    CHECK(run_config_to_json(c).at("estimator") == estimators()[i]);
-  }
-  for (std::size_t i = 0; i < output_rates().size(); ++i) {
-    const RunConfig c = run_config_from_json(io::json{{"output", {{"rate", output_rates()[i]}}}}, "c.json");
-    CHECK(static_cast<std::size_t>(c.output_rate) == i);
-    CHECK(run_config_to_json(c).at("output").at("rate") == output_rates()[i]);
-  }
-  for (std::size_t i = 0; i < output_levels().size(); ++i) {
-    const RunConfig c = run_config_from_json(io::json{{"output", {{"level", output_levels()[i]}}}}, "c.json");
-    CHECK(static_cast<std::size_t>(c.output_level) == i);
-    CHECK(run_config_to_json(c, true).at("output").at("level") == output_levels()[i]);
-  }
+  const auto each_name = [](const std::vector<std::string>& names, auto member, const auto& config_of,
+                            const auto& written) {
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      const RunConfig c = run_config_from_json(config_of(names[i]), "c.json");
+      CHECK(static_cast<std::size_t>(c.*member) == i);
+      CHECK(written(run_config_to_json(c, true)) == names[i]);
+    }
+  };
+  each_name(
+      estimators(), &RunConfig::estimator, [](const std::string& n) { return io::json{{"estimator", n}}; },
+      [](const io::json& j) { return j.at("estimator"); });
+  each_name(
+      output_rates(), &RunConfig::output_rate, [](const std::string& n) { return io::json{{"output", {{"rate", n}}}}; },
+      [](const io::json& j) { return j.at("output").at("rate"); });
+  each_name(
+      output_levels(), &RunConfig::output_level,
+      [](const std::string& n) { return io::json{{"output", {{"level", n}}}}; },
+      [](const io::json& j) { return j.at("output").at("level"); });
   CHECK(to_string(Estimator::kBatch) == "batch");
   CHECK(to_string(OutputRate::kImages) == "images");
   CHECK(to_string(OutputLevel::kMinimal) == "minimal");
