@@ -193,27 +193,25 @@ TEST_CASE("store json: each key of run.json, roe.json and meta.json is spelled o
 // unknown name is refused at its key path with the allowed names, and each value is written back as its name.
 TEST_CASE("store json: the run settings are parsed once into enums and written back by name",
           "[store][json_fields][run_config]") {
-  const auto refused = [](const char* text) {
-    try {
-      (void)run_config_from_json(io::json::parse(text), "c.json");
-    } catch (const ConfigError& e) {
-      return std::pair<std::string, std::string>(e.context().key, e.what());
-    }
-    FAIL("accepted: " << text);
-    return std::pair<std::string, std::string>();
+  struct Bad {
+    const char* text;
+    const char* key;
+    const char* says;
   };
-  const auto [k1, w1] = refused(R"({"estimator": "smoothr"})");
-  CHECK(k1 == "estimator");
-  CHECK_THAT(w1, Catch::Contains("\"filter\", \"smoother\" or \"batch\""));
-  const auto [k2, w2] = refused(R"({"output": {"rate": "camera"}})");
-  CHECK(k2 == "output.rate");
-  CHECK_THAT(w2, Catch::Contains("\"imu\" or \"images\""));
-  const auto [k3, w3] = refused(R"({"output": {"level": 3}})");
-  CHECK(k3 == "output.level");
-  CHECK_THAT(w3, Catch::Contains("expected a string"));
-  const auto [k4, w4] = refused(R"({"filter": {"estimator": "batch"}})");
-  CHECK(k4 == "filter.estimator");
-  CHECK_THAT(w4, Catch::Contains("did you mean the top-level \"estimator\""));
+  for (const Bad& bad : {Bad{R"({"estimator": "smoothr"})", "estimator", "\"filter\", \"smoother\" or \"batch\""},
+                         Bad{R"({"output": {"rate": "camera"}})", "output.rate", "\"imu\" or \"images\""},
+                         Bad{R"({"output": {"level": 3}})", "output.level", "expected a string"},
+                         Bad{R"({"filter": {"estimator": "batch"}})", "filter.estimator",
+                             "did you mean the top-level \"estimator\""}}) {
+    CAPTURE(bad.text);
+    try {
+      (void)run_config_from_json(io::json::parse(bad.text), "c.json");
+      FAIL("accepted");
+    } catch (const ConfigError& e) {
+      CHECK(e.context().key == bad.key);
+      CHECK_THAT(e.what(), Catch::Contains(bad.says));
+    }
+  }
   // Every value: its name is read as itself and written back as that name (the enum's order is the names').
   const auto each_name = [](const std::vector<std::string>& names, auto member, const auto& config_of,
                             const auto& written) {
