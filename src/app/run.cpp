@@ -144,14 +144,13 @@ bool has_batch_estimator() { return g_batch_estimator != nullptr; }
 RunConfig effective_run_config(const RunOptions& options) {
   RunConfig config;
   if (!options.config_file.empty()) config = run_config_from_file(options.config_file);
-  if (!options.output_level.empty()) config.output_level = options.output_level;  // --output over the config
-  if (!options.estimator.empty()) {  // --estimator over the config
-    const auto& names = store::estimators();
-    if (std::find(names.begin(), names.end(), options.estimator) == names.end())
-      throw InputError(fmt::format("--estimator must be filter, smoother or batch, got '{}'", options.estimator),
-                       {"roe run"});
-    config.estimator = options.estimator;
-  }
+  // --output and --estimator over the config, parsed here (the CLI's words) as the config's are by its reader.
+  if (!options.output_level.empty() && !store::parse(options.output_level, config.output_level))
+    throw InputError(fmt::format("--output must be full, standard or minimal, got '{}'", options.output_level),
+                     {"roe run"});
+  if (!options.estimator.empty() && !store::parse(options.estimator, config.estimator))
+    throw InputError(fmt::format("--estimator must be filter, smoother or batch, got '{}'", options.estimator),
+                     {"roe run"});
   return config;
 }
 
@@ -159,7 +158,7 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
               const RunOptions& options) {
   const auto t_start = Clock::now();
   RunConfig config = effective_run_config(options);
-  if (config.estimator == "batch" && !has_batch_estimator())
+  if (config.estimator == store::Estimator::kBatch && !has_batch_estimator())
     throw InputError("the batch estimator (\"estimator\": \"batch\") runs in the helper roe-refine (Ceres), and "
                      "this executable has none: `roe run` hands such a run to roe-refine itself (docs/refine.md §8)",
                      {options.config_file.empty() ? std::string("--estimator") : options.config_file, 0, 0, "estimator"});
@@ -198,9 +197,9 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
   const std::string set = pipeline::choose_detections(dataset, options.detections);
   // The batch starts from the smoother's estimate and the run's anchor; without an anchor there is nothing to
   // refine against, and the smoother's estimate is the run's (said in run.json's config and warnings).
-  const bool batch = config.estimator == "batch" && r.summary.anchor.id >= 0;
-  if (config.estimator == "batch" && !batch) {
-    config.estimator = "smoother";
+  const bool batch = config.estimator == store::Estimator::kBatch && r.summary.anchor.id >= 0;
+  if (config.estimator == store::Estimator::kBatch && !batch) {
+    config.estimator = store::Estimator::kSmoother;
     res.output.warnings.push_back("the batch estimator was not run: the run has no anchor (no usable detection), "
                                   "so the files hold the smoother's estimate");
     log::warn("{}", res.output.warnings.back());

@@ -57,7 +57,7 @@ RunFn setup(CLI::App& sub) {
     a->opt.force = globals().force;
     // The batch estimator needs Ceres, which only the helper roe-refine links: hand it the whole command line
     // before anything is read or written (docs/architecture.md, "Executables").
-    if (app::effective_run_config(a->opt).estimator == "batch" && !runs_here("", "refine")) {
+    if (app::effective_run_config(a->opt).estimator == store::Estimator::kBatch && !runs_here("", "refine")) {
       std::string error;
       int code = 3;
       const std::string asked = a->opt.estimator.empty() ? "run with \"estimator\": \"batch\" (" + a->opt.config_file + ")"

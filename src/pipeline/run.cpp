@@ -25,7 +25,7 @@ using store::RecordedState;
 enum class SigmaRows { kEvery, kAfterImages, kNone };
 
 SigmaRows sigma_rows(const store::RunConfig& c) {
-  if (c.output_level == "minimal") return SigmaRows::kNone;
+  if (c.output_level == store::OutputLevel::kMinimal) return SigmaRows::kNone;
   return store::sigma_at_every_row(c) ? SigmaRows::kEvery : SigmaRows::kAfterImages;
 }
 
@@ -248,10 +248,10 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
         out.imu_noise_from[0] == out.imu_noise_from[2] ? out.imu_noise_from[0] : "dataset and config"));
   MemorySink memory(out);
   if (rows == nullptr) {
-    out.states.reserve(config.output_rate == "imu" ? dataset.imu.size() : images.size());
+    out.states.reserve(config.output_rate == store::OutputRate::kImu ? dataset.imu.size() : images.size());
     out.reprojection.reserve(dets.size());
   }
-  Recorder rec(out, rows != nullptr ? *rows : memory, config.output_rate == "imu", sigma_rows(config));
+  Recorder rec(out, rows != nullptr ? *rows : memory, config.output_rate == store::OutputRate::kImu, sigma_rows(config));
   const auto t0 = Clock::now();
   const bool smooth = config.smoothed();
   ekf::FilterRecording recording;
@@ -269,7 +269,7 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
     // the other steps costs O(15²) each, ekf/smoother.hpp).
     std::vector<Timestamp> row_times;
     ekf::SmootherOptions sopt;
-    if (!(config.output_rate == "imu" && sigma_rows(config) == SigmaRows::kEvery)) {
+    if (!(config.output_rate == store::OutputRate::kImu && sigma_rows(config) == SigmaRows::kEvery)) {
       for (const RecordedState& row : out.states)
         if (!std::isnan(row.sigma(0))) row_times.push_back(row.t_ns);
       sopt.covariance_at = &row_times;

@@ -1,6 +1,7 @@
 // The strict JSON loader of RunConfig (FilterOptions, HealthLimits and the output options) and
 // its echo. Each options struct lists its fields once, in a table of (key, member, check): the table
-// loads, validates and echoes (run.json "config"), in this order.
+// loads, validates and echoes (run.json "config"), in this order; RunConfig itself is one field mapping
+// (config_fields) walked by the store's writer and strict reader (json_fields.hpp).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include "roe/store/run_config.hpp"
 #include "roe/core/error.hpp"
 #include "roe/io/json.hpp"
+#include "json_fields.hpp"
 
 namespace roe::store {
 namespace {
@@ -161,12 +163,12 @@ const std::vector<Field<ekf::FilterOptions>>& filter_fields() {
 
 // What no single key can say: the ray-aligned σ's consistency.
 void check_filter(JsonObject& f, const ekf::FilterOptions& o) {
+  constexpr const char* kRay = "meas_sigma_ray_m";  // the key an inconsistency is reported at
   if (o.meas_sigma_ray_m >= 0.0 && o.meas_sigma_ray_m + o.meas_sigma_ray_per_depth <= 0.0)
-    fail(f, "meas_sigma_ray_m", "must be > 0 (or meas_sigma_ray_per_depth > 0), or negative for σ_ray = σ_lat");
+    fail(f, kRay, "must be > 0 (or meas_sigma_ray_per_depth > 0), or negative for σ_ray = σ_lat");
   const bool camera_sigma = o.meas_sigma_in_camera || o.residual_frame == ekf::ResidualFrame::kCamera;
   if (!camera_sigma && (o.meas_sigma_ray_m >= 0.0 || o.meas_sigma_p_per_depth > 0.0))
-    fail(f, "meas_sigma_ray_m",
-         "the ray-aligned, depth-dependent σ describe the detected T_C_O: set meas_sigma_in_camera true");
+    fail(f, kRay, "the ray-aligned, depth-dependent σ describe the detected T_C_O: set meas_sigma_in_camera true");
 }
 
 const std::vector<Field<ekf::HealthLimits>>& health_fields() {
@@ -195,25 +197,87 @@ json echo(const S& s, const std::vector<Field<S>>& fields) {
   return j;
 }
 
-/// "estimator", or the key it replaced, "smoother": "none" | "rts" (configs and run.json files written before
-/// issue 48), read as "filter" and "smoother"; both given must agree.
-void read_estimator(JsonObject& root, RunConfig& c) {
-  const auto& names = estimators();
-  // Both keys are read (marked) even when absent, so that one misplaced under "filter" is answered with
-  // "did you mean the top-level ...".
-  root.get("estimator", c.estimator);
-  if (root.has("estimator") && std::find(names.begin(), names.end(), c.estimator) == names.end())
-    fail(root, "estimator", "must be \"filter\", \"smoother\" or \"batch\"");
+/// "smoother", the key "estimator" replaced: "none" | "rts" (configs and run.json files written before issue 48),
+/// read as "filter" and "smoother"; with both given they must agree. Read (marked) even when absent, so that one
+/// misplaced under "filter" is answered with "did you mean the top-level ...".
+void read_legacy_smoother(JsonObject& root, const char* estimator_key, RunConfig& c) {
+  constexpr const char* kSmoother = "smoother";
   std::string legacy;
-  root.get("smoother", legacy);
-  if (!root.has("smoother")) return;
+  root.get(kSmoother, legacy);
+  if (!root.has(kSmoother)) return;
   if (legacy != "none" && legacy != "rts")
-    fail(root, "smoother", "must be \"none\" or \"rts\" (the key is now \"estimator\": \"filter\", \"smoother\" or \"batch\")");
-  const std::string as = legacy == "rts" ? "smoother" : "filter";
-  if (root.has("estimator") && !(c.estimator == as || (legacy == "rts" && c.estimator == "batch")))
-    fail(root, "smoother", fmt::format("\"smoother\": \"{}\" contradicts \"estimator\": \"{}\" (give \"estimator\" only)",
-                                       legacy, c.estimator));
-  if (!root.has("estimator")) c.estimator = as;
+    fail(root, kSmoother, "must be \"none\" or \"rts\" (the key is now \"estimator\": \"filter\", \"smoother\" or \"batch\")");
+  const Estimator as = legacy == "rts" ? Estimator::kSmoother : Estimator::kFilter;
+  const bool given = root.has(estimator_key);
+  if (given && !(c.estimator == as || (legacy == "rts" && c.estimator == Estimator::kBatch)))
+    fail(root, kSmoother, fmt::format("\"smoother\": \"{}\" contradicts \"estimator\": \"{}\" (give \"estimator\" only)",
+                                      legacy, to_string(c.estimator)));
+  if (!given) c.estimator = as;
+}
+
+/// A setting by its name: a string, one of the enum's names (`what` says which).
+template <class E>
+void read_name(const json& x, E& v, const std::string& file, const std::string& path, const char* what);
+
+/// The configuration's dialect (configs/*.json, run.json's "config"): strict, every key optional (absent or
+/// null: its default), the settings by name; errors are ConfigErrors naming the file and the key path.
+struct ConfigJson : json_fields::StrictDialect {
+  static json write_leaf(const Estimator& v) { return to_string(v); }
+  static json write_leaf(const OutputRate& v) { return to_string(v); }
+  static json write_leaf(const OutputLevel& v) { return to_string(v); }
+  static void read_leaf(const json& x, Estimator& v, const std::string& file, const std::string& path) {
+    read_name(x, v, file, path, "must be \"filter\", \"smoother\" or \"batch\"");
+  }
+  static void read_leaf(const json& x, OutputRate& v, const std::string& file, const std::string& path) {
+    read_name(x, v, file, path, "must be \"imu\" or \"images\"");
+  }
+  static void read_leaf(const json& x, OutputLevel& v, const std::string& file, const std::string& path) {
+    read_name(x, v, file, path, "must be \"full\", \"standard\" or \"minimal\"");
+  }
+};
+
+template <class E>
+void read_name(const json& x, E& v, const std::string& file, const std::string& path, const char* what) {
+  if (!x.is_string()) ConfigJson::fail(file, path, json_fields::Problem::kNotString, {});
+  if (!parse(x.get<std::string>(), v)) ConfigJson::fail(file, path, json_fields::Problem::kInvalid, what);
+}
+
+/// RunConfig's one mapping: the filter's and the health limits' keys are their tables' (filter_fields,
+/// health_fields); output.level is written only away from "full" unless `every_key`.
+template <class A>
+void config_fields(A& a, RunConfig& c, bool every_key) {
+  constexpr const char* kEstimator = "estimator";
+  a.nested_opt("filter", [&](auto& f) {
+    f.merge([&](json& j) { j = echo(c.filter, filter_fields()); },
+            [&](JsonObject& o) {
+              load(o, c.filter, filter_fields());
+              check_filter(o, c.filter);
+            });
+  });
+  a.nested_opt("output", [&](auto& o) {
+    o.opt("rate", c.output_rate), o.opt("level", c.output_level, every_key || c.output_level != OutputLevel::kFull);
+  });
+  a.nested_opt("health", [&](auto& h) {
+    h.merge([&](json& j) { j = echo(c.health, health_fields()); },
+            [&](JsonObject& o) { load(o, c.health, health_fields()); });
+  });
+  a.opt(kEstimator, c.estimator);
+  a.merge([](json&) {}, [&](JsonObject& root) { read_legacy_smoother(root, kEstimator, c); });
+  a.opt("description", c.description, !c.description.empty());
+}
+
+/// The name of `v` in `names` (the enum's order).
+template <class E>
+const std::string& name_of(const std::vector<std::string>& names, E v) {
+  return names.at(static_cast<std::size_t>(v));
+}
+
+template <class E>
+bool parse_name(const std::vector<std::string>& names, const std::string& name, E& out) {
+  const auto it = std::find(names.begin(), names.end(), name);
+  if (it == names.end()) return false;
+  out = static_cast<E>(it - names.begin());
+  return true;
 }
 
 }  // namespace
@@ -236,43 +300,29 @@ ekf::FilterOptions recommended_filter_options() {
 
 RunConfig run_config_from_json(const json& j, const std::string& source) {
   RunConfig c;
-  JsonObject root(j, source);
-  {
-    JsonObject f = root.child("filter");
-    load(f, c.filter, filter_fields());
-    check_filter(f, c.filter);
-    f.finish();
-  }
-  {
-    JsonObject out = root.child("output");
-    out.get("rate", c.output_rate);
-    if (c.output_rate != "imu" && c.output_rate != "images")
-      fail(out, "rate", "must be \"imu\" or \"images\"");
-    out.get("level", c.output_level);
-    const auto& levels = output_levels();
-    if (std::find(levels.begin(), levels.end(), c.output_level) == levels.end())
-      fail(out, "level", "must be \"full\", \"standard\" or \"minimal\"");
-    out.finish();
-  }
-  {
-    JsonObject h = root.child("health");
-    load(h, c.health, health_fields());
-    h.finish();
-  }
-  read_estimator(root, c);
-  root.get("description", c.description);
+  JsonObject root(j, source);  // null: an empty configuration
+  const json empty = json::object();
+  json_fields::Reader<ConfigJson> r{root, j.is_null() ? empty : j, ""};
+  config_fields(r, c, false);
   root.finish();
   return c;
 }
 
 json run_config_to_json(const RunConfig& c, bool every_key) {
-  json j = {{"filter", echo(c.filter, filter_fields())},
-            {"output", {{"rate", c.output_rate}}},
-            {"estimator", c.estimator},
-            {"health", echo(c.health, health_fields())}};
-  if (every_key || c.output_level != "full") j["output"]["level"] = c.output_level;
-  if (!c.description.empty()) j["description"] = c.description;
+  json j = json::object();
+  json_fields::Writer<ConfigJson> w{j};
+  config_fields(w, const_cast<RunConfig&>(c), every_key);  // the writer only reads c
   return j;
+}
+
+json health_limits_to_json(const ekf::HealthLimits& h) { return echo(h, health_fields()); }
+
+ekf::HealthLimits health_limits_from_json(const json& j, const std::string& source, const std::string& path) {
+  ekf::HealthLimits h;
+  JsonObject o(j, source, path);
+  load(o, h, health_fields());
+  o.finish();
+  return h;
 }
 
 const std::vector<std::string>& estimators() {
@@ -280,26 +330,40 @@ const std::vector<std::string>& estimators() {
   return names;
 }
 
-const std::vector<std::string>& output_levels() {
-  static const std::vector<std::string> levels = {"full", "standard", "minimal"};
-  return levels;
+const std::vector<std::string>& output_rates() {
+  static const std::vector<std::string> names = {"imu", "images"};
+  return names;
 }
+
+const std::vector<std::string>& output_levels() {
+  static const std::vector<std::string> names = {"full", "standard", "minimal"};
+  return names;
+}
+
+const std::string& to_string(Estimator e) { return name_of(estimators(), e); }
+const std::string& to_string(OutputRate r) { return name_of(output_rates(), r); }
+const std::string& to_string(OutputLevel l) { return name_of(output_levels(), l); }
+bool parse(const std::string& name, Estimator& out) { return parse_name(estimators(), name, out); }
+bool parse(const std::string& name, OutputRate& out) { return parse_name(output_rates(), name, out); }
+bool parse(const std::string& name, OutputLevel& out) { return parse_name(output_levels(), name, out); }
 
 bool run_folder_has(const RunConfig& c, const std::string& file) {
   if (file == "run.json" || file == "trajectory.csv" || file == "trajectory.tum") return true;
-  if (c.output_level == "minimal") return false;
+  if (c.output_level == OutputLevel::kMinimal) return false;
   if (file.find("_filter.") != std::string::npos) return c.smoothed();
   return true;
 }
 
 std::string run_file_absent_reason(const RunConfig& c, const std::string& file) {
   if (run_folder_has(c, file)) return {};
-  if (c.output_level == "minimal")
+  if (c.output_level == OutputLevel::kMinimal)
     return "the run was written with output level minimal: trajectory.csv/.tum and run.json only (`roe run "
            "--output standard` or full writes the other files)";
-  return fmt::format("the run's estimate is the filter's own (\"estimator\": \"{}\"), so no {}", c.estimator, file);
+  return fmt::format("the run's estimate is the filter's own (\"estimator\": \"{}\"), so no {}", to_string(c.estimator), file);
 }
 
-bool sigma_at_every_row(const RunConfig& c) { return c.output_level == "full" || c.output_rate == "images"; }
+bool sigma_at_every_row(const RunConfig& c) {
+  return c.output_level == OutputLevel::kFull || c.output_rate == OutputRate::kImages;
+}
 
 }  // namespace roe::store

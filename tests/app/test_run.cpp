@@ -326,8 +326,8 @@ TEST_CASE("roe run with the RTS smoother: smoothed outputs, the filter's in *_fi
   for (const char* bad : {R"({"estimator": "rts"})", R"({"estimator": "filter", "smoother": "rts"})",
                           R"({"estimator": "smoother", "smoother": "none"})"})
     CHECK_THROWS_AS(app::run_config_from_json(io::json::parse(bad), "cfg.json"), ConfigError);
-  CHECK(app::run_config_from_json(io::json::parse(R"({"estimator": "batch", "smoother": "rts"})"), "c").estimator == "batch");
-  CHECK(app::run_config_from_json(io::json::parse(R"({"smoother": "rts"})"), "c").estimator == "smoother");
+  CHECK(app::run_config_from_json(io::json::parse(R"({"estimator": "batch", "smoother": "rts"})"), "c").estimator == store::Estimator::kBatch);
+  CHECK(app::run_config_from_json(io::json::parse(R"({"smoother": "rts"})"), "c").estimator == store::Estimator::kSmoother);
   for (const auto& p : {ds, plain, smoothed, cfg}) fs::remove_all(p);
 }
 
@@ -582,7 +582,7 @@ TEST_CASE("real IMU: EuRoC snippet with 4 objects", "[app][run][euroc]") {
   // PoET-like errors (0.3 s correlated): 0.108, 0.152, 0.194, 0.111, 0.118 m and 2.7, 2.6, 4.0, 3.7,
   // 1.7°; its bounds below guard it against regressions.
   const app::RunConfig cfg = euroc_flight_config();
-  REQUIRE(cfg.estimator == "smoother");
+  REQUIRE(cfg.estimator == store::Estimator::kSmoother);
   std::vector<double> worst_p, worst_r;
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
     app::SimulateOptions so;
@@ -618,7 +618,7 @@ void check_target_on_seeds_1_to_5(const DetectionNoiseConfigEdit& errors) {
     return;
   }
   app::RunConfig cfg = euroc_flight_config();
-  cfg.estimator = "filter";  // the causal filter: these bound the filter's own estimate
+  cfg.estimator = store::Estimator::kFilter;  // the causal filter: these bound the filter's own estimate
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
     sim::FromGroundtruthConfig c;
     c.num_objects = 4;

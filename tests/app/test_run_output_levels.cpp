@@ -223,9 +223,9 @@ TEST_CASE("output level minimal: calib-check cannot judge, refine refuses with t
 
 TEST_CASE("output level: the config key, --output over it, and bad values", "[app][run][levels]") {
   const store::RunConfig c = store::run_config_from_json(io::json::parse(R"({"output": {"level": "standard"}})"), "c.json");
-  CHECK(c.output_level == "standard");
+  CHECK(c.output_level == store::OutputLevel::kStandard);
   CHECK(store::run_config_to_json(c).at("output").at("level") == "standard");
-  CHECK(store::run_config_from_json(store::run_config_to_json(c), "echo").output_level == "standard");
+  CHECK(store::run_config_from_json(store::run_config_to_json(c), "echo").output_level == store::OutputLevel::kStandard);
   CHECK_FALSE(store::run_config_to_json(store::RunConfig{}).at("output").contains("level"));
   try {
     store::run_config_from_json(io::json::parse(R"({"output": {"level": "most"}})"), "c.json");
@@ -236,12 +236,12 @@ TEST_CASE("output level: the config key, --output over it, and bad values", "[ap
   }
   // What each level holds, and why a reader finds a file absent.
   store::RunConfig m;
-  m.output_level = "minimal";
+  m.output_level = store::OutputLevel::kMinimal;
   CHECK(store::run_folder_has(m, "trajectory.tum"));
   CHECK_FALSE(store::run_folder_has(m, "objects.csv"));
   CHECK(store::run_file_absent_reason(m, "states.csv").find("output level minimal") != std::string::npos);
   store::RunConfig none;
-  none.estimator = "filter";
+  none.estimator = store::Estimator::kFilter;
   CHECK_FALSE(store::run_folder_has(none, "states_filter.csv"));
   CHECK(store::run_folder_has(none, "states.csv"));
   CHECK(store::run_file_absent_reason(none, "states.csv").empty());

@@ -98,7 +98,7 @@ int main(int argc, char** argv) {
     // built-in defaults changed on 2026-12-02 (docs/filter.md §12) and would make the figures incomparable.
     app::RunConfig cfg;
     cfg.filter = ekf::FilterOptions{};
-    cfg.estimator = "filter";
+    cfg.estimator = store::Estimator::kFilter;
     const ekf::ImuNoiseParams noise{
         d.manifest.imu->noise.gyro_noise_density, d.manifest.imu->noise.gyro_random_walk,
         d.manifest.imu->noise.accel_noise_density, d.manifest.imu->noise.accel_random_walk};

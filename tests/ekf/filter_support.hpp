@@ -136,7 +136,7 @@ inline MonteCarlo monte_carlo(const std::string& preset, int N, double duration,
   app::RunConfig cfg = test::plain_config();
   cfg.filter.use_detection_sigmas = true;
   cfg.filter.init_sigma_v_mps = 1.0;
-  cfg.estimator = smoother == "rts" ? "smoother" : "filter";  // RunConfig::estimator (issue 48)
+  cfg.estimator = smoother == "rts" ? store::Estimator::kSmoother : store::Estimator::kFilter;  // RunConfig::estimator (issue 48)
   if (edit_config) edit_config(cfg);
   std::vector<double> nees_sum;  // per time step, summed over runs
   std::size_t rejected = 0, rows = 0;

@@ -17,7 +17,7 @@ namespace {
 app::RunConfig matched_config(const std::string& smoother) {
   app::RunConfig cfg = test::plain_config();
   cfg.filter.use_detection_sigmas = true;
-  cfg.estimator = smoother == "rts" ? "smoother" : "filter";  // RunConfig::estimator (issue 48)
+  cfg.estimator = smoother == "rts" ? store::Estimator::kSmoother : store::Estimator::kFilter;  // RunConfig::estimator (issue 48)
   return cfg;
 }
 
@@ -96,7 +96,7 @@ TEST_CASE("smoother: exact at the end, constant states at their final estimate, 
 TEST_CASE("smoother: noise-free preset matches the truth", "[ekf][smoother][sim]") {
   const Dataset d = test::simulate_preset("noise-free", 1, 30.0);
   app::RunConfig cfg = test::plain_config();
-  cfg.estimator = "smoother";
+  cfg.estimator = store::Estimator::kSmoother;
   const app::RunOutput r = app::run_dataset(d, "sim", cfg);
   const test::Accuracy a = test::accuracy(test::match(r, d));
   INFO("position RMSE " << a.pos_rmse.transpose() << " m, Euler RMSE " << a.euler_rmse.transpose() << " deg");

@@ -82,7 +82,7 @@ TEST_CASE("refine/batch: roe run with the batch estimator is roe run then roe re
   const store::RunRecord rec = store::read_run_json(tmp / "batch" / "run.json");
   const store::RunRecord ref = store::read_run_json(tmp / "refined" / "run.json");
   CHECK(rec.command == "run");
-  CHECK(rec.config.estimator == "batch");
+  CHECK(rec.config.estimator == store::Estimator::kBatch);
   REQUIRE(rec.refine);
   CHECK(rec.refine->solves == ref.refine->solves);
   CHECK(std::abs(rec.refine->error_model.tau_s - ref.refine->error_model.tau_s) < 0.05 * ref.refine->error_model.tau_s);
@@ -108,12 +108,12 @@ TEST_CASE("refine/batch: the estimator option over the config, and bad values") 
   const fs::path cfg = tmp.write("c.json", R"({"estimator": "filter"})");
   app::RunOptions o;
   o.config_file = cfg.string();
-  CHECK(app::effective_run_config(o).estimator == "filter");
+  CHECK(app::effective_run_config(o).estimator == store::Estimator::kFilter);
   o.estimator = "batch";
-  CHECK(app::effective_run_config(o).estimator == "batch");
+  CHECK(app::effective_run_config(o).estimator == store::Estimator::kBatch);
   o.estimator = "rts";
   CHECK_THROWS_AS(app::effective_run_config(o), InputError);
-  CHECK(app::effective_run_config({}).estimator == "smoother");  // roe's default stays the smoother (§8)
+  CHECK(app::effective_run_config({}).estimator == store::Estimator::kSmoother);  // roe's default stays the smoother (§8)
 }
 
 // The camera–IMU time offset in the batch (docs/refine.md §2b): a run whose filter estimates t_d is refined with

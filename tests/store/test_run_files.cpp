@@ -452,8 +452,8 @@ TEST_CASE("run files: a run folder written row by row has the bytes of the in-me
   for (const char* level : {"full", "minimal"}) {
     INFO(level);
     RunConfig config;
-    config.estimator = "filter";
-    config.output_level = level;
+    config.estimator = Estimator::kFilter;
+    REQUIRE(parse(level, config.output_level));
     const fs::path dir = tmp / level;
     fs::create_directories(dir);
     {  // abandoned (an exception in the filter): nothing left, not even a temporary

@@ -22,7 +22,7 @@ RunRecord full_record() {
   RunRecord r;
   r.roe_version = "9.9.9";
   r.config.filter.min_score = 0.25;
-  r.config.estimator = "filter";
+  r.config.estimator = Estimator::kFilter;
   r.inputs = {"ds", "/abs/ds", "poet", {{"roe.json", "ab"}, {"mav0/imu0/data.csv", "cd"}}, "c.json", "/abs/c.json"};
   r.anchor_id = 3;
   r.counts.imu_samples = 24000;
@@ -94,7 +94,7 @@ TEST_CASE("run.json: write, read and write again give the same text, every field
   CHECK(back.inputs.config_abs == "/abs/c.json");
   CHECK(back.health.problems == std::vector<std::string>{"a problem"});
   CHECK(back.config.filter.min_score == 0.25);
-  CHECK(back.config.estimator == "filter");
+  CHECK(back.config.estimator == Estimator::kFilter);
   // final.time_offset (issue 49) round-trips; a run.json written before it has none.
   const RunRecord full = run_record_from_json(io::json::parse(format_run_json(full_record())), "x");
   REQUIRE(full.final_time_offset.has_value());

@@ -12,7 +12,7 @@ namespace roe::test {
 inline app::RunConfig plain_config() {
   app::RunConfig c;
   c.filter = ekf::FilterOptions{};
-  c.estimator = "filter";
+  c.estimator = store::Estimator::kFilter;
   return c;
 }
 

@@ -9,6 +9,7 @@
 /// the file and the key path; io::read_json_file adds line and column).
 
 #include <Eigen/Geometry>
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -38,16 +39,22 @@ Pose pose_from_json(const json& j, const std::string& source, const std::string&
 
 /// The four noise keys of any struct with the members gyro_noise_density, gyro_random_walk,
 /// accel_noise_density and accel_random_walk; values < 0 (unknown) are left out.
+/// The four noise keys, in the order of imu_noise_values.
+inline constexpr const char* kImuNoiseKeys[4] = {"gyro_noise_density", "gyro_random_walk", "accel_noise_density",
+                                                 "accel_random_walk"};
+/// The members of `n` under kImuNoiseKeys, in that order.
+template <typename Noise>
+auto imu_noise_values(Noise& n) {
+  return std::array<decltype(&n.gyro_noise_density), 4>{&n.gyro_noise_density, &n.gyro_random_walk,
+                                                        &n.accel_noise_density, &n.accel_random_walk};
+}
+
 template <typename Noise>
 json imu_noise_to_json(const Noise& n) {
   json j = json::object();
-  const auto put = [&j](const char* key, double v) {
-    if (v >= 0.0) j[key] = v;
-  };
-  put("gyro_noise_density", n.gyro_noise_density);
-  put("gyro_random_walk", n.gyro_random_walk);
-  put("accel_noise_density", n.accel_noise_density);
-  put("accel_random_walk", n.accel_random_walk);
+  const auto values = imu_noise_values(n);
+  for (int i = 0; i < 4; ++i)
+    if (*values[i] >= 0.0) j[kImuNoiseKeys[i]] = *values[i];
   return j;
 }
 
@@ -55,15 +62,14 @@ json imu_noise_to_json(const Noise& n) {
 /// when given (0 = a noise-free IMU). Other keys of `o` are the caller's (it calls o.finish()).
 template <typename Noise>
 void read_imu_noise(JsonObject& o, Noise& n) {
-  const auto get = [&o](const char* key, double& v) {
-    if (!o.has(key)) return;
-    o.get(key, v);
-    if (!(std::isfinite(v) && v >= 0.0)) throw ConfigError("must be >= 0", {o.source(), 0, 0, o.key_path(key)});
-  };
-  get("gyro_noise_density", n.gyro_noise_density);
-  get("gyro_random_walk", n.gyro_random_walk);
-  get("accel_noise_density", n.accel_noise_density);
-  get("accel_random_walk", n.accel_random_walk);
+  const auto values = imu_noise_values(n);
+  for (int i = 0; i < 4; ++i) {
+    const char* key = kImuNoiseKeys[i];
+    if (!o.has(key)) continue;
+    o.get(key, *values[i]);
+    if (!(std::isfinite(*values[i]) && *values[i] >= 0.0))
+      throw ConfigError("must be >= 0", {o.source(), 0, 0, o.key_path(key)});
+  }
 }
 
 }  // namespace roe::io

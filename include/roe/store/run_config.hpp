@@ -25,16 +25,35 @@ namespace roe::store {
 /// IMU rests, and the IMU noise of roe.json scaled by 4.
 ekf::FilterOptions recommended_filter_options();
 
+/// What produces the run folder's main files (RunConfig::estimator), by name "filter", "smoother", "batch".
+enum class Estimator { kFilter, kSmoother, kBatch };
+/// The rows of trajectory.csv/.tum and states.csv (RunConfig::output_rate): "imu", "images".
+enum class OutputRate { kImu, kImages };
+/// What the run folder holds (RunConfig::output_level): "full", "standard", "minimal".
+enum class OutputLevel { kFull, kStandard, kMinimal };
+
+/// The names of each setting's values, in the enum's order: the words of configs, run.json and the CLI.
+const std::vector<std::string>& estimators();     ///< filter, smoother, batch
+const std::vector<std::string>& output_rates();   ///< imu, images
+const std::vector<std::string>& output_levels();  ///< full, standard, minimal (in order of what they keep)
+const std::string& to_string(Estimator e);
+const std::string& to_string(OutputRate r);
+const std::string& to_string(OutputLevel l);
+/// The value named `name`; false (out unchanged) for a name not in the list.
+bool parse(const std::string& name, Estimator& out);
+bool parse(const std::string& name, OutputRate& out);
+bool parse(const std::string& name, OutputLevel& out);
+
 struct RunConfig {
   ekf::FilterOptions filter = recommended_filter_options();
   /// Rows of trajectory.csv/.tum and states.csv: "imu" (every IMU sample) or "images" (after each
   /// image update).
-  std::string output_rate = "imu";
+  OutputRate output_rate = OutputRate::kImu;
   /// What the run folder holds (docs/filter.md §9, "Output levels"): "full" (every file, σ at every row),
   /// "standard" (the same files; states.csv/states_filter.csv give σ only at the first row after each image,
   /// their σ cells are empty elsewhere), "minimal" (trajectory.csv/.tum and run.json only). Echoed in
   /// run.json only when not "full", so that the config of a default run (and a sweep job's id) is unchanged.
-  std::string output_level = "full";
+  OutputLevel output_level = OutputLevel::kFull;
   /// What produces the run folder's main files (trajectory.csv/.tum, states.csv, objects.csv; docs/filter.md
   /// §10, docs/refine.md §8): "filter" the causal filter alone (configs/paper.json: the paper's filter);
   /// "smoother" (the default) the fixed-interval RTS smoothed estimate (ekf/smoother.hpp), the filter's own
@@ -42,23 +61,27 @@ struct RunConfig {
   /// pre-whitened batch MAP of `roe refine` in the same process (Ceres: the helper roe-refine runs it), the
   /// filter's own again in the _filter files. The key replaces "smoother" ("none" | "rts"), which is still
   /// read (configs and run.json files written before, as "filter" and "smoother").
-  std::string estimator = "smoother";
+  Estimator estimator = Estimator::kSmoother;
   /// Whether the filter's recording is kept for the RTS smoother (estimator "smoother" or "batch").
-  bool smoothed() const { return estimator != "filter"; }
+  bool smoothed() const { return estimator != Estimator::kFilter; }
   std::string description;  ///< free text (configs/*.json say what they are for)
   /// When a run is judged unhealthy (`roe run` exits 1): "health": {...} in the config.
   ekf::HealthLimits health;
 };
 
-/// Strict loader (ConfigError naming `source` and the key) and its inverse (what run.json echoes):
+/// Strict loader (ConfigError naming `source` and the key; the settings' names are parsed here, once, into
+/// their enums: an unknown name is refused naming the key and the allowed names) and its inverse (what run.json echoes):
 /// run_config_to_json(run_config_from_json(j)) == j for every j run_config_to_json wrote.
 RunConfig run_config_from_json(const nlohmann::json& j, const std::string& source);
 /// `every_key`: also the keys echoed only away from their default (output.level), e.g. for the list of a
 /// run config's keys (roe sweep's overrides).
 nlohmann::json run_config_to_json(const RunConfig& c, bool every_key = false);
 
-/// The output levels, in order of what they keep: full, standard, minimal.
-const std::vector<std::string>& output_levels();
+/// The "health" block's limits (also run.json's health.limits): its echo and its strict reader (every key
+/// optional, unknown keys refused; ConfigError naming `source` and the key under `path`).
+nlohmann::json health_limits_to_json(const ekf::HealthLimits& h);
+ekf::HealthLimits health_limits_from_json(const nlohmann::json& j, const std::string& source, const std::string& path);
+
 /// Whether a run written with `c` holds `file` (a run folder's file name: "states.csv", "objects.csv",
 /// "reprojection.csv", "states_filter.csv", "trajectory_filter.csv", ...; the _filter files also need an
 /// estimator beyond the filter). trajectory.csv/.tum and run.json are in every run folder.
@@ -66,8 +89,6 @@ bool run_folder_has(const RunConfig& c, const std::string& file);
 /// Why a run written with `c` has no `file`, as a reader says it ("the run was written with output level
 /// minimal (trajectory and run.json only)"); empty when the level writes the file (its absence is then damage).
 std::string run_file_absent_reason(const RunConfig& c, const std::string& file);
-/// The estimators, in order: filter, smoother, batch.
-const std::vector<std::string>& estimators();
 /// Whether a run written with `c` records σ at every row of states.csv (level "full", or rate "images").
 bool sigma_at_every_row(const RunConfig& c);
 
