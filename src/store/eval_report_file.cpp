@@ -12,6 +12,7 @@
 #include "roe/math/so3.hpp"
 #include "roe/store/eval_report.hpp"
 #include "roe/version.hpp"
+#include "json_fields.hpp"
 
 namespace roe::store {
 
@@ -19,106 +20,27 @@ using nlohmann::json;
 
 namespace {
 
-template <class T>
-struct IsOptional : std::false_type {};
-template <class T>
-struct IsOptional<std::optional<T>> : std::true_type {};
-template <class T>
-struct IsVector : std::false_type {};
-template <class T>
-struct IsVector<std::vector<T>> : std::true_type {};
-template <class T>
-struct IsArray : std::false_type {};
-template <class T, std::size_t N>
-struct IsArray<std::array<T, N>> : std::true_type {};
-template <class T>
-struct IsMap : std::false_type {};
-template <class T>
-struct IsMap<std::map<std::string, T>> : std::true_type {};
-
 constexpr const char* kXyz[] = {"x", "y", "z"};
 constexpr const char* kRpy[] = {"roll", "pitch", "yaw"};
 // The RMSE blocks of per_axis and of each per-object subset.
 constexpr const char* kPosRmse = "pos_rmse_m";
 constexpr const char* kRpyRmse = "rpy_rmse_deg";
 
-// ---- the two walkers ------------------------------------------------------------------------------
+// ---- the dialect -----------------------------------------------------------------------------------
 
-/// Writes each field into `j`. Fixed texts and derived values are written, never read.
-struct Writer {
-  static constexpr bool kReading = false;
-  json& j;
-
-  template <class T>
-  static json value(const T& v);
-
-  template <class T>
-  void operator()(const char* key, const T& v) {
-    j[key] = value(v);
-  }
-  /// A field present only when set (outputs, plots, evo_results).
-  template <class T>
-  void omittable(const char* key, const std::optional<T>& v) {
-    if (v) j[key] = value(*v);
-  }
-  void fixed(const char* key, json v) { j[key] = std::move(v); }
-  template <class F>
-  void nested(const char* key, F&& fields) {
-    json sub = json::object();
-    Writer w{sub};
-    fields(w);
-    j[key] = std::move(sub);
-  }
-  void axes(const char* key, const Eigen::Vector3d& v, const char* const (&names)[3]) {
-    j[key] = {{names[0], v.x()}, {names[1], v.y()}, {names[2], v.z()}};
-  }
-};
-
-/// Reads each field from `j`, strictly: a missing or mistyped key is an InputError naming the file and
-/// the key path.
-struct Reader {
-  static constexpr bool kReading = true;
-  const json& j;
-  const std::string& file;
-  std::string path;
-
-  std::string at(const char* key) const { return path.empty() ? key : path + "." + key; }
-  [[noreturn]] static void fail(const std::string& file, const std::string& path, const char* what) {
-    throw InputError(fmt::format("not a roe eval report: {} {}", path.empty() ? "the document" : path, what),
+/// report.json's dialect: keys beyond the mapping are tolerated (a later roe's additions), a missing or
+/// mistyped one is an InputError naming the file and the key path.
+struct EvalReportJson {
+  static constexpr bool kStrictKeys = false;
+  static constexpr bool kNullIsAbsent = false;
+  [[noreturn]] static void fail(const std::string& file, const std::string& path, json_fields::Problem p,
+                                const std::string& detail) {
+    throw InputError(fmt::format("not a roe eval report: {} {}", path.empty() ? "the document" : path,
+                                 json_fields::phrase(p, detail)),
                      {file, 0, 0, path});
   }
-  const json& need(const char* key) const {
-    if (!j.is_object() || !j.contains(key)) fail(file, at(key), "is missing");
-    return j[key];
-  }
-  template <class T>
-  static void value(const json& x, T& v, const std::string& file, const std::string& path);
-
-  template <class T>
-  void operator()(const char* key, T& v) const {
-    value(need(key), v, file, at(key));
-  }
-  template <class T>
-  void omittable(const char* key, std::optional<T>& v) const {
-    v.reset();
-    if (!j.contains(key)) return;
-    v.emplace();
-    value(j[key], *v, file, at(key));
-  }
-  void fixed(const char*, const json&) const {}
-  template <class F>
-  void nested(const char* key, F&& fields) const {
-    const json& sub = need(key);
-    if (!sub.is_object()) fail(file, at(key), "is not an object");
-    Reader r{sub, file, at(key)};
-    fields(r);
-  }
-  void axes(const char* key, Eigen::Vector3d& v, const char* const (&names)[3]) const {
-    nested(key, [&](Reader& r) {
-      for (int i = 0; i < 3; ++i) r(names[i], v[i]);
-    });
-  }
 };
+using Writer = json_fields::Writer<EvalReportJson>;
 
 // ---- the field mappings: one per block, used by both walkers ---------------------------------------
 
@@ -383,81 +305,6 @@ void fields(A& a, EvalReportFile& f) {
   a.omittable("evo_results", f.evo_results), a.omittable("outputs", f.outputs), a.omittable("plots", f.plots);
 }
 
-// ---- values ----------------------------------------------------------------------------------------
-
-template <class T>
-json Writer::value(const T& v) {
-  if constexpr (std::is_same_v<T, json> || std::is_arithmetic_v<T> || std::is_same_v<T, std::string>) {
-    return json(v);
-  } else if constexpr (IsOptional<T>::value) {
-    return v ? value(*v) : json(nullptr);
-  } else if constexpr (IsVector<T>::value || IsArray<T>::value) {
-    json out = json::array();
-    for (const auto& x : v) out.push_back(value(x));
-    return out;
-  } else if constexpr (IsMap<T>::value) {
-    json out = json::object();
-    for (const auto& [k, x] : v) out[k] = value(x);
-    return out;
-  } else {
-    json out = json::object();
-    Writer w{out};
-    fields(w, const_cast<T&>(v));  // the mapping is shared with the reader; the writer only reads v
-    return out;
-  }
-}
-
-template <class T>
-void Reader::value(const json& x, T& v, const std::string& file, const std::string& path) {
-  const auto need = [&](bool ok, const char* what) {
-    if (!ok) fail(file, path, what);
-  };
-  if constexpr (std::is_same_v<T, json>) {
-    need(x.is_object(), "is not an object");
-    v = x;
-  } else if constexpr (std::is_same_v<T, bool>) {
-    need(x.is_boolean(), "is not true or false");
-    v = x.get<bool>();
-  } else if constexpr (std::is_floating_point_v<T>) {
-    need(x.is_number() || x.is_null(), "is not a number");  // null: a NaN, as JSON writes it
-    v = x.is_null() ? std::numeric_limits<T>::quiet_NaN() : x.get<T>();
-  } else if constexpr (std::is_unsigned_v<T>) {
-    need(x.is_number_unsigned(), "is not a count (an integer >= 0)");
-    v = x.get<T>();
-  } else if constexpr (std::is_integral_v<T>) {
-    need(x.is_number_integer(), "is not an integer");
-    v = x.get<T>();
-  } else if constexpr (std::is_same_v<T, std::string>) {
-    need(x.is_string(), "is not a string");
-    v = x.get<std::string>();
-  } else if constexpr (IsOptional<T>::value) {
-    v.reset();
-    if (x.is_null()) return;
-    v.emplace();
-    value(x, *v, file, path);
-  } else if constexpr (IsVector<T>::value) {
-    need(x.is_array(), "is not an array");
-    v.resize(x.size());
-    for (std::size_t i = 0; i < x.size(); ++i) value(x[i], v[i], file, fmt::format("{}[{}]", path, i));
-  } else if constexpr (IsArray<T>::value) {
-    need(x.is_array() && x.size() == v.size(), "is not an array of the expected length");
-    for (std::size_t i = 0; i < v.size(); ++i) value(x[i], v[i], file, fmt::format("{}[{}]", path, i));
-  } else if constexpr (IsMap<T>::value) {
-    need(x.is_object(), "is not an object");
-    v.clear();
-    for (const auto& [k, e] : x.items()) value(e, v[k], file, path + "." + k);
-  } else {
-    need(x.is_object(), "is not an object");
-    Reader r{x, file, path};
-    fields(r, v);
-  }
-}
-
-
-}  // namespace
-
-namespace {
-
 ReportPerAxis per_axis_of(const eval::ApeResult& ape) {
   ReportPerAxis p;
   const eval::EulerMetric m = ape.euler_metric;
@@ -627,13 +474,13 @@ EvalReportFile make_eval_report_file(const eval::Report& r, const EvalReportCont
   return f;
 }
 
-json to_json(const EvalReportFile& f) { return Writer::value(f); }
+json to_json(const EvalReportFile& f) { return json_fields::write<EvalReportJson>(f); }
 
-json to_json(const ReportPerAxis& p) { return Writer::value(p); }
+json to_json(const ReportPerAxis& p) { return json_fields::write<EvalReportJson>(p); }
 
 EvalReportFile read_eval_report(const json& j, const std::string& file) {
   EvalReportFile f;
-  Reader::value(j, f, file, "");
+  json_fields::read<EvalReportJson>(j, f, file);
   return f;
 }
 
