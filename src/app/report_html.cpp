@@ -297,9 +297,9 @@ summary{cursor:pointer}.meta{color:#555}
 /// The blocks of run.json the report shows as key/value tables, as the file spells them (the store's one
 /// mapping, store::run_record_to_json): health (open), then config, inputs, init, nis and timing_s.
 void run_sections(const store::RunRecord& run, std::string& h) {
-  const json file = store::run_record_to_json(run);
+  const json doc = store::run_record_to_json(run);
   json health, cfg = json::object();
-  for (const auto& [key, value] : file.items()) {
+  for (const auto& [key, value] : doc.items()) {
     if (key == "health") health = value;
     if (key == "config" || key == "inputs" || key == "init" || key == "nis" || key == "timing_s") cfg[key] = value;
   }
