@@ -146,7 +146,7 @@ TEST_CASE("sweep files: jobs.jsonl is read strictly, naming the line and the key
   CHECK(read_sweep_jobs(tmp.write("jobs.jsonl", good)).size() == 3);
 }
 
-TEST_CASE("sweep files: sweep.json and result.json are read strictly; another format version is refused",
+TEST_CASE("sweep files: sweep.json and result.json are read strictly, another format version is refused",
           "[store][sweep][hostile]") {
   roe::test::TempDir tmp("roe_sweep_files_docs");
   std::string m = io::read_file(fixture("sweep.json"));
