@@ -119,16 +119,20 @@ std::string verdict_word(const CalibCheckResult& r) {
 
 }  // namespace
 
-json CalibCheckResult::to_json() const {
-  json checks = json::array();
+std::map<std::string, int> CalibCheckResult::status_counts() const {
   std::map<std::string, int> counts = {{"pass", 0}, {"fail", 0}, {"inconclusive", 0}, {"skipped", 0},
                                        {"within-sigma", 0}, {"unobservable", 0}};
+  for (const auto& c : report.checks) ++counts[calib::to_string(c.status)];
+  return counts;
+}
+
+json CalibCheckResult::to_json() const {
+  json checks = json::array();
   for (const auto& c : report.checks) {
     json values = json::object();
     for (const auto& [k, v] : c.values) values[k] = v;
     checks.push_back({{"name", c.name}, {"status", calib::to_string(c.status)}, {"message", c.message},
                       {"values", values}});
-    ++counts[calib::to_string(c.status)];
   }
   return {{"command", "calib-check"},
           {"out", nullptr},
@@ -137,9 +141,9 @@ json CalibCheckResult::to_json() const {
           {"dataset_from", dataset_from.empty() ? json(nullptr) : json(dataset_from)},
           {"detections", detections},
           {"strict", strict},
-          {"passed", exit_code() == 0 && judged()},
+          {"passed", passed()},
           {"verdict", verdict_word(*this)},
-          {"counts", counts},
+          {"counts", status_counts()},
           {"checks", checks},
           {"warnings", warnings}};
 }

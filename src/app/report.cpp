@@ -57,18 +57,20 @@ std::string ground_truth(const ReportOptions& o, const std::optional<store::RunR
                    {o.run_dir});
 }
 
-json run_calib_check(const ReportOptions& o, const std::string& gt) {
+ReportCalib run_calib_check(const ReportOptions& o, const std::string& gt) {
   CalibCheckOptions co;
   std::error_code ec;
   if (fs::exists(fs::path(gt) / "roe.json", ec))
     co.dataset = gt;
   else
     co.no_dataset = true;
+  ReportCalib c;
   try {
-    return calib_check(o.run_dir, co).to_json();
+    c.result = calib_check(o.run_dir, co);
   } catch (const InputError& e) {  // e.g. a trajectory-only folder: the report says why, and goes on
-    return {{"error", e.what()}};
+    c.error = e.what();
   }
+  return c;
 }
 
 }  // namespace
@@ -83,7 +85,6 @@ ReportResult write_report(const ReportOptions& o) {
   const fs::path run_json_path = fs::path(o.run_dir) / "run.json";
   std::optional<store::RunRecord> record;
   if (fs::exists(run_json_path)) record = store::read_run_json(run_json_path);
-  const json run = record ? store::run_record_to_json(*record) : json();
   ReportOptions opt = o;
   opt.gt = ground_truth(o, record);
 
@@ -114,7 +115,7 @@ ReportResult write_report(const ReportOptions& o) {
   double calib_s = 0.0;
   auto calib_future = std::async(std::launch::async, [&opt, &calib_s] {
     const auto tc = std::chrono::steady_clock::now();
-    json c = run_calib_check(opt, opt.gt);
+    ReportCalib c = run_calib_check(opt, opt.gt);
     calib_s = seconds_since(tc);
     return c;
   });
@@ -132,9 +133,10 @@ ReportResult write_report(const ReportOptions& o) {
     throw;
   }
   const double fig_s = seconds_since(t);
-  const json calib = calib_future.get();
+  ReportResult r;
+  r.calib = calib_future.get();
   t = std::chrono::steady_clock::now();
-  const std::string html = report_html(ev.report, run, calib, figs, fig_dir, record ? &*record : nullptr);
+  const std::string html = report_html(ev.report, record ? &*record : nullptr, r.calib, figs, fig_dir);
   {
     io::DeferSignals defer;  // the report and its figures folder appear together
     io::write_file_atomic(out, html, o.force);
@@ -142,51 +144,55 @@ ReportResult write_report(const ReportOptions& o) {
   }
   const double html_s = seconds_since(t);
 
-  ReportResult r;
-  json names = json::array();
-  for (const Figure& f : figs.figures) names.push_back(f.name);
-  json skipped = json::array();
-  for (const auto& [n, why] : figs.skipped) skipped.push_back({{"name", n}, {"reason", why}});
-  r.summary = {{"out", o.out},
-               {"bytes", html.size()},
-               {"run", o.run_dir},
-               {"gt", opt.gt},
-               {"figures", names},
-               {"figures_skipped", skipped},
-               {"figures_dir", o.figures_dir.empty() ? json(nullptr) : json(o.figures_dir)},
-               {"label", ev.report.label},
-               {"per_axis", store::to_json(ev.report.per_axis)},
-               {"ape_trans_rmse_m", ev.report.ape_trans_m.rmse},
-               {"ape_rot_rmse_deg", ev.report.ape_rot_deg.rmse},
-               {"calib_check", calib.contains("error") ? json{{"error", calib["error"]}}
-                                                       : json{{"passed", calib["passed"]}, {"counts", calib["counts"]}}},
-               {"timing_s",
-                {{"eval", eval_s}, {"calib_check", calib_s}, {"figures", fig_s}, {"html", html_s},
-                 {"total", seconds_since(t_start)}}},
-               {"warnings", ev.report.warnings}};
+  r.out = o.out;
+  r.bytes = html.size();
+  r.run = o.run_dir;
+  r.gt = opt.gt;
+  for (const Figure& f : figs.figures) r.figures.push_back(f.name);
+  r.skipped.assign(figs.skipped.begin(), figs.skipped.end());
+  r.figures_dir = o.figures_dir;
+  r.timing_s = {{"eval", eval_s},  {"calib_check", calib_s},          {"figures", fig_s},
+                {"html", html_s}, {"total", seconds_since(t_start)}};
   r.eval = ev.report;
   return r;
 }
 
+json ReportResult::to_json() const {
+  json skipped_j = json::array();
+  for (const auto& [n, why] : skipped) skipped_j.push_back({{"name", n}, {"reason", why}});
+  json calib_j = calib.result ? json{{"passed", calib.result->passed()}, {"counts", calib.result->status_counts()}}
+                              : json{{"error", calib.error}};
+  return {{"out", out},
+          {"bytes", bytes},
+          {"run", run},
+          {"gt", gt},
+          {"figures", figures},
+          {"figures_skipped", skipped_j},
+          {"figures_dir", figures_dir.empty() ? json(nullptr) : json(figures_dir)},
+          {"label", eval.label},
+          {"per_axis", store::to_json(eval.per_axis)},
+          {"ape_trans_rmse_m", eval.ape_trans_m.rmse},
+          {"ape_rot_rmse_deg", eval.ape_rot_deg.rmse},
+          {"calib_check", calib_j},
+          {"timing_s", timing_s},
+          {"warnings", eval.warnings}};
+}
+
 std::string ReportResult::to_text() const {
-  const json& s = summary;
-  std::string t = fmt::format("roe report: {} ({:.1f} MB, {} figures)\n", s["out"].get<std::string>(),
-                              s["bytes"].get<double>() / 1e6, s["figures"].size());
+  std::string t = fmt::format("roe report: {} ({:.1f} MB, {} figures)\n", out, static_cast<double>(bytes) / 1e6,
+                              figures.size());
   const Eigen::Vector3d& p = eval.per_axis.pos_rmse_m;
   const Eigen::Vector3d& e = eval.per_axis.rpy_deg.rmse;
   t += fmt::format("  RMSE x/y/z {:.4f} {:.4f} {:.4f} m, roll/pitch/yaw {:.3f} {:.3f} {:.3f} deg\n", p.x(), p.y(),
                    p.z(), e.x(), e.y(), e.z());
-  const json& c = s["calib_check"];
-  if (c.contains("error"))
-    t += "  calib-check: not run (" + c["error"].get<std::string>() + ")\n";
+  if (!calib.result)
+    t += "  calib-check: not run (" + calib.error + ")\n";
   else
-    t += fmt::format("  calib-check: {}\n", c["passed"].get<bool>() ? "PASS" : "FAIL");
-  for (const json& k : s["figures_skipped"])
-    t += fmt::format("  {} not drawn: {}\n", k["name"].get<std::string>(), k["reason"].get<std::string>());
-  const json& ti = s["timing_s"];
+    t += fmt::format("  calib-check: {}\n", calib.result->passed() ? "PASS" : "FAIL");
+  for (const auto& [name, why] : skipped) t += fmt::format("  {} not drawn: {}\n", name, why);
   t += fmt::format("  {:.2f} s (eval {:.2f}, figures {:.2f} with calib-check {:.2f} alongside, html {:.2f})\n",
-                   ti["total"].get<double>(), ti["eval"].get<double>(), ti["figures"].get<double>(),
-                   ti["calib_check"].get<double>(), ti["html"].get<double>());
+                   timing_s.at("total"), timing_s.at("eval"), timing_s.at("figures"), timing_s.at("calib_check"),
+                   timing_s.at("html"));
   return t;
 }
 

@@ -226,20 +226,20 @@ std::string section_objects(const store::EvalReportFile& ev, const store::RunRec
   return s + "</table></section>\n";
 }
 
-std::string section_calib(const json& calib) {
+std::string section_calib(const ReportCalib& calib) {
   std::string s = "<section id=\"calib-check\"><h2>Calibration checks</h2>\n";
-  if (calib.contains("error"))
-    return s + fmt::format("<p class=\"fail\">calib-check could not run: {}</p></section>\n",
-                           esc(calib["error"].get<std::string>()));
+  if (!calib.result)
+    return s + fmt::format("<p class=\"fail\">calib-check could not run: {}</p></section>\n", esc(calib.error));
+  const CalibCheckResult& c = *calib.result;
   s += fmt::format("<p>Verdict: <b class=\"{}\">{}</b> (dataset: {}). Thresholds and definitions: "
                    "docs/calib-check.md.</p>\n",
-                   calib["passed"] == true ? "pass" : "fail", calib["passed"] == true ? "PASS" : "FAIL",
-                   esc(plain(calib["dataset"])));
+                   c.passed() ? "pass" : "fail", c.passed() ? "PASS" : "FAIL",
+                   esc(c.dataset.empty() ? "null" : c.dataset));
   s += "<table id=\"calib-checks\"><tr><th>check</th><th>status</th><th>message</th></tr>\n";
-  for (const json& c : calib["checks"]) {
-    const std::string st = c["status"].get<std::string>();
-    s += fmt::format("<tr><th>{}</th><td class=\"{}\">{}</td><td>{}</td></tr>\n", esc(c["name"].get<std::string>()),
-                     esc(st), esc(st), esc(c["message"].get<std::string>()));
+  for (const calib::CheckResult& k : c.report.checks) {
+    const std::string st = calib::to_string(k.status);
+    s += fmt::format("<tr><th>{}</th><td class=\"{}\">{}</td><td>{}</td></tr>\n", esc(k.name), esc(st), esc(st),
+                     esc(k.message));
   }
   return s + "</table></section>\n";
 }
@@ -293,10 +293,24 @@ figure{margin:1.2em 0}figure img{max-width:100%;height:auto;border:1px solid #ee
 summary{cursor:pointer}.meta{color:#555}
 )css";
 
+
+/// The blocks of run.json the report shows as key/value tables, as the file spells them (the store's one
+/// mapping, store::run_record_to_json): health (open), then config, inputs, init, nis and timing_s.
+void run_sections(const store::RunRecord& run, std::string& h) {
+  const json doc = store::run_record_to_json(run);
+  json health, cfg = json::object();
+  for (const auto& [key, value] : doc.items()) {
+    if (key == "health") health = value;
+    if (key == "config" || key == "inputs" || key == "init" || key == "nis" || key == "timing_s") cfg[key] = value;
+  }
+  if (!health.is_null()) h += section_table("health", "Health", health, true);
+  h += section_table("configuration", "Configuration (run.json)", cfg, false);
+}
+
 }  // namespace
 
-std::string report_html(const store::EvalReportFile& ev, const json& run, const json& calib, const FigureSet& figures,
-                        const fs::path& figures_dir, const store::RunRecord* run_record) {
+std::string report_html(const store::EvalReportFile& ev, const store::RunRecord* run, const ReportCalib& calib,
+                        const FigureSet& figures, const fs::path& figures_dir) {
   const std::string& label = ev.label;
   std::string h = "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n";
   h += "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
@@ -305,26 +319,18 @@ std::string report_html(const store::EvalReportFile& ev, const json& run, const 
                    esc(ev.est.path), esc(ev.gt.path), kVersion);
   h += "<nav><a href=\"#evaluation\">Evaluation</a> · <a href=\"#objects\">Objects</a> · <a href=\"#calib-check\">Calibration checks</a> · <a href=\"#figures\">Figures</a> · <a href=\"#configuration\">Configuration</a> · <a href=\"#warnings\">Warnings</a></nav>\n";
   h += section_summary(ev);
-  h += section_objects(ev, run_record);
+  h += section_objects(ev, run);
   h += section_calib(calib);
   h += section_figures(figures, figures_dir);
-  if (run.is_object() && run.contains("health")) h += section_table("health", "Health", run["health"], true);
-  if (run.is_object()) {
-    json cfg = {{"config", run.value("config", json::object())},
-                {"inputs", run.value("inputs", json::object())},
-                {"init", run.value("init", json::object())},
-                {"nis", run.value("nis", json::object())},
-                {"timing_s", run.value("timing_s", json::object())}};
-    h += section_table("configuration", "Configuration (run.json)", cfg, false);
-  }
+  if (run) run_sections(*run, h);
   h += section_table("eval-options", "Evaluation options", ev.options, false);
-  json warnings = json::array();
+  std::vector<std::string> warnings;
   for (const std::string& w : ev.warnings) warnings.push_back("eval: " + w);
-  if (run.is_object())
-    for (const json& w : run.value("warnings", json::array())) warnings.push_back("run: " + plain(w));
+  if (run)
+    for (const std::string& w : run->warnings) warnings.push_back("run: " + w);
   h += "<section id=\"warnings\"><h2>Warnings</h2>\n";
   if (warnings.empty()) h += "<p class=\"na\">none</p>\n";
-  for (const json& w : warnings) h += "<p>" + esc(w.get<std::string>()) + "</p>\n";
+  for (const std::string& w : warnings) h += "<p>" + esc(w) + "</p>\n";
   h += "</section>\n";
   // The evaluation report itself, for scripts (a data block: browsers do not execute it). <, > and & only
   // occur inside JSON strings, where \u003c, \u003e and \u0026 mean the same: no label can close the block

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 #include "roe/app/eval.hpp"
 #include "roe/app/figures.hpp"
@@ -14,6 +13,7 @@
 #include "roe/io/json.hpp"
 #include "roe/io/output.hpp"
 #include "roe/store/eval_report.hpp"
+#include "roe/store/sweep_files.hpp"
 
 namespace roe::app {
 namespace detail {
@@ -380,22 +380,9 @@ SweepAggregateResult sweep_aggregate(const SweepAggregateOptions& o) {
     std::string status = "pending";
     JobResult r{j.id, j.axes, {}};
     if (fs::exists(f)) {
-      const json res = io::parse_json_file(f);
-      if (!res.is_object() || !res.contains("status") || !res["status"].is_string())
-        throw InputError("not a job result of roe sweep run (an object with a \"status\" string)",
-                         {f.string(), 0, 0, "status"});
-      status = res["status"].get<std::string>();
-      if (status == "done") {
-        // Each metric a number, or null where the evaluation had no such figure (written for NaN).
-        const json* metrics = res.contains("metrics") && res["metrics"].is_object() ? &res["metrics"] : nullptr;
-        if (!metrics) throw InputError("a finished job's result has no \"metrics\" object", {f.string(), 0, 0, "metrics"});
-        for (const auto& m : sweep_metric_names()) {
-          const json* v = metrics->contains(m) ? &(*metrics)[m] : nullptr;
-          if (!v || !(v->is_number() || v->is_null()))
-            throw InputError(v ? "expected a number or null" : "missing key", {f.string(), 0, 0, "metrics." + m});
-          r.metrics[m] = v->is_null() ? std::numeric_limits<double>::quiet_NaN() : v->get<double>();
-        }
-      }
+      const store::SweepJobResult res = store::read_sweep_result(f);  // a done one has every metric
+      status = res.status;
+      if (res.done()) r.metrics = *res.metrics;
     }
     jobs_csv.add(static_cast<std::int64_t>(i)).add(j.id);
     for (const auto& a : s.axis_names) jobs_csv.add(value_text(j.axes.contains(a) ? j.axes[a] : json(nullptr)));

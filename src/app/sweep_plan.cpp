@@ -39,9 +39,9 @@ const json& nonempty_array(const Where& w, const json& j, const std::string& pat
   return j;
 }
 
-/// The eval options of every job, with every default filled in (so writing a default changes no id): the
-/// settings of for_each_sweep_eval_setting, each checked by run_eval's own rule.
-json read_eval(const Where& w, const json* j) {
+/// The eval options of a sweep's "eval" block (absent: the defaults), every setting of
+/// for_each_sweep_eval_setting read strictly and checked by run_eval's own rule.
+EvalOptions read_eval(const Where& w, const json* j) {
   EvalOptions o;
   if (j) {
     io::JsonObject r(*j, w.source, "eval");
@@ -57,22 +57,27 @@ json read_eval(const Where& w, const json* j) {
     });
     r.finish();
   }
-  json e = json::object();
-  for_each_sweep_eval_setting(o, [&](const char* key, const auto& value) {
+  for_each_sweep_eval_setting(o, [&](const char* key, const auto&) {
     try {
       check_sweep_eval_setting(o, key);
     } catch (const InputError& err) {
       w.fail(std::string("eval.") + key, err.bare_message());
     }
-    e[key] = value;
   });
+  return o;
+}
+
+/// A job's "eval" block: every setting written, defaults included (so writing a default changes no id).
+json eval_json(const EvalOptions& o) {
+  json e = json::object();
+  for_each_sweep_eval_setting(o, [&](const char* key, const auto& value) { e[key] = value; });
   e["t_offset_s"] = sweep_t_offset_json(o);
   return e;
 }
 
 struct DatasetEntry {
   json label;                   ///< axis value: the preset name or the path as written
-  json content;                 ///< the job's "dataset" without the seed
+  store::SweepDataset content;  ///< the job's "dataset" without the seed
   std::vector<std::int64_t> seeds;  ///< empty: no seed axis for this entry (a folder)
 };
 
@@ -121,9 +126,9 @@ DatasetEntry read_dataset(const Where& w, const json& j, const std::string& path
       w.fail(j.is_string() ? path : path + ".preset",
              fmt::format("unknown simulator preset '{}' (presets: {})", preset, fmt::join(names, ", ")));
     d.label = preset;
-    d.content = {{"preset", preset},
-                 {"preset_sha256", io::sha256_hex(preset_text(preset))},
-                 {"duration_s", duration ? json(*duration) : json(nullptr)}};
+    d.content.preset = preset;
+    d.content.preset_sha256 = io::sha256_hex(preset_text(preset));
+    d.content.duration_s = duration;
     if (d.seeds.empty()) d.seeds = block_seeds;
     return d;
   }
@@ -133,7 +138,7 @@ DatasetEntry read_dataset(const Where& w, const json& j, const std::string& path
   if (!fs::is_regular_file(store::manifest_path(p)))
     w.fail(path + ".path", fmt::format("not a dataset folder (no roe.json): {}", p.string()));
   d.label = dir;
-  d.content = {{"path", io::provenance_path(p)}};
+  d.content.path = io::provenance_path(p);
   return d;
 }
 
@@ -207,8 +212,8 @@ struct Block {
     for (std::size_t k = 0; k < keys.size(); ++k) axes[keys[k]] = overrides[keys[k]][pick[k]];
     return axes;
   }
-  /// Variant `v`'s run config, validated by the run config loader and written with every key.
-  json variant_config(const Where& w, std::size_t v) const {
+  /// Variant `v`'s run config, validated by the run config loader.
+  RunConfig variant_config(const Where& w, std::size_t v) const {
     const std::size_t c = v / n_combos, combo = v % n_combos;
     json config = configs[c].second;
     const auto pick = picks(combo);
@@ -216,7 +221,7 @@ struct Block {
       apply_override(w, config, keys[k], overrides[keys[k]][pick[k]],
                      fmt::format("{}.overrides.{}[{}]", bpath, keys[k], pick[k]));
     try {
-      return run_config_to_json(run_config_from_json(config, configs[c].first));
+      return run_config_from_json(config, configs[c].first);
     } catch (const ConfigError& e) {
       std::string at = fmt::format("{}.configs[{}]", bpath, c);
       if (!keys.empty()) at = fmt::format("{}.overrides ({})", bpath, io::dump_json(combo_axes(combo)));
@@ -323,22 +328,24 @@ void check_job_count(const Where& w, const json& axes, std::size_t max_jobs) {
 struct SweepPlan::Expansion {
   std::string source;
   std::vector<Block> blocks;
-  json eval;
+  json eval;  ///< every job's eval block (eval_json)
   std::vector<std::string> override_keys;
   bool has_detections = false;
 
   /// The job of recipe `r`, whose variant's run config is `config` (variant_config of its block).
-  SweepJob make(const Recipe& r, const json& config) const {
+  SweepJob make(const Recipe& r, const RunConfig& config) const {
     const Block& b = blocks[r.block];
     const DatasetEntry& d = b.datasets[r.dataset];
     const std::string& det = b.detections[r.detections];
     const std::string& config_name = b.configs[r.variant / b.n_combos].first;
     SweepJob job;
-    json dataset = d.content;
-    if (r.has_seed) dataset["seed"] = r.seed;
-    job.content = {{"dataset", dataset}, {"config", config_name}, {"run_config", config}, {"detections", det},
-                   {"eval", eval}};
-    job.id = io::sha256_hex(io::dump_json(job.content)).substr(0, 16);
+    job.content.dataset = d.content;
+    if (r.has_seed) job.content.dataset.seed = r.seed;
+    job.content.config = config_name;
+    job.content.run_config = config;
+    job.content.detections = det;
+    job.content.eval = eval;
+    job.id = store::sweep_job_id(job.content);
     job.axes = {{"dataset", d.label}, {"seed", r.has_seed ? json(r.seed) : json(nullptr)}, {"config", config_name}};
     const json combo = b.combo_axes(r.variant % b.n_combos);
     for (const auto& [k, v] : combo.items()) job.axes[k] = v;
@@ -365,7 +372,7 @@ struct SweepPlan::Expansion {
     std::vector<std::string> rs_ids(rs.size());
     const std::size_t per_variant = b.detections.size(), stride = b.n_variants() * per_variant;
     for (std::uint32_t v = 0; v < b.n_variants(); ++v) {
-      const json config = b.variant_config(w, v);
+      const RunConfig config = b.variant_config(w, v);
       for (std::size_t base = v * per_variant; base < rs.size(); base += stride)
         for (std::size_t k = 0; k < per_variant; ++k) rs_ids[base + k] = make(rs[base + k], config).id;
     }
@@ -396,7 +403,7 @@ SweepPlan plan_sweep(const json& spec, const fs::path& spec_dir, const std::stri
   check_job_count(w, spec["axes"], max_jobs);
   auto ex = std::make_shared<SweepPlan::Expansion>();
   ex->source = source;
-  ex->eval = read_eval(w, spec.contains("eval") ? &spec["eval"] : nullptr);
+  ex->eval = eval_json(read_eval(w, spec.contains("eval") ? &spec["eval"] : nullptr));
   const json& axes = spec["axes"];
   if (axes.is_array() && axes.empty()) w.fail("axes", "expected at least one block of axes");
   const std::size_t n_blocks = axes.is_array() ? axes.size() : 1;
@@ -421,6 +428,17 @@ SweepPlan plan_sweep(const json& spec, const fs::path& spec_dir, const std::stri
   if (ex->has_detections) plan.axis_names.push_back("detections");
   plan.expansion = std::move(ex);
   return plan;
+}
+
+SweepPlan plan_sweep_file(const fs::path& spec, std::size_t max_jobs) {
+  const std::string text = io::read_file(spec), source = spec.string();
+  return io::with_json_locations(text, source, [&] {
+    return plan_sweep(io::parse_json_text(text, source), spec.parent_path(), source, max_jobs);
+  });
+}
+
+EvalOptions sweep_eval_options(const json& block, const std::string& source) {
+  return read_eval(Where{source}, &block);
 }
 
 std::vector<std::string> keep_indices(SweepPlan& plan, const std::vector<std::string>& existing_ids) {

@@ -1,6 +1,5 @@
 // roe sweep plan | run | status: the sweep folder, its per-job locks and the job runner (in-process
 // simulate + run + eval, each job built in work/ID and renamed to jobs/ID when it ends).
-#include <type_traits>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -43,11 +42,11 @@ void make_dirs(const fs::path& p) {
   if (ec) throw InputError("cannot create folder: " + ec.message(), {p.string()});
 }
 
-/// jobs/ID/result.json, or null when the job has not finished.
-json read_result(const fs::path& sweep, const std::string& id) {
+/// jobs/ID/result.json, or nullopt when the job has not finished.
+std::optional<store::SweepJobResult> read_result(const fs::path& sweep, const std::string& id) {
   const fs::path f = job_dir(sweep, id) / "result.json";
-  if (!fs::exists(f)) return nullptr;
-  return io::parse_json_file(f);
+  if (!fs::exists(f)) return std::nullopt;
+  return store::read_sweep_result(f);
 }
 
 /// Files a finished job keeps (the rest of its run and eval folders and a simulated dataset are large
@@ -73,54 +72,48 @@ void prune(const fs::path& work) {
   for (const auto& p : remove) fs::remove_all(p);  // path-checked: entries found inside work/ID (no symlink followed)
 }
 
-/// Simulate (a preset) + run + eval of one job in `work`; returns the metrics and fills `out`.
-void execute(const SweepJob& job, const fs::path& work, json& out) {
-  const json& c = job.content;
-  const json& d = c["dataset"];
-  json timing = json::object();
+/// Simulate (a preset) + run + eval of one job in `work`; fills the metrics, warnings and timings of `out`.
+void execute(const SweepJob& job, const fs::path& work, store::SweepJobResult& out) {
+  const store::SweepJobContent& c = job.content;
+  const store::SweepDataset& d = c.dataset;
+  std::map<std::string, double> timing;
   fs::path dataset;
   auto t0 = Clock::now();
-  if (d.contains("preset")) {
-    const std::string preset = d["preset"];
-    if (io::sha256_hex(preset_text(preset)) != d["preset_sha256"])
+  if (!d.preset.empty()) {
+    if (io::sha256_hex(preset_text(d.preset)) != d.preset_sha256)
       throw InputError(fmt::format("simulator preset '{}' is not the one the sweep was planned with (this roe "
                                    "build ships another version): plan the sweep again into a new folder",
-                                   preset));
+                                   d.preset));
     SimulateOptions so;
-    so.preset = preset;
-    so.seed = d["seed"].get<std::uint64_t>();
-    if (!d["duration_s"].is_null()) so.duration_s = d["duration_s"].get<double>();
+    so.preset = d.preset;
+    so.seed = static_cast<std::uint64_t>(*d.seed);  // store::read_sweep_jobs: a preset's job has its seed
+    if (d.duration_s) so.duration_s = *d.duration_s;
     dataset = work / "dataset";
     (void)simulate(so, dataset);
     timing["simulate"] = seconds_since(t0);
   } else {
-    dataset = d["path"].get<std::string>();
+    dataset = d.path;
   }
-  io::write_file_atomic(work / "config.json", io::dump_json(c["run_config"], 2) + "\n");
+  io::write_file_atomic(work / "config.json", io::dump_json(store::run_config_to_json(c.run_config), 2) + "\n");
   RunOptions ro;
   ro.config_file = (work / "config.json").string();
-  ro.detections = c["detections"];
+  ro.detections = c.detections;
   t0 = Clock::now();
   const RunResult rr = run(dataset, work / "run", ro);
   timing["run"] = seconds_since(t0);
-  EvalOptions eo;
-  const json& e = c["eval"];
+  EvalOptions eo = sweep_eval_options(c.eval, "job " + job.id);  // read_sweep checked it
   eo.est = (work / "run").string();
   eo.gt = dataset.string();
   eo.out = (work / "run" / "eval").string();
   eo.label = job.id;
-  for_each_sweep_eval_setting(eo, [&e](const char* key, auto& value) {
-    if (std::string(key) != "t_offset_s") value = e.at(key).get<std::decay_t<decltype(value)>>();
-  });
-  read_sweep_t_offset(e.at("t_offset_s"), eo);
   t0 = Clock::now();
   const EvalResult er = run_eval(eo);
   timing["eval"] = seconds_since(t0);
-  json metrics = json::object();
+  std::map<std::string, double> metrics;
   for (const auto& [name, value] : store::headline_metrics(er.report)) metrics[name] = value;
-  out["metrics"] = metrics;
-  out["warnings"] = rr.output.warnings;
-  out["timing_s"] = timing;
+  out.metrics = std::move(metrics);
+  out.warnings = rr.output.warnings;
+  out.timing_s = std::move(timing);
 }
 
 JobOutcome run_job(const SweepFolder& s, std::size_t index, bool retry_failed) {
@@ -135,16 +128,17 @@ JobOutcome run_job(const SweepFolder& s, std::size_t index, bool retry_failed) {
     o.message = "another process is running this job (its lock is held)";
     return o;
   }
-  const json prev = read_result(s.dir, job.id);
-  if (!prev.is_null() && prev.value("status", "") == "done") {
-    o.action = "skipped-done";
-    return o;
-  }
-  if (!prev.is_null() && !retry_failed) {
-    o.action = "skipped-failed";
-    o.exit_code = prev.value("exit_code", 0);
-    o.message = prev.value("message", "");
-    return o;
+  if (const auto prev = read_result(s.dir, job.id)) {
+    if (prev->done()) {
+      o.action = "skipped-done";
+      return o;
+    }
+    if (!retry_failed) {
+      o.action = "skipped-failed";
+      o.exit_code = prev->exit_code;
+      o.message = prev->message.value_or("");
+      return o;
+    }
   }
   const fs::path work = work_dir(s.dir, job.id);
   make_dirs(s.dir / "work");
@@ -160,11 +154,12 @@ JobOutcome run_job(const SweepFolder& s, std::size_t index, bool retry_failed) {
     log::Level l;
     ~Restore() { log::set_level(l); }
   } restore{level};
-  json result = {{"format", "roe-sweep-job/1"}, {"id", job.id}, {"axes", job.axes}, {"roe_version", kVersion}};
+  store::SweepJobResult result;
+  result.id = job.id;
+  result.axes = job.axes;
+  result.roe_version = kVersion;
   try {
     execute(job, work, result);
-    result["status"] = "done";
-    result["exit_code"] = 0;
   } catch (const InputError& e) {
     o.exit_code = 2;
     o.message = e.what();
@@ -179,15 +174,17 @@ JobOutcome run_job(const SweepFolder& s, std::size_t index, bool retry_failed) {
     // The job's files move from work/ID to jobs/ID: the message names them where they will be.
     for (std::size_t p = o.message.find(work.string()); p != std::string::npos; p = o.message.find(work.string(), p))
       o.message.replace(p, work.string().size(), job_dir(s.dir, job.id).string());
-    result["status"] = "failed";
-    result["exit_code"] = o.exit_code;
-    result["message"] = o.message;
+    result.status = "failed";
+    result.exit_code = o.exit_code;
+    result.message = o.message;
+    result.metrics.reset();
+    result.warnings.reset();
+    result.timing_s.clear();
   }
   o.wall_s = seconds_since(t0);
-  if (!result.contains("timing_s")) result["timing_s"] = json::object();
-  result["timing_s"]["total"] = o.wall_s;
+  result.timing_s["total"] = o.wall_s;
   prune(work);
-  io::write_file_atomic(work / "result.json", io::dump_json(result, 2) + "\n");
+  io::write_file_atomic(work / "result.json", store::format_sweep_result(result));
   {
     io::DeferSignals defer;  // the old result out and the new one in, not cut in half
     const fs::path final_dir = job_dir(s.dir, job.id), old = work.string() + ".old";
@@ -201,41 +198,13 @@ JobOutcome run_job(const SweepFolder& s, std::size_t index, bool retry_failed) {
   return o;
 }
 
-/// What a job's content steers on the file system, checked when the folder is read: a detection set is one
-/// folder name under detections/, a simulated dataset a shipped preset, a dataset path a folder (read only).
-void check_job_content(const json& c, const ErrorContext& at) {
-  const auto bad = [&](const std::string& key, const std::string& what) {
-    throw InputError(what + " (plan the sweep again instead of editing jobs.jsonl)", {at.file, at.line, 0, key});
-  };
-  if (!c.is_object() || !c.contains("dataset") || !c["dataset"].is_object()) bad("job.dataset", "missing or not an object");
-  if (!c.contains("detections") || !c["detections"].is_string()) bad("job.detections", "missing or not a string");
-  const std::string det = c["detections"].get<std::string>();
-  if (!det.empty() && !io::is_plain_name(det))
-    bad("job.detections", "not a detection set name (one folder name under detections/, no '/' or '..')");
-  for (const char* k : {"run_config", "eval"})
-    if (!c.contains(k) || !c[k].is_object()) bad(std::string("job.") + k, "missing or not an object");
-  const json& d = c["dataset"];
-  if (d.contains("path") == d.contains("preset")) bad("job.dataset", "needs exactly one of path and preset");
-  if (d.contains("path") && (!d["path"].is_string() || d["path"].get<std::string>().empty()))
-    bad("job.dataset.path", "not a path");
-  if (d.contains("preset") && !d["preset"].is_string()) bad("job.dataset.preset", "not a preset name");
-}
-
-json job_line(const SweepJob& j, std::size_t index) {
-  return {{"index", index}, {"id", j.id}, {"axes", j.axes}, {"job", j.content}};
-}
-
 }  // namespace
 
 SweepPlanResult sweep_plan(const SweepPlanOptions& o) {
   if (o.spec.empty()) throw InputError("a spec file is required: roe sweep plan SPEC --out SWEEP_DIR");
   if (o.out.empty()) throw InputError("--out SWEEP_DIR is required", {"roe sweep plan"});
   const fs::path spec_path = o.spec;
-  const std::string text = io::read_file(spec_path);
-  const json spec = io::parse_json_text(text, spec_path.string());
-  SweepPlan plan = io::with_json_locations(text, spec_path.string(), [&] {
-    return plan_sweep(spec, spec_path.parent_path(), spec_path.string(), o.max_jobs);
-  });
+  SweepPlan plan = plan_sweep_file(spec_path, o.max_jobs);
   const fs::path out = io::without_trailing_separator(o.out);
   io::refuse_special_output(out, io::OutputKind::folder, "sweep folder");
   SweepPlanResult res;
@@ -263,33 +232,27 @@ SweepPlanResult sweep_plan(const SweepPlanOptions& o) {
   io::AtomicFile jobs(jobs_file(out));
   std::string lines;
   for (std::size_t i = 0; i < plan.size(); ++i) {
-    lines += io::dump_json(job_line(plan.job(i), i)) + "\n";
+    lines += store::format_sweep_job_line(plan.job(i), i);
     if (lines.size() >= (1u << 20) || i + 1 == plan.size()) {
       jobs.append(lines);
       lines.clear();
     }
   }
-  const json manifest = {{"format", kSweepFormat},
-                         {"roe_version", kVersion},
-                         {"spec_file", io::provenance_path(spec_path)},
-                         {"spec", spec},
-                         {"axes", plan.axis_names},
-                         {"n_jobs", plan.size()}};
+  store::SweepManifest manifest;
+  manifest.roe_version = kVersion;
+  manifest.spec_file = io::provenance_path(spec_path);
+  manifest.spec = plan.spec;
+  manifest.axes = plan.axis_names;
+  manifest.n_jobs = plan.size();
   {
     io::DeferSignals defer;  // the job list and the manifest that counts it change together
     jobs.commit();
-    io::write_file_atomic(manifest_file(out), io::dump_json(manifest, 2) + "\n");
+    io::write_file_atomic(manifest_file(out), store::format_sweep_manifest(manifest));
   }
   res.n_jobs = plan.size();
   res.n_new = plan.size() - (n_before - res.n_dropped);
   res.axis_names = plan.axis_names;
   return res;
-}
-
-bool is_job_id(const std::string& id) {
-  return id.size() == 16 && std::all_of(id.begin(), id.end(), [](char c) {
-           return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f');
-         });
 }
 
 json SweepPlanResult::to_json() const {
@@ -309,48 +272,21 @@ SweepFolder read_sweep(const fs::path& dir_in) {
   const fs::path mf = manifest_file(s.dir);
   if (!fs::is_regular_file(mf))
     throw InputError("not a sweep folder (no sweep.json; make one with roe sweep plan)", {s.dir.string()});
-  s.manifest = io::parse_json_file(mf);
-  const json fmt_v = s.manifest.is_object() && s.manifest.contains("format") ? s.manifest["format"] : json(nullptr);
-  if (fmt_v != kSweepFormat)
-    throw InputError(fmt::format("sweep folder format {} is not the one this roe {} reads (\"{}\"): plan the "
-                                 "sweep again into a new folder with this roe, or use the roe that made it",
-                                 io::dump_json(fmt_v), kVersion, kSweepFormat),
-                     {mf.string(), 0, 0, "format"});
-  try {
-    s.axis_names = s.manifest.at("axes").get<std::vector<std::string>>();
-    const std::string text = io::read_file(jobs_file(s.dir));
-    std::size_t line_no = 0, start = 0;
-    std::set<std::string> ids;
-    while (start < text.size()) {
-      std::size_t end = text.find('\n', start);
-      if (end == std::string::npos) end = text.size();
-      ++line_no;
-      const json j = io::parse_json_text(text.substr(start, end - start), jobs_file(s.dir).string());
-      const ErrorContext at{jobs_file(s.dir).string(), static_cast<std::int64_t>(line_no)};
-      if (j.at("index").get<std::size_t>() != s.jobs.size()) throw InputError("job index out of order", at);
-      // The id names the job's folders (work/ID, jobs/ID, locks/ID.lock), which a run replaces: a hand-edited
-      // id must never steer that outside the sweep ("../../x", "/abs").
-      const std::string id = j.at("id").get<std::string>();
-      if (!is_job_id(id))
-        throw InputError(fmt::format("job id {} is not 16 lower-case hex digits (ids are made by roe sweep plan; "
-                                     "plan again instead of editing jobs.jsonl)",
-                                     io::dump_json(j.at("id"))),
-                         {at.file, at.line, 0, "id"});
-      if (!ids.insert(id).second)
-        throw InputError("job id " + id + " appears twice (two jobs would share one folder)", {at.file, at.line, 0, "id"});
-      check_job_content(j.at("job"), at);
-      s.jobs.push_back({id, j.at("axes"), j.at("job")});
-      start = end + 1;
+  s.manifest = store::read_sweep_manifest(mf);
+  s.axis_names = s.manifest.axes;
+  s.jobs = store::read_sweep_jobs(jobs_file(s.dir));
+  // A job's eval block is the spec's, every default filled in: read by the spec's rules (line k is job k-1).
+  for (std::size_t i = 0; i < s.jobs.size(); ++i) {
+    try {
+      (void)sweep_eval_options(s.jobs[i].content.eval, jobs_file(s.dir).string());
+    } catch (const InputError& e) {
+      throw InputError(e.bare_message() + " (plan the sweep again instead of editing jobs.jsonl)",
+                       {jobs_file(s.dir).string(), static_cast<std::int64_t>(i + 1), 0, "job." + e.context().key});
     }
-    if (s.jobs.size() != s.manifest.at("n_jobs").get<std::size_t>())
-      throw InputError(fmt::format("jobs.jsonl has {} jobs, sweep.json says {}", s.jobs.size(),
-                                   s.manifest["n_jobs"].get<std::size_t>()),
-                       {jobs_file(s.dir).string()});
-  } catch (const json::exception& e) {
-    throw InputError("malformed sweep folder (sweep.json or jobs.jsonl; plan the sweep again instead of editing "
-                     "them): " + io::json_error_text(e),
-                     {s.dir.string()});
   }
+  if (s.jobs.size() != s.manifest.n_jobs)
+    throw InputError(fmt::format("jobs.jsonl has {} jobs, sweep.json says {}", s.jobs.size(), s.manifest.n_jobs),
+                     {jobs_file(s.dir).string()});
   return s;
 }
 
@@ -365,8 +301,7 @@ const char* to_string(JobState s) {
 }
 
 JobState job_state(const SweepFolder& s, const SweepJob& job) {
-  const json r = read_result(s.dir, job.id);
-  if (!r.is_null()) return r.value("status", "") == "done" ? JobState::kDone : JobState::kFailed;
+  if (const auto r = read_result(s.dir, job.id)) return r->done() ? JobState::kDone : JobState::kFailed;
   if (fs::exists(lock_file(s.dir, job.id))) {
     io::FileLock probe(lock_file(s.dir, job.id));
     if (!probe.held()) return JobState::kRunning;
@@ -434,7 +369,7 @@ SweepStatusResult sweep_status(const std::string& dir) {
       case JobState::kPending: ++r.pending; break;
       case JobState::kFailed:
         ++r.failed;
-        r.failures.push_back({i, read_result(s.dir, s.jobs[i].id).value("message", "")});
+        r.failures.push_back({i, read_result(s.dir, s.jobs[i].id)->message.value_or("")});
         break;
     }
   }

@@ -33,7 +33,7 @@ RunFn setup(CLI::App& sub) {
                        {"", 0, 0, "rpe-unit"});
     o->force = globals().force;
     const auto r = app::write_report(*o);
-    emit(r.summary, r.to_text());
+    emit(r.to_json(), r.to_text());
     return 0;
   };
 }

@@ -53,15 +53,15 @@ TEST_CASE("sweep spec: expansion, content-derived ids, a new seed adds jobs only
   CHECK(a.axis_names == std::vector<std::string>{"dataset", "seed", "config", "filter.chi2_confidence"});
   CHECK(ids(a).size() == a.size());
   // The override is in the effective config each job carries.
-  CHECK(a.job(0).content["run_config"]["filter"]["chi2_confidence"] == 0.9);
-  CHECK(a.job(1).content["run_config"]["filter"]["chi2_confidence"] == 0.99);
+  CHECK(a.job(0).content.run_config.filter.chi2_confidence == 0.9);
+  CHECK(a.job(1).content.run_config.filter.chi2_confidence == 0.99);
   CHECK(a.job(0).axes["filter.chi2_confidence"] == 0.9);
   CHECK(a.ids[0].size() == 16);
   // A job made on demand is the one its id names: the id is the hash of the content job(i) carries.
   for (std::size_t i = 0; i < a.size(); ++i) {
     const SweepJob j = a.job(i);
     CHECK(j.id == a.ids[i]);
-    CHECK(io::sha256_hex(io::dump_json(j.content)).substr(0, 16) == a.ids[i]);
+    CHECK(io::sha256_hex(io::dump_json(store::sweep_job_content_json(j.content))).substr(0, 16) == a.ids[i]);
   }
   // Re-planning gives the same ids in the same order.
   const SweepPlan again = plan_sweep(spec_with(axes), ".", "spec.json");
@@ -98,14 +98,14 @@ TEST_CASE("sweep spec: eval.t_offset_s is seconds or auto, and a number keeps th
   json spec = spec_with(axes);
   spec["eval"] = {{"t_offset_s", 0}};
   CHECK(ids(plan_sweep(spec, ".", "spec.json")) == ids(plain));
-  CHECK(plain.job(0).content["eval"]["t_offset_s"] == 0.0);  // the canonical form of before: a number
+  CHECK(plain.job(0).content.eval["t_offset_s"] == 0.0);  // the canonical form of before: a number
   spec["eval"] = {{"t_offset_s", "auto"}};
   const SweepPlan automatic = plan_sweep(spec, ".", "spec.json");
-  CHECK(automatic.job(0).content["eval"]["t_offset_s"] == "auto");
+  CHECK(automatic.job(0).content.eval["t_offset_s"] == "auto");
   for (const auto& id : automatic.ids) CHECK(ids(plain).count(id) == 0);
   // What a job applies: the one rule both the plan and the job use.
   EvalOptions o;
-  read_sweep_t_offset(automatic.job(0).content["eval"]["t_offset_s"], o);
+  read_sweep_t_offset(automatic.job(0).content.eval["t_offset_s"], o);
   CHECK(o.t_offset_auto);
   read_sweep_t_offset(json(0.25), o);
   CHECK(!o.t_offset_auto);
@@ -127,8 +127,8 @@ TEST_CASE("sweep spec: output.level is an override like any run config key, full
   REQUIRE(p.size() == 2);
   // "full" is the default: its job is the one without the override (same content, same id).
   CHECK(p.ids[0] == plan_sweep(spec_with(base), ".", "spec.json").ids[0]);
-  CHECK_FALSE(p.job(0).content["run_config"]["output"].contains("level"));
-  CHECK(p.job(1).content["run_config"]["output"]["level"] == "minimal");
+  CHECK_FALSE(store::sweep_job_content_json(p.job(0).content)["run_config"]["output"].contains("level"));
+  CHECK(store::sweep_job_content_json(p.job(1).content)["run_config"]["output"]["level"] == "minimal");
   axes["overrides"] = {{"output.level", {"most"}}};
   CHECK_THAT(config_error(spec_with(axes)), Catch::Contains("axes.overrides") && Catch::Contains("output.level"));
 }
@@ -327,8 +327,8 @@ TEST_CASE("sweep spec: the job count is checked from the axes' sizes before anyt
 
 TEST_CASE("sweep ids: only what plan_sweep makes is a job id", "[app][sweep][hostile]") {
   for (const auto& id : plan_sweep(spec_with({{"datasets", {"paper-seq1"}}, {"seeds", {1, 2}}}), ".", "s").ids)
-    CHECK(is_job_id(id));
+    CHECK(store::is_sweep_job_id(id));
   for (const char* bad : {"", "../../victim", "/tmp/x", "0123456789ABCDEF", "0123456789abcde", "0123456789abcdef0",
                           "0123456789abcdeg"})
-    CHECK_FALSE(is_job_id(bad));
+    CHECK_FALSE(store::is_sweep_job_id(bad));
 }

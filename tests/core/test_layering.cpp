@@ -21,13 +21,7 @@ using namespace roe::test::floors;
 
 namespace {
 
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  REQUIRE(in);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using roe::test::read_text;
 
 const std::vector<SourceFile>& real_tree() {
   static const std::vector<SourceFile> tree = scan(ROE_SOURCE_DIR);

@@ -34,13 +34,14 @@ void fuzz_jobs(const std::string& text) {
     start = end == std::string::npos ? text.size() : end + 1;
   }
   std::ofstream(folder() / "sweep.json", std::ios::trunc)
-      << R"({"format": "roe-sweep/1", "axes": ["dataset", "seed", "config"], "n_jobs": )" << n << "}";
+      << R"({"format": "roe-sweep/1", "roe_version": "0", "spec_file": "spec.json", "spec": {},)"
+      << R"( "axes": ["dataset", "seed", "config"], "n_jobs": )" << n << "}";
   std::ofstream(folder() / "jobs.jsonl", std::ios::binary | std::ios::trunc) << text;
   roe::fuzz::expect_clean([&] {
     const auto s = roe::app::read_sweep(folder());
     for (const auto& j : s.jobs) {
-      if (!roe::app::is_job_id(j.id)) __builtin_trap();
-      const std::string det = j.content["detections"].get<std::string>();
+      if (!roe::store::is_sweep_job_id(j.id)) __builtin_trap();
+      const std::string& det = j.content.detections;
       if (!det.empty() && !roe::io::is_plain_name(det)) __builtin_trap();
     }
   });

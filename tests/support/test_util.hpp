@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -18,6 +19,15 @@
 namespace roe::test {
 
 namespace fs = std::filesystem;
+
+/// The bytes of the file `p` (REQUIRE that it opens).
+inline std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  REQUIRE(in);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
 
 /// A fresh folder under the system temp dir, removed with everything in it on destruction.
 struct TempDir {

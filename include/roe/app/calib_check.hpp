@@ -13,6 +13,7 @@
 /// inconclusive), 2 for unreadable or malformed input.
 
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -46,6 +47,11 @@ struct CalibCheckResult {
   /// inconclusive or unobservable (a `roe run --output minimal` folder has nothing to check): the verdict is
   /// then "NOT JUDGED", never "PASS".
   bool judged() const;
+  /// The verdict the JSON calls "passed": no check failed and the run was judged.
+  bool passed() const { return exit_code() == 0 && judged(); }
+  /// The number of checks per status word (pass, fail, inconclusive, skipped, within-sigma, unobservable: each
+  /// present, 0 when none).
+  std::map<std::string, int> status_counts() const;
   nlohmann::json to_json() const;
   std::string to_text() const;
 };

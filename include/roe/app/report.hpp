@@ -14,10 +14,14 @@
 /// replaced only with --force. Ctrl-C kills the plotting process and removes every temporary.
 
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "roe/app/calib_check.hpp"
 #include "roe/app/figures.hpp"
 #include "roe/store/eval_report.hpp"
 #include "roe/store/run_record.hpp"
@@ -37,9 +41,25 @@ struct ReportOptions {
   bool force = false;       ///< --force: replace an existing REPORT.html / figures folder
 };
 
+/// The calibration checks as the report shows them: calib-check's result, or why it could not run (a
+/// trajectory-only folder: the report says so and goes on).
+struct ReportCalib {
+  std::optional<CalibCheckResult> result;
+  std::string error;  ///< set when `result` is empty
+};
+
 struct ReportResult {
-  nlohmann::json summary;  ///< out, bytes, figures, evaluation headline, calib-check verdict, timing
-  store::EvalReportFile eval;  ///< the evaluation's report.json
+  std::string out;                 ///< REPORT.html
+  std::size_t bytes = 0;           ///< its size
+  std::string run, gt;             ///< RUN_DIR and the ground truth used
+  std::vector<std::string> figures;                           ///< the figures drawn, by name
+  std::vector<std::pair<std::string, std::string>> skipped;   ///< figures not drawn: name, reason
+  std::string figures_dir;         ///< --figures ("" when not kept)
+  ReportCalib calib;               ///< the calib-check outcome the report shows
+  std::map<std::string, double> timing_s;  ///< eval, calib_check, figures, html, total (wall seconds)
+  store::EvalReportFile eval;      ///< the evaluation's report.json
+  /// The --json summary: out, bytes, figures, evaluation headline, calib-check verdict, timing.
+  nlohmann::json to_json() const;
   std::string to_text() const;
 };
 
@@ -51,12 +71,10 @@ ReportResult write_report(const ReportOptions& options);
 /// (nested braces inside a mark are kept as text; an unclosed mark stays as written).
 std::string caption_html(const std::string& text);
 
-/// The HTML document (exposed for tests): `eval` is roe eval's report.json, `run` run.json (may be
-/// null), `calib` calib-check's JSON (or {"error": message}), `figures` the figure set whose files lie
-/// in `figures_dir`; `run_record` the same run.json typed (null when there is none: the detection counts
-/// are then left out).
-std::string report_html(const store::EvalReportFile& eval, const nlohmann::json& run, const nlohmann::json& calib,
-                        const FigureSet& figures, const std::filesystem::path& figures_dir,
-                        const store::RunRecord* run_record = nullptr);
+/// The HTML document (exposed for tests): `eval` is roe eval's report.json, `run` the run's run.json (null
+/// when the folder has none: the detection counts, health and configuration are then left out), `calib`
+/// calib-check's outcome, `figures` the figure set whose files lie in `figures_dir`.
+std::string report_html(const store::EvalReportFile& eval, const store::RunRecord* run, const ReportCalib& calib,
+                        const FigureSet& figures, const std::filesystem::path& figures_dir);
 
 }  // namespace roe::app

@@ -18,31 +18,27 @@
 #include <string>
 #include <vector>
 
+#include "roe/app/eval.hpp"
 #include "roe/app/shipped_configs.hpp"
 #include "roe/eval/stats.hpp"
+#include "roe/store/sweep_files.hpp"
 
 namespace roe::app {
 
-/// Version of the sweep folder layout (sweep.json "format"); a folder with another one is refused.
-inline constexpr const char* kSweepFormat = "roe-sweep/1";
 /// Version of a spec file ("format" key, optional).
 inline constexpr const char* kSweepSpecFormat = "roe-sweep-spec/1";
 
 /// The most jobs `roe sweep plan` expands a spec to unless --max-jobs raises it (docs/sweep.md).
 inline constexpr std::size_t kDefaultMaxSweepJobs = 100000;
 
-/// One job: everything needed to run it, independent of the machine that planned it.
-struct SweepJob {
-  std::string id;       ///< first 16 hex digits of SHA-256 of `content` (canonical JSON)
-  nlohmann::json axes;  ///< axis name -> value (dataset, seed, config, each override key, detections)
-  /// {"dataset": {"preset", "preset_sha256", "seed", "duration_s"} | {"path"}, "config": name,
-  ///  "run_config": effective RunConfig JSON, "detections": name ("" = the only set), "eval": {...}}
-  nlohmann::json content;
-};
+/// One job: everything needed to run it, independent of the machine that planned it (store/sweep_files.hpp:
+/// its id, axis values and content, as jobs.jsonl holds them).
+using SweepJob = store::SweepJob;
 
-/// True for an id as plan_sweep makes them (16 lower-case hex digits): read_sweep refuses any other, so a
-/// hand-edited jobs.jsonl can never make a job folder path leave the sweep.
-bool is_job_id(const std::string& id);
+/// The eval options of a sweep's "eval" block (a spec's, or a job's in jobs.jsonl, where every default is
+/// filled in), read strictly by the spec's own rules: the settings of for_each_sweep_eval_setting, each
+/// checked as run_eval checks it. ConfigError naming `source` and the key path (`eval.align`).
+EvalOptions sweep_eval_options(const nlohmann::json& block, const std::string& source);
 
 /// A spec expanded into jobs: their ids in order, each job made from the spec on demand by job(i). A job holds
 /// its whole run config (a few KB of JSON), so 100 000 jobs (the default limit) are never all in memory: roe
@@ -74,6 +70,10 @@ struct SweepPlan {
 /// axes, before anything is expanded: bounded memory whatever the spec claims.
 SweepPlan plan_sweep(const nlohmann::json& spec, const std::filesystem::path& spec_dir, const std::string& source,
                      std::size_t max_jobs = kDefaultMaxSweepJobs);
+
+/// The spec file `spec` (JSON; a syntax error names its line and column) expanded by plan_sweep, its errors
+/// located in the file by line and column.
+SweepPlan plan_sweep_file(const std::filesystem::path& spec, std::size_t max_jobs = kDefaultMaxSweepJobs);
 
 // The shipped run configs a spec names ("configs": ["paper"]): app/shipped_configs.hpp, the one source.
 
@@ -109,11 +109,12 @@ SweepPlanResult sweep_plan(const SweepPlanOptions& o);
 /// A sweep folder as read back: the manifest and its jobs in index order.
 struct SweepFolder {
   std::filesystem::path dir;
-  nlohmann::json manifest;  ///< sweep.json
+  store::SweepManifest manifest;  ///< sweep.json
   std::vector<std::string> axis_names;
   std::vector<SweepJob> jobs;
 };
-/// Reads SWEEP_DIR; InputError for a folder that is not a sweep, or one written by another format
+/// Reads SWEEP_DIR (store::read_sweep_manifest, store::read_sweep_jobs, each job's eval block checked with
+/// sweep_eval_options); InputError for a folder that is not a sweep, or one written by another format
 /// version (the message says which and what to do).
 SweepFolder read_sweep(const std::filesystem::path& dir);
 
