@@ -106,6 +106,13 @@ struct FilterOptions {
   bool detection_error_states = false;
   /// Share s of the detection-error variance that is correlated (in (0, 1)); the white rest (1 − s) Σ.
   double detection_error_correlated_share = 0.9;
+  /// The consider covariance for detection errors correlated in time (docs/filter.md §18; issue 49): the
+  /// filter's mean, gain, gate and smoother stay those of white errors (as with detection_error_correlation_s
+  /// 0), and beside its covariance P it keeps an actual covariance P_a, updated in Joseph form with that gain
+  /// and the white-equivalent noise of §15 for τ = detection_error_correlation_s (> 0 required; not with
+  /// detection_error_states). Every σ the filter reports (states.csv, objects.csv, run.json final) is P_a's;
+  /// the smoothed trajectory's is the smoother's (nominal).
+  bool consider_correlated_errors = false;
   /// Detections with a finite score below this are ignored (status rejected_score). 0 keeps all.
   double min_score = 0.0;
 
