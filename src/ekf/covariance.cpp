@@ -280,20 +280,33 @@ bool FilterCovariance::update(const Eigen::Ref<const Eigen::MatrixXd>& Y, const 
 void consider_update(Eigen::MatrixXd& Pa, const Eigen::Ref<const Eigen::MatrixXd>& K, const ConsiderNoise& noise) {
   const Eigen::MatrixXd& H = noise.H;
   const Eigen::MatrixXd& R = noise.R;
-  ROE_CHECK(H.cols() == Pa.rows() && K.rows() == Pa.rows() && K.cols() == H.rows() && R.rows() == H.rows() &&
-                R.cols() == H.rows() && noise.d.size() == H.rows(),
+  const Eigen::Index n = Pa.rows(), m = H.rows();
+  ROE_CHECK(H.cols() == n && K.rows() == n && K.cols() == m && R.rows() == m && R.cols() == m && noise.d.size() == m,
             "consider_update: K, H, R and d do not match P_a");
-  const Eigen::MatrixXd Ya = Pa * H.transpose();  // P_a Hᵀ
-  Eigen::MatrixXd Sa = H * Ya + R;
-  Eigen::MatrixXd KY = K * Ya.transpose();
-  Eigen::MatrixXd Pn = Pa - KY - KY.transpose();
-  Pn.noalias() += K * Sa * K.transpose();
+  // H's non-zero columns (a detection touches the pose, the calibration and its own object): Y_a = P_a Hᵀ
+  // and H Y_a from those only.
+  std::vector<Eigen::Index> cols;
+  for (Eigen::Index j = 0; j < n; ++j)
+    if ((H.col(j).array() != 0.0).any()) cols.push_back(j);
+  const Eigen::MatrixXd Hc = H(Eigen::all, cols);
+  const Eigen::MatrixXd Ya = Pa(Eigen::all, cols) * Hc.transpose();  // P_a Hᵀ (n x m)
+  Eigen::MatrixXd Sa = Hc * Ya(cols, Eigen::all) + R;
+  Sa = (0.5 * (Sa + Sa.transpose())).eval();
+  // (I − K H) P_a (I − K H)ᵀ + K R Kᵀ = P_a − K Y_aᵀ − Y_a Kᵀ + K S_a Kᵀ = P_a + E Kᵀ + K Eᵀ, E = ½ K S_a − Y_a:
+  // a rank-2m product on the lower triangle, mirrored.
+  Eigen::MatrixXd E = -Ya;
+  E.noalias() += 0.5 * K * Sa;
+  const Eigen::MatrixXd Kd = K;  // contiguous for the raw product
+  add_abt(Pa.data(), Pa.outerStride(), E.data(), E.outerStride(), Kd.data(), Kd.outerStride(), n, n, m, 1.0, true);
+  add_abt(Pa.data(), Pa.outerStride(), Kd.data(), Kd.outerStride(), E.data(), E.outerStride(), n, n, m, 1.0, true);
+  Pa.triangularView<Eigen::StrictlyUpper>() = Pa.transpose();
   if (!noise.rows.empty()) {
     const Eigen::MatrixXd DRD_R = noise.d.asDiagonal() * R * noise.d.asDiagonal() - R;
     const Eigen::MatrixXd Ks = K(noise.rows, Eigen::all);
-    Pn(noise.rows, noise.rows) += Ks * DRD_R * Ks.transpose();
+    Eigen::MatrixXd add = Ks * DRD_R * Ks.transpose();
+    add = (0.5 * (add + add.transpose())).eval();
+    Pa(noise.rows, noise.rows) += add;
   }
-  Pa = 0.5 * (Pn + Pn.transpose());
 }
 
 bool FilterCovariance::update_constant_gain(const Eigen::Ref<const Eigen::MatrixXd>& Y,
