@@ -24,7 +24,7 @@ bool same_state(const app::RecordedState& a, const app::RecordedState& b) {
 
 }  // namespace
 
-TEST_CASE("consider covariance: the estimate is the white filter's, bit for bit; the reported sigma grow",
+TEST_CASE("consider covariance: the estimate is the white filter's bit for bit, the reported sigma grow",
           "[ekf][consider]") {
   // roe run's defaults (filter + RTS smoother, split gate, σ scale, re-lock) on a paper-real replica (τ = 3 s).
   const Dataset d = test::simulate_preset("paper-real-seq1", 1, 20.0);

@@ -95,6 +95,7 @@ struct FilterOptions {
   /// Δt the time since the object's previous detection: the variance inflation of a mean of such errors, so
   /// that what a constant state learns from a run is the number of independent detections in it, not the
   /// number of images. The core (pose, velocity, biases) keeps the gain of R (stacked_update_constant_gain).
+  /// With consider_correlated_errors the gain stays the white one and τ enters the consider covariance only.
   double detection_error_correlation_s = 0.0;
   /// Gauss–Markov detection-error states (docs/filter.md §17; issue 49): instead of the inflated gain above,
   /// every object carries a 6-dof error state x (normalised, unit stationary variance) that its detections
