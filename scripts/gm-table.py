@@ -1,14 +1,16 @@
 #!/usr/bin/env python3
 """The filter's detection-error models side by side (issue 49 item 1): today's default (white errors), §15's
-white-inflation (filter.detection_error_correlation_s = TAU) and the Gauss–Markov error states
-(filter.detection_error_states, τ = TAU), each as the smoother (roe run's default) and as the causal filter
-(--estimator filter), on the same simulated datasets.
+white-inflation (filter.detection_error_correlation_s = TAU), the Gauss–Markov error states
+(filter.detection_error_states, τ = TAU) and the consider covariance (filter.consider_correlated_errors,
+τ = TAU: the white filter's estimate with σ from P_a, docs/filter.md §18), each as the smoother (roe run's
+default) and as the causal filter (--estimator filter), on the same simulated datasets.
 
 Every figure comes from roe itself, as in batch-table.py: refine-table.py's truth_figures (calib-check's truth
 checks and roe eval's worst axis) and batch-table.py's timed / verdicts; this script only loops and tabulates.
 
   scripts/gm-table.py --roe build/roe --work /tmp/gm --seeds 1 2 3 --json rows.json
   scripts/gm-table.py ... --sources gt:/tmp/tumvi/room1
+  scripts/gm-table.py ... --configs default consider   (a subset of the configurations)
   scripts/gm-table.py --summary rows.json
 """
 import argparse
@@ -36,7 +38,8 @@ ESTIMATORS = ("smoother", "filter")
 def configs(tau):
     return {"default": None,
             "white-inflation": {"filter": {"detection_error_correlation_s": tau}},
-            "gauss-markov": {"filter": {"detection_error_states": True, "detection_error_correlation_s": tau}}}
+            "gauss-markov": {"filter": {"detection_error_states": True, "detection_error_correlation_s": tau}},
+            "consider": {"filter": {"consider_correlated_errors": True, "detection_error_correlation_s": tau}}}
 
 
 def one(a, source, seed):
@@ -49,6 +52,8 @@ def one(a, source, seed):
     symmetric = {o["id"] for o in man["objects"] if o.get("symmetric")}
     row = {"preset": name, "seed": seed, "runs": {}}
     for label, cfg in configs(a.tau).items():
+        if label not in a.configs:
+            continue
         extra = []
         if cfg is not None:
             path = os.path.join(a.work, "config-%s.json" % label)
@@ -72,6 +77,8 @@ def table(rows):
     for label in configs(0.0):
         for est in ESTIMATORS:
             fs = [r["runs"]["%s/%s" % (label, est)] for r in rows if "%s/%s" % (label, est) in r["runs"]]
+            if not fs:
+                continue
             objs = [o for f in fs for o in f["objects"]]
             ok = sum(1 for o in objs if o["nees"] is not None and o["nees"] <= rt.CHI2_6_99)
             e_ok = sum(1 for f in fs if f["extr_nees"] is not None and f["extr_nees"] <= rt.CHI2_6_99)
@@ -96,6 +103,8 @@ def main():
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     ap.add_argument("--sources", nargs="+", default=["paper-real-seq%d" % i for i in range(1, 9)])
     ap.add_argument("--tau", type=float, default=3.0, help="detection_error_correlation_s of both correlated models")
+    ap.add_argument("--configs", nargs="+", default=list(configs(0.0)), choices=list(configs(0.0)),
+                    help="the configurations to run (default: all)")
     ap.add_argument("--json", default=None)
     ap.add_argument("--summary", default=None)
     a = ap.parse_args()

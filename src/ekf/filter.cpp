@@ -122,6 +122,15 @@ Filter::Filter(const FilterOptions& options, const ImuNoiseParams& noise, const 
     ROE_CHECK(opt_.detection_error_correlated_share > 0.0 && opt_.detection_error_correlated_share < 1.0,
               "detection_error_correlated_share must be in (0, 1)");
   }
+  if (opt_.consider_correlated_errors && !(opt_.detection_error_correlation_s > 0.0))
+    throw ConfigError("consider_correlated_errors needs detection_error_correlation_s > 0 (the errors' correlation "
+                      "time, e.g. 3 s for a network's pose errors)",
+                      {"config", 0, 0, "filter.consider_correlated_errors"});
+  if (opt_.consider_correlated_errors && opt_.detection_error_states)
+    throw ConfigError("consider_correlated_errors and detection_error_states are two models of the same errors: "
+                      "set one of them",
+                      {"config", 0, 0, "filter.consider_correlated_errors"});
+  cov_.set_consider(opt_.consider_correlated_errors);
   cov_.reset(Eigen::MatrixXd::Zero(s_.dim, s_.dim));
   blocks_.reserve(16);
 }
@@ -248,7 +257,7 @@ void Filter::propagate(Timestamp t, const Vec3& gyro, const Vec3& accel) {
 void Filter::check_propagated() {
   // Cheap guard rails every sample: core state and core variances.
   bool ok = s_.x.p_W_I.allFinite() && s_.x.v_W_I.allFinite() && s_.x.q_W_I.coeffs().allFinite();
-  for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(variance(i)) && variance(i) > 0.0;
+  for (int i = 0; i < kCore && ok; ++i) ok = std::isfinite(cov_.variance(i)) && cov_.variance(i) > 0.0;
   if (!ok) check_covariance(false, "propagation");
   // check_state(core_only) on squared norms: a state clearly inside the bounds (norm² ≤ (0.999999·max)², so
   // that the rounded norm is ≤ max) skips it; anything else (near or over a bound, non-finite: NaN fails every
@@ -270,7 +279,7 @@ Mat6 Filter::object_covariance(const ObjectEntry& o) const {
   if (o.dim == 0) return C;
   // The anchor's estimated components are its leading rotation components (δθ_x, δθ_y[, δθ_z]).
   const int first = o.dim == 6 ? 0 : 3;
-  C.block(first, first, o.dim, o.dim) = cov_.stored().block(o.offset, o.offset, o.dim, o.dim);
+  C.block(first, first, o.dim, o.dim) = cov_.reported_stored().block(o.offset, o.offset, o.dim, o.dim);
   return C;
 }
 
@@ -291,7 +300,7 @@ Mat6 Filter::object_covariance_relative_to_anchor(const ObjectEntry& o) const {
   Eigen::Matrix<double, 12, 12> C = Eigen::Matrix<double, 12, 12>::Zero();
   for (int i = 0; i < 12; ++i)
     for (int j = 0; j < 12; ++j)
-      if (idx[i] >= 0 && idx[j] >= 0) C(i, j) = cov_.stored()(idx[i], idx[j]);
+      if (idx[i] >= 0 && idx[j] >= 0) C(i, j) = cov_.reported_stored()(idx[i], idx[j]);
   const Eigen::Matrix<double, 6, 12> J = relative_pose_jacobian(a->T_O_W, o.T_O_W);
   return J * C * J.transpose();
 }
@@ -999,34 +1008,61 @@ double Filter::error_inflation(int object_id) {
 bool Filter::apply_stacked_update(const Eigen::Ref<const Eigen::MatrixXd>& Y, const Eigen::Ref<const Eigen::MatrixXd>& S,
                                   const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx) {
   const int ni = static_cast<int>(inliers.size()), m = row0[ni];
-  bool inflated = false;
-  for (int a = 0; a < ni; ++a) inflated |= blocks_[inliers[a]].k > 1.0;
-  if ((!inflated || s_.dim == kCore) && reference_) return reference_update(inliers, row0, dx);
-  if (!inflated || s_.dim == kCore) return cov_.update(Y, S, ws_r_.head(m), dx, {ws_L_, ws_W_, ws_u_});
-  // The stacked R is block-diagonal (detections independent of each other); √k per row of each block.
-  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(m, m);
-  Eigen::VectorXd d(m);
-  for (int a = 0; a < ni; ++a) {
-    const MeasBlock& b = blocks_[inliers[a]];
-    R.block(row0[a], row0[a], b.m, b.m) = b.R.topLeftCorner(b.m, b.m);
-    d.segment(row0[a], b.m).setConstant(std::sqrt(b.k));
-  }
   // The constant states: the extrinsics and the object-worlds (the anchor's kept components included).
   std::vector<Eigen::Index>& rows = ws_const_rows_;
   rows.clear();
   for (int i = kCore; i < s_.dim; ++i) rows.push_back(i);
-  return cov_.update_constant_gain(Y, S, R, d, ws_r_.head(m), rows, dx);
+  // With the consider covariance the gain stays the white one (k enters P_a only, §18).
+  bool inflated = false;
+  for (int a = 0; a < ni && !opt_.consider_correlated_errors; ++a) inflated |= blocks_[inliers[a]].k > 1.0;
+  if ((!inflated || s_.dim == kCore) && reference_) return reference_update(inliers, row0, dx);
+  if (!inflated || s_.dim == kCore) {
+    if (!cov_.consider()) return cov_.update(Y, S, ws_r_.head(m), dx, {ws_L_, ws_W_, ws_u_});
+    Eigen::MatrixXd H, R;
+    stacked_jacobian(inliers, row0, H, R);
+    const Eigen::VectorXd d = stacked_inflation(inliers, row0);
+    const ConsiderNoise noise{H, R, d, rows};
+    return cov_.update(Y, S, ws_r_.head(m), dx, {ws_L_, ws_W_, ws_u_}, &noise);
+  }
+  // The stacked R is block-diagonal (detections independent of each other); √k per row of each block.
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(m, m);
+  for (int a = 0; a < ni; ++a) {
+    const MeasBlock& b = blocks_[inliers[a]];
+    R.block(row0[a], row0[a], b.m, b.m) = b.R.topLeftCorner(b.m, b.m);
+  }
+  return cov_.update_constant_gain(Y, S, R, stacked_inflation(inliers, row0), ws_r_.head(m), rows, dx);
 }
 
-bool Filter::reference_update(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx) {
+Eigen::VectorXd Filter::stacked_inflation(const std::vector<int>& inliers, const std::vector<int>& row0) const {
+  const int ni = static_cast<int>(inliers.size());
+  Eigen::VectorXd d(row0[ni]);
+  for (int a = 0; a < ni; ++a) {
+    const MeasBlock& b = blocks_[inliers[a]];
+    d.segment(row0[a], b.m).setConstant(std::sqrt(b.k));
+  }
+  return d;
+}
+
+void Filter::stacked_jacobian(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::MatrixXd& H,
+                              Eigen::MatrixXd& R) const {
   const int ni = static_cast<int>(inliers.size()), m = row0[ni], n = s_.dim;
-  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m, n), R = Eigen::MatrixXd::Zero(m, m);
+  H.setZero(m, n);
+  R.setZero(m, m);
   for (int a = 0; a < ni; ++a) {
     const MeasBlock& b = blocks_[inliers[a]];
     for (int j = 0; j < b.nc; ++j) H.block(row0[a], b.idx[j], b.m, 1) += b.H.col(j).head(b.m);
     R.block(row0[a], row0[a], b.m, b.m) = b.R.topLeftCorner(b.m, b.m);
   }
-  return cov_.update_dense(H, R, ws_r_.head(m), dx);
+}
+
+bool Filter::reference_update(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx) {
+  const int m = row0[inliers.size()];
+  Eigen::MatrixXd H, R;
+  stacked_jacobian(inliers, row0, H, R);
+  if (!cov_.consider()) return cov_.update_dense(H, R, ws_r_.head(m), dx);
+  const Eigen::VectorXd d = stacked_inflation(inliers, row0);
+  const ConsiderNoise noise{H, R, d, ws_const_rows_};
+  return cov_.update_dense(H, R, ws_r_.head(m), dx, &noise);
 }
 
 void Filter::learn_sigma_scale(const std::vector<double>& frame_samples) {

@@ -284,6 +284,8 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
       row.T_I_C = it->T_I_C;
       row.sigma = it->sigma;
       row.pose_cov = it->pose_cov;
+      // consider_correlated_errors: the extrinsics' σ are the filter's reported (consider) σ (docs/filter.md §18).
+      if (opt.consider_correlated_errors && !std::isnan(row.sigma(0))) row.sigma.tail<6>() = out.summary.final_sigma_I_C;
       // A constant state without process noise: its smoothed estimate and σ are the final filtered ones at
       // every time (ekf/smoother.hpp), as the extrinsics' are.
       row.time_offset_s = out.summary.final_time_offset_s;

@@ -102,6 +102,7 @@ const std::vector<Field<ekf::FilterOptions>>& filter_fields() {
                        [](const double& v) -> const char* {
                          return v > 0.0 && v < 1.0 ? nullptr : "must be in (0, 1), e.g. 0.9";
                        }),
+      field<O, bool>("consider_correlated_errors", &O::consider_correlated_errors),
       field("min_score", &O::min_score, &non_negative),
       field<O, bool>("chi2_gate", &O::chi2_gate),
       field<O, double>("chi2_confidence", &O::chi2_confidence,

@@ -245,6 +245,7 @@ const std::set<std::string>& keys_added_later() {
       "config.filter.max_time_offset_s",      // its guard rail: unused while estimate_time_offset is false
       "config.filter.detection_error_states",  // issue 49 item 1, 2026-12-07: false = no Gauss–Markov error states
       "config.filter.detection_error_correlated_share",  // their share of the variance: unused while they are off
+      "config.filter.consider_correlated_errors",  // issue 49 item 1: false = no consider covariance (σ from P)
   };
   return keys;
 }

@@ -364,7 +364,7 @@ TEST_CASE("run config: strict keys, shipped configs load, defaults round-trip", 
   CHECK(ev.health.max_dead_reckoning_s == 4.5);
   CHECK(ev.health.min_supported_fraction == 0.8);
   CHECK(app::run_config_to_json(ev) == every);
-  CHECK(every.at("filter").size() == 52);  // every FilterOptions field (configs/default.json lists them all)
+  CHECK(every.at("filter").size() == 53);  // every FilterOptions field (configs/default.json lists them all)
   CHECK(every.at("health").size() == 4);
   // The health limits are strict too, and their errors name the key path.
   for (const char* bad : {R"({"health": {"min_supported_fraction": 1.5}})", R"({"health": {"max_nis_median_ratio": -1}})",

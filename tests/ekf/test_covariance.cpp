@@ -265,3 +265,154 @@ TEST_CASE("FilterCovariance: decay equals the dense B P B^T + diag(1 - b^2)", "[
   bad(kCore + 6) = 1.5;
   CHECK_THROWS_AS(cov.decay(bad), roe::InternalError);
 }
+
+// The consider covariance (docs/filter.md §18): P_a beside P through every door, the same Φ, Q, J_x, M, B, and
+// at an update the Joseph form of P's gain with the white-equivalent noise of correlated detection errors.
+namespace {
+
+/// The consider update written densely: (I − K H) P_a (I − K H)ᵀ + N, N the noise of K n with n's covariance R
+/// as the core sees it and D R D on the constant rows: N = K R Kᵀ with its constant block replaced by
+/// K_s D R D K_sᵀ (the cross block K_c R K_sᵀ).
+Eigen::MatrixXd consider_dense(const Eigen::MatrixXd& Pa, const Eigen::MatrixXd& K, const Eigen::MatrixXd& H,
+                               const Eigen::MatrixXd& R, const Eigen::VectorXd& d, int first_constant) {
+  const int n = static_cast<int>(Pa.rows()), c = n - first_constant;
+  const Eigen::MatrixXd A = Eigen::MatrixXd::Identity(n, n) - K * H;
+  Eigen::MatrixXd N = K * R * K.transpose();
+  const Eigen::MatrixXd Ks = K.bottomRows(c);
+  N.bottomRightCorner(c, c) = Ks * d.asDiagonal() * R * d.asDiagonal() * Ks.transpose();
+  return A * Pa * A.transpose() + N;
+}
+
+/// A block-diagonal R of 6 x 6 detection blocks and √k constant per block.
+void detection_noise(int blocks, std::mt19937& g, Eigen::MatrixXd& R, Eigen::VectorXd& d) {
+  R = Eigen::MatrixXd::Zero(6 * blocks, 6 * blocks);
+  d.resize(6 * blocks);
+  for (int b = 0; b < blocks; ++b) {
+    R.block<6, 6>(6 * b, 6 * b) = random_spd(6, g);
+    d.segment<6>(6 * b).setConstant(std::sqrt(1.0 + 60.0 * b));  // k = 1 (a first detection), 61, 121
+  }
+}
+
+}  // namespace
+
+TEST_CASE("consider_update equals the dense Joseph form with the white-equivalent noise", "[ekf][covariance][consider]") {
+  std::mt19937 g(181);
+  const int n = 33, m = 18;
+  const Eigen::MatrixXd Pa = random_spd(n, g), K = 0.1 * random_matrix(n, m, g), H = random_matrix(m, n, g);
+  Eigen::MatrixXd R;
+  Eigen::VectorXd d;
+  detection_noise(3, g, R, d);
+  std::vector<Eigen::Index> rows;
+  for (int i = kCore; i < n; ++i) rows.push_back(i);
+  Eigen::MatrixXd P = Pa;
+  consider_update(P, K, ConsiderNoise{H, R, d, rows});
+  const Eigen::MatrixXd expected = consider_dense(Pa, K, H, R, d, kCore);
+  CHECK(rel_diff(P, expected) < 1e-12);
+  CHECK(P == P.transpose());
+  // Without constant rows, or with every k = 1, it is the plain Joseph form of that gain.
+  const Eigen::MatrixXd A = Eigen::MatrixXd::Identity(n, n) - K * H;
+  const Eigen::MatrixXd joseph = A * Pa * A.transpose() + K * R * K.transpose();
+  P = Pa;
+  consider_update(P, K, ConsiderNoise{H, R, d, {}});
+  CHECK(rel_diff(P, joseph) < 1e-12);
+  P = Pa;
+  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(m);
+  consider_update(P, K, ConsiderNoise{H, R, ones, rows});
+  CHECK(rel_diff(P, joseph) < 1e-12);
+  // The persistence only adds: P_a with k > 1 minus the white Joseph form is positive semi-definite.
+  P = Pa;
+  consider_update(P, K, ConsiderNoise{H, R, d, rows});
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(P - joseph);
+  CHECK(es.eigenvalues().minCoeff() > -1e-9 * es.eigenvalues().maxCoeff());
+  CHECK(es.eigenvalues().maxCoeff() > 1e-3);
+  // Sizes that do not fit are refused.
+  Eigen::MatrixXd small = Pa.topLeftCorner(n - 1, n - 1);
+  CHECK_THROWS_AS(consider_update(small, K, ConsiderNoise{H, R, d, rows}), roe::InternalError);
+}
+
+TEST_CASE("FilterCovariance: the consider covariance follows every door, P is the same bytes as without it",
+          "[ekf][covariance][consider]") {
+  std::mt19937 g(53);
+  const int n = 21;  // core + extrinsics
+  const Eigen::MatrixXd P0 = random_spd(n, g);
+  const auto Fs = transitions(11, g), Fs2 = transitions(5, g);
+  CompactJacobian6 Jx;
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(6, n);
+  for (int c : {kP, kTheta, kCore, kCore + 3}) {
+    const Mat63 blk = random_matrix(6, 3, g);
+    J.middleCols<3>(c) = blk;
+    Jx.append3(c, blk);
+  }
+  const Mat6 Q = random_spd(6, g);
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n + 2, n + 6);
+  M.topLeftCorner(n, n).setIdentity();
+  M.topRightCorner(n, 6) = random_matrix(n, 6, g);
+  M(n, n + 3) = M(n + 1, n + 4) = 1.0;
+  const int n2 = n + 2, m = 12;
+  const Eigen::MatrixXd H = random_matrix(m, n2, g);
+  Eigen::MatrixXd R;
+  Eigen::VectorXd d;
+  detection_noise(2, g, R, d);
+  const Eigen::VectorXd r = random_matrix(m, 1, g);
+  std::vector<Eigen::Index> rows;
+  for (int i = kCore; i < n2; ++i) rows.push_back(i);
+  const ConsiderNoise cn{H, R, d, rows};
+
+  // The same sequence of doors on a covariance with and without P_a: propagation (cross terms pending),
+  // augmentation, a change of variables, an update, the re-lock's inflation, more propagation.
+  FilterCovariance with, without;
+  with.set_consider(true);
+  for (FilterCovariance* c : {&with, &without}) c->reset(P0);
+  CHECK(with.reported_full() == P0);
+  for (const auto& F : Fs)
+    for (FilterCovariance* c : {&with, &without}) c->propagate(F, noise(), F.dt);
+  CHECK(with.reported_variance(kV + 1) == with.variance(kV + 1));  // P_a = P until the first update
+  for (FilterCovariance* c : {&with, &without}) {
+    c->augment(Jx, Q);
+    c->change_variables(M);
+  }
+  const Eigen::MatrixXd Pu = with.full();  // P = P_a before the update
+  const Eigen::MatrixXd Y = Pu * H.transpose();
+  Eigen::MatrixXd S = H * Pu * H.transpose() + R;
+  S = (0.5 * (S + S.transpose())).eval();
+  Eigen::MatrixXd L1, W1, L2, W2;
+  Eigen::VectorXd u1, u2, dx1, dx2;
+  CHECK_THROWS_AS(with.update(Y, S, r, dx1, {L1, W1, u1}), roe::InternalError);  // P_a needs its noise
+  REQUIRE(with.update(Y, S, r, dx1, {L1, W1, u1}, &cn));
+  REQUIRE(without.update(Y, S, r, dx2, {L2, W2, u2}));
+  CHECK(dx1 == dx2);
+  CHECK(with.full() == without.full());
+  const Eigen::MatrixXd K = Y * S.inverse();
+  Eigen::MatrixXd Pa = consider_dense(Pu, K, H, R, d, kCore);
+  CHECK(rel_diff(with.reported_full(), Pa) < 1e-9);
+  CHECK(with.reported_variance(kCore + 2) > 1.5 * with.variance(kCore + 2));  // the extrinsics' σ grew
+  // After the update P_a ≠ P: every later door must act on both.
+  for (FilterCovariance* c : {&with, &without}) c->inflate_core(kV, 0.25);
+  Pa.block<3, 3>(kV, kV).diagonal().array() += 0.25;
+  for (const auto& F : Fs2)
+    for (FilterCovariance* c : {&with, &without}) c->propagate(F, noise(), F.dt);
+  Pa = propagate_dense(Pa, Fs2);
+  CHECK(std::abs(with.reported_core(kTheta, kP + 2) - Pa(kTheta, kP + 2)) < 1e-9 * Pa.cwiseAbs().maxCoeff());
+  CHECK(rel_diff(with.reported_full(), Pa) < 1e-9);
+  CHECK(with.full() == without.full());
+  CHECK(without.reported_full() == without.full());  // off: the reported covariance is P
+  Eigen::VectorXd b = Eigen::VectorXd::Ones(n2);
+  b.tail<2>().setConstant(0.5);
+  for (FilterCovariance* c : {&with, &without}) c->decay(b);
+  Pa = (b.asDiagonal() * Pa * b.asDiagonal()).eval();
+  Pa.diagonal().array() += 1.0 - b.array().square();
+  CHECK(rel_diff(with.reported_full(), Pa) < 1e-9);
+  CHECK(with.full() == without.full());
+  CHECK(!with.check(true));
+
+  // The dense reference doors (the filter's reference arithmetic) give the same P_a.
+  FilterCovariance ref;
+  ref.set_consider(true);
+  ref.reset(P0);
+  for (const auto& F : Fs) ref.propagate_dense(F, noise(), F.dt);
+  ref.augment(Jx, Q);
+  ref.change_variables(M);
+  Eigen::VectorXd dx3;
+  REQUIRE(ref.update_dense(H, R, r, dx3, &cn));
+  CHECK(rel_diff(ref.reported_full(), consider_dense(Pu, K, H, R, d, kCore)) < 1e-9);
+}

@@ -13,6 +13,12 @@
 /// the core/rest cross-covariance lazily with the accumulated transition Φ = F_k⋯F_1 (kept transposed, only its
 /// non-trivial columns multiplied) the next time the whole P is needed (update, augmentation, recording,
 /// full()). docs/filter.md §1–2. No heap allocation per IMU sample. I/O-free.
+///
+/// The consider covariance (docs/filter.md §18, `consider_correlated_errors`): beside the nominal P that makes
+/// the gain, an "actual" covariance P_a of the same state, changed by every door with the same Φ, Q, J_x, B, M,
+/// and at each update by the Joseph form of the nominal gain with the white-equivalent noise of detection
+/// errors correlated in time (consider_update). P_a never feeds back into the mean, the gain or the gate; it is
+/// what the filter reports as σ (the reported_* accessors).
 
 #include <Eigen/Core>
 #include <optional>
@@ -45,9 +51,30 @@ struct CompactJacobian6 {
   Eigen::MatrixXd dense(int n) const;
 };
 
+/// The consider update's noise (docs/filter.md §15 and §18): the stacked m x n measurement Jacobian H, the
+/// stacked block-diagonal R, √k per residual row (k the variance inflation of §15, Filter::error_inflation) and
+/// the error-state rows of the constant states, whose accumulated noise is D R D instead of R.
+struct ConsiderNoise {
+  const Eigen::MatrixXd& H;
+  const Eigen::MatrixXd& R;
+  const Eigen::VectorXd& d;
+  const std::vector<Eigen::Index>& rows;
+};
+
+/// The consider (sensitivity) update of an actual covariance P_a for a gain K that was not made from it (Gelb,
+/// Applied Optimal Estimation, ch. 7): with D = diag(d) and K_s = K's `rows` (the other rows 0),
+///   P_a ← (I − K H) P_a (I − K H)ᵀ + K R Kᵀ + K_s (D R D − R) K_sᵀ,
+/// the Joseph form, exact for any K, with the core seeing the detection noise R and the constant states the
+/// white equivalent D R D of errors correlated in time (§15's noise with the nominal gain), then symmetrised.
+/// Formed as P_a − K Y_aᵀ − Y_a Kᵀ + K (H Y_a + R) Kᵀ, Y_a = P_a Hᵀ.
+void consider_update(Eigen::MatrixXd& Pa, const Eigen::Ref<const Eigen::MatrixXd>& K, const ConsiderNoise& noise);
+
 class FilterCovariance {
  public:
-  /// P ← P0 (n x n, symmetric), nothing pending (initialisation).
+  /// With `on`, the consider covariance P_a is kept beside P from the next reset() on (docs/filter.md §18).
+  void set_consider(bool on) { consider_ = on; }
+  bool consider() const { return consider_; }
+  /// P ← P0 (n x n, symmetric), nothing pending (initialisation); P_a ← P0 with the consider covariance.
   void reset(Eigen::MatrixXd P0);
   int dim() const { return static_cast<int>(P_.rows()); }
 
@@ -74,9 +101,11 @@ class FilterCovariance {
   void change_variables(const Eigen::MatrixXd& M);
 
   /// The stacked update (stacked_update.hpp) of P with Y = P Hᵀ (n x m), S and r; δx to `dx`. False, with P
-  /// and dx untouched, when S is not positive definite.
+  /// and dx untouched, when S is not positive definite. With the consider covariance, `consider` (required)
+  /// gives H and the noise for P_a's consider_update with this update's gain K = P Hᵀ S⁻¹.
   bool update(const Eigen::Ref<const Eigen::MatrixXd>& Y, const Eigen::Ref<const Eigen::MatrixXd>& S,
-              const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::VectorXd& dx, const StackedUpdateBuffers& buf);
+              const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::VectorXd& dx, const StackedUpdateBuffers& buf,
+              const ConsiderNoise* consider = nullptr);
   /// The same with a separate gain for the error-state rows `rows` (stacked_update_constant_gain).
   bool update_constant_gain(const Eigen::Ref<const Eigen::MatrixXd>& Y, const Eigen::Ref<const Eigen::MatrixXd>& S,
                             const Eigen::Ref<const Eigen::MatrixXd>& R, const Eigen::Ref<const Eigen::VectorXd>& d,
@@ -86,7 +115,7 @@ class FilterCovariance {
   /// K = P Hᵀ S⁻¹, S = H P Hᵀ + R formed densely from the full H (m x n), then symmetrised. False, with P and
   /// dx untouched, when S is not positive definite.
   bool update_dense(const Eigen::MatrixXd& H, const Eigen::MatrixXd& R, const Eigen::Ref<const Eigen::VectorXd>& r,
-                    Eigen::VectorXd& dx);
+                    Eigen::VectorXd& dx, const ConsiderNoise* consider = nullptr);
 
   /// The guard rails' checks: every diagonal entry finite and positive, and with `positive_definite` P finite
   /// and its Cholesky factorisation successful. Nothing when all hold, else what failed ("covariance diagonal
@@ -96,6 +125,12 @@ class FilterCovariance {
   /// Diagonal entry i and core entry (i, j) (always current, also between updates).
   double variance(int i) const { return cc_pending_ && i < kCore ? Pcc_(i, i) : P_(i, i); }
   double core(int i, int j) const { return cc_pending_ ? Pcc_(i, j) : P_(i, j); }
+  /// The covariance the filter reports as σ: P_a with the consider covariance, else P (same access rules).
+  double reported_variance(int i) const {
+    return !consider_ ? variance(i) : cc_pending_ && i < kCore ? Pacc_(i, i) : Pa_(i, i);
+  }
+  double reported_core(int i, int j) const { return !consider_ ? core(i, j) : cc_pending_ ? Pacc_(i, j) : Pa_(i, j); }
+  const Eigen::MatrixXd& reported_stored() const { return consider_ ? Pa_ : P_; }
   /// The core block (written back into P first).
   const Eigen::Block<const Eigen::MatrixXd, kCore, kCore> core_block();
   /// P as stored: every block outside the core rows/columns is always current (the objects' covariances).
@@ -103,6 +138,8 @@ class FilterCovariance {
   /// The whole covariance brought up to date (core block and cross terms): the update's P Hᵀ, covariance(),
   /// the recording's snapshot of P.
   const Eigen::MatrixXd& full();
+  /// P_a brought up to date (the consider covariance; P when it is off).
+  const Eigen::MatrixXd& reported_full();
 
   /// Recording (the smoother's, smoother.hpp): one IMU step's F into the transition Φ of the open propagation
   /// segment (from reset() or the last take_segment() on), called with each propagation while recording.
@@ -113,11 +150,14 @@ class FilterCovariance {
  private:
   /// Writes the propagated core block back into P (the cross terms may still be pending).
   void sync_core();
-  /// P ← ½ (P + Pᵀ).
+  /// P ← ½ (P + Pᵀ) (and P_a).
   void symmetrise();
 
   Eigen::MatrixXd P_;
   Mat15 Pcc_;
+  bool consider_ = false;
+  Eigen::MatrixXd Pa_;  // the consider covariance (empty when off); its core block pending in Pacc_ with Pcc_'s
+  Mat15 Pacc_;
   bool cc_pending_ = false;
   Mat15 PhiT_ = Mat15::Identity();  // Φᵀ, Φ = F_k⋯F_1 since the last cross-covariance sync
   bool phi_pending_ = false;

@@ -143,10 +143,12 @@ class Filter {
   int time_offset_offset() const { return s_.td_offset; }
   /// t̂_d − the declared prior, in ns: what run_filter adds to the images' (prior-shifted) stamps.
   Timestamp time_offset_shift_ns() const;
-  /// Diagonal entry of P (always current, also between updates).
-  double variance(int i) const { return cov_.variance(i); }
-  /// Entry (i, j) of the core 15x15 block of P (always current).
-  double core_covariance(int i, int j) const { return cov_.core(i, j); }
+  /// Diagonal entry of the reported covariance (always current, also between updates): P, or the consider
+  /// covariance P_a with consider_correlated_errors (docs/filter.md §18). Every σ the filter reports reads it
+  /// (variance, core_covariance, object_covariance*); the gain and the gate read P.
+  double variance(int i) const { return cov_.reported_variance(i); }
+  /// Entry (i, j) of the core 15x15 block of the reported covariance (always current).
+  double core_covariance(int i, int j) const { return cov_.reported_core(i, j); }
   /// Covariance of an object's error state [δp_O_W; δθ_O_W] (6x6; rows/columns of components the
   /// anchor does not estimate are 0). Always current: propagation changes only the core rows/columns.
   Mat6 object_covariance(const ObjectEntry& o) const;
@@ -167,6 +169,8 @@ class Filter {
   const ObjectSymmetry* symmetry(int object_id) const;
   /// The full covariance, brought up to date (applies the pending cross-covariance transition).
   const Eigen::MatrixXd& covariance();
+  /// The reported covariance brought up to date: the consider covariance P_a, or P when it is off.
+  const Eigen::MatrixXd& reported_covariance() { return cov_.reported_full(); }
   const FilterOptions& options() const { return opt_; }
   std::size_t n_updates() const { return n_updates_; }
   /// The factor the per-detection σ are multiplied with (1 unless adapt_detection_sigma_scale).
@@ -237,6 +241,11 @@ class Filter {
   /// The reference arithmetic's stacked update (set_reference_arithmetic): the inliers' dense H and R, applied
   /// by FilterCovariance::update_dense.
   bool reference_update(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::VectorXd& dx);
+  /// The inliers' stacked m x n Jacobian H and block-diagonal R (the dense forms of their blocks).
+  void stacked_jacobian(const std::vector<int>& inliers, const std::vector<int>& row0, Eigen::MatrixXd& H,
+                        Eigen::MatrixXd& R) const;
+  /// √k per stacked row (error_inflation's k of each block).
+  Eigen::VectorXd stacked_inflation(const std::vector<int>& inliers, const std::vector<int>& row0) const;
   /// ws_PHt_'s first 6·nb columns ← P H_kᵀ of blocks_[0 … nb−1]: the columns every H_k shares (core p, θ,
   /// extrinsics; gathered once) in one product, each object's own columns in place.
   void stacked_pht(int nb);

@@ -95,6 +95,7 @@ struct FilterOptions {
   /// Δt the time since the object's previous detection: the variance inflation of a mean of such errors, so
   /// that what a constant state learns from a run is the number of independent detections in it, not the
   /// number of images. The core (pose, velocity, biases) keeps the gain of R (stacked_update_constant_gain).
+  /// With consider_correlated_errors the gain stays the white one and τ enters the consider covariance only.
   double detection_error_correlation_s = 0.0;
   /// Gauss–Markov detection-error states (docs/filter.md §17; issue 49): instead of the inflated gain above,
   /// every object carries a 6-dof error state x (normalised, unit stationary variance) that its detections
@@ -106,6 +107,13 @@ struct FilterOptions {
   bool detection_error_states = false;
   /// Share s of the detection-error variance that is correlated (in (0, 1)); the white rest (1 − s) Σ.
   double detection_error_correlated_share = 0.9;
+  /// The consider covariance for detection errors correlated in time (docs/filter.md §18; issue 49): the
+  /// filter's mean, gain, gate and smoother stay those of white errors (as with detection_error_correlation_s
+  /// 0), and beside its covariance P it keeps an actual covariance P_a, updated in Joseph form with that gain
+  /// and the white-equivalent noise of §15 for τ = detection_error_correlation_s (> 0 required; not with
+  /// detection_error_states). Every σ the filter reports (states.csv, objects.csv, run.json final) is P_a's;
+  /// the smoothed trajectory's is the smoother's (nominal).
+  bool consider_correlated_errors = false;
   /// Detections with a finite score below this are ignored (status rejected_score). 0 keeps all.
   double min_score = 0.0;
 
