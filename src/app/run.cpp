@@ -66,6 +66,11 @@ void write_outputs(const RunOutput& r, const RunConfig& config, const io::Output
 
 BatchEstimator g_batch_estimator = nullptr;
 
+// The temporary files in the run's temporary folder (hidden names; neither reaches the committed run folder):
+// the smoothed rows until they are written in time order, the filter's recording until it is smoothed.
+constexpr const char* kSmoothedRowsTemporary = ".smoothed-states.tmp";
+constexpr const char* kRecordingTemporary = ".filter-recording.tmp";
+
 // What run.json records of a run (store/run_record.hpp); the inputs and the timings are the caller's.
 store::RunRecord run_record(const RunOutput& r, const Dataset& dataset, const RunConfig& config) {
   store::RunRecord rec;
@@ -121,10 +126,10 @@ ErrorContext located(const ErrorContext& c, const std::filesystem::path& dataset
 }
 
 RunOutput run_dataset_located(const Dataset& dataset, const std::filesystem::path& dataset_dir,
-                              const RunOptions& options, const RunConfig& config, store::RunRowSink* rows) {
+                              const RunOptions& options, const RunConfig& config, const pipeline::RunSinks& sinks) {
   const auto at = [&](const Error& e) { return located(e.context(), dataset_dir, options.config_file); };
   try {
-    return run_dataset(dataset, options.detections, config, rows);
+    return run_dataset(dataset, options.detections, config, sinks);
   } catch (const ConfigError& e) {
     throw ConfigError(e.bare_message(), at(e));
   } catch (const InputError& e) {
@@ -182,11 +187,25 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
 
   RunResult res;
   res.out = out_dir;
-  // The filter alone: its rows are final when produced, and go straight into the run folder's files.
+  // The filter alone and the smoother: the filter's rows go straight into the run folder's files as they are
+  // produced (with the smoother its state rows are states_filter.csv and trajectory_filter.*), the smoothed
+  // rows into a temporary file in the run's temporary folder as the backward pass gives them, from the last to
+  // the first; the batch revises the rows in memory.
+  const auto path_of = [&dir](const std::string& file) { return dir.file(file); };
+  // The filter's recording for the smoother goes into a temporary file there too, removed once smoothed.
   std::optional<store::RunFolderWriter> stream;
-  if (pipeline::streams_rows(config))
-    stream.emplace(config, [&dir](const std::string& file) { return dir.file(file); });
-  res.output = run_dataset_located(dataset, dataset_dir, options, config, stream ? &*stream : nullptr);
+  std::optional<store::SpilledStateRows> smoothed_rows;
+  std::optional<store::RecordingFile> recording;
+  if (pipeline::streams_rows(config)) {
+    stream.emplace(config, path_of, store::RunFolderRows{true, config.smoothed() ? "_filter" : "", true});
+    if (config.smoothed()) smoothed_rows.emplace(dir.file(kSmoothedRowsTemporary));
+  }
+  if (config.smoothed()) recording.emplace(dir.file(kRecordingTemporary));
+  res.output =
+      run_dataset_located(dataset, dataset_dir, options, config,
+                          {stream ? &*stream : nullptr, smoothed_rows ? &*smoothed_rows : nullptr,
+                           recording ? &*recording : nullptr});
+  recording.reset();
   const RunOutput& r = res.output;
   for (const auto& w : r.warnings) log::warn("{}", w);
   log::info("filter: {} updates, anchor object {}, {:.3f} s; IMU noise gyro {:g} ({}), accel {:g} ({})",
@@ -204,10 +223,17 @@ RunResult run(const std::filesystem::path& dataset_dir, const std::filesystem::p
                                   "so the files hold the smoother's estimate");
     log::warn("{}", res.output.warnings.back());
   }
-  if (stream)
+  if (stream) {
     stream->commit();
-  else
+    if (smoothed_rows) {  // states.csv and trajectory.*, in time order; the temporary file goes
+      store::RunFolderWriter smoothed(config, path_of, store::RunFolderRows{true, "", false});
+      smoothed_rows->replay(smoothed);
+      smoothed.commit();
+      smoothed_rows.reset();
+    }
+  } else {
     write_outputs(r, config, dir, !batch);
+  }
   // Who produced the set (its meta.json, when it has one): in the log, and a malformed one is an input error.
   res.detections_meta = store::read_detection_set_meta(dataset_dir, set);
   if (res.detections_meta)

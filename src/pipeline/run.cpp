@@ -29,16 +29,42 @@ SigmaRows sigma_rows(const store::RunConfig& c) {
   return store::sigma_at_every_row(c) ? SigmaRows::kEvery : SigmaRows::kAfterImages;
 }
 
-// The rows in memory: RunOutput's vectors (the smoother and the batch revise them; tests read them).
+// The rows in memory: RunOutput's vectors (the batch revises them; tests read them). With the smoother the
+// filter's state rows are its own estimate beside the smoothed one: kept in filter_states when the run folder
+// has states_filter.csv, else dropped.
 class MemorySink : public store::RunRowSink {
  public:
-  explicit MemorySink(RunOutput& out) : out_(out) {}
-  void state(const RecordedState& row) override { out_.states.push_back(row); }
+  MemorySink(RunOutput& out, const store::RunConfig& c)
+      : out_(out), states_(!c.smoothed() ? &out.states : store::run_folder_has(c, "states_filter.csv") ? &out.filter_states : nullptr) {}
+  void state(const RecordedState& row) override {
+    if (states_ != nullptr) states_->push_back(row);
+  }
   void object(const ObjectRow& row) override { out_.objects.push_back(row); }
   void reprojection(const store::ReprojectionRow& row) override { out_.reprojection.push_back(row); }
 
  private:
   RunOutput& out_;
+  std::vector<RecordedState>* states_;
+};
+
+// The smoothed state rows in memory (RunOutput::states): the blocks come from the last to the first.
+class MemoryBackward : public store::BackwardStateRows {
+ public:
+  void block(const std::vector<RecordedState>& rows) override { blocks_.push_back(rows); }
+  void take(std::vector<RecordedState>& states) {
+    for (auto b = blocks_.rbegin(); b != blocks_.rend(); ++b) states.insert(states.end(), b->begin(), b->end());
+    blocks_.clear();
+  }
+
+ private:
+  std::vector<std::vector<RecordedState>> blocks_;
+};
+
+// The times of the filter's state rows and whether each has σ: what the smoothed rows are made of (every row
+// of the filter has its smoothed counterpart at the same time, with σ where the smoother formed it).
+struct RowTimes {
+  std::vector<Timestamp> t;
+  std::vector<char> sigma;
 };
 
 // Hands the filter's output rows to a sink as they are produced, counting them in `out` (the counts and the
@@ -46,8 +72,8 @@ class MemorySink : public store::RunRowSink {
 // cells, store/run_files.hpp).
 class Recorder : public ekf::FilterObserver {
  public:
-  Recorder(RunOutput& out, store::RunRowSink& sink, bool imu_rate, SigmaRows sigma)
-      : out_(out), sink_(sink), imu_rate_(imu_rate), sigma_(sigma) {}
+  Recorder(RunOutput& out, store::RunRowSink& sink, bool imu_rate, SigmaRows sigma, RowTimes* times)
+      : out_(out), sink_(sink), times_(times), imu_rate_(imu_rate), sigma_(sigma) {}
 
   void on_imu(const ekf::Filter& f) override {
     if (!imu_rate_) return;
@@ -111,19 +137,72 @@ class Recorder : public ekf::FilterObserver {
   void put(const RecordedState& s) {
     sink_.state(s);
     ++out_.state_rows;
+    if (times_ != nullptr) {
+      times_->t.push_back(s.t_ns);
+      times_->sigma.push_back(!std::isnan(s.sigma(0)));
+    }
   }
 
   RunOutput& out_;
   store::RunRowSink& sink_;
+  RowTimes* times_;
   Timestamp last_image_ns_ = 0;
   bool imu_rate_;
   SigmaRows sigma_;
   bool sigma_due_ = true;  // the first row has σ (the prior), then the first after each image
 };
 
+// The smoothed state rows, made from the smoother's states as its backward pass hands them over (the segments
+// from the last to the first), one block per segment: each of the filter's rows takes the smoothed state at
+// its time (there is one: every row is at the filter's initial time or at the end of a propagation step). A
+// constant state without process noise, the time offset, has its final filtered estimate and σ at every
+// time (ekf/smoother.hpp), as the extrinsics have.
+class SmoothedRows : public ekf::SmoothedStates {
+ public:
+  SmoothedRows(const RowTimes& rows, const ekf::FilterRunSummary& s, bool consider, store::BackwardStateRows& out)
+      : rows_(rows), end_(rows.t.size()), offset_(s.final_time_offset_s), sigma_offset_(s.final_sigma_time_offset_s),
+        consider_(consider), sigma_I_C_(s.final_sigma_I_C), out_(out) {}
+
+  void segment(const std::vector<ekf::SmoothedState>& states) override {
+    const auto first = rows_.t.begin();
+    const auto lo = static_cast<std::size_t>(
+        std::lower_bound(first, first + static_cast<std::ptrdiff_t>(end_), states.front().t_ns) - first);
+    block_.clear();
+    std::size_t k = 0;
+    for (std::size_t i = lo; i < end_; ++i) {
+      while (k < states.size() && states[k].t_ns < rows_.t[i]) ++k;
+      ROE_CHECK(k < states.size() && states[k].t_ns == rows_.t[i], "smoother: a state row without a smoothed state");
+      const ekf::SmoothedState& st = states[k];
+      RecordedState& row = block_.emplace_back();
+      row.t_ns = st.t_ns;
+      row.x = st.x;
+      row.T_I_C = st.T_I_C;
+      row.sigma = st.sigma;
+      row.pose_cov = st.pose_cov;
+      // consider_correlated_errors: the extrinsics' σ are the filter's reported (consider) σ (docs/filter.md §18).
+      if (consider_ && !std::isnan(row.sigma(0))) row.sigma.tail<6>() = sigma_I_C_;
+      row.time_offset_s = offset_;
+      row.sigma_time_offset_s = std::isnan(row.sigma(0)) ? row.sigma(0) : sigma_offset_;
+    }
+    end_ = lo;
+    out_.block(block_);
+  }
+  /// Every row has had its smoothed state.
+  void finish() const { ROE_CHECK(end_ == 0, "smoother: a state row without a smoothed state"); }
+
+ private:
+  const RowTimes& rows_;
+  std::size_t end_;  // the rows before it wait for their segment
+  double offset_, sigma_offset_;
+  bool consider_;
+  Vector6d sigma_I_C_;
+  store::BackwardStateRows& out_;
+  std::vector<RecordedState> block_;
+};
+
 }  // namespace
 
-bool streams_rows(const store::RunConfig& config) { return !config.smoothed(); }
+bool streams_rows(const store::RunConfig& config) { return config.estimator != store::Estimator::kBatch; }
 
 std::string choose_detections(const Dataset& d, const std::string& name) {
   std::vector<std::string> names;
@@ -177,12 +256,29 @@ ekf::ImuNoiseParams imu_noise(const Dataset& d, const ekf::FilterOptions& o, std
   return n;
 }
 
+// The smoother over the filter's recording, its rows to `out`. It forms the covariance only where a row has σ
+// (every IMU step at level "full"; the mean at the other steps costs O(15²) each, ekf/smoother.hpp).
+void smooth_rows(const ekf::FilterRecording& recording, const ekf::ImuNoiseParams& noise, const store::RunConfig& config,
+                 const RowTimes& rows, const ekf::FilterRunSummary& summary, store::BackwardStateRows& out) {
+  std::vector<Timestamp> sigma_times;
+  ekf::SmootherOptions sopt;
+  if (!(config.output_rate == store::OutputRate::kImu && sigma_rows(config) == SigmaRows::kEvery)) {
+    for (std::size_t i = 0; i < rows.t.size(); ++i)
+      if (rows.sigma[i]) sigma_times.push_back(rows.t[i]);
+    sopt.covariance_at = &sigma_times;
+  }
+  SmoothedRows smoothed(rows, summary, config.filter.consider_correlated_errors, out);
+  ekf::smooth(recording, noise, smoothed, sopt);
+  smoothed.finish();
+}
+
 }  // namespace
 
 RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name, const store::RunConfig& config,
-                      store::RunRowSink* rows) {
-  ROE_CHECK(rows == nullptr || !config.smoothed(),
-            "run_dataset: rows stream to a sink only with the filter alone (the smoother revises them)");
+                      const RunSinks& sinks) {
+  const bool streamed = sinks.filter != nullptr;
+  ROE_CHECK(!streamed || (streams_rows(config) && (sinks.smoothed != nullptr) == config.smoothed()),
+            "run_dataset: rows stream with the filter alone (one sink) or the smoother (both sinks), not the batch");
   RunOutput out;
   const ekf::FilterOptions& opt = config.filter;
   if (dataset.imu.size() < 2)
@@ -246,15 +342,19 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
         "only a noise-free simulation justifies",
         noise.gyro_noise_density, noise.accel_noise_density,
         out.imu_noise_from[0] == out.imu_noise_from[2] ? out.imu_noise_from[0] : "dataset and config"));
-  MemorySink memory(out);
-  if (rows == nullptr) {
-    out.states.reserve(config.output_rate == store::OutputRate::kImu ? dataset.imu.size() : images.size());
+  MemorySink memory(out, config);
+  if (!streamed) {
+    std::vector<RecordedState>& rows = config.smoothed() ? out.filter_states : out.states;
+    if (!config.smoothed() || store::run_folder_has(config, "states_filter.csv"))
+      rows.reserve(config.output_rate == store::OutputRate::kImu ? dataset.imu.size() : images.size());
     out.reprojection.reserve(dets.size());
   }
-  Recorder rec(out, rows != nullptr ? *rows : memory, config.output_rate == store::OutputRate::kImu, sigma_rows(config));
-  const auto t0 = Clock::now();
   const bool smooth = config.smoothed();
-  ekf::FilterRecording recording;
+  RowTimes row_times;
+  Recorder rec(out, streamed ? *sinks.filter : memory, config.output_rate == store::OutputRate::kImu, sigma_rows(config),
+               smooth ? &row_times : nullptr);
+  const auto t0 = Clock::now();
+  ekf::FilterRecording recording(sinks.recording);
   std::map<int, ObjectSymmetry> symmetries;
   for (const auto& o : dataset.manifest.objects)
     if (!o.symmetry.empty() || o.symmetric) symmetries[o.id] = o.symmetry;  // empty: symmetric, group unknown
@@ -263,34 +363,10 @@ RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name
                       to_seconds(offset_ns));
   out.filter_wall_s = seconds_since(t0);
   if (smooth) {
-    // Every state row is at the filter's initial time or at the end of a propagation step.
     const auto t1 = Clock::now();
-    // The smoother forms the covariance only where a row has σ (every IMU step at level "full"; the mean at
-    // the other steps costs O(15²) each, ekf/smoother.hpp).
-    std::vector<Timestamp> row_times;
-    ekf::SmootherOptions sopt;
-    if (!(config.output_rate == store::OutputRate::kImu && sigma_rows(config) == SigmaRows::kEvery)) {
-      for (const RecordedState& row : out.states)
-        if (!std::isnan(row.sigma(0))) row_times.push_back(row.t_ns);
-      sopt.covariance_at = &row_times;
-    }
-    const ekf::SmootherResult sm = ekf::smooth(recording, noise, sopt);
-    if (store::run_folder_has(config, "states_filter.csv")) out.filter_states = out.states;
-    for (RecordedState& row : out.states) {
-      const auto it = std::lower_bound(sm.states.begin(), sm.states.end(), row.t_ns,
-                                       [](const ekf::SmoothedState& s, Timestamp t) { return s.t_ns < t; });
-      ROE_CHECK(it != sm.states.end() && it->t_ns == row.t_ns, "smoother: a state row without a smoothed state");
-      row.x = it->x;
-      row.T_I_C = it->T_I_C;
-      row.sigma = it->sigma;
-      row.pose_cov = it->pose_cov;
-      // consider_correlated_errors: the extrinsics' σ are the filter's reported (consider) σ (docs/filter.md §18).
-      if (opt.consider_correlated_errors && !std::isnan(row.sigma(0))) row.sigma.tail<6>() = out.summary.final_sigma_I_C;
-      // A constant state without process noise: its smoothed estimate and σ are the final filtered ones at
-      // every time (ekf/smoother.hpp), as the extrinsics' are.
-      row.time_offset_s = out.summary.final_time_offset_s;
-      row.sigma_time_offset_s = std::isnan(row.sigma(0)) ? row.sigma(0) : out.summary.final_sigma_time_offset_s;
-    }
+    MemoryBackward memory_rows;
+    smooth_rows(recording, noise, config, row_times, out.summary, streamed ? *sinks.smoothed : memory_rows);
+    if (!streamed) memory_rows.take(out.states);
     out.smoothed = true;
     out.smoother_wall_s = seconds_since(t1);
   }

@@ -4,7 +4,13 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <optional>
@@ -363,25 +369,32 @@ void write_states_csv(const fs::path& file, const std::vector<RecordedState>& ro
 void write_objects_csv(const fs::path& file, const std::vector<ObjectRow>& rows) { write_rows(file, rows); }
 void write_reprojection_csv(const fs::path& file, const std::vector<ReprojectionRow>& rows) { write_rows(file, rows); }
 
-RunFolderWriter::RunFolderWriter(const RunConfig& config, const std::function<fs::path(const std::string&)>& path_of) {
-  const auto has = [&](const char* file) { return run_folder_has(config, file); };
-  if (has("states.csv")) states_.emplace(path_of("states.csv"));
-  if (has("objects.csv")) objects_.emplace(path_of("objects.csv"));
-  if (has("reprojection.csv")) reprojection_.emplace(path_of("reprojection.csv"));
-  for (const auto& [file, format] : {std::pair{"trajectory.csv", io::TrajectoryFormat::kCsv},
-                                     std::pair{"trajectory.tum", io::TrajectoryFormat::kTum}})
-    if (has(file)) trajectories_.push_back(std::make_unique<io::TrajectoryWriter>(path_of(file), format));
+RunFolderWriter::RunFolderWriter(const RunConfig& config, const std::function<fs::path(const std::string&)>& path_of,
+                                 const RunFolderRows& rows)
+    : rows_(rows) {
+  const auto has = [&](const std::string& file) { return run_folder_has(config, file); };
+  const std::string states = "states" + rows.states_suffix + ".csv", trajectory = "trajectory" + rows.states_suffix;
+  if (rows.states && has(states)) states_.emplace(path_of(states));
+  if (rows.objects && has("objects.csv")) objects_.emplace(path_of("objects.csv"));
+  if (rows.objects && has("reprojection.csv")) reprojection_.emplace(path_of("reprojection.csv"));
+  for (const auto& [ext, format] :
+       {std::pair{".csv", io::TrajectoryFormat::kCsv}, std::pair{".tum", io::TrajectoryFormat::kTum}})
+    if (rows.states && has(trajectory + ext))
+      trajectories_.push_back(std::make_unique<io::TrajectoryWriter>(path_of(trajectory + ext), format));
 }
 RunFolderWriter::~RunFolderWriter() = default;
 
 void RunFolderWriter::state(const RecordedState& row) {
+  ROE_CHECK(rows_.states, "RunFolderWriter: a state row for a writer of other rows");
   if (states_) states_->add(row);
   for (const auto& t : trajectories_) t->add(StampedPose{row.t_ns, Pose(row.x.q_W_I, row.x.p_W_I)});
 }
 void RunFolderWriter::object(const ObjectRow& row) {
+  ROE_CHECK(rows_.objects, "RunFolderWriter: an object row for a writer of other rows");
   if (objects_) objects_->add(row);
 }
 void RunFolderWriter::reprojection(const ReprojectionRow& row) {
+  ROE_CHECK(rows_.objects, "RunFolderWriter: a reprojection row for a writer of other rows");
   if (reprojection_) reprojection_->add(row);
 }
 void RunFolderWriter::commit() {
@@ -390,6 +403,154 @@ void RunFolderWriter::commit() {
   if (reprojection_) reprojection_->commit();
   for (const auto& t : trajectories_) t->commit();
 }
+
+namespace {
+
+// One state row in the spill file: the stamp's bits, then the doubles of every field the files hold.
+constexpr std::size_t kSpillDoubles = 47;
+using SpillRecord = std::array<double, kSpillDoubles>;
+
+template <class V>
+double* put(double* d, const V& v) {
+  for (Eigen::Index i = 0; i < v.size(); ++i) *d++ = v(i);
+  return d;
+}
+template <class V>
+const double* get(const double* d, V& v) {
+  for (Eigen::Index i = 0; i < v.size(); ++i) v(i) = *d++;
+  return d;
+}
+
+void to_record(const RecordedState& r, SpillRecord& rec) {
+  std::memcpy(rec.data(), &r.t_ns, sizeof(double));
+  double* d = rec.data() + 1;
+  for (const Eigen::Vector3d* v : {&r.x.p_W_I, &r.x.v_W_I}) d = put(d, *v);
+  d = put(d, r.x.q_W_I.coeffs());
+  for (const Eigen::Vector3d* v : {&r.x.b_g, &r.x.b_a, &r.T_I_C.p}) d = put(d, *v);
+  d = put(d, r.T_I_C.q.coeffs());
+  d = put(d, r.sigma);
+  *d++ = r.time_offset_s;
+  *d++ = r.sigma_time_offset_s;
+  ROE_CHECK(d == rec.data() + kSpillDoubles, "SpilledStateRows: the record's layout");
+}
+
+void from_record(const SpillRecord& rec, RecordedState& r) {
+  std::memcpy(&r.t_ns, rec.data(), sizeof(double));
+  const double* d = rec.data() + 1;
+  for (Eigen::Vector3d* v : {&r.x.p_W_I, &r.x.v_W_I}) d = get(d, *v);
+  d = get(d, r.x.q_W_I.coeffs());
+  for (Eigen::Vector3d* v : {&r.x.b_g, &r.x.b_a, &r.T_I_C.p}) d = get(d, *v);
+  d = get(d, r.T_I_C.q.coeffs());
+  d = get(d, r.sigma);
+  r.time_offset_s = *d++;
+  r.sigma_time_offset_s = *d++;
+  r.pose_cov.setZero();
+}
+
+}  // namespace
+
+namespace {
+
+/// A temporary file written at its end and read anywhere (pwrite/pread), removed with the object and, while it
+/// lives, on SIGINT/SIGTERM/SIGHUP. `what` names its content in the error of a failed write or read.
+class TemporaryFile {
+ public:
+  TemporaryFile(const fs::path& file, const char* what) : file_(file), what_(what), cleanup_(file) {
+    fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd_ < 0) fail("create");
+  }
+  ~TemporaryFile() {
+    ::close(fd_);
+    std::error_code ec;
+    fs::remove(file_, ec);
+  }
+  TemporaryFile(const TemporaryFile&) = delete;
+  TemporaryFile& operator=(const TemporaryFile&) = delete;
+
+  std::uint64_t append(const void* data, std::size_t n) {
+    const std::uint64_t at = size_;
+    for (const char* p = static_cast<const char*>(data); n > 0;) {
+      const ssize_t k = ::pwrite(fd_, p, n, static_cast<off_t>(size_));
+      if (k < 0 && errno == EINTR) continue;
+      if (k <= 0) fail("write");
+      p += k;
+      n -= static_cast<std::size_t>(k);
+      size_ += static_cast<std::uint64_t>(k);
+    }
+    return at;
+  }
+  void read(std::uint64_t offset, void* data, std::size_t n) const {
+    ROE_CHECK(offset + n <= size_, "temporary file: a read beyond what was written");
+    for (char* p = static_cast<char*>(data); n > 0;) {
+      const ssize_t k = ::pread(fd_, p, n, static_cast<off_t>(offset));
+      if (k < 0 && errno == EINTR) continue;
+      if (k <= 0) fail("read");
+      p += k;
+      n -= static_cast<std::size_t>(k);
+      offset += static_cast<std::uint64_t>(k);
+    }
+  }
+  std::uint64_t size() const { return size_; }
+
+ private:
+  [[noreturn]] void fail(const char* op) const {
+    throw InputError(fmt::format("cannot {} the temporary file of {} ({})", op, what_, std::strerror(errno)),
+                     {file_.string()});
+  }
+  fs::path file_;
+  const char* what_;
+  io::SignalCleanup cleanup_;
+  int fd_ = -1;
+  std::uint64_t size_ = 0;
+};
+
+}  // namespace
+
+struct SpilledStateRows::Impl {
+  explicit Impl(const fs::path& p) : file(p, "the smoothed rows") {}
+  TemporaryFile file;
+  std::vector<std::pair<std::uint64_t, std::size_t>> blocks;  // (offset, rows), in the order given
+  std::uint64_t rows = 0;
+  std::vector<SpillRecord> buf;
+};
+
+SpilledStateRows::SpilledStateRows(const fs::path& file) : impl_(std::make_unique<Impl>(file)) {}
+SpilledStateRows::~SpilledStateRows() = default;
+
+void SpilledStateRows::block(const std::vector<RecordedState>& rows) {
+  if (rows.empty()) return;
+  Impl& m = *impl_;
+  m.buf.resize(rows.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) to_record(rows[i], m.buf[i]);
+  m.blocks.emplace_back(m.file.append(m.buf.data(), rows.size() * sizeof(SpillRecord)), rows.size());
+  m.rows += rows.size();
+}
+
+void SpilledStateRows::replay(RunRowSink& sink) {
+  Impl& m = *impl_;
+  RecordedState row;
+  for (auto b = m.blocks.rbegin(); b != m.blocks.rend(); ++b) {
+    m.buf.resize(b->second);
+    m.file.read(b->first, m.buf.data(), b->second * sizeof(SpillRecord));
+    for (const SpillRecord& rec : m.buf) {
+      from_record(rec, row);
+      sink.state(row);
+    }
+  }
+}
+
+struct RecordingFile::Impl {
+  explicit Impl(const fs::path& p) : file(p, "the filter's recording") {}
+  TemporaryFile file;
+};
+
+RecordingFile::RecordingFile(const fs::path& file) : impl_(std::make_unique<Impl>(file)) {}
+RecordingFile::~RecordingFile() = default;
+std::uint64_t RecordingFile::append(const void* data, std::size_t n) { return impl_->file.append(data, n); }
+void RecordingFile::read(std::uint64_t offset, void* data, std::size_t n) const { impl_->file.read(offset, data, n); }
+std::uint64_t RecordingFile::size() const { return impl_->file.size(); }
+
+std::size_t SpilledStateRows::rows() const { return impl_->rows; }
 
 std::vector<RecordedState> read_states_csv(const fs::path& file, const RunFileRead& read) {
   return read_all(states_table(), file, read);

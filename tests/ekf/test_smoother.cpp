@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstring>
+#include <string>
 
 #include "filter_support.hpp"
 #include "roe/ekf/smoother.hpp"
@@ -489,4 +491,93 @@ TEST_CASE("smoother: with Gauss-Markov detection-error states equals the textboo
   // The sparse pass re-forms nothing through the decay links (both passes take them alike); its pose covariance
   // differs from the all-steps pass's by the round-off of the larger state (measured 1.0e-7 relative, 2026-12-07).
   check_means_and_sparse_covariance(r, 5e-7);
+}
+
+namespace {
+
+/// A spill of its own (a string), counting what goes through it.
+struct CountingSpill : ekf::RecordingSpill {
+  std::string bytes;
+  mutable std::size_t reads = 0;
+  std::uint64_t append(const void* data, std::size_t n) override {
+    const std::uint64_t at = bytes.size();
+    bytes.append(static_cast<const char*>(data), n);
+    return at;
+  }
+  void read(std::uint64_t offset, void* data, std::size_t n) const override {
+    REQUIRE(offset + n <= bytes.size());
+    std::memcpy(data, bytes.data() + offset, n);
+    ++reads;
+  }
+};
+
+/// The segments as a sink receives them.
+struct Segments : ekf::SmoothedStates {
+  std::vector<std::vector<ekf::SmoothedState>> got;
+  void segment(const std::vector<ekf::SmoothedState>& states) override { got.push_back(states); }
+};
+
+bool same_state(const ekf::SmoothedState& a, const ekf::SmoothedState& b) {
+  const auto same = [](const auto& x, const auto& y) {  // bit for bit, nan included
+    return std::memcmp(x.data(), y.data(), sizeof(double) * static_cast<std::size_t>(x.size())) == 0;
+  };
+  return a.t_ns == b.t_ns && same(a.x.p_W_I, b.x.p_W_I) && same(a.x.v_W_I, b.x.v_W_I) &&
+         same(a.x.q_W_I.coeffs(), b.x.q_W_I.coeffs()) && same(a.x.b_g, b.x.b_g) && same(a.x.b_a, b.x.b_a) &&
+         same(a.T_I_C.p, b.T_I_C.p) && same(a.T_I_C.q.coeffs(), b.T_I_C.q.coeffs()) && same(a.sigma, b.sigma) &&
+         same(a.pose_cov, b.pose_cov);
+}
+
+}  // namespace
+
+// roe run smooths an hour of a 400 Hz IMU without holding it (issue 53): the recording goes through a spill
+// (a temporary file there) and the smoothed states to a sink as the backward pass produces them.
+TEST_CASE("smoother: through any spill and to a sink, segment by segment from the last, the same states bit for bit",
+          "[ekf][smoother][spill]") {
+  const Dataset d = test::simulate_preset("paper-seq4", 1, 8.0);  // the anchor's first sight after the start
+  const auto images = ekf::group_images(d.detections.at("sim"));
+  const ekf::FilterOptions opt = matched_config("rts").filter;
+  const auto& n = d.manifest.imu->noise;
+  const ekf::ImuNoiseParams noise{n.gyro_noise_density, n.gyro_random_walk, n.accel_noise_density, n.accel_random_walk};
+  NullObserver obs;
+  ekf::FilterRecording in_memory;
+  ekf::run_filter(d.imu, images, opt, noise, d.manifest.camera->T_I_C, obs, &in_memory);
+  CountingSpill spill;
+  ekf::FilterRecording spilled(&spill);
+  ekf::run_filter(d.imu, images, opt, noise, d.manifest.camera->T_I_C, obs, &spilled);
+  REQUIRE(spilled.steps.size() == in_memory.steps.size());
+  REQUIRE(spilled.steps.size() > ekf::StepLog::kChunk + 500);  // whole chunks in the spill, and a tail
+  // The steps (63 doubles each) and every dense covariance are in the spill, not in the recording.
+  std::size_t covariances = 0;
+  for (const auto& nd : spilled.nodes) covariances += static_cast<std::size_t>(nd.P.size());
+  CHECK(spill.bytes.size() >= 8 * (63 * (spilled.steps.size() - ekf::StepLog::kChunk) + covariances -
+                                   static_cast<std::size_t>(spilled.nodes.back().P.size())));
+  // Read back as recorded: a step and a node.
+  const std::size_t mid = spilled.steps.size() / 2;
+  CHECK(spilled.steps[mid].t_ns == spilled.steps.time(mid));
+  CHECK(spilled.steps[mid].F.dense() == in_memory.steps[mid].F.dense());
+  CHECK(spilled.nodes[5].P == in_memory.nodes[5].P);
+
+  const ekf::SmootherResult ref = ekf::smooth(in_memory, noise, {1});
+  CHECK(ref.gauge_shift.p.norm() > 0.0);  // the states before the anchor's first sight moved
+  for (const unsigned threads : {1u, 2u}) {
+    INFO(threads << " thread(s)");
+    Segments seg;
+    spill.reads = 0;
+    const Pose shift = ekf::smooth(spilled, noise, seg, {threads});
+    CHECK(spill.reads > 0);
+    CHECK(shift.p == ref.gauge_shift.p);
+    REQUIRE(seg.got.size() > 100);
+    CHECK(seg.got.back().size() == 1);  // the initial state, last
+    std::vector<ekf::SmoothedState> all;
+    for (std::size_t k = seg.got.size(); k-- > 0;) {
+      REQUIRE_FALSE(seg.got[k].empty());
+      for (std::size_t i = 1; i < seg.got[k].size(); ++i) REQUIRE(seg.got[k][i - 1].t_ns < seg.got[k][i].t_ns);
+      if (k + 1 < seg.got.size()) REQUIRE(seg.got[k + 1].back().t_ns < seg.got[k].front().t_ns);  // from the last
+      all.insert(all.end(), seg.got[k].begin(), seg.got[k].end());
+    }
+    REQUIRE(all.size() == ref.states.size());
+    std::size_t differ = 0;
+    for (std::size_t k = 0; k < all.size(); ++k) differ += same_state(all[k], ref.states[k]) ? 0 : 1;
+    CHECK(differ == 0);
+  }
 }

@@ -41,6 +41,8 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "roe/core/types.hpp"
@@ -77,11 +79,111 @@ struct RecordedNode {
   Eigen::VectorXd decay;
 };
 
-/// Filled by the filter while it runs (Filter::set_recording). Memory: one dense covariance per update
-/// and augmentation, and ~0.6 kB per IMU step.
-struct FilterRecording {
-  std::vector<RecordedStep> steps;
-  std::vector<RecordedNode> nodes;
+/// Where a FilterRecording keeps what it has recorded (I/O-free): bytes appended in order, read back by offset.
+/// FilterRecording's default keeps them in memory; roe run gives a temporary file beside --out
+/// (store::RecordingFile), so that memory does not grow with the recording.
+class RecordingSpill {
+ public:
+  virtual ~RecordingSpill() = default;
+  /// Appends `n` bytes; returns the offset of the first.
+  virtual std::uint64_t append(const void* data, std::size_t n) = 0;
+  /// Reads `n` bytes from `offset` (within what was appended).
+  virtual void read(std::uint64_t offset, void* data, std::size_t n) const = 0;
+};
+
+/// The recorded IMU steps (FilterRecording::steps): the part of std::vector's interface the filter uses, the
+/// steps themselves in the recording's spill in chunks of kChunk (their 63 doubles each, exact), their times in
+/// memory (8 bytes a step).
+class StepLog {
+ public:
+  static constexpr std::size_t kChunk = 1024;
+  void push_back(const RecordedStep& step);
+  std::size_t size() const { return times_.size(); }
+  void reserve(std::size_t n) { times_.reserve(n); }
+  void clear();
+  Timestamp time(std::size_t i) const { return times_[i]; }
+  /// Step i, read back.
+  RecordedStep operator[](std::size_t i) const;
+  /// Steps [first, last), read back into `out`.
+  void load(std::size_t first, std::size_t last, std::vector<RecordedStep>& out) const;
+
+ private:
+  friend class FilterRecording;
+  RecordingSpill* spill_ = nullptr;
+  std::vector<Timestamp> times_;
+  std::vector<RecordedStep> tail_;     // the steps after the last full chunk
+  std::vector<std::uint64_t> chunks_;  // the spill offset of each full chunk
+};
+
+/// The recorded nodes (FilterRecording::nodes): the part of std::vector's interface the filter uses. The node
+/// in progress (back(): the filter fills it after emplace_back) is held whole; a node is final when the next
+/// one is made, and then its matrices (P, Φ and P_cc, B, the decay) go to the spill and its kind, step counts
+/// and nominal state stay in memory.
+class NodeLog {
+ public:
+  RecordedNode& emplace_back();
+  RecordedNode& back() { return live_; }
+  const RecordedNode& back() const { return live_; }
+  std::size_t size() const { return heads_.size() + (has_live_ ? 1 : 0); }
+  bool empty() const { return size() == 0; }
+  void reserve(std::size_t n) { heads_.reserve(n); }
+  void clear();
+  /// Node j, read back (the matrices from the spill).
+  RecordedNode operator[](std::size_t j) const;
+  /// Node j's kind and whether it is the anchor's first sight, without reading it back.
+  RecordedNode::Kind kind(std::size_t j) const { return j < heads_.size() ? heads_[j].kind : live_.kind; }
+  bool anchor(std::size_t j) const { return j < heads_.size() ? heads_[j].anchor : live_.anchor; }
+
+  /// Iteration over the nodes, each read back (`for (const auto& nd : rec.nodes)`).
+  class const_iterator {
+   public:
+    const_iterator(const NodeLog* log, std::size_t j) : log_(log), j_(j) {}
+    RecordedNode operator*() const { return (*log_)[j_]; }
+    const_iterator& operator++() {
+      ++j_;
+      return *this;
+    }
+    bool operator!=(const const_iterator& o) const { return j_ != o.j_; }
+
+   private:
+    const NodeLog* log_;
+    std::size_t j_;
+  };
+  const_iterator begin() const { return {this, 0}; }
+  const_iterator end() const { return {this, size()}; }
+
+ private:
+  friend class FilterRecording;
+  struct Head {
+    RecordedNode::Kind kind;
+    bool append_only, anchor;
+    std::size_t steps, first_step;
+    StateEstimate x;
+    std::uint64_t offset, doubles;  // where its matrices are in the spill, and how many doubles they are
+  };
+  void spill_live();
+  RecordingSpill* spill_ = nullptr;
+  std::vector<Head> heads_;
+  RecordedNode live_;
+  bool has_live_ = false;
+};
+
+/// Filled by the filter while it runs (Filter::set_recording). Memory: the nodes' nominal states (~0.3 kB and
+/// the objects' entries per update and augmentation) and 8 bytes per IMU step; the rest (~0.5 kB per IMU step
+/// and one dense covariance per update and augmentation) in `spill`, by default in memory as well. Movable,
+/// not copyable.
+class FilterRecording {
+ public:
+  /// `spill`: where the steps and the nodes' matrices go (outliving the recording); nullptr: in memory.
+  explicit FilterRecording(RecordingSpill* spill = nullptr);
+  ~FilterRecording();
+  FilterRecording(FilterRecording&&) noexcept;
+  FilterRecording& operator=(FilterRecording&&) noexcept;
+  StepLog steps;
+  NodeLog nodes;
+
+ private:
+  std::unique_ptr<RecordingSpill> own_;  // the in-memory spill when none is given
 };
 
 /// The smoothed estimate at one time.
@@ -98,7 +200,7 @@ struct SmoothedState {
 struct SmootherOptions {
   /// 0 = as many as the process may use (its affinity mask), 1 = the caller's thread only; with more than
   /// one, the IMU steps inside each segment are smoothed on a second thread while the backward pass goes
-  /// on (the result is bit-identical for every thread count).
+  /// on, at most 64 segments behind it (the result is bit-identical for every thread count).
   unsigned threads = 0;
   /// The times (increasing) at which the smoothed covariance (sigma, pose_cov) is wanted; nullptr = at
   /// every IMU step. The mean is smoothed at every step either way; the initial state always has its
@@ -117,9 +219,25 @@ struct SmootherResult {
   Pose gauge_shift;
 };
 
+/// Where the backward pass hands its smoothed states as it produces them (smooth with a sink): the states of
+/// each propagation segment (its IMU steps, in time order), the segments from the last to the first, then the
+/// initial state alone. Together they are SmootherResult::states, bit for bit. Called from one thread at a
+/// time (the smoother's second thread, when it has one); an exception it throws ends the pass and is
+/// rethrown by smooth().
+class SmoothedStates {
+ public:
+  virtual ~SmoothedStates() = default;
+  virtual void segment(const std::vector<SmoothedState>& states) = 0;
+};
+
 /// Runs the backward pass. `noise` must be the filter's IMU noise (the process noise is re-derived from
 /// the recorded steps). Throws roe::NumericError when a covariance it must invert is not positive
 /// definite.
 SmootherResult smooth(const FilterRecording& rec, const ImuNoiseParams& noise, const SmootherOptions& options = {});
+/// The same backward pass with every smoothed state handed to `out` as it is produced and none kept, so that
+/// its memory does not grow with the recording (roe run writes them into a temporary file, pipeline/run.hpp).
+/// Returns SmootherResult::gauge_shift.
+Pose smooth(const FilterRecording& rec, const ImuNoiseParams& noise, SmoothedStates& out,
+            const SmootherOptions& options = {});
 
 }  // namespace roe::ekf

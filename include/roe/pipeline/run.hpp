@@ -18,8 +18,9 @@
 
 namespace roe::pipeline {
 
-/// The result of a run in memory (what the files hold). With a row sink (run_dataset), `states`, `objects`
-/// and `reprojection` stay empty: the rows went to the sink, and only their counts are kept.
+/// The result of a run in memory (what the files hold). With row sinks (run_dataset), `states`,
+/// `filter_states`, `objects` and `reprojection` stay empty: the rows went to the sinks, and only their counts
+/// are kept.
 struct RunOutput {
   std::vector<store::RecordedState> states;  ///< the estimate (smoothed with store::RunConfig::smoother "rts")
   /// With the smoother: the filter's estimate at the same times as `states`; empty otherwise.
@@ -43,18 +44,33 @@ struct RunOutput {
   std::array<std::string, 4> imu_noise_from;
 };
 
+/// Where run_dataset's rows go instead of RunOutput's vectors, and the smoother's recording instead of memory
+/// (roe run: into the run folder's files as they are produced and a temporary file, so that memory does not
+/// grow with the recording beyond the dataset).
+struct RunSinks {
+  /// The filter's rows as it produces them: its object and reprojection rows and its state rows (the run's
+  /// estimate with the filter alone; with the smoother the filter's own beside it, states_filter.csv).
+  store::RunRowSink* filter = nullptr;
+  /// With the smoother: the smoothed state rows, handed over by the backward pass from the last to the first
+  /// (store::SpilledStateRows puts them back in time order).
+  store::BackwardStateRows* smoothed = nullptr;
+  /// With the smoother (or the batch): where the filter's recording goes while the filter runs (a temporary
+  /// file, store::RecordingFile); nullptr: in memory.
+  ekf::RecordingSpill* recording = nullptr;
+};
+
 /// Runs the filter on a dataset in memory with the detection set `detections_name` (empty: the only
 /// one). Validates the inputs (InputError: no IMU, unknown object ids, bad options; DataError: no
 /// detections, configured anchor never detected) and throws NumericError when the filter diverges.
-/// With `rows` (only for "estimator": "filter", whose rows are final when produced: a programming error
-/// otherwise), every state, object and reprojection row goes to `rows` as the filter produces it and none is
-/// kept (RunOutput's row vectors stay empty), so memory does not grow with the recording beyond the dataset;
-/// without, the rows are collected in RunOutput (the smoother's and the batch's path).
+/// With `sinks` (streams_rows(config); both sinks with the smoother: a programming error otherwise), every row
+/// goes to them as it is produced and none is kept (RunOutput's row vectors stay empty); without, the rows are
+/// collected in RunOutput (the batch's path, and tests).
 RunOutput run_dataset(const Dataset& dataset, const std::string& detections_name, const store::RunConfig& config,
-                      store::RunRowSink* rows = nullptr);
+                      const RunSinks& sinks = {});
 
-/// Whether `roe run` streams the run's rows into its files (run_dataset with a sink): with the filter alone,
-/// whose rows are final when produced; the smoother and the batch revise the whole history first.
+/// Whether `roe run` streams the run's rows into its files (run_dataset with sinks): the filter alone, whose
+/// rows are final when produced, and the smoother, whose rows come out of its backward pass; not the batch,
+/// which revises the whole history from the rows in memory.
 bool streams_rows(const store::RunConfig& config);
 
 /// The detection set a run fuses: `name` when given (InputError naming the available sets when the dataset

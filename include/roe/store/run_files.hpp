@@ -36,6 +36,7 @@
 #include "roe/ekf/filter.hpp"
 #include "roe/ekf/images.hpp"
 #include "roe/ekf/imu.hpp"
+#include "roe/ekf/smoother.hpp"
 #include "roe/eval/evaluate.hpp"
 #include "roe/store/run_config.hpp"
 
@@ -129,13 +130,25 @@ class RunRowSink {
   virtual void reprojection(const ReprojectionRow& row) = 0;
 };
 
-/// The row files of a run folder written as the rows come (roe run with "estimator": "filter", whose rows are
-/// final when produced): states.csv, objects.csv, reprojection.csv and trajectory.csv/.tum (of the state rows),
-/// each only where run_folder_has(config, it). `path_of(name)` is where file `name` is written (the run's
-/// io::OutputDir::file). commit() commits every file; destroyed without it, nothing is left.
+/// Which row files a RunFolderWriter writes (each only where run_folder_has(config, it)).
+struct RunFolderRows {
+  /// The state rows into states<suffix>.csv and trajectory<suffix>.csv/.tum ("_filter": the filter's
+  /// estimate beside a smoothed one); none with `states` false.
+  bool states = true;
+  std::string states_suffix;
+  bool objects = true;  ///< the object and reprojection rows into objects.csv and reprojection.csv
+};
+
+/// The row files of a run folder written as the rows come (roe run: the filter's rows, final when produced, as
+/// the filter runs; the smoothed state rows after the backward pass): states.csv, objects.csv,
+/// reprojection.csv and trajectory.csv/.tum (of the state rows), those `rows` selects and only where
+/// run_folder_has(config, it). `path_of(name)` is where file `name` is written (the run's io::OutputDir::file).
+/// A row of a kind not selected is a programming error. commit() commits every file; destroyed without it,
+/// nothing is left.
 class RunFolderWriter : public RunRowSink {
  public:
-  RunFolderWriter(const RunConfig& config, const std::function<fs::path(const std::string&)>& path_of);
+  RunFolderWriter(const RunConfig& config, const std::function<fs::path(const std::string&)>& path_of,
+                  const RunFolderRows& rows = {});
   ~RunFolderWriter() override;
   void state(const RecordedState& row) override;
   void object(const ObjectRow& row) override;
@@ -143,10 +156,61 @@ class RunFolderWriter : public RunRowSink {
   void commit();
 
  private:
+  RunFolderRows rows_;
   std::optional<RunFileWriter<RecordedState>> states_;
   std::optional<RunFileWriter<ObjectRow>> objects_;
   std::optional<RunFileWriter<ReprojectionRow>> reprojection_;
   std::vector<std::unique_ptr<io::TrajectoryWriter>> trajectories_;
+};
+
+/// State rows handed over from the last to the first in blocks, each block in time order (the smoother's
+/// backward pass: pipeline::run_dataset).
+class BackwardStateRows {
+ public:
+  virtual ~BackwardStateRows() = default;
+  virtual void block(const std::vector<RecordedState>& rows) = 0;
+};
+
+/// BackwardStateRows kept in a temporary file until the last block, then handed on in time order (replay),
+/// so that memory does not grow with the rows (roe run's smoothed rows: the file lies in the run's
+/// io::OutputDir temporary folder, beside --out). The file holds every field of RecordedState but pose_cov,
+/// which no run file holds (it reads back zero), as the bits of the doubles. It is removed by the destructor
+/// (also after an exception) and, while the object lives, on SIGINT/SIGTERM/SIGHUP (io::SignalCleanup).
+/// A failed write or read (disk full) is a roe::InputError naming the file (as RecordingFile).
+class SpilledStateRows : public BackwardStateRows {
+ public:
+  explicit SpilledStateRows(const fs::path& file);
+  ~SpilledStateRows() override;
+  SpilledStateRows(const SpilledStateRows&) = delete;
+  SpilledStateRows& operator=(const SpilledStateRows&) = delete;
+  void block(const std::vector<RecordedState>& rows) override;
+  /// Every row given, in time order (the last block given first), to sink.state().
+  void replay(RunRowSink& sink);
+  std::size_t rows() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// ekf::RecordingSpill in a temporary file (roe run with the smoother: the filter's recording, in the run's
+/// io::OutputDir temporary folder beside --out), so that the recording (0.8 GB an hour of a 400 Hz IMU, and one
+/// dense covariance per update) is not held in memory. Removed by the destructor (also after an exception) and,
+/// while the object lives, on SIGINT/SIGTERM/SIGHUP (io::SignalCleanup). A failed write or read (disk full) is
+/// a roe::InputError naming the file.
+class RecordingFile : public ekf::RecordingSpill {
+ public:
+  explicit RecordingFile(const fs::path& file);
+  ~RecordingFile() override;
+  RecordingFile(const RecordingFile&) = delete;
+  RecordingFile& operator=(const RecordingFile&) = delete;
+  std::uint64_t append(const void* data, std::size_t n) override;
+  void read(std::uint64_t offset, void* data, std::size_t n) const override;
+  std::uint64_t size() const;  ///< the bytes written
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 /// Which columns a reader reads.
