@@ -7,13 +7,13 @@
 namespace roe::cli {
 namespace {
 
-struct Args {
+struct CalibCheckArgs {
   std::string run_dir;
   app::CalibCheckOptions opt;
 };
 
-RunFn setup(CLI::App& sub) {
-  auto a = std::make_shared<Args>();
+RunFn setup_calib_check(CLI::App& sub) {
+  auto a = std::make_shared<CalibCheckArgs>();
   auto& t = a->opt.thresholds;
   sub.add_option("RUN_DIR", a->run_dir, "Run folder written by roe run (run.json, states.csv, objects.csv)")
       ->required();
@@ -83,8 +83,9 @@ RunFn setup(CLI::App& sub) {
   };
 }
 
-const Registrar reg("", "calib-check", "Check a run's self-calibration: extrinsics, object poses, time offset", 70,
-                    &setup);
+const Registrar reg_calib_check("", "calib-check",
+                                "Check a run's self-calibration: extrinsics, object poses, time offset", 70,
+                                &setup_calib_check);
 
 }  // namespace
 }  // namespace roe::cli

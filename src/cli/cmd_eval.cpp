@@ -18,7 +18,7 @@ namespace roe::cli {
 namespace fs = std::filesystem;
 namespace {
 
-struct Args {
+struct EvalArgs {
   app::EvalOptions opt;
   bool evo_align = false, evo_scale = false, evo_origin = false;  // evo's -a, -s (-as), --align_origin
   std::vector<std::string> words;   // positional: EST, or evo's FORMAT REF EST / bag BAG REF EST
@@ -33,7 +33,7 @@ struct Args {
 
 /// evo's -a / -s / -as / --align_origin as roe's --align; a contradiction or evo's scale-only
 /// correction (-s without -a, which roe has no alignment for) is refused with the roe spelling.
-void apply_evo_alignment(Args& a, bool align_given) {
+void apply_evo_alignment(EvalArgs& a, bool align_given) {
   const int n = (a.evo_align || a.evo_scale) + a.evo_origin;
   if (n == 0) return;
   if (align_given || n > 1)
@@ -49,7 +49,7 @@ void apply_evo_alignment(Args& a, bool align_given) {
 
 /// The positional words and --ref as the estimate, the ground truth and their formats; the reference or a
 /// format named twice (evo's form and --gt / --est-format) is refused.
-void apply_eval_words(Args& a) {
+void apply_eval_words(EvalArgs& a) {
   const EvalInputs in = read_eval_words(a.words, a.evo_ref);
   a.opt.est = in.est;
   if (!in.gt.empty()) {
@@ -72,7 +72,7 @@ void apply_eval_words(Args& a) {
 
 /// The estimate, the ground truth and how they are matched and compared. Returns --align (an evo
 /// spelling of the alignment may not name it twice).
-CLI::Option* add_input_options(CLI::App& sub, Args& a) {
+CLI::Option* add_input_options(CLI::App& sub, EvalArgs& a) {
   sub.add_option("estimate", a.words,
                  "Run folder (trajectory.csv [+ reprojection.csv, states.csv]), trajectory file, or BAG:TOPIC (ROS 1/2 "
                  "bag); or evo's form: tum|kitti|euroc REF EST, bag|bag2 BAG REF_TOPIC EST_TOPIC");
@@ -151,7 +151,7 @@ CLI::Option* add_input_options(CLI::App& sub, Args& a) {
 }
 
 /// Where the results go and how they are labelled and drawn.
-void add_output_options(CLI::App& sub, Args& a) {
+void add_output_options(CLI::App& sub, EvalArgs& a) {
   sub.add_option(
       "--out", a.opt.out,
       "Output folder (default RUN_DIR/eval for a run folder); with --summary: FILE[.csv|.json|.md] "
@@ -172,7 +172,7 @@ struct RpeOptions {
   std::vector<CLI::Option*> only;  ///< meaningless without --rpe-delta
 };
 
-RpeOptions add_rpe_options(CLI::App& sub, Args& a) {
+RpeOptions add_rpe_options(CLI::App& sub, EvalArgs& a) {
   auto* rpe_delta =
       sub.add_option("--rpe-delta,--delta", a.opt.rpe_delta,
                      "Relative pose error over this delta (several: 1,2,5); unit from --rpe-unit")
@@ -205,7 +205,7 @@ RpeOptions add_rpe_options(CLI::App& sub, Args& a) {
 
 /// evo's spellings of roe's options, and the evo options roe answers with its own spelling. Returns the
 /// check that refuses those (run in the command's callback).
-std::function<void()> add_evo_spellings(CLI::App& sub, Args& a, std::vector<CLI::Option*>& rpe_only) {
+std::function<void()> add_evo_spellings(CLI::App& sub, EvalArgs& a, std::vector<CLI::Option*>& rpe_only) {
   // evo's spellings (evo_ape / evo_rpe): -a is --align se3, -as --align sim3, --align_origin --align origin.
   const std::vector<CLI::Option*> evo_align = {
       sub.add_flag("-a", a.evo_align, "evo's --align: the same as --align se3")->group("evo spellings"),
@@ -233,7 +233,7 @@ std::function<void()> add_evo_spellings(CLI::App& sub, Args& a, std::vector<CLI:
 }
 
 /// --t-offset S|auto.
-void apply_t_offset(Args& a) {
+void apply_t_offset(EvalArgs& a) {
   if (a.t_offset == "auto") {
     a.opt.t_offset_auto = true;
     return;
@@ -251,7 +251,7 @@ void apply_t_offset(Args& a) {
 }
 
 /// Options that depend on others: RPE settings need --rpe-delta, figure options need --plot.
-void check_option_dependencies(const Args& a, const RpeOptions& rpe) {
+void check_option_dependencies(const EvalArgs& a, const RpeOptions& rpe) {
   if (rpe.delta->count() == 0) {
     // The RPE settings do nothing without a delta: say so instead of ignoring them.
     for (const CLI::Option* op : rpe.only)
@@ -268,7 +268,7 @@ void check_option_dependencies(const Args& a, const RpeOptions& rpe) {
 }
 
 /// roe eval --summary REPORT...: the table of existing reports.
-int run_summary(Args& a) {
+int run_summary(EvalArgs& a) {
   // --summary only reads existing reports: options of an evaluation would be silently ignored.
   std::string given;
   for (const CLI::Option* op : a.eval_only)
@@ -297,8 +297,8 @@ int run_summary(Args& a) {
   return 0;
 }
 
-RunFn setup(CLI::App& sub) {
-  auto a = std::make_shared<Args>();
+RunFn setup_eval(CLI::App& sub) {
+  auto a = std::make_shared<EvalArgs>();
   CLI::Option* align = add_input_options(sub, *a);
   add_output_options(sub, *a);
   RpeOptions rpe = add_rpe_options(sub, *a);
@@ -324,9 +324,9 @@ RunFn setup(CLI::App& sub) {
   };
 }
 
-const Registrar reg("", "eval",
-                    "Evaluate an estimate against ground truth (evo-compatible APE, per-axis RMSE)", 60,
-                    &setup);
+const Registrar reg_eval("", "eval",
+                         "Evaluate an estimate against ground truth (evo-compatible APE, per-axis RMSE)", 60,
+                         &setup_eval);
 
 }  // namespace
 }  // namespace roe::cli

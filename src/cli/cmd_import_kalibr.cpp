@@ -10,13 +10,13 @@
 namespace roe::cli {
 namespace {
 
-struct Args {
+struct KalibrArgs {
   std::string camchain, imu, dataset;
   app::ImportKalibrOptions opt;
 };
 
-RunFn setup(CLI::App& sub) {
-  auto a = std::make_shared<Args>();
+RunFn setup_kalibr(CLI::App& sub) {
+  auto a = std::make_shared<KalibrArgs>();
   sub.add_option("CAMCHAIN", a->camchain, "Kalibr camchain-imucam.yaml")->required();
   sub.add_option("IMU_YAML", a->imu, "Kalibr imu.yaml (noise densities and random walks)");
   sub.add_option("--into", a->dataset, "Dataset folder (roe.json is created when missing)")->required();
@@ -43,8 +43,9 @@ RunFn setup(CLI::App& sub) {
   };
 }
 
-const Registrar reg("import", "kalibr", "Import a Kalibr camera-IMU calibration (camchain-imucam.yaml, imu.yaml)", 30,
-                    &setup);
+const Registrar reg_kalibr("import", "kalibr",
+                           "Import a Kalibr camera-IMU calibration (camchain-imucam.yaml, imu.yaml)", 30,
+                           &setup_kalibr);
 
 }  // namespace
 }  // namespace roe::cli

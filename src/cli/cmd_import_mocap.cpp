@@ -9,15 +9,15 @@
 namespace roe::cli {
 namespace {
 
-struct Args {
+struct MocapArgs {
   std::string file, dataset;
   app::ImportMocapOptions opt;
   double offset = 0.0;
   CLI::Option* offset_opt = nullptr;
 };
 
-RunFn setup(CLI::App& sub) {
-  auto a = std::make_shared<Args>();
+RunFn setup_mocap(CLI::App& sub) {
+  auto a = std::make_shared<MocapArgs>();
   sub.add_option("FILE", a->file, "Motive/Vicon CSV, EuRoC/TUM-VI ground truth, TUM, cnspy CSV, or a ROS bag")
       ->required();
   sub.add_option("--into", a->dataset, "Dataset folder (roe.json is created when missing)")->required();
@@ -62,8 +62,9 @@ RunFn setup(CLI::App& sub) {
   };
 }
 
-const Registrar reg("import", "mocap", "Import motion-capture poses (Motive, Vicon, EuRoC, TUM, cnspy, ROS bag)", 20,
-                    &setup);
+const Registrar reg_mocap("import", "mocap",
+                          "Import motion-capture poses (Motive, Vicon, EuRoC, TUM, cnspy, ROS bag)", 20,
+                          &setup_mocap);
 
 }  // namespace
 }  // namespace roe::cli

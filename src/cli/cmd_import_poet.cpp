@@ -9,14 +9,14 @@
 namespace roe::cli {
 namespace {
 
-struct Args {
+struct PoetArgs {
   std::string results;
   std::string dataset;
   app::ImportPoetOptions opt;
 };
 
-RunFn setup(CLI::App& sub) {
-  auto a = std::make_shared<Args>();
+RunFn setup_poet(CLI::App& sub) {
+  auto a = std::make_shared<PoetArgs>();
   sub.add_option("RESULTS_JSON", a->results, "PoET's results.json (main.py --inference)")->required();
   sub.add_option("--into", a->dataset, "Dataset folder (roe.json, mav0/cam0/data.csv)")->required();
   sub.add_option("--name", a->opt.name, "Detections set name: DATASET/detections/NAME")->capture_default_str();
@@ -45,7 +45,8 @@ RunFn setup(CLI::App& sub) {
   };
 }
 
-const Registrar reg("import", "poet", "Import detections from PoET's own inference (results.json)", 40, &setup);
+const Registrar reg_poet("import", "poet", "Import detections from PoET's own inference (results.json)", 40,
+                         &setup_poet);
 
 }  // namespace
 }  // namespace roe::cli

@@ -9,7 +9,7 @@
 namespace roe::cli {
 namespace {
 
-RunFn setup(CLI::App& sub) {
+RunFn setup_report(CLI::App& sub) {
   auto o = std::make_shared<app::ReportOptions>();
   sub.add_option("RUN_DIR", o->run_dir, "Run folder written by roe run")->required();
   sub.add_option("--gt", o->gt,
@@ -38,8 +38,9 @@ RunFn setup(CLI::App& sub) {
   };
 }
 
-const Registrar reg("", "report", "One self-contained HTML report of a run: tables, verdicts, the paper's figures",
-                    75, &setup);
+const Registrar reg_report("", "report",
+                           "One self-contained HTML report of a run: tables, verdicts, the paper's figures",
+                           75, &setup_report);
 
 }  // namespace
 }  // namespace roe::cli

@@ -14,7 +14,7 @@
 namespace roe::cli {
 namespace {
 
-struct Args {
+struct SimulateArgs {
   app::SimulateOptions opt;
   std::string out;
   double duration = 0.0;
@@ -27,8 +27,8 @@ struct Args {
   CLI::Option* objects_opt = nullptr;
 };
 
-RunFn setup(CLI::App& sub) {
-  auto a = std::make_shared<Args>();
+RunFn setup_simulate(CLI::App& sub) {
+  auto a = std::make_shared<SimulateArgs>();
   sub.add_flag("--list-presets", a->list, "List the built-in presets (configs/sim/*.json) and exit");
   sub.add_option("--preset", a->opt.preset, "Built-in preset, e.g. paper-seq4, noise-free, matched");
   sub.add_option("--config", a->opt.config_file, "Simulator config JSON (keys: docs/simulator.md)");
@@ -79,9 +79,9 @@ RunFn setup(CLI::App& sub) {
   };
 }
 
-const Registrar reg("", "simulate",
-                    "Simulate a dataset (IMU, mocap, PoET-like detections) or detections on EuRoC", 10,
-                    &setup);
+const Registrar reg_simulate("", "simulate",
+                             "Simulate a dataset (IMU, mocap, PoET-like detections) or detections on EuRoC",
+                             10, &setup_simulate);
 
 }  // namespace
 }  // namespace roe::cli

@@ -60,7 +60,7 @@ std::size_t Trajectory::count_duplicate_stamps() const {
 
 namespace {
 
-std::string_view trim(std::string_view s) {
+std::string_view trim_cr(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
   while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
   return s;
@@ -72,7 +72,7 @@ std::vector<std::string> split_names(std::string_view line, char delim) {
   while (true) {
     const std::size_t d = line.find(delim, start);
     out.emplace_back(
-        trim(line.substr(start, d == std::string_view::npos ? std::string_view::npos : d - start)));
+        trim_cr(line.substr(start, d == std::string_view::npos ? std::string_view::npos : d - start)));
     if (d == std::string_view::npos) break;
     start = d + 1;
   }
@@ -82,11 +82,12 @@ std::vector<std::string> split_names(std::string_view line, char delim) {
 // Name without a unit suffix: "p_RS_R_x [m]" -> "p_RS_R_x".
 std::string base_name(const std::string& n) {
   const std::size_t b = n.find(" [");
-  return std::string(trim(b == std::string::npos ? std::string_view(n) : std::string_view(n).substr(0, b)));
+  return std::string(
+      trim_cr(b == std::string::npos ? std::string_view(n) : std::string_view(n).substr(0, b)));
 }
 
 bool looks_numeric(std::string_view f) {
-  f = trim(f);
+  f = trim_cr(f);
   if (f.empty()) return false;
   const char c = f.front();
   return (c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.';
@@ -132,12 +133,12 @@ std::optional<TrajectoryFormat> detect_format_in(std::string_view text, const st
   while (pos < text.size()) {
     const std::size_t nl = text.find('\n', pos);
     std::string_view line =
-        trim(text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos));
+        trim_cr(text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos));
     pos = nl == std::string_view::npos ? text.size() : nl + 1;
     ++line_no;
     if (line.empty()) continue;
     const bool comment = line.front() == '#';
-    std::string_view body = comment ? trim(line.substr(1)) : line;
+    std::string_view body = comment ? trim_cr(line.substr(1)) : line;
     if (body.find(',') != std::string_view::npos) {
       if (looks_numeric(body)) {
         throw InputError(

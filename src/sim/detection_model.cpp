@@ -4,12 +4,13 @@
 #include <cmath>
 
 #include "roe/core/error.hpp"
+#include "roe/math/euler.hpp"
 #include "roe/math/so3.hpp"
 
 namespace roe::sim {
 namespace {
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
+using math::kPi;
+using math::kRadPerDeg;
 
 // Axes (u1, u2 lateral, r along) of the translation error for a true translation t.
 void error_axes(const Eigen::Vector3d& t, const std::string& frame, Eigen::Vector3d& u1, Eigen::Vector3d& u2,
@@ -142,8 +143,8 @@ PoetErrorModel::PoetErrorModel(DetectionNoiseConfig config, std::map<int, Object
 bool PoetErrorModel::frame_blurred(double camera_rate_rad_s, Rng& rng) const {
   // Always draw, so the stream stays aligned whatever the rate.
   const bool random_blur = rng.uniform() < config_.blur_frame_prob;
-  const bool fast =
-      config_.blur_rate_threshold_deg_s > 0.0 && camera_rate_rad_s > config_.blur_rate_threshold_deg_s * kDeg;
+  const bool fast = config_.blur_rate_threshold_deg_s > 0.0 &&
+                    camera_rate_rad_s > config_.blur_rate_threshold_deg_s * kRadPerDeg;
   return fast || random_blur;
 }
 
@@ -182,7 +183,7 @@ Eigen::Vector3d PoetErrorModel::scaled_sigmas(const Pose& T_C_O_true, bool bad_f
   if (bad_frame) k *= c.burst_sigma_scale;
   return {(c.lateral_sigma_m + c.lateral_sigma_per_depth * z) * k,
           (c.along_ray_sigma_m + c.along_ray_sigma_per_depth * z) * k,
-          (c.rotation_sigma_deg + c.rotation_sigma_per_depth_deg * z) * kDeg * k};
+          (c.rotation_sigma_deg + c.rotation_sigma_per_depth_deg * z) * kRadPerDeg * k};
 }
 
 Vector6d PoetErrorModel::sigmas(const Pose& T_C_O_true, bool bad_frame) const {
@@ -273,7 +274,7 @@ Vector6d PoetErrorModel::reported_sigmas(const Pose& T_C_O_true, bool bad_frame,
   Vector6d s = config_.reported_sigma_scale * sigmas(T_C_O_true, bad_frame);
   if (config_.reported_failure_sigma == "inflated") {
     if (gross) s.head<3>().setConstant(config_.failure_sigma_m);
-    if (gross || flipped) s.tail<3>().setConstant(config_.failure_sigma_deg * kDeg);
+    if (gross || flipped) s.tail<3>().setConstant(config_.failure_sigma_deg * kRadPerDeg);
   }
   return s;
 }

@@ -2,9 +2,11 @@
 
 #include <cmath>
 
+#include "roe/math/euler.hpp"
+
 namespace roe::sim {
 namespace {
-constexpr double kTwoPi = 6.283185307179586476925;
+using math::kTwoPi;
 
 // SplitMix64 finaliser: spreads a 64-bit value over all bits (Steele, Lea, Flood 2014).
 std::uint64_t splitmix64(std::uint64_t x) {

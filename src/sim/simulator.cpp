@@ -1,14 +1,15 @@
 #include "roe/sim/simulator.hpp"
 
-#include <algorithm>
-#include <cmath>
-#include <limits>
-#include <functional>
-#include <set>
-
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <set>
+
 #include "roe/core/error.hpp"
+#include "roe/math/euler.hpp"
 #include "roe/math/so3.hpp"
 
 namespace roe::sim {
@@ -36,8 +37,8 @@ bool observe_object(Timestamp t, int id, const Pose& T_C_O, const PinholeCamera&
   if (label.bad_frame) ++st.bad_frame_detections;
   return true;
 }
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
+using math::kPi;
+using math::kRadPerDeg;
 const Eigen::Vector3d kGravity_W(0.0, 0.0, 9.81);
 
 [[noreturn]] void bad(const std::string& key, const std::string& what) {
@@ -332,7 +333,7 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
       g.b_a = b_a;
       ds.groundtruth.push_back(g);
       st.max_speed_m_s = std::max(st.max_speed_m_s, ki.v_M.norm());
-      st.max_rate_deg_s = std::max(st.max_rate_deg_s, ki.omega_X.norm() / kDeg);
+      st.max_rate_deg_s = std::max(st.max_rate_deg_s, ki.omega_X.norm() / kRadPerDeg);
       if (k + 1 < ts.size()) {
         const double dt = dt_seconds(ts[k], ts[k + 1]);
         b_g += ic.gyro_random_walk * std::sqrt(dt) * rng.normal3();
@@ -384,7 +385,7 @@ SimRun simulate_run(const SimConfig& config, std::uint64_t seed) {
     for (Timestamp t : stamps(t0, t_end, config.mocap.rate_hz)) {
       const Pose T_M_B = traj.attached(rel(t), T_C_I).T_M_X * T_I_B;
       const Eigen::Vector3d dp = config.mocap.position_sigma_m * rng.normal3();
-      const Eigen::Vector3d dth = config.mocap.rotation_sigma_deg * kDeg * rng.normal3();
+      const Eigen::Vector3d dth = config.mocap.rotation_sigma_deg * kRadPerDeg * rng.normal3();
       ds.mocap.push_back({t, Pose(math::canonical(T_M_B.q * math::exp_quat(dth)), T_M_B.p + dp)});
     }
   }
@@ -646,7 +647,7 @@ SimRun simulate_from_groundtruth(const std::vector<ImuSample>& imu, const std::v
   for (std::size_t k = 0; k < gt.size(); ++k) {
     st.max_speed_m_s = std::max(st.max_speed_m_s, gt[k].v_W_I.norm());
   }
-  for (const auto& s : imu) st.max_rate_deg_s = std::max(st.max_rate_deg_s, s.gyro.norm() / kDeg);
+  for (const auto& s : imu) st.max_rate_deg_s = std::max(st.max_rate_deg_s, s.gyro.norm() / kRadPerDeg);
   st.min_distance_m = st.max_distance_m = 0.0;
 
   // The ground-truth poses double as the mocap stream (body = IMU, M = W), unchanged.

@@ -3,10 +3,11 @@
 #include <cmath>
 
 #include "roe/core/error.hpp"
+#include "roe/math/euler.hpp"
 
 namespace roe::sim {
 namespace {
-constexpr double kTwoPi = 6.283185307179586476925;
+using math::kTwoPi;
 
 // A second-order jet: a scalar function of time with its first and second derivative. Arithmetic
 // follows the product/quotient/chain rules, so composite expressions carry exact derivatives.

@@ -23,6 +23,7 @@ double wrap_pi(double angle);
 double wrap_180(double angle_deg);
 
 inline constexpr double kPi = 3.14159265358979323846;
+inline constexpr double kTwoPi = 2.0 * kPi;  // exact: the double nearest 2π
 inline constexpr double kDegPerRad = 180.0 / kPi;
 inline constexpr double kRadPerDeg = kPi / 180.0;
 
