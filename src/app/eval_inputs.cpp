@@ -30,33 +30,33 @@ std::vector<std::optional<eval::PoseCovariance>> read_states_covariance(const fs
   for (const char* g : {"sigma_p_W_I", "sigma_theta_W_I"})
     for (const char* a : {"_x", "_y", "_z"}) read.columns.push_back(std::string(g) + a);
   read.allow_nonfinite = true;
-  std::vector<Timestamp> st;
-  std::vector<eval::PoseCovariance> sc;
+  // Each trajectory stamp takes the σ of the first states.csv row with σ at or after it − 1 µs, when that row
+  // is within 1 µs (trajectory.csv stores seconds with 9 decimals, states.csv ns). Both files are in time
+  // order, so the rows are matched as they stream by: no copy of states.csv is held (an hour at IMU rate
+  // is 1.4 M rows).
+  std::vector<std::size_t> order(t_ns.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  if (!std::is_sorted(t_ns.begin(), t_ns.end()))
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return t_ns[a] < t_ns[b]; });
+  std::vector<std::optional<eval::PoseCovariance>> out(t_ns.size());
+  std::size_t next = 0, found = 0;
   std::string missing;
   const bool have = store::for_each_state_row(
       file, read,
       [&](const store::RecordedState& s) {
         if (std::isnan(s.sigma(0)) || std::isnan(s.sigma(6))) return;  // σ not recorded at this row (level standard)
-        st.push_back(s.t_ns);
-        eval::PoseCovariance c;
-        c.P_p.diagonal() = s.sigma.head<3>().cwiseAbs2();
-        c.P_theta.diagonal() = s.sigma.segment<3>(6).cwiseAbs2();
-        sc.push_back(c);
+        for (; next < order.size() && t_ns[order[next]] - 1000 <= s.t_ns; ++next) {
+          if (std::llabs(s.t_ns - t_ns[order[next]]) > 1000) continue;
+          eval::PoseCovariance& c = out[order[next]].emplace();
+          c.P_p.diagonal() = s.sigma.head<3>().cwiseAbs2();
+          c.P_theta.diagonal() = s.sigma.segment<3>(6).cwiseAbs2();
+          ++found;
+        }
       },
       &missing);
   if (!have) {
     if (why) *why = missing;
     return {};
-  }
-  std::vector<std::optional<eval::PoseCovariance>> out(t_ns.size());
-  std::size_t found = 0;
-  // Stamps are matched within 1 µs: trajectory.csv stores seconds with 9 decimals, states.csv ns.
-  for (std::size_t i = 0; i < t_ns.size(); ++i) {
-    auto it = std::lower_bound(st.begin(), st.end(), t_ns[i] - 1000);
-    if (it != st.end() && std::llabs(*it - t_ns[i]) <= 1000) {
-      out[i] = sc[static_cast<std::size_t>(it - st.begin())];
-      ++found;
-    }
   }
   if (found == 0) {
     if (why) *why = "no states.csv stamp with σ matches a trajectory.csv stamp";

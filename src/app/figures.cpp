@@ -255,10 +255,20 @@ json export_table(const fs::path& csv, const fs::path& bin) {
     co.quotes = false;
     io::CsvReader r(csv, co);
     const std::size_t n = r.header().size();
+    // Written as the rows are read, a piece at a time (the states of an hour at IMU rate are ~0.7 GB as
+    // float64): the uncommitted file is removed if a field turns out not to be a number.
+    io::AtomicFile out(bin);
     std::vector<double> v;
+    const std::size_t piece = std::max<std::size_t>(n, (std::size_t{1} << 20) / sizeof(double));
+    const auto flush = [&] {
+      out.append(std::string_view(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double)));
+      v.clear();
+    };
+    v.reserve(piece + n);
+    std::size_t rows = 0;
     std::vector<std::map<std::string, double, std::less<>>> text(n);  // value -> index, per text column
     std::vector<bool> is_text(n, false);
-    for (bool first = true; r.next(); first = false)
+    for (bool first = true; r.next(); first = false, ++rows) {
       for (std::size_t i = 0; i < n; ++i) {
         if (first && !r.is_empty(i)) {
           try {
@@ -276,8 +286,11 @@ json export_table(const fs::path& csv, const fs::path& bin) {
         if (it == text[i].end()) it = text[i].emplace(std::string(f), static_cast<double>(text[i].size())).first;
         v.push_back(it->second);
       }
-    io::write_file_atomic(bin, std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double)));
-    json entry = {{"bin", bin.string()}, {"columns", r.header()}, {"rows", n ? v.size() / n : 0}};
+      if (v.size() >= piece) flush();
+    }
+    flush();
+    out.commit();
+    json entry = {{"bin", bin.string()}, {"columns", r.header()}, {"rows", n ? rows : 0}};
     for (std::size_t i = 0; i < n; ++i) {
       if (!is_text[i]) continue;
       json values = json::array();

@@ -65,6 +65,7 @@ std::vector<PoseCovariance> aligned_covariances(const EstimateInput& est, const 
   PoseCovariance none;
   none.P_p.setConstant(std::numeric_limits<double>::quiet_NaN());
   none.P_theta.setConstant(std::numeric_limits<double>::quiet_NaN());
+  cov.reserve(a.size());
   for (std::size_t k = 0; k < a.size(); ++k) {
     const std::optional<PoseCovariance>& c = est.cov[a.est_index[k]];
     cov.push_back(c ? align_covariance(*c, r.alignment.R, r.alignment.s) : none);

@@ -17,6 +17,7 @@
 namespace roe::store {
 
 // store reads and writes through io's primitives.
+using io::AtomicFile;
 using io::CsvWriter;
 using io::OutputDir;
 using io::TrajectoryFormat;
@@ -35,7 +36,8 @@ std::vector<eval::PoseError> pair_errors(const eval::Report& r) {
   return e;
 }
 
-std::string errors_csv(const eval::Report& r, const std::vector<eval::PoseError>& errors) {
+/// errors.csv, streamed into `file` (a row per pair: an hour at IMU rate is 1.4 M rows).
+void errors_csv(const eval::Report& r, const std::vector<eval::PoseError>& errors, AtomicFile& file) {
   CsvWriter w;
   std::vector<std::string> h = {"t_gt",     "t_est",    "dt",        "ex_m",    "ey_m",     "ez_m",
                                 "e_norm_m", "roll_deg", "pitch_deg", "yaw_deg", "angle_deg"};
@@ -62,12 +64,13 @@ std::string errors_csv(const eval::Report& r, const std::vector<eval::PoseError>
       w.add(f.x()).add(f.y()).add(f.z());
     }
     w.end_row();
+    w.flush_to(file, CsvWriter::kFlushBytes);
   }
-  return w.str();
+  w.flush_to(file);
 }
 
-/// cnspy PoseTypedStamped error file (type5: p_est - p_gt, q = R_est^T R_gt).
-std::string cnspy_errors_csv(const eval::Report& r, const std::vector<eval::PoseError>& errors) {
+/// cnspy PoseTypedStamped error file (type5: p_est - p_gt, q = R_est^T R_gt), streamed into `file`.
+void cnspy_errors_csv(const eval::Report& r, const std::vector<eval::PoseError>& errors, AtomicFile& file) {
   CsvWriter w;
   w.header({"t", "tx", "ty", "tz", "qx", "qy", "qz", "qw", "scale", "est_err_type"});
   const double scale = r.path_length_est_m > 0.0 ? r.path_length_gt_m / r.path_length_est_m : 1.0;
@@ -75,8 +78,9 @@ std::string cnspy_errors_csv(const eval::Report& r, const std::vector<eval::Pose
     const eval::PoseError& e = errors[k];
     w.add_seconds(r.t_gt(k)).add(e.dp.x()).add(e.dp.y()).add(e.dp.z());
     w.add(e.q_err.x()).add(e.q_err.y()).add(e.q_err.z()).add(e.q_err.w()).add(scale).add("type5").end_row();
+    w.flush_to(file, CsvWriter::kFlushBytes);
   }
-  return w.str();
+  w.flush_to(file);
 }
 
 std::string summary_csv(const eval::Report& r, const EvalReportContext& c) {
@@ -224,8 +228,14 @@ std::vector<std::string> write_eval_files(const OutputDir& dir, const eval::Repo
   put_trajectory("gt_matched.tum", gt, TrajectoryFormat::kTum);
   {
     const std::vector<eval::PoseError> errors = pair_errors(r);
-    put("errors.csv", errors_csv(r, errors));
-    put("err_matched_aligned.csv", cnspy_errors_csv(r, errors));
+    const auto stream = [&](const std::string& name, auto&& write) {
+      AtomicFile f(dir.file(name));
+      write(r, errors, f);
+      f.commit();
+      files.push_back(name);
+    };
+    stream("errors.csv", errors_csv);
+    stream("err_matched_aligned.csv", cnspy_errors_csv);
   }
   put("summary.csv", summary_csv(r, c));
   if (!r.rpe.empty()) {

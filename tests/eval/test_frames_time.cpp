@@ -365,3 +365,61 @@ TEST_CASE("a ground truth far sparser than the estimate is named as possibly swa
   CHECK(has_warning(run(dense_t, dense, sparse_t, sparse, p), "check that --gt names the ground truth"));
   CHECK_FALSE(has_warning(run(sparse_t, sparse, dense_t, dense, p), "check that --gt names the ground truth"));
 }
+
+namespace {
+
+/// The definition of effective_sample_fraction, summed lag by lag (O(n · lags)): what the FFT must equal.
+double effective_fraction_direct(const std::vector<Eigen::Vector3d>& r) {
+  const std::size_t n = r.size();
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& x : r) mean += x;
+  mean /= static_cast<double>(n);
+  double c0 = 0.0;
+  for (const auto& x : r) c0 += (x - mean).squaredNorm();
+  double sum = 0.0;
+  for (std::size_t lag = 1; lag < n / 2; ++lag) {
+    double c = 0.0;
+    for (std::size_t k = 0; k + lag < n; ++k) c += (r[k] - mean).dot(r[k + lag] - mean);
+    if (c / c0 < 0.05) break;
+    sum += c / c0;
+  }
+  return 1.0 / (1.0 + 2.0 * sum);
+}
+
+/// A 3-D AR(1) series x_k = φ x_{k−1} + e_k plus an offset (the mean must not matter).
+std::vector<Eigen::Vector3d> ar1(std::size_t n, double phi, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> e(0.0, 1.0);
+  std::vector<Eigen::Vector3d> r(n);
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();
+  for (auto& v : r) {
+    x = phi * x + Eigen::Vector3d(e(rng), e(rng), e(rng));
+    v = x + Eigen::Vector3d(5.0, -3.0, 0.5);
+  }
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("effective_sample_fraction equals its lag-by-lag definition", "[eval][time_offset]") {
+  // White (no lag counted), short-correlated, and drifting series whose correlation spans half the series
+  // (where a circular, unpadded FFT would fold the far lags onto the near ones), sizes that are and are not
+  // powers of two.
+  for (const auto& [n, phi] : std::vector<std::pair<std::size_t, double>>{
+           {4, 0.0}, {7, 0.5}, {256, 0.0}, {1000, 0.9}, {1024, 0.99}, {3001, 0.999}, {5000, 0.9999}}) {
+    const auto r = ar1(n, phi, static_cast<unsigned>(n));
+    const double fast = effective_sample_fraction(r), direct = effective_fraction_direct(r);
+    INFO("n " << n << " phi " << phi);
+    CHECK(fast == Approx(direct).epsilon(1e-9));
+    CHECK(fast > 0.0);
+    CHECK(fast <= 1.0);
+  }
+  // AR(1) with φ = 0.8 over 200 000 samples: ρ_k = φ^k summed while ≥ 0.05 (k ≤ 13) is 3.784, so the
+  // fraction is 1 / (1 + 2 · 3.784) = 0.1167 (to the series' sampling error).
+  const double f = effective_sample_fraction(ar1(200000, 0.8, 3));
+  double s = 0.0;
+  for (double rho = 0.8; rho >= 0.05; rho *= 0.8) s += rho;
+  CHECK(f == Approx(1.0 / (1.0 + 2.0 * s)).epsilon(0.03));
+  CHECK(effective_sample_fraction({Eigen::Vector3d::Ones(), Eigen::Vector3d::Ones(), Eigen::Vector3d::Ones(),
+                                   Eigen::Vector3d::Ones(), Eigen::Vector3d::Ones()}) == 1.0);  // no variance
+}

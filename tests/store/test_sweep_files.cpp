@@ -78,7 +78,7 @@ TEST_CASE("sweep files: main 8a5e53d's sweep.json, jobs.jsonl and result.json re
   CHECK_FALSE(jobs[2].content.dataset.seed);
   CHECK(jobs[2].content.detections == "sim");
   CHECK(jobs[2].content.config == "paper");
-  CHECK(jobs[2].content.run_config.estimator == "filter");  // configs/paper.json: the paper's filter
+  CHECK(jobs[2].content.run_config.estimator == store::Estimator::kFilter);  // configs/paper.json: the paper's filter
   CHECK(jobs[0].content.eval["align"] == "se3");
 
   const SweepJobResult done = read_sweep_result(fixture("result_done.json"));

@@ -54,7 +54,8 @@ OffsetCheck check_trajectory_offset(const std::vector<Timestamp>& est_t, const s
 /// The fraction of a residual series' samples that count as independent: 1 / (1 + 2 Σ ρ_k), ρ_k the
 /// autocorrelation at lag k summed until it first drops below 0.05 (a batch-means style correction for
 /// σ from correlated residuals); in (0, 1]. Each sample may be a vector (the sum of the per-component
-/// products is used).
+/// products is used). Every lag's sum comes from one FFT per component (O(n log n), equal to the
+/// lag-by-lag sums to rounding: tests/eval/test_frames_time.cpp).
 double effective_sample_fraction(const std::vector<Eigen::Vector3d>& residuals);
 
 }  // namespace roe::eval
