@@ -31,7 +31,7 @@ TEST_CASE("consider covariance: the estimate is the white filter's bit for bit, 
   app::RunConfig white;  // configs/default.json's filter without the consider covariance
   white.filter.consider_correlated_errors = false;
   white.filter.detection_error_correlation_s = 0.0;
-  white.output_rate = "images";
+  white.output_rate = store::OutputRate::kImages;
   app::RunConfig on = white;
   consider(on, 3.0);
   const app::RunOutput a = app::run_dataset(d, "sim", white), b = app::run_dataset(d, "sim", on);
