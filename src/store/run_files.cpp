@@ -462,7 +462,7 @@ class TemporaryFile {
   ~TemporaryFile() {
     ::close(fd_);
     std::error_code ec;
-    fs::remove(file_, ec);
+    fs::remove(file_, ec);  // path-checked: a hidden name roe made in the run's own temporary folder, never read from input
   }
   TemporaryFile(const TemporaryFile&) = delete;
   TemporaryFile& operator=(const TemporaryFile&) = delete;

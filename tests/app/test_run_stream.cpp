@@ -38,17 +38,22 @@ std::size_t check_run_files(const fs::path& out, const app::RunConfig& config,
   return files.size();
 }
 
+/// paper-seq4 seed 1 for `seconds`, written to `ds` and read back as roe run reads it (no mocap, no ground truth).
+Dataset run_input(const fs::path& ds, double seconds) {
+  store::write_dataset(test::simulate_preset("paper-seq4", 1, seconds), ds, true);
+  store::DatasetParts parts;
+  parts.mocap = false;
+  parts.groundtruth = false;
+  return store::read_dataset(ds, parts);
+}
+
 }  // namespace
 
 TEST_CASE("roe run with the filter alone streams its rows: none held, the bytes of the in-memory writers",
           "[app][run][stream]") {
   test::TempDir tmp("roe_test_run_stream");
   const fs::path ds = tmp / "ds";
-  store::write_dataset(test::simulate_preset("paper-seq4", 1, 60.0), ds, true);
-  store::DatasetParts parts;
-  parts.mocap = false;
-  parts.groundtruth = false;
-  const Dataset dataset = store::read_dataset(ds, parts);  // what roe run reads
+  const Dataset dataset = run_input(ds, 60.0);  // what roe run reads
   for (const char* level : {"full", "minimal"}) {
     INFO(level);
     app::RunOptions opt;
@@ -94,11 +99,7 @@ TEST_CASE("roe run with the smoother streams its rows: the filter's as it runs, 
           "[app][run][stream][smoother]") {
   test::TempDir tmp("roe_test_run_stream_rts");
   const fs::path ds = tmp / "ds";
-  store::write_dataset(test::simulate_preset("paper-seq4", 1, 20.0), ds, true);
-  store::DatasetParts parts;
-  parts.mocap = false;
-  parts.groundtruth = false;
-  const Dataset dataset = store::read_dataset(ds, parts);
+  const Dataset dataset = run_input(ds, 20.0);
   const auto hidden = [&] {  // temporaries beside the run folders (io::OutputDir's) and inside them
     std::set<std::string> names;
     for (const auto& e : fs::recursive_directory_iterator(tmp.path))

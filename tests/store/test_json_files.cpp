@@ -21,6 +21,21 @@ namespace {
 
 const std::string kMainEra = std::string(ROE_SOURCE_DIR) + "/tests/store/data/main_8a5e53d/";
 
+/// `written` without the lines of config keys added after the fixtures were written (store::keys_added_later,
+/// the last part of each path) that `fixture` does not have: a run.json of 8a5e53d reads them as their
+/// defaults, and today's writer adds them; every other byte must be the fixture's.
+std::string without_later_keys(std::string written, const std::string& fixture) {
+  for (const char* key : {"consider_correlated_errors"}) {
+    const std::string quoted = std::string("\"") + key + "\": ";
+    if (fixture.find(quoted) != std::string::npos) continue;
+    const std::size_t at = written.find(quoted);
+    if (at == std::string::npos) continue;
+    const std::size_t begin = written.rfind('\n', at) + 1, end = written.find('\n', at);
+    written.erase(begin, end - begin + 1);
+  }
+  return written;
+}
+
 std::string text_of(const fs::path& file) {
   std::ifstream in(file, std::ios::binary);
   REQUIRE(in);
@@ -41,7 +56,7 @@ TEST_CASE("store json: run.json files written by roe at 8a5e53d read and write b
     CAPTURE(name);
     const std::string text = text_of(kMainEra + name);
     const RunRecord r = read_run_json(kMainEra + name);
-    CHECK(format_run_json(r) == text);
+    CHECK(without_later_keys(format_run_json(r), text) == text);
     CHECK(r.config.estimator == estimator);
     CHECK(r.refine.has_value() == (name == "run_batch.json" || name == "run_refined.json"));
     CHECK(r.counts.imu_samples > 0);

@@ -61,10 +61,18 @@ TEST_CASE("sweep files: main 8a5e53d's sweep.json, jobs.jsonl and result.json re
 
   const std::vector<SweepJob> jobs = read_sweep_jobs(fixture("jobs.jsonl"));
   REQUIRE(jobs.size() == 3);
-  CHECK(jobs_text(jobs) == io::read_file(fixture("jobs.jsonl")));
-  // The ids main wrote are the hashes of the typed contents: the content (its run config included) is written
-  // as main wrote it.
-  for (const SweepJob& j : jobs) CHECK(sweep_job_id(j.content) == j.id);
+  // Today's writer adds the config keys added after 8a5e53d (store::keys_added_later) at their defaults; every
+  // other byte is main's, the ids included (read, never recomputed: a folder planned by an older roe keeps its
+  // jobs; docs/sweep.md).
+  std::string today = jobs_text(jobs);
+  for (const std::string later : {"\"consider_correlated_errors\":false,"})
+    for (std::size_t at; (at = today.find(later)) != std::string::npos;) today.erase(at, later.size());
+  CHECK(today == io::read_file(fixture("jobs.jsonl")));
+  // A job's id is the hash of its whole content as written today: the same after a write and a read.
+  roe::test::TempDir tmp("roe_sweep_files_ids");
+  const std::vector<SweepJob> again = read_sweep_jobs(tmp.write("jobs.jsonl", jobs_text(jobs)));
+  REQUIRE(again.size() == jobs.size());
+  for (std::size_t k = 0; k < jobs.size(); ++k) CHECK(sweep_job_id(again[k].content) == sweep_job_id(jobs[k].content));
   const SweepDataset& d0 = jobs[0].content.dataset;
   CHECK(d0.preset == "paper-seq1");
   CHECK(d0.seed == std::optional<std::int64_t>(1));
